@@ -1,0 +1,20 @@
+# Two entry points that work on a fresh machine: `make demo` and `make test`.
+VENV ?= .venv
+BIN := $(VENV)/bin
+DEMO_OUT ?= demo-out
+
+.PHONY: setup demo test clean
+
+$(VENV)/.installed: pyproject.toml scripts/setup.sh
+	VENV=$(VENV) scripts/setup.sh
+
+setup: $(VENV)/.installed
+
+demo: setup
+	VENV=$(VENV) DEMO_OUT=$(DEMO_OUT) scripts/demo.sh
+
+test: setup
+	$(BIN)/python -m pytest -q
+
+clean:
+	rm -rf $(DEMO_OUT) build dist src/*.egg-info

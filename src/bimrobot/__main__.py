@@ -1,0 +1,5 @@
+import sys
+
+from bimrobot.cli import main
+
+sys.exit(main())
