@@ -18,6 +18,7 @@ PART_CLIS = [
     "bimrobot.bim.cli",
     "bimrobot.world.cli",
     "bimrobot.coordination.cli",
+    "bimrobot.lbd.cli",
     "bimrobot.rcan.cli",
     "bimrobot.assembly.cli",
     "bimrobot.rl.cli",
