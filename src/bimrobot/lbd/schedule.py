@@ -1,0 +1,452 @@
+"""Construction schedules: one :class:`Activity` per row, read from the schedule CSV or an IFC work schedule.
+
+Times are seconds from the start of the build (float); target positions are metres in the world frame
+(z up). An activity's ``predecessors`` must finish before it starts (FINISH_START). The CSV format is
+fixed in ``docs/conventions.md``; :func:`load_schedule_csv` validates it and names the file and line of
+the first problem it finds (:class:`bimrobot.errors.InputError`).
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Iterable, Iterator
+
+from bimrobot.errors import InputError
+from bimrobot.io import atomic_output_file
+
+if TYPE_CHECKING:  # pragma: no cover
+    from bimrobot.bim.model import BuildingModel
+
+#: Column order of the schedule CSV (``docs/conventions.md``).
+CSV_COLUMNS = (
+    "Identification",
+    "Name",
+    "PredefinedType",
+    "Activity",
+    "GlobalId",
+    "Robot",
+    "Start",
+    "Finish",
+    "Duration",
+    "Predecessors",
+    "TargetX",
+    "TargetY",
+    "TargetZ",
+    "Storey",
+)
+REQUIRED_COLUMNS = ("Identification", "Activity", "GlobalId", "Start", "Finish")
+
+#: The thesis' chapter-4 task decomposition, and the IfcTaskTypeEnum value each one is written with.
+ACTIVITY_TASK_TYPES = {"transport": "LOGISTIC", "position": "INSTALLATION", "assemble": "CONSTRUCTION"}
+TASK_TYPE_ACTIVITIES = {task_type: activity for activity, task_type in ACTIVITY_TASK_TYPES.items()}
+IFC_TASK_TYPES = frozenset(
+    {
+        "ATTENDANCE", "CONSTRUCTION", "DEMOLITION", "DISMANTLE", "DISPOSAL", "ELECTRICAL", "INSTALLATION",
+        "LOGISTIC", "MAINTENANCE", "MECHANICAL", "MOVE", "OPERATION", "REMOVAL", "RENOVATION", "SAFETY",
+        "SHUTDOWN", "STARTUP", "TESTING", "TROUBLESHOOTING", "USERDEFINED", "NOTDEFINED", "ADJUSTMENT",
+        "CALIBRATION", "EMERGENCY", "INSPECTION",
+    }
+)  # fmt: skip
+
+#: Slack allowed when comparing times (s): CSV floats are printed with limited precision.
+TIME_TOLERANCE_S = 1e-6
+
+
+@dataclass(frozen=True)
+class Activity:
+    """One construction activity.
+
+    ``id``: unique id (the CSV's Identification, or the IfcTask's GlobalId). ``activity``: ``transport``,
+    ``position`` or ``assemble``. ``global_id``: the component it acts on (None for a task without
+    one). ``robot``: the robot (fleet name) that performs it, or None. ``start``/``finish``: seconds from
+    the start of the build. ``predecessors``: ids that must finish first (FINISH_START). ``target``:
+    installed position (x, y, z) of the component's origin, metres, world frame, or None. ``storey``:
+    storey GlobalId or None. ``node_id``: for ``assemble`` on a connection node, the node id
+    ``<relating GlobalId>:<related GlobalId>``. ``parent``: id of the summary task it belongs to (IFC
+    work schedules only).
+    """
+
+    id: str
+    name: str
+    activity: str
+    global_id: str | None
+    robot: str | None
+    start: float
+    finish: float
+    predecessors: tuple[str, ...] = ()
+    target: tuple[float, float, float] | None = None
+    storey: str | None = None
+    predefined_type: str = ""
+    node_id: str | None = None
+    parent: str | None = None
+
+    @property
+    def duration(self) -> float:
+        """``finish - start`` in seconds."""
+        return self.finish - self.start
+
+
+@dataclass
+class Schedule:
+    """Activities in file order, plus the summary tasks (phases) they are nested in, if any.
+
+    ``activities`` are the leaves that robots execute; ``phases`` are IFC summary tasks (empty for a
+    CSV schedule), each with its own ``parent``. ``source`` is the file it was read from.
+    """
+
+    activities: list[Activity]
+    phases: list[Activity] = field(default_factory=list)
+    source: Path | None = None
+    epoch: str | None = None  # ISO date-time of t = 0 s, when the source had calendar times
+
+    def __post_init__(self) -> None:
+        self._by_id = {a.id: a for a in [*self.phases, *self.activities]}
+
+    def __iter__(self) -> Iterator[Activity]:
+        return iter(self.activities)
+
+    def __len__(self) -> int:
+        return len(self.activities)
+
+    def __getitem__(self, activity_id: str) -> Activity:
+        try:
+            return self._by_id[activity_id]
+        except KeyError:
+            raise KeyError(f"no activity {activity_id!r} in {self.source or 'the schedule'}") from None
+
+    def __contains__(self, activity_id: object) -> bool:
+        return activity_id in self._by_id
+
+    @property
+    def makespan(self) -> float:
+        """Finish of the last activity, seconds (0 for an empty schedule)."""
+        return max((a.finish for a in self.activities), default=0.0)
+
+    def of_component(self, global_id: str) -> list[Activity]:
+        """The component's activities, by start time."""
+        return sorted((a for a in self.activities if a.global_id == global_id), key=lambda a: (a.start, a.id))
+
+    def successors(self, activity_id: str) -> list[Activity]:
+        """Activities that list ``activity_id`` as a predecessor."""
+        return [a for a in self.activities if activity_id in a.predecessors]
+
+    def ready(self, done: Iterable[str]) -> list[Activity]:
+        """Activities not in ``done`` whose predecessors are all in ``done``, by start time."""
+        done = set(done)
+        return sorted(
+            (a for a in self.activities if a.id not in done and all(p in done for p in a.predecessors)),
+            key=lambda a: (a.start, a.id),
+        )
+
+    def topological_order(self) -> list[Activity]:
+        """Activities so that each comes after its predecessors (ties by start time, then id)."""
+        order: list[Activity] = []
+        done: set[str] = set()
+        while len(order) < len(self.activities):
+            batch = self.ready(done)
+            if not batch:  # only possible for a Schedule built by hand with a cycle
+                raise InputError(f"the activities of {self.source or 'the schedule'} form a cycle")
+            order.append(batch[0])
+            done.add(batch[0].id)
+        return order
+
+    def global_ids(self) -> set[str]:
+        """GlobalIds of every component the schedule acts on."""
+        return {a.global_id for a in self.activities if a.global_id}
+
+
+# --------------------------------------------------------------------------------------------- CSV
+
+
+class _Row:
+    """One CSV row with its file and line, for error messages."""
+
+    def __init__(self, values: dict, path: Path, line: int):
+        self.values, self.path, self.line = values, path, line
+
+    def where(self) -> str:
+        return f"{self.path}, line {self.line}"
+
+    def text(self, column: str) -> str:
+        return (self.values.get(column) or "").strip()
+
+    def seconds(self, column: str) -> float:
+        raw = self.text(column)
+        try:
+            value = float(raw)
+        except ValueError:
+            raise InputError(f"{self.where()}: {column} {raw!r} is not a number of seconds") from None
+        if not math.isfinite(value) or value < 0:
+            raise InputError(f"{self.where()}: {column} {raw!r} must be a finite number of seconds >= 0")
+        return value
+
+    def target(self) -> tuple[float, float, float] | None:
+        raw = [self.text(c) for c in ("TargetX", "TargetY", "TargetZ")]
+        if not any(raw):
+            return None
+        try:
+            xyz = tuple(float(v) for v in raw)
+        except ValueError:
+            raise InputError(
+                f"{self.where()}: TargetX/TargetY/TargetZ {raw} must be three numbers in metres (or all empty)"
+            ) from None
+        if not all(math.isfinite(v) for v in xyz):
+            raise InputError(f"{self.where()}: TargetX/TargetY/TargetZ {raw} must be finite")
+        return xyz  # type: ignore[return-value]
+
+
+def _node_id_in(name: str, global_id: str) -> str | None:
+    """The connection node id ``<relating>:<related>`` mentioned in an activity name, if any."""
+    for token in name.replace(",", " ").split():
+        left, sep, right = token.partition(":")
+        if sep and left and right and global_id in (left, right):
+            return token
+    return None
+
+
+def _activity_from_row(row: _Row) -> Activity:
+    activity_id = row.text("Identification")
+    if not activity_id:
+        raise InputError(f"{row.where()}: Identification is empty")
+    kind = row.text("Activity").lower()
+    if kind not in ACTIVITY_TASK_TYPES:
+        raise InputError(
+            f"{row.where()}: Activity {row.text('Activity')!r} is not one of {', '.join(ACTIVITY_TASK_TYPES)}"
+        )
+    predefined = row.text("PredefinedType").upper() or ACTIVITY_TASK_TYPES[kind]
+    if predefined not in IFC_TASK_TYPES:
+        raise InputError(f"{row.where()}: PredefinedType {predefined!r} is not an IfcTaskTypeEnum value")
+    global_id = row.text("GlobalId")
+    if not global_id:
+        raise InputError(f"{row.where()}: GlobalId is empty")
+    start, finish = row.seconds("Start"), row.seconds("Finish")
+    if finish + TIME_TOLERANCE_S < start:
+        raise InputError(f"{row.where()}: Finish {finish} s is before Start {start} s")
+    if row.text("Duration"):
+        duration = row.seconds("Duration")
+        if abs(duration - (finish - start)) > max(1e-3, 1e-6 * finish):
+            raise InputError(f"{row.where()}: Duration {duration} s is not Finish - Start = {finish - start} s")
+    name = row.text("Name") or activity_id
+    return Activity(
+        id=activity_id,
+        name=name,
+        activity=kind,
+        global_id=global_id,
+        robot=row.text("Robot") or None,
+        start=start,
+        finish=max(start, finish),
+        predecessors=tuple(row.text("Predecessors").split()),
+        target=row.target(),
+        storey=row.text("Storey") or None,
+        predefined_type=predefined,
+        node_id=_node_id_in(name, global_id) if kind == "assemble" else None,
+    )
+
+
+def load_schedule_csv(path: str | os.PathLike, model: BuildingModel | None = None) -> Schedule:
+    """Read and validate a schedule CSV (format: ``docs/conventions.md``).
+
+    With ``model``, every GlobalId (and Storey) must exist in it. Raises :class:`InputError` naming the
+    file and line for: a missing column, an empty or duplicate Identification, an unknown Activity or
+    PredefinedType, a time that is not a number >= 0, Finish before Start, a Duration that is not
+    Finish - Start, an unknown GlobalId/Storey/predecessor, an activity that starts before a
+    predecessor finishes, and a cycle in the predecessors.
+    """
+    path = Path(path)
+    try:
+        handle = path.open(newline="", encoding="utf-8-sig")
+    except OSError as exc:
+        raise InputError(f"cannot read the schedule {path}: {exc.strerror}") from None
+    with handle:
+        reader = csv.DictReader(handle)
+        missing = [c for c in REQUIRED_COLUMNS if c not in (reader.fieldnames or [])]
+        if missing:
+            raise InputError(f"{path}, line 1: missing column(s) {', '.join(missing)} (see docs/conventions.md)")
+        activities: list[Activity] = []
+        lines: dict[str, int] = {}
+        for values in reader:
+            row = _Row(values, path, reader.line_num)
+            if not any((v or "").strip() for v in values.values() if isinstance(v, str)):
+                continue  # blank line
+            activity = _activity_from_row(row)
+            if activity.id in lines:
+                raise InputError(
+                    f"{row.where()}: Identification {activity.id!r} is already used on line {lines[activity.id]}"
+                )
+            lines[activity.id] = row.line
+            activities.append(activity)
+    schedule = Schedule(activities, source=path)
+    _check_references(schedule, lines, model)
+    _check_sequence(schedule, lines)
+    return schedule
+
+
+def _check_references(schedule: Schedule, lines: dict[str, int], model: BuildingModel | None) -> None:
+    known_storeys = {s.global_id for s in model.storeys} if model is not None else None
+    for activity in schedule.activities:
+        where = f"{schedule.source}, line {lines[activity.id]}"
+        if model is not None and activity.global_id not in model.elements:
+            raise InputError(f"{where}: GlobalId {activity.global_id!r} is not an element of {model.source or 'the model'}")
+        if known_storeys is not None and activity.storey and activity.storey not in known_storeys:
+            raise InputError(f"{where}: Storey {activity.storey!r} is not a storey of {model.source or 'the model'}")
+        for predecessor in activity.predecessors:
+            if predecessor not in schedule:
+                raise InputError(f"{where}: predecessor {predecessor!r} of {activity.id} is not an activity in the file")
+            before = schedule[predecessor]
+            if predecessor == activity.id:
+                raise InputError(f"{where}: activity {activity.id} lists itself as a predecessor")
+            if before.finish > activity.start + TIME_TOLERANCE_S:
+                raise InputError(
+                    f"{where}: {activity.id} starts at {activity.start} s, before its predecessor "
+                    f"{predecessor} finishes at {before.finish} s"
+                )
+
+
+def find_cycle(predecessors: dict[str, tuple[str, ...]]) -> list[str] | None:
+    """A cycle ``[a, b, ..., a]`` in the predecessor relation, or None (iterative depth-first search)."""
+    state: dict[str, int] = {}  # 1: on the current path, 2: finished
+    for root in predecessors:
+        if state.get(root):
+            continue
+        path: list[str] = []
+        stack: list[tuple[str, Iterator[str]]] = [(root, iter(predecessors.get(root, ())))]
+        state[root] = 1
+        path.append(root)
+        while stack:
+            node, children = stack[-1]
+            child = next(children, None)
+            if child is None:
+                stack.pop()
+                path.pop()
+                state[node] = 2
+            elif state.get(child) == 1:
+                cycle = path[path.index(child):] + [child]
+                return cycle[::-1]  # in execution order: predecessor first
+            elif not state.get(child) and child in predecessors:
+                state[child] = 1
+                path.append(child)
+                stack.append((child, iter(predecessors[child])))
+    return None
+
+
+def _check_sequence(schedule: Schedule, lines: dict[str, int]) -> None:
+    cycle = find_cycle({a.id: a.predecessors for a in schedule.activities})
+    if cycle:
+        raise InputError(
+            f"{schedule.source}, line {lines[cycle[0]]}: the predecessors form a cycle {' -> '.join(cycle)}"
+        )
+
+
+def write_schedule_csv(schedule: Schedule | Iterable[Activity], path: str | os.PathLike) -> Path:
+    """Write activities as a schedule CSV (``docs/conventions.md``), atomically; returns the path."""
+    path = Path(path)
+    with atomic_output_file(path) as tmp:
+        with tmp.open("w", newline="", encoding="utf-8") as handle:
+            writer = csv.DictWriter(handle, fieldnames=CSV_COLUMNS)
+            writer.writeheader()
+            for a in schedule:
+                x, y, z = a.target if a.target else ("", "", "")
+                writer.writerow(
+                    {
+                        "Identification": a.id,
+                        "Name": a.name,
+                        "PredefinedType": a.predefined_type or ACTIVITY_TASK_TYPES.get(a.activity, "NOTDEFINED"),
+                        "Activity": a.activity,
+                        "GlobalId": a.global_id or "",
+                        "Robot": a.robot or "",
+                        "Start": repr(float(a.start)),
+                        "Finish": repr(float(a.finish)),
+                        "Duration": repr(float(a.duration)),
+                        "Predecessors": " ".join(a.predecessors),
+                        "TargetX": x,
+                        "TargetY": y,
+                        "TargetZ": z,
+                        "Storey": a.storey or "",
+                    }
+                )
+    return path
+
+
+# --------------------------------------------------------------------------------------------- IFC
+
+
+def load_schedule_ifc(path: str | os.PathLike, model: BuildingModel | None = None) -> Schedule:
+    """Read the IfcWorkSchedule(s) of an IFC file into a :class:`Schedule`.
+
+    Leaf IfcTasks become ``activities``, summary tasks (with nested tasks) ``phases``. Activity ids are
+    the tasks' GlobalIds; times are seconds from the earliest scheduled start (``Schedule.epoch``);
+    FINISH_START IfcRelSequences become predecessors (other sequence types are logged and skipped).
+    ``global_id`` is the product the task outputs (IfcRelAssignsToProduct); ``robot`` the first
+    resource assigned to it; ``activity`` comes from the PredefinedType (LOGISTIC: transport,
+    INSTALLATION: position, CONSTRUCTION: assemble) and is ``assemble`` for an untyped task that
+    outputs a product. With ``model``, ``target`` is the product's placement origin (m).
+    """
+    from bimrobot.bim.work_schedule import read_work_schedule
+
+    rows = read_work_schedule(path)
+    if not rows:
+        raise InputError(f"{path} has no IfcTask to read as a schedule")
+    return schedule_from_task_rows(rows, Path(path), model)
+
+
+def schedule_from_task_rows(rows: list, source: Path | None, model: BuildingModel | None = None) -> Schedule:
+    """Build a :class:`Schedule` from :class:`bimrobot.bim.work_schedule.TaskRow` rows."""
+    from datetime import datetime
+
+    starts = [r.start for r in rows if r.start]
+    epoch = min(datetime.fromisoformat(s) for s in starts) if starts else None
+
+    def seconds(iso: str | None, fallback: float) -> float:
+        if not iso or epoch is None:
+            return fallback
+        return (datetime.fromisoformat(iso) - epoch).total_seconds()
+
+    leaves, phases = [], []
+    for row in rows:
+        start = seconds(row.start, 0.0)
+        finish = seconds(row.finish, start)
+        output = row.outputs[0] if row.outputs else None
+        kind = TASK_TYPE_ACTIVITIES.get(row.predefined_type, "assemble" if output else "")
+        target = None
+        storey = row.storey
+        if model is not None and output in model.elements:
+            element = model.elements[output]
+            target = tuple(float(v) for v in element.position)
+            storey = element.storey_id or storey
+        activity = Activity(
+            id=row.global_id,
+            name=row.name or row.global_id,
+            activity=kind,
+            global_id=output,
+            robot=row.resources[0] if row.resources else None,
+            start=start,
+            finish=max(start, finish),
+            predecessors=tuple(row.predecessors),
+            target=target,  # type: ignore[arg-type]
+            storey=storey,
+            predefined_type=row.predefined_type,
+            parent=row.parent,
+        )
+        (phases if row.is_summary else leaves).append(activity)
+    leaves.sort(key=lambda a: (a.start, a.id))
+    schedule = Schedule(leaves, phases=phases, source=source, epoch=epoch.isoformat() if epoch else None)
+    cycle = find_cycle({a.id: a.predecessors for a in [*phases, *leaves]})
+    if cycle:
+        raise InputError(f"{source}: the IfcRelSequence relations form a cycle {' -> '.join(cycle)}")
+    return schedule
+
+
+__all__ = [
+    "ACTIVITY_TASK_TYPES",
+    "CSV_COLUMNS",
+    "Activity",
+    "Schedule",
+    "find_cycle",
+    "load_schedule_csv",
+    "load_schedule_ifc",
+    "write_schedule_csv",
+]
