@@ -1,0 +1,384 @@
+"""Built-in example buildings, authored with ``ifcopenshell.api`` so that demos and tests need no file.
+
+Both are IFC4 files in metres and kilograms, z up, with real steel sections (``IfcIShapeProfileDef``)
+and deterministic GlobalIds (the same file content on every run).
+
+``steel_frame(path)``: the thesis' chapter-4 frame (section 4.3). Four concrete pad footings, four
+W250x73 columns (4000 mm, 289.81 kg) standing on base plates, four W310x38.7 beams spanning 2846 mm
+(105.49 kg) and 3500 mm (134.39 kg) between column centres at the top of the columns, one clip angle at
+each beam end. Every joint is an ``IfcRelConnectsWithRealizingElements`` with ConnectionType "BOLTED"
+whose realizing elements are its bolts (``IfcMechanicalFastener``): footing -> base plate (4 anchor
+bolts), base plate -> column (4 bolts), column -> clip angle (2 bolts), clip angle -> beam (2 bolts).
+The relating element always supports the related one, so the relations read as an assembly order.
+Weights are ``IfcQuantityWeight`` (``Qto_*BaseQuantities.NetWeight``): the thesis' Revit values for
+columns and beams, volume x density (steel 7850, concrete 2400 kg/m3) for the rest. Storey "Level 1"
+(elevation 0.0 m, the column bases) holds footings, plates, columns and their bolts; "Level 2"
+(4.025 m, the column tops) holds beams, clip angles and their bolts.
+
+``greenhouse(path)``: chapter 3's light steel frame (section 3.4.1): 9 pad foundations on a 3 x 3 grid
+(3 m bays), 9 HEA100 columns 2.5 m high, 10 IPE120 beams: 6 eaves beams along x on the column tops and
+4 beams along y on top of them at the two gable ends. It has weights but no realizing-element
+connections (the thesis' Revit model had none); use
+:func:`bimrobot.bim.connections.infer_connections` to find its joints from touching geometry.
+"""
+
+from __future__ import annotations
+
+import math
+import uuid
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+import ifcopenshell
+import ifcopenshell.api.aggregate
+import ifcopenshell.api.context
+import ifcopenshell.api.geometry
+import ifcopenshell.api.material
+import ifcopenshell.api.profile
+import ifcopenshell.api.project
+import ifcopenshell.api.pset
+import ifcopenshell.api.root
+import ifcopenshell.api.spatial
+import ifcopenshell.api.unit
+import ifcopenshell.guid
+
+from bimrobot.io import atomic_output_file
+
+STEEL_DENSITY = 7850.0  # kg/m3
+CONCRETE_DENSITY = 2400.0  # kg/m3
+
+
+@dataclass(frozen=True)
+class ISection:
+    """A hot-rolled I/H section, metres; ``mass_per_m`` in kg/m (catalogue value)."""
+
+    name: str
+    depth: float
+    width: float
+    web: float
+    flange: float
+    fillet: float
+    mass_per_m: float
+
+
+# Catalogue dimensions (AISC metric W shapes; Euronorm IPE/HEA).
+W250X73 = ISection("W250x73", 0.253, 0.254, 0.0086, 0.0142, 0.013, 72.9)
+W310X38_7 = ISection("W310x38.7", 0.310, 0.165, 0.0058, 0.0097, 0.008, 38.7)
+HEA100 = ISection("HEA100", 0.096, 0.100, 0.005, 0.008, 0.012, 16.7)
+IPE120 = ISection("IPE120", 0.120, 0.064, 0.0044, 0.0063, 0.007, 10.4)
+
+# Steel frame geometry (metres).
+FRAME_SPAN_X = 2.846
+FRAME_SPAN_Y = 3.500
+FOOTING_SIZE = (1.2, 1.2, 0.6)
+BASE_PLATE_SIZE = (0.40, 0.40, 0.025)
+COLUMN_LENGTH = 4.0
+COLUMN_WEIGHT = 289.81  # kg, thesis fig. 4.5
+BEAM_WEIGHTS = {FRAME_SPAN_X: 105.49, FRAME_SPAN_Y: 134.39}  # kg by span, thesis fig. 4.5
+BEAM_END_GAP = 0.012  # clearance between beam end and column face
+CLIP_ANGLE = (0.089, 0.089, 0.0095, 0.20)  # L89x89x9.5, leg, leg, thickness, length
+BOLT_DIAMETER = 0.020  # M20
+
+# Greenhouse geometry (metres).
+GREENHOUSE_BAY = 3.0
+GREENHOUSE_COLUMN_HEIGHT = 2.5
+GREENHOUSE_FOUNDATION = (0.6, 0.6, 0.5)
+
+_GUID_NAMESPACE = uuid.UUID("6f1c2a0e-8d4b-4c55-9a57-3b1e0c6d2f10")
+
+
+class _Author:
+    """Small helper around ifcopenshell.api for one model: ids, placement, representation, weight."""
+
+    def __init__(self, project_name: str, site_name: str):
+        self.file = ifcopenshell.api.project.create_file(version="IFC4")
+        self._names: set[str] = set()
+        self.project = self.entity("IfcProject", project_name)
+        units = [
+            ifcopenshell.api.unit.add_si_unit(self.file, unit_type="LENGTHUNIT"),
+            ifcopenshell.api.unit.add_si_unit(self.file, unit_type="AREAUNIT"),
+            ifcopenshell.api.unit.add_si_unit(self.file, unit_type="VOLUMEUNIT"),
+            ifcopenshell.api.unit.add_si_unit(self.file, unit_type="MASSUNIT", prefix="KILO"),
+            ifcopenshell.api.unit.add_si_unit(self.file, unit_type="PLANEANGLEUNIT"),
+        ]
+        ifcopenshell.api.unit.assign_unit(self.file, units=units)
+        model = ifcopenshell.api.context.add_context(self.file, context_type="Model")
+        self.body = ifcopenshell.api.context.add_context(
+            self.file, context_type="Model", context_identifier="Body", target_view="MODEL_VIEW", parent=model
+        )
+        self.site = self.entity("IfcSite", site_name)
+        self.building = self.entity("IfcBuilding", f"{project_name} building")
+        ifcopenshell.api.aggregate.assign_object(self.file, products=[self.site], relating_object=self.project)
+        ifcopenshell.api.aggregate.assign_object(self.file, products=[self.building], relating_object=self.site)
+        for spatial in (self.site, self.building):
+            ifcopenshell.api.geometry.edit_object_placement(self.file, product=spatial, matrix=np.eye(4))
+        self.steel = ifcopenshell.api.material.add_material(self.file, name="Steel S355", category="steel")
+        self.concrete = ifcopenshell.api.material.add_material(self.file, name="Concrete C30/37", category="concrete")
+
+    def entity(self, ifc_class: str, name: str, predefined_type: str | None = None):
+        """Create a rooted entity whose GlobalId is derived from its (unique) name."""
+        if name in self._names:
+            raise ValueError(f"duplicate example element name {name!r}")
+        self._names.add(name)
+        product = ifcopenshell.api.root.create_entity(
+            self.file, ifc_class=ifc_class, name=name, predefined_type=predefined_type
+        )
+        product.GlobalId = ifcopenshell.guid.compress(uuid.uuid5(_GUID_NAMESPACE, name).hex)
+        return product
+
+    def storey(self, name: str, elevation: float):
+        """An IfcBuildingStorey at ``elevation`` metres."""
+        storey = self.entity("IfcBuildingStorey", name)
+        storey.Elevation = elevation
+        ifcopenshell.api.aggregate.assign_object(self.file, products=[storey], relating_object=self.building)
+        placement = np.eye(4)
+        placement[2, 3] = elevation
+        ifcopenshell.api.geometry.edit_object_placement(self.file, product=storey, matrix=placement)
+        return storey
+
+    def place(self, product, storey, matrix: np.ndarray, material) -> None:
+        """Contain ``product`` in ``storey`` at the world ``matrix`` (4x4, metres) and give it a material."""
+        ifcopenshell.api.spatial.assign_container(self.file, products=[product], relating_structure=storey)
+        ifcopenshell.api.geometry.edit_object_placement(self.file, product=product, matrix=matrix)
+        ifcopenshell.api.material.assign_material(self.file, products=[product], type="IfcMaterial", material=material)
+
+    def extrusion(self, product, profile, depth: float, along_x: bool = False) -> None:
+        """Body: ``profile`` extruded ``depth`` metres along local z (or local x for beams)."""
+        axes = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0)) if along_x else (None, None)
+        representation = ifcopenshell.api.geometry.add_profile_representation(
+            self.file, context=self.body, profile=profile, depth=depth, placement_zx_axes=axes
+        )
+        ifcopenshell.api.geometry.assign_representation(self.file, product=product, representation=representation)
+
+    def i_profile(self, section: ISection):
+        profile = self.file.create_entity(
+            "IfcIShapeProfileDef",
+            ProfileType="AREA",
+            ProfileName=section.name,
+            OverallWidth=section.width,
+            OverallDepth=section.depth,
+            WebThickness=section.web,
+            FlangeThickness=section.flange,
+            FilletRadius=section.fillet,
+        )
+        return profile
+
+    def rectangle(self, x: float, y: float):
+        return self.file.create_entity("IfcRectangleProfileDef", ProfileType="AREA", XDim=x, YDim=y)
+
+    def circle(self, radius: float):
+        return self.file.create_entity("IfcCircleProfileDef", ProfileType="AREA", Radius=radius)
+
+    def angle(self, leg_y: float, leg_x: float, thickness: float):
+        return self.file.create_entity(
+            "IfcLShapeProfileDef", ProfileType="AREA", ProfileName=f"L{leg_y*1000:.0f}x{leg_x*1000:.0f}x{thickness*1000:.1f}",
+            Depth=leg_y, Width=leg_x, Thickness=thickness,
+        )
+
+    def weight(self, product, qto_name: str, kg: float, **extra: float) -> None:
+        """Attach ``NetWeight`` (an IfcQuantityWeight, kg) and any other quantities to ``product``."""
+        qto = ifcopenshell.api.pset.add_qto(self.file, product=product, name=qto_name)
+        ifcopenshell.api.pset.edit_qto(self.file, qto=qto, properties={"NetWeight": round(kg, 3), **extra})
+
+    def common(self, product, pset_name: str, **properties) -> None:
+        pset = ifcopenshell.api.pset.add_pset(self.file, product=product, name=pset_name)
+        ifcopenshell.api.pset.edit_pset(self.file, pset=pset, properties=properties)
+
+    def connect(self, name: str, relating, related, realizing: list, connection_type: str = "BOLTED"):
+        """An IfcRelConnectsWithRealizingElements: ``relating`` supports ``related`` through ``realizing``."""
+        relation = self.file.create_entity(
+            "IfcRelConnectsWithRealizingElements",
+            GlobalId=ifcopenshell.guid.compress(uuid.uuid5(_GUID_NAMESPACE, f"rel:{name}").hex),
+            Name=name,
+            RelatingElement=relating,
+            RelatedElement=related,
+            RealizingElements=realizing,
+            ConnectionType=connection_type,
+        )
+        return relation
+
+    def write(self, path: str | Path) -> Path:
+        with atomic_output_file(path) as tmp:
+            self.file.write(str(tmp))
+        return Path(path)
+
+
+def _frame(origin, x_axis, z_axis=(0.0, 0.0, 1.0)) -> np.ndarray:
+    """4x4 matrix with the given origin, x axis and z axis (y = z cross x)."""
+    x = np.asarray(x_axis, dtype=float)
+    z = np.asarray(z_axis, dtype=float)
+    x /= np.linalg.norm(x)
+    z /= np.linalg.norm(z)
+    matrix = np.eye(4)
+    matrix[:3, 0] = x
+    matrix[:3, 1] = np.cross(z, x)
+    matrix[:3, 2] = z
+    matrix[:3, 3] = origin
+    return matrix
+
+
+def _translation(x: float, y: float, z: float) -> np.ndarray:
+    matrix = np.eye(4)
+    matrix[:3, 3] = (x, y, z)
+    return matrix
+
+
+def _bolt(author: _Author, name: str, storey, matrix: np.ndarray, length: float):
+    """An M20 bolt along the local z of ``matrix`` (starting at its origin), with its steel weight."""
+    bolt = author.entity("IfcMechanicalFastener", name, predefined_type="BOLT")
+    bolt.NominalDiameter = BOLT_DIAMETER
+    bolt.NominalLength = length
+    author.place(bolt, storey, matrix, author.steel)
+    author.extrusion(bolt, author.circle(BOLT_DIAMETER / 2), length)
+    kg = math.pi * (BOLT_DIAMETER / 2) ** 2 * length * STEEL_DENSITY
+    author.weight(bolt, "Qto_MechanicalFastenerBaseQuantities", kg)
+    return bolt
+
+
+def _footing(author: _Author, name: str, storey, x: float, y: float, size: tuple[float, float, float]):
+    """A concrete pad footing whose top face is at z = 0, centred on (x, y)."""
+    footing = author.entity("IfcFooting", name, predefined_type="PAD_FOOTING")
+    author.place(footing, storey, _translation(x, y, -size[2]), author.concrete)
+    author.extrusion(footing, author.rectangle(size[0], size[1]), size[2])
+    volume = size[0] * size[1] * size[2]
+    author.weight(footing, "Qto_FootingBaseQuantities", volume * CONCRETE_DENSITY, NetVolume=volume)
+    author.common(footing, "Pset_FootingCommon", LoadBearing=True)
+    return footing
+
+
+def _column(author: _Author, name: str, storey, x: float, y: float, z: float, section: ISection, length: float, kg: float):
+    column = author.entity("IfcColumn", name, predefined_type="COLUMN")
+    author.place(column, storey, _translation(x, y, z), author.steel)
+    author.extrusion(column, author.i_profile(section), length)
+    author.weight(column, "Qto_ColumnBaseQuantities", kg, Length=length)
+    author.common(column, "Pset_ColumnCommon", Reference=section.name, LoadBearing=True, IsExternal=True)
+    return column
+
+
+def _beam(author: _Author, name: str, storey, start, direction, section: ISection, length: float, kg: float):
+    """A beam whose local x runs along ``direction`` from ``start`` (the centre of its end section)."""
+    beam = author.entity("IfcBeam", name, predefined_type="BEAM")
+    author.place(beam, storey, _frame(start, direction), author.steel)
+    author.extrusion(beam, author.i_profile(section), length, along_x=True)
+    author.weight(beam, "Qto_BeamBaseQuantities", kg, Length=length)
+    author.common(beam, "Pset_BeamCommon", Reference=section.name, LoadBearing=True, Span=length)
+    return beam
+
+
+def steel_frame(path: str | Path) -> Path:
+    """Write the thesis' chapter-4 steel frame to ``path`` (IFC4, metres) and return the path."""
+    author = _Author("Chapter 4 steel frame", "Construction site")
+    level_1 = author.storey("Level 1", 0.0)
+    plate_thickness = BASE_PLATE_SIZE[2]
+    column_base = plate_thickness
+    column_top = column_base + COLUMN_LENGTH
+    level_2 = author.storey("Level 2", column_top)
+    beam_axis_z = column_top - W310X38_7.depth / 2
+
+    corners = [(0.0, 0.0), (FRAME_SPAN_X, 0.0), (FRAME_SPAN_X, FRAME_SPAN_Y), (0.0, FRAME_SPAN_Y)]
+    columns = []
+    for index, (x, y) in enumerate(corners, start=1):
+        footing = _footing(author, f"Footing F{index}", level_1, x, y, FOOTING_SIZE)
+        plate = author.entity("IfcPlate", f"Base plate P{index}", predefined_type="BASE_PLATE")
+        author.place(plate, level_1, _translation(x, y, 0.0), author.steel)
+        author.extrusion(plate, author.rectangle(BASE_PLATE_SIZE[0], BASE_PLATE_SIZE[1]), plate_thickness)
+        plate_volume = BASE_PLATE_SIZE[0] * BASE_PLATE_SIZE[1] * plate_thickness
+        author.weight(plate, "Qto_PlateBaseQuantities", plate_volume * STEEL_DENSITY)
+        column = _column(author, f"Column C{index}", level_1, x, y, column_base, W250X73, COLUMN_LENGTH, COLUMN_WEIGHT)
+        columns.append(column)
+
+        # Anchor bolts through the plate corners into the footing.
+        anchors = [
+            _bolt(author, f"Anchor bolt P{index}-{k}", level_1, _translation(x + dx, y + dy, -0.32), 0.40)
+            for k, (dx, dy) in enumerate([(-0.15, -0.15), (0.15, -0.15), (0.15, 0.15), (-0.15, 0.15)], start=1)
+        ]
+        author.connect(f"F{index}-P{index}", footing, plate, anchors)
+        # Column bolts through the plate, just inside the column flanges.
+        inner = W250X73.depth / 2 - W250X73.flange - BOLT_DIAMETER / 2 - 0.0003
+        column_bolts = [
+            _bolt(author, f"Column bolt C{index}-{k}", level_1, _translation(x + dx, y + dy, -0.005), 0.10)
+            for k, (dx, dy) in enumerate([(-0.06, -inner), (0.06, -inner), (0.06, inner), (-0.06, inner)], start=1)
+        ]
+        author.connect(f"P{index}-C{index}", plate, column, column_bolts)
+
+    # Beams between neighbouring columns: (start corner, end corner).
+    for start_index, end_index in [(0, 1), (1, 2), (3, 2), (0, 3)]:
+        start_xy = np.array(corners[start_index])
+        end_xy = np.array(corners[end_index])
+        span = float(np.linalg.norm(end_xy - start_xy))
+        direction = np.r_[(end_xy - start_xy) / span, 0.0]
+        along_x = abs(direction[0]) > 0.5
+        # Beams along x frame into the column web, beams along y into the flange face.
+        face = W250X73.web / 2 if along_x else W250X73.depth / 2
+        length = span - 2 * (face + BEAM_END_GAP)
+        start = np.r_[start_xy, beam_axis_z] + direction * (face + BEAM_END_GAP)
+        kg = BEAM_WEIGHTS[round(span, 3)]
+        label = f"B{start_index + 1}{end_index + 1}"
+        beam = _beam(author, f"Beam {label}", level_2, start, direction, W310X38_7, length, kg)
+        for end, column_index, into_beam in [("a", start_index, direction), ("b", end_index, -direction)]:
+            joint_origin = np.r_[corners[column_index], 0.0] + into_beam * face
+            _clip_angle_joint(author, f"{label}{end}", level_2, columns[column_index], beam,
+                              _frame(joint_origin, into_beam), beam_axis_z)
+    return author.write(path)
+
+
+def _clip_angle_joint(author: _Author, label: str, storey, column, beam, joint: np.ndarray, beam_axis_z: float) -> None:
+    """One clip angle bolting a beam end to a column face.
+
+    ``joint``: frame on the column face at z = 0, x pointing into the beam, y horizontal, z up. The angle's
+    heel sits on the face beside the beam web; one leg lies on the column face, the other on the web.
+    """
+    leg_y, leg_x, thickness, length = CLIP_ANGLE
+    half_web = W310X38_7.web / 2
+    angle = author.entity("IfcMember", f"Clip angle {label}", predefined_type="USERDEFINED")
+    angle.ObjectType = "CLIP_ANGLE"
+    # IfcLShapeProfileDef is centred on its bounding box; its heel is at (-Width/2, -Depth/2).
+    local = _translation(leg_x / 2, half_web + leg_y / 2, beam_axis_z - length / 2)
+    author.place(angle, storey, joint @ local, author.steel)
+    author.extrusion(angle, author.angle(leg_y, leg_x, thickness), length)
+    area = (leg_x + leg_y - thickness) * thickness
+    author.weight(angle, "Qto_MemberBaseQuantities", area * length * STEEL_DENSITY, Length=length)
+
+    column_bolts = []
+    beam_bolts = []
+    for k, dz in enumerate((-0.05, 0.05), start=1):
+        # Through the angle leg and the column web/flange, along joint x.
+        to_column = _frame((-0.02, half_web + 0.055, beam_axis_z + dz), (0, 1, 0), (1, 0, 0))
+        column_bolts.append(_bolt(author, f"Clip bolt {label}-C{k}", storey, joint @ to_column, 0.05))
+        # Through the beam web and the other angle leg, along joint y.
+        to_beam = _frame((0.06, -0.01, beam_axis_z + dz), (1, 0, 0), (0, 1, 0))
+        beam_bolts.append(_bolt(author, f"Clip bolt {label}-B{k}", storey, joint @ to_beam, 0.04))
+    author.connect(f"{label}-column", column, angle, column_bolts)
+    author.connect(f"{label}-beam", angle, beam, beam_bolts)
+
+
+def greenhouse(path: str | Path) -> Path:
+    """Write chapter 3's light steel greenhouse frame to ``path`` (IFC4, metres) and return the path."""
+    author = _Author("Chapter 3 light steel frame", "Greenhouse site")
+    ground = author.storey("Foundation", 0.0)
+    eaves = author.storey("Eaves", GREENHOUSE_COLUMN_HEIGHT)
+    bay = GREENHOUSE_BAY
+    for i in range(3):
+        for j in range(3):
+            label = f"{'ABC'[j]}{i + 1}"
+            x, y = i * bay, j * bay
+            _footing(author, f"Foundation {label}", ground, x, y, GREENHOUSE_FOUNDATION)
+            kg = HEA100.mass_per_m * GREENHOUSE_COLUMN_HEIGHT
+            _column(author, f"Column {label}", ground, x, y, 0.0, HEA100, GREENHOUSE_COLUMN_HEIGHT, kg)
+    eaves_z = GREENHOUSE_COLUMN_HEIGHT + IPE120.depth / 2
+    for j in range(3):  # eaves beams along x, resting on the column tops
+        for i in range(2):
+            start = (i * bay, j * bay, eaves_z)
+            name = f"Eaves beam {'ABC'[j]}{i + 1}-{'ABC'[j]}{i + 2}"
+            _beam(author, name, eaves, start, (1, 0, 0), IPE120, bay, IPE120.mass_per_m * bay)
+    for i in (0, 2):  # gable beams along y, resting on the eaves beams
+        for j in range(2):
+            start = (i * bay, j * bay, eaves_z + IPE120.depth)
+            name = f"Gable beam {'ABC'[j]}{i + 1}-{'ABC'[j + 1]}{i + 1}"
+            _beam(author, name, eaves, start, (0, 1, 0), IPE120, bay, IPE120.mass_per_m * bay)
+    return author.write(path)
+
+
+EXAMPLES = {"steel-frame": steel_frame, "greenhouse": greenhouse}

@@ -1,0 +1,393 @@
+"""Read an IFC file into a :class:`~bimrobot.bim.model.BuildingModel` in one geometry-iterator pass.
+
+All geometry comes from one run of ifcopenshell's geometry iterator in local coordinates: each shape's
+matrix is the element's placement (local -> world, metres) and its vertices are in the element's local
+frame, so ``world = placement @ local``. Shapes that share a representation (mapped items, types) share
+their vertex and face arrays. Kernel: ``hybrid-cgal-simple-opencascade`` (CGAL where it can, OpenCASCADE
+where it must): about twice as fast as the default OpenCASCADE kernel with the same volumes.
+
+Which products become elements: every ``IfcElement`` except feature elements (openings, projections,
+which are part of their host's body) and virtual elements. A product with no solid body (e.g. a weld
+modelled as a curve) is reported in ``BuildingModel.skipped`` with the reason.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import re
+from pathlib import Path
+from typing import Iterable, Iterator
+
+import numpy as np
+
+import ifcopenshell
+import ifcopenshell.geom
+import ifcopenshell.util.element
+import ifcopenshell.util.placement
+import ifcopenshell.util.shape
+import ifcopenshell.util.unit
+
+from bimrobot.bim.model import BuildingModel, Connection, Element, SkippedProduct, Storey
+from bimrobot.bim.quantities import mesh_volume, resolve_weight
+from bimrobot.errors import InputError
+
+log = logging.getLogger(__name__)
+
+GEOMETRY_LIBRARY = "hybrid-cgal-simple-opencascade"
+SUPPORTED_SCHEMAS = ("IFC2X3", "IFC4", "IFC4X3_ADD2")
+_CURVE_ONLY_TYPES = {
+    "Curve", "Curve2D", "Curve3D", "GeometricCurveSet", "GeometricSet", "Point", "PointCloud", "Annotation2D",
+}  # fmt: skip
+_SI_PREFIX = {
+    "EXA": 1e18, "PETA": 1e15, "TERA": 1e12, "GIGA": 1e9, "MEGA": 1e6, "KILO": 1e3, "HECTO": 1e2, "DECA": 1e1,
+    "DECI": 1e-1, "CENTI": 1e-2, "MILLI": 1e-3, "MICRO": 1e-6, "NANO": 1e-9, "PICO": 1e-12, "FEMTO": 1e-15,
+    "ATTO": 1e-18,
+}  # fmt: skip
+
+
+def load_model(
+    path: str | os.PathLike,
+    include: Iterable[str] | str | None = None,
+    exclude: Iterable[str] | str | None = None,
+    progress: bool = False,
+    threads: int | None = None,
+) -> BuildingModel:
+    """Read ``path`` (IFC2X3, IFC4 or IFC4X3_ADD2) into a BuildingModel (metres, z up, kg).
+
+    ``include`` / ``exclude``: IFC class names (a list or a comma-separated string such as
+    ``"IfcColumn, IfcBeam"``); subclasses count, so ``"IfcBuildingElement"`` takes walls, beams, ...
+    ``progress``: show a tqdm bar over the geometry pass. ``threads``: geometry threads (default: up to 2).
+    Raises :class:`~bimrobot.errors.InputError` naming the file when it is missing, not IFC, truncated,
+    of an unsupported schema, or holds no element with solid geometry.
+    """
+    path = Path(path)
+    ifc = open_ifc(path)
+    include_classes = _class_names(ifc, include, path, "include")
+    exclude_classes = _class_names(ifc, exclude, path, "exclude")
+    if include_classes and exclude_classes:
+        raise InputError(f"{path}: give either include or exclude classes, not both")
+
+    length_scale = ifcopenshell.util.unit.calculate_unit_scale(ifc)
+    mass_scale, mass_name = _mass_unit(ifc)
+    candidates = candidate_products(ifc, include_classes, exclude_classes)
+    if not candidates:
+        wanted = f" of class {', '.join(include_classes)}" if include_classes else ""
+        raise InputError(f"{path} contains no building element{wanted}")
+
+    elements: dict[str, Element] = {}
+    meshes: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+    volumes: dict[str, float] = {}
+    storey_cache: dict[int, str | None] = {}
+    seen: set[int] = set()
+    empty_bodies: set[int] = set()
+    for shape in iterate_shapes(ifc, candidates, progress=progress, threads=threads):
+        product = ifc.by_id(shape.id)
+        seen.add(shape.id)
+        geometry_id = shape.geometry.id
+        if geometry_id not in meshes:
+            vertices = ifcopenshell.util.shape.get_vertices(shape.geometry).astype(np.float64)
+            faces = ifcopenshell.util.shape.get_faces(shape.geometry).astype(np.int64)
+            vertices.setflags(write=False)
+            faces.setflags(write=False)
+            meshes[geometry_id] = (vertices, faces)
+            volumes[geometry_id] = mesh_volume(vertices, faces)
+        vertices, faces = meshes[geometry_id]
+        if len(faces) == 0:
+            empty_bodies.add(shape.id)
+            continue
+        placement = np.asarray(ifcopenshell.util.shape.get_shape_matrix(shape), dtype=np.float64)
+        elements[product.GlobalId] = _element(
+            product, placement, vertices, faces, volumes[geometry_id], mass_scale, storey_cache
+        )
+
+    skipped = [_skipped(p, p.id() in empty_bodies) for p in candidates if p.id() not in seen or p.id() in empty_bodies]
+    if not elements:
+        raise InputError(f"{path} contains no element with solid geometry ({len(skipped)} products without a solid body)")
+
+    order = {p.GlobalId: i for i, p in enumerate(candidates)}
+    elements = dict(sorted(elements.items(), key=lambda item: order[item[0]]))
+    return BuildingModel(
+        source=path,
+        schema=ifc.schema_identifier,
+        project_name=_name_of_first(ifc, "IfcProject"),
+        site_name=_name_of_first(ifc, "IfcSite"),
+        units={
+            "length": _length_unit_name(ifc),
+            "length_scale_to_m": length_scale,
+            "mass": mass_name,
+            "mass_scale_to_kg": mass_scale,
+        },
+        storeys=_storeys(ifc, length_scale),
+        elements=elements,
+        connections=_connections(ifc, elements),
+        skipped=skipped,
+    )
+
+
+def open_ifc(path: Path) -> ifcopenshell.file:
+    """Open an IFC-SPF file, or raise InputError with one sentence naming the file and the problem."""
+    if not path.exists():
+        raise InputError(f"{path}: no such file")
+    if not path.is_file():
+        raise InputError(f"{path} is not a file")
+    with open(path, "rb") as stream:
+        head = stream.read(4096)
+        stream.seek(max(0, path.stat().st_size - 4096))
+        tail = stream.read()
+    if not head.lstrip(b"\xef\xbb\xbf \t\r\n").startswith(b"ISO-10303-21"):
+        raise InputError(f"{path} is not an IFC file (an IFC-SPF file starts with 'ISO-10303-21;')")
+    if b"END-ISO-10303-21" not in tail:
+        raise InputError(f"{path} is truncated: it does not end with 'END-ISO-10303-21;'")
+    match = re.search(rb"FILE_SCHEMA\s*\(\s*\(\s*'([^']*)'", head)
+    schema = match.group(1).decode("ascii", "replace").upper() if match else "unknown"
+    try:
+        ifc = ifcopenshell.open(str(path))
+    except ifcopenshell.SchemaError:
+        raise InputError(
+            f"{path} uses the unsupported IFC schema {schema} (supported: {', '.join(SUPPORTED_SCHEMAS)})"
+        ) from None
+    except Exception as exc:  # ifcopenshell raises its own Error or RuntimeError on malformed files
+        raise InputError(f"{path} could not be parsed as IFC: {exc}") from None
+    return ifc
+
+
+def geometry_settings() -> ifcopenshell.geom.settings:
+    """Iterator settings: local coordinates (shape matrix = placement), metres."""
+    settings = ifcopenshell.geom.settings()
+    settings.set("use-world-coords", False)
+    return settings
+
+
+def iterate_shapes(
+    ifc: ifcopenshell.file, products: list, progress: bool = False, threads: int | None = None
+) -> Iterator:
+    """Yield the iterator's shapes for ``products`` (one pass, local coordinates)."""
+    threads = threads or max(1, min(2, os.cpu_count() or 1))
+    iterator = ifcopenshell.geom.iterator(
+        geometry_settings(), ifc, threads, include=products, geometry_library=GEOMETRY_LIBRARY
+    )
+    bar = None
+    if progress:
+        from tqdm import tqdm
+
+        bar = tqdm(total=len(products), unit="element", desc="geometry")
+    try:
+        if not iterator.initialize():
+            return
+        while True:
+            yield iterator.get()
+            if bar is not None:
+                bar.update(1)
+            if not iterator.next():
+                break
+    finally:
+        if bar is not None:
+            bar.close()
+
+
+def candidate_products(ifc: ifcopenshell.file, include: list[str], exclude: list[str]) -> list:
+    """IfcElements that may carry a body, filtered by class (subclasses included), in file order."""
+    products = []
+    for product in ifc.by_type("IfcElement"):
+        if product.is_a("IfcFeatureElement") or product.is_a("IfcVirtualElement"):
+            continue
+        if include and not any(product.is_a(c) for c in include):
+            continue
+        if exclude and any(product.is_a(c) for c in exclude):
+            continue
+        products.append(product)
+    products.sort(key=lambda p: p.id())
+    return products
+
+
+def _class_names(ifc: ifcopenshell.file, classes: Iterable[str] | str | None, path: Path, option: str) -> list[str]:
+    """Validated IFC class names, spelled as in the schema."""
+    if classes is None:
+        return []
+    if isinstance(classes, str):
+        classes = classes.split(",")
+    schema = ifcopenshell.ifcopenshell_wrapper.schema_by_name(ifc.schema_identifier)
+    names = []
+    for raw in classes:
+        name = raw.strip()
+        if not name:
+            continue
+        try:
+            names.append(schema.declaration_by_name(name).name())
+        except Exception:
+            raise InputError(f"{path}: {option} names '{name}', which is not an {ifc.schema} class") from None
+    return names
+
+
+def _element(product, placement, vertices, faces, volume, mass_scale, storey_cache) -> Element:
+    material = _material_name(product)
+    properties = _properties(product)
+    quantities, weight_properties = _weights(product, mass_scale)
+    weight, source = resolve_weight(quantities, weight_properties, material, volume)
+    return Element(
+        global_id=product.GlobalId,
+        ifc_class=product.is_a(),
+        name=product.Name or "",
+        storey_id=_storey_of(product, storey_cache),
+        placement=placement,
+        vertices=vertices,
+        faces=faces,
+        material=material,
+        weight_kg=weight,
+        weight_source=source,
+        properties=properties,
+    )
+
+
+def _material_name(product) -> str | None:
+    """The element's material name(s), joined with ', ' when it has several (layers, profiles, ...)."""
+    try:
+        materials = ifcopenshell.util.element.get_materials(product, should_inherit=True)
+    except Exception:  # malformed material associations should not stop the import
+        return None
+    names = [m.Name for m in materials if getattr(m, "Name", None)]
+    return ", ".join(dict.fromkeys(names)) or None
+
+
+def _properties(product) -> dict:
+    """Property and quantity set values as ``{"Pset/Name": value}`` (file units), type values included."""
+    flat = {}
+    for pset_name, values in ifcopenshell.util.element.get_psets(product).items():
+        for name, value in values.items():
+            if name != "id" and not isinstance(value, dict):
+                flat[f"{pset_name}/{name}"] = value
+    return flat
+
+
+def _weights(product, mass_scale: float) -> tuple[dict[str, float], dict[str, float]]:
+    """(IfcQuantityWeight name -> kg, IfcMassMeasure property "Pset/Name" -> kg) of an occurrence."""
+    quantities: dict[str, float] = {}
+    properties: dict[str, float] = {}
+    for relation in getattr(product, "IsDefinedBy", ()) or ():
+        if not relation.is_a("IfcRelDefinesByProperties"):
+            continue
+        definition = relation.RelatingPropertyDefinition
+        if definition.is_a("IfcElementQuantity"):
+            for quantity in definition.Quantities or ():
+                if quantity.is_a("IfcQuantityWeight") and quantity.WeightValue is not None:
+                    scale = _unit_scale_to_kg(quantity.Unit) if quantity.Unit else mass_scale
+                    quantities.setdefault(quantity.Name, float(quantity.WeightValue) * scale)
+        elif definition.is_a("IfcPropertySet"):
+            for prop in definition.HasProperties or ():
+                value = getattr(prop, "NominalValue", None)
+                if prop.is_a("IfcPropertySingleValue") and value is not None and value.is_a("IfcMassMeasure"):
+                    properties.setdefault(f"{definition.Name}/{prop.Name}", float(value.wrappedValue) * mass_scale)
+    return quantities, properties
+
+
+def _storey_of(product, cache: dict[int, str | None]) -> str | None:
+    """GlobalId of the storey that contains the product (directly, or through its container/aggregate)."""
+    key = product.id()
+    if key in cache:
+        return cache[key]
+    result = None
+    node = product
+    for _ in range(32):  # spatial trees are shallow; the bound guards against cyclic files
+        if node.is_a("IfcBuildingStorey"):
+            result = node.GlobalId
+            break
+        parent = ifcopenshell.util.element.get_container(node) if node.is_a("IfcElement") else None
+        parent = parent or ifcopenshell.util.element.get_aggregate(node)
+        if parent is None:
+            break
+        node = parent
+    cache[key] = result
+    return result
+
+
+def _skipped(product, empty_body: bool) -> SkippedProduct:
+    if empty_body:
+        reason = "its body triangulates to no faces"
+    elif product.Representation is None:
+        reason = "no representation"
+    else:
+        types = sorted({r.RepresentationType or "unknown" for r in product.Representation.Representations})
+        if set(types) <= _CURVE_ONLY_TYPES:
+            reason = f"curve-only geometry ({', '.join(types)}), no solid body"
+        else:
+            reason = f"no solid body could be built from its representation ({', '.join(types)})"
+    return SkippedProduct(product.GlobalId, product.is_a(), product.Name or "", reason)
+
+
+def _connections(ifc: ifcopenshell.file, elements: dict[str, Element]) -> list[Connection]:
+    """Every IfcRelConnectsWithRealizingElements whose relating and related elements were loaded.
+
+    Realizing ids are kept even when those products are not elements (e.g. curve-only welds).
+    """
+    connections = []
+    for relation in ifc.by_type("IfcRelConnectsWithRealizingElements"):
+        relating, related = relation.RelatingElement, relation.RelatedElement
+        if relating is None or related is None:
+            continue
+        if relating.GlobalId not in elements or related.GlobalId not in elements:
+            log.debug("connection %s involves an element that was not loaded", relation.GlobalId)
+            continue
+        connections.append(
+            Connection(
+                relating_id=relating.GlobalId,
+                related_id=related.GlobalId,
+                realizing_ids=tuple(r.GlobalId for r in relation.RealizingElements or ()),
+                connection_type=relation.ConnectionType or "",
+                global_id=relation.GlobalId,
+            )
+        )
+    return connections
+
+
+def _storeys(ifc: ifcopenshell.file, length_scale: float) -> list[Storey]:
+    """Storeys sorted by elevation; the elevation is the world z of the storey's placement (metres)."""
+    storeys = []
+    for storey in ifc.by_type("IfcBuildingStorey"):
+        if storey.ObjectPlacement is not None:
+            matrix = ifcopenshell.util.placement.get_local_placement(storey.ObjectPlacement)
+            elevation = float(matrix[2, 3]) * length_scale
+        else:
+            elevation = float(storey.Elevation or 0.0) * length_scale
+        storeys.append(Storey(storey.GlobalId, storey.Name or "", round(elevation, 9)))
+    return sorted(storeys, key=lambda s: s.elevation)
+
+
+def _project_units(ifc: ifcopenshell.file) -> list:
+    projects = ifc.by_type("IfcProject")
+    if not projects or projects[0].UnitsInContext is None:
+        return []
+    return list(projects[0].UnitsInContext.Units or ())
+
+
+def _length_unit_name(ifc: ifcopenshell.file) -> str:
+    for unit in _project_units(ifc):
+        if getattr(unit, "UnitType", None) == "LENGTHUNIT":
+            if unit.is_a("IfcSIUnit"):
+                return f"{unit.Prefix or ''}{unit.Name}"
+            return str(unit.Name).upper()
+    return "METRE"
+
+
+def _unit_scale_to_kg(unit) -> float:
+    """Factor from a mass unit (IfcSIUnit GRAM with prefix, or a conversion-based unit) to kg."""
+    if unit.is_a("IfcSIUnit"):
+        return _SI_PREFIX.get(unit.Prefix, 1.0) / 1000.0 if unit.Name == "GRAM" else 1.0
+    if unit.is_a("IfcConversionBasedUnit"):
+        factor = unit.ConversionFactor
+        return float(factor.ValueComponent.wrappedValue) * _unit_scale_to_kg(factor.UnitComponent)
+    return 1.0
+
+
+def _mass_unit(ifc: ifcopenshell.file) -> tuple[float, str]:
+    """(factor to kg, unit name) of the project's mass unit; kilograms when the file declares none."""
+    for unit in _project_units(ifc):
+        if getattr(unit, "UnitType", None) == "MASSUNIT":
+            name = f"{unit.Prefix or ''}{unit.Name}" if unit.is_a("IfcSIUnit") else str(unit.Name).upper()
+            return _unit_scale_to_kg(unit), name
+    return 1.0, "KILOGRAM (not declared)"
+
+
+def _name_of_first(ifc: ifcopenshell.file, ifc_class: str) -> str:
+    found = ifc.by_type(ifc_class)
+    return (found[0].Name or "") if found else ""

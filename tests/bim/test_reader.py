@@ -1,0 +1,164 @@
+"""load_model on the example buildings, the shared real files and bad input."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from bimrobot.bim import load_model
+from bimrobot.bim.model import WeightSource
+from bimrobot.bim.quantities import density_of, mesh_volume
+from bimrobot.errors import InputError
+
+SHARED_FILES = [
+    "ifcUnit.ifc",
+    "ifcColumn.ifc",
+    "AC20-FZK-Haus.ifc",
+    "engine_web-ifc_example.ifc",
+    "IfcOpenHouse_IFC4.ifc",
+    "column-extruded-solid.ifc",
+    "construction-scheduling-task.ifc",
+]
+
+
+def test_local_mesh_times_placement_gives_world_geometry(steel_frame_model):
+    beam = next(b for b in steel_frame_model.by_class("IfcBeam") if b.name == "Beam B12")
+    # local frame: x along the beam; the local box is the section and the length
+    extent = beam.local_bounds[1] - beam.local_bounds[0]
+    assert extent == pytest.approx([2.8134, 0.165, 0.310], abs=1e-4)
+    assert beam.world_bounds[0] == pytest.approx([0.0163, -0.0825, 3.715], abs=1e-4)
+
+
+def test_include_and_exclude_filter_by_class(steel_frame_ifc):
+    frame = load_model(steel_frame_ifc, include="IfcColumn, IfcBeam")
+    assert frame.class_counts() == {"IfcBeam": 4, "IfcColumn": 4}
+    assert frame.connections == []  # every joint involves a plate or a clip angle, which were left out
+    no_bolts = load_model(steel_frame_ifc, exclude=["IfcMechanicalFastener"])
+    assert "IfcMechanicalFastener" not in no_bolts.class_counts()
+    assert len(no_bolts.connections) == 24  # bolts are realizing ids, the joints stay
+    with pytest.raises(InputError, match="IfcWobble"):
+        load_model(steel_frame_ifc, include="IfcWobble")
+
+
+def test_mesh_volume_and_density_table():
+    cube_vertices = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]], float)
+    import trimesh
+
+    cube = trimesh.Trimesh(cube_vertices * 2.0, trimesh.convex.convex_hull(cube_vertices).faces)
+    assert mesh_volume(cube.vertices, cube.faces) == pytest.approx(8.0)
+    assert density_of("Steel, 45-345") == 7850.0
+    assert density_of("Concrete, Cast-in-Place gray") == 2400.0
+    assert density_of("Reinforced concrete C30/37") == 2500.0
+    assert density_of("混凝土") == 2400.0
+    assert density_of("Unobtainium") is None
+
+
+# ---- real data (../shared/data/ifc), skipped when absent -----------------------------------------
+
+
+SHARED_IFC = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "ifc"
+
+
+@pytest.fixture(scope="module")
+def ifc_unit():
+    """ifcUnit.ifc read once for the module (skipped when ../shared is absent, as tests/conftest.py does)."""
+    path = SHARED_IFC / "ifcUnit.ifc"
+    if not path.exists():
+        pytest.skip(f"{path} is absent: the shared test data lives beside the repository, not in it")
+    return load_model(path)
+
+
+def test_ifc_unit_has_its_36_connections(ifc_unit):
+    assert len(ifc_unit.connections) == 36
+    assert all(c.realizing_ids for c in ifc_unit.connections)
+    assert {c.connection_type for c in ifc_unit.connections} == {""}
+
+
+def test_ifc_unit_beam_weight_comes_from_revit_exact_weight(ifc_unit):
+    beams = [b for b in ifc_unit.by_class("IfcBeam") if abs((b.local_bounds[1] - b.local_bounds[0]).max() - 2.82) < 0.01]
+    assert len(beams) == 4
+    for beam in beams:
+        assert beam.weight_source is WeightSource.PROPERTY
+        assert beam.weight_kg == pytest.approx(109.28, rel=0.005)
+        # and the mesh agrees: volume x 7850 kg/m3
+        assert mesh_volume(beam.vertices, beam.faces) * 7850 == pytest.approx(beam.weight_kg, rel=0.005)
+
+
+def test_ifc_unit_cleats_are_elements_and_welds_are_skipped(ifc_unit):
+    cleats = [e for e in ifc_unit.by_class("IfcColumn") if e.name.startswith("Angle_Cleat")]
+    assert len(cleats) == 16
+    assert len(ifc_unit.by_class("IfcMechanicalFastener")) == 28
+    welds = [s for s in ifc_unit.skipped if s.ifc_class == "IfcFastener"]
+    assert len(welds) == 4
+    assert all("curve-only" in s.reason for s in welds)
+    assert ifc_unit.units["length"] == "MILLIMETRE"
+    assert [(s.name, s.elevation) for s in ifc_unit.storeys] == [("Level 1", 0.0), ("Level 2", 4.0)]
+    column = ifc_unit.by_class("IfcColumn")[0]
+    assert column.world_bounds[1, 2] - column.world_bounds[0, 2] == pytest.approx(4.0, abs=0.01)  # metres
+
+
+@pytest.mark.parametrize("name", SHARED_FILES)
+def test_every_shared_file_loads(shared_ifc, name):
+    model = load_model(shared_ifc(name))
+    assert model.schema in {"IFC2X3", "IFC4", "IFC4X3_ADD2"}
+    assert model.elements
+    for element in model.elements.values():
+        assert element.placement.shape == (4, 4)
+        assert len(element.faces) > 0
+        assert np.isfinite(element.world_bounds).all()
+    # no building here is bigger than a few hundred metres: a sign that every length is in metres
+    assert max(np.ptp(e.world_bounds, axis=0).max() for e in model.elements.values()) < 200
+
+
+def test_inch_file_gives_metres(shared_ifc):
+    model = load_model(shared_ifc("construction-scheduling-task.ifc"))
+    assert model.units["length"] == "INCH"
+    assert model.units["length_scale_to_m"] == pytest.approx(0.0254)
+    walls = model.by_class("IfcWall", "IfcWallStandardCase")
+    assert len(walls) == 4
+    heights = [np.ptp(w.world_bounds[:, 2]) for w in walls]
+    assert all(1.0 < h < 10.0 for h in heights), heights  # a storey-high wall in metres, not inches
+
+
+# ---- bad input -------------------------------------------------------------------------------------
+
+
+def test_missing_file(tmp_path):
+    with pytest.raises(InputError, match=r"nope\.ifc: no such file"):
+        load_model(tmp_path / "nope.ifc")
+
+
+def test_not_an_ifc_file(tmp_path):
+    path = tmp_path / "notes.ifc"
+    path.write_text("just some text\n")
+    with pytest.raises(InputError, match=r"notes\.ifc is not an IFC file"):
+        load_model(path)
+
+
+def test_truncated_file(tmp_path, steel_frame_ifc):
+    path = tmp_path / "cut.ifc"
+    path.write_bytes(steel_frame_ifc.read_bytes()[:20000])
+    with pytest.raises(InputError, match=r"cut\.ifc is truncated"):
+        load_model(path)
+
+
+def test_unsupported_schema(tmp_path, steel_frame_ifc):
+    path = tmp_path / "rc2.ifc"
+    path.write_text(steel_frame_ifc.read_text().replace("FILE_SCHEMA(('IFC4'))", "FILE_SCHEMA(('IFC4X3_RC2'))"))
+    with pytest.raises(InputError, match=r"rc2\.ifc uses the unsupported IFC schema IFC4X3_RC2"):
+        load_model(path)
+
+
+def test_no_solid_geometry(tmp_path):
+    import ifcopenshell.api.project
+    import ifcopenshell.api.root
+
+    ifc = ifcopenshell.api.project.create_file(version="IFC4")
+    ifcopenshell.api.root.create_entity(ifc, ifc_class="IfcProject", name="empty")
+    ifcopenshell.api.root.create_entity(ifc, ifc_class="IfcWall", name="ghost wall")
+    path = tmp_path / "empty.ifc"
+    ifc.write(str(path))
+    with pytest.raises(InputError, match=r"empty\.ifc contains no element with solid geometry"):
+        load_model(path)
