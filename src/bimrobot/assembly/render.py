@@ -1,0 +1,209 @@
+"""Pictures of an assembly episode: a 3D view in the thesis' colours (matplotlib, Agg) and a text map.
+
+Colours (thesis fig. 6.2): waiting components orange, the moving one blue, the one that has just arrived
+green, assembled (placed earlier, or prebuilt) pink; free targets pink wireframes and the moving
+component's start pose an orange wireframe. The yard is grey, the construction area cyan.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from bimrobot.assembly.scenario import Scenario
+
+if TYPE_CHECKING:  # pragma: no cover
+    from bimrobot.assembly.env import AssemblyEnv
+
+COLOURS = {
+    "waiting": "#f39c34",
+    "current": "#2f6fdb",
+    "arrived": "#3cb44b",
+    "placed": "#f28cc0",
+    "prebuilt": "#f28cc0",
+    "obstacle": "#7f7f7f",
+    "foundation": "#404040",
+    "yard": "#d0d0d0",
+    "construction": "#9fe3ea",
+    "target": "#e0408a",
+    "start": "#f39c34",
+}
+
+
+def _box_faces(lo, hi) -> list[list[tuple[float, float, float]]]:
+    """The six faces of the axis-aligned box [lo, hi] (metres of cells)."""
+    x0, y0, z0 = lo
+    x1, y1, z1 = hi
+    corners = [(x0, y0, z0), (x1, y0, z0), (x1, y1, z0), (x0, y1, z0), (x0, y0, z1), (x1, y0, z1), (x1, y1, z1), (x0, y1, z1)]
+    idx = [(0, 1, 2, 3), (4, 5, 6, 7), (0, 1, 5, 4), (2, 3, 7, 6), (1, 2, 6, 5), (0, 3, 7, 4)]
+    return [[corners[i] for i in face] for face in idx]
+
+
+def _box_edges(lo, hi) -> list[list[tuple[float, float, float]]]:
+    x0, y0, z0 = lo
+    x1, y1, z1 = hi
+    c = [(x0, y0, z0), (x1, y0, z0), (x1, y1, z0), (x0, y1, z0), (x0, y0, z1), (x1, y0, z1), (x1, y1, z1), (x0, y1, z1)]
+    pairs = [(0, 1), (1, 2), (2, 3), (3, 0), (4, 5), (5, 6), (6, 7), (7, 4), (0, 4), (1, 5), (2, 6), (3, 7)]
+    return [[c[a], c[b]] for a, b in pairs]
+
+
+def _cells_box(cells) -> tuple[tuple[int, int, int], tuple[int, int, int]]:
+    arr = np.asarray(cells)
+    return tuple(arr.min(axis=0)), tuple(arr.max(axis=0) + 1)
+
+
+class Renderer:
+    """Draws frames of one scenario into a reused matplotlib figure (Agg backend, no display needed)."""
+
+    def __init__(self, scenario: Scenario, size: tuple[int, int] = (640, 480)):
+        from matplotlib.figure import Figure
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+        self.scenario = scenario
+        dpi = 80
+        self.fig = Figure(figsize=(size[0] / dpi, size[1] / dpi), dpi=dpi)
+        self.canvas = FigureCanvasAgg(self.fig)
+        self.ax = self.fig.add_subplot(projection="3d")
+        self._window = None
+        self._draw_site()
+        self._dynamic: list = []
+
+    def _draw_site(self) -> None:
+        from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+        sc, ax = self.scenario, self.ax
+        W, L, H = sc.grid
+        ax.set_xlim(0, W)
+        ax.set_ylim(0, L)
+        ax.set_zlim(0, H)
+        ax.set_box_aspect((W, L, H))
+        ax.set_xlabel("x")
+        ax.set_ylabel("y")
+        ax.set_zlabel("z")
+        ax.view_init(elev=32, azim=-58)
+        faces, colours = [], []
+        for box in sc.yard:
+            # node1 regions; a lying component reaches up to 3 cells back from its node1
+            lo = (max(box.x[0] - 3, 0), max(box.y[0] - 3, 0), 0.0)
+            faces.append(_box_faces(lo, (box.x[1] + 1, box.y[1] + 1, 0.02))[1])
+            colours.append(COLOURS["yard"])
+        area = sc.construction_area
+        if area is not None:
+            faces.append(_box_faces((area.x[0], area.y[0], 0.0), (area.x[1] + 1, area.y[1] + 1, 0.03))[1])
+            colours.append(COLOURS["construction"])
+        for x, y in sc.foundations:
+            faces += _box_faces((x, y, 0.0), (x + 1, y + 1, 1.0))
+            colours += [COLOURS["foundation"]] * 6
+        for box in sc.obstacles:
+            faces += _box_faces((box.x[0], box.y[0], box.z[0]), (box.x[1] + 1, box.y[1] + 1, box.z[1] + 1))
+            colours += [COLOURS["obstacle"]] * 6
+        if faces:
+            ax.add_collection3d(Poly3DCollection(faces, facecolors=colours, edgecolors="#555555", linewidths=0.3, alpha=0.35))
+
+    def draw(self, env: "AssemblyEnv") -> np.ndarray:
+        """An RGB frame (H, W, 3) uint8 of the env's current state."""
+        from mpl_toolkits.mplot3d.art3d import Line3DCollection, Poly3DCollection
+
+        for artist in self._dynamic:
+            artist.remove()
+        self._dynamic = []
+        sc = env.scenario
+        cs_targets = sc.targets
+        faces, colours = [], []
+        components = env.component_cells()
+        arrived = env.last_placed
+        current = env.current_component
+        for cid, (state, cells) in components.items():
+            colour = COLOURS["arrived"] if cid == arrived else COLOURS[state]
+            lo, hi = _cells_box(cells)
+            faces += _box_faces(lo, hi)
+            colours += [colour] * 6
+        edges, edge_colours = [], []
+        for target, filled in zip(cs_targets, env.filled_targets()):
+            if not filled:
+                lo, hi = _cells_box(target.cells)
+                edges += _box_edges(lo, hi)
+                edge_colours += [COLOURS["target"]] * 12
+        if current is not None:
+            from bimrobot.assembly.scenario import run_cells
+
+            index = [c.id for c in sc.handled].index(current)
+            lo, hi = _cells_box(run_cells(*env._starts[index]))
+            edges += _box_edges(lo, hi)
+            edge_colours += [COLOURS["start"]] * 12
+        if faces:
+            coll = Poly3DCollection(faces, facecolors=colours, edgecolors="#222222", linewidths=0.4)
+            self._dynamic.append(self.ax.add_collection3d(coll) or coll)
+        if edges:
+            lines = Line3DCollection(edges, colors=edge_colours, linewidths=1.2)
+            self._dynamic.append(self.ax.add_collection3d(lines) or lines)
+        title = f"{sc.name}   step {env._elapsed}   standing {env._k}/{env._cs.n_total}"
+        if current is not None:
+            title += f"   moving {current}"
+        self.ax.set_title(title, fontsize=10)
+        self.canvas.draw()
+        frame = np.asarray(self.canvas.buffer_rgba())[..., :3].copy()
+        return frame
+
+    def show(self, frame: np.ndarray) -> None:
+        """Show a frame in a window (human mode); without a display, does nothing."""
+        import os
+
+        if not os.environ.get("DISPLAY") and os.name != "nt":
+            return
+        import matplotlib.pyplot as plt
+
+        if self._window is None:
+            plt.ion()
+            fig = plt.figure("bimrobot assembly")
+            self._window = plt.imshow(frame)
+            plt.axis("off")
+            fig.tight_layout()
+        else:
+            self._window.set_data(frame)
+        plt.pause(0.001)
+
+    def close(self) -> None:
+        if self._window is not None:
+            import matplotlib.pyplot as plt
+
+            plt.close("bimrobot assembly")
+            self._window = None
+
+
+ANSI_LEGEND = "C current, w waiting, # placed, t free target, X obstacle, F foundation, . ground"
+
+
+def render_ansi(env: "AssemblyEnv") -> str:
+    """A top-down text map (x down, y across) with the top-most object of each (x, y) column."""
+    sc = env.scenario
+    W, L, _ = sc.grid
+    grid = [["." for _ in range(L)] for _ in range(W)]
+    height = np.full((W, L), -1)
+
+    def mark(cells, char: str, priority: int) -> None:
+        for x, y, z in cells:
+            level = z * 10 + priority
+            if level > height[x, y]:
+                height[x, y] = level
+                grid[x][y] = char
+
+    for x, y in sc.foundations:
+        mark([(x, y, 0)], "F", 1)
+    for box in sc.obstacles:
+        mark(box.cells(), "X", 2)
+    for target, filled in zip(sc.targets, env.filled_targets()):
+        if not filled:
+            mark(target.cells, "t", 0)
+    for _cid, (state, cells) in env.component_cells().items():
+        mark(cells, {"current": "C", "waiting": "w"}.get(state, "#"), 5)
+    lines = [
+        f"{sc.name} step {env._elapsed}: moving {env.current_component or '-'} "
+        f"({env._steps if env.current_component else 0} steps on it), {env._k}/{env._cs.n_total} standing",
+        "     y " + "".join(str(y % 10) for y in range(L)),
+    ]
+    for x in range(W):
+        lines.append(f"x {x:2d}  " + "".join(grid[x]))
+    lines.append(ANSI_LEGEND)
+    return "\n".join(lines) + "\n"

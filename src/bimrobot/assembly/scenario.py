@@ -1,0 +1,707 @@
+"""Assembly scenarios: the voxel site, its components and targets, loaded from YAML and validated.
+
+A scenario is pure data. The grid is a box of unit cells indexed ``(x, y, z)`` with z up; ``z = 0`` is
+the ground (foundations live there) and components occupy cells with ``z >= 1``. A component is a
+straight run of ``length`` cells between two end nodes (node1 -> node2).
+
+:func:`load_scenario` reads and validates a YAML file; :func:`benchmark_scenario` returns one of the 16
+benchmark settings ("E1S1" .. "E4S4") shipped in ``settings/``. :func:`compile_scenario` turns a scenario
+into the lookup tables the environment, the batched simulator and the planner share.
+"""
+
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+from bimrobot.errors import InputError
+
+SETTINGS_DIR = Path(__file__).with_name("settings")
+SETTINGS = [f"E{e}S{s}" for e in range(1, 5) for s in range(1, 5)]
+COMPONENT_LENGTHS = {"column": 4, "beam": 3}
+AXES = {0: "x", 1: "y", 2: "z"}
+MAX_LAYOUT_ATTEMPTS = 1000
+
+Cell = tuple[int, int, int]
+
+
+@dataclass(frozen=True)
+class Reward:
+    """Reward constants (thesis eq. 6.1-6.2): step cost ``r0 / c`` (doubled after ``epsilon`` steps on a
+    component), ``+k`` for a placement with k components standing, ``+k + completion_bonus`` for the last."""
+
+    r0: float = -1.0
+    epsilon: int = 15
+    completion_bonus: float = 10.0
+
+
+@dataclass(frozen=True)
+class Box:
+    """An inclusive box of cells: x in x[0]..x[1], y in y[0]..y[1], z in z[0]..z[1]."""
+
+    x: tuple[int, int]
+    y: tuple[int, int]
+    z: tuple[int, int] = (0, 0)
+
+    def cells(self) -> list[Cell]:
+        return [
+            (x, y, z)
+            for x in range(self.x[0], self.x[1] + 1)
+            for y in range(self.y[0], self.y[1] + 1)
+            for z in range(self.z[0], self.z[1] + 1)
+        ]
+
+
+@dataclass(frozen=True)
+class Target:
+    """A slot of the structure: the exact cells a component must occupy to be placed."""
+
+    id: str
+    type: str
+    node1: Cell
+    node2: Cell
+
+    @property
+    def cells(self) -> list[Cell]:
+        return run_cells(self.node1, self.node2)
+
+    @property
+    def axis(self) -> int:
+        return run_axis(self.node1, self.node2)
+
+    @property
+    def length(self) -> int:
+        return len(self.cells)
+
+
+@dataclass(frozen=True)
+class Component:
+    """A prefabricated column or beam. ``start`` is its lying pose (node1, node2) for fixed layouts
+    (None for random layouts and prebuilt components); ``target`` is the id of its own slot."""
+
+    id: str
+    type: str
+    length: int
+    target: str
+    start: tuple[Cell, Cell] | None = None
+    prebuilt: bool = False
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """One assembly setting: site, components in handling order, targets, dynamics constants."""
+
+    name: str
+    grid: tuple[int, int, int]
+    time_limit: int
+    components: tuple[Component, ...]
+    targets: tuple[Target, ...]
+    foundations: tuple[tuple[int, int], ...] = ()
+    obstacles: tuple[Box, ...] = ()
+    layout: str = "fixed"  # "fixed" or "random"
+    yard: tuple[Box, ...] = ()  # node1 sampling regions of random layouts (z ignored)
+    construction_area: Box | None = None
+    interchangeable: tuple[tuple[str, ...], ...] = ()  # groups of target ids
+    reward: Reward = field(default_factory=Reward)
+    description: str = ""
+    source: str = "<memory>"
+
+    @property
+    def handled(self) -> tuple[Component, ...]:
+        """Components the agent moves, in handling order."""
+        return tuple(c for c in self.components if not c.prebuilt)
+
+    @property
+    def prebuilt(self) -> tuple[Component, ...]:
+        return tuple(c for c in self.components if c.prebuilt)
+
+    def target(self, target_id: str) -> Target:
+        return next(t for t in self.targets if t.id == target_id)
+
+    def group_of(self, target_id: str) -> tuple[str, ...]:
+        """Target ids a component whose own target is ``target_id`` may fill."""
+        for group in self.interchangeable:
+            if target_id in group:
+                return group
+        return (target_id,)
+
+    @property
+    def is_stochastic(self) -> bool:
+        """True when resets differ between seeds (random layout, or a prebuilt column on a random slot)."""
+        return self.layout == "random" or any(len(self.group_of(c.target)) > 1 for c in self.prebuilt)
+
+
+def run_axis(node1: Cell, node2: Cell) -> int:
+    """Axis (0 x, 1 y, 2 z) along which two end nodes differ; a one-cell run counts as z."""
+    diff = [i for i in range(3) if node1[i] != node2[i]]
+    return diff[0] if diff else 2
+
+
+def run_cells(node1: Cell, node2: Cell) -> list[Cell]:
+    """The cells of the straight run from node1 to node2 (inclusive), in increasing order."""
+    axis = run_axis(node1, node2)
+    lo, hi = sorted((node1[axis], node2[axis]))
+    cells = []
+    for v in range(lo, hi + 1):
+        cell = list(node1)
+        cell[axis] = v
+        cells.append(tuple(cell))
+    return cells
+
+
+# --------------------------------------------------------------------------------------------- loading
+
+
+def benchmark_scenario(setting: str) -> Scenario:
+    """One of the 16 benchmark settings, e.g. ``benchmark_scenario("E2S2")``."""
+    if setting not in SETTINGS:
+        raise InputError(f"unknown assembly setting '{setting}': expected one of {', '.join(SETTINGS)}")
+    return _cached_benchmark(setting)
+
+
+@functools.lru_cache(maxsize=None)
+def _cached_benchmark(setting: str) -> Scenario:
+    return load_scenario(SETTINGS_DIR / f"{setting}.yaml")
+
+
+def load_scenario(path: str | Path) -> Scenario:
+    """Read and validate a scenario YAML file (see docs/assembly.md for the format)."""
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"{path}: scenario file not found")
+    data = _read_yaml(path)
+    if not isinstance(data, dict):
+        raise InputError(f"{path}: a scenario file must be a YAML mapping")
+    data.setdefault("name", path.stem)
+    return parse_scenario(data, source=str(path))
+
+
+def _read_yaml(path: Path) -> Any:
+    try:
+        with open(path, encoding="utf-8") as fh:
+            return yaml.safe_load(fh)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f" line {mark.line + 1}" if mark else ""
+        raise InputError(f"{path}{where}: not valid YAML ({getattr(exc, 'problem', exc)})") from None
+
+
+def parse_scenario(data: dict[str, Any], source: str = "<memory>") -> Scenario:
+    """Build a :class:`Scenario` from a plain mapping (the YAML content) and validate it."""
+    import copy
+
+    data = copy.deepcopy(data)
+    p = _Parser(source)
+    known = {
+        "name", "description", "grid", "time_limit", "reward", "foundations", "obstacles", "layout", "yard",
+        "construction_area", "targets", "components", "interchangeable",
+    }
+    for key in data:
+        if key not in known:
+            raise InputError(f"{source}: unknown key '{key}' (expected one of {', '.join(sorted(known))})")
+    grid = p.triple(data.get("grid", [15, 15, 9]), "grid")
+    if min(grid) < 2:
+        raise InputError(f"{source}: grid {list(grid)} must be at least 2 cells along every axis")
+    reward_data = data.get("reward") or {}
+    for key in reward_data:
+        if key not in ("r0", "epsilon", "completion_bonus"):
+            raise InputError(f"{source}: reward: unknown key '{key}' (expected r0, epsilon, completion_bonus)")
+    reward = Reward(
+        r0=float(reward_data.get("r0", -1.0)),
+        epsilon=p.integer(reward_data.get("epsilon", 15), "reward.epsilon"),
+        completion_bonus=float(reward_data.get("completion_bonus", 10.0)),
+    )
+    targets = []
+    for tid, tdata in (data.get("targets") or {}).items():
+        where = f"targets.{tid}"
+        ttype = p.component_type(tdata.get("type"), where)
+        node1, node2 = p.run(tdata.get("cells"), where)
+        targets.append(Target(str(tid), ttype, node1, node2))
+    components = []
+    for i, cdata in enumerate(data.get("components") or []):
+        cid = str(cdata.get("id", f"#{i}"))
+        where = f"components.{cid}"
+        ctype = p.component_type(cdata.get("type"), where)
+        length = p.integer(cdata.get("length", COMPONENT_LENGTHS[ctype]), f"{where}.length")
+        start = p.run(cdata["start"], f"{where}.start") if cdata.get("start") is not None else None
+        target = str(cdata.get("target", cid))
+        components.append(Component(cid, ctype, length, target, start, bool(cdata.get("prebuilt", False))))
+    interchangeable = data.get("interchangeable", False)
+    if interchangeable is True:  # every type (and, through the cells, every beam axis) is one group
+        groups = []
+        for ttype in COMPONENT_LENGTHS:
+            group = tuple(t.id for t in targets if t.type == ttype)
+            if len(group) > 1:
+                groups.append(group)
+        interchangeable = groups
+    elif interchangeable is False or interchangeable is None:
+        interchangeable = []
+    scenario = Scenario(
+        name=str(data.get("name", "scenario")),
+        grid=grid,
+        time_limit=p.integer(data.get("time_limit", 100), "time_limit"),
+        components=tuple(components),
+        targets=tuple(targets),
+        foundations=tuple(tuple(p.pair(f, f"foundations[{i}]")) for i, f in enumerate(data.get("foundations") or [])),
+        obstacles=tuple(p.box(b, f"obstacles[{i}]") for i, b in enumerate(data.get("obstacles") or [])),
+        layout=str(data.get("layout", "fixed")),
+        yard=tuple(p.box(b, f"yard[{i}]") for i, b in enumerate(data.get("yard") or [])),
+        construction_area=p.box(data["construction_area"], "construction_area") if data.get("construction_area") else None,
+        interchangeable=tuple(tuple(str(t) for t in g) for g in interchangeable),
+        reward=reward,
+        description=str(data.get("description", "")),
+        source=source,
+    )
+    validate_scenario(scenario)
+    return scenario
+
+
+class _Parser:
+    """Small typed readers that raise InputError naming the offending key."""
+
+    def __init__(self, source: str):
+        self.source = source
+
+    def fail(self, where: str, what: str) -> InputError:
+        return InputError(f"{self.source}: {where}: {what}")
+
+    def integer(self, value: Any, where: str) -> int:
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise self.fail(where, f"expected an integer, got {value!r}")
+        return value
+
+    def triple(self, value: Any, where: str) -> Cell:
+        if not isinstance(value, (list, tuple)) or len(value) != 3:
+            raise self.fail(where, f"expected [x, y, z], got {value!r}")
+        return tuple(self.integer(v, where) for v in value)  # type: ignore[return-value]
+
+    def pair(self, value: Any, where: str) -> tuple[int, int]:
+        if not isinstance(value, (list, tuple)) or len(value) != 2:
+            raise self.fail(where, f"expected [x, y], got {value!r}")
+        return tuple(self.integer(v, where) for v in value)  # type: ignore[return-value]
+
+    def run(self, value: Any, where: str) -> tuple[Cell, Cell]:
+        if not isinstance(value, (list, tuple)) or len(value) != 2:
+            raise self.fail(where, f"expected [[x, y, z], [x, y, z]] (node1, node2), got {value!r}")
+        node1, node2 = self.triple(value[0], where), self.triple(value[1], where)
+        if sum(a != b for a, b in zip(node1, node2)) > 1:
+            raise self.fail(where, f"{list(node1)} -> {list(node2)} is not a straight run along x, y or z")
+        return node1, node2
+
+    def component_type(self, value: Any, where: str) -> str:
+        if value not in COMPONENT_LENGTHS:
+            raise self.fail(where, f"unknown component type {value!r} (expected one of {', '.join(COMPONENT_LENGTHS)})")
+        return value
+
+    def box(self, value: Any, where: str) -> Box:
+        if not isinstance(value, dict):
+            raise self.fail(where, f"expected a box {{x: [lo, hi], y: [lo, hi], z: [lo, hi]}}, got {value!r}")
+        ranges = {}
+        for axis in ("x", "y", "z"):
+            rng = value.get(axis, [0, 0])
+            pair = self.pair(rng, f"{where}.{axis}")
+            if pair[0] > pair[1]:
+                raise self.fail(where, f"{axis} range {list(pair)} is empty")
+            ranges[axis] = pair
+        return Box(ranges["x"], ranges["y"], ranges["z"])
+
+
+# ------------------------------------------------------------------------------------------ validation
+
+
+def validate_scenario(sc: Scenario) -> None:
+    """Raise InputError naming the entry when the scenario cannot be simulated as described."""
+    src = sc.source
+    W, L, H = sc.grid
+
+    def inside(cell: Cell) -> bool:
+        return 0 <= cell[0] < W and 0 <= cell[1] < L and 0 <= cell[2] < H
+
+    if sc.layout not in ("fixed", "random"):
+        raise InputError(f"{src}: layout: expected 'fixed' or 'random', got {sc.layout!r}")
+    if sc.time_limit < 1:
+        raise InputError(f"{src}: time_limit must be a positive number of steps, got {sc.time_limit}")
+    if sc.reward.epsilon < 0:
+        raise InputError(f"{src}: reward.epsilon must be >= 0, got {sc.reward.epsilon}")
+    for i, (x, y) in enumerate(sc.foundations):
+        if not inside((x, y, 0)):
+            raise InputError(f"{src}: foundations[{i}] ({x}, {y}) lies outside the {W} x {L} grid")
+    for i, box in enumerate(sc.obstacles):
+        for cell in (box.x[0], box.y[0], box.z[0]), (box.x[1], box.y[1], box.z[1]):
+            if not inside(cell):
+                raise InputError(f"{src}: obstacles[{i}] reaches {cell}, outside the {W} x {L} x {H} grid")
+        if box.z[0] < 1:
+            raise InputError(f"{src}: obstacles[{i}] must start at z >= 1 (z = 0 is the ground)")
+    obstacle_cells = {c for box in sc.obstacles for c in box.cells()}
+
+    ids = [t.id for t in sc.targets]
+    if len(set(ids)) != len(ids):
+        raise InputError(f"{src}: targets: duplicate target id")
+    target_owner: dict[Cell, str] = {}
+    for t in sc.targets:
+        for cell in t.cells:
+            if not inside(cell) or cell[2] < 1:
+                raise InputError(f"{src}: targets.{t.id}: cell {cell} is outside the grid (x < {W}, y < {L}, 1 <= z < {H})")
+            if cell in target_owner:
+                raise InputError(f"{src}: targets.{t.id} overlaps targets.{target_owner[cell]} at {cell}")
+            if cell in obstacle_cells:
+                raise InputError(f"{src}: targets.{t.id} overlaps an obstacle at {cell}")
+            target_owner[cell] = t.id
+        if t.type == "column" and (t.node1[0], t.node1[1]) not in sc.foundations:
+            raise InputError(f"{src}: targets.{t.id}: column slot at ({t.node1[0]}, {t.node1[1]}) has no foundation")
+        if t.type == "column" and t.axis != 2:
+            raise InputError(f"{src}: targets.{t.id}: a column slot must be vertical")
+        if t.type == "column" and min(c[2] for c in t.cells) != 1:
+            raise InputError(f"{src}: targets.{t.id}: a column slot must stand on its foundation (bottom z = 1)")
+        if t.type == "beam" and t.axis == 2:
+            raise InputError(f"{src}: targets.{t.id}: a beam slot must be horizontal")
+        if t.type == "beam":
+            supports = beam_supports(sc, t)
+            if any(s is None for s in supports):
+                raise InputError(
+                    f"{src}: targets.{t.id}: unsupported beam: it needs a column slot whose top cell is next to "
+                    f"each of its ends at z = {t.node1[2]}"
+                )
+
+    comp_ids = [c.id for c in sc.components]
+    if len(set(comp_ids)) != len(comp_ids):
+        raise InputError(f"{src}: components: duplicate component id")
+    if not sc.handled:
+        raise InputError(f"{src}: components: at least one component must be handled (not prebuilt)")
+    for group in sc.interchangeable:
+        for tid in group:
+            if tid not in ids:
+                raise InputError(f"{src}: interchangeable: unknown target '{tid}'")
+    used_targets: dict[str, str] = {}
+    for c in sc.components:
+        where = f"{src}: components.{c.id}"
+        if c.target not in ids:
+            raise InputError(f"{where}: unknown target '{c.target}'")
+        t = sc.target(c.target)
+        if t.type != c.type or t.length != c.length:
+            raise InputError(f"{where}: a {c.type} of length {c.length} cannot fill targets.{t.id} ({t.type}, {t.length} cells)")
+        if c.target in used_targets:
+            raise InputError(f"{where}: target '{c.target}' is already the target of {used_targets[c.target]}")
+        used_targets[c.target] = c.id
+        if c.prebuilt:
+            if c.type == "beam" and len(sc.group_of(c.target)) > 1:
+                raise InputError(f"{where}: a prebuilt beam cannot stand on an interchangeable slot")
+            continue
+        if sc.layout == "fixed":
+            if c.start is None:
+                raise InputError(f"{where}: a fixed layout needs a start [[x, y, z], [x, y, z]]")
+            if len(run_cells(*c.start)) != c.length:
+                raise InputError(f"{where}: start spans {len(run_cells(*c.start))} cells, a {c.type} has {c.length}")
+            for cell in run_cells(*c.start):
+                if not inside(cell) or cell[2] < 1:
+                    raise InputError(f"{where}: start cell {cell} is outside the grid (x < {W}, y < {L}, 1 <= z < {H})")
+    _validate_order(sc)
+    if sc.layout == "fixed":
+        _validate_fixed_layout(sc, obstacle_cells)
+    else:
+        if not sc.yard:
+            raise InputError(f"{src}: a random layout needs a yard (node1 sampling regions)")
+        _check_random_layout_possible(sc)
+
+
+def beam_supports(sc: Scenario, target: Target) -> tuple[str | None, str | None]:
+    """Ids of the column slots whose top cells touch the two ends of a beam slot (None when missing)."""
+    cells = target.cells
+    axis = target.axis
+    result = []
+    for end, step in ((cells[0], -1), (cells[-1], +1)):
+        probe = list(end)
+        probe[axis] += step
+        probe = tuple(probe)
+        found = None
+        for t in sc.targets:
+            if t.type == "column" and max(t.cells, key=lambda c: c[2]) == probe:
+                found = t.id
+        result.append(found)
+    return result[0], result[1]
+
+
+def _validate_order(sc: Scenario) -> None:
+    """Columns must come before the beams they rest on (or be prebuilt), per interchangeable group."""
+    handled = list(sc.handled)
+    for i, c in enumerate(handled):
+        if c.type != "beam":
+            continue
+        for sup in beam_supports(sc, sc.target(c.target)):
+            group = sc.group_of(sup)
+            fillers = [
+                x for x in sc.components
+                if x.type == "column" and x.target in group and (x.prebuilt or handled.index(x) < i)
+            ]
+            needed = len(group) if len(group) > 1 else 1
+            if len(group) == 1 and not fillers:
+                raise InputError(
+                    f"{sc.source}: components.{c.id}: its supporting column slot '{sup}' is filled by no component "
+                    "handled before it (columns must come before the beams they support)"
+                )
+            if len(group) > 1 and len(fillers) < needed:
+                raise InputError(
+                    f"{sc.source}: components.{c.id}: the column slots of group {list(group)} are not all filled "
+                    "before this beam is handled (columns must come before the beams they support)"
+                )
+
+
+def _static_blocked(sc: Scenario) -> set[Cell]:
+    W, L, _ = sc.grid
+    return {c for box in sc.obstacles for c in box.cells()}
+
+
+def _validate_fixed_layout(sc: Scenario, obstacle_cells: set[Cell]) -> None:
+    """Start poses must not overlap each other, obstacles, foundations or targets; pick-ups must succeed."""
+    owner: dict[Cell, str] = {}
+    for c in sc.handled:
+        for cell in run_cells(*c.start):
+            if cell in owner:
+                raise InputError(f"{sc.source}: components.{c.id}: start overlaps components.{owner[cell]} at {cell}")
+            if cell in obstacle_cells:
+                raise InputError(f"{sc.source}: components.{c.id}: start overlaps an obstacle at {cell}")
+            if (cell[0], cell[1]) in sc.foundations and cell[2] == 1:
+                raise InputError(f"{sc.source}: components.{c.id}: start lies on a foundation at {cell}")
+            owner[cell] = c.id
+    starts = {c.id: run_cells(*c.start) for c in sc.handled}
+    placed_cells = {cell for c in sc.prebuilt for cell in sc.target(c.target).cells}
+    for c in sc.handled:
+        # cells still occupied when c is picked up: later components' start poses, obstacles, prebuilt
+        waiting = {cell for other in sc.handled[sc.handled.index(c) + 1:] for cell in starts[other.id]}
+        blocked = obstacle_cells | waiting | placed_cells
+        if lifted_pose(sc, c, c.start, blocked) is None:
+            raise InputError(
+                f"{sc.source}: components.{c.id}: the crane cannot lift it free of other objects below z = {sc.grid[2] - 1}"
+            )
+
+
+def _check_random_layout_possible(sc: Scenario) -> None:
+    rng = np.random.default_rng(0)
+    sample_layout(compile_scenario(sc), rng)  # raises InputError after MAX_LAYOUT_ATTEMPTS failures
+
+
+def lifted_pose(sc: Scenario, comp: Component, start: tuple[Cell, Cell], blocked: set[Cell]) -> tuple[Cell, int] | None:
+    """Pick-up pose (min corner, axis) of a component lying at ``start``, lifted free of ``blocked`` cells.
+
+    A column stands up on its node1 (x, y) with its bottom one cell above its lowest start cell; a beam
+    rises to its target's height and turns about its centre onto its target's axis. Poses leaving the
+    grid in x or y are shifted inward by the fewest cells; then the crane lifts the component one cell at
+    a time until it is free. Returns None when it is not free below the top of the grid.
+    """
+    W, L, H = sc.grid
+    node1, node2 = start
+    n = comp.length
+    if comp.type == "column":
+        axis = 2
+        corner = [node1[0], node1[1], min(node1[2], node2[2]) + 1]
+    else:
+        target = sc.target(comp.target)
+        axis = target.axis
+        cells = run_cells(node1, node2)
+        centre = cells[(len(cells) - 1) // 2]
+        corner = [centre[0], centre[1], target.node1[2]]
+        corner[axis] -= (n - 1) // 2
+    size = [W, L]
+    for a in (0, 1):
+        extent = n if a == axis else 1
+        corner[a] = min(max(corner[a], 0), size[a] - extent)
+    top = H - (n if axis == 2 else 1)
+    for z in range(corner[2], top + 1):
+        base = (corner[0], corner[1], z)
+        cells = [tuple(base[i] + (k if i == axis else 0) for i in range(3)) for k in range(n)]
+        if not any(cell in blocked for cell in cells):
+            return base, axis
+    return None
+
+
+# ------------------------------------------------------------------------------------------ compiled
+
+
+@dataclass
+class CompiledScenario:
+    """Flat lookup tables of a scenario, shared by the env, the batched simulator and the planner.
+
+    Cells are flattened as ``index = (x * L + y) * H + z``. Components are indexed in handling order
+    (``comp``), targets in scenario order (``target``).
+    """
+
+    scenario: Scenario
+    W: int
+    L: int
+    H: int
+    n_comp: int
+    n_target: int
+    comp_type: list[str]
+    comp_len: list[int]
+    comp_axis: list[int]  # axis after pick-up (columns z, beams their target's axis)
+    comp_arrival: list[dict[int, int]]  # per comp: flat min corner -> target index it may fill there
+    target_cells: list[list[int]]  # flat cell indices per target
+    target_supports: list[tuple[int, ...]]  # target indices that must be filled first (beams)
+    target_top: np.ndarray  # (n_target, W, L) int8, top z of each target over (x, y), 0 elsewhere
+    target_fp: np.ndarray  # (n_target, W, L) bool footprint
+    static_blocked: np.ndarray  # (W*L*H,) uint8: ground and obstacles
+    obstacle_top: np.ndarray  # (W, L) int8
+    prebuilt_slots: list[list[int]]  # per prebuilt component: the target indices it may stand on
+    n_total: int  # components standing at the end (handled + prebuilt)
+    fixed_starts: list[tuple[Cell, Cell]] | None
+    yard_x: list[int] = field(default_factory=list)  # node1 x values of random layouts
+    yard_y: dict[int, tuple[int, int]] = field(default_factory=dict)  # x -> (y lo, y hi)
+    foundation_xy: set = field(default_factory=set)
+
+    def flat(self, x: int, y: int, z: int) -> int:
+        return (x * self.L + y) * self.H + z
+
+    def unflat(self, index: int) -> Cell:
+        xy, z = divmod(index, self.H)
+        x, y = divmod(xy, self.L)
+        return x, y, z
+
+    def stride(self, axis: int) -> int:
+        return (self.L * self.H, self.H, 1)[axis]
+
+
+@functools.lru_cache(maxsize=64)
+def _compile_cached(sc: Scenario) -> CompiledScenario:
+    return _compile(sc)
+
+
+def compile_scenario(sc: Scenario) -> CompiledScenario:
+    """Lookup tables for ``sc`` (cached per scenario object)."""
+    return _compile_cached(sc)
+
+
+def _compile(sc: Scenario) -> CompiledScenario:
+    W, L, H = sc.grid
+    tindex = {t.id: i for i, t in enumerate(sc.targets)}
+
+    def flat(cell: Cell) -> int:
+        return (cell[0] * L + cell[1]) * H + cell[2]
+
+    handled = sc.handled
+    comp_axis = [2 if c.type == "column" else sc.target(c.target).axis for c in handled]
+    comp_arrival = []
+    for c, axis in zip(handled, comp_axis):
+        table = {}
+        for tid in sc.group_of(c.target):
+            t = sc.target(tid)
+            if t.length == c.length and t.type == c.type and t.axis == axis:
+                table[flat(t.cells[0])] = tindex[tid]
+        comp_arrival.append(table)
+    target_top = np.zeros((len(sc.targets), W, L), np.int8)
+    target_fp = np.zeros((len(sc.targets), W, L), bool)
+    for i, t in enumerate(sc.targets):
+        for x, y, z in t.cells:
+            target_top[i, x, y] = max(target_top[i, x, y], z)
+            target_fp[i, x, y] = True
+    supports = []
+    for t in sc.targets:
+        supports.append(tuple(tindex[s] for s in beam_supports(sc, t)) if t.type == "beam" else ())
+    blocked = np.zeros((W, L, H), np.uint8)
+    blocked[:, :, 0] = 1
+    obstacle_top = np.zeros((W, L), np.int8)
+    for box in sc.obstacles:
+        blocked[box.x[0]:box.x[1] + 1, box.y[0]:box.y[1] + 1, box.z[0]:box.z[1] + 1] = 1
+        region = obstacle_top[box.x[0]:box.x[1] + 1, box.y[0]:box.y[1] + 1]
+        np.maximum(region, box.z[1], out=region)
+    yard_y: dict[int, tuple[int, int]] = {}
+    for box in sc.yard:
+        for x in range(box.x[0], box.x[1] + 1):
+            yard_y.setdefault(x, box.y)
+    return CompiledScenario(
+        scenario=sc,
+        W=W, L=L, H=H,
+        n_comp=len(handled),
+        n_target=len(sc.targets),
+        comp_type=[c.type for c in handled],
+        comp_len=[c.length for c in handled],
+        comp_axis=comp_axis,
+        comp_arrival=comp_arrival,
+        target_cells=[[flat(c) for c in t.cells] for t in sc.targets],
+        target_supports=supports,
+        target_top=target_top,
+        target_fp=target_fp,
+        static_blocked=blocked.reshape(-1),
+        obstacle_top=obstacle_top,
+        prebuilt_slots=[[tindex[t] for t in sc.group_of(c.target)] for c in sc.prebuilt],
+        n_total=len(sc.components),
+        fixed_starts=[c.start for c in handled] if sc.layout == "fixed" else None,
+        yard_x=sorted(yard_y),
+        yard_y=yard_y,
+        foundation_xy=set(sc.foundations),
+    )
+
+
+# ------------------------------------------------------------------------------------------ resets
+
+
+def sample_prebuilt_slots(cs: CompiledScenario, rng: np.random.Generator) -> list[int]:
+    """Target index each prebuilt component stands on: uniform over its group (one draw each)."""
+    slots = []
+    taken: set[int] = set()
+    for options in cs.prebuilt_slots:
+        free = [t for t in options if t not in taken]
+        if len(options) > 1:
+            slot = free[int(rng.random() * len(free))]
+        else:
+            slot = options[0]
+        taken.add(slot)
+        slots.append(slot)
+    return slots
+
+
+def sample_layout(cs: CompiledScenario, rng: np.random.Generator) -> list[tuple[Cell, Cell]]:
+    """A random initial layout: every handled component flat at z = 1 in the yard, along x or y.
+
+    node1's x is uniform over the yard's x values and y uniform over the range of the yard region that
+    holds that x; node2 = node1 - (length - 1) along the drawn axis. A draw that overlaps another
+    component, an obstacle or a foundation is redrawn; a component that fits nowhere redraws the whole
+    layout (at most MAX_LAYOUT_ATTEMPTS times, then InputError).
+    """
+    sc = cs.scenario
+    H = cs.H
+    xs = cs.yard_x
+    n_x = len(xs)
+    static = cs.static_blocked
+    for _ in range(MAX_LAYOUT_ATTEMPTS):
+        occupied: set[int] = set()
+        layout: list[tuple[Cell, Cell]] = []
+        for ci in range(cs.n_comp):
+            n = cs.comp_len[ci]
+            placed = False
+            draws = rng.random((32, 3))
+            for axis_u, x_u, y_u in draws.tolist():
+                x = xs[int(x_u * n_x)]
+                ylo, yhi = cs.yard_y[x]
+                y = ylo + int(y_u * (yhi - ylo + 1))
+                if axis_u < 0.5:
+                    cells = [(x - k, y) for k in range(n)]
+                else:
+                    cells = [(x, y - k) for k in range(n)]
+                ok = True
+                for cx, cy in cells:
+                    if cx < 0 or cy < 0 or cx >= cs.W or cy >= cs.L:
+                        ok = False
+                        break
+                    f = (cx * cs.L + cy) * H + 1
+                    if f in occupied or static[f] or (cx, cy) in cs.foundation_xy:
+                        ok = False
+                        break
+                if ok:
+                    for cx, cy in cells:
+                        occupied.add((cx * cs.L + cy) * H + 1)
+                    layout.append(((cells[0][0], cells[0][1], 1), (cells[-1][0], cells[-1][1], 1)))
+                    placed = True
+                    break
+            if not placed:
+                break
+        else:
+            return layout
+    raise InputError(
+        f"{sc.source}: impossible random layout: the yard cannot hold all {cs.n_comp} components without overlaps "
+        f"in {MAX_LAYOUT_ATTEMPTS} attempts"
+    )
