@@ -1,0 +1,101 @@
+"""The six robot construction activities of thesis chapter 5 and how schedule rows break into them.
+
+A schedule row (chapter 4's task decomposition: ``transport``, ``position``, ``assemble``) is broken
+down until a robot has a well-defined goal (section 5.2.2):
+
+- ``transport`` -> move to component, position for picking up, pick up, transport
+- ``position``  -> position for installing
+- ``assemble``  -> install
+
+Each resulting :class:`RcanActivity` has an idempotent id ``<row Identification>.<n>`` (e.g.
+``A0001.3``), so a resumed run recognises the activities it already executed.
+"""
+
+from __future__ import annotations
+
+import enum
+from dataclasses import dataclass, field
+
+
+class ActivityKind(str, enum.Enum):
+    """A robot construction activity (thesis section 5.3.3), value = its snake_case name."""
+
+    MOVE_TO_COMPONENT = "move_to_component"
+    POSITION_FOR_PICKING_UP = "position_for_picking_up"
+    PICK_UP = "pick_up"
+    TRANSPORT = "transport"
+    POSITION_FOR_INSTALLING = "position_for_installing"
+    INSTALL = "install"
+
+    @property
+    def label(self) -> str:
+        """The thesis' name, e.g. "Position for picking up"."""
+        return self.value.replace("_", " ").capitalize()
+
+    @classmethod
+    def parse(cls, text: str) -> "ActivityKind":
+        """Accept ``pick_up``, ``Pick up`` or ``pick-up``; ValueError naming the valid kinds otherwise."""
+        key = text.strip().lower().replace(" ", "_").replace("-", "_")
+        try:
+            return cls(key)
+        except ValueError:
+            valid = ", ".join(kind.value for kind in cls)
+            raise ValueError(f"unknown construction activity {text!r} (expected one of: {valid})") from None
+
+
+#: Chapter-4 schedule activity -> the RCAN activities it is broken into, in order.
+SCHEDULE_DECOMPOSITION: dict[str, tuple[ActivityKind, ...]] = {
+    "transport": (
+        ActivityKind.MOVE_TO_COMPONENT,
+        ActivityKind.POSITION_FOR_PICKING_UP,
+        ActivityKind.PICK_UP,
+        ActivityKind.TRANSPORT,
+    ),
+    "position": (ActivityKind.POSITION_FOR_INSTALLING,),
+    "assemble": (ActivityKind.INSTALL,),
+}
+
+
+@dataclass(frozen=True)
+class Pose:
+    """A target pose in the world frame: position in metres, yaw in radians about z (z up)."""
+
+    x: float
+    y: float
+    z: float
+    yaw: float = 0.0
+
+    def as_tuple(self) -> tuple[float, float, float]:
+        return (self.x, self.y, self.z)
+
+    def distance_xy(self, other: "Pose") -> float:
+        """Horizontal distance in metres."""
+        return ((self.x - other.x) ** 2 + (self.y - other.y) ** 2) ** 0.5
+
+    def distance(self, other: "Pose") -> float:
+        """Euclidean distance in metres."""
+        return ((self.x - other.x) ** 2 + (self.y - other.y) ** 2 + (self.z - other.z) ** 2) ** 0.5
+
+
+@dataclass(frozen=True)
+class RcanActivity:
+    """One construction activity a smart component publishes (Table 5.1's properties).
+
+    ``activity_id`` is unique and stable across runs; ``target`` is the activity's goal pose (world
+    frame, metres); ``weight_kg`` the component's weight (for matching a robot's payload);
+    ``section_m`` its section size (width, depth) in metres for matching a gripper, if known;
+    ``robot`` a robot requested by the schedule (None lets the allocator choose); ``predecessors``
+    the activity ids that must be done first; ``start``/``finish`` the planned times in seconds.
+    """
+
+    activity_id: str
+    component_id: str
+    kind: ActivityKind
+    target: Pose
+    weight_kg: float = 0.0
+    section_m: tuple[float, float] | None = None
+    robot: str | None = None
+    predecessors: tuple[str, ...] = field(default_factory=tuple)
+    start: float = 0.0
+    finish: float = 0.0
+    name: str = ""

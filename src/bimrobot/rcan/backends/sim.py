@@ -1,0 +1,227 @@
+"""The ``sim`` backend: built-in kinematic robots that take travel and handling time.
+
+Each robot has a mobile base (moves at ``speed_m_s`` in the xy plane), a manipulator (reaches
+``reach_m`` horizontally from the base, moves the gripper at ``arm_speed_m_s``) and a gripper (takes
+``handling_s[activity]`` to pick up or install). Robots check what a real robot would refuse: a target
+out of the arm's reach, a pick-up without the gripper at the grasp pose, a component heavier than the
+payload, installing a component the robot does not hold. Any activity can also fail at random with
+``failure_probability``; the draw is seeded by ``(seed, activity id, attempt)`` so a resumed run sees
+the same failures as an uninterrupted one.
+
+Time: every robot keeps its own clock in simulated seconds; an activity starts at
+``max(robot clock, ready_at_s)``. ``time_scale`` real seconds are slept per simulated second (0: no
+sleeping, the default; 1: real time).
+
+The world (robot poses, components, executed goals) lives in SQLite, in memory by default or in the
+run's state database, so it survives a crash like a real site does. Executed goals are recorded in the
+same transaction as their effect, keyed by (activity id, attempt): a goal sent twice runs once.
+"""
+
+from __future__ import annotations
+
+import json
+import sqlite3
+import threading
+import time
+import zlib
+from pathlib import Path
+
+import numpy as np
+
+from bimrobot.rcan.activities import ActivityKind, Pose
+from bimrobot.rcan.backends.interfaces import ActivityResult, ExecutorBackend
+from bimrobot.rcan.generation import CapabilityTable, RobotSpec
+from bimrobot.rcan.node import RcanNode
+
+GRASP_TOLERANCE_M = 0.05
+ARM_STOW_HEIGHT_M = 0.5
+
+SCHEMA = """
+CREATE TABLE IF NOT EXISTS sim_robot (
+    name TEXT PRIMARY KEY, x REAL, y REAL, z REAL, arm TEXT, holding TEXT, clock_s REAL);
+CREATE TABLE IF NOT EXISTS sim_component (global_id TEXT PRIMARY KEY, x REAL, y REAL, z REAL, holder TEXT);
+CREATE TABLE IF NOT EXISTS sim_execution (
+    activity_id TEXT, attempt INTEGER, robot TEXT, success INTEGER, message TEXT,
+    started_s REAL, finished_s REAL, PRIMARY KEY (activity_id, attempt));
+"""
+
+
+class KinematicSite:
+    """The simulated site: robots and components with persistent state (SQLite, metres, seconds)."""
+
+    def __init__(
+        self,
+        capabilities: CapabilityTable,
+        db_path: str | Path = ":memory:",
+        time_scale: float = 0.0,
+        failure_probability: float = 0.0,
+        seed: int = 0,
+    ):
+        self.capabilities = capabilities
+        self.time_scale = float(time_scale)
+        self.failure_probability = float(failure_probability)
+        self.seed = int(seed)
+        self._lock = threading.Lock()
+        self._db = sqlite3.connect(str(db_path), check_same_thread=False, isolation_level=None)
+        self._db.execute("PRAGMA journal_mode=WAL")
+        self._db.execute("PRAGMA synchronous=FULL")
+        self._db.executescript(SCHEMA)
+        for robot in capabilities.robots.values():
+            h = robot.home
+            self._db.execute(
+                "INSERT OR IGNORE INTO sim_robot VALUES (?, ?, ?, ?, NULL, NULL, 0.0)", (robot.name, h.x, h.y, h.z)
+            )
+
+    # --- queries -----------------------------------------------------------------------------------
+    def robot_state(self, name: str) -> dict:
+        """Base pose, arm target (None when stowed), held component and clock (s) of robot ``name``."""
+        row = self._db.execute("SELECT x, y, z, arm, holding, clock_s FROM sim_robot WHERE name=?", (name,)).fetchone()
+        if row is None:
+            raise KeyError(f"robot {name!r} is not on this site")
+        arm = Pose(*json.loads(row[3])) if row[3] else None
+        return {"base": Pose(row[0], row[1], row[2]), "arm": arm, "holding": row[4], "clock_s": row[5]}
+
+    def component_position(self, global_id: str) -> tuple[float, float, float] | None:
+        row = self._db.execute("SELECT x, y, z FROM sim_component WHERE global_id=?", (global_id,)).fetchone()
+        return tuple(row) if row else None
+
+    def executions(self) -> list[tuple[str, int, bool]]:
+        """Every goal the robots executed: (activity id, attempt, success), in execution order."""
+        rows = self._db.execute("SELECT activity_id, attempt, success FROM sim_execution ORDER BY rowid").fetchall()
+        return [(a, n, bool(s)) for a, n, s in rows]
+
+    # --- execution ---------------------------------------------------------------------------------
+    def execute(self, node: RcanNode, attempt: int, ready_at_s: float = 0.0, feedback=None) -> ActivityResult:
+        """Execute one goal; a goal already executed returns its recorded result (no second run)."""
+        recorded = self._recorded(node.activity_id, attempt)
+        if recorded:
+            return recorded
+        spec = self.capabilities.robots.get(node.robot)
+        if spec is None:
+            raise KeyError(f"robot {node.robot!r} is not in {self.capabilities.source}")
+        with self._lock:
+            state = self.robot_state(node.robot)
+        start = max(state["clock_s"], ready_at_s)
+        duration, error, effect = self._plan(spec, state, node)
+        if error is None and self._random_failure(node.activity_id, attempt):
+            error = f"{node.kind.label} failed (simulated fault, p={self.failure_probability:g})"
+        if feedback:
+            feedback(0.0, f"{node.kind.label}: started")
+        if self.time_scale > 0 and duration > 0:
+            time.sleep(duration * self.time_scale)
+        if feedback:
+            feedback(1.0, f"{node.kind.label}: finished")
+        result = ActivityResult(
+            node.activity_id, attempt, node.robot, error is None,
+            error or f"{node.kind.label} of {node.component_id} done", start, start + duration,
+        )
+        self._commit(node, result, effect if error is None else {})
+        return result
+
+    def _recorded(self, activity_id: str, attempt: int) -> ActivityResult | None:
+        row = self._db.execute(
+            "SELECT robot, success, message, started_s, finished_s FROM sim_execution WHERE activity_id=? AND attempt=?",
+            (activity_id, attempt),
+        ).fetchone()
+        if row is None:
+            return None
+        return ActivityResult(activity_id, attempt, row[0], bool(row[1]), row[2], row[3], row[4])
+
+    def _random_failure(self, activity_id: str, attempt: int) -> bool:
+        if self.failure_probability <= 0:
+            return False
+        rng = np.random.default_rng([self.seed, zlib.crc32(activity_id.encode()), attempt])
+        return bool(rng.random() < self.failure_probability)
+
+    def _plan(self, spec: RobotSpec, state: dict, node: RcanNode) -> tuple[float, str | None, dict]:
+        """(duration s, error or None, state changes) of ``node`` on robot ``spec`` in ``state``."""
+        kind, target, base = node.kind, node.target, state["base"]
+        if not spec.can(kind):
+            return 0.0, f"robot {spec.name} cannot {kind.label.lower()} (capability table)", {}
+        if kind in (ActivityKind.MOVE_TO_COMPONENT, ActivityKind.TRANSPORT):
+            if kind is ActivityKind.TRANSPORT and state["holding"] != node.component_id:
+                return 0.0, f"robot {spec.name} does not hold {node.component_id} to transport it", {}
+            effect = {"base": Pose(target.x, target.y, base.z), "arm": None}
+            return base.distance_xy(target) / spec.speed_m_s, None, effect
+        if kind in (ActivityKind.POSITION_FOR_PICKING_UP, ActivityKind.POSITION_FOR_INSTALLING):
+            reach = base.distance_xy(target)
+            if reach > spec.reach_m + 1e-9:
+                return 0.0, (
+                    f"target ({target.x:.2f}, {target.y:.2f}, {target.z:.2f}) is {reach:.2f} m from the base of "
+                    f"{spec.name}, beyond its {spec.reach_m:.2f} m reach: transport the component first"
+                ), {}
+            if kind is ActivityKind.POSITION_FOR_INSTALLING and state["holding"] != node.component_id:
+                return 0.0, f"robot {spec.name} does not hold {node.component_id} to position it", {}
+            arm_from = state["arm"] or Pose(base.x, base.y, base.z + ARM_STOW_HEIGHT_M)
+            return arm_from.distance(target) / spec.arm_speed_m_s, None, {"arm": target}
+        handling = spec.handling_s.get(kind.value, 0.0)
+        arm = state["arm"]
+        if arm is None or arm.distance(target) > GRASP_TOLERANCE_M:
+            return 0.0, f"gripper of {spec.name} is not at the {kind.label.lower()} pose of {node.component_id}", {}
+        if kind is ActivityKind.PICK_UP:
+            if state["holding"]:
+                return 0.0, f"robot {spec.name} already holds {state['holding']}", {}
+            if node.activity.weight_kg > spec.payload_kg:
+                return 0.0, f"{node.component_id} weighs {node.activity.weight_kg:.1f} kg, over the {spec.payload_kg:.1f} kg payload of {spec.name}", {}
+            return handling, None, {"holding": node.component_id, "component": (target, spec.name)}
+        if state["holding"] != node.component_id:  # install
+            return 0.0, f"robot {spec.name} does not hold {node.component_id} to install it", {}
+        return handling, None, {"holding": None, "arm": None, "component": (target, None)}
+
+    def _commit(self, node: RcanNode, result: ActivityResult, effect: dict) -> None:
+        """Record the goal and apply its effect in one transaction (a crash keeps both or neither)."""
+        with self._lock:
+            db = self._db
+            db.execute("BEGIN IMMEDIATE")
+            try:
+                db.execute(
+                    "INSERT INTO sim_execution VALUES (?, ?, ?, ?, ?, ?, ?)",
+                    (result.activity_id, result.attempt, result.robot, int(result.success), result.message,
+                     result.started_s, result.finished_s),
+                )
+                db.execute("UPDATE sim_robot SET clock_s=? WHERE name=?", (result.finished_s, node.robot))
+                if "base" in effect:
+                    b = effect["base"]
+                    db.execute("UPDATE sim_robot SET x=?, y=?, z=? WHERE name=?", (b.x, b.y, b.z, node.robot))
+                if "arm" in effect:
+                    arm = effect["arm"]
+                    value = json.dumps([arm.x, arm.y, arm.z, arm.yaw]) if arm else None
+                    db.execute("UPDATE sim_robot SET arm=? WHERE name=?", (value, node.robot))
+                if "holding" in effect:
+                    db.execute("UPDATE sim_robot SET holding=? WHERE name=?", (effect["holding"], node.robot))
+                if "component" in effect:
+                    pose, holder = effect["component"]
+                    db.execute(
+                        "INSERT OR REPLACE INTO sim_component VALUES (?, ?, ?, ?, ?)",
+                        (node.component_id, pose.x, pose.y, pose.z, holder),
+                    )
+                db.execute("COMMIT")
+            except BaseException:
+                db.execute("ROLLBACK")
+                raise
+
+    def close(self) -> None:
+        self._db.close()
+
+
+class SimBackend(ExecutorBackend):
+    """Executor backend on the built-in :class:`KinematicSite` (see the module docstring)."""
+
+    name = "sim"
+
+    def __init__(self, capabilities: CapabilityTable, db_path: str | Path = ":memory:", time_scale: float = 0.0,
+                 failure_probability: float = 0.0, seed: int = 0):
+        self.site = KinematicSite(capabilities, db_path, time_scale, failure_probability, seed)
+
+    def _run(self, node, attempt, ready_at_s, feedback) -> ActivityResult:
+        return self.site.execute(node, attempt, ready_at_s, feedback)
+
+    move_to_component = _run
+    position_for_picking_up = _run
+    pick_up = _run
+    transport = _run
+    position_for_installing = _run
+    install = _run
+
+    def close(self) -> None:
+        self.site.close()

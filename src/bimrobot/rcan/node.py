@@ -1,0 +1,62 @@
+"""The RCAN node: one-to-one link between one construction activity of a component and one robot."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from bimrobot.rcan.activities import ActivityKind, Pose, RcanActivity
+
+
+@dataclass(frozen=True)
+class RcanNode:
+    """An instantiated RCAN node (thesis 5.2.2): component, activity, robot, target pose and backend.
+
+    ``node_id`` is ``rcan/<activity id>``; the backend is the name of the executor backend that drives
+    the robot (``sim`` or ``ros2``).
+    """
+
+    node_id: str
+    activity: RcanActivity
+    robot: str
+    backend: str
+
+    @property
+    def activity_id(self) -> str:
+        return self.activity.activity_id
+
+    @property
+    def component_id(self) -> str:
+        return self.activity.component_id
+
+    @property
+    def kind(self) -> ActivityKind:
+        return self.activity.kind
+
+    @property
+    def target(self) -> Pose:
+        return self.activity.target
+
+    def to_message(self) -> dict:
+        """Plain JSON-able dict carried by the broker."""
+        a = self.activity
+        return {
+            "node_id": self.node_id,
+            "activity_id": a.activity_id,
+            "component_id": a.component_id,
+            "activity": a.kind.value,
+            "target": [a.target.x, a.target.y, a.target.z, a.target.yaw],
+            "weight_kg": a.weight_kg,
+            "robot": self.robot,
+            "backend": self.backend,
+        }
+
+    @classmethod
+    def from_message(cls, message: dict) -> "RcanNode":
+        activity = RcanActivity(
+            activity_id=message["activity_id"],
+            component_id=message["component_id"],
+            kind=ActivityKind(message["activity"]),
+            target=Pose(*message["target"]),
+            weight_kg=float(message.get("weight_kg", 0.0)),
+        )
+        return cls(message["node_id"], activity, message["robot"], message["backend"])

@@ -1,0 +1,119 @@
+"""Plans of RCAN activities: from a schedule CSV (+ BuildingModel) and the thesis' three experiments.
+
+A schedule row is broken down into RCAN activities (see :mod:`bimrobot.rcan.activities`) with goal
+poses: components wait on the yard (one slot per component, ``yard_spacing_m`` apart along x from
+``yard``), the robot's base stops ``standoff_m`` short (in -y) of the pick-up slot and of the installed
+position, and the gripper goes to the slot and to the installed position (``Target*`` of the row).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from bimrobot.errors import InputError
+from bimrobot.rcan.activities import SCHEDULE_DECOMPOSITION, ActivityKind, Pose, RcanActivity
+
+K = ActivityKind
+
+
+def plan_from_schedule(schedule, model=None, yard: tuple[float, float, float] = (-10.0, -10.0, 0.0),
+                       yard_spacing_m: float = 2.0, standoff_m: float = 1.0) -> list[RcanActivity]:
+    """RCAN activities for every row of ``schedule`` (a :class:`bimrobot.lbd.schedule.Schedule`).
+
+    ``model`` (a BuildingModel) supplies component weights (kg); without it weights are 0. Ids are
+    ``<Identification>.<n>``; the first activity of a row waits for the last one of each predecessor row.
+    """
+    activities: list[RcanActivity] = []
+    last_of_row: dict[str, str] = {}
+    slots: dict[str, Pose] = {}
+    for row in schedule.topological_order():
+        if row.activity not in SCHEDULE_DECOMPOSITION:
+            raise InputError(f"schedule activity {row.id} has activity {row.activity!r}; RCAN knows "
+                             f"{', '.join(SCHEDULE_DECOMPOSITION)}")
+        if not row.global_id or row.target is None:
+            raise InputError(f"schedule activity {row.id} needs a GlobalId and TargetX/Y/Z for RCAN")
+        gid = row.global_id
+        if gid not in slots:
+            slots[gid] = Pose(yard[0] + yard_spacing_m * len(slots), yard[1], yard[2])
+        weight = _weight(model, gid)
+        slot, installed = slots[gid], Pose(*row.target)
+        goals = {
+            K.MOVE_TO_COMPONENT: Pose(slot.x, slot.y - standoff_m, 0.0),
+            K.POSITION_FOR_PICKING_UP: slot,
+            K.PICK_UP: slot,
+            K.TRANSPORT: Pose(installed.x, installed.y - standoff_m, 0.0),
+            K.POSITION_FOR_INSTALLING: installed,
+            K.INSTALL: installed,
+        }
+        previous = tuple(last_of_row[p] for p in row.predecessors)
+        for n, kind in enumerate(SCHEDULE_DECOMPOSITION[row.activity], start=1):
+            activity_id = f"{row.id}.{n}"
+            activities.append(RcanActivity(
+                activity_id=activity_id, component_id=gid, kind=kind, target=goals[kind], weight_kg=weight,
+                robot=row.robot, predecessors=previous, start=row.start, finish=row.finish,
+                name=f"{kind.label} {gid}",
+            ))
+            previous = (activity_id,)
+        last_of_row[row.id] = previous[0]
+    return activities
+
+
+def _weight(model, gid: str) -> float:
+    if model is None:
+        return 0.0
+    element = model.elements.get(gid)
+    if element is None:
+        raise InputError(f"schedule names component {gid}, which is not in {model.source or 'the model'}")
+    return float(element.weight_kg or 0.0)
+
+
+@dataclass(frozen=True)
+class Experiment:
+    """One of the thesis' three RCAN experiments (section 5.3.3)."""
+
+    number: int
+    title: str
+    activities: tuple[RcanActivity, ...]
+
+
+#: The thesis' column (its GlobalId is the one printed in section 5.3.3) and an illustrative footing.
+COLUMN_ID = "267VPu8ab9991QBA3MI3UN"
+FOOTING_ID = "1kTvXnbbzCWw8lcMd1dR4o"
+COLUMN_KG = 2.0  # light-weight scale column, within the UR5's 5 kg payload
+FOOTING_KG = 3.5
+
+
+def _chain(prefix: str, component: str, weight: float, steps: list[tuple[ActivityKind, Pose]]) -> tuple[RcanActivity, ...]:
+    out, previous = [], ()
+    for n, (kind, pose) in enumerate(steps, start=1):
+        activity_id = f"{prefix}.{n}"
+        out.append(RcanActivity(activity_id, component, kind, pose, weight, robot="husky_ur5",
+                                predecessors=previous, name=f"{kind.label} {component}"))
+        previous = (activity_id,)
+    return tuple(out)
+
+
+def experiment(number: int) -> Experiment:
+    """Experiment 1 (column within the manipulator's reach), 2 (column that needs transport) or 3
+    (footing that needs transport). The robot is the thesis' Husky + UR5 (``husky_ur5``), home at
+    (-3, 0, 0); poses in metres, world frame.
+    """
+    pick_column = Pose(0.0, -0.75, 0.45)  # the pick-up target printed in the thesis
+    stand = Pose(0.0, 0.0, 0.0)
+    if number == 1:
+        install = Pose(0.55, -0.35, 0.30)  # 0.65 m from the base: within the UR5's reach
+        steps = [(K.MOVE_TO_COMPONENT, stand), (K.POSITION_FOR_PICKING_UP, pick_column), (K.PICK_UP, pick_column),
+                 (K.POSITION_FOR_INSTALLING, install), (K.INSTALL, install)]
+        return Experiment(1, "column within the manipulator's reach", _chain("E1", COLUMN_ID, COLUMN_KG, steps))
+    if number == 2:
+        install = Pose(4.0, 2.0, 0.30)  # 4.5 m away: the base has to transport the column
+        steps = [(K.MOVE_TO_COMPONENT, stand), (K.POSITION_FOR_PICKING_UP, pick_column), (K.PICK_UP, pick_column),
+                 (K.TRANSPORT, Pose(4.0, 2.6, 0.0)), (K.POSITION_FOR_INSTALLING, install), (K.INSTALL, install)]
+        return Experiment(2, "column that needs transport", _chain("E2", COLUMN_ID, COLUMN_KG, steps))
+    if number == 3:
+        pick_footing = Pose(0.0, -0.75, 0.10)
+        install = Pose(4.0, -2.0, 0.0)
+        steps = [(K.MOVE_TO_COMPONENT, stand), (K.POSITION_FOR_PICKING_UP, pick_footing), (K.PICK_UP, pick_footing),
+                 (K.TRANSPORT, Pose(4.0, -1.4, 0.0)), (K.POSITION_FOR_INSTALLING, install), (K.INSTALL, install)]
+        return Experiment(3, "footing that needs transport", _chain("E3", FOOTING_ID, FOOTING_KG, steps))
+    raise InputError(f"there is no experiment {number}: the thesis has experiments 1, 2 and 3")

@@ -1,0 +1,244 @@
+"""The state manager (thesis 5.2.1): robot results -> component states, retries, escalation, journal.
+
+Success advances the component's state machine (:mod:`bimrobot.sco.states`) and notifies observers (the
+construction graph of :mod:`bimrobot.lbd` is one: any object with ``set_component_state(global_id,
+state)`` and/or ``set_activity_state(activity_id, state)``). A failure is retried up to
+``RetryPolicy.max_attempts`` times, then escalated with an :class:`EscalationReport` naming component,
+activity and robot, for a technician (the thesis' warning).
+
+Everything is journaled in SQLite (:class:`StateStore`): a ``started`` record before an activity is sent
+to its robot and a ``done``/``failed``/``escalated`` record with the component's new state in the same
+transaction when its result arrives. A run killed at any moment resumes from the journal: done
+activities are not sent again, started-but-unfinished ones are re-sent with the same (activity id,
+attempt) so an idempotent robot returns the result it already has instead of working twice.
+"""
+
+from __future__ import annotations
+
+import logging
+import sqlite3
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Iterable
+
+from bimrobot.rcan.activities import ActivityKind
+from bimrobot.rcan.backends.interfaces import ActivityResult
+from bimrobot.rcan.node import RcanNode
+from bimrobot.sco.states import Event, State, next_state
+
+log = logging.getLogger(__name__)
+
+PENDING, STARTED, DONE, ESCALATED = "pending", "started", "done", "escalated"
+
+SCHEMA = """
+CREATE TABLE IF NOT EXISTS journal (
+    seq INTEGER PRIMARY KEY AUTOINCREMENT, activity_id TEXT NOT NULL, event TEXT NOT NULL,
+    attempt INTEGER NOT NULL, robot TEXT, message TEXT, finished_s REAL, wall_time REAL);
+CREATE TABLE IF NOT EXISTS activity (
+    activity_id TEXT PRIMARY KEY, component_id TEXT, kind TEXT, status TEXT NOT NULL,
+    attempts INTEGER NOT NULL DEFAULT 0, robot TEXT, finished_s REAL, message TEXT);
+CREATE TABLE IF NOT EXISTS component (global_id TEXT PRIMARY KEY, state TEXT NOT NULL);
+CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT);
+"""
+
+
+@dataclass(frozen=True)
+class RetryPolicy:
+    """Retry a failed activity until ``max_attempts`` attempts were made, then escalate."""
+
+    max_attempts: int = 3
+
+
+@dataclass(frozen=True)
+class EscalationReport:
+    """What a technician needs after the retries ran out."""
+
+    component_id: str
+    activity_id: str
+    activity: str
+    robot: str
+    attempts: int
+    message: str
+
+    def __str__(self) -> str:
+        return (
+            f"ESCALATED: {self.activity} of component {self.component_id} (activity {self.activity_id}) "
+            f"failed {self.attempts} time(s) on robot {self.robot}: {self.message}"
+        )
+
+
+class StateStore:
+    """The SQLite journal and the current activity and component states (``:memory:`` by default)."""
+
+    def __init__(self, path: str | Path = ":memory:"):
+        self.path = str(path)
+        self.db = sqlite3.connect(self.path, isolation_level=None, check_same_thread=False)
+        self.db.execute("PRAGMA journal_mode=WAL")
+        self.db.execute("PRAGMA synchronous=FULL")
+        self.db.executescript(SCHEMA)
+
+    def transaction(self):
+        return _Transaction(self.db)
+
+    def meta(self, key: str) -> str | None:
+        row = self.db.execute("SELECT value FROM meta WHERE key=?", (key,)).fetchone()
+        return row[0] if row else None
+
+    def set_meta(self, key: str, value: str) -> None:
+        self.db.execute("INSERT OR REPLACE INTO meta VALUES (?, ?)", (key, value))
+
+    def register(self, activities: Iterable[tuple[str, str, str]], components: Iterable[str]) -> None:
+        """Add (activity id, component id, kind) rows and components (OnYard) not yet known."""
+        with self.transaction() as db:
+            db.executemany("INSERT OR IGNORE INTO activity (activity_id, component_id, kind, status) VALUES (?, ?, ?, 'pending')",
+                           [(a, c, k) for a, c, k in activities])
+            db.executemany("INSERT OR IGNORE INTO component VALUES (?, ?)", [(g, State.ON_YARD.value) for g in components])
+
+    def activity_rows(self) -> dict[str, dict]:
+        rows = self.db.execute("SELECT activity_id, component_id, kind, status, attempts, robot, finished_s, message FROM activity")
+        keys = ("activity_id", "component_id", "kind", "status", "attempts", "robot", "finished_s", "message")
+        return {r[0]: dict(zip(keys, r)) for r in rows}
+
+    def component_states(self) -> dict[str, str]:
+        return dict(self.db.execute("SELECT global_id, state FROM component ORDER BY global_id"))
+
+    def journal(self) -> list[tuple[str, str, int, str | None]]:
+        """(activity id, event, attempt, robot) in order."""
+        return list(self.db.execute("SELECT activity_id, event, attempt, robot FROM journal ORDER BY seq"))
+
+    def close(self) -> None:
+        self.db.close()
+
+
+class _Transaction:
+    def __init__(self, db: sqlite3.Connection):
+        self.db = db
+
+    def __enter__(self) -> sqlite3.Connection:
+        self.db.execute("BEGIN IMMEDIATE")
+        return self.db
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        self.db.execute("COMMIT" if exc_type is None else "ROLLBACK")
+
+
+@dataclass(frozen=True)
+class Decision:
+    """The state manager's verdict on a result: ``done``, ``retry`` (with the next attempt) or ``escalated``."""
+
+    verdict: str
+    component_state: str
+    next_attempt: int = 0
+    report: EscalationReport | None = None
+
+
+class StateManager:
+    """Turns robot results into component states; retries, escalates, journals and notifies observers.
+
+    ``last_install``: activity ids of each component's final install (its component becomes Assembled;
+    earlier installs of a component with several connection nodes leave it WorkingInAssembly).
+    """
+
+    def __init__(self, store: StateStore, policy: RetryPolicy = RetryPolicy(), observers: Iterable = (),
+                 last_install: Iterable[str] = ()):
+        self.store = store
+        self.policy = policy
+        self.observers = list(observers)
+        self.last_install = set(last_install)
+
+    # --- state machine -----------------------------------------------------------------------------
+    def _component_state(self, db, component_id: str) -> State:
+        row = db.execute("SELECT state FROM component WHERE global_id=?", (component_id,)).fetchone()
+        return State(row[0]) if row else State.ON_YARD
+
+    def _events_on_start(self, kind: ActivityKind, state: State) -> list[Event]:
+        if kind is ActivityKind.POSITION_FOR_INSTALLING:
+            events = {State.IN_TRANSIT: [Event.FINISH_TRANSPORT, Event.PUBLISH_POSITIONING, Event.START_POSITIONING],
+                      State.ARRIVED: [Event.PUBLISH_POSITIONING, Event.START_POSITIONING],
+                      State.IN_LOCATION: [Event.START_POSITIONING]}
+            return events.get(state, [])
+        if kind is ActivityKind.INSTALL:
+            events = {State.POSITION_FIXED: [Event.PUBLISH_ASSEMBLY, Event.START_ASSEMBLY],
+                      State.WAIT_FOR_ASSEMBLY: [Event.START_ASSEMBLY]}
+            return events.get(state, [])
+        return []
+
+    def _events_on_done(self, kind: ActivityKind, state: State) -> list[Event]:
+        if kind is ActivityKind.PICK_UP and state is State.ON_YARD:
+            return [Event.START_TRANSPORT]
+        if kind is ActivityKind.TRANSPORT and state is State.IN_TRANSIT:
+            return [Event.FINISH_TRANSPORT]
+        if kind is ActivityKind.POSITION_FOR_INSTALLING:
+            return [Event.FINISH_POSITIONING]
+        if kind is ActivityKind.INSTALL:
+            return [Event.FINISH_ASSEMBLY]
+        return []
+
+    def _advance(self, db, node: RcanNode, events: list[Event]) -> State:
+        state = self._component_state(db, node.component_id)
+        for event in events:
+            state = next_state("component", node.component_id, state, event)
+        if Event.FINISH_ASSEMBLY in events and node.activity_id in self.last_install:
+            state = State.ASSEMBLED  # guarded transition: the component's last connection is fixed
+        db.execute("INSERT OR REPLACE INTO component VALUES (?, ?)", (node.component_id, state.value))
+        return state
+
+    # --- journal -----------------------------------------------------------------------------------
+    def started(self, node: RcanNode, attempt: int) -> State:
+        """Record that ``node`` is being sent to its robot (attempt ``attempt``); returns the component state."""
+        with self.store.transaction() as db:
+            row = db.execute("SELECT status, attempts FROM activity WHERE activity_id=?", (node.activity_id,)).fetchone()
+            if row and row[0] == STARTED and row[1] == attempt:
+                return self._component_state(db, node.component_id)  # re-sent after a resume
+            state = self._advance(db, node, self._events_on_start(node.kind, self._component_state(db, node.component_id)))
+            db.execute("INSERT INTO journal (activity_id, event, attempt, robot, wall_time) VALUES (?, 'started', ?, ?, ?)",
+                       (node.activity_id, attempt, node.robot, time.time()))
+            db.execute("UPDATE activity SET status='started', attempts=?, robot=? WHERE activity_id=?",
+                       (attempt, node.robot, node.activity_id))
+        self._notify(node, state, STARTED)
+        return state
+
+    def result(self, node: RcanNode, result: ActivityResult) -> Decision:
+        """Handle a robot's result: advance on success, retry or escalate on failure."""
+        with self.store.transaction() as db:
+            row = db.execute("SELECT status, attempts FROM activity WHERE activity_id=?", (node.activity_id,)).fetchone()
+            if row and (row[0] != STARTED or row[1] != result.attempt):
+                return Decision("duplicate", self._component_state(db, node.component_id).value)
+            if result.success:
+                state = self._advance(db, node, self._events_on_done(node.kind, self._component_state(db, node.component_id)))
+                self._journal(db, node, result, "done")
+                db.execute("UPDATE activity SET status='done', finished_s=?, message=? WHERE activity_id=?",
+                           (result.finished_s, result.message, node.activity_id))
+                decision = Decision(DONE, state.value)
+            elif result.attempt < self.policy.max_attempts:
+                self._journal(db, node, result, "failed")
+                db.execute("UPDATE activity SET status='pending', message=? WHERE activity_id=?",
+                           (result.message, node.activity_id))
+                decision = Decision("retry", self._component_state(db, node.component_id).value, result.attempt + 1)
+            else:
+                state = self._component_state(db, node.component_id)
+                if state is State.WORKING_IN_POSITIONING:
+                    state = self._advance(db, node, [Event.ABORT])
+                self._journal(db, node, result, "escalated")
+                db.execute("UPDATE activity SET status='escalated', message=? WHERE activity_id=?",
+                           (result.message, node.activity_id))
+                report = EscalationReport(node.component_id, node.activity_id, node.kind.label, node.robot,
+                                          result.attempt, result.message)
+                log.warning("%s", report)
+                decision = Decision(ESCALATED, state.value, report=report)
+        self._notify(node, State(decision.component_state), decision.verdict)
+        return decision
+
+    def _journal(self, db, node: RcanNode, result: ActivityResult, event: str) -> None:
+        db.execute(
+            "INSERT INTO journal (activity_id, event, attempt, robot, message, finished_s, wall_time) VALUES (?, ?, ?, ?, ?, ?, ?)",
+            (node.activity_id, event, result.attempt, result.robot, result.message, result.finished_s, time.time()),
+        )
+
+    def _notify(self, node: RcanNode, state: State, activity_state: str) -> None:
+        for observer in self.observers:
+            if hasattr(observer, "set_component_state"):
+                observer.set_component_state(node.component_id, state.value)
+            if hasattr(observer, "set_activity_state"):
+                observer.set_activity_state(node.activity_id, activity_state)
