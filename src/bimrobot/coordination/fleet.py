@@ -1,0 +1,258 @@
+"""Robot fleets (thesis Table 4.1) and the construction site (fig. 4.11), read from YAML and validated.
+
+Units: speed m/s, carry_load and payload kg, platform_size and reach m, times s, positions m (site
+frame, z up). A robot's kind says which construction tasks it can bid for:
+
+================== =========================================================================
+kind               tasks and the keys it needs
+================== =========================================================================
+transport          transport: speed, carry_load, platform_size [length, width]
+positioning        position: speed, payload, reach, time_per_node
+assembly           assemble: speed, reach, time_per_point (methods: [bolt, weld] by default)
+mobile_manipulator all three: every key above
+================== =========================================================================
+
+Optional keys: ``load_time`` and ``unload_time`` (s, transport), ``methods`` (assembly), ``home`` [x, y].
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from bimrobot.errors import InputError
+
+ACTIVITIES = ("transport", "position", "assemble")
+KIND_ACTIVITIES = {
+    "transport": ("transport",),
+    "positioning": ("position",),
+    "assembly": ("assemble",),
+    "mobile_manipulator": ACTIVITIES,
+}
+ACTIVITY_KEYS = {
+    "transport": ("speed", "carry_load", "platform_size"),
+    "position": ("speed", "payload", "reach", "time_per_node"),
+    "assemble": ("speed", "reach", "time_per_point"),
+}
+OPTIONAL_KEYS = ("load_time", "unload_time", "methods", "home")
+BUILTIN_FLEETS = ("fleet1", "fleet2")
+METHODS = ("bolt", "weld")
+
+
+@dataclass(frozen=True)
+class RobotSpec:
+    """One robot: what it can do and how fast (units in the module docstring)."""
+
+    name: str
+    kind: str
+    speed: float
+    carry_load: float = 0.0
+    platform_size: tuple[float, float] = (0.0, 0.0)
+    payload: float = 0.0
+    reach: float = 0.0
+    time_per_node: float = 0.0
+    time_per_point: float = 0.0
+    load_time: float = 0.0
+    unload_time: float = 0.0
+    methods: tuple[str, ...] = METHODS
+    home: tuple[float, float] | None = None
+
+    @property
+    def activities(self) -> tuple[str, ...]:
+        return KIND_ACTIVITIES[self.kind]
+
+    def can(self, activity: str) -> bool:
+        return activity in KIND_ACTIVITIES[self.kind]
+
+
+@dataclass(frozen=True)
+class Fleet:
+    name: str
+    robots: tuple[RobotSpec, ...]
+    source: str
+
+    def by_activity(self, activity: str) -> list[RobotSpec]:
+        return [r for r in self.robots if r.can(activity)]
+
+
+def _positive(value, where: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
+        raise InputError(f"{where} must be a positive number, got {value!r}")
+    return float(value)
+
+
+def _point(value, where: str) -> tuple[float, float]:
+    if (
+        not isinstance(value, (list, tuple))
+        or len(value) != 2
+        or not all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value)
+    ):
+        raise InputError(f"{where} must be a pair of numbers [x, y] in metres, got {value!r}")
+    return (float(value[0]), float(value[1]))
+
+
+def _robot(entry, where: str) -> RobotSpec:
+    if not isinstance(entry, dict):
+        raise InputError(f"{where} must be a mapping with name, kind, speed, ..., got {entry!r}")
+    name = entry.get("name")
+    if not isinstance(name, str) or not name.strip():
+        raise InputError(f"{where}: key 'name' must be a non-empty string")
+    where = f"{where} ({name})"
+    kind = entry.get("kind")
+    if kind not in KIND_ACTIVITIES:
+        raise InputError(f"{where}: key 'kind' must be one of {', '.join(KIND_ACTIVITIES)}, got {kind!r}")
+    needed = {key for activity in KIND_ACTIVITIES[kind] for key in ACTIVITY_KEYS[activity]}
+    allowed = needed | set(OPTIONAL_KEYS) | {"name", "kind"}
+    for key in entry:
+        if key not in allowed:
+            raise InputError(f"{where}: unknown key '{key}' for a {kind} robot (allowed: {', '.join(sorted(allowed))})")
+    for key in sorted(needed):
+        if key not in entry:
+            raise InputError(f"{where}: missing key '{key}' (a {kind} robot needs {', '.join(sorted(needed))})")
+    values: dict = {"name": name, "kind": kind}
+    for key in needed - {"platform_size"}:
+        values[key] = _positive(entry[key], f"{where}: key '{key}'")
+    if "platform_size" in needed:
+        size = entry["platform_size"]
+        if not isinstance(size, (list, tuple)) or len(size) != 2:
+            raise InputError(f"{where}: key 'platform_size' must be [length, width] in metres, got {size!r}")
+        length, width = (_positive(v, f"{where}: key 'platform_size'") for v in size)
+        values["platform_size"] = (max(length, width), min(length, width))
+    for key in ("load_time", "unload_time"):
+        if key in entry:
+            value = entry[key]
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or value < 0:
+                raise InputError(f"{where}: key '{key}' must be a number of seconds >= 0, got {value!r}")
+            values[key] = float(value)
+    if "methods" in entry:
+        methods = entry["methods"]
+        if not isinstance(methods, list) or not methods or any(m not in METHODS for m in methods):
+            raise InputError(f"{where}: key 'methods' must be a list drawn from {list(METHODS)}, got {methods!r}")
+        values["methods"] = tuple(methods)
+    if "home" in entry:
+        values["home"] = _point(entry["home"], f"{where}: key 'home'")
+    return RobotSpec(**values)
+
+
+def fleet_from_dict(data, source: str) -> Fleet:
+    """A validated Fleet from parsed YAML; errors name ``source`` and the key."""
+    if not isinstance(data, dict) or "robots" not in data:
+        raise InputError(f"{source}: expected a mapping with a 'robots' list")
+    robots = data["robots"]
+    if not isinstance(robots, list) or not robots:
+        raise InputError(f"{source}: key 'robots' must be a non-empty list")
+    extra = set(data) - {"name", "robots"}
+    if extra:
+        raise InputError(f"{source}: unknown top-level key '{sorted(extra)[0]}' (allowed: name, robots)")
+    specs = tuple(_robot(entry, f"{source}: robots[{i}]") for i, entry in enumerate(robots))
+    names = [r.name for r in specs]
+    duplicate = next((n for n in names if names.count(n) > 1), None)
+    if duplicate:
+        raise InputError(f"{source}: robot name '{duplicate}' is used twice")
+    return Fleet(name=str(data.get("name") or Path(source).stem), robots=specs, source=source)
+
+
+def load_fleet(spec: str | Path) -> Fleet:
+    """A built-in fleet ("fleet1", "fleet2") or a fleet YAML file, validated."""
+    if str(spec) in BUILTIN_FLEETS:
+        text = resources.files("bimrobot.coordination").joinpath("fleets", f"{spec}.yaml").read_text()
+        source = f"built-in fleet {spec}"
+    else:
+        path = Path(spec)
+        if not path.is_file():
+            raise InputError(f"fleet {spec!r} is neither a built-in fleet ({', '.join(BUILTIN_FLEETS)}) nor a file")
+        text = path.read_text()
+        source = str(path)
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        line = f" line {mark.line + 1}" if mark else ""
+        raise InputError(f"{source}:{line} is not valid YAML ({getattr(exc, 'problem', exc)})") from None
+    return fleet_from_dict(data, source)
+
+
+@dataclass(frozen=True)
+class Site:
+    """Where things are on the site (metres, site frame).
+
+    ``yard``: component pick-up positions, used in turn; ``robot_home``: robot start positions, used in
+    turn (a robot's own ``home`` wins); ``construction_area``: [[xmin, ymin], [xmax, ymax]], the building
+    is centred in it unless ``model_offset`` [dx, dy] (model frame -> site frame) is given.
+    """
+
+    yard: tuple[tuple[float, float], ...]
+    robot_home: tuple[tuple[float, float], ...]
+    construction_area: tuple[tuple[float, float], tuple[float, float]]
+    model_offset: tuple[float, float] | None = None
+    source: str = "default site (thesis fig. 4.11)"
+
+    def offset_for(self, model_min_xy: np.ndarray, model_max_xy: np.ndarray) -> np.ndarray:
+        """Translation (x, y) from the model frame to the site frame, metres."""
+        if self.model_offset is not None:
+            return np.array(self.model_offset, dtype=float)
+        (x0, y0), (x1, y1) = self.construction_area
+        area_centre = np.array([(x0 + x1) / 2, (y0 + y1) / 2])
+        return area_centre - (np.asarray(model_min_xy) + np.asarray(model_max_xy)) / 2
+
+
+def site_from_dict(data, source: str) -> Site:
+    if not isinstance(data, dict):
+        raise InputError(f"{source}: expected a mapping with yard, robot_home and construction_area")
+    allowed = {"yard", "robot_home", "construction_area", "model_offset"}
+    extra = set(data) - allowed
+    if extra:
+        raise InputError(f"{source}: unknown key '{sorted(extra)[0]}' (allowed: {', '.join(sorted(allowed))})")
+    default = default_site()
+    values = {}
+    for key in ("yard", "robot_home"):
+        if key in data:
+            points = data[key]
+            if not isinstance(points, list) or not points:
+                raise InputError(f"{source}: key '{key}' must be a non-empty list of [x, y] positions in metres")
+            values[key] = tuple(_point(p, f"{source}: {key}[{i}]") for i, p in enumerate(points))
+        else:
+            values[key] = getattr(default, key)
+    if "construction_area" in data:
+        area = data["construction_area"]
+        if not isinstance(area, list) or len(area) != 2:
+            raise InputError(f"{source}: key 'construction_area' must be [[xmin, ymin], [xmax, ymax]] in metres")
+        low, high = (_point(p, f"{source}: construction_area") for p in area)
+        if not (low[0] < high[0] and low[1] < high[1]):
+            raise InputError(f"{source}: key 'construction_area' must have xmin < xmax and ymin < ymax, got {area!r}")
+        values["construction_area"] = (low, high)
+    else:
+        values["construction_area"] = default.construction_area
+    if "model_offset" in data:
+        values["model_offset"] = _point(data["model_offset"], f"{source}: model_offset")
+    return Site(**values, source=source)
+
+
+def default_site() -> Site:
+    """The site of fig. 4.11: yard at x = 12.5 m, robot homes at x = 18.5 m, y = 4, 6, 8, 11 m."""
+    return Site(
+        yard=((12.5, 4.0), (12.5, 6.0), (12.5, 8.0), (12.5, 11.0)),
+        robot_home=((18.5, 4.0), (18.5, 6.0), (18.5, 8.0), (18.5, 11.0)),
+        construction_area=((3.0, 1.5), (10.5, 8.0)),
+    )
+
+
+def load_site(path: str | Path | None) -> Site:
+    """The site YAML at ``path`` (missing keys take fig. 4.11's values), or the default site."""
+    if path is None:
+        return default_site()
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"site file {str(path)!r} does not exist")
+    try:
+        data = yaml.safe_load(path.read_text())
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        line = f" line {mark.line + 1}" if mark else ""
+        raise InputError(f"{path}:{line} is not valid YAML ({getattr(exc, 'problem', exc)})") from None
+    return site_from_dict(data, str(path))

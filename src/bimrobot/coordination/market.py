@@ -1,0 +1,156 @@
+"""The construction market, in Open-RMF's task-allocation vocabulary (thesis section 4.3.1).
+
+A component (or joint) publishes its requirement as a :class:`TaskRequest`; the dispatcher sends a
+:class:`BidNotice` to the robots that are capable of it (payload, platform size, reach, assembly
+method); each answers with a :class:`BidProposal` (its estimated cost: travel to the work plus handling
+time, seconds, and its estimated finish time); an evaluator awards the task to one proposal:
+
+- ``least-cost`` (default, the thesis' "lowest bidding price"): among the idle robots, the lowest cost.
+- ``quickest-finish``: among all capable robots, busy ones included (they bid from the end of their
+  current task), the earliest finish; when a busy robot wins, the task waits for it.
+
+Two baselines for comparison, not market mechanisms: ``greedy-nearest`` (the nearest idle capable robot,
+whatever its handling speed) and ``random`` (a uniformly random idle capable robot, seeded).
+
+Positions are (x, y) in metres in the site frame; times in seconds.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from bimrobot.coordination.fleet import RobotSpec
+from bimrobot.errors import InputError
+
+EVALUATORS = ("least-cost", "quickest-finish", "greedy-nearest", "random")
+TOLERANCE_M = 1e-6
+
+
+@dataclass(eq=False)
+class TaskRequest:
+    """One construction task published by a component (transport, position) or a joint (assemble).
+
+    ``start``: where the robot begins the work (yard pick-up for transport, the component or joint
+    otherwise), ``end``: where it finishes (x, y metres, site frame). ``reach_needed``: height of the
+    highest work point above the floor the robot stands on (metres). ``nodes``: connection nodes to
+    position; ``points``: fastening points to make (assemble). ``methods``: assembly methods needed.
+    """
+
+    id: str
+    activity: str
+    component_id: str
+    start: np.ndarray
+    end: np.ndarray
+    floor: int
+    priority: tuple
+    weight_kg: float = 0.0
+    size: tuple[float, float] = (0.0, 0.0)
+    reach_needed: float = 0.0
+    nodes: int = 0
+    points: int = 0
+    methods: frozenset[str] = frozenset()
+    joint_id: str | None = None
+    node_ids: tuple[str, ...] = ()
+    predecessors: tuple[str, ...] = ()
+    published_at: float = 0.0
+    attempts: int = 0
+
+    def __lt__(self, other: "TaskRequest") -> bool:  # heap order
+        return self.priority < other.priority
+
+
+@dataclass(frozen=True)
+class BidNotice:
+    """The dispatcher's call for proposals on one task request, at simulation time ``time`` (s)."""
+
+    request: TaskRequest
+    time: float
+
+
+@dataclass(frozen=True)
+class BidProposal:
+    """A robot's answer to a bid notice: ``cost`` = travel + handling (s), ``finish_time`` (s)."""
+
+    robot: str
+    request_id: str
+    distance: float
+    travel_time: float
+    handling_time: float
+    finish_time: float
+    idle: bool
+
+    @property
+    def cost(self) -> float:
+        return self.travel_time + self.handling_time
+
+
+def incapability(spec: RobotSpec, request: TaskRequest) -> str | None:
+    """Why ``spec`` cannot do ``request`` (one phrase), or None when it can."""
+    if not spec.can(request.activity):
+        return f"a {spec.kind} robot does not {request.activity}"
+    if request.activity == "transport":
+        if request.weight_kg > spec.carry_load + TOLERANCE_M:
+            return f"carry load {spec.carry_load:g} kg < {request.weight_kg:.1f} kg"
+        if request.size[0] > spec.platform_size[0] + TOLERANCE_M or request.size[1] > spec.platform_size[1] + TOLERANCE_M:
+            return (
+                f"platform {spec.platform_size[0]:g} x {spec.platform_size[1]:g} m < "
+                f"component {request.size[0]:.2f} x {request.size[1]:.2f} m"
+            )
+    elif request.activity == "position":
+        if request.weight_kg > spec.payload + TOLERANCE_M:
+            return f"payload {spec.payload:g} kg < {request.weight_kg:.1f} kg"
+        if request.reach_needed > spec.reach + TOLERANCE_M:
+            return f"reach {spec.reach:g} m < {request.reach_needed:.2f} m"
+    elif request.activity == "assemble":
+        if request.reach_needed > spec.reach + TOLERANCE_M:
+            return f"reach {spec.reach:g} m < {request.reach_needed:.2f} m"
+        missing = request.methods - set(spec.methods)
+        if missing:
+            return f"cannot {'/'.join(sorted(missing))}"
+    return None
+
+
+def handling_time(spec: RobotSpec, request: TaskRequest) -> float:
+    """Seconds of work once the robot is at ``request.start`` (for transport: load, drive, unload)."""
+    if request.activity == "transport":
+        distance = float(np.hypot(*(request.end - request.start)))
+        return spec.load_time + distance / spec.speed + spec.unload_time
+    if request.activity == "position":
+        return max(1, request.nodes) * spec.time_per_node
+    return max(1, request.points) * spec.time_per_point
+
+
+def propose(spec: RobotSpec, position: np.ndarray, available_at: float, idle: bool, request: TaskRequest) -> BidProposal:
+    """The robot's proposal: travel (``distance`` metres) from ``position`` to the work, then handling."""
+    distance = float(np.hypot(*(request.start - position)))
+    travel = distance / spec.speed
+    handling = handling_time(spec, request)
+    return BidProposal(spec.name, request.id, distance, travel, handling, available_at + travel + handling, idle)
+
+
+@dataclass
+class Evaluator:
+    """Chooses one proposal. ``idle_only``: whether busy robots are asked to bid at all."""
+
+    name: str
+    idle_only: bool = True
+    rng: np.random.Generator = field(default_factory=lambda: np.random.default_rng(0))
+
+    def choose(self, proposals: list[BidProposal]) -> BidProposal:
+        if self.name == "least-cost":
+            return min(proposals, key=lambda p: (p.cost, p.robot))
+        if self.name == "quickest-finish":
+            return min(proposals, key=lambda p: (p.finish_time, not p.idle, p.robot))
+        if self.name == "greedy-nearest":
+            return min(proposals, key=lambda p: (p.distance, p.robot))
+        ordered = sorted(proposals, key=lambda p: p.robot)
+        return ordered[int(self.rng.integers(len(ordered)))]
+
+
+def make_evaluator(name: str, seed: int = 0) -> Evaluator:
+    """The evaluator called ``name`` (one of :data:`EVALUATORS`)."""
+    if name not in EVALUATORS:
+        raise InputError(f"unknown evaluator {name!r}: choose one of {', '.join(EVALUATORS)}")
+    return Evaluator(name=name, idle_only=name != "quickest-finish", rng=np.random.default_rng(seed))

@@ -1,0 +1,691 @@
+"""Discrete-event simulation of a market-coordinated robotic build (SimPy; thesis section 4.5).
+
+Smart components publish their requirements as task requests, capable robots bid, the evaluator awards
+and the robots drive (straight lines at their speed, site frame x/y in metres) and work (handling times
+from the fleet). Several robots work at once. Rules, as in the thesis:
+
+- Floor by floor (Listing 4.1): the components of floor f+1 are requested only when every joint of
+  floor f is Assembled (a column's top joint belongs to the floor of the beams it carries).
+- A component is requested for transport (it is a *required connection component*) once the
+  components that carry it have their position fixed: columns before the beams they carry.
+- On arrival a component asks to be positioned (all its nodes, ``time_per_node`` each); once every
+  component of a joint has its position fixed the joint asks to be assembled (all its points,
+  ``time_per_point`` each). A component is Assembled when all its nodes are.
+- A robot that breaks down (``breakdowns``) drops its task: the component stays where it is, its
+  state goes back to the waiting state and the task is auctioned again (logged).
+
+Times are seconds from the start of the build.
+"""
+
+from __future__ import annotations
+
+import heapq
+import logging
+from dataclasses import dataclass, field
+
+import numpy as np
+import simpy
+
+from bimrobot.coordination.fleet import ACTIVITIES, Fleet, RobotSpec, Site, default_site
+from bimrobot.coordination.market import (
+    BidNotice,
+    TaskRequest,
+    incapability,
+    make_evaluator,
+    propose,
+)
+from bimrobot.errors import BimrobotError, InputError
+from bimrobot.sco.build import SmartModel
+from bimrobot.sco.component import Component, Joint
+from bimrobot.sco.states import Event, State, at_least
+
+log = logging.getLogger(__name__)
+
+ACTIVITY_RANK = {"assemble": 0, "position": 1, "transport": 2}
+PREDEFINED_TYPE = {"transport": "LOGISTIC", "position": "INSTALLATION", "assemble": "CONSTRUCTION"}
+
+
+@dataclass
+class Activity:
+    """One row of the schedule: an activity done by one robot (times s, target in the model frame, m)."""
+
+    id: str
+    activity: str
+    global_id: str
+    name: str
+    robot: str
+    start: float
+    finish: float
+    target: tuple[float, float, float]
+    storey: str
+    predecessors: tuple[str, ...] = ()
+    aborted: bool = False
+
+    @property
+    def duration(self) -> float:
+        return self.finish - self.start
+
+
+@dataclass
+class RobotStats:
+    name: str
+    kind: str
+    steps: int = 0
+    busy_time: float = 0.0
+    travel_time: float = 0.0
+    handling_time: float = 0.0
+    broken_at: float | None = None
+
+
+@dataclass(eq=False)
+class _Robot:
+    spec: RobotSpec
+    position: np.ndarray
+    stats: RobotStats
+    task: TaskRequest | None = None
+    process: simpy.Process | None = None
+    broken: bool = False
+    free_at: float = 0.0
+    end_position: np.ndarray | None = None
+    leg: tuple | None = None  # (t0, p0, t1, p1) of the current drive
+
+
+@dataclass
+class SimulationResult:
+    """Everything a run produced. ``steps``: allocation rounds that awarded at least one task."""
+
+    model: str
+    fleet: str
+    evaluator: str
+    makespan: float
+    steps: int
+    activities: list[Activity]
+    robots: list[RobotStats]
+    events: list[dict]
+    log_lines: list[str]
+    state_history: dict[str, list[tuple[float, str]]]
+    floor_finish: list[float]
+    smart_summary: dict
+    breakdowns: list[tuple[str, float]] = field(default_factory=list)
+
+    @property
+    def utilisation(self) -> float:
+        """Busy time of all robots / (number of robots x makespan)."""
+        if not self.robots or self.makespan <= 0:
+            return 0.0
+        return sum(r.busy_time for r in self.robots) / (len(self.robots) * self.makespan)
+
+    def robot_utilisation(self, name: str) -> float:
+        robot = next(r for r in self.robots if r.name == name)
+        return robot.busy_time / self.makespan if self.makespan > 0 else 0.0
+
+
+def _storey_base(z: float, elevations: list[float]) -> float:
+    """Elevation of the floor a robot stands on to work at height z (highest storey at or below z)."""
+    below = [e for e in elevations if e <= z + 1e-6]
+    return max(below) if below else min(elevations, default=0.0)
+
+
+class ConstructionSimulation:
+    """One build of ``smart`` by ``fleet`` on ``site``; call :meth:`run`.
+
+    ``evaluator``: least-cost | quickest-finish | greedy-nearest | random. ``breakdowns``: (robot name,
+    time s) pairs; the robot stops for good at that time. ``storey_elevations``: metres, to compute the
+    reach a node needs (height above the floor the robot stands on); defaults to ground level 0.
+    Raises InputError before simulating when a component cannot be handled by any robot of the fleet.
+    """
+
+    def __init__(
+        self,
+        smart: SmartModel,
+        fleet: Fleet,
+        site: Site | None = None,
+        evaluator: str = "least-cost",
+        seed: int = 0,
+        breakdowns: list[tuple[str, float]] | tuple = (),
+        storey_elevations: list[float] | None = None,
+    ):
+        self.smart = smart
+        self.fleet = fleet
+        self.site = site or default_site()
+        self.evaluator = make_evaluator(evaluator, seed)
+        self.breakdowns = list(breakdowns)
+        self.elevations = sorted(storey_elevations or [0.0])
+        names = {r.name for r in fleet.robots}
+        for robot, when in self.breakdowns:
+            if robot not in names:
+                raise InputError(f"breakdown names robot {robot!r}, which is not in fleet {fleet.name} ({', '.join(sorted(names))})")
+            if when < 0:
+                raise InputError(f"breakdown time of {robot} must be >= 0 s, got {when}")
+        self._place_on_site()
+        self._check_capabilities()
+
+    # ---------------------------------------------------------------- set-up
+    def _place_on_site(self) -> None:
+        comps = list(self.smart.components.values())
+        centres = np.array([c.target_position[:2] for c in comps])
+        self.offset = self.site.offset_for(centres.min(axis=0), centres.max(axis=0))
+        self.yard_of: dict[str, np.ndarray] = {}
+        to_build = sorted((c for c in comps if not c.prebuilt), key=lambda c: (c.floor, c.bottom_z, c.id))
+        for index, component in enumerate(to_build):
+            slot = np.array(self.site.yard[index % len(self.site.yard)], dtype=float)
+            self.yard_of[component.id] = slot
+            component.position = np.array([slot[0], slot[1], 0.0])
+
+    def site_xy(self, model_point: np.ndarray) -> np.ndarray:
+        """Model-frame point -> site-frame (x, y), metres."""
+        return np.asarray(model_point[:2], dtype=float) + self.offset
+
+    def _reach_for_component(self, component: Component) -> float:
+        points = [n.position[2] for n in component.connection_nodes] or [component.target_position[2]]
+        return max(z - _storey_base(z, self.elevations) for z in points)
+
+    def _reach_for_joint(self, joint: Joint) -> float:
+        z = float(joint.position[2])
+        return z - _storey_base(z, self.elevations)
+
+    def _request(self, activity: str, component: Component, joint: Joint | None = None) -> TaskRequest:
+        if activity == "transport":
+            start, end = self.yard_of[component.id], self.site_xy(component.target_position)
+        elif activity == "position":
+            start = end = self.site_xy(component.target_position)
+        else:
+            start = end = self.site_xy(joint.position)
+        request = TaskRequest(
+            id="",
+            activity=activity,
+            component_id=component.id,
+            start=start,
+            end=end,
+            floor=joint.floor if joint else component.floor,
+            priority=(0,),
+            weight_kg=component.weight_kg or 0.0,
+            size=(component.size[0], component.size[1]),
+        )
+        if activity == "position":
+            request.nodes = component.node_number
+            request.reach_needed = self._reach_for_component(component)
+        elif activity == "assemble":
+            nodes = [self.smart.nodes[n] for n in joint.node_ids]
+            request.joint_id = joint.id
+            request.node_ids = joint.node_ids
+            request.points = sum(n.assembly_point_number for n in nodes)
+            request.methods = frozenset(n.assembly_method for n in nodes)
+            request.reach_needed = self._reach_for_joint(joint)
+        return request
+
+    def _check_capabilities(self) -> None:
+        """Every component must be transportable, positionable and assemblable by some robot."""
+        checks: list[tuple[TaskRequest, str]] = []
+        for component in self.smart.components.values():
+            if component.prebuilt:
+                continue
+            for activity in ("transport", "position"):
+                checks.append((self._request(activity, component), f"component {component.id} ({component.ifc_class} '{component.name}')"))
+        for joint in self.smart.joints.values():
+            owner = self.smart.components[joint.component_ids[0]]
+            checks.append((self._request("assemble", owner, joint), f"joint {joint.id} (components {', '.join(joint.component_ids)})"))
+        for request, what in checks:
+            robots = self.fleet.by_activity(request.activity)
+            if not robots:
+                raise InputError(f"fleet {self.fleet.name} has no robot that can {request.activity} ({what} needs one)")
+            reasons = [incapability(r, request) for r in robots]
+            if all(reasons):
+                detail = "; ".join(f"{r.name}: {why}" for r, why in zip(robots, reasons))
+                raise InputError(f"no robot of fleet {self.fleet.name} can {request.activity} {what}: {detail}")
+
+    # ---------------------------------------------------------------- run
+    def run(self) -> SimulationResult:
+        self.env = simpy.Environment()
+        self.robots: dict[str, _Robot] = {}
+        for index, spec in enumerate(self.fleet.robots):
+            home = np.array(spec.home if spec.home else self.site.robot_home[index % len(self.site.robot_home)], dtype=float)
+            self.robots[spec.name] = _Robot(spec, home.copy(), RobotStats(spec.name, spec.kind), end_position=home.copy())
+        self.idle: dict[str, set[str]] = {a: {r.spec.name for r in self.robots.values() if r.spec.can(a)} for a in ACTIVITIES}
+        self.pending: dict[str, list[TaskRequest]] = {a: [] for a in ACTIVITIES}
+        self.activities: list[Activity] = []
+        self.events: list[dict] = []
+        self.lines: list[str] = []
+        self.history: dict[str, list[tuple[float, str]]] = {
+            c.id: [(0.0, str(c.state))] for c in self.smart.components.values()
+        }
+        self.steps = 0
+        self.sequence = 0
+        self.activity_counter = 0
+        self.dispatch_scheduled = False
+        self.floor_finish: list[float] = []
+        self.position_activity: dict[str, str] = {}
+        self.floor_gate: dict[int, str] = {}
+        self.current_floor = 0
+
+        components = self.smart.components
+        self.missing_supporters = {
+            gid: sum(1 for s in self.smart.supporters[gid] if not at_least(components[s].state, State.POSITION_FIXED))
+            for gid, c in components.items()
+            if not c.prebuilt
+        }
+        self.dependants: dict[str, list[str]] = {}
+        for gid, supporters in self.smart.supporters.items():
+            for s in supporters:
+                self.dependants.setdefault(s, []).append(gid)
+        self.open_on_floor = [0] * len(self.smart.floors)
+        for joint in self.smart.joints.values():
+            self.open_on_floor[joint.floor] += 1
+        for component in components.values():
+            if not component.connection_nodes and not component.prebuilt:
+                self.open_on_floor[component.floor] += 1
+        self.assembly_published: set[str] = set()
+        self.ready_by_floor: dict[int, list[str]] = {}
+        for gid, missing in self.missing_supporters.items():
+            if missing == 0:
+                self.ready_by_floor.setdefault(components[gid].floor, []).append(gid)
+        for joint in self.smart.joints.values():  # joints made only of foundations
+            self._maybe_publish_assembly(joint)
+        self._open_floor(0)
+        for robot, when in self.breakdowns:
+            self.env.process(self._breakdown(robot, when))
+        self._request_dispatch()
+        self.env.run()
+
+        unfinished = [c.id for c in components.values() if c.state != State.ASSEMBLED]
+        if unfinished:
+            raise BimrobotError(self._stall_reason(unfinished))
+        makespan = max((a.finish for a in self.activities if not a.aborted), default=0.0)
+        self.activities.sort(key=lambda a: (a.start, a.id))
+        return SimulationResult(
+            model=self.smart.source,
+            fleet=self.fleet.name,
+            evaluator=self.evaluator.name,
+            makespan=makespan,
+            steps=self.steps,
+            activities=self.activities,
+            robots=[r.stats for r in self.robots.values()],
+            events=self.events,
+            log_lines=self.lines,
+            state_history=self.history,
+            floor_finish=self.floor_finish,
+            smart_summary=self.smart.summary(),
+            breakdowns=self.breakdowns,
+        )
+
+    def _stall_reason(self, unfinished: list[str]) -> str:
+        waiting = [t for pool in self.pending.values() for t in pool]
+        alive = [r.spec for r in self.robots.values() if not r.broken]
+        for task in waiting:
+            if all(incapability(spec, task) for spec in alive):
+                broken = ", ".join(r.spec.name for r in self.robots.values() if r.broken) or "none"
+                return (
+                    f"the build stalled at t = {self.env.now:.1f} s: no working robot can {task.activity} "
+                    f"component {task.component_id} (broken down: {broken}); {len(unfinished)} components unfinished"
+                )
+        return f"the build stalled at t = {self.env.now:.1f} s with {len(unfinished)} components unfinished, e.g. {unfinished[0]}"
+
+    # ---------------------------------------------------------------- bookkeeping
+    def _event(self, kind: str, **data) -> None:
+        self.events.append({"time": round(self.env.now, 3), "step": self.steps, "event": kind, **data})
+
+    def _say(self, text: str) -> None:
+        self.lines.append(f"[{self.env.now:9.2f} s] {text}")
+
+    def _note_state(self, component: Component) -> None:
+        history = self.history[component.id]
+        if history[-1][1] != str(component.state):
+            history.append((self.env.now, str(component.state)))
+            self._event("state", component=component.id, state=str(component.state))
+
+    def _publish(self, activity: str, component: Component, joint: Joint | None = None, predecessors=()) -> None:
+        request = self._request(activity, component, joint)
+        self.sequence += 1
+        request.priority = (request.floor, ACTIVITY_RANK[activity], round(component.bottom_z, 3), self.sequence)
+        request.id = f"R{self.sequence:05d}"
+        request.published_at = self.env.now
+        request.predecessors = tuple(p for p in predecessors if p)
+        heapq.heappush(self.pending[activity], request)
+        self._event(
+            "task_request",
+            request=request.id,
+            activity=activity,
+            component=component.id,
+            joint=joint.id if joint else None,
+            requirement=str({"transport": "NeedToTransfer", "position": "NeedToPosition", "assemble": "NeedToAssemble"}[activity]),
+        )
+        self._request_dispatch()
+
+    def _open_floor(self, floor: int) -> None:
+        """Make ``floor`` current and request the components whose supporters are in place."""
+        self.current_floor = floor
+        self._say(f"Floor {floor + 1} ({self.smart.floor_names[floor]}) starts")
+        self._event("floor_start", floor=floor + 1, storey=self.smart.floors[floor])
+        for gid in sorted(self.ready_by_floor.pop(floor, []), key=lambda g: (self.smart.components[g].bottom_z, g)):
+            self._publish_transport(gid)
+        self._maybe_close_floor()
+
+    def _publish_transport(self, gid: str) -> None:
+        component = self.smart.components[gid]
+        supporters = self.smart.supporters[gid]
+        predecessors = [self.position_activity.get(s) for s in supporters] + [self.floor_gate.get(component.floor)]
+        self._publish("transport", component, predecessors=predecessors)
+
+    def _maybe_close_floor(self) -> None:
+        while self.open_on_floor[self.current_floor] == 0:
+            self.floor_finish.append(self.env.now)
+            self._say(f"Floor {self.current_floor + 1} is complete")
+            self._event("floor_complete", floor=self.current_floor + 1)
+            if self.current_floor + 1 >= len(self.smart.floors):
+                return
+            last = next((a.id for a in reversed(self.activities) if a.activity == "assemble" and not a.aborted), None)
+            self.floor_gate[self.current_floor + 1] = last
+            self.current_floor += 1
+            self._say(f"Floor {self.current_floor + 1} ({self.smart.floor_names[self.current_floor]}) starts")
+            self._event("floor_start", floor=self.current_floor + 1, storey=self.smart.floors[self.current_floor])
+            for gid in sorted(self.ready_by_floor.pop(self.current_floor, []), key=lambda g: (self.smart.components[g].bottom_z, g)):
+                self._publish_transport(gid)
+
+    def _maybe_publish_assembly(self, joint: Joint) -> None:
+        if joint.id in self.assembly_published:
+            return
+        members = [self.smart.components[g] for g in joint.component_ids]
+        if not all(at_least(m.state, State.POSITION_FIXED) for m in members):
+            return
+        self.assembly_published.add(joint.id)
+        for node_id in joint.node_ids:
+            node = self.smart.nodes[node_id]
+            component = self.smart.components[node.component_id]
+            component.node_event(node, Event.PUBLISH_ASSEMBLY)
+            self._note_state(component)
+        predecessors = [self.position_activity.get(m.id) for m in members]
+        self._publish("assemble", members[0], joint, predecessors)
+
+    # ---------------------------------------------------------------- market
+    def _request_dispatch(self) -> None:
+        if not self.dispatch_scheduled:
+            self.dispatch_scheduled = True
+            self.env.process(self._dispatch_soon())
+
+    def _dispatch_soon(self):
+        yield self.env.timeout(0)
+        self.dispatch_scheduled = False
+        self._dispatch()
+
+    def _dispatch(self) -> None:
+        """One allocation round: award pending requests, highest priority first, to the best proposals."""
+        awarded_any = False
+        for activity in ("assemble", "position", "transport"):
+            pool = self.pending[activity]
+            if not pool or not self.idle[activity]:
+                continue
+            deferred = []
+            scan_limit = 4 * len(self.fleet.by_activity(activity)) + 4
+            while pool and self.idle[activity] and len(deferred) < scan_limit:
+                request = heapq.heappop(pool)
+                notice = BidNotice(request, self.env.now)
+                proposals = self._collect_proposals(notice)
+                if not proposals:
+                    deferred.append(request)
+                    continue
+                winner = self.evaluator.choose(proposals)
+                if not winner.idle:  # quickest finish: wait for the busy robot that finishes sooner
+                    deferred.append(request)
+                    continue
+                if not awarded_any:
+                    awarded_any = True
+                    self.steps += 1
+                    self._step_header()
+                self._award(request, self.robots[winner.robot], winner)
+            for request in deferred:
+                heapq.heappush(pool, request)
+
+    def _collect_proposals(self, notice: BidNotice):
+        request = notice.request
+        proposals = []
+        if self.evaluator.idle_only:
+            candidates = [self.robots[name] for name in self.idle[request.activity]]
+        else:
+            candidates = [r for r in self.robots.values() if r.spec.can(request.activity) and not r.broken]
+        for robot in candidates:
+            if incapability(robot.spec, request):
+                continue
+            idle = robot.task is None
+            position = robot.position if idle else robot.end_position
+            available = notice.time if idle else max(notice.time, robot.free_at)
+            proposals.append(propose(robot.spec, position, available, idle, request))
+        return proposals
+
+    def _step_header(self) -> None:
+        self.lines.append("-" * 48)
+        self.lines.append(f"Start a new construction step, NO.{self.steps}, in floor {self.current_floor + 1} (t = {self.env.now:.2f} s)")
+        self.lines.append("-" * 48)
+        self.lines.append("Get components requirement from site")
+
+    def _award(self, request: TaskRequest, robot: _Robot, proposal) -> None:
+        for activity in robot.spec.activities:
+            self.idle[activity].discard(robot.spec.name)
+        robot.task = request
+        robot.free_at = proposal.finish_time
+        robot.end_position = request.end
+        words = {"transport": "transport", "position": "positioning", "assemble": "assembly"}[request.activity]
+        self.lines.append(f"Publish {words} requirements to robot")
+        cost = proposal.cost
+        if request.activity == "transport":
+            self.lines.append(f"{robot.spec.name} is working for component: {request.component_id}, total work time is {cost:.2f}s")
+        elif request.activity == "position":
+            nodes = [n.id for n in self.smart.components[request.component_id].connection_nodes]
+            self.lines.append(
+                f"{robot.spec.name} is positioning component: {request.component_id} with nodes: {', '.join(nodes) or '(none)'}, total work time is {cost:.2f}s"
+            )
+        else:
+            self.lines.append(f"{robot.spec.name} is finding nodes: {' and '.join(request.node_ids)}, total work time is {cost:.2f}s")
+        self._event(
+            "award",
+            request=request.id,
+            activity=request.activity,
+            component=request.component_id,
+            joint=request.joint_id,
+            robot=robot.spec.name,
+            cost=round(cost, 3),
+            estimated_finish=round(proposal.finish_time, 3),
+            bidders=None,
+        )
+        robot.process = self.env.process(self._execute(robot, request))
+
+    # ---------------------------------------------------------------- robots
+    def _drive(self, robot: _Robot, target: np.ndarray):
+        distance = float(np.hypot(*(target - robot.position)))
+        duration = distance / robot.spec.speed
+        robot.leg = (self.env.now, robot.position.copy(), self.env.now + duration, np.array(target, dtype=float))
+        yield self.env.timeout(duration)
+        robot.position = np.array(target, dtype=float)
+        robot.leg = None
+        robot.stats.travel_time += duration
+
+    def _position_now(self, robot: _Robot) -> np.ndarray:
+        if robot.leg is None:
+            return robot.position.copy()
+        t0, p0, t1, p1 = robot.leg
+        fraction = 1.0 if t1 <= t0 else min(1.0, max(0.0, (self.env.now - t0) / (t1 - t0)))
+        return p0 + fraction * (p1 - p0)
+
+    def _execute(self, robot: _Robot, request: TaskRequest):
+        started = self.env.now
+        component = self.smart.components[request.component_id]
+        spec = robot.spec
+        node_windows = None
+        try:
+            yield from self._drive(robot, request.start)
+            work_started = self.env.now
+            if request.activity == "transport":
+                component.update_state(Event.START_TRANSPORT)
+                self._note_state(component)
+                self.lines.append(f"[{self.env.now:9.2f} s] Current progress: {spec.name} is loading {component.id}")
+                yield self.env.timeout(spec.load_time)
+                yield from self._drive(robot, request.end)
+                yield self.env.timeout(spec.unload_time)
+                component.position = np.array([*request.end, component.target_position[2]])
+                robot.stats.handling_time += spec.load_time + spec.unload_time
+            elif request.activity == "position":
+                component.start_positioning()
+                self._note_state(component)
+                duration = max(1, request.nodes) * spec.time_per_node
+                yield self.env.timeout(duration)
+                robot.stats.handling_time += duration
+            else:
+                nodes = [self.smart.nodes[n] for n in request.node_ids]
+                for node in nodes:
+                    owner = self.smart.components[node.component_id]
+                    owner.node_event(node, Event.START_ASSEMBLY)
+                    self._note_state(owner)
+                node_windows = []
+                for node in nodes:
+                    begin = self.env.now
+                    duration = node.assembly_point_number * spec.time_per_point
+                    yield self.env.timeout(duration)
+                    robot.stats.handling_time += duration
+                    node_windows.append((node, begin, self.env.now))
+        except simpy.Interrupt:
+            self._abort(robot, request, started)
+            return
+        robot.stats.steps += 1
+        robot.stats.busy_time += self.env.now - started
+        self._finish(robot, request, started, work_started, node_windows)
+
+    def _finish(self, robot: _Robot, request: TaskRequest, started: float, work_started: float, node_windows) -> None:
+        component = self.smart.components[request.component_id]
+        name = robot.spec.name
+        storey = component.storey_id or ""
+        if request.activity == "transport":
+            component.update_state(Event.FINISH_TRANSPORT)
+            self._note_state(component)
+            self._say(f"Component: {component.id} is arrived, {name} is free for next work")
+            activity = self._record("transport", component, f"Transport {component.id}", name, started, request.predecessors)
+            component.publish_positioning()
+            self._note_state(component)
+            self._publish("position", component, predecessors=[activity.id])
+        elif request.activity == "position":
+            component.finish_positioning()
+            self._note_state(component)
+            self._say(f"Component: {component.id} position is fixed, {name} is free for next work")
+            activity = self._record("position", component, f"Position {component.id}", name, started, request.predecessors)
+            self.position_activity[component.id] = activity.id
+            if component.state == State.ASSEMBLED:  # no nodes to fasten
+                self.open_on_floor[component.floor] -= 1
+            for dependant in self.dependants.get(component.id, []):
+                self.missing_supporters[dependant] -= 1
+                if self.missing_supporters[dependant] == 0:
+                    floor = self.smart.components[dependant].floor
+                    if floor <= self.current_floor:
+                        self._publish_transport(dependant)
+                    else:
+                        self.ready_by_floor.setdefault(floor, []).append(dependant)
+            for node in component.connection_nodes:
+                self._maybe_publish_assembly(self.smart.joints[node.joint_id])
+        else:
+            joint = self.smart.joints[request.joint_id]
+            previous = None
+            for node, begin, end in node_windows:
+                owner = self.smart.components[node.component_id]
+                owner.node_event(node, Event.FINISH_ASSEMBLY)
+                self._note_state(owner)
+                row_start = started if previous is None else begin
+                predecessors = tuple(request.predecessors) + ((previous,) if previous else ())
+                activity = self._record(
+                    "assemble", owner, f"Assemble {node.id}", name, row_start, predecessors, finish=end
+                )
+                previous = activity.id
+            self._say(f"Nodes: {' and '.join(joint.node_ids)} are assembled, {name} is free for next work")
+            self.open_on_floor[joint.floor] -= 1
+        robot.task = None
+        for activity_name in robot.spec.activities:
+            self.idle[activity_name].add(name)
+        self._event("finish", request=request.id, activity=request.activity, component=request.component_id, robot=name)
+        self._maybe_close_floor()
+        self._request_dispatch()
+
+    def _record(self, activity, component, name, robot, start, predecessors, finish=None, aborted=False) -> Activity:
+        self.activity_counter += 1
+        origin = self.smart_origin(component)
+        row = Activity(
+            id=f"A{self.activity_counter:04d}",
+            activity=activity,
+            global_id=component.id,
+            name=name,
+            robot=robot,
+            start=start,
+            finish=self.env.now if finish is None else finish,
+            target=origin,
+            storey=component.storey_id or "",
+            predecessors=tuple(p for p in predecessors if p),
+            aborted=aborted,
+        )
+        self.activities.append(row)
+        return row
+
+    @staticmethod
+    def smart_origin(component: Component) -> tuple[float, float, float]:
+        """Installed position of the component's origin (placement), model frame, metres."""
+        point = component.target_position if component.origin is None else component.origin
+        return (float(point[0]), float(point[1]), float(point[2]))
+
+    def _breakdown(self, name: str, when: float):
+        yield self.env.timeout(when)
+        robot = self.robots[name]
+        robot.broken = True
+        robot.stats.broken_at = self.env.now
+        for activity in ACTIVITIES:
+            self.idle[activity].discard(name)
+        self._say(f"{name} broke down")
+        self._event("breakdown", robot=name, request=robot.task.id if robot.task else None)
+        if robot.task is not None and robot.process is not None and robot.process.is_alive:
+            robot.process.interrupt("breakdown")
+
+    def _abort(self, robot: _Robot, request: TaskRequest, started: float) -> None:
+        """Roll the interrupted task back and auction it again; nothing is lost."""
+        component = self.smart.components[request.component_id]
+        robot.position = self._position_now(robot)
+        robot.leg = None
+        robot.stats.busy_time += self.env.now - started
+        robot.task = None
+        if request.activity == "transport" and component.state == State.IN_TRANSIT:
+            component.update_state(Event.ABORT)
+            component.position = np.array([robot.position[0], robot.position[1], 0.0])
+            self.yard_of[component.id] = robot.position.copy()  # picked up again where it was dropped
+        elif request.activity == "position" and component.state == State.WORKING_IN_POSITIONING:
+            component.abort_positioning()
+        elif request.activity == "assemble":
+            for node_id in request.node_ids:
+                node = self.smart.nodes[node_id]
+                if node.state == State.WORKING_IN_ASSEMBLY:
+                    owner = self.smart.components[node.component_id]
+                    owner.node_event(node, Event.ABORT)
+                    self._note_state(owner)
+                elif node.state == State.ASSEMBLED:
+                    continue
+        self._note_state(component)
+        self._record(request.activity, component, f"{request.activity.capitalize()} {component.id} (aborted)", robot.spec.name, started, (), aborted=True)
+        # Only the nodes not yet assembled remain to be done.
+        if request.activity == "assemble":
+            remaining = tuple(n for n in request.node_ids if self.smart.nodes[n].state != State.ASSEMBLED)
+            request.node_ids = remaining
+            request.points = sum(self.smart.nodes[n].assembly_point_number for n in remaining)
+        else:
+            request.start = self.yard_of[component.id] if request.activity == "transport" else request.start
+        request.attempts += 1
+        heapq.heappush(self.pending[request.activity], request)
+        self._say(
+            f"{robot.spec.name} broke down during {request.activity} of {component.id}: "
+            f"{component.id} is {component.state} at ({robot.position[0]:.2f}, {robot.position[1]:.2f}), task auctioned again"
+        )
+        self._event("reauction", request=request.id, activity=request.activity, component=component.id, robot=robot.spec.name, state=str(component.state))
+        self._request_dispatch()
+
+
+def simulate(
+    smart: SmartModel,
+    fleet: Fleet,
+    site: Site | None = None,
+    evaluator: str = "least-cost",
+    seed: int = 0,
+    breakdowns=(),
+    storey_elevations: list[float] | None = None,
+) -> SimulationResult:
+    """Run one build; see :class:`ConstructionSimulation`."""
+    return ConstructionSimulation(smart, fleet, site, evaluator, seed, breakdowns, storey_elevations).run()

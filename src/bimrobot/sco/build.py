@@ -1,0 +1,376 @@
+"""From a BuildingModel to smart construction objects (thesis section 4.4.2, fig. 4.6-4.7).
+
+Roles come from the relations, not from IFC classes: in an ``IfcRelConnectsWithRealizingElements`` the
+RelatingElement is a component (column, beam, footing), the RelatedElement a connector (plate, cleat,
+clip angle) and the RealizingElements the fasteners (bolts, welds). ifcUnit's cleats are exported as
+IfcColumn but are connectors because they are related elements. Connectors joined to each other by a
+relation (ifcUnit bolts cleat #1 to cleat #2) form one connector group; the components related to one
+group form a joint. Each (component, connector) relation becomes a ConnectionNode with id
+``"<relating GlobalId>:<related GlobalId>"``, ``assembly_point_number`` = number of realizing elements and
+the assembly method from the ConnectionType or the realizing elements' class/name (bolt, weld).
+
+When a model has no such relations (most real exports) the connections inferred from touching bodies
+(``Connection.inferred``) are used instead: each touching pair is a joint with a node on each side, and
+:attr:`SmartModel.inferred` says so.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from bimrobot.bim.model import BuildingModel, Connection, Element
+from bimrobot.errors import InputError
+from bimrobot.sco.component import Component, ConnectionNode, Joint
+from bimrobot.sco.states import State
+
+log = logging.getLogger(__name__)
+
+#: Classes that are foundations already built on site when the simulation starts (thesis 4.5.2).
+PREBUILT_CLASSES = ("IfcFooting", "IfcPile")
+#: Classes that are never components themselves (fasteners, non-physical or non-structural items).
+NON_COMPONENT_CLASSES = (
+    "IfcFastener", "IfcMechanicalFastener", "IfcDiscreteAccessory", "IfcOpeningElement",
+    "IfcSpace", "IfcAnnotation", "IfcGrid", "IfcVirtualElement", "IfcBuildingElementProxy",
+)
+#: A partner counts as carrying a component when its bottom is this much lower (metres).
+SUPPORT_MARGIN_M = 0.05
+
+
+@dataclass
+class SmartModel:
+    """The smart construction objects of one building, ready for the coordination simulation.
+
+    ``floors``: storey GlobalIds bottom to top (index = floor number). ``supporters``: component id ->
+    ids of the connected components that carry it (their bottom is lower), which must have their
+    position fixed before it is brought in ("columns before the beams they carry").
+    """
+
+    source: str
+    components: dict[str, Component]
+    nodes: dict[str, ConnectionNode]
+    joints: dict[str, Joint]
+    floors: list[str]
+    floor_names: list[str]
+    supporters: dict[str, tuple[str, ...]]
+    connection_source: str
+    connectors: list[str] = field(default_factory=list)
+    unconnected: list[str] = field(default_factory=list)
+    unknown_weight: list[str] = field(default_factory=list)
+
+    @property
+    def inferred(self) -> list[Joint]:
+        """Joints that were inferred from geometry rather than read from IFC relations."""
+        return [joint for joint in self.joints.values() if joint.inferred]
+
+    def joints_of(self, component_id: str) -> list[Joint]:
+        return [self.joints[self.nodes[n.id].joint_id] for n in self.components[component_id].connection_nodes]
+
+    def summary(self) -> dict:
+        """Counts and provenance, for reports (JSON-serialisable)."""
+        nodes = self.nodes.values()
+        return {
+            "source": self.source,
+            "connection_source": self.connection_source,
+            "components": len(self.components),
+            "prebuilt": sorted(c.id for c in self.components.values() if c.prebuilt),
+            "connection_nodes": len(self.nodes),
+            "joints": len(self.joints),
+            "assembly_points": sum(n.assembly_point_number for n in nodes),
+            "assembly_methods": sorted({n.assembly_method for n in nodes}),
+            "connectors": self.connectors,
+            "inferred_joints": [list(j.component_ids) for j in self.inferred],
+            "unconnected_components": self.unconnected,
+            "unknown_weight": self.unknown_weight,
+            "floors": self.floor_names,
+        }
+
+
+def build_smart_model(
+    model: BuildingModel,
+    *,
+    prebuilt_classes: tuple[str, ...] = PREBUILT_CLASSES,
+    inferred_tolerance_m: float = 0.01,
+    inferred_assembly_points: int = 4,
+    inferred_assembly_method: str = "bolt",
+) -> SmartModel:
+    """Components, connection nodes and joints of ``model``.
+
+    Uses the model's ``IfcRelConnectsWithRealizingElements`` when there are any; otherwise connections
+    inferred from touching geometry (``bimrobot.bim.connections.infer_connections`` with
+    ``inferred_tolerance_m``), each node of which gets ``inferred_assembly_points`` points fastened by
+    ``inferred_assembly_method``. Raises InputError when the model has no buildable element.
+    """
+    explicit = [c for c in model.connections if not c.inferred]
+    if explicit:
+        connection_source = "IfcRelConnectsWithRealizingElements"
+        connections = explicit
+    else:
+        connections = [c for c in model.connections if c.inferred]
+        if not connections:
+            connections = _infer(model, inferred_tolerance_m)
+        connection_source = "inferred from geometry" if connections else "none"
+
+    related = {c.related_id for c in connections if not c.inferred}
+    realizing = {r for c in connections for r in c.realizing_ids}
+    component_ids = [
+        gid
+        for gid, element in model.elements.items()
+        if gid not in related and gid not in realizing and element.ifc_class not in NON_COMPONENT_CLASSES
+    ]
+    if not component_ids:
+        raise InputError(f"{model.source or 'the model'} has no buildable element (columns, beams, footings, ...)")
+
+    floors, floor_names = _floor_order(model)
+    components = {gid: _component(model.elements[gid], model, floors, prebuilt_classes) for gid in component_ids}
+
+    if connection_source == "IfcRelConnectsWithRealizingElements":
+        joints, nodes = _joints_from_relations(model, connections, components)
+    else:
+        joints, nodes = _joints_inferred(
+            model, connections, components, inferred_assembly_points, inferred_assembly_method
+        )
+    for node in nodes.values():
+        components[node.component_id].connection_nodes.append(node)
+    for joint in joints.values():
+        for gid in joint.component_ids:
+            partners = [other for other in joint.component_ids if other != gid]
+            components[gid].relative_object_ids.extend(p for p in partners if p not in components[gid].relative_object_ids)
+        for node_id in joint.node_ids:
+            nodes[node_id].relative_object_ids = [n for n in joint.node_ids if n != node_id]
+    for component in components.values():
+        if component.prebuilt:
+            component.state = State.POSITION_FIXED
+            for node in component.connection_nodes:
+                node.state = State.POSITION_FIXED
+
+    supporters = {
+        gid: tuple(
+            sorted(
+                other
+                for other in component.relative_object_ids
+                if components[other].bottom_z < component.bottom_z - SUPPORT_MARGIN_M
+                and components[other].floor <= component.floor
+            )
+        )
+        for gid, component in components.items()
+    }
+    smart = SmartModel(
+        source=str(model.source or model.project_name),
+        components=components,
+        nodes=nodes,
+        joints=joints,
+        floors=floors,
+        floor_names=floor_names,
+        supporters=supporters,
+        connection_source=connection_source,
+        connectors=sorted(related),
+        unconnected=sorted(gid for gid, c in components.items() if not c.connection_nodes),
+        unknown_weight=sorted(gid for gid, c in components.items() if c.weight_kg is None),
+    )
+    log.info(
+        "%s: %d components, %d connection nodes, %d joints (%s)",
+        smart.source, len(components), len(nodes), len(joints), connection_source,
+    )
+    return smart
+
+
+def _infer(model: BuildingModel, tolerance_m: float) -> list[Connection]:
+    from bimrobot.bim.connections import infer_connections
+
+    return list(infer_connections(model, tolerance_m))
+
+
+def _floor_order(model: BuildingModel) -> tuple[list[str], list[str]]:
+    storeys = sorted(model.storeys, key=lambda s: s.elevation)
+    if not storeys:
+        return ["(no storey)"], ["(no storey)"]
+    return [s.global_id for s in storeys], [s.name for s in storeys]
+
+
+def _floor_of(element: Element, model: BuildingModel, floors: list[str]) -> int:
+    if element.storey_id in floors:
+        return floors.index(element.storey_id)
+    if not model.storeys:
+        return 0
+    # No storey assignment: the highest storey whose elevation is at or below the element's bottom.
+    elevations = sorted(model.storeys, key=lambda s: s.elevation)
+    bottom = float(element.world_bounds[0, 2])
+    floor = 0
+    for index, storey in enumerate(elevations):
+        if storey.elevation <= bottom + 0.01:
+            floor = index
+    return floor
+
+
+def _component(element: Element, model: BuildingModel, floors: list[str], prebuilt_classes) -> Component:
+    bounds = element.world_bounds
+    extents = sorted((float(v) for v in bounds[1] - bounds[0]), reverse=True)
+    centre = bounds.mean(axis=0)
+    return Component(
+        id=element.global_id,
+        name=element.name,
+        object_type=element.ifc_class,
+        ifc_class=element.ifc_class,
+        weight_kg=element.weight_kg,
+        storey_id=element.storey_id,
+        floor=_floor_of(element, model, floors),
+        target_position=centre,
+        origin=element.position,
+        position=centre.copy(),
+        size=(extents[0], extents[1], extents[2]),
+        bottom_z=float(bounds[0, 2]),
+        prebuilt=element.ifc_class in prebuilt_classes,
+    )
+
+
+def assembly_method(connection: Connection, model: BuildingModel) -> str:
+    """"bolt" or "weld", from the relation's ConnectionType or else its realizing elements."""
+    text = (connection.connection_type or "").upper()
+    if "WELD" in text:
+        return "weld"
+    if any(word in text for word in ("BOLT", "SCREW", "RIVET", "PIN")):
+        return "bolt"
+    classes_and_names = []
+    skipped = {s.global_id: s for s in model.skipped}
+    for gid in connection.realizing_ids:
+        item = model.elements.get(gid) or skipped.get(gid)
+        if item is not None:
+            classes_and_names.append((item.ifc_class, (item.name or "").lower()))
+    for ifc_class, name in classes_and_names:
+        if "weld" in name:
+            return "weld"
+        if "bolt" in name or ifc_class == "IfcMechanicalFastener":
+            return "bolt"
+    if any(ifc_class == "IfcFastener" for ifc_class, _ in classes_and_names):
+        return "weld"  # IfcFastener without a name hint: IFC's class for welds, glue, nails
+    return "bolt"
+
+
+def _centre(ids, model: BuildingModel) -> np.ndarray | None:
+    boxes = [model.elements[i].world_bounds for i in ids if i in model.elements]
+    if not boxes:
+        return None
+    return np.mean([box.mean(axis=0) for box in boxes], axis=0)
+
+
+def _joints_from_relations(model, connections, components):
+    """Joints from IfcRelConnectsWithRealizingElements: one per connector group."""
+    connectors = {c.related_id for c in connections}
+    parent: dict[str, str] = {k: k for k in connectors}
+
+    def find(k: str) -> str:
+        while parent[k] != k:
+            parent[k] = parent[parent[k]]
+            k = parent[k]
+        return k
+
+    group_realizing: dict[str, set[str]] = {}
+    for c in connections:
+        if c.relating_id in connectors:  # connector bolted to connector: same group
+            a, b = find(c.relating_id), find(c.related_id)
+            if a != b:
+                parent[max(a, b)] = min(a, b)
+    for c in connections:
+        if c.relating_id in connectors:
+            group_realizing.setdefault(find(c.related_id), set()).update(c.realizing_ids)
+
+    nodes: dict[str, ConnectionNode] = {}
+    group_nodes: dict[str, list[str]] = {}
+    for c in connections:
+        if c.relating_id in connectors or c.relating_id not in components:
+            continue
+        node_id = f"{c.relating_id}:{c.related_id}"
+        group = find(c.related_id)
+        if node_id in nodes:  # the same pair related twice: more fastening points on one node
+            node = nodes[node_id]
+            node.assembly_point_number += max(1, len(c.realizing_ids))
+            continue
+        component = components[c.relating_id]
+        position = _centre([c.related_id], model)
+        if position is None:
+            position = _centre(c.realizing_ids, model)
+        nodes[node_id] = ConnectionNode(
+            id=node_id,
+            name=f"{component.name} / {model.elements[c.related_id].name if c.related_id in model.elements else c.related_id}",
+            object_type="ConnectionNode",
+            component_id=c.relating_id,
+            joint_id=group,
+            connector_ids=(c.related_id,),
+            assembly_point_number=max(1, len(c.realizing_ids)),
+            assembly_method=assembly_method(c, model),
+            position=position if position is not None else component.target_position.copy(),
+        )
+        group_nodes.setdefault(group, []).append(node_id)
+        group_realizing.setdefault(group, set()).update(c.realizing_ids)
+
+    joints: dict[str, Joint] = {}
+    for group, node_ids in group_nodes.items():
+        member_ids = tuple(dict.fromkeys(nodes[n].component_id for n in node_ids))
+        group_connectors = tuple(sorted(k for k in connectors if find(k) == group))
+        position = _centre(group_connectors, model)
+        if position is None:
+            position = np.mean([nodes[n].position for n in node_ids], axis=0)
+        floor = max(components[m].floor for m in member_ids)
+        joints[group] = Joint(
+            id=group,
+            component_ids=member_ids,
+            node_ids=tuple(node_ids),
+            connector_ids=group_connectors,
+            realizing_ids=tuple(sorted(group_realizing.get(group, ()))),
+            position=position,
+            floor=floor,
+        )
+        for n in node_ids:
+            nodes[n].level = floor
+            nodes[n].joint_id = group
+    return joints, nodes
+
+
+def _contact_point(a: Component, b: Component, model: BuildingModel) -> np.ndarray:
+    box_a, box_b = model.elements[a.id].world_bounds, model.elements[b.id].world_bounds
+    low = np.maximum(box_a[0], box_b[0])
+    high = np.minimum(box_a[1], box_b[1])
+    return (low + high) / 2.0  # centre of the overlap (or of the gap, when within tolerance)
+
+
+def _joints_inferred(model, connections, components, points: int, method: str):
+    """One joint per touching pair of components, with a node on each side."""
+    nodes: dict[str, ConnectionNode] = {}
+    joints: dict[str, Joint] = {}
+    for c in connections:
+        a_id, b_id = c.relating_id, c.related_id
+        if a_id not in components or b_id not in components or a_id == b_id:
+            continue
+        joint_id = f"{a_id}:{b_id}"
+        if joint_id in joints or f"{b_id}:{a_id}" in joints:
+            continue
+        a, b = components[a_id], components[b_id]
+        position = _contact_point(a, b, model)
+        floor = max(a.floor, b.floor)
+        pair = (f"{a_id}:{b_id}", f"{b_id}:{a_id}")
+        for node_id, owner, other in ((pair[0], a, b), (pair[1], b, a)):
+            nodes[node_id] = ConnectionNode(
+                id=node_id,
+                name=f"{owner.name} / {other.name}",
+                object_type="ConnectionNode",
+                component_id=owner.id,
+                joint_id=joint_id,
+                assembly_point_number=points,
+                assembly_method=method,
+                level=floor,
+                position=position.copy(),
+            )
+        joints[joint_id] = Joint(
+            id=joint_id,
+            component_ids=(a_id, b_id),
+            node_ids=pair,
+            connector_ids=(),
+            realizing_ids=(),
+            position=position,
+            floor=floor,
+            inferred=True,
+        )
+    return joints, nodes
