@@ -1,5 +1,153 @@
-"""Sub-commands of the lbd part (registered by bimrobot.cli)."""
+"""Sub-commands of the lbd part (registered by bimrobot.cli): ``graph`` and ``query``."""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import shutil
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from bimrobot.errors import InputError
+
+GRAPH_EXAMPLES = """examples:
+  bimrobot graph frame.ifc -o frame.ttl
+  bimrobot graph frame.ifc --schedule sim/schedule.csv -o frame.jsonld --format json-ld
+  bimrobot graph house.ifc --ifc-schedule -o house.ttl            # tasks from the IfcWorkSchedule
+  bimrobot graph frame.ifc --schedule schedule.csv --store oxigraph --store-path frame.oxigraph
+"""
+
+QUERY_EXAMPLES = """examples:
+  bimrobot query frame.ttl ready_activities
+  bimrobot query frame.ttl component_state --bind globalId='2O2Fr$t4X7Zf8NOew3FLOH'
+  bimrobot query frame.oxigraph storey_components --bind storeyId=1Eiqmlp21PmegDDW$BfDnr --format csv
+  bimrobot query frame.ttl my_query.rq --format json
+"""
 
 
 def register(subparsers) -> None:
     """Add this part's sub-commands to the ``bimrobot`` parser."""
+    from bimrobot.lbd.graph import query_names
+
+    graph = subparsers.add_parser(
+        "graph",
+        help="build the construction knowledge graph (BOT + DiCon + schedule + states) of an IFC model",
+        description="Build the RDF construction graph of an IFC model: BOT topology, element properties, "
+        "connections as bot:Interface, DiCon activities from a schedule, and the live states.",
+        epilog=GRAPH_EXAMPLES,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    graph.add_argument("model", type=Path, help="IFC file")
+    source = graph.add_mutually_exclusive_group()
+    source.add_argument("--schedule", type=Path, help="schedule CSV (docs/conventions.md), e.g. from `bimrobot simulate`")
+    source.add_argument("--ifc-schedule", action="store_true", help="take the activities from the model's IfcWorkSchedule")
+    graph.add_argument("-o", "--output", type=Path, required=True, help="graph file to write (.ttl, .jsonld)")
+    graph.add_argument("--format", choices=["turtle", "json-ld"], help="default: from the output suffix")
+    graph.add_argument("--store", choices=["memory", "oxigraph"], default="memory", help="triple store (default: memory)")
+    graph.add_argument("--store-path", type=Path, help="directory of the persistent Oxigraph store (--store oxigraph)")
+    graph.add_argument("--base", default=None, help="base IRI of the graph's resources")
+    graph.set_defaults(func=graph_command)
+
+    query = subparsers.add_parser(
+        "query",
+        help="run a SPARQL query on a construction graph",
+        description="Run a SPARQL query on a graph file (.ttl/.jsonld) or an Oxigraph store directory. "
+        f"Shipped queries: {', '.join(query_names())}.",
+        epilog=QUERY_EXAMPLES,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    query.add_argument("graph", type=Path, help="graph file or Oxigraph store directory")
+    query.add_argument("query", help="a shipped query name, or a .rq file")
+    query.add_argument("--bind", action="append", default=[], metavar="VAR=VALUE", help="bind a query variable (repeatable)")
+    query.add_argument("--format", choices=["table", "csv", "json"], default="table", help="output format (default: table)")
+    query.set_defaults(func=query_command)
+
+
+def graph_command(args) -> int:
+    from bimrobot.bim import load_model
+    from bimrobot.lbd.graph import DEFAULT_BASE, build_graph
+    from bimrobot.lbd.schedule import load_schedule_csv, load_schedule_ifc
+    from bimrobot.lbd.store import format_for
+
+    format_for(args.output, args.format)  # fail on a bad suffix before the slow work
+    if args.store == "oxigraph" and args.store_path is None:
+        raise InputError("--store oxigraph needs --store-path DIR")
+    started = time.perf_counter()
+    model = load_model(args.model)
+    schedule = None
+    if args.schedule is not None:
+        schedule = load_schedule_csv(args.schedule, model=model)
+    elif args.ifc_schedule:
+        schedule = load_schedule_ifc(args.model, model=model)
+    store_path = None
+    if args.store == "oxigraph":
+        # Build into a temporary sibling directory, renamed into place only on success.
+        if args.store_path.exists():
+            raise InputError(f"the Oxigraph store directory {args.store_path} already exists: remove it or choose another")
+        args.store_path.parent.mkdir(parents=True, exist_ok=True)
+        store_path = Path(tempfile.mkdtemp(prefix=f".{args.store_path.name}.", dir=args.store_path.parent))
+    try:
+        graph = build_graph(model, schedule, store=args.store, path=store_path, base=args.base or DEFAULT_BASE)
+        graph.serialize(args.output, args.format)
+        triples = len(graph)
+        graph.close()
+    except BaseException:
+        if store_path is not None:
+            shutil.rmtree(store_path, ignore_errors=True)
+        raise
+    if store_path is not None:
+        store_path.rename(args.store_path)
+    activities = len(schedule.activities) + len(schedule.phases) if schedule else 0
+    print(
+        f"{args.output}: {triples} triples, {len(model.elements)} elements, {len(model.storeys)} storeys, "
+        f"{len(model.connections)} connections, {activities} activities ({time.perf_counter() - started:.1f} s)"
+    )
+    if store_path is not None:
+        print(f"Oxigraph store: {args.store_path}")
+    return 0
+
+
+def _bindings(pairs: list[str]) -> dict[str, object]:
+    bindings: dict[str, object] = {}
+    for pair in pairs:
+        name, sep, value = pair.partition("=")
+        if not sep or not name:
+            raise InputError(f"--bind {pair!r} is not VAR=VALUE")
+        bindings[name.lstrip("?$")] = value
+    return bindings
+
+
+def query_command(args) -> int:
+    from bimrobot.lbd.graph import ConstructionGraph
+
+    graph = ConstructionGraph.open(args.graph)
+    try:
+        rows = graph.query(args.query, **_bindings(args.bind))
+    finally:
+        graph.close()
+    columns = list(rows[0]) if rows else []
+    if args.format == "json":
+        json.dump(rows, sys.stdout, indent=2, default=str)
+        print()
+    elif args.format == "csv":
+        writer = csv.DictWriter(sys.stdout, fieldnames=columns)
+        writer.writeheader()
+        writer.writerows(rows)
+    else:
+        _print_table(rows, columns)
+    return 0
+
+
+def _print_table(rows: list[dict], columns: list[str]) -> None:
+    if not rows:
+        print("(no results)")
+        return
+    cells = [["" if row[c] is None else str(row[c]) for c in columns] for row in rows]
+    widths = [max(len(c), *(len(r[i]) for r in cells)) for i, c in enumerate(columns)]
+    print("  ".join(c.ljust(w) for c, w in zip(columns, widths)).rstrip())
+    for row in cells:
+        print("  ".join(v.ljust(w) for v, w in zip(row, widths)).rstrip())
+    print(f"({len(rows)} rows)")

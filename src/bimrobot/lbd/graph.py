@@ -1,0 +1,416 @@
+"""The construction knowledge graph (thesis chapter 5, fig. 5.5): BOT topology + DiCon processes + live states.
+
+What :func:`build_graph` writes, and with which terms (all defined in BOT 0.3.2 and DiCon 0.5, except
+the few ``brc:`` terms of ``vocabulary.ttl``):
+
+* topology: ``bot:Site bot:hasBuilding bot:Building bot:hasStorey bot:Storey bot:containsElement
+  bot:Element``. ``bot:hasElement`` is not stated: BOT says it is meant to be inferred from its
+  sub-properties such as ``bot:containsElement``.
+* connections: one ``bot:Interface`` per connection, ``bot:interfaceOf`` both elements (BOT's own
+  example of an interface is "the connection in which the two elements meet"; an adjacency property
+  between two elements does not exist in BOT). ``brc:realizingElement`` links the bolts, welds and
+  cleats that realise it, ``brc:nodeId`` carries the thesis' node id ``<relating>:<related>``.
+* element properties: ``brc:globalId``, ``brc:ifcClass``, ``brc:weightKg`` (kg), ``rdfs:label`` (name),
+  and the placement origin as ``dice:hasQuality`` a ``dice:CartesianPosition`` with ``dice:hasX/Y/Z``
+  (metres, world frame, z up).
+* activities: one ``dicp:Activity`` per schedule row with ``dice:precededBy`` its predecessors
+  (FINISH_START), ``dicp:occupiesTimeInterval`` a ``dice:TimeInterval`` with ``dice:hasStart`` /
+  ``dice:hasEnd`` ``dice:TimeInstant``s (``brc:atSecond``: seconds from the start of the build),
+  ``dicp:hasObject`` the component (and its connection node for ``assemble`` rows), and
+  ``dicp:hasOutputObject`` the component on its ``assemble`` activities (the assembled component is
+  their output). The robot is a ``dice:Device`` (a robot is an object that performs a function under at
+  most intermittent control) and a ``dicp:Resource``; the activity ``dicp:hasAssignedResource`` a
+  ``dicp:ResourceRole`` that ``dice:isRoleOf`` the robot (the DiCon resource pattern).
+* live state: ``dice:hasEntityState`` one of the ``brc:ComponentState`` individuals (OnYard ...
+  Assembled) on every element (``OnYard`` at first) and on connection nodes once set, and one of the ``brc:ActivityState`` individuals
+  (NotStarted, Started, Completed, Failed) on every activity.
+
+IRIs are ``<base>element/<GlobalId>``, ``<base>activity/<id>`` etc., with the id percent-encoded
+(``$`` -> ``%24``).
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import re
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Iterable, Iterator
+from urllib.parse import quote, unquote
+
+import rdflib
+from pyparsing import ParseException
+from rdflib import RDF, RDFS, XSD, Literal, Namespace, URIRef
+
+from bimrobot.errors import InputError
+from bimrobot.lbd.schedule import Activity, Schedule
+from bimrobot.lbd.store import TripleStore, format_for, load_store, open_store, write_atomically
+
+if TYPE_CHECKING:  # pragma: no cover
+    from bimrobot.bim.model import BuildingModel
+
+log = logging.getLogger(__name__)
+
+BOT = Namespace("https://w3id.org/bot#")
+DICE = Namespace("https://w3id.org/digitalconstruction/0.5/Entities#")
+DICP = Namespace("https://w3id.org/digitalconstruction/0.5/Processes#")
+BRC = Namespace("https://bimrobot.example/ns#")
+DEFAULT_BASE = "https://bimrobot.example/data/"
+
+PREFIXES = {"bot": str(BOT), "dice": str(DICE), "dicp": str(DICP), "brc": str(BRC), "xsd": str(XSD), "rdfs": str(RDFS)}
+VOCABULARY_FILE = Path(__file__).with_name("vocabulary.ttl")
+QUERY_DIR = Path(__file__).with_name("queries")
+
+#: The thesis' component / connection-node states (chapter 4, fig. 4.2), in construction order.
+COMPONENT_STATES = (
+    "OnYard",
+    "InTransit",
+    "Arrived",
+    "InLocation",
+    "WorkingInPositioning",
+    "PositionFixed",
+    "WaitForAssembly",
+    "WorkingInAssembly",
+    "Assembled",
+)
+#: Execution states of an activity.
+ACTIVITY_STATES = ("NotStarted", "Started", "Completed", "Failed")
+
+Triple = tuple[URIRef, URIRef, Any]
+
+
+def _state_name(state: Any, allowed: tuple[str, ...], what: str) -> str:
+    name = getattr(state, "value", state)
+    if name not in allowed:
+        raise InputError(f"unknown {what} state {name!r}: use one of {', '.join(allowed)}")
+    return name
+
+
+def _literal(value: Any) -> Literal:
+    if isinstance(value, bool):
+        return Literal(value)
+    if isinstance(value, float):
+        # Nanometre / nanosecond precision: drops float noise (3.8200000000000007) that Turtle's
+        # short double form would not round-trip.
+        return Literal(round(value, 9), datatype=XSD.double)
+    return Literal(value)
+
+
+class ConstructionGraph:
+    """A construction graph in a triple store, with the live-state updates and queries the system uses.
+
+    Build one with :func:`build_graph`, or reopen a saved one with :meth:`open`.
+    """
+
+    def __init__(self, store: TripleStore, base: str = DEFAULT_BASE):
+        self.store = store
+        self.base = base
+
+    # ------------------------------------------------------------------------------------ IRIs
+    def iri(self, kind: str, identifier: str) -> URIRef:
+        """IRI of a thing of ``kind`` (element, storey, activity, robot, interface, ...) from its id."""
+        return URIRef(f"{self.base}{kind}/{quote(identifier, safe='')}")
+
+    def element_iri(self, global_id: str) -> URIRef:
+        return self.iri("element", global_id)
+
+    def activity_iri(self, activity_id: str) -> URIRef:
+        return self.iri("activity", activity_id)
+
+    def interface_iri(self, node_id: str) -> URIRef:
+        return self.iri("interface", node_id)
+
+    @staticmethod
+    def id_of(iri: str) -> str:
+        """The id an IRI was built from (inverse of :meth:`iri`)."""
+        return unquote(str(iri).rsplit("/", 1)[-1])
+
+    # ------------------------------------------------------------------------------ live state
+    def set_component_state(self, global_id: str, state: Any) -> None:
+        """Record the construction state (``OnYard`` ... ``Assembled``) of an element or connection node.
+
+        ``global_id`` is an element GlobalId or a node id ``<relating>:<related>``; ``state`` a state
+        name or a ``bimrobot.sco.states.State``. Raises :class:`InputError` for an unknown id or state.
+        """
+        name = _state_name(state, COMPONENT_STATES, "component")
+        self.store.replace(self._stateful(global_id), DICE.hasEntityState, BRC[name])
+
+    def set_activity_state(self, activity_id: str, state: Any) -> None:
+        """Record the execution state (NotStarted, Started, Completed, Failed) of an activity."""
+        name = _state_name(state, ACTIVITY_STATES, "activity")
+        subject = self.activity_iri(activity_id)
+        if self.store.value(subject, RDF.type) is None:
+            raise InputError(f"no activity {activity_id!r} in the graph")
+        self.store.replace(subject, DICE.hasEntityState, BRC[name])
+
+    def component_state(self, global_id: str) -> str | None:
+        """The current state name of an element or connection node (None for a node not yet opened)."""
+        value = self.store.value(self._stateful(global_id), DICE.hasEntityState)
+        return None if value is None else str(value).split("#")[-1]
+
+    def activity_state(self, activity_id: str) -> str:
+        """The current state name of an activity."""
+        subject = self.activity_iri(activity_id)
+        value = self.store.value(subject, DICE.hasEntityState)
+        if value is None:
+            raise InputError(f"no activity {activity_id!r} in the graph")
+        return str(value).split("#")[-1]
+
+    def _stateful(self, global_id: str) -> URIRef:
+        for subject in (self.element_iri(global_id), self.interface_iri(global_id)):
+            if self.store.value(subject, RDF.type) is not None:
+                return subject
+        raise InputError(f"no element or connection node {global_id!r} in the graph")
+
+    # ---------------------------------------------------------------------------------- queries
+    def query(self, query: str, **bindings: Any) -> list[dict[str, Any]]:
+        """Run a SPARQL SELECT/ASK: a query name from ``lbd/queries`` (e.g. ``"ready_activities"``), a
+        ``.rq`` path, or SPARQL text. ``bindings`` fix variables (``globalId="2O2Fr$t4X7Zf8NOew3FLOH"``).
+
+        Returns one dict per solution, variable -> Python value (IRIs as str); ASK gives ``[{"ask": bool}]``.
+        """
+        text = bind_values(load_query(query), bindings)
+        try:
+            return self.store.select(text)
+        except (SyntaxError, ValueError, ParseException) as exc:
+            shown = query if len(query) < 80 else query[:77] + "..."
+            raise InputError(f"the SPARQL query {shown} is invalid: {exc}".splitlines()[0]) from None
+
+    # ------------------------------------------------------------------------------ in and out
+    def serialize(self, path: str | os.PathLike, format: str | None = None) -> Path:
+        """Write the graph as Turtle or JSON-LD (``format`` "turtle"/"json-ld", else from the suffix)."""
+        kinds = {kind: f"{self.base}{kind}/" for kind in ("site", "building", "storey", "element", "interface", "activity", "robot")}
+        return write_atomically(self.store, path, format_for(path, format), {**PREFIXES, **kinds})
+
+    @classmethod
+    def open(cls, path: str | os.PathLike, base: str = DEFAULT_BASE) -> "ConstructionGraph":
+        """Reopen a graph: a Turtle/JSON-LD file (into memory) or an Oxigraph store directory."""
+        return cls(load_store(path), base)
+
+    def __len__(self) -> int:
+        return len(self.store)
+
+    def close(self) -> None:
+        self.store.close()
+
+    def __enter__(self) -> "ConstructionGraph":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+def vocabulary_triples() -> list[Triple]:
+    """The ``brc:`` vocabulary (state individuals with their labels, term definitions), so that a
+    saved graph describes its own terms and queries can return state names."""
+    vocabulary = rdflib.Graph()
+    vocabulary.parse(VOCABULARY_FILE, format="turtle")
+    return list(vocabulary)
+
+
+def load_query(query: str) -> str:
+    """SPARQL text for a query name in ``lbd/queries``, a path to a ``.rq`` file, or the text itself."""
+    named = QUERY_DIR / f"{query}.rq"
+    if "\n" not in query and named.is_file():
+        return named.read_text(encoding="utf-8")
+    if query.endswith(".rq"):
+        path = Path(query)
+        if not path.is_file():
+            raise InputError(f"the query file {path} does not exist")
+        return path.read_text(encoding="utf-8")
+    if not any(word in query.upper() for word in ("SELECT", "ASK", "CONSTRUCT", "DESCRIBE")):
+        raise InputError(f"unknown query {query!r}: use one of {', '.join(query_names())}, a .rq file or SPARQL text")
+    return query
+
+
+def bind_values(sparql: str, bindings: dict[str, Any]) -> str:
+    """``sparql`` with ``VALUES ?name { value }`` opening its first (outermost) WHERE block.
+
+    Works the same on rdflib, Oxigraph and remote endpoints, and inside aggregates; values are
+    written with rdflib's escaping (strings as literals, rdflib terms as they are).
+    """
+    if not bindings:
+        return sparql
+    match = re.search(r"WHERE\s*\{", sparql, flags=re.IGNORECASE)
+    if match is None:
+        raise InputError("a query with bound variables needs a WHERE { ... } block")
+    values = "".join(
+        f" VALUES ?{name} {{ {(value if isinstance(value, rdflib.term.Node) else _literal(value)).n3()} }}"
+        for name, value in bindings.items()
+    )
+    return sparql[: match.end()] + values + sparql[match.end() :]
+
+
+def query_names() -> list[str]:
+    """Names of the queries shipped in ``lbd/queries``."""
+    return sorted(p.stem for p in QUERY_DIR.glob("*.rq"))
+
+
+# ------------------------------------------------------------------------------------- building
+
+
+def build_graph(
+    model: BuildingModel,
+    schedule: Schedule | None = None,
+    store: str = "memory",
+    path: str | os.PathLike | None = None,
+    base: str = DEFAULT_BASE,
+) -> ConstructionGraph:
+    """The construction graph of ``model`` and, when given, its ``schedule``.
+
+    ``store``: ``"memory"`` (rdflib, default) or ``"oxigraph"`` (persistent, in the empty or new
+    directory ``path``). Every element starts ``OnYard`` and every activity ``NotStarted``. A schedule
+    row whose GlobalId is not an element of the model raises :class:`InputError`.
+    """
+    graph = ConstructionGraph(open_store(store, path), base)
+    writer = _GraphWriter(graph, model)
+    graph.store.add_all(vocabulary_triples())
+    graph.store.add_all(writer.topology())
+    if schedule is not None:
+        graph.store.add_all(writer.processes(schedule))
+    return graph
+
+
+class _GraphWriter:
+    """Yields the triples of one model (and schedule), in the order of fig. 5.5."""
+
+    def __init__(self, graph: ConstructionGraph, model: BuildingModel):
+        self.graph, self.model = graph, model
+        self.site = graph.iri("site", "site")
+        self.building = graph.iri("building", "building")
+
+    def topology(self) -> Iterator[Triple]:
+        g, model = self.graph, self.model
+        yield self.site, RDF.type, BOT.Site
+        yield self.site, RDFS.label, Literal(model.site_name or "site")
+        yield self.site, BOT.hasBuilding, self.building
+        yield self.building, RDF.type, BOT.Building
+        yield self.building, RDFS.label, Literal(model.project_name or "building")
+        for storey in model.storeys:
+            iri = g.iri("storey", storey.global_id)
+            yield self.building, BOT.hasStorey, iri
+            yield iri, RDF.type, BOT.Storey
+            yield iri, BRC.globalId, Literal(storey.global_id)
+            yield iri, RDFS.label, Literal(storey.name)
+            yield iri, BRC.elevation, _literal(float(storey.elevation))
+        storeys = {s.global_id for s in model.storeys}
+        for element in model.elements.values():
+            yield from self.element(element, storeys)
+        for connection in model.connections:
+            yield from self.interface(connection)
+
+    def element(self, element, storeys: set[str]) -> Iterator[Triple]:
+        iri = self.graph.element_iri(element.global_id)
+        zone = self.graph.iri("storey", element.storey_id) if element.storey_id in storeys else self.building
+        yield zone, BOT.containsElement, iri
+        yield iri, RDF.type, BOT.Element
+        yield iri, BRC.globalId, Literal(element.global_id)
+        yield iri, BRC.ifcClass, Literal(element.ifc_class)
+        if element.name:
+            yield iri, RDFS.label, Literal(element.name)
+        if element.weight_kg is not None:
+            yield iri, BRC.weightKg, _literal(float(element.weight_kg))
+            yield iri, BRC.weightSource, Literal(getattr(element.weight_source, "value", str(element.weight_source)))
+        if element.material:
+            yield iri, BRC.material, Literal(element.material)
+        yield from _position(URIRef(f"{iri}/position"), iri, DICE.hasQuality, element.position)
+        yield iri, DICE.hasEntityState, BRC.OnYard
+
+    def interface(self, connection) -> Iterator[Triple]:
+        g = self.graph
+        node_id = f"{connection.relating_id}:{connection.related_id}"
+        iri = g.interface_iri(node_id)
+        relating, related = g.element_iri(connection.relating_id), g.element_iri(connection.related_id)
+        yield iri, RDF.type, BOT.Interface
+        yield iri, BRC.nodeId, Literal(node_id)
+        yield iri, BOT.interfaceOf, relating
+        yield iri, BOT.interfaceOf, related
+        yield iri, BRC.relatingElement, relating
+        yield iri, BRC.relatedElement, related
+        if connection.global_id:
+            yield iri, BRC.globalId, Literal(connection.global_id)
+        if connection.connection_type:
+            yield iri, BRC.connectionType, Literal(connection.connection_type)
+        yield iri, BRC.inferred, Literal(bool(connection.inferred))
+        for realizing in connection.realizing_ids:
+            yield iri, BRC.realizingElement, g.element_iri(realizing)
+
+    def processes(self, schedule: Schedule) -> Iterator[Triple]:
+        interfaces = {f"{c.relating_id}:{c.related_id}" for c in self.model.connections}
+        robots: set[str] = set()
+        for phase in schedule.phases:
+            yield from self.activity(phase, interfaces)
+        for activity in schedule.activities:
+            yield from self.activity(activity, interfaces)
+            if activity.robot and activity.robot not in robots:
+                robots.add(activity.robot)
+                robot = self.graph.iri("robot", activity.robot)
+                yield robot, RDF.type, DICE.Device
+                yield robot, RDF.type, DICP.Resource
+                yield robot, RDFS.label, Literal(activity.robot)
+
+    def activity(self, activity: Activity, interfaces: set[str]) -> Iterator[Triple]:
+        g = self.graph
+        iri = g.activity_iri(activity.id)
+        yield iri, RDF.type, DICP.Activity
+        yield iri, BRC.identification, Literal(activity.id)
+        yield iri, RDFS.label, Literal(activity.name)
+        if activity.activity:
+            yield iri, BRC.activityType, Literal(activity.activity)
+        if activity.predefined_type:
+            yield iri, BRC.taskType, Literal(activity.predefined_type)
+        if activity.parent:
+            yield g.activity_iri(activity.parent), DICP.hasSubActivity, iri
+        for predecessor in activity.predecessors:
+            yield iri, DICE.precededBy, g.activity_iri(predecessor)
+        yield from self.interval(iri, activity)
+        yield from self.objects(iri, activity, interfaces)
+        if activity.robot:
+            role = URIRef(f"{iri}/resource")
+            robot = g.iri("robot", activity.robot)
+            yield iri, DICP.hasAssignedResource, role
+            yield role, RDF.type, DICP.ResourceRole
+            yield role, DICE.isRoleOf, robot
+            yield robot, DICE.hasRole, role
+        if activity.target is not None:
+            yield from _position(URIRef(f"{iri}/target"), iri, BRC.targetPosition, activity.target)
+        if activity.storey:
+            yield iri, BRC.onStorey, g.iri("storey", activity.storey)
+        yield iri, DICE.hasEntityState, BRC.NotStarted
+
+    def interval(self, iri: URIRef, activity: Activity) -> Iterator[Triple]:
+        interval, start, end = URIRef(f"{iri}/interval"), URIRef(f"{iri}/start"), URIRef(f"{iri}/end")
+        yield iri, DICP.occupiesTimeInterval, interval
+        yield interval, RDF.type, DICE.TimeInterval
+        yield interval, DICE.hasStart, start
+        yield interval, DICE.hasEnd, end
+        yield start, RDF.type, DICE.TimeInstant
+        yield start, BRC.atSecond, _literal(float(activity.start))
+        yield end, RDF.type, DICE.TimeInstant
+        yield end, BRC.atSecond, _literal(float(activity.finish))
+
+    def objects(self, iri: URIRef, activity: Activity, interfaces: set[str]) -> Iterator[Triple]:
+        gid = activity.global_id
+        if not gid:
+            return
+        if gid in self.model.elements:
+            element = self.graph.element_iri(gid)
+        elif any(s.global_id == gid for s in self.model.storeys):
+            element = self.graph.iri("storey", gid)  # an IFC summary task that outputs a storey
+        else:
+            where = f" of {activity.id}" if activity.id else ""
+            raise InputError(f"schedule activity{where}: GlobalId {gid!r} is not an element of {self.model.source or 'the model'}")
+        yield iri, DICP.hasObject, element
+        if activity.activity == "assemble":
+            yield iri, DICP.hasOutputObject, element
+        if activity.node_id and activity.node_id in interfaces:
+            yield iri, DICP.hasObject, self.graph.interface_iri(activity.node_id)
+
+
+def _position(iri: URIRef, owner: URIRef, link: URIRef, xyz: Iterable[float]) -> Iterator[Triple]:
+    x, y, z = (float(v) for v in xyz)
+    yield owner, link, iri
+    yield iri, RDF.type, DICE.CartesianPosition
+    yield iri, DICE.hasX, _literal(x)
+    yield iri, DICE.hasY, _literal(y)
+    yield iri, DICE.hasZ, _literal(z)

@@ -1,0 +1,215 @@
+"""Triple stores behind the construction graph: in-memory rdflib (default) or on-disk Oxigraph.
+
+Both offer the same small interface (add, replace one property, SPARQL SELECT/ASK with bound
+variables, serialize), and both answer the project's queries identically (tested). For a graph held
+by a remote SPARQL 1.1 endpoint (Fuseki, GraphDB, an Oxigraph server), wrap rdflib's
+``SPARQLUpdateStore`` in an ``rdflib.Graph`` and pass it to :class:`RdflibStore` (see docs/lbd.md).
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Any, Iterable, Protocol
+
+import rdflib
+from rdflib.term import Node
+
+from bimrobot.errors import InputError
+from bimrobot.io import atomic_output_file
+
+Triple = tuple[rdflib.URIRef, rdflib.URIRef, Node]
+
+#: Serialization formats: the user's name -> (rdflib format, file suffix).
+FORMATS = {"turtle": ("turtle", ".ttl"), "json-ld": ("json-ld", ".jsonld"), "ntriples": ("nt", ".nt")}
+SUFFIX_FORMATS = {".ttl": "turtle", ".jsonld": "json-ld", ".json": "json-ld", ".nt": "ntriples"}
+
+
+def format_for(path: str | os.PathLike, format: str | None = None) -> str:
+    """The serialization format named by ``format`` or guessed from the file suffix."""
+    if format is None:
+        suffix = Path(path).suffix.lower()
+        if suffix not in SUFFIX_FORMATS:
+            raise InputError(f"cannot tell the RDF format of {path} from its suffix: use .ttl, .jsonld or .nt")
+        return SUFFIX_FORMATS[suffix]
+    if format not in FORMATS:
+        raise InputError(f"unknown RDF format {format!r}: use one of {', '.join(FORMATS)}")
+    return format
+
+
+def python_value(term: Node | None) -> Any:
+    """An rdflib term as a plain Python value: IRIs as str, literals as int/float/bool/str."""
+    if term is None:
+        return None
+    if isinstance(term, rdflib.Literal):
+        value = term.toPython()
+        return value if isinstance(value, (int, float, bool, str)) else str(term)
+    return str(term)
+
+
+class TripleStore(Protocol):
+    """What the construction graph needs from a store."""
+
+    def add_all(self, triples: Iterable[Triple]) -> None: ...
+
+    def replace(self, subject: rdflib.URIRef, predicate: rdflib.URIRef, value: Node) -> None: ...
+
+    def value(self, subject: rdflib.URIRef, predicate: rdflib.URIRef) -> Node | None: ...
+
+    def select(self, sparql: str) -> list[dict[str, Any]]: ...
+
+    def serialize(self, path: Path, format: str, prefixes: dict[str, str]) -> None: ...
+
+    def __len__(self) -> int: ...
+
+    def close(self) -> None: ...
+
+
+class RdflibStore:
+    """An ``rdflib.Graph`` (in memory by default; any rdflib store plugin works)."""
+
+    def __init__(self, graph: rdflib.Graph | None = None):
+        self.graph = graph if graph is not None else rdflib.Graph()
+
+    def add_all(self, triples: Iterable[Triple]) -> None:
+        self.graph.addN((s, p, o, self.graph) for s, p, o in triples)
+
+    def replace(self, subject, predicate, value) -> None:
+        self.graph.set((subject, predicate, value))
+
+    def value(self, subject, predicate):
+        return self.graph.value(subject, predicate)
+
+    def select(self, sparql: str) -> list[dict[str, Any]]:
+        result = self.graph.query(sparql)
+        if result.type == "ASK":
+            return [{"ask": bool(result.askAnswer)}]
+        names = [str(v) for v in result.vars]
+        return [{name: python_value(row[i]) for i, name in enumerate(names)} for row in result]
+
+    def serialize(self, path: Path, format: str, prefixes: dict[str, str]) -> None:
+        for prefix, namespace in prefixes.items():
+            self.graph.bind(prefix, namespace, override=True)
+        if format == "json-ld":
+            self.graph.serialize(destination=str(path), format="json-ld", context=dict(prefixes), auto_compact=True)
+        else:
+            self.graph.serialize(destination=str(path), format=FORMATS[format][0])
+
+    def __len__(self) -> int:
+        return len(self.graph)
+
+    def close(self) -> None:
+        self.graph.close()
+
+
+class OxigraphStore:
+    """A persistent pyoxigraph ``Store`` in a directory (default graph only)."""
+
+    def __init__(self, path: str | os.PathLike):
+        from bimrobot.errors import require_extra
+
+        self.ox = require_extra("pyoxigraph", "oxigraph")
+        self.path = Path(path)
+        try:
+            self.store = self.ox.Store(str(self.path))
+        except OSError as exc:
+            raise InputError(f"cannot open the Oxigraph store {self.path}: {exc}") from None
+
+    # rdflib terms <-> pyoxigraph terms
+    def _term(self, term: Node):
+        if isinstance(term, rdflib.URIRef):
+            return self.ox.NamedNode(str(term))
+        if isinstance(term, rdflib.Literal):
+            if term.language:
+                return self.ox.Literal(str(term), language=term.language)
+            datatype = term.datatype or rdflib.XSD.string
+            return self.ox.Literal(str(term), datatype=self.ox.NamedNode(str(datatype)))
+        if isinstance(term, rdflib.BNode):
+            return self.ox.BlankNode(str(term))
+        raise TypeError(f"cannot store {term!r}")
+
+    def _rdflib(self, term) -> Node | None:
+        if term is None:
+            return None
+        if isinstance(term, self.ox.NamedNode):
+            return rdflib.URIRef(term.value)
+        if isinstance(term, self.ox.Literal):
+            if term.language:
+                return rdflib.Literal(term.value, lang=term.language)
+            return rdflib.Literal(term.value, datatype=rdflib.URIRef(term.datatype.value))
+        return rdflib.BNode(term.value)
+
+    def add_all(self, triples: Iterable[Triple]) -> None:
+        quad = self.ox.Quad
+        self.store.extend(quad(self._term(s), self._term(p), self._term(o)) for s, p, o in triples)
+
+    def replace(self, subject, predicate, value) -> None:
+        s, p = self._term(subject), self._term(predicate)
+        for old in list(self.store.quads_for_pattern(s, p, None, self.ox.DefaultGraph())):
+            self.store.remove(old)
+        self.store.add(self.ox.Quad(s, p, self._term(value)))
+
+    def value(self, subject, predicate):
+        for quad in self.store.quads_for_pattern(self._term(subject), self._term(predicate), None, self.ox.DefaultGraph()):
+            return self._rdflib(quad.object)
+        return None
+
+    def select(self, sparql: str) -> list[dict[str, Any]]:
+        result = self.store.query(sparql)
+        if isinstance(result, self.ox.QueryBoolean):
+            return [{"ask": bool(result)}]
+        names = [v.value for v in result.variables]
+        return [{name: python_value(self._rdflib(solution[name])) for name in names} for solution in result]
+
+    def serialize(self, path: Path, format: str, prefixes: dict[str, str]) -> None:
+        # Through rdflib, so both stores write the same Turtle / JSON-LD (prefixes, compaction).
+        graph = rdflib.Graph()
+        graph.addN(
+            (self._rdflib(q.subject), self._rdflib(q.predicate), self._rdflib(q.object), graph)
+            for q in self.store.quads_for_pattern(None, None, None, self.ox.DefaultGraph())
+        )
+        RdflibStore(graph).serialize(path, format, prefixes)
+
+    def __len__(self) -> int:
+        return len(self.store)
+
+    def close(self) -> None:
+        self.store.flush()
+        del self.store
+
+
+def open_store(kind: str = "memory", path: str | os.PathLike | None = None) -> TripleStore:
+    """A new empty store: ``"memory"`` (rdflib) or ``"oxigraph"`` (persistent, in directory ``path``)."""
+    if kind == "memory":
+        return RdflibStore()
+    if kind == "oxigraph":
+        if path is None:
+            raise InputError("the oxigraph store needs a directory: give --store-path (or path=)")
+        if Path(path).exists() and (not Path(path).is_dir() or any(Path(path).iterdir())):
+            raise InputError(f"the Oxigraph store directory {path} is not empty: remove it or choose another")
+        return OxigraphStore(path)
+    raise InputError(f"unknown store {kind!r}: use 'memory' or 'oxigraph'")
+
+
+def load_store(path: str | os.PathLike) -> TripleStore:
+    """An existing graph: an Oxigraph store directory, or a Turtle / JSON-LD / N-Triples file read into memory."""
+    path = Path(path)
+    if path.is_dir():
+        return OxigraphStore(path)
+    if not path.is_file():
+        raise InputError(f"the graph {path} does not exist")
+    graph = rdflib.Graph()
+    try:
+        graph.parse(str(path), format=FORMATS[format_for(path)][0])
+    except InputError:
+        raise
+    except Exception as exc:  # rdflib raises parser-specific exceptions
+        raise InputError(f"cannot parse the graph {path}: {exc}".splitlines()[0]) from None
+    return RdflibStore(graph)
+
+
+def write_atomically(store: TripleStore, path: str | os.PathLike, format: str, prefixes: dict[str, str]) -> Path:
+    """Serialize ``store`` to ``path`` via a temporary file, so a failure leaves nothing half-written."""
+    with atomic_output_file(path) as tmp:
+        store.serialize(tmp, format, prefixes)
+    return Path(path)

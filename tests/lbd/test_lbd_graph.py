@@ -1,0 +1,266 @@
+"""The construction graph of the chapter-4 steel frame: BOT topology, DiCon activities, live states,
+the shipped SPARQL queries on both stores, and ontology conformance."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+import rdflib
+import rdflib.compare
+from rdflib import RDF
+
+from bimrobot.errors import InputError
+from bimrobot.lbd.graph import BOT, BRC, DICE, DICP, VOCABULARY_FILE, ConstructionGraph, build_graph, query_names
+from bimrobot.lbd.schedule import load_schedule_csv, load_schedule_ifc
+
+
+@pytest.fixture(scope="module")
+def schedule(frame_schedule_csv, frame_model):
+    return load_schedule_csv(frame_schedule_csv, model=frame_model)
+
+
+@pytest.fixture
+def graph(frame_model, schedule):
+    return build_graph(frame_model, schedule)
+
+
+def rdflib_graph(graph: ConstructionGraph) -> rdflib.Graph:
+    return graph.store.graph
+
+
+def test_bot_topology_site_building_storeys_elements(graph, frame_model):
+    g = rdflib_graph(graph)
+    (site,) = g.subjects(RDF.type, BOT.Site)
+    (building,) = g.objects(site, BOT.hasBuilding)
+    storeys = set(g.objects(building, BOT.hasStorey))
+    assert len(storeys) == 2 and all((s, RDF.type, BOT.Storey) in g for s in storeys)
+    contained = {e for s in storeys for e in g.objects(s, BOT.containsElement)}
+    assert len(contained) == len(frame_model.elements) == 88
+    assert set(g.subjects(RDF.type, BOT.Element)) == contained
+
+
+def test_element_properties_weight_class_position(graph, frame_model):
+    column = frame_model.by_class("IfcColumn")[0]
+    g = rdflib_graph(graph)
+    iri = graph.element_iri(column.global_id)
+    assert g.value(iri, BRC.ifcClass).toPython() == "IfcColumn"
+    assert g.value(iri, BRC.weightKg).toPython() == pytest.approx(289.81)  # W250x73, 4 m (thesis table)
+    position = g.value(iri, DICE.hasQuality)
+    assert (position, RDF.type, DICE.CartesianPosition) in g
+    xyz = [g.value(position, p).toPython() for p in (DICE.hasX, DICE.hasY, DICE.hasZ)]
+    assert xyz == pytest.approx(column.position.tolist())
+
+
+def test_connections_are_interfaces_of_both_elements_with_their_bolts(graph, frame_model):
+    g = rdflib_graph(graph)
+    interfaces = set(g.subjects(RDF.type, BOT.Interface))
+    assert len(interfaces) == len(frame_model.connections) == 24
+    connection = frame_model.connections[0]
+    iri = graph.interface_iri(f"{connection.relating_id}:{connection.related_id}")
+    assert set(g.objects(iri, BOT.interfaceOf)) == {
+        graph.element_iri(connection.relating_id),
+        graph.element_iri(connection.related_id),
+    }
+    assert {graph.id_of(b) for b in g.objects(iri, BRC.realizingElement)} == set(connection.realizing_ids)
+
+
+def test_iris_percent_encode_dollar(graph, frame_model):
+    with_dollar = next(gid for gid in frame_model.elements if "$" in gid)
+    iri = graph.element_iri(with_dollar)
+    assert "$" not in iri and "%24" in iri
+    assert graph.id_of(iri) == with_dollar
+
+
+def test_activities_with_sequence_interval_object_and_robot(graph, schedule):
+    g = rdflib_graph(graph)
+    activities = set(g.subjects(RDF.type, DICP.Activity))
+    assert len(activities) == len(schedule) == 28
+    a = schedule.activities[2]  # assemble of the first column on its base plate node
+    iri = graph.activity_iri(a.id)
+    assert [graph.id_of(p) for p in g.objects(iri, DICE.precededBy)] == list(a.predecessors)
+    interval = g.value(iri, DICP.occupiesTimeInterval)
+    assert (interval, RDF.type, DICE.TimeInterval) in g
+    assert g.value(g.value(interval, DICE.hasStart), BRC.atSecond).toPython() == a.start
+    assert g.value(g.value(interval, DICE.hasEnd), BRC.atSecond).toPython() == a.finish
+    assert g.value(iri, DICP.hasOutputObject) == graph.element_iri(a.global_id)
+    assert graph.interface_iri(a.node_id) in set(g.objects(iri, DICP.hasObject))
+    assert graph.query("activity_robot", activityId=a.id) == [
+        {"robot": "Assembly 1", "robotIri": str(graph.iri("robot", "Assembly 1"))}
+    ]
+    transport = schedule.activities[0]
+    assert g.value(graph.activity_iri(transport.id), DICP.hasOutputObject) is None  # transport outputs nothing new
+
+
+def test_live_states_drive_ready_activities(graph, schedule):
+    first = [a.id for a in schedule.ready(done=[])]
+    ready = graph.query("ready_activities")
+    assert [r["activityId"] for r in ready] == first
+    assert ready[0] == {"activityId": "A0001", "activityType": "transport", "globalId": schedule["A0001"].global_id,
+                        "robot": "Transport 1", "start": 0.0}
+    graph.set_activity_state("A0001", "Started")
+    assert graph.activity_state("A0001") == "Started"
+    assert "A0001" not in [r["activityId"] for r in graph.query("ready_activities")]
+    graph.set_activity_state("A0001", "Completed")
+    now_ready = [r["activityId"] for r in graph.query("ready_activities")]
+    assert now_ready == [a.id for a in schedule.ready(done=["A0001"])]
+    assert "A0002" in now_ready
+
+
+def test_component_state_updates_and_progress(graph, schedule):
+    column = schedule["A0001"].global_id
+    assert graph.component_state(column) == "OnYard"
+    for state in ("InTransit", "Arrived", "InLocation", "WorkingInPositioning", "PositionFixed"):
+        graph.set_component_state(column, state)
+    assert graph.query("component_state", globalId=column) == [{"state": "PositionFixed", "ifcClass": "IfcColumn"}]
+    assert graph.query("progress") == [
+        {"state": "OnYard", "components": 87},
+        {"state": "PositionFixed", "components": 1},
+    ]
+    node = schedule["A0003"].node_id
+    assert graph.component_state(node) is None  # nodes get a state once the build reaches them
+    graph.set_component_state(node, "Assembled")
+    assert graph.component_state(node) == "Assembled"
+
+
+def test_bad_state_or_id_is_an_input_error(graph, schedule):
+    with pytest.raises(InputError, match="unknown component state 'Flying'"):
+        graph.set_component_state(schedule["A0001"].global_id, "Flying")
+    with pytest.raises(InputError, match="no element or connection node 'nope'"):
+        graph.set_component_state("nope", "Assembled")
+    with pytest.raises(InputError, match="no activity 'A9999'"):
+        graph.set_activity_state("A9999", "Completed")
+    with pytest.raises(InputError, match="unknown activity state 'Done'"):
+        graph.set_activity_state("A0001", "Done")
+
+
+def test_storey_components_in_construction_order(graph, schedule, frame_model):
+    level1 = frame_model.storeys[0].global_id
+    rows = graph.query("storey_components", storeyId=level1)
+    scheduled = [r["globalId"] for r in rows if r["firstStart"] is not None]
+    expected = sorted({a.global_id for a in schedule if a.storey == level1},
+                      key=lambda gid: (schedule.of_component(gid)[0].start, gid))
+    assert scheduled == expected
+    assert all(r["firstStart"] is None for r in rows[len(scheduled):])  # unscheduled ones last
+    assert len(rows) == sum(1 for e in frame_model.elements.values() if e.storey_id == level1)
+
+
+def test_connected_elements_of_a_column(graph, frame_model):
+    column = frame_model.by_class("IfcColumn")[0]
+    expected = {c.relating_id if c.related_id == column.global_id else c.related_id
+                for c in frame_model.connections_of(column.global_id) if column.global_id in (c.relating_id, c.related_id)}
+    rows = graph.query("connected_elements", globalId=column.global_id)
+    assert {r["connectedId"] for r in rows} == expected
+    assert {frame_model.element(r["connectedId"]).ifc_class for r in rows} == {"IfcPlate", "IfcMember"}  # base plate, clip angles
+    assert all(r["realizingCount"] >= 2 for r in rows)  # bolted
+
+
+def test_component_activities_carry_rcan_properties(graph, schedule, frame_model):
+    column = schedule["A0001"].global_id
+    rows = graph.query("component_activities", globalId=column)
+    assert [r["activityId"] for r in rows] == [a.id for a in schedule.of_component(column)]
+    assert rows[0]["weightKg"] == pytest.approx(289.81)
+    assert (rows[0]["targetX"], rows[0]["targetY"], rows[0]["targetZ"]) == pytest.approx(schedule["A0001"].target)
+    assert {r["state"] for r in rows} == {"NotStarted"}
+
+
+def test_every_ontology_term_is_defined(graph, ontology_file):
+    definitions = rdflib.Graph()
+    for name in ("bot.ttl", "dicon-entities-0.5.ttl", "dicon-processes-0.5.ttl"):
+        definitions.parse(ontology_file(name), format="turtle")
+    definitions.parse(VOCABULARY_FILE, format="turtle")
+    defined = set(definitions.subjects(RDF.type, None))
+    g = rdflib_graph(graph)
+    used = set(g.predicates()) | {o for o in g.objects(None, RDF.type)}
+    used |= {o for o in g.objects() if isinstance(o, rdflib.URIRef) and str(o).startswith(str(BRC))}
+    ours = {t for t in used if any(str(t).startswith(str(ns)) for ns in (BOT, DICE, DICP, BRC))}
+    assert {BOT.Element, BOT.Interface, DICP.Activity, DICP.occupiesTimeInterval, DICE.hasEntityState} <= ours
+    assert sorted(ours - defined) == []
+
+
+def test_turtle_and_jsonld_round_trip(graph, tmp_path):
+    ttl = graph.serialize(tmp_path / "frame.ttl")
+    jsonld = graph.serialize(tmp_path / "frame.jsonld")
+    original = rdflib_graph(graph)
+    for path, fmt in ((ttl, "turtle"), (jsonld, "json-ld")):
+        again = rdflib.Graph().parse(path, format=fmt)
+        assert len(again) == len(original)
+        assert rdflib.compare.isomorphic(again, original)
+    assert "@prefix bot: <https://w3id.org/bot#>" in ttl.read_text()
+    assert json.loads(jsonld.read_text())["@context"]["dicp"] == str(DICP)
+    reopened = ConstructionGraph.open(ttl)
+    assert reopened.query("progress") == graph.query("progress")
+
+
+def test_serialize_refuses_unknown_format(graph, tmp_path):
+    with pytest.raises(InputError, match="cannot tell the RDF format"):
+        graph.serialize(tmp_path / "frame.xyz")
+    assert not list(tmp_path.iterdir())
+
+
+QUERY_BINDINGS = {
+    "activity_robot": {"activityId": "A0005"},
+    "component_activities": {"globalId": None},
+    "component_state": {"globalId": None},
+    "connected_elements": {"globalId": None},
+    "progress": {},
+    "ready_activities": {},
+    "storey_components": {"storeyId": "storey"},
+}
+
+
+def test_every_shipped_query_is_covered():
+    assert sorted(QUERY_BINDINGS) == query_names()
+
+
+@pytest.mark.parametrize("name", sorted(QUERY_BINDINGS))
+def test_oxigraph_store_answers_like_rdflib_and_persists(name, frame_model, schedule, tmp_path):
+    pytest.importorskip("pyoxigraph")
+    column = schedule["A0001"].global_id
+    bindings = {k: (column if v is None else frame_model.storeys[0].global_id if v == "storey" else v)
+                for k, v in QUERY_BINDINGS[name].items()}
+    memory = build_graph(frame_model, schedule)
+    oxigraph = build_graph(frame_model, schedule, store="oxigraph", path=tmp_path / "store")
+    for g in (memory, oxigraph):
+        g.set_activity_state("A0001", "Completed")
+        g.set_component_state(column, "Arrived")
+    expected = memory.query(name, **bindings)
+    assert expected, f"{name} returned nothing"
+    assert oxigraph.query(name, **bindings) == expected
+    assert len(oxigraph) == len(memory)
+    oxigraph.close()
+    with ConstructionGraph.open(tmp_path / "store") as reopened:  # persisted on disk, states included
+        assert reopened.query(name, **bindings) == expected
+        assert reopened.component_state(column) == "Arrived"
+
+
+def test_oxigraph_needs_an_empty_directory(frame_model, tmp_path):
+    (tmp_path / "full").mkdir()
+    (tmp_path / "full" / "x").write_text("x")
+    with pytest.raises(InputError, match="is not empty"):
+        build_graph(frame_model, store="oxigraph", path=tmp_path / "full")
+    with pytest.raises(InputError, match="needs a directory"):
+        build_graph(frame_model, store="oxigraph")
+
+
+def test_ifc_work_schedule_graph(shared_ifc):
+    from bimrobot.bim import load_model
+
+    path = shared_ifc("construction-scheduling-task.ifc")
+    model = load_model(path)
+    graph = build_graph(model, load_schedule_ifc(path, model=model))
+    g = rdflib_graph(graph)
+    assert len(set(g.subjects(RDF.type, DICP.Activity))) == 8
+    assert len(list(g.triples((None, DICE.precededBy, None)))) == 7
+    assert len(list(g.triples((None, DICP.hasSubActivity, None)))) == 7  # 2 under the root, 1 slab, 4 walls
+    walls = {graph.id_of(o) for o in g.objects(None, DICP.hasOutputObject)} & {e.global_id for e in model.by_class("IfcWall")}
+    assert len(walls) == 4
+    assert [r["activityId"] for r in graph.query("ready_activities")] == ["3vesIabXX7guLU5lIRuXh7"]  # Slab #1 first
+
+
+def test_ifcunit_connections_become_interfaces(shared_ifc):
+    from bimrobot.bim import load_model
+
+    model = load_model(shared_ifc("ifcUnit.ifc"))
+    graph = build_graph(model)
+    assert len(set(rdflib_graph(graph).subjects(RDF.type, BOT.Interface))) == 36

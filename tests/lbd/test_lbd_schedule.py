@@ -1,0 +1,128 @@
+"""Schedule import: the CSV of docs/conventions.md (validated, with file and line in every error) and
+the IFC work schedule of construction-scheduling-task.ifc."""
+
+from __future__ import annotations
+
+import pytest
+
+from bimrobot.errors import InputError
+from bimrobot.lbd.schedule import load_schedule_csv, load_schedule_ifc, write_schedule_csv
+
+HEADER = "Identification,Name,PredefinedType,Activity,GlobalId,Robot,Start,Finish,Duration,Predecessors,TargetX,TargetY,TargetZ,Storey\n"
+GOOD_ROWS = [
+    "A1,Transport C1,LOGISTIC,transport,COL,Transport 1,0,100,100,,1.0,2.0,0.025,L1",
+    "A2,Position C1,INSTALLATION,position,COL,Positioning 1,100,220,120,A1,1.0,2.0,0.025,L1",
+    "A3,Assemble PLATE:COL,CONSTRUCTION,assemble,COL,Assembly 1,220,280,60,A2,1.0,2.0,0.025,L1",
+    "A4,Transport B1,LOGISTIC,transport,BEAM,Transport 1,100,200,100,,3.5,0,4.0,L2",
+]
+
+
+def write_csv(tmp_path, rows, header=HEADER):
+    path = tmp_path / "schedule.csv"
+    path.write_text(header + "\n".join(rows) + "\n", encoding="utf-8")
+    return path
+
+
+def test_csv_rows_become_activities_with_times_sequence_robot_and_target(tmp_path):
+    schedule = load_schedule_csv(write_csv(tmp_path, GOOD_ROWS))
+    assert [a.id for a in schedule] == ["A1", "A2", "A3", "A4"]
+    a3 = schedule["A3"]
+    assert (a3.activity, a3.global_id, a3.robot) == ("assemble", "COL", "Assembly 1")
+    assert (a3.start, a3.finish, a3.duration) == (220.0, 280.0, 60.0)
+    assert a3.predecessors == ("A2",)
+    assert a3.target == (1.0, 2.0, 0.025)
+    assert a3.node_id == "PLATE:COL"  # the connection node named in an assemble row
+    assert schedule["A1"].node_id is None
+    assert schedule.makespan == 280.0
+    assert [a.id for a in schedule.of_component("COL")] == ["A1", "A2", "A3"]
+    assert [a.id for a in schedule.ready(done=[])] == ["A1", "A4"]
+    assert [a.id for a in schedule.ready(done=["A1", "A4"])] == ["A2"]
+    assert [a.id for a in schedule.topological_order()] == ["A1", "A2", "A4", "A3"]
+
+
+def test_csv_round_trip_keeps_every_field(frame_schedule_csv, frame_model, tmp_path):
+    schedule = load_schedule_csv(frame_schedule_csv, model=frame_model)
+    again = load_schedule_csv(write_schedule_csv(schedule, tmp_path / "again.csv"), model=frame_model)
+    assert again.activities == schedule.activities
+    assert len(schedule) == 28  # 4 columns and 4 beams x (transport, position, assemble per node)
+
+
+@pytest.mark.parametrize(
+    "row_index, bad_row, message",
+    [
+        (1, "A2,x,INSTALLATION,position,COL,P,abc,220,,A1,,,,", "line 3: Start 'abc' is not a number of seconds"),
+        (1, "A2,x,INSTALLATION,position,COL,P,100,-5,,A1,,,,", "line 3: Finish '-5' must be a finite number"),
+        (1, "A2,x,INSTALLATION,position,COL,P,220,100,,A1,,,,", "line 3: Finish 100.0 s is before Start 220.0 s"),
+        (1, "A2,x,INSTALLATION,position,COL,P,100,220,99,A1,,,,", "line 3: Duration 99.0 s is not Finish - Start"),
+        (1, "A1,x,INSTALLATION,position,COL,P,100,220,,,,,,", "line 3: Identification 'A1' is already used on line 2"),
+        (1, "A2,x,INSTALLATION,position,COL,P,100,220,,A9,,,,", "line 3: predecessor 'A9' of A2 is not an activity"),
+        (1, "A2,x,INSTALLATION,position,COL,P,50,220,,A1,,,,", "line 3: A2 starts at 50.0 s, before its predecessor A1 finishes at 100.0 s"),
+        (1, "A2,x,INSTALLATION,fly,COL,P,100,220,,A1,,,,", "line 3: Activity 'fly' is not one of transport, position, assemble"),
+        (1, "A2,x,BOGUS,position,COL,P,100,220,,A1,,,,", "line 3: PredefinedType 'BOGUS' is not an IfcTaskTypeEnum"),
+        (1, "A2,x,INSTALLATION,position,,P,100,220,,A1,,,,", "line 3: GlobalId is empty"),
+        (1, "A2,x,INSTALLATION,position,COL,P,100,220,,A1,1,two,3,", "line 3: TargetX/TargetY/TargetZ"),
+        (1, "A2,x,INSTALLATION,position,COL,P,100,220,,A2,,,,", "line 3: activity A2 lists itself as a predecessor"),
+    ],
+)
+def test_bad_csv_rows_name_file_and_line(tmp_path, row_index, bad_row, message):
+    rows = list(GOOD_ROWS)
+    rows[row_index] = bad_row
+    path = write_csv(tmp_path, rows)
+    with pytest.raises(InputError) as error:
+        load_schedule_csv(path)
+    assert str(path) in str(error.value)
+    assert message in str(error.value)
+
+
+def test_cycle_in_predecessors_is_reported_with_its_activities(tmp_path):
+    rows = [
+        "A1,x,LOGISTIC,transport,COL,T,0,0,,A3,,,,",
+        "A2,x,INSTALLATION,position,COL,P,0,0,,A1,,,,",
+        "A3,x,CONSTRUCTION,assemble,COL,A,0,0,,A2,,,,",
+    ]
+    with pytest.raises(InputError, match=r"line \d: the predecessors form a cycle A\d -> A\d -> A\d -> A\d"):
+        load_schedule_csv(write_csv(tmp_path, rows))
+
+
+def test_unknown_globalid_is_checked_against_the_model(tmp_path, frame_model):
+    storey = frame_model.storeys[0].global_id
+    column = frame_model.by_class("IfcColumn")[0].global_id
+    rows = [
+        f"A1,x,LOGISTIC,transport,{column},T,0,10,,,,,,{storey}",
+        f"A2,x,LOGISTIC,transport,3XXXXXXXXXXXXXXXXXXXXX,T,10,20,,A1,,,,{storey}",
+    ]
+    with pytest.raises(InputError, match=r"line 3: GlobalId '3XXXXXXXXXXXXXXXXXXXXX' is not an element of .*steel_frame.ifc"):
+        load_schedule_csv(write_csv(tmp_path, rows), model=frame_model)
+    rows[1] = f"A2,x,LOGISTIC,transport,{column},T,10,20,,A1,,,,NOSTOREY"
+    with pytest.raises(InputError, match="line 3: Storey 'NOSTOREY' is not a storey"):
+        load_schedule_csv(write_csv(tmp_path, rows), model=frame_model)
+
+
+def test_missing_column_and_missing_file(tmp_path):
+    path = write_csv(tmp_path, ["A1,transport,COL,0"], header="Identification,Activity,GlobalId,Start\n")
+    with pytest.raises(InputError, match=r"line 1: missing column\(s\) Finish"):
+        load_schedule_csv(path)
+    with pytest.raises(InputError, match="cannot read the schedule"):
+        load_schedule_csv(tmp_path / "absent.csv")
+
+
+def test_ifc_work_schedule_tasks_sequences_and_assigned_elements(shared_ifc):
+    schedule = load_schedule_ifc(shared_ifc("construction-scheduling-task.ifc"))
+    # 8 IfcTask: 5 leaves (slab, 4 walls) and 3 summary tasks (Ground Level, Slab, Wall).
+    assert len(schedule.activities) == 5 and len(schedule.phases) == 3
+    assert sorted(p.name for p in schedule.phases) == ["Ground Level", "Slab (Standard)", "Wall (Standard)"]
+    assert sum(len(a.predecessors) for a in schedule.activities) == 7  # the 7 FINISH_START IfcRelSequence
+    names = [a.name for a in schedule.topological_order()]
+    assert names == ["Slab #1", "Wall #1", "Wall #2", "Wall #3", "Wall #4"]
+    assert schedule.epoch == "2010-09-20T08:00:00"
+    wall2 = next(a for a in schedule if a.name == "Wall #2")
+    assert (wall2.start, wall2.finish) == (2 * 86400.0, 2 * 86400.0 + 8 * 3600.0)  # 22 Sep 08:00-16:00
+    assert wall2.global_id == "2qqyx9mIf27vQuEGt7ts8$"  # the IfcWall the task is assigned to
+    assert wall2.storey == "3nYYuCp$XC4vhvJ2cMbpd2"
+    assert wall2.activity == "assemble"
+    assert {schedule[p].name for p in wall2.predecessors} == {"Slab #1", "Wall #1"}
+
+
+def test_ifc_without_tasks_is_an_input_error(shared_ifc):
+    with pytest.raises(InputError, match="has no IfcTask"):
+        load_schedule_ifc(shared_ifc("column-extruded-solid.ifc"))
