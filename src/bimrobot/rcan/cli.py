@@ -1,5 +1,206 @@
-"""Sub-commands of the rcan part (registered by bimrobot.cli)."""
+"""Sub-commands of the rcan part (registered by bimrobot.cli): ``rcan run``, ``rcan executor``,
+``rcan capabilities`` and ``rcan robot-node`` (ROS 2)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from dataclasses import asdict
+
+from bimrobot.errors import InputError
+
+RUN_EXAMPLES = """examples:
+  bimrobot rcan run --experiment 1 --backend sim          # thesis experiment 1, prints the interaction log
+  bimrobot rcan run --experiment 2 --backend ros2         # the same against the shipped ROS 2 robot node
+  bimrobot rcan run --schedule sim/schedule.csv --model frame.ifc --backend sim --state-db run.sqlite
+      (kill it at any time; the same command resumes without losing or repeating an activity)
+  bimrobot rcan run --experiment 3 --redis redis://127.0.0.1:6379/0 --failure-probability 0.3 --seed 7
+"""
 
 
 def register(subparsers) -> None:
     """Add this part's sub-commands to the bimrobot parser."""
+    rcan = subparsers.add_parser("rcan", help="RCAN: drive robots from construction activities (thesis ch. 5)",
+                                 description="Robot Construction Action Nodes: the middle layer between smart "
+                                             "components and robots.", epilog=RUN_EXAMPLES,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    commands = rcan.add_subparsers(dest="rcan_command", metavar="RCAN_COMMAND")
+    rcan.set_defaults(func=lambda args: (rcan.print_help(), 1)[1])
+
+    run = commands.add_parser("run", help="run an experiment or a whole schedule through RCAN",
+                              description="Run the thesis' experiments or a schedule CSV through RCAN and print "
+                                          "the interaction log (component publishes, node instantiated, robot "
+                                          "executes, result, new state).",
+                              epilog=RUN_EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter)
+    what = run.add_mutually_exclusive_group(required=True)
+    what.add_argument("--experiment", type=int, choices=(1, 2, 3),
+                      help="1: column within reach; 2: column that needs transport; 3: footing")
+    what.add_argument("--schedule", help="schedule CSV (docs/conventions.md) to execute")
+    run.add_argument("--model", help="IFC model of the schedule (component weights, GlobalId check)")
+    _common(run)
+    run.add_argument("--max-attempts", type=int, default=3, help="attempts before a failure is escalated (default 3)")
+    run.add_argument("--no-local-executors", action="store_true",
+                     help="do not start executors here; `bimrobot rcan executor` processes serve the robots (needs --redis)")
+    run.add_argument("--yard", type=float, nargs=3, default=(-10.0, -10.0, 0.0), metavar=("X", "Y", "Z"),
+                     help="first yard slot of a schedule's components, metres (default -10 -10 0)")
+    run.add_argument("--standoff", type=float, default=1.0, help="base stand-off from pick/install poses, m (default 1)")
+    run.add_argument("--report", help="also write the run report (JSON) to this file")
+    run.add_argument("-q", "--quiet", action="store_true", help="no interaction log, only the summary")
+    run.set_defaults(func=_run)
+
+    executor = commands.add_parser("executor", help="serve robots' RCAN nodes from Redis in this process",
+                                   description="A robot executor in its own process: takes RCAN nodes for its "
+                                               "robots from Redis, drives the backend, sends results back.",
+                                   epilog="example:\n  bimrobot rcan executor --redis redis://127.0.0.1:6379/0 "
+                                          "--backend sim --state-db site.sqlite",
+                                   formatter_class=argparse.RawDescriptionHelpFormatter)
+    _common(executor)
+    executor.add_argument("--robot", action="append", help="robot to serve (repeatable; default: all)")
+    executor.set_defaults(func=_executor)
+
+    caps = commands.add_parser("capabilities", help="print the capability table (Table 5.2) and robots",
+                               epilog="example:\n  bimrobot rcan capabilities --capabilities my.yaml",
+                               formatter_class=argparse.RawDescriptionHelpFormatter)
+    caps.add_argument("--capabilities", help="capability YAML (default: the built-in one)")
+    caps.set_defaults(func=_capabilities)
+
+    node = commands.add_parser("robot-node", help="run the shipped ROS 2 robot node (kinematic robots)",
+                               description="A ROS 2 node serving the ConstructionActivity action for every robot "
+                                           "in the capability table, executing activities on kinematic robots.",
+                               epilog="example:\n  bimrobot rcan robot-node --time-scale 0.01",
+                               formatter_class=argparse.RawDescriptionHelpFormatter)
+    node.add_argument("--capabilities", help="capability YAML (default: the built-in one)")
+    node.add_argument("--time-scale", type=float, default=0.0, help="real seconds per simulated second (default 0)")
+    node.add_argument("--failure-probability", type=float, default=0.0, help="chance an activity fails (default 0)")
+    node.add_argument("--seed", type=int, default=0, help="seed of the failure draws (default 0)")
+    node.add_argument("--state-db", default=":memory:", help="SQLite file for the robots' world (default in memory)")
+    node.set_defaults(func=_robot_node)
+
+
+def _common(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--backend", choices=("sim", "ros2"), default="sim", help="executor backend (default sim)")
+    parser.add_argument("--capabilities", help="capability YAML (default: the built-in Table 5.2 and robots)")
+    parser.add_argument("--state-db", default=":memory:",
+                        help="SQLite file for the journal and the simulated site; a rerun resumes (default in memory)")
+    parser.add_argument("--redis", help="Redis URL for the broker (default: in-process)")
+    parser.add_argument("--time-scale", type=float, default=0.0,
+                        help="sim: real seconds slept per simulated second (default 0, as fast as possible)")
+    parser.add_argument("--failure-probability", type=float, default=0.0, help="sim: chance an activity fails (default 0)")
+    parser.add_argument("--seed", type=int, default=0, help="sim: seed of the failure draws (default 0)")
+
+
+def _backend_options(args) -> dict:
+    if not 0.0 <= args.failure_probability <= 1.0:
+        raise InputError(f"--failure-probability must be between 0 and 1, got {args.failure_probability}")
+    if args.time_scale < 0:
+        raise InputError(f"--time-scale must be non-negative, got {args.time_scale}")
+    if args.backend == "sim":
+        return {"time_scale": args.time_scale, "failure_probability": args.failure_probability, "seed": args.seed}
+    return {}
+
+
+def _load_plan(args):
+    from bimrobot.rcan.plans import experiment, plan_from_schedule
+
+    if args.experiment:
+        exp = experiment(args.experiment)
+        print(f"== RCAN experiment {exp.number}: {exp.title}", flush=True)
+        return list(exp.activities)
+    from bimrobot.lbd.schedule import load_schedule_csv
+
+    model = None
+    if args.model:
+        from bimrobot.bim import load_model
+
+        model = load_model(args.model)
+    schedule = load_schedule_csv(args.schedule, model)
+    return plan_from_schedule(schedule, model, tuple(args.yard), standoff_m=args.standoff)
+
+
+def _run(args) -> int:
+    from bimrobot.io import atomic_output_file
+    from bimrobot.rcan.generation import load_capabilities
+    from bimrobot.rcan.system import run_plan
+
+    if args.no_local_executors and not args.redis:
+        raise InputError("--no-local-executors needs --redis: executors in other processes talk through Redis")
+    if args.max_attempts < 1:
+        raise InputError(f"--max-attempts must be at least 1, got {args.max_attempts}")
+    options = _backend_options(args)
+    capabilities = load_capabilities(args.capabilities)
+    activities = _load_plan(args)
+    log = None if args.quiet else (lambda line: print(line, flush=True))
+    report = run_plan(activities, capabilities, backend=args.backend, state_db=args.state_db,
+                      redis_url=args.redis, spawn_executors=not args.no_local_executors,
+                      max_attempts=args.max_attempts, log=log, backend_options=options)
+    states = {}
+    for state in report.component_states.values():
+        states[state] = states.get(state, 0) + 1
+    print(f"== {report.status}: {len(report.done)}/{len(activities)} activities done"
+          + (f" ({report.resumed} re-sent after a resume)" if report.resumed else "")
+          + f"; components: {', '.join(f'{n} {s}' for s, n in sorted(states.items()))}; "
+          f"makespan {report.makespan_s:.1f} s (robot time), wall {report.wall_s:.2f} s", flush=True)
+    for escalation in report.escalations:
+        print(escalation, flush=True)
+    if report.blocked and not report.escalations:
+        print(f"blocked: {', '.join(report.blocked[:10])} wait for a robot that never becomes free", flush=True)
+    if args.report:
+        with atomic_output_file(args.report) as tmp:
+            data = asdict(report)
+            tmp.write_text(json.dumps(data, indent=2, default=str))
+    return 0 if report.status == "completed" else 1
+
+
+def _executor(args) -> int:
+    from bimrobot.rcan.backends import create_backend
+    from bimrobot.rcan.broker import RedisBroker
+    from bimrobot.rcan.executor import RobotExecutor
+    from bimrobot.rcan.generation import load_capabilities
+
+    if not args.redis:
+        raise InputError("rcan executor needs --redis URL: it serves robots for a coordinator in another process")
+    capabilities = load_capabilities(args.capabilities)
+    robots = args.robot or list(capabilities.robots)
+    unknown = [r for r in robots if r not in capabilities.robots]
+    if unknown:
+        raise InputError(f"robot {unknown[0]!r} is not in {capabilities.source}")
+    options = _backend_options(args)
+    if args.backend == "sim":
+        options["db_path"] = args.state_db
+    backend = create_backend(args.backend, capabilities, **options)
+    broker = RedisBroker(args.redis, group="executor", consumer=f"executor-{'-'.join(robots)}")
+    executor = RobotExecutor(broker, backend, robots)
+    print(f"rcan executor serving {', '.join(robots)} on {args.redis} with the {args.backend} backend", flush=True)
+    try:
+        executor.serve()
+    finally:
+        backend.close()
+        broker.close()
+    return 0
+
+
+def _capabilities(args) -> int:
+    from bimrobot.rcan.generation import load_capabilities
+
+    table = load_capabilities(args.capabilities)
+    print(f"Robot types and their construction activities ({table.source}):")
+    for name, kinds in table.robot_types.items():
+        print(f"  {name:14s} {', '.join(sorted(k.label for k in kinds))}")
+    print("Robots:")
+    for robot in table.robots.values():
+        print(f"  {robot.name:26s} types {'+'.join(robot.types)}; payload {robot.payload_kg:g} kg, "
+              f"reach {robot.reach_m:g} m, speed {robot.speed_m_s:g} m/s")
+    return 0
+
+
+def _robot_node(args) -> int:
+    from bimrobot.rcan.backends.ros2 import serve_robot_node
+    from bimrobot.rcan.generation import load_capabilities
+
+    return serve_robot_node(load_capabilities(args.capabilities), time_scale=args.time_scale,
+                            failure_probability=args.failure_probability, seed=args.seed, db_path=args.state_db)
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(0)

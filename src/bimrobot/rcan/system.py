@@ -281,10 +281,12 @@ def run_plan(
     try:
         if spawn_executors:
             backend_instance = create_backend(backend, capabilities, **options)
-            executor_broker = RedisBroker(redis_url, group="executor", consumer="executor-1") if redis_url else broker
-            executor = RobotExecutor(executor_broker, backend_instance, capabilities.robots)
-            executors.append(executor)
-            threads.append(executor.start_thread())
+            for robot in capabilities.robots:  # one executor per robot: robots work in parallel
+                executor_broker = (RedisBroker(redis_url, group="executor", consumer=f"executor-{robot}")
+                                   if redis_url else broker)
+                executor = RobotExecutor(executor_broker, backend_instance, [robot])
+                executors.append(executor)
+                threads.append(executor.start_thread())
         system = RcanSystem(broker, capabilities, manager, backend, log)
         return system.run(activities, timeout_s=timeout_s)
     finally:
@@ -292,6 +294,9 @@ def run_plan(
             executor.stop.set()
         for thread in threads:
             thread.join(timeout=5)
+        for executor in executors:
+            if executor.broker is not broker:
+                executor.broker.close()
         if backend_instance is not None:
             backend_instance.close()
         broker.close()

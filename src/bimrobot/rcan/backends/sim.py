@@ -42,7 +42,8 @@ CREATE TABLE IF NOT EXISTS sim_robot (
 CREATE TABLE IF NOT EXISTS sim_component (global_id TEXT PRIMARY KEY, x REAL, y REAL, z REAL, holder TEXT);
 CREATE TABLE IF NOT EXISTS sim_execution (
     activity_id TEXT, attempt INTEGER, robot TEXT, success INTEGER, message TEXT,
-    started_s REAL, finished_s REAL, PRIMARY KEY (activity_id, attempt));
+    started_s REAL, finished_s REAL);
+CREATE INDEX IF NOT EXISTS sim_execution_goal ON sim_execution (activity_id, attempt);
 """
 
 
@@ -87,13 +88,15 @@ class KinematicSite:
 
     def executions(self) -> list[tuple[str, int, bool]]:
         """Every goal the robots executed: (activity id, attempt, success), in execution order."""
-        rows = self._db.execute("SELECT activity_id, attempt, success FROM sim_execution ORDER BY rowid").fetchall()
+        with self._lock:
+            rows = self._db.execute("SELECT activity_id, attempt, success FROM sim_execution ORDER BY rowid").fetchall()
         return [(a, n, bool(s)) for a, n, s in rows]
 
     # --- execution ---------------------------------------------------------------------------------
     def execute(self, node: RcanNode, attempt: int, ready_at_s: float = 0.0, feedback=None) -> ActivityResult:
         """Execute one goal; a goal already executed returns its recorded result (no second run)."""
-        recorded = self._recorded(node.activity_id, attempt)
+        with self._lock:
+            recorded = self._recorded(node.activity_id, attempt)
         if recorded:
             return recorded
         spec = self.capabilities.robots.get(node.robot)

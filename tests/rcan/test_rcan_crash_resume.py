@@ -1,0 +1,85 @@
+"""A run killed with SIGKILL at random points resumes without losing or repeating an activity."""
+
+from __future__ import annotations
+
+import os
+import signal
+import sqlite3
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from bimrobot.rcan.system import run_plan
+
+from conftest import TABLE_5_2  # noqa: E402  (tests/rcan/conftest.py)
+
+
+def write_capabilities(path: Path) -> Path:
+    robot = {"types": ["mobile_base", "manipulator", "gripper"], "payload_kg": 1000, "reach_m": 5.0,
+             "speed_m_s": 1.0, "arm_speed_m_s": 0.5, "handling_s": {"pick_up": 10, "install": 20}}
+    path.write_text(yaml.safe_dump({"robot_types": TABLE_5_2, "robots": {
+        "crane_a": {**robot, "home": [0.0, 0.0, 0.0]}, "crane_b": {**robot, "home": [5.0, 0.0, 0.0]}}}))
+    return path
+
+
+def outcome(db: Path) -> dict:
+    """What must match between a resumed and an uninterrupted run."""
+    con = sqlite3.connect(db)
+    executions = con.execute("SELECT activity_id, attempt, success FROM sim_execution ORDER BY activity_id, attempt").fetchall()
+    done = con.execute("SELECT activity_id, COUNT(*) FROM journal WHERE event='done' GROUP BY activity_id").fetchall()
+    result = {
+        "executions": executions,  # every goal a robot ran, with its attempt: a repeat would show twice
+        "done_once": sorted(done),
+        "components": con.execute("SELECT global_id, state FROM component ORDER BY global_id").fetchall(),
+        "installed_at": con.execute("SELECT global_id, round(x, 6), round(y, 6), round(z, 6), holder FROM sim_component ORDER BY global_id").fetchall(),
+        "activities": con.execute("SELECT activity_id, status, attempts FROM activity ORDER BY activity_id").fetchall(),
+    }
+    con.close()
+    return result
+
+
+def done_count(db: Path) -> int:
+    try:
+        con = sqlite3.connect(db)
+        return con.execute("SELECT COUNT(*) FROM activity WHERE status='done'").fetchone()[0]
+    except sqlite3.OperationalError:  # killed before the tables were created
+        return 0
+    finally:
+        con.close()
+
+
+def test_sigkill_at_random_points_then_resume_matches_uninterrupted_run(tmp_path, schedule_csv):
+    caps_file = write_capabilities(tmp_path / "caps.yaml")
+    common = ["--schedule", str(schedule_csv), "--backend", "sim", "--capabilities", str(caps_file),
+              "--failure-probability", "0.25", "--seed", "3", "--max-attempts", "6", "-q"]
+
+    reference_db = tmp_path / "reference.sqlite"
+    subprocess.run([sys.executable, "-m", "bimrobot", "rcan", "run", *common, "--state-db", str(reference_db)],
+                   check=True, capture_output=True, timeout=120)
+    reference = outcome(reference_db)
+    assert len(reference["done_once"]) == 24 and all(n == 1 for _, n in reference["done_once"])
+    assert any(attempt > 1 for _, attempt, _ in reference["executions"]), "seed 3 gives some retries"
+
+    db = tmp_path / "killed.sqlite"
+    # time scale: about 2.5 s of robot work in wall time after ~1 s of start-up for the whole run, so the kills land mid-run
+    command = [sys.executable, "-m", "bimrobot", "rcan", "run", *common, "--state-db", str(db), "--time-scale", "0.012"]
+    rng = np.random.default_rng(2024)
+    done_after_kill = []
+    for _ in range(4):
+        process = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        time.sleep(float(rng.uniform(1.0, 3.2)))
+        if process.poll() is None:
+            os.kill(process.pid, signal.SIGKILL)
+            process.wait(timeout=30)
+            done_after_kill.append(done_count(db))
+        process.wait(timeout=30)
+    mid_run = [n for n in done_after_kill if 0 < n < 24]
+    assert len(mid_run) >= 2, f"kills should land mid-run; done activities after each kill: {done_after_kill}"
+    final = subprocess.run(command, capture_output=True, text=True, timeout=120)
+    assert final.returncode == 0, final.stdout + final.stderr
+    assert "24/24 activities done" in final.stdout
+    assert outcome(db) == reference

@@ -1,0 +1,93 @@
+"""Capability table (Table 5.2), task allocator and node generator."""
+
+from __future__ import annotations
+
+import pytest
+
+from bimrobot.errors import InputError
+from bimrobot.rcan.activities import ActivityKind as K, Pose, RcanActivity
+from bimrobot.rcan.generation import NodeGenerator, TaskAllocator, load_capabilities, parse_capabilities
+
+
+
+def test_builtin_table_is_table_5_2():
+    table = load_capabilities()
+    assert table.robot_types["mobile_base"] == {K.MOVE_TO_COMPONENT, K.TRANSPORT}
+    assert table.robot_types["manipulator"] == {K.POSITION_FOR_PICKING_UP, K.POSITION_FOR_INSTALLING}
+    assert table.robot_types["gripper"] == {K.PICK_UP, K.INSTALL}
+    husky = table.robots["husky_ur5"]
+    assert husky.payload_kg == 5.0 and husky.reach_m == 0.85
+    assert husky.activities == set(K)
+
+
+def test_allocator_matches_type_and_payload(table_5_2):
+    TABLE_5_2 = table_5_2
+    table = parse_capabilities({"robot_types": TABLE_5_2, "robots": {
+        "base_only": {"types": ["mobile_base"], "payload_kg": 100},
+        "light_arm": {"types": ["manipulator", "gripper"], "payload_kg": 5, "reach_m": 1},
+        "heavy_arm": {"types": ["manipulator", "gripper"], "payload_kg": 500, "reach_m": 3},
+    }})
+    allocator = TaskAllocator(table)
+    heavy_pick = RcanActivity("A.1", "BEAM", K.PICK_UP, Pose(0, 0, 0), weight_kg=120.0)
+    assert allocator.choose(heavy_pick) == "heavy_arm"
+    light_pick = RcanActivity("B.1", "PLATE", K.PICK_UP, Pose(0, 0, 0), weight_kg=2.0)
+    assert {r.name for r in table.capable_robots(K.PICK_UP, 2.0)} == {"light_arm", "heavy_arm"}
+    move = RcanActivity("C.1", "PLATE2", K.MOVE_TO_COMPONENT, Pose(0, 0, 0))
+    assert allocator.choose(move) == "base_only"
+    too_heavy = RcanActivity("D.1", "SLAB", K.INSTALL, Pose(0, 0, 0), weight_kg=900.0)
+    with pytest.raises(InputError, match=r"no robot can install component SLAB \(activity D.1, 900.0 kg\)"):
+        allocator.choose(too_heavy)
+    assert allocator.choose(light_pick) in {"light_arm", "heavy_arm"}
+
+
+def test_committed_robot_keeps_the_component_and_schedule_robot_is_preferred(cranes):
+    allocator = TaskAllocator(cranes)
+    first = RcanActivity("A.1", "COL", K.MOVE_TO_COMPONENT, Pose(0, 0, 0), robot="crane_b")
+    assert allocator.allocate(first).name == "crane_b"
+    later = RcanActivity("A.2", "COL", K.PICK_UP, Pose(0, 0, 0), robot="crane_a")
+    assert allocator.choose(later) == "crane_b"  # it holds the column
+    other = RcanActivity("B.1", "BEAM", K.MOVE_TO_COMPONENT, Pose(0, 0, 0))
+    assert allocator.choose(other, exclude=allocator.committed_robots()) == "crane_a"
+    allocator.release("COL")
+    assert allocator.committed_robots() == set()
+
+
+def test_node_generator_instantiates_node_with_component_activity_robot_pose_backend():
+    generator = NodeGenerator(TaskAllocator(load_capabilities()), backend="sim")
+    activity = RcanActivity("E1.3", "267VPu8ab9991QBA3MI3UN", K.PICK_UP, Pose(0.0, -0.75, 0.45), 2.0)
+    node = generator.instantiate(activity)
+    assert (node.node_id, node.component_id, node.kind, node.robot, node.backend) == (
+        "rcan/E1.3", "267VPu8ab9991QBA3MI3UN", K.PICK_UP, "husky_ur5", "sim")
+    assert node.target.as_tuple() == (0.0, -0.75, 0.45)
+    assert type(node).from_message(node.to_message()) == node.__class__(
+        node.node_id, RcanActivity("E1.3", "267VPu8ab9991QBA3MI3UN", K.PICK_UP, Pose(0.0, -0.75, 0.45), 2.0),
+        "husky_ur5", "sim")
+
+
+TABLE_5_2 = {
+    "mobile_base": {"activities": ["move_to_component", "transport"]},
+    "manipulator": {"activities": ["position_for_picking_up", "position_for_installing"]},
+    "gripper": {"activities": ["pick_up", "install"]},
+}
+
+
+@pytest.mark.parametrize("data, message", [
+    ({"robot_types": TABLE_5_2}, "'robots' must map"),
+    ({"robot_types": {"arm": {"activities": ["weld"]}}, "robots": {"r": {"types": ["arm"]}}},
+     "robot_types.arm: unknown construction activity 'weld'"),
+    ({"robot_types": TABLE_5_2, "robots": {"r": {"types": ["crane"]}}}, "robots.r.types names unknown robot type 'crane'"),
+    ({"robot_types": TABLE_5_2, "robots": {"r": {"types": ["gripper"], "payload_kg": -1}}},
+     "robots.r.payload_kg must be a non-negative number"),
+])
+def test_bad_capability_table_names_the_key(data, message):
+    with pytest.raises(InputError, match=message):
+        parse_capabilities(data, "my.yaml")
+
+
+def test_capability_yaml_file_errors(tmp_path):
+    with pytest.raises(InputError, match="does not exist"):
+        load_capabilities(tmp_path / "none.yaml")
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("robot_types: [unclosed\n")
+    with pytest.raises(InputError, match="bad.yaml is not valid YAML"):
+        load_capabilities(bad)
