@@ -1,0 +1,81 @@
+"""`bimrobot graph` and `bimrobot query`: outputs, and one-sentence errors with exit 2 and no output."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+import rdflib
+
+from bimrobot.bim.examples import steel_frame
+from bimrobot.cli import main
+
+
+@pytest.fixture(scope="module")
+def frame_ifc(tmp_path_factory):
+    return steel_frame(tmp_path_factory.mktemp("cli") / "frame.ifc")
+
+
+def test_graph_with_schedule_then_query(frame_ifc, frame_schedule_csv, tmp_path, capsys):
+    out = tmp_path / "frame.ttl"
+    assert main(["graph", str(frame_ifc), "--schedule", str(frame_schedule_csv), "-o", str(out)]) == 0
+    assert "88 elements, 2 storeys, 24 connections, 28 activities" in capsys.readouterr().out
+    graph = rdflib.Graph().parse(out)
+    assert len(set(graph.subjects(rdflib.RDF.type, rdflib.URIRef("https://w3id.org/digitalconstruction/0.5/Processes#Activity")))) == 28
+
+    assert main(["query", str(out), "ready_activities", "--format", "json"]) == 0
+    rows = json.loads(capsys.readouterr().out)
+    # every component's transport has no predecessor: 4 columns + 4 beams ready, in planned order
+    assert [r["activityType"] for r in rows] == ["transport"] * 8
+    assert rows[0]["activityId"] == "A0001" and rows[0]["robot"] == "Transport 1"
+    assert [r["start"] for r in rows] == sorted(r["start"] for r in rows)
+
+    assert main(["query", str(out), "progress"]) == 0
+    table = capsys.readouterr().out
+    assert "OnYard" in table and "88" in table and "(1 rows)" in table
+
+
+def test_graph_json_ld_and_oxigraph_store(frame_ifc, tmp_path, capsys):
+    pytest.importorskip("pyoxigraph")
+    out, store = tmp_path / "frame.jsonld", tmp_path / "frame.oxigraph"
+    assert main(["graph", str(frame_ifc), "-o", str(out), "--store", "oxigraph", "--store-path", str(store)]) == 0
+    assert "@context" in json.loads(out.read_text())
+    capsys.readouterr()
+    # the store directory answers queries after the command ended
+    assert main(["query", str(store), "progress", "--format", "csv"]) == 0
+    assert capsys.readouterr().out.splitlines() == ["state,components", "OnYard,88"]
+
+
+def test_ifc_schedule_option(shared_ifc, tmp_path, capsys):
+    out = tmp_path / "tasks.ttl"
+    assert main(["graph", str(shared_ifc("construction-scheduling-task.ifc")), "--ifc-schedule", "-o", str(out)]) == 0
+    assert "8 activities" in capsys.readouterr().out
+
+
+def test_bad_schedule_exits_2_and_writes_nothing(frame_ifc, tmp_path, capsys):
+    bad = tmp_path / "bad.csv"
+    bad.write_text("Identification,Activity,GlobalId,Start,Finish\nA1,transport,NOT_AN_ELEMENT,0,10\n")
+    out = tmp_path / "out" / "frame.ttl"
+    assert main(["graph", str(frame_ifc), "--schedule", str(bad), "-o", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("bimrobot graph: error:") and "line 2: GlobalId 'NOT_AN_ELEMENT'" in err
+    assert len(err.splitlines()) == 1
+    assert not out.exists() and not (out.parent.exists() and any(out.parent.iterdir()))
+
+
+def test_bad_query_inputs_exit_2(frame_ifc, tmp_path, capsys):
+    out = tmp_path / "frame.ttl"
+    assert main(["graph", str(frame_ifc), "-o", str(out)]) == 0
+    capsys.readouterr()
+    assert main(["query", str(out), "no_such_query"]) == 2
+    assert "unknown query 'no_such_query'" in capsys.readouterr().err
+    assert main(["query", str(tmp_path / "absent.ttl"), "progress"]) == 2
+    assert "does not exist" in capsys.readouterr().err
+    assert main(["query", str(out), "component_state", "--bind", "globalId"]) == 2
+    assert "is not VAR=VALUE" in capsys.readouterr().err
+    broken = tmp_path / "broken.rq"
+    broken.write_text("SELECT ?x WHERE { ?x ")
+    assert main(["query", str(out), str(broken)]) == 2
+    assert "is invalid" in capsys.readouterr().err
+    assert main(["graph", str(frame_ifc), "-o", str(tmp_path / "frame.xyz")]) == 2
+    assert "cannot tell the RDF format" in capsys.readouterr().err
