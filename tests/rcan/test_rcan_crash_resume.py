@@ -68,17 +68,19 @@ def test_sigkill_at_random_points_then_resume_matches_uninterrupted_run(tmp_path
     # time scale: about 2.5 s of robot work in wall time after ~1 s of start-up for the whole run, so the kills land mid-run
     command = [sys.executable, "-m", "bimrobot", "rcan", "run", *common, "--state-db", str(db), "--time-scale", "0.012"]
     rng = np.random.default_rng(2024)
+    # kill points spread over the run: once k activities are done, plus a random fraction of a second
+    # (mid-activity, mid-transaction or between messages)
     done_after_kill = []
-    for _ in range(4):
+    for k in sorted(rng.choice(np.arange(1, 22), size=6, replace=False)):
         process = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-        time.sleep(float(rng.uniform(1.0, 3.2)))
-        if process.poll() is None:
-            os.kill(process.pid, signal.SIGKILL)
-            process.wait(timeout=30)
-            done_after_kill.append(done_count(db))
+        deadline = time.monotonic() + 60
+        while done_count(db) < k and process.poll() is None and time.monotonic() < deadline:
+            time.sleep(0.02)
+        time.sleep(float(rng.uniform(0.0, 0.2)))
+        os.kill(process.pid, signal.SIGKILL)
         process.wait(timeout=30)
-    mid_run = [n for n in done_after_kill if 0 < n < 24]
-    assert len(mid_run) >= 2, f"kills should land mid-run; done activities after each kill: {done_after_kill}"
+        done_after_kill.append(done_count(db))
+    assert all(0 < n < 24 for n in done_after_kill), f"done activities after each kill: {done_after_kill}"
     final = subprocess.run(command, capture_output=True, text=True, timeout=120)
     assert final.returncode == 0, final.stdout + final.stderr
     assert "24/24 activities done" in final.stdout
