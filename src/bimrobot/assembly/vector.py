@@ -76,9 +76,11 @@ class BatchedAssemblySim:
         self.single_action_space = gym.spaces.Discrete(6)
         self._build_tables()
         W, L, H, C, T = cs.W, cs.L, cs.H, cs.n_comp, cs.n_target
-        self.S = W * L * H
-        self.occ = np.zeros((N, self.S), np.uint8)
-        self.pos = np.zeros((N, 3), np.int64)
+        self.occ = np.zeros((N, self.P), np.uint8)
+        self._occ_flat = self.occ.reshape(-1)
+        self._env_base = np.arange(N, dtype=np.int64) * self.P
+        self.pos = np.zeros((N, 3), np.int64)  # min corner of the current component, grid cells
+        self.pflat = np.zeros(N, np.int64)  # the same as a padded flat index
         self.cur = np.zeros(N, np.int64)
         self.steps = np.zeros(N, np.int64)
         self.elapsed = np.zeros(N, np.int64)
@@ -99,7 +101,13 @@ class BatchedAssemblySim:
     def _build_tables(self) -> None:
         cs = self.cs
         W, L, H, C, T = cs.W, cs.L, cs.H, cs.n_comp, cs.n_target
-        self.stride = np.array([L * H, H, 1], np.int64)
+        # occupancy is kept on a grid padded by one blocked cell all round (flat index over (W+2, L+2, H+2)):
+        # a move shifts a valid pose by one cell, so its cells never leave the padded grid and the
+        # blocked test is a single gather
+        self.padded = (W + 2, L + 2, H + 2)
+        self.P = int(np.prod(self.padded))
+        self.stride = np.array([(L + 2) * (H + 2), H + 2, 1], np.int64)
+        self.delta = _MOVES @ self.stride
         self.comp_len = np.array(cs.comp_len, np.int64)
         self.comp_axis = np.array(cs.comp_axis, np.int64)
         self.comp_is_column = np.array([t == "column" for t in cs.comp_type])
@@ -117,18 +125,24 @@ class BatchedAssemblySim:
                 self.top_offset[c] = n - 1
             else:
                 self.fp_offsets[c] = ks * (L * N_CHANNELS if axis == 0 else N_CHANNELS)
-        self.arrival = np.full((C + 1, W * L * H), -1, np.int64)
+        # per component and move: padded flat offsets of the cells the moved pose occupies
+        self.move_cells = self.delta[None, :, None] + self.offsets[:, None, :]  # (C + 1, 6, 4)
+        self.arrival = np.full((C + 1, self.P), -1, np.int64)
         for c, table in enumerate(cs.comp_arrival):
             for corner, t in table.items():
-                self.arrival[c, corner] = t
+                self.arrival[c, self._pad(corner)] = t
         self.supports = np.full((T, 2), T, np.int64)
         for t, sup in enumerate(cs.target_supports):
             self.supports[t, : len(sup)] = sup
-        self.target_cells = np.array([(cells + [cells[-1]] * 4)[:4] for cells in cs.target_cells], np.int64)
+        self.target_cells = np.array(
+            [[self._pad(f) for f in (cells + [cells[-1]] * 4)[:4]] for cells in cs.target_cells], np.int64
+        )
         self.target_fp = cs.target_fp.reshape(T, W * L).astype(np.float32)
         self.target_top = cs.target_top.reshape(T, W * L)
         self.obstacle_top = cs.obstacle_top.reshape(-1)
-        self.static = cs.static_blocked
+        static = np.ones(self.padded, np.uint8)
+        static[1:-1, 1:-1, 1:-1] = cs.static_blocked.reshape(W, L, H)
+        self.static = static.reshape(-1)
         self.n_prebuilt = len(cs.prebuilt_slots)
 
     # ------------------------------------------------------------------------------------- seeding
@@ -170,10 +184,10 @@ class BatchedAssemblySim:
         self._clear_current(idx)
         moving = active & self.mask[self._arange, a]
         self.pos += _MOVES[a] * moving[:, None]
+        self.pflat += self.delta[a] * moving
         self.steps += active
         self.elapsed += active
-        corner = self.pos @ self.stride
-        target = np.where(moving, self.arrival[self.cur, corner], -1)
+        target = np.where(moving, self.arrival[self.cur, self.pflat], -1)
         tgt = np.maximum(target, 0)
         arrive = (
             (target >= 0)
@@ -235,12 +249,13 @@ class BatchedAssemblySim:
         axis = np.argmax(span, axis=2)
         axis = np.where(span.max(axis=2) == 0, 2, axis)
         ks = np.minimum(np.arange(4)[None, None, :], (length - 1)[..., None])
-        corner = lo @ self.stride
-        cells = corner[..., None] + ks * self.stride[axis][..., None]
-        self.wait_cells[envs] = cells
-        self.occ[envs[:, None], cells.reshape(R, -1)] = 1
+        corner = lo @ np.array([cs.L * cs.H, cs.H, 1])
+        cells = corner[..., None] + ks * np.array([cs.L * cs.H, cs.H, 1])[axis][..., None]  # unpadded flat
         z = cells % cs.H
         xy = cells // cs.H
+        cells = self._pad(cells)
+        self.wait_cells[envs] = cells
+        self.occ[envs[:, None], cells.reshape(R, -1)] = 1
         self.wait_top[envs] = 0
         C = cs.n_comp
         r_idx = np.broadcast_to(envs[:, None, None], cells.shape)
@@ -299,15 +314,16 @@ class BatchedAssemblySim:
             ok = (z <= top) & (lifted < 0)
             if not ok.any():
                 continue
-            flat = (corner[:, 0] * L + corner[:, 1]) * H + np.minimum(z, H - 1)
+            flat = (corner[:, 0] + 1) * self.stride[0] + (corner[:, 1] + 1) * self.stride[1] + np.minimum(z, H - 1) + 1
             cells = flat[:, None] + offsets
-            free = ~self.occ[envs[:, None], np.minimum(cells, self.S - 1)].any(axis=1)
+            free = ~self.occ[envs[:, None], cells].any(axis=1)
             lifted = np.where(ok & free, z, lifted)
         if (lifted < 0).any():
             bad = self.cs.scenario.handled[int(comps[np.argmax(lifted < 0)])].id
             raise InputError(f"{self.cs.scenario.source}: components.{bad}: the crane cannot lift it free of other objects")
         corner[:, 2] = lifted
         self.pos[envs] = corner
+        self.pflat[envs] = (corner + 1) @ self.stride
         self.cur[envs] = comps
         self.steps[envs] = 0
 
@@ -353,19 +369,19 @@ class BatchedAssemblySim:
 
     def _compute_masks(self, envs: np.ndarray) -> None:
         """``mask[e, a]``: action a would move env e's current component (not blocked)."""
+        cells = (self.pflat[envs] + self._env_base[envs])[:, None, None] + self.move_cells[self.cur[envs]]
+        # the 4 occupancy bytes of a move's cells read as one uint32: nonzero means blocked
+        hit = self._occ_flat[cells].view(np.uint32)[..., 0]  # (R, 6)
+        self.mask[envs] = (hit == 0) & ~self.done[envs][:, None]
+
+    def _pad(self, flat):
+        """Unpadded flat cell index(es) of the scenario -> padded flat index(es)."""
         cs = self.cs
-        cur = self.cur[envs]
-        corner = self.pos[envs][:, None, :] + _MOVES[None]  # (R, 6, 3)
-        ext = self.ext[cur][:, None, :]
-        limit = np.array([cs.W, cs.L, cs.H])
-        inside = (corner >= np.array([0, 0, 1])).all(axis=2) & (corner + ext <= limit).all(axis=2)
-        flat = corner @ self.stride
-        cells = flat[:, :, None] + self.offsets[cur][:, None, :]  # (R, 6, 4)
-        cells = np.clip(cells, 0, self.S - 1)
-        hit = np.take_along_axis(self.occ[envs], cells.reshape(len(envs), -1), axis=1).reshape(cells.shape)
-        mask = inside & ~hit.any(axis=2)
-        mask &= ~self.done[envs][:, None]
-        self.mask[envs] = mask
+        flat = np.asarray(flat, np.int64)
+        z = flat % cs.H
+        xy = flat // cs.H
+        x, y = xy // cs.L, xy % cs.L
+        return (x + 1) * self.stride[0] + (y + 1) * self.stride[1] + z + 1
 
 
 class AssemblyVectorEnv(gym.vector.VectorEnv):
