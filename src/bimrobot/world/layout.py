@@ -1,0 +1,120 @@
+"""Where each model stands in the world: installed (its IFC placement) or on a yard (pick-up pose).
+
+Poses are 4x4 matrices from the element's local frame (the SDF link frame) to the world frame,
+metres, z up. The yard is a rectangle on the ground beside the building (on its +x side): components
+lie there in rows, each turned by right angles so that its longest side runs along x and its thinnest
+side is vertical (a column lies down, a wall panel lies flat), with their lowest point on the ground.
+This is the thesis' "yard area to place unconstructed components" (fig. 3.10), where transport
+robots pick them up.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from bimrobot.bim.model import Element
+
+
+@dataclass(frozen=True)
+class Yard:
+    """The yard rectangle on the ground: ``[[xmin, ymin], [xmax, ymax]]`` (m) at height ``ground_z``."""
+
+    bounds: np.ndarray
+    ground_z: float
+
+
+def rigid(matrix: np.ndarray) -> np.ndarray:
+    """The nearest proper rigid transform to a placement (removes round-off and scale from IFC)."""
+    matrix = np.asarray(matrix, float)
+    u, _, vt = np.linalg.svd(matrix[:3, :3])
+    rotation = u @ vt
+    if np.linalg.det(rotation) < 0:  # a mirrored placement cannot be a pose; keep the proper part
+        u[:, -1] *= -1
+        rotation = u @ vt
+    out = np.eye(4)
+    out[:3, :3] = rotation
+    out[:3, 3] = matrix[:3, 3]
+    return out
+
+
+def pose_xyz_rpy(matrix: np.ndarray) -> tuple[float, float, float, float, float, float]:
+    """(x, y, z, roll, pitch, yaw) of a rigid transform: metres and radians, SDF's fixed-axis
+    convention (rotation = Rz(yaw) Ry(pitch) Rx(roll))."""
+    matrix = rigid(matrix)
+    roll, pitch, yaw = Rotation.from_matrix(matrix[:3, :3]).as_euler("xyz")
+    x, y, z = matrix[:3, 3]
+    return float(x), float(y), float(z), float(roll), float(pitch), float(yaw)
+
+
+def format_pose(matrix: np.ndarray) -> str:
+    """The SDF ``<pose>`` text of a transform: ``"x y z roll pitch yaw"`` (m, rad)."""
+    x, y, z, roll, pitch, yaw = pose_xyz_rpy(matrix)
+    return f"{_num(x, 6)} {_num(y, 6)} {_num(z, 6)} {_num(roll, 9)} {_num(pitch, 9)} {_num(yaw, 9)}"
+
+
+def _num(value: float, decimals: int) -> str:
+    text = f"{value:.{decimals}f}".rstrip("0").rstrip(".")
+    return "0" if text in ("-0", "") else text
+
+
+def installed_poses(elements: list[Element]) -> dict[str, np.ndarray]:
+    """Each element's installed pose: its IFC placement."""
+    return {element.global_id: rigid(element.placement) for element in elements}
+
+
+def yard_poses(
+    elements: list[Element], ground_z: float, gap: float = 3.0, spacing: float = 0.5
+) -> tuple[dict[str, np.ndarray], Yard]:
+    """Pick-up poses on a yard beside the building (see the module docstring) and the yard itself.
+
+    ``gap``: distance (m) between the building's bounding box and the yard; ``spacing``: clear
+    distance (m) between neighbouring components. Rows run along y; a new row starts when a row is
+    as deep as the building (at least 10 m). Components are sorted longest first, so similar parts
+    (all columns, all beams) lie together.
+    """
+    if not elements:
+        return {}, Yard(np.zeros((2, 2)), ground_z)
+    building_min = np.min([e.world_bounds[0] for e in elements], axis=0)
+    building_max = np.max([e.world_bounds[1] for e in elements], axis=0)
+    row_depth = max(building_max[1] - building_min[1], 10.0)
+    laid = {e.global_id: _lay_flat(e) for e in elements}
+    order = sorted(elements, key=lambda e: (-_extents(laid[e.global_id], e)[0], e.ifc_class, e.global_id))
+    poses: dict[str, np.ndarray] = {}
+    row_x, cursor_y, row_length = building_max[0] + gap, building_min[1], 0.0
+    far_corner = np.array([row_x, cursor_y])
+    for element in order:
+        rotation = laid[element.global_id]
+        rotated = element.vertices @ rotation.T
+        lower, upper = rotated.min(axis=0), rotated.max(axis=0)
+        size = upper - lower
+        if cursor_y > building_min[1] and cursor_y + size[1] > building_min[1] + row_depth:
+            row_x, cursor_y, row_length = row_x + row_length + spacing, building_min[1], 0.0
+        pose = np.eye(4)
+        pose[:3, :3] = rotation
+        pose[:3, 3] = np.array([row_x, cursor_y, ground_z]) - lower
+        poses[element.global_id] = pose
+        cursor_y += size[1] + spacing
+        row_length = max(row_length, size[0])
+        far_corner = np.maximum(far_corner, [row_x + size[0], cursor_y - spacing])
+    start = np.array([building_max[0] + gap, building_min[1]])
+    return poses, Yard(np.array([start, far_corner]), ground_z)
+
+
+def _lay_flat(element: Element) -> np.ndarray:
+    """World rotation of the element on the yard: its installed rotation followed by the right-angle
+    turn that puts its longest world extent along x and its shortest along z."""
+    installed = rigid(element.placement)[:3, :3]
+    extents = np.ptp(element.vertices @ installed.T, axis=0)
+    order = np.argsort(-extents, kind="stable")
+    turn = np.zeros((3, 3))
+    turn[np.arange(3), order] = 1.0
+    if np.linalg.det(turn) < 0:
+        turn[1] *= -1
+    return turn @ installed
+
+
+def _extents(rotation: np.ndarray, element: Element) -> np.ndarray:
+    return np.ptp(element.vertices @ rotation.T, axis=0)

@@ -1,0 +1,192 @@
+"""Mesh files of a Gazebo model: a COLLADA visual and a simplified STL collision mesh.
+
+Why COLLADA for the visual: both Gazebo Sim (gz-common) and Gazebo Classic load ``.dae`` with their
+own COLLADA loader, which scales by ``<asset><unit meter>`` and applies no up-axis rotation, so a
+Z-up mesh in metres appears exactly where the SDF pose puts it. glTF is Y-up by specification and goes
+through Assimp in Gazebo Sim only (not Classic), so one DAE serves both simulators. We still write
+``<up_axis>Z_UP</up_axis>`` and ``<unit meter="1"/>`` so that tools that honour them (Blender, Assimp)
+agree with Gazebo. Vertices stay in the element's local frame (the SDF link frame), metres.
+
+STL for collision: every physics engine loads it (pybullet too), and it carries no material noise.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import trimesh
+
+CLASS_COLOURS: dict[str, tuple[float, float, float, float]] = {
+    "IfcBeam": (0.45, 0.55, 0.70, 1.0),
+    "IfcColumn": (0.30, 0.42, 0.62, 1.0),
+    "IfcMember": (0.50, 0.60, 0.72, 1.0),
+    "IfcPlate": (0.40, 0.45, 0.50, 1.0),
+    "IfcMechanicalFastener": (0.80, 0.65, 0.20, 1.0),
+    "IfcFastener": (0.80, 0.65, 0.20, 1.0),
+    "IfcFooting": (0.70, 0.70, 0.68, 1.0),
+    "IfcSlab": (0.75, 0.75, 0.73, 1.0),
+    "IfcWall": (0.88, 0.84, 0.76, 1.0),
+    "IfcWallStandardCase": (0.88, 0.84, 0.76, 1.0),
+    "IfcRoof": (0.65, 0.30, 0.25, 1.0),
+    "IfcWindow": (0.55, 0.75, 0.90, 0.6),
+    "IfcDoor": (0.55, 0.38, 0.22, 1.0),
+    "IfcStair": (0.70, 0.70, 0.68, 1.0),
+    "IfcRailing": (0.35, 0.35, 0.35, 1.0),
+}
+DEFAULT_COLOUR = (0.65, 0.65, 0.65, 1.0)
+
+
+def colour_of(ifc_class: str) -> tuple[float, float, float, float]:
+    """RGBA in 0..1 used for an IFC class in visuals and pictures."""
+    return CLASS_COLOURS.get(ifc_class, DEFAULT_COLOUR)
+
+
+def write_dae(path: Path, vertices: np.ndarray, faces: np.ndarray, name: str, rgba=DEFAULT_COLOUR) -> None:
+    """Write a triangle mesh (local frame, metres, Z up) as COLLADA 1.4.1 with flat per-face normals."""
+    vertices = np.asarray(vertices, np.float64)
+    faces = np.asarray(faces, np.int64)
+    normals = _face_normals(vertices, faces)
+    positions = " ".join(np.char.mod("%.7g", vertices.ravel()))
+    normal_text = " ".join(np.char.mod("%.4g", normals.ravel()))
+    # Each triangle corner: vertex index, then normal index (= face index).
+    indices = np.stack([faces, np.repeat(np.arange(len(faces))[:, None], 3, axis=1)], axis=2).ravel()
+    index_text = " ".join(map(str, indices.tolist()))
+    r, g, b, a = rgba
+    text = _DAE_TEMPLATE.format(
+        name=_xml_attr(name),
+        nvert=len(vertices),
+        ncoord=vertices.size,
+        positions=positions,
+        nnorm=len(normals),
+        nncoord=normals.size,
+        normals=normal_text,
+        ntri=len(faces),
+        indices=index_text,
+        colour=f"{r:.3f} {g:.3f} {b:.3f} {a:.3f}",
+        ambient=f"{r * 0.4:.3f} {g * 0.4:.3f} {b * 0.4:.3f} 1",
+        transparency=f"{a:.3f}",
+    )
+    Path(path).write_text(text, encoding="utf-8")
+
+
+def write_stl(path: Path, mesh: trimesh.Trimesh) -> None:
+    """Write a binary STL (metres; STL has no unit, Gazebo and pybullet read it as metres)."""
+    Path(path).write_bytes(trimesh.exchange.stl.export_stl(mesh))
+
+
+def collision_mesh(mesh: trimesh.Trimesh, method: str, max_triangles: int) -> trimesh.Trimesh:
+    """A simplified collision body: its convex hull, or the mesh decimated to ``max_triangles``.
+
+    ``method`` is "convex" or "decimated". Either result has at most ``max_triangles`` faces where
+    the input allows (a hull over budget is rebuilt from a decimated mesh). Flat or degenerate bodies
+    that have no hull keep their own triangles.
+    """
+    if method == "convex":
+        hull = _convex_hull(mesh)
+        if hull is None:
+            return _decimated(mesh, max_triangles)
+        if len(hull.faces) > max_triangles:
+            smaller = _convex_hull(_decimated(mesh, max_triangles))
+            hull = smaller if smaller is not None and len(smaller.faces) <= len(hull.faces) else hull
+        return hull
+    if method == "decimated":
+        return _decimated(mesh, max_triangles)
+    raise ValueError(f"unknown collision method {method!r} (expected 'convex' or 'decimated')")
+
+
+def _convex_hull(mesh: trimesh.Trimesh) -> trimesh.Trimesh | None:
+    try:
+        hull = mesh.convex_hull
+    except Exception:  # qhull raises on coplanar or too few points
+        return None
+    return hull if len(hull.faces) >= 4 and hull.volume > 1e-12 else None
+
+
+def _decimated(mesh: trimesh.Trimesh, max_triangles: int) -> trimesh.Trimesh:
+    if len(mesh.faces) <= max_triangles:
+        return mesh
+    try:
+        return mesh.simplify_quadric_decimation(face_count=max_triangles)
+    except Exception:  # the decimator refuses some degenerate meshes: keep the full body
+        return mesh
+
+
+def _face_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    corners = vertices[faces]
+    normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    lengths = np.linalg.norm(normals, axis=1, keepdims=True)
+    return np.divide(normals, lengths, out=np.zeros_like(normals), where=lengths > 0)
+
+
+def _xml_attr(text: str) -> str:
+    return text.replace("&", "&amp;").replace('"', "&quot;").replace("<", "&lt;").replace(">", "&gt;")
+
+
+_DAE_TEMPLATE = """<?xml version="1.0" encoding="utf-8"?>
+<COLLADA xmlns="http://www.collada.org/2005/11/COLLADASchema" version="1.4.1">
+  <asset>
+    <contributor><authoring_tool>bimrobot</authoring_tool></contributor>
+    <unit name="meter" meter="1"/>
+    <up_axis>Z_UP</up_axis>
+  </asset>
+  <library_effects>
+    <effect id="effect">
+      <profile_COMMON>
+        <technique sid="common">
+          <phong>
+            <ambient><color>{ambient}</color></ambient>
+            <diffuse><color>{colour}</color></diffuse>
+            <specular><color>0.1 0.1 0.1 1</color></specular>
+            <shininess><float>10</float></shininess>
+            <transparency><float>{transparency}</float></transparency>
+          </phong>
+        </technique>
+      </profile_COMMON>
+    </effect>
+  </library_effects>
+  <library_materials>
+    <material id="material" name="material"><instance_effect url="#effect"/></material>
+  </library_materials>
+  <library_geometries>
+    <geometry id="geometry" name="{name}">
+      <mesh>
+        <source id="positions">
+          <float_array id="positions-array" count="{ncoord}">{positions}</float_array>
+          <technique_common>
+            <accessor source="#positions-array" count="{nvert}" stride="3">
+              <param name="X" type="float"/><param name="Y" type="float"/><param name="Z" type="float"/>
+            </accessor>
+          </technique_common>
+        </source>
+        <source id="normals">
+          <float_array id="normals-array" count="{nncoord}">{normals}</float_array>
+          <technique_common>
+            <accessor source="#normals-array" count="{nnorm}" stride="3">
+              <param name="X" type="float"/><param name="Y" type="float"/><param name="Z" type="float"/>
+            </accessor>
+          </technique_common>
+        </source>
+        <vertices id="vertices"><input semantic="POSITION" source="#positions"/></vertices>
+        <triangles count="{ntri}" material="material">
+          <input semantic="VERTEX" source="#vertices" offset="0"/>
+          <input semantic="NORMAL" source="#normals" offset="1"/>
+          <p>{indices}</p>
+        </triangles>
+      </mesh>
+    </geometry>
+  </library_geometries>
+  <library_visual_scenes>
+    <visual_scene id="scene">
+      <node id="node" name="{name}">
+        <instance_geometry url="#geometry">
+          <bind_material><technique_common>
+            <instance_material symbol="material" target="#material"/>
+          </technique_common></bind_material>
+        </instance_geometry>
+      </node>
+    </visual_scene>
+  </library_visual_scenes>
+  <scene><instance_visual_scene url="#scene"/></scene>
+</COLLADA>
+"""

@@ -1,0 +1,182 @@
+"""Occupancy grids per storey from a horizontal section band at robot height (Nav2 map_server format).
+
+For a storey at elevation ``e`` and a band ``(low, high)`` (metres above the storey), a cell is
+occupied when any element's solid reaches into the slab ``e + low <= z <= e + high`` above that
+cell. Each element is cut in two ways that together cover its footprint in the band exactly:
+
+* its triangles clipped to the band and projected onto the floor (catches every part of the solid
+  that starts or ends inside the band: a slab edge, a beam soffit, a table top), and
+* its cross-section at mid-band, filled even-odd (catches the parts that pass right through the
+  band, such as columns and walls, whose clipped side faces project to mere lines).
+
+The grid is in the world frame (metres, z up). Image row 0 is the north (max y) edge; the YAML
+``origin`` is the world position of the lower-left pixel's corner, as map_server expects.
+Pixels: occupied 0 (black), free 254 (white), ``mode: trinary``, ``negate: 0``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import trimesh
+import yaml
+from PIL import Image, ImageDraw
+from shapely.geometry import MultiLineString, Polygon
+from shapely.ops import polygonize, unary_union
+
+OCCUPIED, FREE = 0, 254
+OCCUPIED_THRESH, FREE_THRESH = 0.65, 0.196
+
+
+@dataclass
+class OccupancyGrid:
+    """A storey's map. ``occupied[row, col]``: row 0 is max y. ``origin``: world (x, y) of the
+    lower-left corner (m). ``band``: world z range cut (m)."""
+
+    name: str
+    storey_id: str | None
+    storey_name: str
+    elevation: float
+    band: tuple[float, float]
+    resolution: float
+    origin: tuple[float, float]
+    occupied: np.ndarray
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """(rows, cols) of the image."""
+        return self.occupied.shape
+
+    def cell_of(self, x: float, y: float) -> tuple[int, int]:
+        """(row, col) of the pixel that holds world point (x, y) (m)."""
+        col = int(np.floor((x - self.origin[0]) / self.resolution))
+        row = self.occupied.shape[0] - 1 - int(np.floor((y - self.origin[1]) / self.resolution))
+        return row, col
+
+    def is_occupied(self, x: float, y: float) -> bool:
+        """Whether the cell holding world point (x, y) (m) is occupied."""
+        row, col = self.cell_of(x, y)
+        return bool(self.occupied[row, col])
+
+
+def grid_frame(bounds_xy: np.ndarray, margin: float, resolution: float) -> tuple[tuple[float, float], tuple[int, int]]:
+    """Origin (m) and (rows, cols) of a grid covering ``[[xmin, ymin], [xmax, ymax]]`` plus ``margin``."""
+    lower = np.floor((np.asarray(bounds_xy[0]) - margin) / resolution) * resolution
+    upper = np.asarray(bounds_xy[1]) + margin
+    cols, rows = np.maximum(np.ceil((upper - lower) / resolution).astype(int), 1)
+    return (round(float(lower[0]), 9), round(float(lower[1]), 9)), (int(rows), int(cols))
+
+
+def occupancy(
+    bodies: list[tuple[np.ndarray, np.ndarray]],
+    band: tuple[float, float],
+    origin: tuple[float, float],
+    shape: tuple[int, int],
+    resolution: float,
+) -> np.ndarray:
+    """Boolean grid (rows, cols) of the cells that the bodies occupy within the z band.
+
+    ``bodies``: (world vertices (n, 3), faces (m, 3)) per element, metres.
+    """
+    rows, cols = shape
+    image = Image.new("1", (cols, rows), 0)
+    draw = ImageDraw.Draw(image)
+    low, high = band
+
+    def to_pixels(points: np.ndarray) -> list[tuple[float, float]]:
+        # Continuous pixel coordinates (pixel i spans [i, i+1]) shifted by half a pixel, because
+        # Pillow puts pixel centres on integer coordinates.
+        u = (points[:, 0] - origin[0]) / resolution - 0.5
+        v = rows - (points[:, 1] - origin[1]) / resolution - 0.5
+        return list(zip(u.tolist(), v.tolist()))
+
+    for vertices, faces in bodies:
+        if len(faces) == 0:
+            continue
+        zmin, zmax = vertices[:, 2].min(), vertices[:, 2].max()
+        if zmax < low or zmin > high:
+            continue
+        for triangle in _clipped_projected_triangles(vertices, faces, low, high):
+            draw.polygon(to_pixels(triangle), fill=1)
+        middle = (low + high) / 2
+        if zmin < middle < zmax:
+            for polygon in _section_polygons(vertices, faces, middle):
+                draw.polygon(to_pixels(np.asarray(polygon.exterior.coords)), fill=1)
+                for hole in polygon.interiors:
+                    draw.polygon(to_pixels(np.asarray(hole.coords)), fill=0)
+                    draw.line(to_pixels(np.asarray(hole.coords)), fill=1)
+                draw.line(to_pixels(np.asarray(polygon.exterior.coords)), fill=1)
+    return np.array(image, dtype=bool)
+
+
+def _clipped_projected_triangles(vertices: np.ndarray, faces: np.ndarray, low: float, high: float) -> np.ndarray:
+    """Triangles clipped to low <= z <= high, projected to xy (k, 3, 2); vertical ones dropped."""
+    v, f = vertices, faces
+    if v[:, 2].min() < low:
+        v, f = trimesh.intersections.slice_faces_plane(v, f, np.array([0.0, 0, 1]), np.array([0.0, 0, low]))[:2]
+    if len(f) and v[:, 2].max() > high:
+        v, f = trimesh.intersections.slice_faces_plane(v, f, np.array([0.0, 0, -1]), np.array([0.0, 0, high]))[:2]
+    if len(f) == 0:
+        return np.zeros((0, 3, 2))
+    triangles = v[f][:, :, :2]
+    edge1, edge2 = triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0]
+    area = np.abs(edge1[:, 0] * edge2[:, 1] - edge1[:, 1] * edge2[:, 0]) / 2
+    return triangles[area > 1e-10]
+
+
+def _section_polygons(vertices: np.ndarray, faces: np.ndarray, z: float) -> list[Polygon]:
+    """The solid regions of the cross-section at height z (even-odd over the cut loops)."""
+    mesh = trimesh.Trimesh(vertices, faces, process=False)
+    segments = trimesh.intersections.mesh_plane(mesh, [0.0, 0, 1], [0.0, 0, z])
+    if len(segments) == 0:
+        return []
+    lines = np.round(segments[:, :, :2], 6)
+    lines = lines[np.any(lines[:, 0] != lines[:, 1], axis=1)]
+    if len(lines) == 0:
+        return []
+    faces_2d = [p for p in polygonize(unary_union(MultiLineString(lines.tolist()))) if p.area > 0]
+    shells = [Polygon(p.exterior) for p in faces_2d]
+    solid = []
+    for index, face in enumerate(faces_2d):
+        inside = face.representative_point()
+        depth = sum(1 for other, shell in enumerate(shells) if other != index and shell.contains(inside))
+        if depth % 2 == 0:
+            solid.append((depth, face))
+    return [face for _, face in sorted(solid, key=lambda item: item[0])]
+
+
+def write_map(grid: OccupancyGrid, directory: Path) -> tuple[Path, Path]:
+    """Write ``<name>.pgm`` and ``<name>.yaml`` (map_server format) into ``directory``."""
+    directory = Path(directory)
+    pgm = directory / f"{grid.name}.pgm"
+    pixels = np.where(grid.occupied, OCCUPIED, FREE).astype(np.uint8)
+    Image.fromarray(pixels, mode="L").save(pgm)
+    meta = {
+        "image": pgm.name,
+        "mode": "trinary",
+        "resolution": float(grid.resolution),
+        "origin": [float(grid.origin[0]), float(grid.origin[1]), 0.0],
+        "negate": 0,
+        "occupied_thresh": OCCUPIED_THRESH,
+        "free_thresh": FREE_THRESH,
+    }
+    header = (
+        f"# Storey {grid.storey_name!r} (GlobalId {grid.storey_id}), elevation {grid.elevation:.3f} m;\n"
+        f"# occupied = any element within z {grid.band[0]:.3f} .. {grid.band[1]:.3f} m (world frame).\n"
+    )
+    yaml_path = directory / f"{grid.name}.yaml"
+    yaml_path.write_text(header + yaml.safe_dump(meta, sort_keys=False), encoding="utf-8")
+    return pgm, yaml_path
+
+
+def read_map(yaml_path: Path) -> tuple[dict, np.ndarray]:
+    """Read a map_server map back: (YAML dict, occupied boolean grid, row 0 = max y)."""
+    meta = yaml.safe_load(Path(yaml_path).read_text(encoding="utf-8"))
+    pixels = np.array(Image.open(Path(yaml_path).parent / meta["image"]))
+    occupancy_probability = (255 - pixels) / 255.0 if not meta.get("negate") else pixels / 255.0
+    return meta, occupancy_probability > meta["occupied_thresh"]
+
+
+__all__ = ["OccupancyGrid", "grid_frame", "occupancy", "write_map", "read_map"]

@@ -1,0 +1,436 @@
+"""Convert a BuildingModel into a Gazebo package (the thesis' IFC -> SDF conversion, fig. 3.5).
+
+Layout of the package written by :func:`build_package`::
+
+    <out>/
+      models/<safe id>/model.config, model.sdf (1.9) [, model-1_6.sdf], meshes/<safe id>.dae, <safe id>_collision.stl
+      worlds/<site>.sdf (SDF 1.9, Gazebo Sim) and/or worlds/<site>.world (SDF 1.6, Gazebo Classic)
+      launch/gz_sim.launch.py (ROS 2) and/or launch/gazebo_classic.launch (ROS 1)
+      maps/<storey>.pgm + .yaml (Nav2 map_server)
+      report.json, README.md, package.xml, CMakeLists.txt
+
+Everything is written into a temporary sibling directory and renamed into place at the end, so a
+failed conversion leaves no output behind. Units: metres, kg, seconds; z up.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+import trimesh
+from tqdm import tqdm
+
+from bimrobot import __version__
+from bimrobot.bim.model import BuildingModel, Element
+from bimrobot.errors import InputError
+from bimrobot.io import atomic_output_dir
+from bimrobot.world import launch, layout, meshes, navmap, physics, sdf
+from bimrobot.world.names import ros_package_name, safe_name, slug
+
+log = logging.getLogger(__name__)
+
+TARGETS = ("sim", "classic", "both")
+LAYOUTS = ("installed", "yard")
+COLLISIONS = ("convex", "decimated")
+
+
+@dataclass
+class ConvertOptions:
+    """How to convert. Lengths in metres, densities in kg/m^3.
+
+    ``static``: None means static models for the installed layout and dynamic ones on the yard (where
+    robots pick them up). ``map_band``: (low, high) above each storey's elevation. ``max_triangles``:
+    triangle budget of each collision mesh.
+    """
+
+    target: str = "sim"
+    static: bool | None = None
+    layout: str = "installed"
+    collision: str = "convex"
+    max_triangles: int = 500
+    map_resolution: float = 0.05
+    map_band: tuple[float, float] = (0.1, 1.5)
+    map_margin: float = 1.0
+    package_name: str | None = None
+    default_density: float = physics.DEFAULT_DENSITY_KG_M3
+    maps: bool = True
+
+    def validate(self) -> None:
+        """Raise InputError naming the first option that is out of range."""
+        checks = [
+            (self.target in TARGETS, f"--target must be one of {', '.join(TARGETS)}, not {self.target!r}"),
+            (self.layout in LAYOUTS, f"--layout must be one of {', '.join(LAYOUTS)}, not {self.layout!r}"),
+            (self.collision in COLLISIONS, f"--collision must be one of {', '.join(COLLISIONS)}, not {self.collision!r}"),
+            (self.max_triangles >= 4, f"--max-triangles must be at least 4 (a tetrahedron), not {self.max_triangles}"),
+            (self.map_resolution > 0, f"--map-resolution must be positive, not {self.map_resolution}"),
+            (self.map_band[0] < self.map_band[1], f"--map-band must be LOW HIGH with LOW < HIGH, not {self.map_band}"),
+            (self.map_margin >= 0, f"--map-margin must not be negative, not {self.map_margin}"),
+            (self.default_density > 0, f"the default density must be positive, not {self.default_density}"),
+        ]
+        for ok, message in checks:
+            if not ok:
+                raise InputError(message)
+
+    @property
+    def is_static(self) -> bool:
+        """Whether the models are static (fixed in the world)."""
+        return self.static if self.static is not None else self.layout == "installed"
+
+
+@dataclass
+class _Converted:
+    """One element on its way into the package."""
+
+    element: Element
+    name: str
+    mesh: trimesh.Trimesh
+    collision: trimesh.Trimesh
+    mass: physics.MassProperties
+    pose: np.ndarray = field(default_factory=lambda: np.eye(4))
+
+
+def convert(
+    ifc_path: str | Path,
+    out_dir: str | Path,
+    options: ConvertOptions | None = None,
+    include: list[str] | None = None,
+    exclude: list[str] | None = None,
+    progress: bool = False,
+) -> dict:
+    """Read an IFC file and write its Gazebo package to ``out_dir``; return the report (also in
+    ``out_dir/report.json``). Bad input raises InputError and leaves no ``out_dir``."""
+    from bimrobot.bim import load_model  # imported here: only bim/ touches ifcopenshell
+
+    options = options or ConvertOptions()
+    options.validate()
+    started = time.perf_counter()
+    model = load_model(ifc_path, include=include, exclude=exclude, progress=progress)
+    load_seconds = time.perf_counter() - started
+    return build_package(model, out_dir, options, progress=progress, load_seconds=load_seconds)
+
+
+def build_package(
+    model: BuildingModel,
+    out_dir: str | Path,
+    options: ConvertOptions | None = None,
+    progress: bool = False,
+    load_seconds: float | None = None,
+) -> dict:
+    """Write the Gazebo package of ``model`` to ``out_dir`` atomically; return the report dict."""
+    options = options or ConvertOptions()
+    options.validate()
+    started = time.perf_counter()
+    source = str(model.source) if model.source else "an in-memory BuildingModel"
+    if not model.elements:
+        raise InputError(f"{source}: the model has no element with solid geometry to convert")
+    out_dir = Path(out_dir)
+    package = options.package_name or ros_package_name(out_dir.name)
+    world_name = slug(model.site_name or model.project_name or (model.source.stem if model.source else ""), "site")
+    timings: dict[str, float] = {"load": load_seconds} if load_seconds is not None else {}
+    with atomic_output_dir(out_dir) as tmp:
+        tick = time.perf_counter()
+        converted, skipped = _prepare_elements(model, options, progress)
+        if not converted:
+            raise InputError(f"{source}: none of the {len(model.elements)} elements has a usable solid mesh")
+        ground_z = ground_height(model, [item.element for item in converted])
+        yard = _place(converted, ground_z, options)
+        timings["meshes_and_mass"] = time.perf_counter() - tick
+
+        tick = time.perf_counter()
+        _write_models(tmp / "models", converted, options, source, progress)
+        world_files = _write_worlds(tmp / "worlds", world_name, converted, options, ground_z)
+        _write_launch_and_ros(tmp, package, world_name, world_files, source, options)
+        timings["sdf_and_files"] = time.perf_counter() - tick
+
+        tick = time.perf_counter()
+        maps = _write_maps(tmp / "maps", model, converted, options, ground_z) if options.maps else []
+        timings["maps"] = time.perf_counter() - tick
+        timings["total"] = time.perf_counter() - started + (load_seconds or 0.0)
+
+        report = _report(model, package, world_name, world_files, converted, skipped, maps, yard, options, timings)
+        (tmp / "report.json").write_text(json.dumps(report, indent=2), encoding="utf-8")
+        (tmp / "README.md").write_text(_readme(report), encoding="utf-8")
+    log.info("wrote %s: %d models, %d skipped", out_dir, len(converted), len(skipped))
+    return report
+
+
+def _prepare_elements(model: BuildingModel, options: ConvertOptions, progress: bool):
+    converted: list[_Converted] = []
+    skipped = [
+        {"global_id": s.global_id, "ifc_class": s.ifc_class, "name": s.name, "reason": s.reason} for s in model.skipped
+    ]
+    elements = list(model.elements.values())
+    for element in tqdm(elements, desc="meshes", unit="element", disable=not progress, leave=False):
+        if len(element.faces) == 0 or len(element.vertices) < 3:
+            skipped.append(_skip(element, "its body has no triangles"))
+            continue
+        mesh = physics.solid_mesh(element.vertices, element.faces)
+        if len(mesh.faces) == 0:
+            skipped.append(_skip(element, "its body has only degenerate triangles"))
+            continue
+        mass = physics.mass_properties(element, mesh, options.default_density)
+        collision = meshes.collision_mesh(mesh, options.collision, options.max_triangles)
+        converted.append(_Converted(element, safe_name(element.global_id), mesh, collision, mass))
+    return converted, skipped
+
+
+def _skip(element: Element, reason: str) -> dict:
+    return {"global_id": element.global_id, "ifc_class": element.ifc_class, "name": element.name, "reason": reason}
+
+
+def ground_height(model: BuildingModel, elements: list[Element]) -> float:
+    """World z of the ground plane: the lowest storey's elevation, else the lowest element point (m)."""
+    if model.storeys:
+        return min(storey.elevation for storey in model.storeys)
+    return float(min(e.world_bounds[0][2] for e in elements))
+
+
+def _place(converted: list[_Converted], ground_z: float, options: ConvertOptions) -> layout.Yard | None:
+    elements = [item.element for item in converted]
+    if options.layout == "yard":
+        poses, yard = layout.yard_poses(elements, ground_z)
+    else:
+        poses, yard = layout.installed_poses(elements), None
+    for item in converted:
+        item.pose = poses[item.element.global_id]
+    return yard
+
+
+def _sdf_versions(options: ConvertOptions) -> dict[str, str]:
+    """SDF version -> model file name for the target."""
+    if options.target == "sim":
+        return {sdf.SIM_VERSION: "model.sdf"}
+    if options.target == "classic":
+        return {sdf.CLASSIC_VERSION: "model.sdf"}
+    return {sdf.SIM_VERSION: "model.sdf", sdf.CLASSIC_VERSION: "model-1_6.sdf"}
+
+
+def _write_models(models_dir: Path, converted: list[_Converted], options: ConvertOptions, source: str, progress: bool):
+    versions = _sdf_versions(options)
+    for item in tqdm(converted, desc="models", unit="model", disable=not progress, leave=False):
+        folder = models_dir / item.name
+        (folder / "meshes").mkdir(parents=True)
+        visual_file = f"{item.name}.dae"
+        collision_file = f"{item.name}_collision.stl"
+        element = item.element
+        meshes.write_dae(folder / "meshes" / visual_file, item.mesh.vertices, item.mesh.faces, element.global_id,
+                         meshes.colour_of(element.ifc_class))
+        meshes.write_stl(folder / "meshes" / collision_file, item.collision)
+        spec = sdf.ModelSpec(
+            name=item.name,
+            pose=item.pose,
+            static=options.is_static,
+            mass=item.mass.mass,
+            center_of_mass=item.mass.center_of_mass,
+            inertia=item.mass.inertia,
+            visual_uri=f"model://{item.name}/meshes/{visual_file}",
+            collision_uri=f"model://{item.name}/meshes/{collision_file}",
+        )
+        for version, file_name in versions.items():
+            (folder / file_name).write_text(sdf.model_sdf(spec, version), encoding="utf-8")
+        description = f'{element.ifc_class} "{element.name}" (IFC GlobalId {element.global_id}) from {source}'
+        (folder / "model.config").write_text(sdf.model_config(item.name, versions, description), encoding="utf-8")
+
+
+def _world_extent(converted: list[_Converted]) -> np.ndarray:
+    """[[xmin, ymin, zmin], [xmax, ymax, zmax]] of all models at their world poses (m)."""
+    corners = []
+    for item in converted:
+        lower, upper = item.mesh.bounds
+        box = np.array([[x, y, z, 1.0] for x in (lower[0], upper[0]) for y in (lower[1], upper[1]) for z in (lower[2], upper[2])])
+        corners.append((box @ item.pose.T)[:, :3])
+    stacked = np.vstack(corners)
+    return np.array([stacked.min(axis=0), stacked.max(axis=0)])
+
+
+def _write_worlds(
+    worlds_dir: Path, world_name: str, converted: list[_Converted], options: ConvertOptions, ground_z: float
+) -> dict[str, str]:
+    """Write the world file(s); return {"sim"|"classic": file name}."""
+    worlds_dir.mkdir(parents=True)
+    extent = _world_extent(converted)
+    includes = [sdf.Include(item.name, item.pose) for item in converted]
+    center = tuple(((extent[0, :2] + extent[1, :2]) / 2).tolist())
+    size = tuple((extent[1, :2] - extent[0, :2] + 40.0).tolist())
+    files = {}
+    if options.target in ("sim", "both"):
+        files["sim"] = f"{world_name}.sdf"
+        text = sdf.world_sdf(world_name, includes, sdf.SIM_VERSION, ground_z, size, center)
+        (worlds_dir / files["sim"]).write_text(text, encoding="utf-8")
+    if options.target in ("classic", "both"):
+        files["classic"] = f"{world_name}.world"
+        text = sdf.world_sdf(world_name, includes, sdf.CLASSIC_VERSION, ground_z, size, center)
+        (worlds_dir / files["classic"]).write_text(text, encoding="utf-8")
+    return files
+
+
+def _write_launch_and_ros(tmp: Path, package: str, world_name: str, world_files: dict[str, str], source: str,
+                          options: ConvertOptions) -> None:
+    launch_dir = tmp / "launch"
+    launch_dir.mkdir()
+    source_name = Path(source).name
+    if "sim" in world_files:
+        text = launch.ros2_launch(package, world_name, world_files["sim"], source_name)
+        (launch_dir / "gz_sim.launch.py").write_text(text, encoding="utf-8")
+    if "classic" in world_files:
+        text = launch.ros1_launch(package, world_name, world_files["classic"], source_name)
+        (launch_dir / "gazebo_classic.launch").write_text(text, encoding="utf-8")
+    (tmp / "package.xml").write_text(launch.package_xml(package, source_name), encoding="utf-8")
+    (tmp / "CMakeLists.txt").write_text(launch.cmakelists(package), encoding="utf-8")
+
+
+def _write_maps(
+    maps_dir: Path, model: BuildingModel, converted: list[_Converted], options: ConvertOptions, ground_z: float
+) -> list[dict]:
+    maps_dir.mkdir(parents=True)
+    bodies = []
+    for item in converted:
+        world = np.c_[item.mesh.vertices, np.ones(len(item.mesh.vertices))] @ item.pose.T
+        bodies.append((world[:, :3], np.asarray(item.mesh.faces)))
+    extent = _world_extent(converted)
+    origin, shape = navmap.grid_frame(extent[:, :2], options.map_margin, options.map_resolution)
+    storeys = sorted(model.storeys, key=lambda s: s.elevation)
+    levels = [(s.global_id, s.name, s.elevation) for s in storeys] or [(None, "site", ground_z)]
+    used: set[str] = set()
+    written = []
+    for storey_id, storey_name, elevation in levels:
+        name = slug(storey_name, "storey")
+        if name in used:
+            name = f"{name}_{safe_name(storey_id) if storey_id else len(used)}"
+        used.add(name)
+        band = (elevation + options.map_band[0], elevation + options.map_band[1])
+        occupied = navmap.occupancy(bodies, band, origin, shape, options.map_resolution)
+        grid = navmap.OccupancyGrid(name, storey_id, storey_name, elevation, band, options.map_resolution, origin, occupied)
+        pgm, yaml_file = navmap.write_map(grid, maps_dir)
+        written.append({
+            "image": f"maps/{pgm.name}",
+            "yaml": f"maps/{yaml_file.name}",
+            "storey_id": storey_id,
+            "storey_name": storey_name,
+            "elevation_m": elevation,
+            "band_z_m": list(band),
+            "resolution_m": options.map_resolution,
+            "origin_m": list(origin),
+            "size_px": [shape[1], shape[0]],
+            "occupied_cells": int(occupied.sum()),
+        })
+    return written
+
+
+def _report(model, package, world_name, world_files, converted, skipped, maps, yard, options, timings) -> dict:
+    entries = []
+    for item in converted:
+        element, mass = item.element, item.mass
+        x, y, z, roll, pitch, yaw = layout.pose_xyz_rpy(item.pose)
+        entries.append({
+            "global_id": element.global_id,
+            "model": item.name,
+            "ifc_class": element.ifc_class,
+            "name": element.name,
+            "storey_id": element.storey_id,
+            "material": element.material,
+            "mass_kg": round(mass.mass, 6),
+            "weight_source": element.weight_source.value if not mass.mass_assumed else
+            f"assumed: volume x default density {options.default_density:g} kg/m3",
+            "bim_weight_kg": element.weight_kg,
+            "volume_m3": round(mass.volume, 9),
+            "inertia_from": mass.inertia_method,
+            "center_of_mass_m": [round(float(v), 6) for v in mass.center_of_mass],
+            "visual_triangles": int(len(item.mesh.faces)),
+            "collision_triangles": int(len(item.collision.faces)),
+            "pose_xyz_rpy": [round(v, 9) for v in (x, y, z, roll, pitch, yaw)],
+        })
+    counts_by_source: dict[str, int] = {}
+    for entry in entries:
+        counts_by_source[entry["weight_source"]] = counts_by_source.get(entry["weight_source"], 0) + 1
+    by_class: dict[str, int] = {}
+    for entry in entries:
+        by_class[entry["ifc_class"]] = by_class.get(entry["ifc_class"], 0) + 1
+    options_dict = asdict(options)
+    options_dict["static"] = options.is_static
+    return {
+        "generator": f"bimrobot {__version__}",
+        "source": str(model.source) if model.source else None,
+        "schema": model.schema,
+        "project": model.project_name,
+        "site": model.site_name,
+        "units": model.units,
+        "package": package,
+        "world": world_name,
+        "world_files": {key: f"worlds/{value}" for key, value in world_files.items()},
+        "options": options_dict,
+        "counts": {
+            "converted": len(entries),
+            "skipped": len(skipped),
+            "by_class": dict(sorted(by_class.items())),
+            "weight_sources": dict(sorted(counts_by_source.items())),
+            "storeys": len(model.storeys),
+            "connections": len(model.connections),
+            "maps": len(maps),
+            "total_mass_kg": round(sum(e["mass_kg"] for e in entries), 3),
+        },
+        "converted": entries,
+        "skipped": skipped,
+        "maps": maps,
+        "yard": None if yard is None else {"bounds_xy_m": yard.bounds.round(6).tolist(), "ground_z_m": yard.ground_z},
+        "timings_s": {key: round(value, 4) for key, value in timings.items()},
+    }
+
+
+def _readme(report: dict) -> str:
+    counts = report["counts"]
+    worlds = ", ".join(f"`{path}`" for path in report["world_files"].values())
+    assumed = sum(1 for e in report["converted"] if e["weight_source"].startswith("assumed"))
+    lines = [
+        f"# {report['package']}: Gazebo package of {Path(report['source'] or 'model').name}",
+        "",
+        f"Generated by {report['generator']}: {counts['converted']} building elements as Gazebo models "
+        f"(total {counts['total_mass_kg']} kg), {counts['skipped']} products skipped (see `report.json`).",
+        "",
+        f"- `worlds/`: {worlds} (ground, sun, physics, every element at its "
+        f"{'yard pick-up' if report['options']['layout'] == 'yard' else 'installed'} pose)",
+        "- `models/<id>/`: one model per element, named by its IFC GlobalId made file-safe (`$` -> `-`); "
+        "visual `meshes/<id>.dae` (metres, Z up), collision `meshes/<id>_collision.stl` "
+        f"({report['options']['collision']}, <= {report['options']['max_triangles']} triangles), "
+        f"{'static' if report['options']['static'] else 'dynamic'}",
+        "- `maps/<storey>.pgm/.yaml`: occupancy grids per storey for Nav2 map_server "
+        f"(band {report['options']['map_band'][0]}..{report['options']['map_band'][1]} m above the storey)",
+        "- `report.json`: every element's mass and weight source, the skipped products and why, timings",
+        "",
+    ]
+    if assumed:
+        lines += [
+            f"{assumed} element(s) had no weight in the BIM: their mass is volume x "
+            f"{report['options']['default_density']:g} kg/m3 (see `weight_source` in report.json).",
+            "",
+        ]
+    lines += [
+        "## Gazebo Sim with ROS 2 (Jazzy / Harmonic)",
+        "",
+        "```bash",
+        "# as a ROS package",
+        "cp -r . ~/ros2_ws/src/" + report["package"] + " && cd ~/ros2_ws && colcon build && source install/setup.bash",
+        f"ros2 launch {report['package']} gz_sim.launch.py",
+        "# or straight from this folder",
+        "ros2 launch launch/gz_sim.launch.py",
+        "# or Gazebo alone",
+        "GZ_SIM_RESOURCE_PATH=$PWD/models gz sim -r worlds/" + report["world"] + ".sdf",
+        "```",
+        "",
+        "The world lists no `<plugin>`, so Gazebo Sim loads its default systems; if you add a plugin, "
+        "add the Physics, UserCommands and SceneBroadcaster systems too.",
+        "",
+        "A map for Nav2: `ros2 run nav2_map_server map_server --ros-args -p yaml_filename:=maps/<storey>.yaml`.",
+        "",
+        "## Gazebo Classic with ROS 1 (end of life)",
+        "",
+        "Convert with `--target classic` (or `both`), then `roslaunch launch/gazebo_classic.launch`, or "
+        "`GAZEBO_MODEL_PATH=$PWD/models gazebo worlds/" + report["world"] + ".world`.",
+        "",
+    ]
+    return "\n".join(lines)

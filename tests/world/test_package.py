@@ -1,0 +1,242 @@
+"""The Gazebo package written from a BuildingModel: files, SDF content, validator verdicts, maps."""
+
+from __future__ import annotations
+
+import json
+import py_compile
+import xml.etree.ElementTree as ET
+
+import collada
+import numpy as np
+import pytest
+
+from bimrobot.errors import InputError
+from bimrobot.world.check import problems, read_models, sdf_validator, validate_sdf
+from bimrobot.world.navmap import read_map
+from bimrobot.world.package import ConvertOptions, build_package
+
+from .conftest import COLUMN_SIZE, COLUMN_XY, frame_model
+
+needs_ign = pytest.mark.skipif(sdf_validator() is None, reason="`ign sdf` is not installed (ignition-tools)")
+
+
+@pytest.fixture(scope="module")
+def package(tmp_path_factory):
+    out = tmp_path_factory.mktemp("pkg") / "frame_pkg"
+    report = build_package(frame_model(), out, ConvertOptions(target="both"))
+    return out, report
+
+
+def test_every_element_becomes_a_model_with_existing_meshes(package):
+    out, report = package
+    models = sorted(p.name for p in (out / "models").iterdir())
+    assert len(models) == 7 == report["counts"]["converted"]
+    assert problems(out) == []
+    for model_dir in (out / "models").iterdir():
+        config = ET.parse(model_dir / "model.config").getroot()
+        assert {e.get("version"): e.text for e in config.findall("sdf")} == {"1.9": "model.sdf", "1.6": "model-1_6.sdf"}
+
+
+def test_model_and_link_are_named_by_the_safe_global_id(package):
+    out, _ = package
+    for info in read_models(out):
+        assert info.name == info.link_name == info.sdf_file.parent.name
+        assert "$" not in info.name
+
+
+def test_masses_equal_the_bim_weights_and_inertia_is_physical(package):
+    out, report = package
+    model = frame_model()
+    by_name = {e["model"]: e for e in report["converted"]}
+    for info in read_models(out):
+        element = model.element(by_name[info.name]["global_id"])
+        if element.weight_kg:
+            assert info.mass == pytest.approx(element.weight_kg, rel=1e-9)
+        else:
+            assert by_name[info.name]["weight_source"].startswith("assumed")
+            assert info.mass == pytest.approx(0.4 * 0.4 * 0.02 * 2400)
+        moments = np.linalg.eigvalsh(info.inertia)
+        assert moments.min() > 0
+        assert moments[0] + moments[1] >= moments[2] * (1 - 1e-9)
+
+
+def test_column_pose_is_its_placement(package):
+    out, report = package
+    column = next(e for e in report["converted"] if e["ifc_class"] == "IfcColumn" and e["pose_xyz_rpy"][0] == 3.5)
+    world = ET.parse(out / report["world_files"]["sim"]).getroot()
+    include = next(i for i in world.iter("include") if i.findtext("name") == column["model"])
+    assert include.findtext("uri") == f"model://{column['model']}"
+    assert [float(v) for v in include.findtext("pose").split()] == [3.5, 0, 0, 0, 0, 0]
+
+
+def test_visual_dae_is_z_up_in_metres_and_holds_the_local_mesh(package):
+    out, report = package
+    column = next(e for e in report["converted"] if e["ifc_class"] == "IfcColumn")
+    dae = collada.Collada(str(out / "models" / column["model"] / "meshes" / f"{column['model']}.dae"))
+    assert dae.assetInfo.upaxis == "Z_UP"
+    assert dae.assetInfo.unitmeter == 1.0
+    vertices = dae.geometries[0].primitives[0].vertex
+    np.testing.assert_allclose(vertices.min(axis=0), [-0.125, -0.125, 0.0], atol=1e-6)
+    np.testing.assert_allclose(vertices.max(axis=0), [0.125, 0.125, 4.0], atol=1e-6)
+
+
+def test_report_says_what_was_skipped_and_where_each_weight_came_from(package):
+    out, report = package
+    on_disk = json.loads((out / "report.json").read_text())
+    assert on_disk["skipped"] == [
+        {"global_id": "0Weld$0000000000000000", "ifc_class": "IfcFastener", "name": "weld",
+         "reason": "curve-only geometry (no solid)"}
+    ]
+    assert on_disk["counts"]["weight_sources"] == {
+        "IfcQuantityWeight": 6,
+        "assumed: volume x default density 2400 kg/m3": 1,
+    }
+    assert on_disk["counts"]["total_mass_kg"] == pytest.approx(4 * 289.81 + 2 * 134.39 + 0.4 * 0.4 * 0.02 * 2400)
+
+
+@pytest.mark.sdf
+@needs_ign
+def test_worlds_and_models_pass_the_sdformat_validator(package):
+    out, report = package
+    for world in report["world_files"].values():
+        valid, output = validate_sdf(out / world, out / "models")
+        assert valid, output
+    for info in read_models(out):
+        valid, output = validate_sdf(info.sdf_file, out / "models")
+        assert valid, f"{info.sdf_file}: {output}"
+
+
+@pytest.mark.sdf
+@needs_ign
+def test_classic_target_writes_a_valid_sdf_1_6_world(tmp_path):
+    out = tmp_path / "classic"
+    report = build_package(frame_model(), out, ConvertOptions(target="classic"))
+    assert report["world_files"] == {"classic": "worlds/test_site.world"}
+    root = ET.parse(out / "worlds" / "test_site.world").getroot()
+    assert root.get("version") == "1.6"
+    assert {info.version for info in read_models(out)} == {"1.6"}
+    valid, output = validate_sdf(out / "worlds" / "test_site.world", out / "models")
+    assert valid, output
+    assert (out / "launch" / "gazebo_classic.launch").exists()
+    assert not (out / "launch" / "gz_sim.launch.py").exists()
+
+
+def test_map_shows_the_columns_at_their_pixels_and_free_space_between(package):
+    out, report = package
+    level_1 = next(m for m in report["maps"] if m["storey_name"] == "Level 1")
+    meta, occupied = read_map(out / level_1["yaml"])
+    assert meta["resolution"] == 0.05 and meta["mode"] == "trinary"
+    origin_x, origin_y = meta["origin"][:2]
+    rows = occupied.shape[0]
+
+    def cell(x, y):
+        return rows - 1 - int(np.floor((y - origin_y) / 0.05)), int(np.floor((x - origin_x) / 0.05))
+
+    for x, y in COLUMN_XY:
+        assert occupied[cell(x, y)], f"column at ({x}, {y}) is not on the map"
+        assert occupied[cell(x + 0.08, y - 0.08)]
+        assert not occupied[cell(x + COLUMN_SIZE[0] / 2 + 0.1, y)]
+    assert not occupied[cell(1.75, 1.4)]  # the middle of the bay
+    # 4 columns of 0.25 m x 0.25 m: 5 x 5 cells each, 6 x 6 where their faces split cells (the plate
+    # lies below the band).
+    assert 4 * 25 <= occupied.sum() <= 4 * 36
+    level_2 = next(m for m in report["maps"] if m["storey_name"] == "Level 2")
+    assert level_2["occupied_cells"] == 0  # beams at 3.7-4.0 m lie below Level 2's band (4.1-5.5 m)
+
+
+def test_lowering_the_band_puts_the_beams_on_the_map(tmp_path):
+    report = build_package(frame_model(), tmp_path / "p", ConvertOptions(map_band=(-0.5, 0.5)))
+    level_2 = next(m for m in report["maps"] if m["storey_name"] == "Level 2")
+    _, occupied = read_map(tmp_path / "p" / level_2["yaml"])
+    # Two 3.5 m x 0.15 m beams plus the column tops (3.5-4.0 m) in the 3.5-4.5 m band.
+    assert 2 * 70 * 3 <= occupied.sum() <= 2 * 72 * 5 + 4 * 36
+
+
+def test_launch_files_point_at_the_worlds_and_models(package):
+    out, report = package
+    launch_py = out / "launch" / "gz_sim.launch.py"
+    py_compile.compile(str(launch_py), doraise=True)
+    text = launch_py.read_text()
+    assert "GZ_SIM_RESOURCE_PATH" in text and "ros_gz_sim" in text and "gz_sim.launch.py" in text
+    assert "'test_site.sdf'" in text
+    ros1 = ET.parse(out / "launch" / "gazebo_classic.launch").getroot()
+    assert ros1.find("env").get("name") == "GAZEBO_MODEL_PATH"
+    assert ros1.find("arg").get("default").endswith("/worlds/test_site.world")
+    package_xml = ET.parse(out / "package.xml").getroot()
+    assert package_xml.findtext("name") == "frame_pkg"
+    assert "install(DIRECTORY launch models worlds maps" in (out / "CMakeLists.txt").read_text()
+
+
+def test_yard_layout_lays_components_on_the_ground_beside_the_building(tmp_path):
+    model = frame_model()
+    report = build_package(model, tmp_path / "yard", ConvertOptions(layout="yard"))
+    building_max_x = max(e.world_bounds[1][0] for e in model.elements.values())
+    boxes = []
+    infos = {info.name: info for info in read_models(tmp_path / "yard")}
+    for entry in report["converted"]:
+        element = model.element(entry["global_id"])
+        pose = _matrix(entry["pose_xyz_rpy"])
+        world = np.c_[element.vertices, np.ones(len(element.vertices))] @ pose.T
+        lower, upper = world[:, :3].min(axis=0), world[:, :3].max(axis=0)
+        assert lower[2] == pytest.approx(0.0, abs=1e-6)  # resting on the ground (lowest storey, 0 m)
+        assert lower[0] > building_max_x  # beside the building
+        assert upper[2] - lower[2] <= 0.3 + 1e-6  # laid flat: the 4 m columns lie down
+        assert not infos[entry["model"]].static  # the yard is for picking up: dynamic by default
+        boxes.append((lower, upper))
+    for i, (lower_a, upper_a) in enumerate(boxes):
+        for lower_b, upper_b in boxes[i + 1:]:
+            overlap = np.minimum(upper_a[:2], upper_b[:2]) - np.maximum(lower_a[:2], lower_b[:2])
+            assert (overlap <= 1e-9).any(), "two components overlap on the yard"
+    assert report["yard"]["bounds_xy_m"][0][0] > building_max_x
+
+
+def _matrix(xyz_rpy):
+    from scipy.spatial.transform import Rotation
+
+    matrix = np.eye(4)
+    matrix[:3, :3] = Rotation.from_euler("xyz", xyz_rpy[3:]).as_matrix()
+    matrix[:3, 3] = xyz_rpy[:3]
+    return matrix
+
+
+def test_static_flag_is_configurable(tmp_path):
+    build_package(frame_model(), tmp_path / "dyn", ConvertOptions(static=False))
+    assert not any(info.static for info in read_models(tmp_path / "dyn"))
+
+
+def test_decimated_collision_respects_the_triangle_budget(tmp_path):
+    import trimesh
+
+    model = frame_model()
+    sphere = trimesh.creation.icosphere(subdivisions=4, radius=0.5)
+    element = next(iter(model.elements.values()))
+    element.vertices, element.faces = np.asarray(sphere.vertices), np.asarray(sphere.faces)
+    report = build_package(model, tmp_path / "dec", ConvertOptions(collision="decimated", max_triangles=200))
+    entry = next(e for e in report["converted"] if e["global_id"] == element.global_id)
+    assert entry["visual_triangles"] == len(sphere.faces)
+    assert entry["collision_triangles"] <= 200
+    stl = trimesh.load(tmp_path / "dec" / "models" / entry["model"] / "meshes" / f"{entry['model']}_collision.stl")
+    assert len(stl.faces) == entry["collision_triangles"]
+
+
+def test_model_without_elements_is_refused_and_leaves_no_output(tmp_path):
+    model = frame_model()
+    model.elements.clear()
+    with pytest.raises(InputError, match="no element with solid geometry"):
+        build_package(model, tmp_path / "empty")
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize(
+    "options, message",
+    [
+        (ConvertOptions(target="gazebo"), "--target"),
+        (ConvertOptions(map_band=(1.5, 0.1)), "--map-band"),
+        (ConvertOptions(max_triangles=2), "--max-triangles"),
+        (ConvertOptions(map_resolution=0), "--map-resolution"),
+    ],
+)
+def test_bad_options_are_refused_with_the_option_named(tmp_path, options, message):
+    with pytest.raises(InputError, match=message):
+        build_package(frame_model(), tmp_path / "bad", options)
+    assert list(tmp_path.iterdir()) == []
