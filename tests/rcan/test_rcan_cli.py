@@ -1,0 +1,65 @@
+"""`bimrobot rcan ...`: the interaction log, the summary, exit codes and one-sentence errors."""
+
+from __future__ import annotations
+
+import json
+
+from bimrobot.cli import main
+
+
+def test_experiment_prints_the_interaction_log(capsys):
+    assert main(["rcan", "run", "--experiment", "2", "--backend", "sim"]) == 0
+    out = capsys.readouterr().out
+    assert "== RCAN experiment 2: column that needs transport" in out
+    assert "[component 267VPu8ab9991QBA3MI3UN] publishes E2.4 'Transport' target (4.00, 2.60, 0.00)" in out
+    assert "[generation] RCAN node rcan/E2.4 instantiated: component 267VPu8ab9991QBA3MI3UN, activity 'Transport', robot husky_ur5, backend sim" in out
+    assert "[rcan/E2.4] robot husky_ur5 executes 'Transport'" in out
+    assert "[component 267VPu8ab9991QBA3MI3UN] state: Arrived" in out
+    assert "== completed: 6/6 activities done; components: 1 Assembled" in out
+
+
+def test_schedule_run_writes_report_and_resumes_as_done(tmp_path, schedule_csv, capsys):
+    caps = tmp_path / "caps.yaml"
+    from test_rcan_crash_resume import write_capabilities
+
+    write_capabilities(caps)
+    args = ["rcan", "run", "--schedule", str(schedule_csv), "--capabilities", str(caps), "-q",
+            "--state-db", str(tmp_path / "s.sqlite"), "--report", str(tmp_path / "report.json")]
+    assert main(args) == 0
+    report = json.loads((tmp_path / "report.json").read_text())
+    assert report["status"] == "completed" and len(report["done"]) == 24
+    assert set(report["component_states"].values()) == {"Assembled"}
+    capsys.readouterr()
+    assert main(args) == 0  # a finished run resumed: nothing is executed again
+    assert "24/24 activities done" in capsys.readouterr().out
+
+
+def test_escalation_exits_1_with_the_report(capsys):
+    code = main(["rcan", "run", "--experiment", "1", "--failure-probability", "1", "--max-attempts", "2", "-q"])
+    assert code == 1
+    out = capsys.readouterr().out
+    assert ("ESCALATED: Move to component of component 267VPu8ab9991QBA3MI3UN (activity E1.1) failed 2 time(s) "
+            "on robot husky_ur5") in out
+
+
+def test_bad_input_exits_2_with_one_sentence_and_no_report(tmp_path, capsys):
+    report = tmp_path / "report.json"
+    cases = [
+        (["--experiment", "1", "--failure-probability", "2"], "--failure-probability must be between 0 and 1"),
+        (["--experiment", "1", "--no-local-executors"], "--no-local-executors needs --redis"),
+        (["--schedule", str(tmp_path / "none.csv")], "none.csv"),
+        (["--experiment", "1", "--capabilities", str(tmp_path / "none.yaml")], "capability table"),
+        (["--experiment", "1", "--max-attempts", "0"], "--max-attempts must be at least 1"),
+    ]
+    for extra, message in cases:
+        assert main(["rcan", "run", *extra, "--report", str(report)]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith("bimrobot rcan: error: ") and message in err and err.count("\n") == 1
+        assert not report.exists()
+
+
+def test_capabilities_command_prints_table_5_2(capsys):
+    assert main(["rcan", "capabilities"]) == 0
+    out = capsys.readouterr().out
+    assert "mobile_base    Move to component, Transport" in out
+    assert "husky_ur5" in out and "payload 5 kg, reach 0.85 m" in out

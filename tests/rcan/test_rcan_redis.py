@@ -1,0 +1,92 @@
+"""RCAN over Redis streams: a real redis-server on 127.0.0.1, started and stopped by the test."""
+
+from __future__ import annotations
+
+import shutil
+import socket
+import subprocess
+import sys
+import time
+
+import pytest
+
+from bimrobot.rcan.broker import RedisBroker
+from bimrobot.rcan.generation import load_capabilities
+from bimrobot.rcan.plans import COLUMN_ID, experiment
+from bimrobot.rcan.system import run_plan
+
+pytestmark = pytest.mark.redis
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@pytest.fixture
+def redis_url():
+    """A throw-away redis-server (no persistence) on a free loopback port; stopped by PID afterwards."""
+    server = shutil.which("redis-server")
+    if server is None:
+        pytest.skip("redis-server is not installed (Debian package redis-server)")
+    pytest.importorskip("redis", reason="the redis Python client is not installed: pip install 'bimrobot[redis]'")
+    import redis
+
+    port = free_port()
+    process = subprocess.Popen([server, "--bind", "127.0.0.1", "--port", str(port), "--save", "", "--appendonly", "no",
+                                "--daemonize", "no"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    url = f"redis://127.0.0.1:{port}/0"
+    client = redis.Redis.from_url(url)
+    for _ in range(200):
+        try:
+            client.ping()
+            break
+        except redis.ConnectionError:
+            time.sleep(0.02)
+    client.close()
+    yield url
+    process.terminate()
+    process.wait(timeout=10)
+
+
+def test_experiment_over_redis_streams(redis_url):
+    lines = []
+    report = run_plan(experiment(2).activities, load_capabilities(), redis_url=redis_url, log=lines.append)
+    assert report.status == "completed" and report.component_states == {COLUMN_ID: "Assembled"}
+    assert len(report.latencies_s) == 6
+
+
+def test_executor_in_another_process(redis_url, tmp_path):
+    site = tmp_path / "site.sqlite"
+    executor = subprocess.Popen([sys.executable, "-m", "bimrobot", "rcan", "executor", "--redis", redis_url,
+                                 "--backend", "sim", "--state-db", str(site)],
+                                stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    try:
+        report = run_plan(experiment(3).activities, load_capabilities(), redis_url=redis_url,
+                          spawn_executors=False, timeout_s=60)
+    finally:
+        executor.terminate()
+        output = executor.communicate(timeout=10)[0]
+    assert report.status == "completed", output
+    import sqlite3
+
+    executed = sqlite3.connect(site).execute("SELECT activity_id FROM sim_execution ORDER BY rowid").fetchall()
+    assert [a for (a,) in executed] == [f"E3.{i}" for i in range(1, 7)]  # the other process did the work
+
+
+def test_unacknowledged_message_is_delivered_again_after_a_crash(redis_url):
+    sender = RedisBroker(redis_url, group="executor", consumer="sender")
+    sender.send("rcan.robot.husky_ur5", {"activity_id": "E1.1"})
+    worker = RedisBroker(redis_url, group="executor", consumer="executor-husky")
+    (first,) = worker.receive(["rcan.robot.husky_ur5"], timeout_s=1.0)
+    assert first.payload == {"activity_id": "E1.1"}
+    worker.close()  # crashed before acknowledging
+    restarted = RedisBroker(redis_url, group="executor", consumer="executor-husky")
+    (again,) = restarted.receive(["rcan.robot.husky_ur5"], timeout_s=1.0)
+    assert again.message_id == first.message_id
+    restarted.ack(again)
+    later = RedisBroker(redis_url, group="executor", consumer="executor-husky")
+    assert later.receive(["rcan.robot.husky_ur5"], timeout_s=0.2) == []
+    for broker in (sender, restarted, later):
+        broker.close()
