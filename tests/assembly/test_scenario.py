@@ -1,0 +1,145 @@
+"""Scenario data and YAML validation: the 16 settings load, bad files get one sentence naming the entry."""
+
+from __future__ import annotations
+
+import copy
+from pathlib import Path
+
+import pytest
+import yaml
+
+from bimrobot.assembly.scenario import (
+    SETTINGS,
+    SETTINGS_DIR,
+    benchmark_scenario,
+    load_scenario,
+    parse_scenario,
+)
+from bimrobot.errors import InputError
+
+
+def e2s2_data() -> dict:
+    return yaml.safe_load((SETTINGS_DIR / "E2S2.yaml").read_text())
+
+
+def write(tmp_path: Path, data: dict, name: str = "site.yaml") -> Path:
+    path = tmp_path / name
+    path.write_text(yaml.safe_dump(data))
+    return path
+
+
+def test_sixteen_settings_match_the_specification():
+    counts = {"E1": (2, 1), "E2": (3, 0), "E3": (8, 0), "E4": (13, 0)}
+    limits = {"E1": 100, "E2": 100, "E3": 300, "E4": 600}
+    assert len(SETTINGS) == 16
+    for setting in SETTINGS:
+        sc = benchmark_scenario(setting)
+        env, scen = setting[:2], setting[2:]
+        assert (len(sc.handled), len(sc.prebuilt)) == counts[env]
+        assert sc.time_limit == limits[env]
+        assert sc.layout == ("random" if scen in ("S1", "S3") else "fixed")
+        assert bool(sc.interchangeable) == (scen != "S1")
+        assert bool(sc.obstacles) == (scen == "S4")
+        assert (sc.reward.r0, sc.reward.epsilon, sc.reward.completion_bonus) == (-1.0, 15, 10.0)
+        # columns always come before beams in handling order
+        types = [c.type for c in sc.handled]
+        assert types == sorted(types, key=lambda t: t != "column")
+
+
+def test_env4_targets_and_beam_supports():
+    sc = benchmark_scenario("E4S2")
+    beam11 = sc.target("beam11")
+    assert beam11.cells == [(6, 9, 4), (7, 9, 4), (8, 9, 4)]
+    from bimrobot.assembly.scenario import beam_supports
+
+    assert set(beam_supports(sc, beam11)) == {"col9", "col2"}
+    assert set(beam_supports(sc, sc.target("beam7"))) == {"col4", "col5"}
+
+
+def test_custom_yaml_round_trip(tmp_path):
+    sc = load_scenario(write(tmp_path, e2s2_data()))
+    assert sc.name == "E2S2"
+    assert [c.id for c in sc.handled] == ["col2", "col3", "beam1"]
+    assert sc.handled[0].start == ((7, 3, 1), (4, 3, 1))
+
+
+def bad(tmp_path, mutate, match: str):
+    data = e2s2_data()
+    mutate(data)
+    with pytest.raises(InputError, match=match) as err:
+        load_scenario(write(tmp_path, data))
+    message = str(err.value)
+    assert "site.yaml" in message and "\n" not in message
+    return message
+
+
+def test_overlapping_start_poses_name_both_components(tmp_path):
+    def mutate(d):
+        d["components"][1]["start"] = [[6, 3, 1], [3, 3, 1]]  # col3 onto col2's cells
+
+    bad(tmp_path, mutate, r"components\.col3: start overlaps components\.col2 at \(4, 3, 1\)")
+
+
+def test_target_outside_grid(tmp_path):
+    def mutate(d):
+        d["targets"]["beam1"]["cells"] = [[9, 13, 4], [9, 15, 4]]
+
+    bad(tmp_path, mutate, r"targets\.beam1: cell \(9, 15, 4\) is outside the grid")
+
+
+def test_unknown_component_type(tmp_path):
+    def mutate(d):
+        d["components"][2]["type"] = "slab"
+
+    bad(tmp_path, mutate, r"components\.beam1: unknown component type 'slab'")
+
+
+def test_unsupported_beam(tmp_path):
+    def mutate(d):
+        d["targets"]["beam1"]["cells"] = [[9, 10, 3], [9, 12, 3]]  # one below the column tops
+
+    bad(tmp_path, mutate, r"targets\.beam1: unsupported beam")
+
+
+def test_beam_handled_before_its_columns(tmp_path):
+    def mutate(d):
+        d["components"] = [d["components"][2], d["components"][0], d["components"][1]]
+
+    bad(tmp_path, mutate, r"components\.beam1: .*columns must come before the beams they support")
+
+
+def test_impossible_random_layout(tmp_path):
+    def mutate(d):
+        d["layout"] = "random"
+        d["yard"] = [{"x": [3, 3], "y": [3, 3]}]  # one node1 cell for three components
+
+    bad(tmp_path, mutate, r"impossible random layout")
+
+
+def test_pick_up_that_cannot_get_free(tmp_path):
+    def mutate(d):
+        d["obstacles"] = [{"x": [7, 7], "y": [3, 3], "z": [2, 8]}]  # above col2's node1
+
+    bad(tmp_path, mutate, r"components\.col2: the crane cannot lift it")
+
+
+def test_unknown_key_and_bad_yaml(tmp_path):
+    bad(tmp_path, lambda d: d.update(colour="red"), r"unknown key 'colour'")
+    path = tmp_path / "broken.yaml"
+    path.write_text("grid: [15, 15\n")
+    with pytest.raises(InputError, match=r"broken.yaml line \d+: not valid YAML"):
+        load_scenario(path)
+    with pytest.raises(InputError, match="scenario file not found"):
+        load_scenario(tmp_path / "missing.yaml")
+
+
+def test_unknown_setting():
+    with pytest.raises(InputError, match="unknown assembly setting 'E5S1'"):
+        benchmark_scenario("E5S1")
+
+
+def test_parse_does_not_mutate_input():
+    data = e2s2_data()
+    before = copy.deepcopy(data)
+    parse_scenario(data)
+    assert data == before
