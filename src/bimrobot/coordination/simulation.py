@@ -291,7 +291,7 @@ class ConstructionSimulation:
         if unfinished:
             raise BimrobotError(self._stall_reason(unfinished))
         makespan = max((a.finish for a in self.activities if not a.aborted), default=0.0)
-        self.activities.sort(key=lambda a: (a.start, a.id))
+        self._number_by_start()
         return SimulationResult(
             model=self.smart.source,
             fleet=self.fleet.name,
@@ -307,6 +307,15 @@ class ConstructionSimulation:
             smart_summary=self.smart.summary(),
             breakdowns=self.breakdowns,
         )
+
+    def _number_by_start(self) -> None:
+        """Identifications A0001... in start order (they were given in finish order)."""
+        self.activities.sort(key=lambda a: (a.start, a.finish, a.id))
+        width = max(4, len(str(len(self.activities))))
+        new_id = {a.id: f"A{i:0{width}d}" for i, a in enumerate(self.activities, start=1)}
+        for a in self.activities:
+            a.id = new_id[a.id]
+            a.predecessors = tuple(new_id[p] for p in a.predecessors)
 
     def _stall_reason(self, unfinished: list[str]) -> str:
         waiting = [t for pool in self.pending.values() for t in pool]
@@ -670,10 +679,14 @@ class ConstructionSimulation:
             request.start = self.yard_of[component.id] if request.activity == "transport" else request.start
         request.attempts += 1
         heapq.heappush(self.pending[request.activity], request)
-        self._say(
-            f"{robot.spec.name} broke down during {request.activity} of {component.id}: "
-            f"{component.id} is {component.state} at ({robot.position[0]:.2f}, {robot.position[1]:.2f}), task auctioned again"
-        )
+        where = f"({robot.position[0]:.2f}, {robot.position[1]:.2f})"
+        if request.activity == "assemble":
+            what = f"assembly of nodes {' and '.join(request.node_ids)}: nodes are {State.WAIT_FOR_ASSEMBLY}"
+        else:
+            what = f"{request.activity} of {component.id}: {component.id} is {component.state}"
+            if request.activity == "transport":
+                what += f" at {where}"
+        self._say(f"{robot.spec.name} broke down at {where} during {what}; task {request.id} auctioned again")
         self._event("reauction", request=request.id, activity=request.activity, component=component.id, robot=robot.spec.name, state=str(component.state))
         self._request_dispatch()
 

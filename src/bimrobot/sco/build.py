@@ -2,8 +2,10 @@
 
 Roles come from the relations, not from IFC classes: in an ``IfcRelConnectsWithRealizingElements`` the
 RelatingElement is a component (column, beam, footing), the RelatedElement a connector (plate, cleat,
-clip angle) and the RealizingElements the fasteners (bolts, welds). ifcUnit's cleats are exported as
-IfcColumn but are connectors because they are related elements. Connectors joined to each other by a
+clip angle) and the RealizingElements the fasteners (bolts, welds) (thesis fig. 4.6). ifcUnit's cleats
+are exported as IfcColumn but are connectors because they are related elements. Models that chain their
+relations (footing -> plate -> column -> clip -> beam) break that convention; there the lighter element of
+each relation is the connector (see :func:`connector_roles`). Connectors joined to each other by a
 relation (ifcUnit bolts cleat #1 to cleat #2) form one connector group; the components related to one
 group form a joint. Each (component, connector) relation becomes a ConnectionNode with id
 ``"<relating GlobalId>:<related GlobalId>"``, ``assembly_point_number`` = number of realizing elements and
@@ -56,7 +58,9 @@ class SmartModel:
     floor_names: list[str]
     supporters: dict[str, tuple[str, ...]]
     connection_source: str
+    role_rule: str = ""
     connectors: list[str] = field(default_factory=list)
+    duplicates: list[str] = field(default_factory=list)
     unconnected: list[str] = field(default_factory=list)
     unknown_weight: list[str] = field(default_factory=list)
 
@@ -74,6 +78,7 @@ class SmartModel:
         return {
             "source": self.source,
             "connection_source": self.connection_source,
+            "role_rule": self.role_rule,
             "components": len(self.components),
             "prebuilt": sorted(c.id for c in self.components.values() if c.prebuilt),
             "connection_nodes": len(self.nodes),
@@ -83,6 +88,7 @@ class SmartModel:
             "connectors": self.connectors,
             "inferred_joints": [list(j.component_ids) for j in self.inferred],
             "unconnected_components": self.unconnected,
+            "duplicates_not_built": self.duplicates,
             "unknown_weight": self.unknown_weight,
             "floors": self.floor_names,
         }
@@ -113,7 +119,10 @@ def build_smart_model(
             connections = _infer(model, inferred_tolerance_m)
         connection_source = "inferred from geometry" if connections else "none"
 
-    related = {c.related_id for c in connections if not c.inferred}
+    if connection_source == "IfcRelConnectsWithRealizingElements":
+        related, role_rule = connector_roles(model, connections)
+    else:
+        related, role_rule = set(), "no connectors: touching components are joined directly"
     realizing = {r for c in connections for r in c.realizing_ids}
     component_ids = [
         gid
@@ -126,8 +135,12 @@ def build_smart_model(
     floors, floor_names = _floor_order(model)
     components = {gid: _component(model.elements[gid], model, floors, prebuilt_classes) for gid in component_ids}
 
+    duplicates: list[str] = []
     if connection_source == "IfcRelConnectsWithRealizingElements":
-        joints, nodes = _joints_from_relations(model, connections, components)
+        joints, nodes = _joints_from_relations(model, connections, components, related)
+        duplicates = _duplicates_of_connected(model, components, nodes)
+        for gid in duplicates:
+            del components[gid]
     else:
         joints, nodes = _joints_inferred(
             model, connections, components, inferred_assembly_points, inferred_assembly_method
@@ -166,7 +179,9 @@ def build_smart_model(
         floor_names=floor_names,
         supporters=supporters,
         connection_source=connection_source,
+        role_rule=role_rule,
         connectors=sorted(related),
+        duplicates=duplicates,
         unconnected=sorted(gid for gid, c in components.items() if not c.connection_nodes),
         unknown_weight=sorted(gid for gid, c in components.items() if c.weight_kg is None),
     )
@@ -256,9 +271,60 @@ def _centre(ids, model: BuildingModel) -> np.ndarray | None:
     return np.mean([box.mean(axis=0) for box in boxes], axis=0)
 
 
-def _joints_from_relations(model, connections, components):
+def _mass_proxy(element: Element) -> float:
+    """Weight in kg, or (weight unknown) bounding-box volume x steel density, to compare sizes."""
+    if element.weight_kg is not None:
+        return float(element.weight_kg)
+    extent = element.world_bounds[1] - element.world_bounds[0]
+    return float(np.prod(extent)) * 7850.0
+
+
+def connector_roles(model: BuildingModel, connections: list[Connection]) -> tuple[set[str], str]:
+    """Which elements are connectors, and the rule that decided it.
+
+    The thesis' convention (fig. 4.6): the RelatedElement is the connector. It is used when it is
+    consistent, i.e. every connector so found is related to at least one component. Models that chain
+    their relations instead (footing -> plate -> column -> clip -> beam) fail that test; then in each
+    relation the lighter element (weight, else bounding-box size) is the connector.
+    """
+    partners: dict[str, set[str]] = {}
+    for c in connections:
+        partners.setdefault(c.relating_id, set()).add(c.related_id)
+        partners.setdefault(c.related_id, set()).add(c.relating_id)
+    related = {c.related_id for c in connections}
+    if all(any(p not in related for p in partners[k]) for k in related):
+        return related, "RelatingElement = component, RelatedElement = connector (thesis fig. 4.6)"
+    connectors = set()
+    for c in connections:
+        a, b = model.elements.get(c.relating_id), model.elements.get(c.related_id)
+        if a is None or b is None:
+            connectors.add(c.related_id)
+            continue
+        connectors.add(c.relating_id if _mass_proxy(a) < _mass_proxy(b) else c.related_id)
+    return connectors, "the lighter element of each relation is the connector (relations are chained)"
+
+
+def _duplicates_of_connected(model, components, nodes) -> list[str]:
+    """Unconnected components that sit where a connected component of the same class is (within 5 cm).
+
+    Some exports (ifcUnit) contain each member twice: the connected, cut member and an uncut copy.
+    """
+    connected = {n.component_id for n in nodes.values()}
+    boxes = {gid: model.elements[gid].world_bounds for gid in connected}
+    duplicates = []
+    for gid, component in components.items():
+        if gid in connected:
+            continue
+        box = model.elements[gid].world_bounds
+        for other in connected:
+            if components[other].ifc_class == component.ifc_class and np.all(np.abs(boxes[other] - box) < 0.05):
+                duplicates.append(gid)
+                break
+    return sorted(duplicates)
+
+
+def _joints_from_relations(model, connections, components, connectors: set[str]):
     """Joints from IfcRelConnectsWithRealizingElements: one per connector group."""
-    connectors = {c.related_id for c in connections}
     parent: dict[str, str] = {k: k for k in connectors}
 
     def find(k: str) -> str:
@@ -269,36 +335,40 @@ def _joints_from_relations(model, connections, components):
 
     group_realizing: dict[str, set[str]] = {}
     for c in connections:
-        if c.relating_id in connectors:  # connector bolted to connector: same group
+        if c.relating_id in connectors and c.related_id in connectors:  # connector to connector: one group
             a, b = find(c.relating_id), find(c.related_id)
             if a != b:
                 parent[max(a, b)] = min(a, b)
     for c in connections:
-        if c.relating_id in connectors:
+        if c.relating_id in connectors and c.related_id in connectors:
             group_realizing.setdefault(find(c.related_id), set()).update(c.realizing_ids)
 
     nodes: dict[str, ConnectionNode] = {}
     group_nodes: dict[str, list[str]] = {}
     for c in connections:
-        if c.relating_id in connectors or c.relating_id not in components:
+        if c.related_id in connectors and c.relating_id in components:
+            component_id, connector_id = c.relating_id, c.related_id
+        elif c.relating_id in connectors and c.related_id in components:
+            component_id, connector_id = c.related_id, c.relating_id
+        else:
             continue
         node_id = f"{c.relating_id}:{c.related_id}"
-        group = find(c.related_id)
+        group = find(connector_id)
         if node_id in nodes:  # the same pair related twice: more fastening points on one node
             node = nodes[node_id]
             node.assembly_point_number += max(1, len(c.realizing_ids))
             continue
-        component = components[c.relating_id]
-        position = _centre([c.related_id], model)
+        component = components[component_id]
+        position = _centre([connector_id], model)
         if position is None:
             position = _centre(c.realizing_ids, model)
         nodes[node_id] = ConnectionNode(
             id=node_id,
-            name=f"{component.name} / {model.elements[c.related_id].name if c.related_id in model.elements else c.related_id}",
+            name=f"{component.name} / {model.elements[connector_id].name if connector_id in model.elements else connector_id}",
             object_type="ConnectionNode",
-            component_id=c.relating_id,
+            component_id=component_id,
             joint_id=group,
-            connector_ids=(c.related_id,),
+            connector_ids=(connector_id,),
             assembly_point_number=max(1, len(c.realizing_ids)),
             assembly_method=assembly_method(c, model),
             position=position if position is not None else component.target_position.copy(),

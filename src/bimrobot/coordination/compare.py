@@ -1,0 +1,90 @@
+"""Market vs baselines vs an optimal CP-SAT schedule on the same build (makespans in seconds)."""
+
+from __future__ import annotations
+
+import csv
+import logging
+import statistics
+from pathlib import Path
+from typing import Callable
+
+from bimrobot.coordination.fleet import Fleet, Site
+from bimrobot.coordination.simulation import simulate
+from bimrobot.errors import BimrobotError
+from bimrobot.sco.build import SmartModel
+
+log = logging.getLogger(__name__)
+
+
+def compare_allocators(
+    smart_model: Callable[[], SmartModel],
+    fleet: Fleet,
+    site: Site | None,
+    elevations: list[float],
+    seeds: int = 5,
+    optimal: bool = True,
+    time_limit_s: float = 60.0,
+    max_tasks: int = 60,
+) -> list[dict]:
+    """One row per allocator: makespan (s) and its gap to the CP-SAT optimum (%) when that is known.
+
+    ``smart_model`` builds a fresh SmartModel per run (a run changes the components' states).
+    """
+    rows = []
+    for name in ("least-cost", "quickest-finish", "greedy-nearest"):
+        result = simulate(smart_model(), fleet, site, name, 0, (), elevations)
+        rows.append({"allocator": name, "makespan_s": round(result.makespan, 2), "runs": 1, "steps": result.steps})
+    randoms = [simulate(smart_model(), fleet, site, "random", seed, (), elevations).makespan for seed in range(seeds)]
+    rows.append({
+        "allocator": f"random (mean of {seeds} seeds)",
+        "makespan_s": round(statistics.fmean(randoms), 2),
+        "runs": seeds,
+        "min_s": round(min(randoms), 2),
+        "max_s": round(max(randoms), 2),
+    })
+    best = None
+    if optimal:
+        from bimrobot.coordination.optimal import solve_optimal
+
+        try:
+            schedule = solve_optimal(smart_model(), fleet, site, elevations, time_limit_s=time_limit_s, max_tasks=max_tasks)
+        except BimrobotError as exc:
+            log.warning("no CP-SAT optimum: %s", exc)
+            rows.append({"allocator": "optimal (CP-SAT)", "makespan_s": None, "note": str(exc)})
+        else:
+            proven = schedule.status == "OPTIMAL"
+            rows.append({
+                "allocator": "optimal (CP-SAT)" if proven else "best found (CP-SAT, not proven)",
+                "makespan_s": round(schedule.makespan, 2),
+                "lower_bound_s": round(schedule.lower_bound, 2),
+                "status": schedule.status,
+                "tasks": schedule.tasks,
+            })
+            best = schedule.lower_bound if not proven else schedule.makespan
+    if best:  # the proven optimum, or else CP-SAT's lower bound (then gaps are upper bounds of the true gaps)
+        for row in rows:
+            if row.get("makespan_s") is not None:
+                row["gap_pct"] = round(100.0 * (row["makespan_s"] - best) / best, 2)
+    return rows
+
+
+def format_markdown(rows: list[dict], title: str) -> str:
+    """A Markdown table of the comparison."""
+    lines = [f"### {title}", "", "| allocator | makespan (s) | gap to optimum / bound |", "|---|---:|---:|"]
+    for row in rows:
+        makespan = "-" if row.get("makespan_s") is None else f"{row['makespan_s']:.1f}"
+        if "min_s" in row:
+            makespan += f" ({row['min_s']:.0f}-{row['max_s']:.0f})"
+        gap = f"{row['gap_pct']:+.1f} %" if "gap_pct" in row else "-"
+        if "lower_bound_s" in row and row.get("status") != "OPTIMAL":
+            gap = f"lower bound {row['lower_bound_s']:.1f} s"
+        lines.append(f"| {row['allocator']} | {makespan} | {gap} |")
+    return "\n".join(lines)
+
+
+def write_csv(rows: list[dict], path: Path) -> None:
+    fields = ["allocator", "makespan_s", "gap_pct", "runs", "min_s", "max_s", "lower_bound_s", "status", "tasks", "steps", "note"]
+    with open(path, "w", newline="") as handle:
+        writer = csv.DictWriter(handle, fieldnames=fields, extrasaction="ignore")
+        writer.writeheader()
+        writer.writerows(rows)

@@ -1,0 +1,125 @@
+"""Outputs of a simulation run: event log (Listing 4.2 style and JSON lines), per-robot table (Table
+4.2 style), summary, schedule CSV and a Gantt chart. Times in seconds."""
+
+from __future__ import annotations
+
+import csv
+import json
+from pathlib import Path
+
+from bimrobot.coordination.schedule import write_schedule_csv
+from bimrobot.coordination.simulation import SimulationResult
+
+ACTIVITY_COLOURS = {"transport": "#4C72B0", "position": "#DD8452", "assemble": "#55A868"}
+
+
+def robot_table_rows(result: SimulationResult) -> list[dict]:
+    """One row per robot: tasks done (steps), busy/travel/handling time (s) and utilisation."""
+    rows = []
+    for robot in result.robots:
+        rows.append({
+            "robot": robot.name,
+            "kind": robot.kind,
+            "steps": robot.steps,
+            "busy_time_s": round(robot.busy_time, 2),
+            "travel_time_s": round(robot.travel_time, 2),
+            "handling_time_s": round(robot.handling_time, 2),
+            "utilisation": round(robot.busy_time / result.makespan, 4) if result.makespan > 0 else 0.0,
+            "broken_at_s": "" if robot.broken_at is None else round(robot.broken_at, 2),
+        })
+    return rows
+
+
+def summary(result: SimulationResult) -> dict:
+    """Makespan, steps, utilisation and provenance (JSON-serialisable)."""
+    return {
+        "model": result.model,
+        "fleet": result.fleet,
+        "evaluator": result.evaluator,
+        "makespan_s": round(result.makespan, 3),
+        "steps": result.steps,
+        "activities": sum(1 for a in result.activities if not a.aborted),
+        "aborted_activities": sum(1 for a in result.activities if a.aborted),
+        "fleet_utilisation": round(result.utilisation, 4),
+        "floor_finish_s": [round(t, 3) for t in result.floor_finish],
+        "breakdowns": [{"robot": r, "time_s": t} for r, t in result.breakdowns],
+        "robots": robot_table_rows(result),
+        "smart_components": result.smart_summary,
+    }
+
+
+def format_robot_table(result: SimulationResult) -> str:
+    """A plain-text table like the thesis' Table 4.2 (steps and time per robot, then the total)."""
+    lines = [f"{'robot':<22} {'kind':<18} {'steps':>5} {'busy s':>10} {'util.':>6}"]
+    for row in robot_table_rows(result):
+        lines.append(
+            f"{row['robot']:<22} {row['kind']:<18} {row['steps']:>5} {row['busy_time_s']:>10.1f} {row['utilisation']:>6.1%}"
+        )
+    lines.append(f"{'overview':<22} {'(allocation rounds)':<18} {result.steps:>5} {result.makespan:>10.1f} {result.utilisation:>6.1%}")
+    return "\n".join(lines)
+
+
+def plot_gantt(result: SimulationResult, path: Path) -> None:
+    """Gantt chart PNG: one row per robot, bars coloured by activity, aborted work hatched."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.patches import Patch
+
+    names = [r.name for r in result.robots]
+    row_of = {name: i for i, name in enumerate(names)}
+    fig, ax = plt.subplots(figsize=(11, 1.2 + 0.55 * len(names)))
+    for activity in result.activities:
+        ax.barh(
+            row_of[activity.robot],
+            activity.duration,
+            left=activity.start,
+            height=0.6,
+            color=ACTIVITY_COLOURS[activity.activity],
+            edgecolor="black" if activity.aborted else "none",
+            hatch="//" if activity.aborted else None,
+            alpha=0.5 if activity.aborted else 1.0,
+            linewidth=0.3,
+        )
+    for robot in result.robots:
+        if robot.broken_at is not None:
+            ax.plot([robot.broken_at], [row_of[robot.name]], marker="x", color="red", markersize=10)
+    ax.set_yticks(range(len(names)), names)
+    ax.invert_yaxis()
+    ax.set_xlabel("time from the start of the build (s)")
+    ax.set_title(f"{Path(result.model).name}: fleet {result.fleet}, {result.evaluator}, makespan {result.makespan:.0f} s")
+    handles = [Patch(color=c, label=a) for a, c in ACTIVITY_COLOURS.items()]
+    if any(a.aborted for a in result.activities):
+        handles.append(Patch(facecolor="white", edgecolor="black", hatch="//", label="aborted (breakdown)"))
+    ax.legend(handles=handles, loc="lower right", fontsize=8)
+    ax.grid(axis="x", alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def write_outputs(result: SimulationResult, out_dir: Path, gantt: bool = True) -> list[Path]:
+    """Write every output file into ``out_dir`` (which must exist); returns the paths written."""
+    out_dir = Path(out_dir)
+    paths = []
+    (out_dir / "events.log").write_text("\n".join(result.log_lines) + "\n")
+    with open(out_dir / "events.jsonl", "w") as handle:
+        for event in result.events:
+            handle.write(json.dumps(event) + "\n")
+    with open(out_dir / "robots.csv", "w", newline="") as handle:
+        rows = robot_table_rows(result)
+        writer = csv.DictWriter(handle, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+    (out_dir / "summary.json").write_text(json.dumps(summary(result), indent=2) + "\n")
+    (out_dir / "robots.txt").write_text(format_robot_table(result) + "\n")
+    (out_dir / "states.json").write_text(
+        json.dumps({gid: [[round(t, 3), s] for t, s in h] for gid, h in result.state_history.items()}, indent=1) + "\n"
+    )
+    write_schedule_csv(result.activities, out_dir / "schedule.csv")
+    paths = [out_dir / n for n in ("events.log", "events.jsonl", "robots.csv", "robots.txt", "summary.json", "states.json", "schedule.csv")]
+    if gantt:
+        plot_gantt(result, out_dir / "gantt.png")
+        paths.append(out_dir / "gantt.png")
+    return paths
