@@ -45,6 +45,9 @@ def register(subparsers) -> None:
     run.add_argument("--yard", type=float, nargs=3, default=(-10.0, -10.0, 0.0), metavar=("X", "Y", "Z"),
                      help="first yard slot of a schedule's components, metres (default -10 -10 0)")
     run.add_argument("--standoff", type=float, default=1.0, help="base stand-off from pick/install poses, m (default 1)")
+    run.add_argument("--robot-node", choices=("spawn", "external"), default="spawn",
+                     help="ros2: start the shipped robot node for the run (spawn, default) or use robots that "
+                          "already serve /bimrobot/<robot>/<activity> (external)")
     run.add_argument("--report", help="also write the run report (JSON) to this file")
     run.add_argument("-q", "--quiet", action="store_true", help="no interaction log, only the summary")
     run.set_defaults(func=_run)
@@ -131,9 +134,10 @@ def _run(args) -> int:
     capabilities = load_capabilities(args.capabilities)
     activities = _load_plan(args)
     log = None if args.quiet else (lambda line: print(line, flush=True))
-    report = run_plan(activities, capabilities, backend=args.backend, state_db=args.state_db,
-                      redis_url=args.redis, spawn_executors=not args.no_local_executors,
-                      max_attempts=args.max_attempts, log=log, backend_options=options)
+    with _robots(args):
+        report = run_plan(activities, capabilities, backend=args.backend, state_db=args.state_db,
+                          redis_url=args.redis, spawn_executors=not args.no_local_executors,
+                          max_attempts=args.max_attempts, log=log, backend_options=options)
     states = {}
     for state in report.component_states.values():
         states[state] = states.get(state, 0) + 1
@@ -150,6 +154,21 @@ def _run(args) -> int:
             data = asdict(report)
             tmp.write_text(json.dumps(data, indent=2, default=str))
     return 0 if report.status == "completed" else 1
+
+
+def _robots(args):
+    """For ``--backend ros2 --robot-node spawn``: the shipped ROS 2 robot node, started and stopped here."""
+    import contextlib
+    import os
+
+    if args.backend != "ros2" or args.robot_node != "spawn" or getattr(args, "no_local_executors", False):
+        return contextlib.nullcontext()
+    from bimrobot.rcan.backends.ros2 import load_ros2, robot_node_process
+
+    load_ros2()  # fails early with the setup hint when ROS 2 is absent
+    os.environ.setdefault("FASTDDS_BUILTIN_TRANSPORTS", "SHM")  # both processes are on this machine
+    return robot_node_process(args.capabilities, args.time_scale, args.failure_probability, args.seed,
+                              state_db=args.state_db)
 
 
 def _executor(args) -> int:
