@@ -47,6 +47,8 @@ class BatchedAssemblySim:
     reset; the returned observation is already the next episode's first).
     """
 
+    render_mode = None
+
     def __init__(
         self,
         setting: str | None = "E2S2",
@@ -501,6 +503,9 @@ def _sb3_class():
 
         def close(self):
             pass
+
+        def has_attr(self, attr_name: str) -> bool:
+            return attr_name == "action_masks" or hasattr(self.sim, attr_name)
 
         def get_attr(self, attr_name, indices=None):
             return [getattr(self.sim, attr_name)] * len(self._get_indices(indices))
