@@ -26,3 +26,14 @@ def steel_frame_model(steel_frame_ifc):
 @pytest.fixture(scope="session")
 def greenhouse_model(greenhouse_ifc):
     return load_model(greenhouse_ifc)
+
+
+@pytest.fixture(scope="session")
+def ifc_unit_model():
+    """../shared/data/ifc/ifcUnit.ifc read once for the session (skipped when ../shared is absent)."""
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "ifc" / "ifcUnit.ifc"
+    if not path.exists():
+        pytest.skip(f"{path} is absent: the shared test data lives beside the repository, not in it")
+    return load_model(path)

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
@@ -58,16 +56,9 @@ def test_mesh_volume_and_density_table():
 # ---- real data (../shared/data/ifc), skipped when absent -----------------------------------------
 
 
-SHARED_IFC = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "ifc"
-
-
-@pytest.fixture(scope="module")
-def ifc_unit():
-    """ifcUnit.ifc read once for the module (skipped when ../shared is absent, as tests/conftest.py does)."""
-    path = SHARED_IFC / "ifcUnit.ifc"
-    if not path.exists():
-        pytest.skip(f"{path} is absent: the shared test data lives beside the repository, not in it")
-    return load_model(path)
+@pytest.fixture
+def ifc_unit(ifc_unit_model):
+    return ifc_unit_model
 
 
 def test_ifc_unit_has_its_36_connections(ifc_unit):
@@ -100,8 +91,8 @@ def test_ifc_unit_cleats_are_elements_and_welds_are_skipped(ifc_unit):
 
 
 @pytest.mark.parametrize("name", SHARED_FILES)
-def test_every_shared_file_loads(shared_ifc, name):
-    model = load_model(shared_ifc(name))
+def test_every_shared_file_loads(shared_ifc, ifc_unit_model, name):
+    model = ifc_unit_model if name == "ifcUnit.ifc" else load_model(shared_ifc(name))
     assert model.schema in {"IFC2X3", "IFC4", "IFC4X3_ADD2"}
     assert model.elements
     for element in model.elements.values():

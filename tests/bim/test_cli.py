@@ -1,0 +1,78 @@
+"""The bim sub-commands as a user runs them: exit codes, messages, outputs."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+from bimrobot.cli import main
+
+
+def run_cli(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "bimrobot", *args], capture_output=True, text=True, timeout=300)
+
+
+def test_example_then_inspect_json(tmp_path, capsys):
+    path = tmp_path / "frame.ifc"
+    assert main(["example", "steel-frame", "-o", str(path)]) == 0
+    capsys.readouterr()
+    assert main(["inspect", str(path), "--json", "--infer-connections"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["schema"] == "IFC4"
+    assert summary["classes"]["IfcColumn"] == {"count": 4, "weight_kg": pytest.approx(4 * 289.81), "weights_missing": 0}
+    assert summary["connections"] == {"count": 24, "types": {"BOLTED": 24}}
+    assert summary["weights"]["missing"] == 0
+    assert [s["name"] for s in summary["storeys"]] == ["Level 1", "Level 2"]
+    assert summary["inferred_connections"]["count"] >= 24
+
+
+def test_inspect_table_on_ifc_unit(shared_ifc, capsys):
+    assert main(["inspect", str(shared_ifc("ifcUnit.ifc"))]) == 0
+    out = capsys.readouterr().out
+    assert "length MILLIMETRE (x0.001 -> m)" in out
+    assert "connections (IfcRelConnectsWithRealizingElements): 36" in out
+    assert "4 x IfcFastener: curve-only geometry" in out
+    assert "weights: 20 found, 44 missing" in out
+
+
+def test_split_cli(tmp_path, capsys):
+    path = tmp_path / "gh.ifc"
+    main(["example", "greenhouse", "-o", str(path)])
+    assert main(["split", str(path), "-o", str(tmp_path / "parts"), "--include", "IfcColumn"]) == 0
+    assert "wrote 9 IFC files" in capsys.readouterr().out
+    assert len(list((tmp_path / "parts").glob("*.ifc"))) == 9
+
+
+@pytest.mark.parametrize(
+    "content, message",
+    [
+        (None, "no such file"),
+        ("hello", "is not an IFC file"),
+        ("ISO-10303-21;\nHEADER;\nFILE_SCHEMA(('IFC4'));\nENDSEC;\nDATA;\n#1=IFCWALL(", "is truncated"),
+        ("ISO-10303-21;\nHEADER;\nFILE_DESCRIPTION((''),'2;1');\nFILE_NAME('','',(''),(''),'','','');\n"
+         "FILE_SCHEMA(('IFC4X3_RC2'));\nENDSEC;\nDATA;\nENDSEC;\nEND-ISO-10303-21;\n", "unsupported IFC schema IFC4X3_RC2"),
+    ],
+)
+@pytest.mark.parametrize("command", ["inspect", "split"])
+def test_bad_input_exit_2_with_one_sentence_naming_the_file(tmp_path, content, message, command):
+    path = tmp_path / "input.ifc"
+    if content is not None:
+        path.write_text(content)
+    args = [command, str(path)] + (["-o", str(tmp_path / "out")] if command == "split" else [])
+    result = run_cli(*args)
+    assert result.returncode == 2
+    assert message in result.stderr
+    assert str(path) in result.stderr
+    assert len(result.stderr.strip().splitlines()) == 1
+    assert not (tmp_path / "out").exists()
+
+
+def test_unknown_class_filter(tmp_path):
+    path = tmp_path / "gh.ifc"
+    main(["example", "greenhouse", "-o", str(path)])
+    result = run_cli("inspect", str(path), "--include", "IfcBeem")
+    assert result.returncode == 2
+    assert "IfcBeem" in result.stderr and str(path) in result.stderr
