@@ -24,7 +24,7 @@ _BOX_FACES = np.array(
 )
 
 
-def _box(gid: str, ifc_class: str, name: str, storey: str, low, high, weight: float | None) -> Element:
+def box_element(gid: str, ifc_class: str, name: str, storey: str, low, high, weight: float | None) -> Element:
     """An axis-aligned box from ``low`` to ``high`` (world, metres); local origin at ``low``."""
     low, high = np.asarray(low, float), np.asarray(high, float)
     placement = np.eye(4)
@@ -89,11 +89,11 @@ def generated_frame(
         for i in range(nx):
             for j in range(ny):
                 x, y = i * bay_x, j * bay_y
-                column = add(_box(f"column-{k}-{i}-{j}", "IfcColumn", "W250x73", storey, (x - half_col, y - half_col, z0 + 0.02), (x + half_col, y + half_col, z1), COLUMN_KG_PER_M * (height - 0.02)))
-                plate = add(_box(f"plate-{k}-{i}-{j}", "IfcPlate", "Base plate" if k == 0 else "Splice plate", storey, (x - 0.2, y - 0.2, z0), (x + 0.2, y + 0.2, z0 + 0.02), 25.0))
+                column = add(box_element(f"column-{k}-{i}-{j}", "IfcColumn", "W250x73", storey, (x - half_col, y - half_col, z0 + 0.02), (x + half_col, y + half_col, z1), COLUMN_KG_PER_M * (height - 0.02)))
+                plate = add(box_element(f"plate-{k}-{i}-{j}", "IfcPlate", "Base plate" if k == 0 else "Splice plate", storey, (x - 0.2, y - 0.2, z0), (x + 0.2, y + 0.2, z0 + 0.02), 25.0))
                 relate(column, plate)
                 if k == 0:
-                    footing = add(_box(f"footing-{i}-{j}", "IfcFooting", "Isolated footing", storey, (x - 0.6, y - 0.6, -0.6), (x + 0.6, y + 0.6, 0.0), 2000.0))
+                    footing = add(box_element(f"footing-{i}-{j}", "IfcFooting", "Isolated footing", storey, (x - 0.6, y - 0.6, -0.6), (x + 0.6, y + 0.6, 0.0), 2000.0))
                     relate(footing, plate)
                 else:
                     relate(f"column-{k - 1}-{i}-{j}", plate)
@@ -109,9 +109,9 @@ def generated_frame(
                         low, high = (x + half_col, y - 0.0825, z1 - 0.31), (x2 - half_col, y + 0.0825, z1)
                     else:
                         low, high = (x - 0.0825, y + half_col, z1 - 0.31), (x + 0.0825, y2 - half_col, z1)
-                    beam = add(_box(f"beam-{k}-{axis}-{i}-{j}", "IfcBeam", "W310x38.7", beam_storey, low, high, BEAM_KG_PER_M * span))
+                    beam = add(box_element(f"beam-{k}-{axis}-{i}-{j}", "IfcBeam", "W310x38.7", beam_storey, low, high, BEAM_KG_PER_M * span))
                     for end, (cx, cy, ci, cj) in enumerate(((x, y, i, j), (x2, y2, i + di, j + dj))):
-                        clip = add(_box(f"clip-{beam}-{end}", "IfcPlate", "Clip angle", beam_storey, (cx - 0.15, cy - 0.15, z1 - 0.25), (cx + 0.15, cy + 0.15, z1 - 0.05), 3.0))
+                        clip = add(box_element(f"clip-{beam}-{end}", "IfcPlate", "Clip angle", beam_storey, (cx - 0.15, cy - 0.15, z1 - 0.25), (cx + 0.15, cy + 0.15, z1 - 0.05), 3.0))
                         relate(f"column-{k}-{ci}-{cj}", clip)
                         relate(beam, clip)
     return BuildingModel(

@@ -323,9 +323,10 @@ class ConstructionSimulation:
         for task in waiting:
             if all(incapability(spec, task) for spec in alive):
                 broken = ", ".join(r.spec.name for r in self.robots.values() if r.broken) or "none"
+                what = f"joint {task.joint_id}" if task.activity == "assemble" else f"component {task.component_id}"
                 return (
                     f"the build stalled at t = {self.env.now:.1f} s: no working robot can {task.activity} "
-                    f"component {task.component_id} (broken down: {broken}); {len(unfinished)} components unfinished"
+                    f"{what} (broken down: {broken}); {len(unfinished)} components unfinished"
                 )
         return f"the build stalled at t = {self.env.now:.1f} s with {len(unfinished)} components unfinished, e.g. {unfinished[0]}"
 

@@ -1,0 +1,105 @@
+"""Fleets (Table 4.1) and sites (fig. 4.11) from YAML, validated; the market's evaluators."""
+
+import numpy as np
+import pytest
+
+from bimrobot.coordination.fleet import default_site, load_fleet, load_site
+from bimrobot.coordination.market import BidProposal, TaskRequest, incapability, make_evaluator, propose
+from bimrobot.errors import InputError
+
+
+def test_builtin_fleets_are_table_4_1():
+    fleet1, fleet2 = load_fleet("fleet1"), load_fleet("fleet2")
+    assert [r.name for r in fleet1.robots] == ["TransportRobot11", "PositioningRobot21", "AssemblyRobot31"]
+    assert len(fleet2.robots) == 6
+    robots = {r.name: r for r in fleet2.robots}
+    assert (robots["TransportRobot11"].speed, robots["TransportRobot12"].speed) == (0.5, 0.8)
+    assert robots["TransportRobot12"].carry_load == 300 and robots["TransportRobot12"].platform_size == (4.0, 1.0)
+    assert (robots["PositioningRobot21"].time_per_node, robots["PositioningRobot22"].time_per_node) == (120, 60)
+    assert robots["PositioningRobot22"].payload == 300 and robots["PositioningRobot22"].reach == 4.0
+    assert (robots["AssemblyRobot31"].time_per_point, robots["AssemblyRobot32"].time_per_point) == (60, 30)
+    assert [r.name for r in fleet2.by_activity("assemble")] == ["AssemblyRobot31", "AssemblyRobot32"]
+
+
+@pytest.mark.parametrize(
+    "body, message",
+    [
+        ("robots: []", "key 'robots' must be a non-empty list"),
+        ("robots:\n  - {name: T, kind: crane, speed: 1}", r"robots\[0\] \(T\): key 'kind' must be one of"),
+        ("robots:\n  - {name: T, kind: transport, speed: 1, carry_load: 300}", r"robots\[0\] \(T\): missing key 'platform_size'"),
+        ("robots:\n  - {name: T, kind: transport, speed: -1, carry_load: 300, platform_size: [4, 1]}", r"key 'speed' must be a positive number, got -1"),
+        ("robots:\n  - {name: A, kind: assembly, speed: 1, reach: 4, time_per_point: 30, payload: 9}", r"unknown key 'payload' for a assembly robot"),
+        ("robots:\n  - {name: A, kind: assembly, speed: 1, reach: 4, time_per_point: 30, methods: [glue]}", r"key 'methods' must be a list drawn from"),
+        ("robots:\n  - {name: A, kind: assembly, speed: 1, reach: 4, time_per_point: 30}\n  - {name: A, kind: assembly, speed: 1, reach: 4, time_per_point: 30}", "robot name 'A' is used twice"),
+        ("robots:\n  - {name: T, kind: transport\n", r"line \d+ is not valid YAML"),
+    ],
+)
+def test_bad_fleet_files_name_file_and_key(tmp_path, body, message):
+    path = tmp_path / "bad_fleet.yaml"
+    path.write_text(body)
+    with pytest.raises(InputError, match=message) as error:
+        load_fleet(path)
+    assert str(path) in str(error.value)
+
+
+def test_unknown_fleet_name_is_refused():
+    with pytest.raises(InputError, match="neither a built-in fleet"):
+        load_fleet("fleet3")
+
+
+def test_site_file_overrides_defaults_and_is_validated(tmp_path):
+    path = tmp_path / "site.yaml"
+    path.write_text("yard: [[20, 0], [20, 2]]\nmodel_offset: [1.5, 2]\n")
+    site = load_site(path)
+    assert site.yard == ((20.0, 0.0), (20.0, 2.0)) and site.model_offset == (1.5, 2.0)
+    assert site.robot_home == default_site().robot_home
+    path.write_text("yard: [[20, 0], [20]]\n")
+    with pytest.raises(InputError, match=r"site.yaml: yard\[1\] must be a pair of numbers"):
+        load_site(path)
+    path.write_text("depot: [0, 0]\n")
+    with pytest.raises(InputError, match="unknown key 'depot'"):
+        load_site(path)
+
+
+def test_default_site_centres_the_building_in_the_construction_area():
+    offset = default_site().offset_for(np.array([0.0, 0.0]), np.array([3.5, 2.846]))
+    assert offset == pytest.approx([6.75 - 1.75, 4.75 - 1.423])
+
+
+def _request(**kw):
+    values = dict(id="R1", activity="transport", component_id="C", start=np.array([12.5, 4.0]), end=np.array([6.0, 4.0]), floor=0, priority=(0,))
+    values.update(kw)
+    return TaskRequest(**values)
+
+
+def test_capability_filtering_by_payload_platform_reach_and_method():
+    fleet = {r.name: r for r in load_fleet("fleet2").robots}
+    assert incapability(fleet["TransportRobot11"], _request(weight_kg=289.8, size=(3.98, 0.25))) is None
+    assert "carry load 300 kg < 301.0 kg" in incapability(fleet["TransportRobot11"], _request(weight_kg=301.0, size=(1, 1)))
+    assert "platform 4 x 1 m" in incapability(fleet["TransportRobot11"], _request(weight_kg=100, size=(4.47, 0.31)))
+    assert "reach 4 m < 4.20 m" in incapability(fleet["PositioningRobot21"], _request(activity="position", weight_kg=100, reach_needed=4.2))
+    assert "does not transport" in incapability(fleet["AssemblyRobot31"], _request())
+
+
+def test_proposal_cost_is_travel_plus_handling():
+    robot = load_fleet("fleet2").robots[1]  # TransportRobot12, 0.8 m/s
+    proposal = propose(robot, np.array([18.5, 4.0]), 100.0, True, _request())
+    assert proposal.distance == pytest.approx(6.0)
+    assert proposal.travel_time == pytest.approx(6.0 / 0.8)
+    assert proposal.handling_time == pytest.approx(6.5 / 0.8)
+    assert proposal.finish_time == pytest.approx(100.0 + 12.5 / 0.8)
+
+
+def test_evaluators_pick_by_cost_finish_distance_or_seeded_chance():
+    proposals = [
+        BidProposal("slow-near", "R1", distance=1.0, travel_time=1.0, handling_time=120.0, finish_time=121.0, idle=True),
+        BidProposal("fast-far", "R1", distance=20.0, travel_time=20.0, handling_time=60.0, finish_time=80.0, idle=True),
+        BidProposal("fast-busy", "R1", distance=2.0, travel_time=2.0, handling_time=60.0, finish_time=70.0, idle=False),
+    ]
+    assert make_evaluator("least-cost").choose(proposals[:2]).robot == "fast-far"
+    assert make_evaluator("quickest-finish").choose(proposals).robot == "fast-busy"
+    assert make_evaluator("greedy-nearest").choose(proposals[:2]).robot == "slow-near"
+    picks = [make_evaluator("random", seed=5).choose(proposals[:2]).robot for _ in range(2)]
+    assert picks[0] == picks[1]
+    with pytest.raises(InputError, match="unknown evaluator 'cheapest'"):
+        make_evaluator("cheapest")

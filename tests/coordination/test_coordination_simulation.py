@@ -1,0 +1,182 @@
+"""The market-based construction simulation: known times, thesis rules, faults."""
+
+import numpy as np
+import pytest
+
+from bimrobot.bim.model import BuildingModel, Connection, Storey
+from bimrobot.coordination.fleet import Site, load_fleet
+from bimrobot.coordination.generate import box_element, generated_frame
+from bimrobot.coordination.simulation import simulate
+from bimrobot.errors import BimrobotError, InputError
+from bimrobot.sco import State, build_smart_model
+
+THESIS_SEQUENCE = [
+    "OnYard", "InTransit", "Arrived", "InLocation", "WorkingInPositioning", "PositionFixed",
+    "WaitForAssembly", "WorkingInAssembly", "Assembled",
+]
+
+
+def _one_column():
+    """A column (centre at x = y = 0) bolted through a base plate to a footing: 4 bolts on each side."""
+    footing = box_element("F", "IfcFooting", "", "L1", (-0.6, -0.6, -0.6), (0.6, 0.6, 0.0), 2000.0)
+    plate = box_element("P", "IfcPlate", "", "L1", (-0.2, -0.2, 0.0), (0.2, 0.2, 0.02), 25.0)
+    column = box_element("C", "IfcColumn", "", "L1", (-0.125, -0.125, 0.02), (0.125, 0.125, 4.0), 290.0)
+    model = BuildingModel(
+        source=None, schema="IFC4", project_name="one column", site_name="", units={},
+        storeys=[Storey("L1", "Level 1", 0.0)], elements={e.global_id: e for e in (footing, plate, column)},
+        connections=[Connection("F", "P", ("a1", "a2", "a3", "a4")), Connection("C", "P", ("b1", "b2", "b3", "b4"))],
+    )
+    return model
+
+
+def _frame(nx=2, ny=2, floors=1):
+    model = generated_frame(nx, ny, floors)
+    return build_smart_model(model), [s.elevation for s in model.storeys]
+
+
+def test_one_column_build_takes_the_hand_computed_time():
+    # Transport robot home (10, 0), yard (6, 0), column at (0, 0): 4 m + 6 m at 0.5 m/s = 20 s.
+    # Positioning robot from (0, 8): 8 m at 1 m/s, then 1 node x 120 s: finishes at 20 + 8 + 120 = 148 s.
+    # Assembly robot from (0, -6): 6 m at 1 m/s, then 8 bolts x 60 s: finishes at 148 + 6 + 480 = 634 s.
+    site = Site(yard=((6.0, 0.0),), robot_home=((10.0, 0.0), (0.0, 8.0), (0.0, -6.0)),
+                construction_area=((-1, -1), (1, 1)), model_offset=(0.0, 0.0))
+    smart = build_smart_model(_one_column())
+    result = simulate(smart, load_fleet("fleet1"), site)
+    assert result.makespan == pytest.approx(634.0)
+    rows = {(a.activity, a.robot): (a.start, a.finish) for a in result.activities}
+    assert rows[("transport", "TransportRobot11")] == pytest.approx((0.0, 20.0))
+    assert rows[("position", "PositioningRobot21")] == pytest.approx((20.0, 148.0))
+    assert [a.activity for a in result.activities] == ["transport", "position", "assemble", "assemble"]
+    assert result.activities[-1].finish == pytest.approx(634.0)
+    assert [s for _, s in result.state_history["C"]] == THESIS_SEQUENCE
+    assert [t for t, s in result.state_history["C"] if s == "Arrived"] == pytest.approx([20.0])
+    busy = {r.name: r.busy_time for r in result.robots}
+    assert busy == pytest.approx({"TransportRobot11": 20.0, "PositioningRobot21": 128.0, "AssemblyRobot31": 486.0})
+
+
+@pytest.mark.parametrize("fleet", ["fleet1", "fleet2"])
+def test_frame_is_built_floor_by_floor_columns_before_beams(fleet):
+    smart, elevations = _frame(2, 2, 2)
+    result = simulate(smart, load_fleet(fleet), storey_elevations=elevations)
+    assert all(c.state == State.ASSEMBLED for c in smart.components.values())
+    assert all(n.state == State.ASSEMBLED for n in smart.nodes.values())
+    finish = {(a.activity, a.global_id): a.finish for a in result.activities if a.activity != "assemble"}
+    start = {(a.activity, a.global_id): a.start for a in result.activities if a.activity == "transport"}
+    for gid, supporters in smart.supporters.items():
+        for supporter in supporters:
+            if not smart.components[supporter].prebuilt:
+                assert start[("transport", gid)] >= finish[("position", supporter)] - 1e-9
+    # no transport of floor k+1 before every joint of floor k is assembled
+    for floor, done in enumerate(result.floor_finish[:-1]):
+        later = [a.start for a in result.activities if a.activity == "transport" and smart.components[a.global_id].floor > floor]
+        assert min(later) >= done - 1e-9
+    assert result.floor_finish[-1] == pytest.approx(result.makespan)
+
+
+@pytest.mark.parametrize("evaluator", ["least-cost", "quickest-finish", "greedy-nearest", "random"])
+def test_schedule_is_consistent_whatever_the_allocator(evaluator):
+    smart, elevations = _frame(3, 2, 1)
+    result = simulate(smart, load_fleet("fleet2"), evaluator=evaluator, seed=3, storey_elevations=elevations)
+    by_id = {a.id: a for a in result.activities}
+    for a in result.activities:
+        for p in a.predecessors:
+            assert a.start >= by_id[p].finish - 1e-9, (a, by_id[p])
+    for robot in result.robots:
+        mine = sorted((a.start, a.finish) for a in result.activities if a.robot == robot.name)
+        assert all(f1 <= s2 + 1e-9 for (_, f1), (s2, _) in zip(mine, mine[1:]))  # one task at a time
+        assert robot.busy_time == pytest.approx(sum(f - s for s, f in mine))
+    assert result.makespan == pytest.approx(max(a.finish for a in result.activities))
+    assert 0 < result.utilisation < 1
+
+
+def test_two_robots_of_each_kind_build_faster_than_one():
+    smart1, elevations = _frame()
+    smart2, _ = _frame()
+    one = simulate(smart1, load_fleet("fleet1"), storey_elevations=elevations)
+    two = simulate(smart2, load_fleet("fleet2"), storey_elevations=elevations)
+    assert two.makespan < 0.6 * one.makespan
+    # with one assembly robot, the build is never shorter than its handling work: 144 points x 60 s
+    assert one.makespan >= 144 * 60
+
+
+def test_breakdown_mid_task_reauctions_and_loses_nothing():
+    smart, elevations = _frame()
+    result = simulate(smart, load_fleet("fleet2"), breakdowns=[("AssemblyRobot32", 400.0)], storey_elevations=elevations)
+    assert all(c.state == State.ASSEMBLED for c in smart.components.values())
+    aborted = [a for a in result.activities if a.aborted]
+    assert len(aborted) == 1 and aborted[0].robot == "AssemblyRobot32" and aborted[0].finish == pytest.approx(400.0)
+    assert not [a for a in result.activities if a.robot == "AssemblyRobot32" and a.start >= 400.0]
+    assert any("AssemblyRobot32 broke down" in line and "auctioned again" in line for line in result.log_lines)
+    reauction = [e for e in result.events if e["event"] == "reauction"]
+    assert len(reauction) == 1 and reauction[0]["robot"] == "AssemblyRobot32"
+    redone = [e for e in result.events if e["event"] == "award" and e["request"] == reauction[0]["request"]]
+    assert [e["robot"] for e in redone] == ["AssemblyRobot32", "AssemblyRobot31"]
+    # every joint assembled exactly once in the schedule
+    assembled_nodes = [a.name for a in result.activities if a.activity == "assemble" and not a.aborted]
+    assert len(assembled_nodes) == len(set(assembled_nodes)) == len(smart.nodes)
+
+
+def test_transport_breakdown_leaves_the_component_where_it_was_dropped():
+    smart, elevations = _frame()
+    result = simulate(smart, load_fleet("fleet2"), breakdowns=[("TransportRobot12", 10.0)], storey_elevations=elevations)
+    dropped = next(e for e in result.events if e["event"] == "reauction")
+    assert dropped["state"] == "OnYard"
+    history = [s for _, s in result.state_history[dropped["component"]]]
+    assert history[:4] == ["OnYard", "InTransit", "OnYard", "InTransit"]
+    assert history[-1] == "Assembled"
+
+
+def test_breakdown_of_the_only_assembly_robot_stalls_with_a_clear_error():
+    smart, elevations = _frame()
+    with pytest.raises(BimrobotError, match=r"no working robot can assemble joint .* \(broken down: AssemblyRobot31\)"):
+        simulate(smart, load_fleet("fleet1"), breakdowns=[("AssemblyRobot31", 100.0)], storey_elevations=elevations)
+
+
+def test_component_no_robot_can_carry_is_refused_before_simulating():
+    model = generated_frame(2, 1, 1, bay_x=5.0)  # a 4.75 m beam: longer than the 4 m platforms
+    with pytest.raises(InputError, match=r"no robot of fleet fleet1 can transport component beam-0-x-0-0 .*platform 4 x 1 m < component 4.75 x 0.31 m"):
+        simulate(build_smart_model(model), load_fleet("fleet1"))
+
+
+def test_component_too_heavy_to_position_is_refused(tmp_path):
+    model = generated_frame(2, 1, 1)
+    model.elements["column-0-0-0"].weight_kg = 450.0
+    fleet = tmp_path / "strong_transport.yaml"
+    fleet.write_text(
+        "robots:\n"
+        "  - {name: T, kind: transport, speed: 1, carry_load: 1000, platform_size: [5, 1]}\n"
+        "  - {name: P, kind: positioning, speed: 1, payload: 300, reach: 4, time_per_node: 60}\n"
+        "  - {name: A, kind: assembly, speed: 1, reach: 4, time_per_point: 30}\n"
+    )
+    with pytest.raises(InputError, match=r"can position component column-0-0-0 .*P: payload 300 kg < 450.0 kg"):
+        simulate(build_smart_model(model), load_fleet(fleet))
+
+
+def test_unknown_robot_in_breakdown_is_refused():
+    smart, _ = _frame()
+    with pytest.raises(InputError, match="breakdown names robot 'Robot9', which is not in fleet fleet2"):
+        simulate(smart, load_fleet("fleet2"), breakdowns=[("Robot9", 10.0)])
+
+
+def test_mobile_manipulators_do_every_task(tmp_path):
+    fleet = tmp_path / "mm.yaml"
+    fleet.write_text(
+        "robots:\n"
+        "  - {name: MM1, kind: mobile_manipulator, speed: 1, carry_load: 400, platform_size: [4, 1],"
+        " payload: 400, reach: 4.5, time_per_node: 60, time_per_point: 30}\n"
+    )
+    smart, elevations = _frame(2, 1, 1)
+    result = simulate(smart, load_fleet(fleet), storey_elevations=elevations)
+    assert {a.robot for a in result.activities} == {"MM1"}
+    assert {a.activity for a in result.activities} == {"transport", "position", "assemble"}
+    assert result.utilisation == pytest.approx(1.0)
+
+
+def test_random_allocator_is_reproducible_with_its_seed():
+    runs = []
+    for seed in (7, 7, 8):
+        smart, elevations = _frame(3, 2, 1)
+        result = simulate(smart, load_fleet("fleet2"), evaluator="random", seed=seed, storey_elevations=elevations)
+        runs.append([(a.activity, a.global_id, a.robot) for a in result.activities])
+    assert runs[0] == runs[1]
+    assert runs[0] != runs[2]
