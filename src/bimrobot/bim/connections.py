@@ -45,7 +45,7 @@ def infer_connections(model: BuildingModel, tolerance: float = 0.005) -> list[Co
     Returned with ``inferred=True``, no GlobalId, no realizing elements and an empty connection type,
     ordered by (relating, related) file order.
     """
-    fcl = require_extra("fcl", "bim")
+    fcl = require_extra("fcl", "all")
     elements = list(model.elements.values())
     if len(elements) < 2:
         return []
