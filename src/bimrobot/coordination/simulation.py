@@ -225,10 +225,19 @@ class ConstructionSimulation:
         for joint in self.smart.joints.values():
             owner = self.smart.components[joint.component_ids[0]]
             checks.append((self._request("assemble", owner, joint), f"joint {joint.id} (components {', '.join(joint.component_ids)})"))
+        # Robots with the same abilities answer alike: check one of each.
+        distinct: dict[str, list[RobotSpec]] = {}
+        for activity in ACTIVITIES:
+            seen = {}
+            for r in self.fleet.by_activity(activity):
+                seen.setdefault((r.kind, r.carry_load, r.platform_size, r.payload, r.reach, r.methods), r)
+            distinct[activity] = list(seen.values())
         for request, what in checks:
-            robots = self.fleet.by_activity(request.activity)
+            robots = distinct[request.activity]
             if not robots:
                 raise InputError(f"fleet {self.fleet.name} has no robot that can {request.activity} ({what} needs one)")
+            if any(incapability(r, request) is None for r in robots):
+                continue
             reasons = [incapability(r, request) for r in robots]
             if all(reasons):
                 detail = "; ".join(f"{r.name}: {why}" for r, why in zip(robots, reasons))
@@ -241,6 +250,7 @@ class ConstructionSimulation:
         for index, spec in enumerate(self.fleet.robots):
             home = np.array(spec.home if spec.home else self.site.robot_home[index % len(self.site.robot_home)], dtype=float)
             self.robots[spec.name] = _Robot(spec, home.copy(), RobotStats(spec.name, spec.kind), end_position=home.copy())
+        self.robots_per_activity = {a: len(self.fleet.by_activity(a)) for a in ACTIVITIES}
         self.idle: dict[str, set[str]] = {a: {r.spec.name for r in self.robots.values() if r.spec.can(a)} for a in ACTIVITIES}
         self.pending: dict[str, list[TaskRequest]] = {a: [] for a in ACTIVITIES}
         self.activities: list[Activity] = []
@@ -425,7 +435,7 @@ class ConstructionSimulation:
             if not pool or not self.idle[activity]:
                 continue
             deferred = []
-            scan_limit = 4 * len(self.fleet.by_activity(activity)) + 4
+            scan_limit = 4 * self.robots_per_activity[activity] + 4
             while pool and self.idle[activity] and len(deferred) < scan_limit:
                 request = heapq.heappop(pool)
                 notice = BidNotice(request, self.env.now)

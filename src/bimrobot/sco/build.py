@@ -376,10 +376,13 @@ def _joints_from_relations(model, connections, components, connectors: set[str])
         group_nodes.setdefault(group, []).append(node_id)
         group_realizing.setdefault(group, set()).update(c.realizing_ids)
 
+    members_of_group: dict[str, list[str]] = {}
+    for k in connectors:
+        members_of_group.setdefault(find(k), []).append(k)
     joints: dict[str, Joint] = {}
     for group, node_ids in group_nodes.items():
         member_ids = tuple(dict.fromkeys(nodes[n].component_id for n in node_ids))
-        group_connectors = tuple(sorted(k for k in connectors if find(k) == group))
+        group_connectors = tuple(sorted(members_of_group.get(group, ())))
         position = _centre(group_connectors, model)
         if position is None:
             position = np.mean([nodes[n].position for n in node_ids], axis=0)
