@@ -654,54 +654,69 @@ def sample_prebuilt_slots(cs: CompiledScenario, rng: np.random.Generator) -> lis
     return slots
 
 
+def _lying_runs(cs: CompiledScenario, length: int) -> list:
+    """Index ``(axis * W + x) * L + y`` of node1 -> the (x, y) cell indices of a lying run of ``length``
+    at z = 1, or None when it leaves the grid or touches an obstacle or a foundation (cached)."""
+    cache = cs.__dict__.setdefault("_lying_runs", {})
+    if length not in cache:
+        runs: list = [None] * (2 * cs.W * cs.L)
+        for x in cs.yard_x:
+            ylo, yhi = cs.yard_y[x]
+            for y in range(ylo, yhi + 1):
+                for axis in (0, 1):
+                    cells = [(x - k, y) if axis == 0 else (x, y - k) for k in range(length)]
+                    ok = all(
+                        0 <= cx < cs.W and 0 <= cy < cs.L
+                        and not cs.static_blocked[(cx * cs.L + cy) * cs.H + 1]
+                        and (cx, cy) not in cs.foundation_xy
+                        for cx, cy in cells
+                    )
+                    if ok:
+                        runs[(axis * cs.W + x) * cs.L + y] = tuple(cx * cs.L + cy for cx, cy in cells)
+        cache[length] = runs
+    return cache[length]
+
+
 def sample_layout(cs: CompiledScenario, rng: np.random.Generator) -> list[tuple[Cell, Cell]]:
     """A random initial layout: every handled component flat at z = 1 in the yard, along x or y.
 
-    node1's x is uniform over the yard's x values and y uniform over the range of the yard region that
-    holds that x; node2 = node1 - (length - 1) along the drawn axis. A draw that overlaps another
-    component, an obstacle or a foundation is redrawn; a component that fits nowhere redraws the whole
-    layout (at most MAX_LAYOUT_ATTEMPTS times, then InputError).
+    For each component in handling order: the axis is x or y (1/2 each), node1's x uniform over the
+    yard's x values and its y uniform over the range of the yard region that holds that x; node2 =
+    node1 - (length - 1) along the axis. A draw that overlaps another component, an obstacle or a
+    foundation is redrawn (up to 32 draws, taken from one ``rng.random((32, 3))`` call); a component that
+    does not fit in 32 draws redraws the whole layout, at most MAX_LAYOUT_ATTEMPTS times, then InputError.
     """
-    sc = cs.scenario
-    H = cs.H
     xs = cs.yard_x
     n_x = len(xs)
-    static = cs.static_blocked
+    L = cs.L
+    axis_offset = cs.W * cs.L  # index offset of axis y in the run tables
+    y_ranges = [(cs.yard_y[x][0], cs.yard_y[x][1] - cs.yard_y[x][0] + 1) for x in xs]
+    runs = [_lying_runs(cs, n) for n in cs.comp_len]
     for _ in range(MAX_LAYOUT_ATTEMPTS):
-        occupied: set[int] = set()
+        occupied = bytearray(cs.W * cs.L)
         layout: list[tuple[Cell, Cell]] = []
         for ci in range(cs.n_comp):
-            n = cs.comp_len[ci]
-            placed = False
-            draws = rng.random((32, 3))
-            for axis_u, x_u, y_u in draws.tolist():
-                x = xs[int(x_u * n_x)]
-                ylo, yhi = cs.yard_y[x]
-                y = ylo + int(y_u * (yhi - ylo + 1))
-                if axis_u < 0.5:
-                    cells = [(x - k, y) for k in range(n)]
+            table = runs[ci]
+            for axis_u, x_u, y_u in rng.random((32, 3)).tolist():
+                xi = int(x_u * n_x)
+                ylo, ny = y_ranges[xi]
+                cells = table[(axis_offset if axis_u >= 0.5 else 0) + xs[xi] * L + ylo + int(y_u * ny)]
+                if cells is None:
+                    continue
+                for c in cells:
+                    if occupied[c]:
+                        break
                 else:
-                    cells = [(x, y - k) for k in range(n)]
-                ok = True
-                for cx, cy in cells:
-                    if cx < 0 or cy < 0 or cx >= cs.W or cy >= cs.L:
-                        ok = False
-                        break
-                    f = (cx * cs.L + cy) * H + 1
-                    if f in occupied or static[f] or (cx, cy) in cs.foundation_xy:
-                        ok = False
-                        break
-                if ok:
-                    for cx, cy in cells:
-                        occupied.add((cx * cs.L + cy) * H + 1)
-                    layout.append(((cells[0][0], cells[0][1], 1), (cells[-1][0], cells[-1][1], 1)))
-                    placed = True
+                    for c in cells:
+                        occupied[c] = 1
+                    first, last = cells[0], cells[-1]
+                    layout.append(((first // L, first % L, 1), (last // L, last % L, 1)))
                     break
-            if not placed:
+            else:
                 break
         else:
             return layout
     raise InputError(
-        f"{sc.source}: impossible random layout: the yard cannot hold all {cs.n_comp} components without overlaps "
-        f"in {MAX_LAYOUT_ATTEMPTS} attempts"
+        f"{cs.scenario.source}: impossible random layout: the yard cannot hold all {cs.n_comp} components "
+        f"without overlaps in {MAX_LAYOUT_ATTEMPTS} attempts"
     )

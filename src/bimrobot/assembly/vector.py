@@ -93,6 +93,8 @@ class BatchedAssemblySim:
         self.wait_top = np.zeros((N, C, W * L), np.int8)
         self.obs = np.zeros((N, W * L * N_CHANNELS), np.int8)
         self.mask = np.zeros((N, 6), bool)
+        self.fp = np.zeros((N, 4), np.int64)  # obs indices of the current component's drawn footprint
+        self.env_move_cells = np.zeros((N, 6, 4), np.int64)  # move_cells of each env's current component
         self.done = np.ones(N, bool)
         self.rngs: list[np.random.Generator] = [None] * N  # type: ignore[list-item]
         self._seed(seed)
@@ -327,6 +329,7 @@ class BatchedAssemblySim:
         self.pos[envs] = corner
         self.pflat[envs] = (corner + 1) @ self.stride
         self.cur[envs] = comps
+        self.env_move_cells[envs] = self.move_cells[comps]
         self.steps[envs] = 0
 
     def _refresh_static(self, envs: np.ndarray) -> None:
@@ -355,7 +358,7 @@ class BatchedAssemblySim:
     def _clear_current(self, envs: np.ndarray) -> None:
         if len(envs) == 0:
             return
-        fp = self._footprint(envs)
+        fp = self.fp[envs]
         rows = envs[:, None]
         self.obs[rows, fp + 2] = 0
         self.obs[rows, fp + 4] = 0
@@ -364,6 +367,7 @@ class BatchedAssemblySim:
         if len(envs) == 0:
             return
         fp = self._footprint(envs)
+        self.fp[envs] = fp
         rows = envs[:, None]
         top = self.pos[envs, 2] + self.top_offset[self.cur[envs]]
         self.obs[rows, fp + 2] = top[:, None]
@@ -371,7 +375,7 @@ class BatchedAssemblySim:
 
     def _compute_masks(self, envs: np.ndarray) -> None:
         """``mask[e, a]``: action a would move env e's current component (not blocked)."""
-        cells = (self.pflat[envs] + self._env_base[envs])[:, None, None] + self.move_cells[self.cur[envs]]
+        cells = (self.pflat[envs] + self._env_base[envs])[:, None, None] + self.env_move_cells[envs]
         # the 4 occupancy bytes of a move's cells read as one uint32: nonzero means blocked
         hit = self._occ_flat[cells].view(np.uint32)[..., 0]  # (R, 6)
         self.mask[envs] = (hit == 0) & ~self.done[envs][:, None]
