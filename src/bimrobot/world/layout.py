@@ -13,7 +13,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from bimrobot.bim.model import Element
 
@@ -43,10 +42,25 @@ def rigid(matrix: np.ndarray) -> np.ndarray:
 def pose_xyz_rpy(matrix: np.ndarray) -> tuple[float, float, float, float, float, float]:
     """(x, y, z, roll, pitch, yaw) of a rigid transform: metres and radians, SDF's fixed-axis
     convention (rotation = Rz(yaw) Ry(pitch) Rx(roll))."""
-    matrix = rigid(matrix)
-    roll, pitch, yaw = Rotation.from_matrix(matrix[:3, :3]).as_euler("xyz")
+    matrix = np.asarray(matrix, float)
+    if np.abs(matrix[:3, :3] @ matrix[:3, :3].T - np.eye(3)).max() > 1e-9:
+        matrix = rigid(matrix)
+    roll, pitch, yaw = rpy_of(matrix[:3, :3])
     x, y, z = matrix[:3, 3]
     return float(x), float(y), float(z), float(roll), float(pitch), float(yaw)
+
+
+def rpy_of(rotation: np.ndarray) -> tuple[float, float, float]:
+    """(roll, pitch, yaw) in radians with rotation = Rz(yaw) Ry(pitch) Rx(roll)."""
+    sin_pitch = -float(np.clip(rotation[2, 0], -1.0, 1.0))
+    pitch = float(np.arcsin(sin_pitch))
+    if abs(sin_pitch) < 1 - 1e-12:
+        roll = float(np.arctan2(rotation[2, 1], rotation[2, 2]))
+        yaw = float(np.arctan2(rotation[1, 0], rotation[0, 0]))
+    else:  # gimbal lock: only yaw - roll (or yaw + roll) is defined; put it all in yaw
+        roll = 0.0
+        yaw = float(np.arctan2(-rotation[0, 1], rotation[1, 1]))
+    return roll, pitch, yaw
 
 
 def format_pose(matrix: np.ndarray) -> str:

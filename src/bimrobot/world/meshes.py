@@ -17,6 +17,8 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
+from bimrobot.world.physics import Body, convex_hull
+
 CLASS_COLOURS: dict[str, tuple[float, float, float, float]] = {
     "IfcBeam": (0.45, 0.55, 0.70, 1.0),
     "IfcColumn": (0.30, 0.42, 0.62, 1.0),
@@ -44,16 +46,21 @@ def colour_of(ifc_class: str) -> tuple[float, float, float, float]:
 
 def write_dae(path: Path, vertices: np.ndarray, faces: np.ndarray, name: str, rgba=DEFAULT_COLOUR) -> None:
     """Write a triangle mesh (local frame, metres, Z up) as COLLADA 1.4.1 with flat per-face normals."""
+    Path(path).write_text(dae_text(vertices, faces, name, rgba), encoding="utf-8")
+
+
+def dae_text(vertices: np.ndarray, faces: np.ndarray, name: str, rgba=DEFAULT_COLOUR) -> str:
+    """COLLADA 1.4.1 text of a triangle mesh (see :func:`write_dae`)."""
     vertices = np.asarray(vertices, np.float64)
     faces = np.asarray(faces, np.int64)
     normals = _face_normals(vertices, faces)
-    positions = " ".join(np.char.mod("%.7g", vertices.ravel()))
-    normal_text = " ".join(np.char.mod("%.4g", normals.ravel()))
+    positions = " ".join(map("{:.7g}".format, vertices.ravel().tolist()))
+    normal_text = " ".join(map("{:.4g}".format, normals.ravel().tolist()))
     # Each triangle corner: vertex index, then normal index (= face index).
     indices = np.stack([faces, np.repeat(np.arange(len(faces))[:, None], 3, axis=1)], axis=2).ravel()
     index_text = " ".join(map(str, indices.tolist()))
     r, g, b, a = rgba
-    text = _DAE_TEMPLATE.format(
+    return _DAE_TEMPLATE.format(
         name=_xml_attr(name),
         nvert=len(vertices),
         ncoord=vertices.size,
@@ -67,49 +74,57 @@ def write_dae(path: Path, vertices: np.ndarray, faces: np.ndarray, name: str, rg
         ambient=f"{r * 0.4:.3f} {g * 0.4:.3f} {b * 0.4:.3f} 1",
         transparency=f"{a:.3f}",
     )
-    Path(path).write_text(text, encoding="utf-8")
 
 
-def write_stl(path: Path, mesh: trimesh.Trimesh) -> None:
+STL_RECORD = np.dtype([("normal", "<f4", 3), ("corners", "<f4", (3, 3)), ("attribute", "<u2")])
+
+
+def write_stl(path: Path, vertices: np.ndarray, faces: np.ndarray) -> None:
     """Write a binary STL (metres; STL has no unit, Gazebo and pybullet read it as metres)."""
-    Path(path).write_bytes(trimesh.exchange.stl.export_stl(mesh))
+    Path(path).write_bytes(stl_bytes(vertices, faces))
 
 
-def collision_mesh(mesh: trimesh.Trimesh, method: str, max_triangles: int) -> trimesh.Trimesh:
-    """A simplified collision body: its convex hull, or the mesh decimated to ``max_triangles``.
+def stl_bytes(vertices: np.ndarray, faces: np.ndarray) -> bytes:
+    """Binary STL content of a triangle mesh (see :func:`write_stl`)."""
+    vertices = np.asarray(vertices, np.float64)
+    faces = np.asarray(faces, np.int64)
+    records = np.zeros(len(faces), dtype=STL_RECORD)
+    records["normal"] = _face_normals(vertices, faces)
+    records["corners"] = vertices[faces]
+    header = b"bimrobot collision mesh, metres".ljust(80, b" ")
+    return header + np.uint32(len(faces)).tobytes() + records.tobytes()
+
+
+def collision_mesh(body: Body, method: str, max_triangles: int) -> tuple[np.ndarray, np.ndarray]:
+    """A simplified collision body (vertices, faces): the convex hull of ``body``, or ``body``
+    decimated to ``max_triangles``.
 
     ``method`` is "convex" or "decimated". Either result has at most ``max_triangles`` faces where
     the input allows (a hull over budget is rebuilt from a decimated mesh). Flat or degenerate bodies
-    that have no hull keep their own triangles.
+    that have no hull keep their own (possibly decimated) triangles.
     """
     if method == "convex":
-        hull = _convex_hull(mesh)
-        if hull is None:
-            return _decimated(mesh, max_triangles)
-        if len(hull.faces) > max_triangles:
-            smaller = _convex_hull(_decimated(mesh, max_triangles))
-            hull = smaller if smaller is not None and len(smaller.faces) <= len(hull.faces) else hull
-        return hull
+        if body.hull is None:
+            return _decimated(body.vertices, body.faces, max_triangles)
+        vertices, faces = body.hull
+        if len(faces) > max_triangles:
+            smaller = convex_hull(_decimated(body.vertices, body.faces, max_triangles)[0])
+            if smaller is not None and len(smaller[1]) < len(faces):
+                vertices, faces = smaller
+        return vertices, faces
     if method == "decimated":
-        return _decimated(mesh, max_triangles)
+        return _decimated(body.vertices, body.faces, max_triangles)
     raise ValueError(f"unknown collision method {method!r} (expected 'convex' or 'decimated')")
 
 
-def _convex_hull(mesh: trimesh.Trimesh) -> trimesh.Trimesh | None:
+def _decimated(vertices: np.ndarray, faces: np.ndarray, max_triangles: int) -> tuple[np.ndarray, np.ndarray]:
+    if len(faces) <= max_triangles:
+        return vertices, faces
     try:
-        hull = mesh.convex_hull
-    except Exception:  # qhull raises on coplanar or too few points
-        return None
-    return hull if len(hull.faces) >= 4 and hull.volume > 1e-12 else None
-
-
-def _decimated(mesh: trimesh.Trimesh, max_triangles: int) -> trimesh.Trimesh:
-    if len(mesh.faces) <= max_triangles:
-        return mesh
-    try:
-        return mesh.simplify_quadric_decimation(face_count=max_triangles)
+        mesh = trimesh.Trimesh(vertices, faces, process=False).simplify_quadric_decimation(face_count=max_triangles)
     except Exception:  # the decimator refuses some degenerate meshes: keep the full body
-        return mesh
+        return vertices, faces
+    return np.asarray(mesh.vertices), np.asarray(mesh.faces)
 
 
 def _face_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:

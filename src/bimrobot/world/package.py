@@ -22,7 +22,6 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
-import trimesh
 from tqdm import tqdm
 
 from bimrobot import __version__
@@ -83,15 +82,34 @@ class ConvertOptions:
 
 
 @dataclass
+class _Geometry:
+    """One distinct IFC geometry (shared by every element that uses it) and its mesh files' content."""
+
+    body: physics.Body
+    collision: tuple[np.ndarray, np.ndarray]
+    stl: bytes
+    dae: dict[str, str] = field(default_factory=dict)  # IFC class -> DAE text (colour per class)
+
+    def dae_for(self, ifc_class: str) -> str:
+        if ifc_class not in self.dae:
+            self.dae[ifc_class] = meshes.dae_text(self.body.vertices, self.body.faces, ifc_class,
+                                                  meshes.colour_of(ifc_class))
+        return self.dae[ifc_class]
+
+
+@dataclass
 class _Converted:
     """One element on its way into the package."""
 
     element: Element
     name: str
-    mesh: trimesh.Trimesh
-    collision: trimesh.Trimesh
+    geometry: _Geometry
     mass: physics.MassProperties
     pose: np.ndarray = field(default_factory=lambda: np.eye(4))
+
+    @property
+    def body(self) -> physics.Body:
+        return self.geometry.body
 
 
 def convert(
@@ -165,17 +183,22 @@ def _prepare_elements(model: BuildingModel, options: ConvertOptions, progress: b
         {"global_id": s.global_id, "ifc_class": s.ifc_class, "name": s.name, "reason": s.reason} for s in model.skipped
     ]
     elements = list(model.elements.values())
+    geometries: dict[tuple[int, int], _Geometry] = {}  # IFC files share one mesh between many elements
     for element in tqdm(elements, desc="meshes", unit="element", disable=not progress, leave=False):
         if len(element.faces) == 0 or len(element.vertices) < 3:
             skipped.append(_skip(element, "its body has no triangles"))
             continue
-        mesh = physics.solid_mesh(element.vertices, element.faces)
-        if len(mesh.faces) == 0:
+        key = (id(element.vertices), id(element.faces))
+        if key not in geometries:
+            body = physics.Body(element.vertices, element.faces)
+            collision = meshes.collision_mesh(body, options.collision, options.max_triangles) if len(body.faces) else None
+            geometries[key] = _Geometry(body, collision, meshes.stl_bytes(*collision) if collision else b"")
+        geometry = geometries[key]
+        if len(geometry.body.faces) == 0:
             skipped.append(_skip(element, "its body has only degenerate triangles"))
             continue
-        mass = physics.mass_properties(element, mesh, options.default_density)
-        collision = meshes.collision_mesh(mesh, options.collision, options.max_triangles)
-        converted.append(_Converted(element, safe_name(element.global_id), mesh, collision, mass))
+        mass = geometry.body.mass_properties(element.weight_kg, options.default_density)
+        converted.append(_Converted(element, safe_name(element.global_id), geometry, mass))
     return converted, skipped
 
 
@@ -218,9 +241,8 @@ def _write_models(models_dir: Path, converted: list[_Converted], options: Conver
         visual_file = f"{item.name}.dae"
         collision_file = f"{item.name}_collision.stl"
         element = item.element
-        meshes.write_dae(folder / "meshes" / visual_file, item.mesh.vertices, item.mesh.faces, element.global_id,
-                         meshes.colour_of(element.ifc_class))
-        meshes.write_stl(folder / "meshes" / collision_file, item.collision)
+        (folder / "meshes" / visual_file).write_text(item.geometry.dae_for(element.ifc_class), encoding="utf-8")
+        (folder / "meshes" / collision_file).write_bytes(item.geometry.stl)
         spec = sdf.ModelSpec(
             name=item.name,
             pose=item.pose,
@@ -241,7 +263,7 @@ def _world_extent(converted: list[_Converted]) -> np.ndarray:
     """[[xmin, ymin, zmin], [xmax, ymax, zmax]] of all models at their world poses (m)."""
     corners = []
     for item in converted:
-        lower, upper = item.mesh.bounds
+        lower, upper = item.body.vertices.min(axis=0), item.body.vertices.max(axis=0)
         box = np.array([[x, y, z, 1.0] for x in (lower[0], upper[0]) for y in (lower[1], upper[1]) for z in (lower[2], upper[2])])
         corners.append((box @ item.pose.T)[:, :3])
     stacked = np.vstack(corners)
@@ -290,8 +312,8 @@ def _write_maps(
     maps_dir.mkdir(parents=True)
     bodies = []
     for item in converted:
-        world = np.c_[item.mesh.vertices, np.ones(len(item.mesh.vertices))] @ item.pose.T
-        bodies.append((world[:, :3], np.asarray(item.mesh.faces)))
+        world = item.body.vertices @ item.pose[:3, :3].T + item.pose[:3, 3]
+        bodies.append((world, item.body.faces))
     extent = _world_extent(converted)
     origin, shape = navmap.grid_frame(extent[:, :2], options.map_margin, options.map_resolution)
     storeys = sorted(model.storeys, key=lambda s: s.elevation)
@@ -341,8 +363,8 @@ def _report(model, package, world_name, world_files, converted, skipped, maps, y
             "volume_m3": round(mass.volume, 9),
             "inertia_from": mass.inertia_method,
             "center_of_mass_m": [round(float(v), 6) for v in mass.center_of_mass],
-            "visual_triangles": int(len(item.mesh.faces)),
-            "collision_triangles": int(len(item.collision.faces)),
+            "visual_triangles": int(len(item.body.faces)),
+            "collision_triangles": int(len(item.geometry.collision[1])),
             "pose_xyz_rpy": [round(v, 9) for v in (x, y, z, roll, pitch, yaw)],
         })
     counts_by_source: dict[str, int] = {}

@@ -7,16 +7,21 @@ has no rotation.
 Mass comes from the BIM weight (``Element.weight_kg``, whatever its source). When the BIM has no
 weight, the mass is the body volume times :data:`DEFAULT_DENSITY_KG_M3` and the result says so
 (``mass_assumed``). The tensor is the exact one of the solid mesh scaled to that mass (uniform
-density); a mesh that is not a closed volume falls back to its convex hull, and a flat mesh to its
-bounding box with a minimum thickness of :data:`MIN_THICKNESS_M`.
+density); a mesh that is not a closed, consistently wound volume falls back to its convex hull, and a
+flat mesh to its bounding box with a minimum thickness of :data:`MIN_THICKNESS_M`.
+
+The integrals depend only on the geometry, so :class:`Body` computes them once per distinct mesh (IFC
+files share one geometry between many bolts or cleats) and :func:`mass_properties` scales them.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 import trimesh
+from scipy.spatial import ConvexHull, QhullError
 
 from bimrobot.bim.model import Element
 
@@ -25,6 +30,9 @@ DEFAULT_DENSITY_KG_M3 = 2400.0
 
 MIN_THICKNESS_M = 0.001
 """Thickness given to flat bodies (zero volume) so that their inertia stays positive definite."""
+
+MERGE_TOLERANCE_M = 1e-8
+"""Vertices closer than this (per coordinate) are one vertex."""
 
 
 @dataclass(frozen=True)
@@ -43,52 +51,106 @@ class MassProperties:
     mass_assumed: bool
 
 
-def solid_mesh(vertices: np.ndarray, faces: np.ndarray) -> trimesh.Trimesh:
-    """A merged (shared-vertex) trimesh of an element body, with outward normals where it is closed."""
-    mesh = trimesh.Trimesh(np.asarray(vertices, float), np.asarray(faces, np.int64), process=True)
-    if mesh.is_watertight and mesh.volume < 0:
-        mesh.invert()
-    return mesh
-
-
-def mass_properties(
-    element: Element, mesh: trimesh.Trimesh | None = None, default_density: float = DEFAULT_DENSITY_KG_M3
-) -> MassProperties:
-    """The element's mass properties (see the module docstring for the fallbacks)."""
-    mesh = mesh if mesh is not None else solid_mesh(element.vertices, element.faces)
-    body, method = _volume_body(mesh)
-    volume = float(body.volume)
-    if element.weight_kg is not None and element.weight_kg > 0:
-        mass, assumed = float(element.weight_kg), False
-    else:
-        mass, assumed = volume * default_density, True
-    body.density = mass / volume
-    inertia = _symmetric_positive(np.asarray(body.moment_inertia, float))
-    return MassProperties(
-        mass=mass,
-        center_of_mass=np.asarray(body.center_mass, float),
-        inertia=inertia,
-        volume=volume,
-        inertia_method=method,
-        mass_assumed=assumed,
+def merge_vertices(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Shared-vertex form of a triangle soup: duplicate vertices merged, degenerate faces dropped."""
+    vertices = np.asarray(vertices, np.float64)
+    faces = np.asarray(faces, np.int64)
+    if len(vertices) == 0 or len(faces) == 0:
+        return vertices.reshape(-1, 3), faces.reshape(-1, 3)
+    keys = np.round(vertices / MERGE_TOLERANCE_M).astype(np.int64)
+    _, first, inverse = np.unique(keys, axis=0, return_index=True, return_inverse=True)
+    merged_faces = inverse.reshape(-1)[faces]
+    keep = (
+        (merged_faces[:, 0] != merged_faces[:, 1])
+        & (merged_faces[:, 1] != merged_faces[:, 2])
+        & (merged_faces[:, 0] != merged_faces[:, 2])
     )
+    return vertices[first], merged_faces[keep]
 
 
-def _volume_body(mesh: trimesh.Trimesh) -> tuple[trimesh.Trimesh, str]:
-    """The closed body the integrals are taken over, and how it was obtained."""
-    if mesh.is_watertight and mesh.volume > 1e-12:
-        return mesh, "solid mesh"
+def closed_and_consistent(faces: np.ndarray) -> bool:
+    """True when every edge is shared by exactly two faces that traverse it in opposite directions
+    (a watertight, consistently wound surface: its volume integral is exact)."""
+    if len(faces) < 4:
+        return False
+    directed = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
+    if len(np.unique(directed, axis=0)) != len(directed):
+        return False
+    undirected, counts = np.unique(np.sort(directed, axis=1), axis=0, return_counts=True)
+    return bool(np.all(counts == 2))
+
+
+def convex_hull(vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """(vertices, outward-wound faces) of the convex hull, or None for flat/degenerate point sets."""
+    if len(vertices) < 4:
+        return None
     try:
-        hull = mesh.convex_hull
-        if hull.volume > 1e-12:
-            return hull, "convex hull"
-    except Exception:  # qhull raises on flat or degenerate input
-        pass
-    lower, upper = mesh.bounds if len(mesh.vertices) else (np.zeros(3), np.zeros(3))
-    extents = np.maximum(upper - lower, MIN_THICKNESS_M)
-    box = trimesh.creation.box(extents=extents)
-    box.apply_translation((lower + upper) / 2)
-    return box, "bounding box"
+        hull = ConvexHull(vertices)
+    except (QhullError, ValueError):
+        return None
+    simplices = hull.simplices.copy()
+    corners = vertices[simplices]
+    normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    inward = np.einsum("ij,ij->i", normals, hull.equations[:, :3]) < 0
+    simplices[inward] = simplices[inward][:, ::-1]
+    used, remapped = np.unique(simplices, return_inverse=True)
+    hull_vertices, hull_faces = vertices[used], remapped.reshape(-1, 3)
+    if hull.volume <= 1e-12:
+        return None
+    return hull_vertices, hull_faces
+
+
+class Body:
+    """One distinct element geometry (local frame, metres) and its volume integrals."""
+
+    def __init__(self, vertices: np.ndarray, faces: np.ndarray):
+        self.vertices, self.faces = merge_vertices(vertices, faces)
+
+    @cached_property
+    def hull(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """Convex hull (vertices, faces), None when the body is flat."""
+        return convex_hull(self.vertices)
+
+    @cached_property
+    def _integrals(self) -> tuple[float, np.ndarray, np.ndarray, str]:
+        """(volume m^3, centre of mass, inertia at unit density, method)."""
+        if closed_and_consistent(self.faces):
+            props = trimesh.triangles.mass_properties(self.vertices[self.faces])
+            if props.volume < 0:  # wound inwards throughout
+                props = trimesh.triangles.mass_properties(self.vertices[self.faces[:, ::-1]])
+            if props.volume > 1e-12:
+                return float(props.volume), props.center_mass, props.inertia, "solid mesh"
+        if self.hull is not None:
+            vertices, faces = self.hull
+            props = trimesh.triangles.mass_properties(vertices[faces])
+            return float(props.volume), props.center_mass, props.inertia, "convex hull"
+        lower, upper = (self.vertices.min(axis=0), self.vertices.max(axis=0)) if len(self.vertices) else (np.zeros(3),) * 2
+        extents = np.maximum(upper - lower, MIN_THICKNESS_M)
+        volume = float(np.prod(extents))
+        a, b, c = extents**2
+        inertia = volume / 12 * np.diag([b + c, a + c, a + b])
+        return volume, (lower + upper) / 2, inertia, "bounding box"
+
+    @property
+    def volume(self) -> float:
+        """Volume of the body the integrals are taken over (m^3)."""
+        return self._integrals[0]
+
+    def mass_properties(self, weight_kg: float | None, default_density: float = DEFAULT_DENSITY_KG_M3) -> MassProperties:
+        """Mass properties for a given BIM weight (None or <= 0: volume x ``default_density``)."""
+        volume, center, unit_inertia, method = self._integrals
+        if weight_kg is not None and weight_kg > 0:
+            mass, assumed = float(weight_kg), False
+        else:
+            mass, assumed = volume * default_density, True
+        inertia = _symmetric_positive(np.asarray(unit_inertia, float) * (mass / volume))
+        return MassProperties(mass, np.asarray(center, float), inertia, volume, method, assumed)
+
+
+def mass_properties(element: Element, body: Body | None = None, default_density: float = DEFAULT_DENSITY_KG_M3) -> MassProperties:
+    """The element's mass properties (see the module docstring for the fallbacks)."""
+    body = body if body is not None else Body(element.vertices, element.faces)
+    return body.mass_properties(element.weight_kg, default_density)
 
 
 def _symmetric_positive(tensor: np.ndarray) -> np.ndarray:

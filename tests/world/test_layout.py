@@ -1,0 +1,41 @@
+"""Poses: IFC placements to SDF x y z roll pitch yaw."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy.spatial.transform import Rotation
+
+from bimrobot.world.layout import format_pose, pose_xyz_rpy, rigid
+
+
+@settings(max_examples=200)
+@given(st.lists(st.floats(-np.pi, np.pi), min_size=3, max_size=3))
+def test_rpy_rebuilds_the_rotation_in_sdf_convention(angles):
+    matrix = np.eye(4)
+    matrix[:3, :3] = Rotation.from_euler("xyz", angles).as_matrix()
+    matrix[:3, 3] = (1.5, -2.0, 3.25)
+    x, y, z, roll, pitch, yaw = pose_xyz_rpy(matrix)
+    # SDF: fixed axes, R = Rz(yaw) Ry(pitch) Rx(roll).
+    rebuilt = Rotation.from_euler("z", yaw) * Rotation.from_euler("y", pitch) * Rotation.from_euler("x", roll)
+    np.testing.assert_allclose(rebuilt.as_matrix(), matrix[:3, :3], atol=1e-9)
+    assert (x, y, z) == (1.5, -2.0, 3.25)
+
+
+def test_gimbal_lock_pose_is_still_exact():
+    matrix = np.eye(4)
+    matrix[:3, :3] = Rotation.from_euler("xyz", [0.3, np.pi / 2, 0.2]).as_matrix()
+    _, _, _, roll, pitch, yaw = pose_xyz_rpy(matrix)
+    rebuilt = Rotation.from_euler("z", yaw) * Rotation.from_euler("y", pitch) * Rotation.from_euler("x", roll)
+    np.testing.assert_allclose(rebuilt.as_matrix(), matrix[:3, :3], atol=1e-9)
+
+
+def test_a_beam_along_y_gets_a_quarter_turn_yaw():
+    matrix = np.array([[0, -1, 0, 2.0], [1, 0, 0, 0.0], [0, 0, 1, 4.0], [0, 0, 0, 1]], float)
+    assert format_pose(matrix) == "2 0 4 0 0 1.570796327"
+
+
+def test_rigid_removes_scale_and_round_off():
+    matrix = np.diag([1.0000001, 0.9999999, 1.0, 1.0])
+    np.testing.assert_allclose(rigid(matrix)[:3, :3], np.eye(3), atol=1e-12)
+    assert pytest.approx(np.linalg.det(rigid(matrix)[:3, :3])) == 1.0
