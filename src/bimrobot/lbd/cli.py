@@ -18,6 +18,7 @@ GRAPH_EXAMPLES = """examples:
   bimrobot graph frame.ifc --schedule sim/schedule.csv -o frame.jsonld --format json-ld
   bimrobot graph house.ifc --ifc-schedule -o house.ttl            # tasks from the IfcWorkSchedule
   bimrobot graph frame.ifc --schedule schedule.csv --store oxigraph --store-path frame.oxigraph
+  bimrobot graph frame.ifc --schedule schedule.csv --store sparql --store-path http://127.0.0.1:7878 -o frame.ttl
 """
 
 QUERY_EXAMPLES = """examples:
@@ -25,6 +26,7 @@ QUERY_EXAMPLES = """examples:
   bimrobot query frame.ttl component_state --bind globalId='2O2Fr$t4X7Zf8NOew3FLOH'
   bimrobot query frame.oxigraph storey_components --bind storeyId=1Eiqmlp21PmegDDW$BfDnr --format csv
   bimrobot query frame.ttl my_query.rq --format json
+  bimrobot query http://127.0.0.1:7878 progress                 # a remote SPARQL endpoint
 """
 
 
@@ -46,8 +48,11 @@ def register(subparsers) -> None:
     source.add_argument("--ifc-schedule", action="store_true", help="take the activities from the model's IfcWorkSchedule")
     graph.add_argument("-o", "--output", type=Path, required=True, help="graph file to write (.ttl, .jsonld)")
     graph.add_argument("--format", choices=["turtle", "json-ld"], help="default: from the output suffix")
-    graph.add_argument("--store", choices=["memory", "oxigraph"], default="memory", help="triple store (default: memory)")
-    graph.add_argument("--store-path", type=Path, help="directory of the persistent Oxigraph store (--store oxigraph)")
+    graph.add_argument("--store", choices=["memory", "oxigraph", "sparql"], default="memory", help="triple store (default: memory)")
+    graph.add_argument(
+        "--store-path",
+        help="directory of the persistent Oxigraph store (--store oxigraph), or URL of the SPARQL endpoint (--store sparql)",
+    )
     graph.add_argument("--base", default=None, help="base IRI of the graph's resources")
     graph.set_defaults(func=graph_command)
 
@@ -59,7 +64,7 @@ def register(subparsers) -> None:
         epilog=QUERY_EXAMPLES,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    query.add_argument("graph", type=Path, help="graph file or Oxigraph store directory")
+    query.add_argument("graph", help="graph file, Oxigraph store directory, or SPARQL endpoint URL")
     query.add_argument("query", help="a shipped query name, or a .rq file")
     query.add_argument("--bind", action="append", default=[], metavar="VAR=VALUE", help="bind a query variable (repeatable)")
     query.add_argument("--format", choices=["table", "csv", "json"], default="table", help="output format (default: table)")
@@ -73,8 +78,8 @@ def graph_command(args) -> int:
     from bimrobot.lbd.store import format_for
 
     format_for(args.output, args.format)  # fail on a bad suffix before the slow work
-    if args.store == "oxigraph" and args.store_path is None:
-        raise InputError("--store oxigraph needs --store-path DIR")
+    if args.store != "memory" and args.store_path is None:
+        raise InputError(f"--store {args.store} needs --store-path ({'DIR' if args.store == 'oxigraph' else 'URL'})")
     started = time.perf_counter()
     model = load_model(args.model)
     schedule = None
@@ -82,9 +87,10 @@ def graph_command(args) -> int:
         schedule = load_schedule_csv(args.schedule, model=model)
     elif args.ifc_schedule:
         schedule = load_schedule_ifc(args.model, model=model)
-    store_path = None
+    store_path = args.store_path if args.store == "sparql" else None
     if args.store == "oxigraph":
         # Build into a temporary sibling directory, renamed into place only on success.
+        args.store_path = Path(args.store_path)
         if args.store_path.exists():
             raise InputError(f"the Oxigraph store directory {args.store_path} already exists: remove it or choose another")
         args.store_path.parent.mkdir(parents=True, exist_ok=True)
@@ -95,18 +101,18 @@ def graph_command(args) -> int:
         triples = len(graph)
         graph.close()
     except BaseException:
-        if store_path is not None:
+        if args.store == "oxigraph":
             shutil.rmtree(store_path, ignore_errors=True)
         raise
-    if store_path is not None:
+    if args.store == "oxigraph":
         store_path.rename(args.store_path)
     activities = len(schedule.activities) + len(schedule.phases) if schedule else 0
     print(
         f"{args.output}: {triples} triples, {len(model.elements)} elements, {len(model.storeys)} storeys, "
         f"{len(model.connections)} connections, {activities} activities ({time.perf_counter() - started:.1f} s)"
     )
-    if store_path is not None:
-        print(f"Oxigraph store: {args.store_path}")
+    if args.store != "memory":
+        print(f"{'Oxigraph store' if args.store == 'oxigraph' else 'SPARQL endpoint'}: {args.store_path}")
     return 0
 
 

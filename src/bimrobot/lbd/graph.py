@@ -184,7 +184,8 @@ class ConstructionGraph:
 
     @classmethod
     def open(cls, path: str | os.PathLike, base: str = DEFAULT_BASE) -> "ConstructionGraph":
-        """Reopen a graph: a Turtle/JSON-LD file (into memory) or an Oxigraph store directory."""
+        """Reopen a graph: a Turtle/JSON-LD file (into memory), an Oxigraph store directory or a
+        SPARQL endpoint URL."""
         return cls(load_store(path), base)
 
     def __len__(self) -> int:
@@ -258,8 +259,9 @@ def build_graph(
 ) -> ConstructionGraph:
     """The construction graph of ``model`` and, when given, its ``schedule``.
 
-    ``store``: ``"memory"`` (rdflib, default) or ``"oxigraph"`` (persistent, in the empty or new
-    directory ``path``). Every element starts ``OnYard`` and every activity ``NotStarted``. A schedule
+    ``store``: ``"memory"`` (rdflib, default), ``"oxigraph"`` (persistent, in the empty or new
+    directory ``path``) or ``"sparql"`` (the default graph of the SPARQL 1.1 endpoint at URL ``path``,
+    e.g. ``http://127.0.0.1:7878`` for ``oxigraph serve``). Every element starts ``OnYard`` and every activity ``NotStarted``. A schedule
     row whose GlobalId is not an element of the model raises :class:`InputError`.
     """
     graph = ConstructionGraph(open_store(store, path), base)

@@ -1,9 +1,9 @@
 """Triple stores behind the construction graph: in-memory rdflib (default) or on-disk Oxigraph.
 
 Both offer the same small interface (add, replace one property, SPARQL SELECT/ASK with bound
-variables, serialize), and both answer the project's queries identically (tested). For a graph held
-by a remote SPARQL 1.1 endpoint (Fuseki, GraphDB, an Oxigraph server), wrap rdflib's
-``SPARQLUpdateStore`` in an ``rdflib.Graph`` and pass it to :class:`RdflibStore` (see docs/lbd.md).
+variables, serialize), and both answer the project's queries identically (tested). A graph held by a
+remote SPARQL 1.1 endpoint (Fuseki, GraphDB, ``oxigraph serve``) is reached through rdflib's
+``SPARQLUpdateStore`` (:class:`SparqlEndpointStore`), for graphs shared beyond one machine.
 """
 
 from __future__ import annotations
@@ -178,21 +178,108 @@ class OxigraphStore:
         del self.store
 
 
+class SparqlEndpointStore:
+    """The default graph of a remote SPARQL 1.1 endpoint, spoken to with the SPARQL 1.1 protocol
+    (rdflib's ``SPARQLConnector``): for graphs shared by several machines (Fuseki, GraphDB,
+    ``oxigraph serve``). Every read and write is a query or update request, so other clients see
+    state changes at once.
+
+    ``url`` is the endpoint's base: queries go to ``<url>/query`` and updates to ``<url>/update``
+    (Oxigraph's and Fuseki's layout); pass ``query_url``/``update_url`` for other servers.
+    """
+
+    BATCH = 5000  # triples per INSERT DATA request
+
+    def __init__(self, url: str, query_url: str | None = None, update_url: str | None = None):
+        from rdflib.plugins.stores.sparqlconnector import SPARQLConnector
+
+        self.url = url.rstrip("/")
+        self.connector = SPARQLConnector(
+            query_endpoint=query_url or f"{self.url}/query",
+            update_endpoint=update_url or f"{self.url}/update",
+            returnFormat="json",
+            method="POST_FORM",
+        )
+
+    def _query(self, sparql: str):
+        try:
+            return self.connector.query(sparql)
+        except (OSError, ValueError) as exc:  # rdflib turns connection errors into ValueError
+            raise InputError(f"the SPARQL endpoint {self.url} did not answer the query: {exc}") from None
+
+    def _update(self, sparql: str) -> None:
+        try:
+            self.connector.update(sparql)
+        except (OSError, ValueError) as exc:
+            raise InputError(f"the SPARQL endpoint {self.url} did not take the update: {exc}") from None
+
+    def add_all(self, triples: Iterable[Triple]) -> None:
+        batch: list[str] = []
+        for s, p, o in triples:
+            batch.append(f"{s.n3()} {p.n3()} {o.n3()} .")
+            if len(batch) == self.BATCH:
+                self._update("INSERT DATA {\n" + "\n".join(batch) + "\n}")
+                batch = []
+        if batch:
+            self._update("INSERT DATA {\n" + "\n".join(batch) + "\n}")
+
+    def replace(self, subject, predicate, value) -> None:
+        s, p = subject.n3(), predicate.n3()
+        self._update(f"DELETE WHERE {{ {s} {p} ?old }} ;\nINSERT DATA {{ {s} {p} {value.n3()} . }}")
+
+    def value(self, subject, predicate):
+        for row in self._query(f"SELECT ?o WHERE {{ {subject.n3()} {predicate.n3()} ?o }} LIMIT 1"):
+            return row[0]
+        return None
+
+    def select(self, sparql: str) -> list[dict[str, Any]]:
+        result = self._query(sparql)
+        if result.type == "ASK":
+            return [{"ask": bool(result.askAnswer)}]
+        names = [str(v) for v in result.vars]
+        return [{name: python_value(row.get(rdflib.Variable(name))) for name in names} for row in result]
+
+    def __len__(self) -> int:
+        return int(self.select("SELECT (COUNT(*) AS ?n) WHERE { ?s ?p ?o }")[0]["n"])
+
+    def serialize(self, path: Path, format: str, prefixes: dict[str, str]) -> None:
+        local = rdflib.Graph()
+        for row in self._query("SELECT ?s ?p ?o WHERE { ?s ?p ?o }"):
+            local.add((row[0], row[1], row[2]))
+        RdflibStore(local).serialize(path, format, prefixes)
+
+    def close(self) -> None:
+        """Nothing to release: every request is its own HTTP exchange."""
+
+
+def is_endpoint(location: str | os.PathLike) -> bool:
+    """Whether ``location`` names a SPARQL endpoint (an http(s) URL) rather than a file or directory."""
+    return str(location).startswith(("http://", "https://"))
+
+
 def open_store(kind: str = "memory", path: str | os.PathLike | None = None) -> TripleStore:
-    """A new empty store: ``"memory"`` (rdflib) or ``"oxigraph"`` (persistent, in directory ``path``)."""
+    """A store to build a graph in: ``"memory"`` (rdflib), ``"oxigraph"`` (persistent, in the new or
+    empty directory ``path``) or ``"sparql"`` (the remote endpoint at URL ``path``)."""
     if kind == "memory":
         return RdflibStore()
+    if kind == "sparql":
+        if path is None or not is_endpoint(path):
+            raise InputError(f"the sparql store needs the endpoint's http(s) URL, not {path!r}")
+        return SparqlEndpointStore(str(path))
     if kind == "oxigraph":
         if path is None:
             raise InputError("the oxigraph store needs a directory: give --store-path (or path=)")
         if Path(path).exists() and (not Path(path).is_dir() or any(Path(path).iterdir())):
             raise InputError(f"the Oxigraph store directory {path} is not empty: remove it or choose another")
         return OxigraphStore(path)
-    raise InputError(f"unknown store {kind!r}: use 'memory' or 'oxigraph'")
+    raise InputError(f"unknown store {kind!r}: use 'memory', 'oxigraph' or 'sparql'")
 
 
 def load_store(path: str | os.PathLike) -> TripleStore:
-    """An existing graph: an Oxigraph store directory, or a Turtle / JSON-LD / N-Triples file read into memory."""
+    """An existing graph: a SPARQL endpoint URL, an Oxigraph store directory, or a Turtle / JSON-LD /
+    N-Triples file read into memory."""
+    if is_endpoint(path):
+        return SparqlEndpointStore(str(path))
     path = Path(path)
     if path.is_dir():
         return OxigraphStore(path)
