@@ -27,11 +27,11 @@ def test_schedule_run_writes_report_and_resumes_as_done(tmp_path, schedule_csv, 
             "--state-db", str(tmp_path / "s.sqlite"), "--report", str(tmp_path / "report.json")]
     assert main(args) == 0
     report = json.loads((tmp_path / "report.json").read_text())
-    assert report["status"] == "completed" and len(report["done"]) == 24
+    assert report["status"] == "completed" and len(report["done"]) == 32
     assert set(report["component_states"].values()) == {"Assembled"}
     capsys.readouterr()
     assert main(args) == 0  # a finished run resumed: nothing is executed again
-    assert "24/24 activities done" in capsys.readouterr().out
+    assert "32/32 activities done" in capsys.readouterr().out
 
 
 def test_escalation_exits_1_with_the_report(capsys):

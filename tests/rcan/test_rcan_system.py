@@ -80,10 +80,17 @@ def test_failures_are_retried_then_succeed(tmp_path):
 def test_schedule_plan_runs_two_robots_in_parallel(schedule_csv, cranes):
     schedule = load_schedule_csv(schedule_csv)
     plan = plan_from_schedule(schedule, yard=(-10.0, -10.0, 0.0))
-    assert len(plan) == 4 * 6
-    assert [a.kind for a in plan[:6]] == [K.MOVE_TO_COMPONENT, K.POSITION_FOR_PICKING_UP, K.PICK_UP, K.TRANSPORT,
-                                          K.POSITION_FOR_INSTALLING, K.INSTALL]
-    assert plan[3].target == Pose(0.0, 3.0, 0.0)  # 1 m stand-off before the installed position (0, 4, 0)
+    # transport: 4 activities; position: 1 (frees the robot, PositionFixed); assemble: a robot goes to
+    # the fixed component, positions its tool and installs (3)
+    assert len(plan) == 4 * 8
+    assert [a.kind for a in plan[:8]] == [K.MOVE_TO_COMPONENT, K.POSITION_FOR_PICKING_UP, K.PICK_UP, K.TRANSPORT,
+                                          K.POSITION_FOR_INSTALLING, K.MOVE_TO_COMPONENT, K.POSITION_FOR_INSTALLING,
+                                          K.INSTALL]
+    assert [a.releases_robot for a in plan[:8]] == [False] * 4 + [True, False, False, True]
+    assert plan[3].target == Pose(0.0, 3.4, 0.0)  # 0.6 m stand-off before the installed position (0, 4, 0)
+    assert [a.activity_id for a in plan[:8]] == ["A0001.1", "A0001.2", "A0001.3", "A0001.4", "A0002.1",
+                                                 "A0003.1", "A0003.2", "A0003.3"]
+    assert plan[4].predecessors == ("A0001.4",) and plan[5].predecessors == ("A0002.1",)
     report = run_plan(plan, cranes)
     assert report.status == "completed"
     assert set(report.component_states.values()) == {"Assembled"}

@@ -86,6 +86,9 @@ class RcanActivity:
     ``section_m`` its section size (width, depth) in metres for matching a gripper, if known;
     ``robot`` a robot requested by the schedule (None lets the allocator choose); ``predecessors``
     the activity ids that must be done first; ``start``/``finish`` the planned times in seconds.
+    ``frees_robot``: after this activity the robot lets go of the component and may take other work
+    (None: only after an install; True on a positioning that leaves the component PositionFixed for
+    a separate assembly, as in chapter 4).
     """
 
     activity_id: str
@@ -99,3 +102,9 @@ class RcanActivity:
     start: float = 0.0
     finish: float = 0.0
     name: str = ""
+    frees_robot: bool | None = None
+
+    @property
+    def releases_robot(self) -> bool:
+        """Whether the robot is free of the component once this activity is done."""
+        return self.kind is ActivityKind.INSTALL if self.frees_robot is None else self.frees_robot

@@ -44,11 +44,14 @@ def register(subparsers) -> None:
                      help="do not start executors here; `bimrobot rcan executor` processes serve the robots (needs --redis)")
     run.add_argument("--yard", type=float, nargs=3, default=(-10.0, -10.0, 0.0), metavar=("X", "Y", "Z"),
                      help="first yard slot of a schedule's components, metres (default -10 -10 0)")
-    run.add_argument("--standoff", type=float, default=1.0, help="base stand-off from pick/install poses, m (default 1)")
+    run.add_argument("--standoff", type=float, default=0.6,
+                     help="base stand-off from pick/install poses, m (default 0.6, within every built-in robot's reach)")
     run.add_argument("--robot-node", choices=("spawn", "external"), default="spawn",
                      help="ros2: start the shipped robot node for the run (spawn, default) or use robots that "
                           "already serve /bimrobot/<robot>/<activity> (external)")
     run.add_argument("--report", help="also write the run report (JSON) to this file")
+    run.add_argument("--graph", help="with --schedule and --model: write the construction graph (BOT + DiCon + "
+                                     "live states, Turtle) as it stands after the run to this file")
     run.add_argument("-q", "--quiet", action="store_true", help="no interaction log, only the summary")
     run.set_defaults(func=_run)
 
@@ -104,12 +107,13 @@ def _backend_options(args) -> dict:
 
 
 def _load_plan(args):
+    """(RCAN activities, construction graph or None) for the run."""
     from bimrobot.rcan.plans import experiment, plan_from_schedule
 
     if args.experiment:
         exp = experiment(args.experiment)
         print(f"== RCAN experiment {exp.number}: {exp.title}", flush=True)
-        return list(exp.activities)
+        return list(exp.activities), None
     from bimrobot.lbd.schedule import load_schedule_csv
 
     model = None
@@ -118,7 +122,12 @@ def _load_plan(args):
 
         model = load_model(args.model)
     schedule = load_schedule_csv(args.schedule, model)
-    return plan_from_schedule(schedule, model, tuple(args.yard), standoff_m=args.standoff)
+    graph = None
+    if args.graph:
+        from bimrobot.lbd.graph import build_graph
+
+        graph = build_graph(model, schedule)
+    return plan_from_schedule(schedule, model, tuple(args.yard), standoff_m=args.standoff), graph
 
 
 def _run(args) -> int:
@@ -130,14 +139,22 @@ def _run(args) -> int:
         raise InputError("--no-local-executors needs --redis: executors in other processes talk through Redis")
     if args.max_attempts < 1:
         raise InputError(f"--max-attempts must be at least 1, got {args.max_attempts}")
+    if args.graph and not (args.schedule and args.model):
+        raise InputError("--graph needs --schedule and --model: the graph links the model's elements and the schedule")
     options = _backend_options(args)
     capabilities = load_capabilities(args.capabilities)
-    activities = _load_plan(args)
+    activities, graph = _load_plan(args)
+    observers = []
+    if graph is not None:
+        from bimrobot.rcan.observers import GraphStateObserver
+
+        observers.append(GraphStateObserver(graph, activities))
     log = None if args.quiet else (lambda line: print(line, flush=True))
     with _robots(args):
         report = run_plan(activities, capabilities, backend=args.backend, state_db=args.state_db,
                           redis_url=args.redis, spawn_executors=not args.no_local_executors,
-                          max_attempts=args.max_attempts, log=log, backend_options=options)
+                          max_attempts=args.max_attempts, log=log, backend_options=options,
+                          observers=observers)
     states = {}
     for state in report.component_states.values():
         states[state] = states.get(state, 0) + 1
@@ -153,6 +170,9 @@ def _run(args) -> int:
         with atomic_output_file(args.report) as tmp:
             data = asdict(report)
             tmp.write_text(json.dumps(data, indent=2, default=str))
+    if graph is not None:
+        graph.serialize(args.graph, format="turtle")
+        print(f"construction graph with live states: {args.graph}", flush=True)
     return 0 if report.status == "completed" else 1
 
 

@@ -156,6 +156,7 @@ class TaskAllocator:
     def __init__(self, capabilities: CapabilityTable):
         self.capabilities = capabilities
         self._holder: dict[str, str] = {}  # component -> committed robot
+        self._last: dict[str, str] = {}  # component -> the last activity its committed robot took
         self._load: dict[str, int] = {name: 0 for name in capabilities.robots}
 
     def holder(self, component_id: str) -> str | None:
@@ -165,12 +166,22 @@ class TaskAllocator:
     def committed_robots(self) -> set[str]:
         return set(self._holder.values())
 
-    def commit(self, component_id: str, robot: str) -> None:
+    def commit(self, component_id: str, robot: str, activity_id: str | None = None) -> None:
+        """Bind ``robot`` to the component; ``activity_id`` is the activity it takes now."""
         self._holder[component_id] = robot
+        if activity_id is not None:
+            self._last[component_id] = activity_id
         self._load[robot] = self._load.get(robot, 0) + 1
+
+    def continues(self, activity: RcanActivity) -> bool:
+        """Whether ``activity`` follows directly on what the committed robot last did for its component
+        (a second connection node of the same component must wait until the first is finished)."""
+        last = self._last.get(activity.component_id)
+        return last is None or last == activity.activity_id or last in activity.predecessors
 
     def release(self, component_id: str) -> None:
         self._holder.pop(component_id, None)
+        self._last.pop(component_id, None)
 
     def choose(self, activity: RcanActivity, exclude: set[str] = frozenset()) -> str | None:
         """A capable robot not in ``exclude`` (None when all capable robots are excluded)."""
@@ -190,7 +201,7 @@ class TaskAllocator:
         """The robot for ``activity`` (committing it to the component)."""
         name = self.choose(activity)
         robot = self.capabilities.robots[name]
-        self.commit(activity.component_id, name)
+        self.commit(activity.component_id, name, activity.activity_id)
         return robot
 
     def capable(self, activity: RcanActivity) -> list[RobotSpec]:

@@ -46,17 +46,21 @@ class RcanNode:
             "activity": a.kind.value,
             "target": [a.target.x, a.target.y, a.target.z, a.target.yaw],
             "weight_kg": a.weight_kg,
+            "releases_robot": a.releases_robot,
             "robot": self.robot,
             "backend": self.backend,
         }
 
     @classmethod
     def from_message(cls, message: dict) -> "RcanNode":
+        kind = ActivityKind(message["activity"])
+        frees = message.get("releases_robot")
         activity = RcanActivity(
             activity_id=message["activity_id"],
             component_id=message["component_id"],
-            kind=ActivityKind(message["activity"]),
+            kind=kind,
             target=Pose(*message["target"]),
             weight_kg=float(message.get("weight_kg", 0.0)),
+            frees_robot=None if frees is None or bool(frees) == (kind is ActivityKind.INSTALL) else bool(frees),
         )
         return cls(message["node_id"], activity, message["robot"], message["backend"])

@@ -17,15 +17,21 @@ K = ActivityKind
 
 
 def plan_from_schedule(schedule, model=None, yard: tuple[float, float, float] = (-10.0, -10.0, 0.0),
-                       yard_spacing_m: float = 2.0, standoff_m: float = 1.0) -> list[RcanActivity]:
+                       yard_spacing_m: float = 2.0, standoff_m: float = 0.6) -> list[RcanActivity]:
     """RCAN activities for every row of ``schedule`` (a :class:`bimrobot.lbd.schedule.Schedule`).
 
-    ``model`` (a BuildingModel) supplies component weights (kg); without it weights are 0. Ids are
-    ``<Identification>.<n>``; the first activity of a row waits for the last one of each predecessor row.
+    ``model`` (a BuildingModel) supplies component weights (kg; the allocator only gives a component to
+    robots whose payload carries it); without it weights are 0. Ids are ``<Identification>.<n>``; the first activity of a row
+    waits for the last one of each predecessor row. A ``position`` or ``assemble`` row of a component no
+    robot holds (in place already, e.g. a footing, or a further connection node after the first
+    install) starts by moving a robot to it: move to component, position for installing, install. A
+    ``position`` row leaves the component PositionFixed and frees its robot (chapter 4: assembly robots
+    fix the connection nodes afterwards).
     """
     activities: list[RcanActivity] = []
     last_of_row: dict[str, str] = {}
     slots: dict[str, Pose] = {}
+    held: set[str] = set()  # components a robot carries after their transport, until installed
     for row in schedule.topological_order():
         if row.activity not in SCHEDULE_DECOMPOSITION:
             raise InputError(f"schedule activity {row.id} has activity {row.activity!r}; RCAN knows "
@@ -35,7 +41,6 @@ def plan_from_schedule(schedule, model=None, yard: tuple[float, float, float] = 
         gid = row.global_id
         if gid not in slots:
             slots[gid] = Pose(yard[0] + yard_spacing_m * len(slots), yard[1], yard[2])
-        weight = _weight(model, gid)
         slot, installed = slots[gid], Pose(*row.target)
         goals = {
             K.MOVE_TO_COMPONENT: Pose(slot.x, slot.y - standoff_m, 0.0),
@@ -45,13 +50,26 @@ def plan_from_schedule(schedule, model=None, yard: tuple[float, float, float] = 
             K.POSITION_FOR_INSTALLING: installed,
             K.INSTALL: installed,
         }
+        kinds = SCHEDULE_DECOMPOSITION[row.activity]
+        if row.activity == "transport":
+            held.add(gid)
+        else:
+            if gid not in held:  # nobody carries it: a robot goes to it first
+                goals[K.MOVE_TO_COMPONENT] = goals[K.TRANSPORT]
+                kinds = (K.MOVE_TO_COMPONENT, K.POSITION_FOR_INSTALLING) + (
+                    (K.INSTALL,) if row.activity == "assemble" else ())
+            elif row.activity == "assemble":  # carried straight from transport to assembly
+                kinds = (K.POSITION_FOR_INSTALLING, K.INSTALL)
+            held.discard(gid)  # positioned (PositionFixed) or installed: the robot lets go
+        weight = _weight(model, gid)
         previous = tuple(last_of_row[p] for p in row.predecessors)
-        for n, kind in enumerate(SCHEDULE_DECOMPOSITION[row.activity], start=1):
+        for n, kind in enumerate(kinds, start=1):
             activity_id = f"{row.id}.{n}"
             activities.append(RcanActivity(
-                activity_id=activity_id, component_id=gid, kind=kind, target=goals[kind], weight_kg=weight,
-                robot=row.robot, predecessors=previous, start=row.start, finish=row.finish,
-                name=f"{kind.label} {gid}",
+                activity_id=activity_id, component_id=gid, kind=kind, target=goals[kind],
+                weight_kg=weight, robot=row.robot, predecessors=previous,
+                start=row.start, finish=row.finish, name=f"{kind.label} {gid}",
+                frees_robot=True if (row.activity == "position" and kind is K.POSITION_FOR_INSTALLING) else None,
             ))
             previous = (activity_id,)
         last_of_row[row.id] = previous[0]

@@ -25,7 +25,7 @@ from typing import Iterable
 from bimrobot.rcan.activities import ActivityKind
 from bimrobot.rcan.backends.interfaces import ActivityResult
 from bimrobot.rcan.node import RcanNode
-from bimrobot.sco.states import Event, State, next_state
+from bimrobot.sco.states import Event, State, at_least, next_state
 
 log = logging.getLogger(__name__)
 
@@ -66,6 +66,36 @@ class EscalationReport:
             f"ESCALATED: {self.activity} of component {self.component_id} (activity {self.activity_id}) "
             f"failed {self.attempts} time(s) on robot {self.robot}: {self.message}"
         )
+
+
+#: The component's path through the thesis' state chart, as (event, state after it).
+FORWARD_PATH: tuple[tuple[Event, State], ...] = (
+    (Event.START_TRANSPORT, State.IN_TRANSIT),
+    (Event.FINISH_TRANSPORT, State.ARRIVED),
+    (Event.PUBLISH_POSITIONING, State.IN_LOCATION),
+    (Event.START_POSITIONING, State.WORKING_IN_POSITIONING),
+    (Event.FINISH_POSITIONING, State.POSITION_FIXED),
+    (Event.PUBLISH_ASSEMBLY, State.WAIT_FOR_ASSEMBLY),
+    (Event.START_ASSEMBLY, State.WORKING_IN_ASSEMBLY),
+)
+
+
+def _walk(state: State, target: State) -> list[Event]:
+    """Events that take ``state`` forward to ``target`` along the chart (none when already there or past).
+
+    A component that skips a task in the plan (a footing already in place is never transported; a column
+    within reach is never driven) passes through the skipped states, so the chart stays valid.
+    """
+    if at_least(state, target):
+        return []
+    events = []
+    for event, after in FORWARD_PATH:
+        if at_least(state, after):
+            continue
+        events.append(event)
+        if after is target:
+            break
+    return events
 
 
 class StateStore:
@@ -136,16 +166,16 @@ class Decision:
 class StateManager:
     """Turns robot results into component states; retries, escalates, journals and notifies observers.
 
-    ``last_install``: activity ids of each component's final install (its component becomes Assembled;
-    earlier installs of a component with several connection nodes leave it WorkingInAssembly).
+    ``installs``: component -> ids of its install activities; the component becomes Assembled when the
+    last of them is done (a component with several connection nodes stays WorkingInAssembly until then).
     """
 
     def __init__(self, store: StateStore, policy: RetryPolicy = RetryPolicy(), observers: Iterable = (),
-                 last_install: Iterable[str] = ()):
+                 installs: dict[str, set[str]] | None = None):
         self.store = store
         self.policy = policy
         self.observers = list(observers)
-        self.last_install = set(last_install)
+        self.installs = dict(installs or {})
 
     # --- state machine -----------------------------------------------------------------------------
     def _component_state(self, db, component_id: str) -> State:
@@ -154,35 +184,37 @@ class StateManager:
 
     def _events_on_start(self, kind: ActivityKind, state: State) -> list[Event]:
         if kind is ActivityKind.POSITION_FOR_INSTALLING:
-            events = {State.IN_TRANSIT: [Event.FINISH_TRANSPORT, Event.PUBLISH_POSITIONING, Event.START_POSITIONING],
-                      State.ARRIVED: [Event.PUBLISH_POSITIONING, Event.START_POSITIONING],
-                      State.IN_LOCATION: [Event.START_POSITIONING]}
-            return events.get(state, [])
+            return _walk(state, State.WORKING_IN_POSITIONING)
         if kind is ActivityKind.INSTALL:
-            events = {State.POSITION_FIXED: [Event.PUBLISH_ASSEMBLY, Event.START_ASSEMBLY],
-                      State.WAIT_FOR_ASSEMBLY: [Event.START_ASSEMBLY]}
-            return events.get(state, [])
+            return _walk(state, State.WORKING_IN_ASSEMBLY)
         return []
 
     def _events_on_done(self, kind: ActivityKind, state: State) -> list[Event]:
-        if kind is ActivityKind.PICK_UP and state is State.ON_YARD:
-            return [Event.START_TRANSPORT]
-        if kind is ActivityKind.TRANSPORT and state is State.IN_TRANSIT:
-            return [Event.FINISH_TRANSPORT]
-        if kind is ActivityKind.POSITION_FOR_INSTALLING:
-            return [Event.FINISH_POSITIONING]
+        targets = {ActivityKind.PICK_UP: State.IN_TRANSIT, ActivityKind.TRANSPORT: State.ARRIVED,
+                   ActivityKind.POSITION_FOR_INSTALLING: State.POSITION_FIXED}
+        if kind in targets:
+            return _walk(state, targets[kind])
         if kind is ActivityKind.INSTALL:
-            return [Event.FINISH_ASSEMBLY]
+            return _walk(state, State.WORKING_IN_ASSEMBLY) + [Event.FINISH_ASSEMBLY]
         return []
 
     def _advance(self, db, node: RcanNode, events: list[Event]) -> State:
         state = self._component_state(db, node.component_id)
         for event in events:
             state = next_state("component", node.component_id, state, event)
-        if Event.FINISH_ASSEMBLY in events and node.activity_id in self.last_install:
+        if Event.FINISH_ASSEMBLY in events and self._all_installed(db, node):
             state = State.ASSEMBLED  # guarded transition: the component's last connection is fixed
         db.execute("INSERT OR REPLACE INTO component VALUES (?, ?)", (node.component_id, state.value))
         return state
+
+    def _all_installed(self, db, node: RcanNode) -> bool:
+        others = self.installs.get(node.component_id, {node.activity_id}) - {node.activity_id}
+        if not others:
+            return True
+        marks = ",".join("?" * len(others))
+        done = db.execute(f"SELECT COUNT(*) FROM activity WHERE status='done' AND activity_id IN ({marks})",
+                          tuple(others)).fetchone()[0]
+        return done == len(others)
 
     # --- journal -----------------------------------------------------------------------------------
     def started(self, node: RcanNode, attempt: int) -> State:

@@ -23,8 +23,6 @@ from bimrobot.rcan.generation import CapabilityTable, NodeGenerator, TaskAllocat
 from bimrobot.rcan.node import RcanNode
 from bimrobot.rcan.state_manager import DONE, ESCALATED, STARTED, EscalationReport, StateManager
 
-RELEASING_KINDS = (ActivityKind.INSTALL,)
-
 
 @dataclass
 class RunReport:
@@ -95,7 +93,7 @@ class RcanSystem:
                 still_waiting.append((activity_id, attempt))
                 continue
             node = RcanNode(f"rcan/{activity_id}", activity, robot, self.generator.backend)
-            self.allocator.commit(activity.component_id, robot)
+            self.allocator.commit(activity.component_id, robot, activity_id)
             self.log(f"[generation] RCAN node {node.node_id} instantiated: component {activity.component_id}, "
                      f"activity '{activity.kind.label}', robot {robot}, backend {node.backend}")
             before = self.state.store.component_states().get(activity.component_id)
@@ -108,7 +106,9 @@ class RcanSystem:
     def _free_robot_for(self, activity: RcanActivity) -> str | None:
         holder = self.allocator.holder(activity.component_id)
         if holder is not None:
-            return None if holder in self._in_flight else holder
+            if holder in self._in_flight or not self.allocator.continues(activity):
+                return None
+            return holder
         busy = set(self._in_flight) | self.allocator.committed_robots()
         return self.allocator.choose(activity, exclude=busy)
 
@@ -138,7 +138,7 @@ class RcanSystem:
         if decision.verdict == DONE:
             self._done.add(node.activity_id)
             self._finished_s[node.activity_id] = result.finished_s
-            if node.kind in RELEASING_KINDS and node.activity_id in self.state.last_install:
+            if node.activity.releases_robot:  # the component is placed: its robot is free again
                 self.allocator.release(node.component_id)
         elif decision.verdict == "retry":
             self.publish(node.activity, decision.next_attempt)
@@ -196,12 +196,10 @@ class RcanSystem:
             if missing:
                 raise InputError(f"activity {a.activity_id} names unknown predecessor {missing[0]}")
             self.allocator.capable(a)  # raises the InputError naming the activity and component
-        if not self.state.last_install:
-            last: dict[str, str] = {}
+        if not self.state.installs:
             for a in activities:
                 if a.kind is ActivityKind.INSTALL:
-                    last[a.component_id] = a.activity_id
-            self.state.last_install = set(last.values())
+                    self.state.installs.setdefault(a.component_id, set()).add(a.activity_id)
 
     def _restore(self, activities: list[RcanActivity]) -> int:
         """Rebuild in-memory state from the journal; re-send started activities. Returns how many."""
@@ -210,11 +208,11 @@ class RcanSystem:
         for activity in activities:
             row = rows[activity.activity_id]
             if row["robot"] and row["status"] in (DONE, STARTED) or (row["status"] == ESCALATED and row["robot"]):
-                self.allocator.commit(activity.component_id, row["robot"])
+                self.allocator.commit(activity.component_id, row["robot"], activity.activity_id)
             if row["status"] == DONE:
                 self._done.add(activity.activity_id)
                 self._finished_s[activity.activity_id] = row["finished_s"] or 0.0
-                if activity.activity_id in self.state.last_install:
+                if activity.releases_robot:
                     self.allocator.release(activity.component_id)
             elif row["status"] == STARTED:
                 node = RcanNode(f"rcan/{activity.activity_id}", activity, row["robot"], self.generator.backend)

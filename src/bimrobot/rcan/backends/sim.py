@@ -4,7 +4,7 @@ Each robot has a mobile base (moves at ``speed_m_s`` in the xy plane), a manipul
 ``reach_m`` horizontally from the base, moves the gripper at ``arm_speed_m_s``) and a gripper (takes
 ``handling_s[activity]`` to pick up or install). Robots check what a real robot would refuse: a target
 out of the arm's reach, a pick-up without the gripper at the grasp pose, a component heavier than the
-payload, installing a component the robot does not hold. Any activity can also fail at random with
+payload, transporting a component it does not hold, touching a component another robot holds. Any activity can also fail at random with
 ``failure_probability``; the draw is seeded by ``(seed, activity id, attempt)`` so a resumed run sees
 the same failures as an uninterrupted one.
 
@@ -153,10 +153,17 @@ class KinematicSite:
                     f"target ({target.x:.2f}, {target.y:.2f}, {target.z:.2f}) is {reach:.2f} m from the base of "
                     f"{spec.name}, beyond its {spec.reach_m:.2f} m reach: transport the component first"
                 ), {}
-            if kind is ActivityKind.POSITION_FOR_INSTALLING and state["holding"] != node.component_id:
-                return 0.0, f"robot {spec.name} does not hold {node.component_id} to position it", {}
+            if kind is ActivityKind.POSITION_FOR_INSTALLING and self._held_by_other(node.component_id, spec.name):
+                return 0.0, f"{node.component_id} is held by another robot", {}
             arm_from = state["arm"] or Pose(base.x, base.y, base.z + ARM_STOW_HEIGHT_M)
-            return arm_from.distance(target) / spec.arm_speed_m_s, None, {"arm": target}
+            effect = {"arm": target}
+            if state["holding"] == node.component_id:
+                # the held component comes along; a positioning that frees the robot leaves it fixed there
+                released = kind is ActivityKind.POSITION_FOR_INSTALLING and node.activity.releases_robot
+                effect["component"] = (target, None if released else spec.name)
+                if released:
+                    effect["holding"] = None
+            return arm_from.distance(target) / spec.arm_speed_m_s, None, effect
         handling = spec.handling_s.get(kind.value, 0.0)
         arm = state["arm"]
         if arm is None or arm.distance(target) > GRASP_TOLERANCE_M:
@@ -167,9 +174,18 @@ class KinematicSite:
             if node.activity.weight_kg > spec.payload_kg:
                 return 0.0, f"{node.component_id} weighs {node.activity.weight_kg:.1f} kg, over the {spec.payload_kg:.1f} kg payload of {spec.name}", {}
             return handling, None, {"holding": node.component_id, "component": (target, spec.name)}
-        if state["holding"] != node.component_id:  # install
-            return 0.0, f"robot {spec.name} does not hold {node.component_id} to install it", {}
-        return handling, None, {"holding": None, "arm": None, "component": (target, None)}
+        # install: place the held component, or fix a component already in place (a further connection)
+        if state["holding"] != node.component_id and self._held_by_other(node.component_id, spec.name):
+            return 0.0, f"{node.component_id} is held by another robot", {}
+        effect = {"arm": None, "component": (target, None)}
+        if state["holding"] == node.component_id:
+            effect["holding"] = None
+        return handling, None, effect
+
+    def _held_by_other(self, component_id: str, robot: str) -> bool:
+        with self._lock:
+            row = self._db.execute("SELECT holder FROM sim_component WHERE global_id=?", (component_id,)).fetchone()
+        return bool(row and row[0] and row[0] != robot)
 
     def _commit(self, node: RcanNode, result: ActivityResult, effect: dict) -> None:
         """Record the goal and apply its effect in one transaction (a crash keeps both or neither)."""
