@@ -57,17 +57,27 @@ class Renderer:
     """Draws frames of one scenario into a reused matplotlib figure (Agg backend, no display needed)."""
 
     def __init__(self, scenario: Scenario, size: tuple[int, int] = (640, 480)):
-        from matplotlib.figure import Figure
         from matplotlib.backends.backend_agg import FigureCanvasAgg
+        from matplotlib.figure import Figure
 
         self.scenario = scenario
         dpi = 80
         self.fig = Figure(figsize=(size[0] / dpi, size[1] / dpi), dpi=dpi)
         self.canvas = FigureCanvasAgg(self.fig)
         self.ax = self.fig.add_subplot(projection="3d")
+        self.fig.subplots_adjust(left=-0.08, right=1.05, bottom=0.02, top=1.04)
         self._window = None
         self._draw_site()
-        self._dynamic: list = []
+        self._draw_legend()
+        self.title = self.fig.text(0.5, 0.95, "", ha="center", fontsize=10)
+        self._obstacle_faces = [
+            face
+            for box in scenario.obstacles
+            for face in _box_faces((box.x[0], box.y[0], box.z[0]), (box.x[1] + 1, box.y[1] + 1, box.z[1] + 1))
+        ]
+        # the view never changes: draw the axes and the ground once and blit the moving parts on top
+        self.canvas.draw()
+        self._background = self.canvas.copy_from_bbox(self.fig.bbox)
 
     def _draw_site(self) -> None:
         from mpl_toolkits.mplot3d.art3d import Poly3DCollection
@@ -95,32 +105,41 @@ class Renderer:
         for x, y in sc.foundations:
             faces += _box_faces((x, y, 0.0), (x + 1, y + 1, 1.0))
             colours += [COLOURS["foundation"]] * 6
-        for box in sc.obstacles:
-            faces += _box_faces((box.x[0], box.y[0], box.z[0]), (box.x[1] + 1, box.y[1] + 1, box.z[1] + 1))
-            colours += [COLOURS["obstacle"]] * 6
         if faces:
-            ax.add_collection3d(Poly3DCollection(faces, facecolors=colours, edgecolors="#555555", linewidths=0.3, alpha=0.35))
+            ax.add_collection3d(Poly3DCollection(faces, facecolors=colours, edgecolors="#555555", linewidths=0.3))
+
+    def _draw_legend(self) -> None:
+        from matplotlib.lines import Line2D
+        from matplotlib.patches import Patch
+
+        handles = [
+            Patch(color=COLOURS["waiting"], label="waiting"),
+            Patch(color=COLOURS["current"], label="moving"),
+            Patch(color=COLOURS["arrived"], label="arrived"),
+            Patch(color=COLOURS["placed"], label="assembled"),
+            Line2D([], [], color=COLOURS["target"], label="free target"),
+        ]
+        if self.scenario.obstacles:
+            handles.append(Patch(color=COLOURS["obstacle"], alpha=0.5, label="obstacle"))
+        self.fig.legend(handles=handles, loc="lower center", ncol=len(handles), fontsize=8, frameon=False)
 
     def draw(self, env: "AssemblyEnv") -> np.ndarray:
         """An RGB frame (H, W, 3) uint8 of the env's current state."""
+        from matplotlib.colors import to_rgba
         from mpl_toolkits.mplot3d.art3d import Line3DCollection, Poly3DCollection
 
-        for artist in self._dynamic:
-            artist.remove()
-        self._dynamic = []
         sc = env.scenario
-        cs_targets = sc.targets
-        faces, colours = [], []
-        components = env.component_cells()
+        faces = list(self._obstacle_faces)
+        colours = [to_rgba(COLOURS["obstacle"], 0.35)] * len(faces)
         arrived = env.last_placed
         current = env.current_component
-        for cid, (state, cells) in components.items():
+        for cid, (state, cells) in env.component_cells().items():
             colour = COLOURS["arrived"] if cid == arrived else COLOURS[state]
             lo, hi = _cells_box(cells)
             faces += _box_faces(lo, hi)
-            colours += [colour] * 6
+            colours += [to_rgba(colour)] * 6
         edges, edge_colours = [], []
-        for target, filled in zip(cs_targets, env.filled_targets()):
+        for target, filled in zip(sc.targets, env.filled_targets()):
             if not filled:
                 lo, hi = _cells_box(target.cells)
                 edges += _box_edges(lo, hi)
@@ -132,19 +151,29 @@ class Renderer:
             lo, hi = _cells_box(run_cells(*env._starts[index]))
             edges += _box_edges(lo, hi)
             edge_colours += [COLOURS["start"]] * 12
-        if faces:
-            coll = Poly3DCollection(faces, facecolors=colours, edgecolors="#222222", linewidths=0.4)
-            self._dynamic.append(self.ax.add_collection3d(coll) or coll)
+        artists = []
         if edges:
             lines = Line3DCollection(edges, colors=edge_colours, linewidths=1.2)
-            self._dynamic.append(self.ax.add_collection3d(lines) or lines)
+            lines.axes = self.ax
+            lines.set_transform(self.ax.transData)
+            artists.append(lines)
+        if faces:
+            solids = Poly3DCollection(faces, facecolors=colours, edgecolors="#222222", linewidths=0.4)
+            solids.axes = self.ax
+            solids.set_transform(self.ax.transData)
+            artists.append(solids)
         title = f"{sc.name}   step {env._elapsed}   standing {env._k}/{env._cs.n_total}"
         if current is not None:
             title += f"   moving {current}"
-        self.ax.set_title(title, fontsize=10)
-        self.canvas.draw()
-        frame = np.asarray(self.canvas.buffer_rgba())[..., :3].copy()
-        return frame
+        self.title.set_text(title)
+        self.canvas.restore_region(self._background)
+        renderer = self.canvas.get_renderer()
+        for artist in artists:
+            artist.set_figure(self.fig)
+            artist.do_3d_projection()
+            artist.draw(renderer)
+        self.title.draw(renderer)
+        return np.asarray(self.canvas.buffer_rgba())[..., :3].copy()
 
     def show(self, frame: np.ndarray) -> None:
         """Show a frame in a window (human mode); without a display, does nothing."""
