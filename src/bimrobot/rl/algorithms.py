@@ -190,23 +190,24 @@ def thesis_hyperparameters(algo: str, setting: str) -> dict[str, Any]:
 
 
 def fast_hyperparameters(algo: str, setting: str) -> dict[str, Any]:
-    """The thesis' hyperparameters adapted to a 2-core CPU budget (more envs, larger batches).
+    """The thesis' hyperparameters adapted to a 2-core CPU budget: more envs per update, larger batches.
 
-    The learning-relevant constants (learning rates, discounts, GAE, exploration schedule ends) stay as in
-    A.1; what changes is how many environments are stepped per update and how large the batches are, and
-    for the DQN family one gradient step per 4 env steps (8 envs x ``train_freq`` 1) on batches of 256
-    instead of one per step on 64. PPO's entropy coefficient drops from 0.1 to 0.01: with 0.1 the policy
-    stays too random to finish Env3/Env4 within the time limit.
+    Discounts and GAE stay as in A.1. On-policy: 64 envs x 64 steps per rollout (A2C: 64 x 5), PPO batches
+    of 512 for 10 epochs at learning rate 1e-3 and entropy coefficient 0.01 (A.1: 16 x 125, batch 64, 4 epochs,
+    3e-4, 0.1); measured on E1S2 with distance shaping, this reaches a score of 0.9 after ~50k env steps
+    where A.1's settings had not after 100k. DQN family: 16 envs and one gradient step on a batch of 64 per
+    16 env steps (A.1: one per env step), exploration over the first 20% of the run, target update every
+    1000 env steps.
     """
     params = thesis_hyperparameters(algo, setting)
     algorithm = get_algorithm(algo)
     if algorithm.off_policy:
-        params.update(n_envs=8, batch_size=256, train_freq=1, gradient_steps=2, target_update_interval=1000)
+        params.update(n_envs=16, train_freq=1, gradient_steps=1, target_update_interval=1000)
         params.update(exploration_fraction=0.2, learning_starts=2000)
     elif algo == "a2c":
         params.update(n_envs=64, n_steps=5)
     else:
-        params.update(n_envs=64, n_steps=64, batch_size=512, ent_coef=0.01)
+        params.update(n_envs=64, n_steps=64, batch_size=512, n_epochs=10, learning_rate=1e-3, ent_coef=0.01)
     return params
 
 

@@ -131,13 +131,14 @@ class BenchmarkSpec:
         return self.budgets.get(setting, self.budgets.get(setting[:2], self.timesteps))
 
     def configs(self) -> list[TrainConfig]:
-        """Every run of the grid, the cheapest settings first so that results arrive early."""
+        """Every run of the grid, seed by seed (all settings and algorithms of the first seed, then the next)
+        and the cheapest settings first, so that an interrupted grid still covers every cell."""
         return [
             TrainConfig(setting, algo, self.budget(setting), seed, self.profile, dict(self.overrides.get(algo, {})),
                         self.eval_episodes, checkpoint_every=max(self.budget(setting) // 4, 1), threads=self.threads,
                         shaping=self.shaping)
-            for setting in self.settings
             for seed in self.seeds
+            for setting in self.settings
             for algo in self.algos
         ]
 
@@ -150,6 +151,17 @@ def _run_one(config: TrainConfig, runs_dir: str) -> dict[str, Any]:
     results = json.loads((run_dir / "results.json").read_text())
     results["episodes"] = read_episodes(run_dir)
     return results
+
+
+def _check_same_run(config: TrainConfig, run_dir: Path) -> None:
+    """A finished run is reused only if it was trained as ``config`` asks; otherwise a clear error."""
+    stored = json.loads((run_dir / "config.json").read_text())
+    for key in ("timesteps", "profile", "shaping", "overrides"):
+        if stored.get(key) != getattr(config, key):
+            raise InputError(
+                f"{run_dir} was trained with {key}={stored.get(key)!r}, not {getattr(config, key)!r}: "
+                "use another output folder (-o) or remove that run dir"
+            )
 
 
 def read_episodes(run_dir: Path) -> list[tuple[int, float]]:
@@ -177,6 +189,9 @@ def run_benchmark(spec: BenchmarkSpec, out: str | Path, workers: int = 1, ray_ad
     runs_dir = out / "runs"
     runs_dir.mkdir(parents=True, exist_ok=True)
     configs = spec.configs()
+    for config in configs:
+        if (runs_dir / config.run_name / "results.json").is_file():
+            _check_same_run(config, runs_dir / config.run_name)
     results: list[dict[str, Any]] = []
     start = time.perf_counter()
     log.info("benchmark: %d runs on %d workers -> %s", len(configs), workers, out)
