@@ -1,0 +1,149 @@
+"""RCAN throughput and latency through its transports, as ratios against the in-process broker.
+
+Runs the same plan (``--activities`` move-to-component activities in two independent chains, one per
+robot, on the sim robots with no sleeping) through:
+
+- the in-process broker (reference),
+- Redis streams with the executors as threads of this process,
+- Redis streams with the executor in a separate process (``bimrobot rcan executor``),
+- ROS 2 actions against the shipped robot node (in-process broker, ``ros2`` backend),
+
+and prints activities per second and the p50/p99 latency from sending an RCAN node to receiving its
+result. Redis is started on a free loopback port and stopped afterwards; ROS 2 runs with shared-memory
+transport on a random domain. Usage: ``python bench/rcan.py [--activities 400] [--no-redis] [--no-ros]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import json
+import os
+import random
+import shutil
+import socket
+import subprocess
+import sys
+import time
+
+import numpy as np
+
+from bimrobot.rcan.activities import ActivityKind, Pose, RcanActivity
+from bimrobot.rcan.generation import parse_capabilities
+from bimrobot.rcan.system import run_plan
+
+TABLE = {
+    "robot_types": {"mobile_base": {"activities": ["move_to_component", "transport"]},
+                    "manipulator": {"activities": ["position_for_picking_up", "position_for_installing"]},
+                    "gripper": {"activities": ["pick_up", "install"]}},
+    "robots": {name: {"types": ["mobile_base", "manipulator", "gripper"], "payload_kg": 100, "reach_m": 2,
+                      "speed_m_s": 1.0, "home": [0, 0, 0]} for name in ("robot_a", "robot_b")},
+}
+
+
+def bench_plan(n: int) -> list[RcanActivity]:
+    """``n`` move-to-component activities in two chains (components C0 and C1), each robot shuttling."""
+    plan, last = [], {}
+    for i in range(n):
+        chain = i % 2
+        activity_id = f"B{chain}.{i // 2 + 1}"
+        plan.append(RcanActivity(activity_id, f"C{chain}", ActivityKind.MOVE_TO_COMPONENT,
+                                 Pose(float(i % 7), float(chain), 0.0), robot=f"robot_{'ab'[chain]}",
+                                 predecessors=(last[chain],) if chain in last else ()))
+        last[chain] = activity_id
+    return plan
+
+
+def measure(name: str, n: int, **kwargs) -> dict:
+    caps = parse_capabilities(TABLE, "bench table")
+    started = time.perf_counter()
+    report = run_plan(bench_plan(n), caps, timeout_s=300, **kwargs)
+    wall = time.perf_counter() - started
+    assert report.status == "completed", f"{name}: {report.status}"
+    latencies = np.array(report.latencies_s) * 1000
+    return {"transport": name, "activities": n, "activities_per_s": n / report.wall_s, "wall_s": wall,
+            "p50_ms": float(np.percentile(latencies, 50)), "p99_ms": float(np.percentile(latencies, 99))}
+
+
+@contextlib.contextmanager
+def redis_server():
+    server = shutil.which("redis-server")
+    if server is None:
+        raise RuntimeError("redis-server is not installed")
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    process = subprocess.Popen([server, "--bind", "127.0.0.1", "--port", str(port), "--save", "", "--appendonly", "no"],
+                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    import redis
+
+    url = f"redis://127.0.0.1:{port}/0"
+    client = redis.Redis.from_url(url)
+    for _ in range(200):
+        with contextlib.suppress(redis.ConnectionError):
+            client.ping()
+            break
+        time.sleep(0.02)
+    try:
+        yield url
+    finally:
+        client.close()
+        process.terminate()
+        process.wait(timeout=10)
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--activities", type=int, default=400)
+    parser.add_argument("--no-redis", action="store_true")
+    parser.add_argument("--no-ros", action="store_true")
+    parser.add_argument("--json", help="also write the results to this JSON file")
+    args = parser.parse_args()
+    n = args.activities
+    rows = [measure("in-process", n)]
+    if not args.no_redis:
+        with redis_server() as url:
+            rows.append(measure("redis (executor threads)", n, redis_url=url))
+        with redis_server() as url:
+            caps_file = os.path.abspath("bench-rcan-caps.json")
+            with open(caps_file, "w") as handle:
+                json.dump(TABLE, handle)  # JSON is YAML
+            executor = subprocess.Popen([sys.executable, "-m", "bimrobot", "rcan", "executor", "--redis", url,
+                                         "--capabilities", caps_file], stdout=subprocess.DEVNULL)
+            try:
+                rows.append(measure("redis (executor process)", n, redis_url=url, spawn_executors=False))
+            finally:
+                executor.terminate()
+                executor.wait(timeout=10)
+                os.unlink(caps_file)
+    if not args.no_ros:
+        from bimrobot.rcan.backends import ros2
+
+        ok, why = ros2.ros2_available()
+        if not ok:
+            print(f"ROS 2 skipped: {why}")
+        else:
+            os.environ.setdefault("FASTDDS_BUILTIN_TRANSPORTS", "SHM")
+            os.environ.setdefault("ROS_DOMAIN_ID", str(random.randint(1, 200)))
+            caps_file = os.path.abspath("bench-rcan-caps.json")
+            with open(caps_file, "w") as handle:
+                json.dump(TABLE, handle)
+            try:
+                with ros2.robot_node_process(caps_file):
+                    rows.append(measure("ros2 actions", n, backend="ros2"))
+            finally:
+                os.unlink(caps_file)
+    reference = rows[0]
+    print(f"RCAN transports, {n} activities (2 robots, sim kinematics without sleeping); ratios vs in-process")
+    print(f"{'transport':28s} {'act/s':>9s} {'p50 ms':>8s} {'p99 ms':>8s} {'act/s ratio':>12s} {'p50 ratio':>10s}")
+    for row in rows:
+        print(f"{row['transport']:28s} {row['activities_per_s']:9.1f} {row['p50_ms']:8.2f} {row['p99_ms']:8.2f} "
+              f"{row['activities_per_s'] / reference['activities_per_s']:12.3f} {row['p50_ms'] / reference['p50_ms']:10.1f}")
+    if args.json:
+        with open(args.json, "w") as handle:
+            json.dump(rows, handle, indent=2)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
