@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -12,6 +10,7 @@ import numpy as np
 import pytest
 
 from bimrobot.bim import examples
+from bimrobot.cli import main
 from bimrobot.world.check import problems, read_models, sdf_validator, validate_sdf
 from bimrobot.world.package import ConvertOptions, convert
 
@@ -40,11 +39,10 @@ def test_steel_frame_package_holds_the_thesis_weights(frame_package):
 
 @pytest.mark.sdf
 @needs_ign
-def test_steel_frame_worlds_validate(frame_package):
+def test_steel_frame_world_validates(frame_package):
     out, report = frame_package
-    for world in report["world_files"].values():
-        valid, output = validate_sdf(out / world, out / "models")
-        assert valid, output
+    valid, output = validate_sdf(out / report["world_files"]["sim"], out / "models")
+    assert valid, output
 
 
 def test_converted_beam_dropped_in_pybullet_rests_at_half_its_height(frame_package):
@@ -120,16 +118,25 @@ def test_every_shared_ifc_file_converts_to_a_valid_package(tmp_path, shared_ifc,
         assert (out / entry["image"]).stat().st_size > 0
 
 
-def _cli(*args: str, cwd: Path) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "bimrobot", *args], capture_output=True, text=True, cwd=cwd)
+@pytest.fixture
+def cli(capsys, monkeypatch):
+    """Run ``bimrobot ARGS`` in-process in a folder: (exit status, stdout, stderr)."""
+
+    def run(*args: str, cwd: Path) -> tuple[int, str, str]:
+        monkeypatch.chdir(cwd)
+        status = main(list(args))
+        captured = capsys.readouterr()
+        return status, captured.out, captured.err
+
+    return run
 
 
-def test_cli_converts_and_prints_where_and_what(tmp_path):
+def test_cli_converts_and_prints_where_and_what(tmp_path, cli):
     ifc = examples.greenhouse(tmp_path / "greenhouse.ifc")
-    result = _cli("convert", str(ifc), "-o", "gh_pkg", "--include", "IfcColumn, IfcBeam", "--layout", "yard",
-                  cwd=tmp_path)
-    assert result.returncode == 0, result.stderr
-    assert "wrote gh_pkg/" in result.stdout and "19 (10 IfcBeam, 9 IfcColumn)" in result.stdout
+    status, out, err = cli("convert", str(ifc), "-o", "gh_pkg", "--include", "IfcColumn, IfcBeam", "--layout", "yard",
+                           cwd=tmp_path)
+    assert status == 0, err
+    assert "wrote gh_pkg/" in out and "19 (10 IfcBeam, 9 IfcColumn)" in out
     report = json.loads((tmp_path / "gh_pkg" / "report.json").read_text())
     assert report["counts"]["by_class"] == {"IfcBeam": 10, "IfcColumn": 9}
     assert report["yard"] is not None
@@ -147,23 +154,23 @@ def test_cli_converts_and_prints_where_and_what(tmp_path):
         ("", ["frame.ifc", "--map-band", "2", "1"], "--map-band"),
     ],
 )
-def test_cli_bad_input_exits_2_with_one_sentence_and_no_output(tmp_path, setup, args, message):
+def test_cli_bad_input_exits_2_with_one_sentence_and_no_output(tmp_path, cli, setup, args, message):
     if setup is not None and args[0] == "bad.ifc":
         (tmp_path / "bad.ifc").write_text(setup)
     if args[0] == "frame.ifc":
         examples.steel_frame(tmp_path / "frame.ifc")
-    result = _cli("convert", *args, "-o", "out_pkg", cwd=tmp_path)
-    assert result.returncode == 2, result.stderr
-    assert message in result.stderr
-    assert len(result.stderr.strip().splitlines()) == 1
+    status, _, err = cli("convert", *args, "-o", "out_pkg", "--no-progress", cwd=tmp_path)
+    assert status == 2, err
+    assert message in err
+    assert len(err.strip().splitlines()) == 1
     assert not (tmp_path / "out_pkg").exists()
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".out_pkg")]
 
 
-def test_cli_refuses_to_overwrite_a_folder_it_did_not_write(tmp_path):
+def test_cli_refuses_to_overwrite_a_folder_it_did_not_write(tmp_path, cli):
     examples.steel_frame(tmp_path / "frame.ifc")
     (tmp_path / "notes").mkdir()
     (tmp_path / "notes" / "thesis.txt").write_text("precious")
-    result = _cli("convert", "frame.ifc", "-o", "notes", cwd=tmp_path)
-    assert result.returncode == 2
+    status, _, err = cli("convert", "frame.ifc", "-o", "notes", cwd=tmp_path)
+    assert status == 2 and "did not write" in err
     assert (tmp_path / "notes" / "thesis.txt").read_text() == "precious"
