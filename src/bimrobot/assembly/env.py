@@ -203,6 +203,8 @@ class AssemblyEnv(gym.Env):
 
     def step(self, action):
         a = int(action)
+        if self._done:  # stepping a finished episode changes nothing (reset to start another)
+            return self._observation(), 0.0, True, False, self._info(False, None)
         mask = self._mask
         self._elapsed += 1
         self._steps += 1
