@@ -153,3 +153,22 @@ def test_no_solid_geometry(tmp_path):
     ifc.write(str(path))
     with pytest.raises(InputError, match=r"empty\.ifc contains no element with solid geometry"):
         load_model(path)
+
+
+@pytest.mark.parametrize("name", ["IfcOpenHouse_IFC4.ifc", "engine_web-ifc_example.ifc"])
+def test_properties_equal_ifcopenshell_get_psets(shared_ifc, name):
+    """The reader's fast one-pass property reading gives what ifcopenshell.util.element.get_psets gives."""
+    import ifcopenshell
+    import ifcopenshell.util.element
+
+    path = shared_ifc(name)
+    model = load_model(path)
+    ifc = ifcopenshell.open(str(path))
+    for element in model.elements.values():
+        expected = {
+            f"{pset}/{prop}": value
+            for pset, values in ifcopenshell.util.element.get_psets(ifc.by_guid(element.global_id)).items()
+            for prop, value in values.items()
+            if prop != "id" and not isinstance(value, dict)
+        }
+        assert element.properties == expected, element.global_id
