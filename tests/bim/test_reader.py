@@ -172,3 +172,17 @@ def test_properties_equal_ifcopenshell_get_psets(shared_ifc, name):
             if prop != "id" and not isinstance(value, dict)
         }
         assert element.properties == expected, element.global_id
+
+
+def test_zip_and_xml_are_named(tmp_path, steel_frame_ifc):
+    import zipfile
+
+    archive = tmp_path / "model.ifczip"
+    with zipfile.ZipFile(archive, "w") as zipped:
+        zipped.write(steel_frame_ifc, "model.ifc")
+    with pytest.raises(InputError, match=r"model\.ifczip is a zip archive"):
+        load_model(archive)
+    xml = tmp_path / "model.ifcxml"
+    xml.write_text('<?xml version="1.0"?>\n<ifcXML/>\n')
+    with pytest.raises(InputError, match=r"model\.ifcxml is XML"):
+        load_model(xml)

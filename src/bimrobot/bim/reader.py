@@ -136,7 +136,12 @@ def open_ifc(path: Path) -> ifcopenshell.file:
         head = stream.read(4096)
         stream.seek(max(0, path.stat().st_size - 4096))
         tail = stream.read()
-    if not head.lstrip(b"\xef\xbb\xbf \t\r\n").startswith(b"ISO-10303-21"):
+    stripped = head.lstrip(b"\xef\xbb\xbf \t\r\n")
+    if stripped.startswith(b"PK"):
+        raise InputError(f"{path} is a zip archive (ifcZIP?): unzip it and give the .ifc file inside")
+    if stripped.startswith(b"<"):
+        raise InputError(f"{path} is XML (ifcXML?), which is not supported: export IFC-SPF (.ifc) instead")
+    if not stripped.startswith(b"ISO-10303-21"):
         raise InputError(f"{path} is not an IFC file (an IFC-SPF file starts with 'ISO-10303-21;')")
     if b"END-ISO-10303-21" not in tail:
         raise InputError(f"{path} is truncated: it does not end with 'END-ISO-10303-21;'")
