@@ -1,0 +1,90 @@
+"""A picture of a converted package: every model's visual mesh at its world pose (matplotlib, no GPU).
+
+Reads what a simulator would read (the world SDF's includes and each model's DAE), so the picture
+shows the package, not the IFC file.
+"""
+
+from __future__ import annotations
+
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import numpy as np
+
+from bimrobot.world.check import read_models
+
+
+def _pose_matrix(text: str) -> np.ndarray:
+    x, y, z, roll, pitch, yaw = (float(v) for v in text.split())
+    cr, sr, cp, sp, cy, sy = np.cos(roll), np.sin(roll), np.cos(pitch), np.sin(pitch), np.cos(yaw), np.sin(yaw)
+    matrix = np.eye(4)
+    matrix[:3, :3] = [
+        [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+        [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+        [-sp, cp * sr, cp * cr],
+    ]
+    matrix[:3, 3] = (x, y, z)
+    return matrix
+
+
+def world_triangles(package: Path, world_file: str | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """All visual triangles of the world in world coordinates (k, 3, 3) and their RGBA colours (k, 4)."""
+    import collada
+
+    package = Path(package)
+    world_path = package / world_file if world_file else sorted((package / "worlds").glob("*"))[0]
+    world = ET.parse(world_path).getroot()
+    poses = {inc.findtext("name"): _pose_matrix(inc.findtext("pose")) for inc in world.iter("include")}
+    triangles, colours = [], []
+    for info in read_models(package):
+        if info.sdf_file.name != "model.sdf" or info.name not in poses:
+            continue
+        dae_file = next(f for f in info.mesh_files if f.suffix == ".dae")
+        dae = collada.Collada(str(dae_file))
+        colour = dae.effects[0].diffuse if dae.effects else (0.6, 0.6, 0.6, 1.0)
+        pose = poses[info.name]
+        for geometry in dae.geometries:
+            for primitive in geometry.primitives:
+                corners = primitive.vertex[primitive.vertex_index]
+                world_corners = corners @ pose[:3, :3].T + pose[:3, 3]
+                triangles.append(world_corners)
+                colours.append(np.tile(np.asarray(colour, float), (len(world_corners), 1)))
+    return np.concatenate(triangles), np.concatenate(colours)
+
+
+def render_package(package: Path, png: Path, world_file: str | None = None, elevation: float = 22,
+                   azimuth: float = -58, size: tuple[float, float] = (8, 6), title: str | None = None) -> Path:
+    """Render the package's world to ``png`` (shaded by a fixed light; metres on the axes)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+    triangles, colours = world_triangles(package, world_file)
+    normals = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
+    normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-12)
+    light = np.array([0.4, -0.6, 0.7]) / np.linalg.norm([0.4, -0.6, 0.7])
+    shade = 0.45 + 0.55 * np.abs(normals @ light)
+    shaded = colours.copy()
+    shaded[:, :3] *= shade[:, None]
+    figure = plt.figure(figsize=size, dpi=110)
+    axes = figure.add_subplot(projection="3d")
+    axes.add_collection3d(Poly3DCollection(triangles, facecolors=shaded, edgecolors="none"))
+    lower, upper = triangles.reshape(-1, 3).min(axis=0), triangles.reshape(-1, 3).max(axis=0)
+    axes.set_xlim(lower[0], upper[0])
+    axes.set_ylim(lower[1], upper[1])
+    axes.set_zlim(lower[2], upper[2])
+    axes.set_box_aspect(np.maximum(upper - lower, 1e-3))
+    axes.view_init(elev=elevation, azim=azimuth)
+    axes.set_xlabel("x (m)")
+    axes.set_ylabel("y (m)")
+    axes.set_zlabel("z (m)")
+    if title:
+        axes.set_title(title)
+    figure.tight_layout()
+    png = Path(png)
+    png.parent.mkdir(parents=True, exist_ok=True)
+    figure.savefig(png)
+    plt.close(figure)
+    return png
