@@ -100,13 +100,17 @@ def solve_optimal(
     start = {t.key: model.NewIntVar(0, horizon, f"start[{t.key}]") for t in tasks}
     end = {t.key: model.NewIntVar(0, horizon, f"end[{t.key}]") for t in tasks}
     assigned = {}
+    intervals: dict[str, list] = {r.name: [] for r in fleet.robots}
     for t in tasks:
         literals = []
         for r in capable[t.key]:
             lit = model.NewBoolVar(f"x[{t.key},{r.name}]")
             assigned[t.key, r.name] = lit
             literals.append(lit)
-            model.Add(end[t.key] == start[t.key] + ticks(handling_time(r, t.request))).OnlyEnforceIf(lit)
+            duration = ticks(handling_time(r, t.request))
+            model.Add(end[t.key] == start[t.key] + duration).OnlyEnforceIf(lit)
+            # redundant with the circuits below, but it makes the solver propagate much better
+            intervals[r.name].append(model.NewOptionalIntervalVar(start[t.key], duration, end[t.key], lit, f"work[{t.key},{r.name}]"))
         model.AddExactlyOne(literals)
         model.Add(depart[t.key] <= start[t.key])
         for p in t.predecessors:
@@ -138,6 +142,7 @@ def solve_optimal(
                 model.Add(depart[u.key] >= end[t.key]).OnlyEnforceIf(follow)
                 model.Add(start[u.key] >= depart[u.key] + travel).OnlyEnforceIf(follow)
         model.AddCircuit(arcs)
+        model.AddNoOverlap(intervals[r.name])
     makespan = model.NewIntVar(0, horizon, "makespan")
     model.AddMaxEquality(makespan, list(end.values()))
     model.Minimize(makespan)

@@ -77,7 +77,7 @@ def plot_gantt(result: SimulationResult, path: Path) -> None:
             left=activity.start,
             height=0.6,
             color=ACTIVITY_COLOURS[activity.activity],
-            edgecolor="black" if activity.aborted else "none",
+            edgecolor="black" if activity.aborted else "white",
             hatch="//" if activity.aborted else None,
             alpha=0.5 if activity.aborted else 1.0,
             linewidth=0.3,

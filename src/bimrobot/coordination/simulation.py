@@ -430,6 +430,8 @@ class ConstructionSimulation:
     def _dispatch(self) -> None:
         """One allocation round: award pending requests, highest priority first, to the best proposals."""
         awarded_any = False
+        # quickest finish: tasks left waiting for a busy robot queue up behind each other in this round
+        promised: dict[str, tuple[float, np.ndarray]] = {}
         for activity in ("assemble", "position", "transport"):
             pool = self.pending[activity]
             if not pool or not self.idle[activity]:
@@ -439,23 +441,24 @@ class ConstructionSimulation:
             while pool and self.idle[activity] and len(deferred) < scan_limit:
                 request = heapq.heappop(pool)
                 notice = BidNotice(request, self.env.now)
-                proposals = self._collect_proposals(notice)
+                proposals = self._collect_proposals(notice, promised)
                 if not proposals:
                     deferred.append(request)
                     continue
                 winner = self.evaluator.choose(proposals)
                 if not winner.idle:  # quickest finish: wait for the busy robot that finishes sooner
+                    promised[winner.robot] = (winner.finish_time, request.end)
                     deferred.append(request)
                     continue
                 if not awarded_any:
                     awarded_any = True
                     self.steps += 1
                     self._step_header()
-                self._award(request, self.robots[winner.robot], winner)
+                self._award(request, self.robots[winner.robot], winner, len(proposals))
             for request in deferred:
                 heapq.heappush(pool, request)
 
-    def _collect_proposals(self, notice: BidNotice):
+    def _collect_proposals(self, notice: BidNotice, promised: dict | None = None):
         request = notice.request
         proposals = []
         if self.evaluator.idle_only:
@@ -468,6 +471,9 @@ class ConstructionSimulation:
             idle = robot.task is None
             position = robot.position if idle else robot.end_position
             available = notice.time if idle else max(notice.time, robot.free_at)
+            if promised and robot.spec.name in promised:  # already waited for by an earlier request
+                available, position = promised[robot.spec.name]
+                idle = False
             proposals.append(propose(robot.spec, position, available, idle, request))
         return proposals
 
@@ -477,7 +483,7 @@ class ConstructionSimulation:
         self.lines.append("-" * 48)
         self.lines.append("Get components requirement from site")
 
-    def _award(self, request: TaskRequest, robot: _Robot, proposal) -> None:
+    def _award(self, request: TaskRequest, robot: _Robot, proposal, bidders: int) -> None:
         for activity in robot.spec.activities:
             self.idle[activity].discard(robot.spec.name)
         robot.task = request
@@ -504,7 +510,7 @@ class ConstructionSimulation:
             robot=robot.spec.name,
             cost=round(cost, 3),
             estimated_finish=round(proposal.finish_time, 3),
-            bidders=None,
+            bidders=bidders,
         )
         robot.process = self.env.process(self._execute(robot, request))
 
