@@ -6,6 +6,7 @@ import subprocess
 import sys
 
 import imageio.v2 as imageio
+import pytest
 import yaml
 
 from bimrobot.assembly.scenario import SETTINGS_DIR
@@ -68,3 +69,18 @@ def test_help_has_examples():
         [sys.executable, "-m", "bimrobot", "assembly", "play", "--help"], capture_output=True, text=True, check=True
     ).stdout
     assert "examples:" in out and "--gif" in out
+
+
+@pytest.mark.slow
+def test_play_a_trained_run_dir(tmp_path, capsys):
+    """`play --policy <run dir>` loads the rl part's greedy policy and plays the run's own setting."""
+    pytest.importorskip("sb3_contrib")
+    pytest.importorskip("bimrobot.rl.policy")
+    args = ["rl", "train", "--setting", "E1S2", "--algo", "maskable-ppo", "--timesteps", "256", "--seed", "0"]
+    assert main(args + ["-o", str(tmp_path), "--no-progress", "--eval-episodes", "1"]) == 0
+    run_dir = next(tmp_path.glob("E1S2-*"))
+    capsys.readouterr()
+    assert main(["assembly", "play", "--policy", str(run_dir), "--seed", "1"]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith(f"E1S2 seed 1 policy {run_dir}: return ")
+    assert "steps (" in out

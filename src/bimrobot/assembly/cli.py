@@ -58,7 +58,7 @@ def register(subparsers) -> None:
         epilog=PLAY_EXAMPLES,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    play.add_argument("--setting", default="E2S2", help="benchmark setting (default E2S2)")
+    play.add_argument("--setting", help="benchmark setting (default: the run's setting for a run dir, else E2S2)")
     play.add_argument("--scenario", metavar="YAML", help="a custom scenario file instead of --setting")
     play.add_argument("--policy", default="planner", help="planner | random | a training run directory")
     play.add_argument("--seed", type=int, default=0, help="reset seed (default 0)")
@@ -133,11 +133,10 @@ def cmd_optimum(args) -> int:
 
 
 def _make_policy(spec: str, env, seed: int):
-    """(obs, info) -> action for 'planner', 'random' or a run directory."""
+    """(obs, info) -> action for 'planner' or 'random'."""
     import numpy as np
 
     from bimrobot.assembly.planner import plan
-    from bimrobot.errors import InputError
 
     if spec == "planner":
         queue: list[int] = []
@@ -148,9 +147,14 @@ def _make_policy(spec: str, env, seed: int):
             return queue.pop(0)
 
         return planner_policy
-    if spec == "random":
-        rng = np.random.default_rng(seed)
-        return lambda obs, info: int(rng.integers(6))
+    rng = np.random.default_rng(seed)
+    return lambda obs, info: int(rng.integers(6))
+
+
+def _load_run_policy(spec: str):
+    """The greedy policy of a training run directory (bimrobot.rl.policy.load_policy, imported lazily)."""
+    from bimrobot.errors import InputError
+
     if not Path(spec).is_dir():
         raise InputError(f"--policy: '{spec}' is neither 'planner', 'random' nor a training run directory")
     try:
@@ -170,19 +174,23 @@ def cmd_play(args) -> int:
     from bimrobot.io import atomic_output_file
 
     render_mode = "rgb_array" if args.gif else ("ansi" if args.ansi else None)
+    if args.fps <= 0:
+        raise InputError(f"--fps must be positive, got {args.fps}")
+    run_policy = None if args.policy in ("planner", "random") else _load_run_policy(args.policy)
     if args.scenario:
         scenario = load_scenario(args.scenario)
         env = gym.wrappers.TimeLimit(AssemblyEnv(scenario=scenario, render_mode=render_mode), scenario.time_limit)
         name = scenario.name
     else:
-        _settings(args.setting)
-        if len(args.setting) != 4:
+        name = args.setting or getattr(run_policy, "setting", None) or "E2S2"
+        _settings(name)
+        if len(name) != 4:
             raise InputError("--setting: give one setting such as E2S2")
-        env = make_env(args.setting, render_mode=render_mode)
-        name = args.setting
-    if args.fps <= 0:
-        raise InputError(f"--fps must be positive, got {args.fps}")
-    policy = _make_policy(args.policy, env.unwrapped, args.seed)
+        trained_on = getattr(run_policy, "setting", None)
+        if trained_on and trained_on != name:
+            print(f"note: the policy was trained on {trained_on}, playing it on {name}", file=sys.stderr)
+        env = make_env(name, render_mode=render_mode)
+    policy = run_policy or _make_policy(args.policy, env.unwrapped, args.seed)
     obs, info = env.reset(seed=args.seed)
     frames = []
     ansi = args.ansi and not args.gif
