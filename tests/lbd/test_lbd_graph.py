@@ -264,3 +264,16 @@ def test_ifcunit_connections_become_interfaces(shared_ifc):
     model = load_model(shared_ifc("ifcUnit.ifc"))
     graph = build_graph(model)
     assert len(set(rdflib_graph(graph).subjects(RDF.type, BOT.Interface))) == 36
+
+
+def test_custom_base_is_kept_when_reopened(frame_model, schedule, tmp_path):
+    graph = build_graph(frame_model, schedule, base="https://example.org/site-42")
+    assert graph.base == "https://example.org/site-42/"
+    assert str(graph.activity_iri("A0001")) == "https://example.org/site-42/activity/A0001"
+    path = graph.serialize(tmp_path / "g.ttl")
+    reopened = ConstructionGraph.open(path)
+    assert reopened.base == graph.base
+    reopened.set_activity_state("A0001", "Completed")  # finds the activity under the custom base
+    assert reopened.activity_state("A0001") == "Completed"
+    with pytest.raises(InputError, match="is not an absolute IRI"):
+        build_graph(frame_model, base="not an iri")

@@ -24,7 +24,7 @@ GRAPH_EXAMPLES = """examples:
 QUERY_EXAMPLES = """examples:
   bimrobot query frame.ttl ready_activities
   bimrobot query frame.ttl component_state --bind globalId='2O2Fr$t4X7Zf8NOew3FLOH'
-  bimrobot query frame.oxigraph storey_components --bind storeyId=1Eiqmlp21PmegDDW$BfDnr --format csv
+  bimrobot query frame.oxigraph storey_components --bind storeyId='1Eiqmlp21PmegDDW$BfDnr' --format csv
   bimrobot query frame.ttl my_query.rq --format json
   bimrobot query http://127.0.0.1:7878 progress                 # a remote SPARQL endpoint
 """
@@ -64,7 +64,7 @@ def register(subparsers) -> None:
         epilog=QUERY_EXAMPLES,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    query.add_argument("graph", help="graph file, Oxigraph store directory, or SPARQL endpoint URL")
+    query.add_argument("graph", help="graph file (.ttl, .jsonld, .nt), Oxigraph store directory, or SPARQL endpoint URL")
     query.add_argument("query", help="a shipped query name, or a .rq file")
     query.add_argument("--bind", action="append", default=[], metavar="VAR=VALUE", help="bind a query variable (repeatable)")
     query.add_argument("--format", choices=["table", "csv", "json"], default="table", help="output format (default: table)")

@@ -104,7 +104,7 @@ class ConstructionGraph:
 
     def __init__(self, store: TripleStore, base: str = DEFAULT_BASE):
         self.store = store
-        self.base = base
+        self.base = checked_base(base)
 
     # ------------------------------------------------------------------------------------ IRIs
     def iri(self, kind: str, identifier: str) -> URIRef:
@@ -183,10 +183,15 @@ class ConstructionGraph:
         return write_atomically(self.store, path, format_for(path, format), {**PREFIXES, **kinds})
 
     @classmethod
-    def open(cls, path: str | os.PathLike, base: str = DEFAULT_BASE) -> "ConstructionGraph":
+    def open(cls, path: str | os.PathLike, base: str | None = None) -> "ConstructionGraph":
         """Reopen a graph: a Turtle/JSON-LD file (into memory), an Oxigraph store directory or a
-        SPARQL endpoint URL."""
-        return cls(load_store(path), base)
+        SPARQL endpoint URL. The base IRI is read from the graph's bot:Site unless given."""
+        store = load_store(path)
+        if base is None:
+            sites = store.select(f"SELECT ?site WHERE {{ ?site a <{BOT.Site}> }} LIMIT 1")
+            site = sites[0]["site"] if sites else ""
+            base = site[: -len("site/site")] if site.endswith("site/site") else DEFAULT_BASE
+        return cls(store, base)
 
     def __len__(self) -> int:
         return len(self.store)
@@ -199,6 +204,13 @@ class ConstructionGraph:
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+
+def checked_base(base: str) -> str:
+    """``base`` as an absolute IRI ending in ``/`` or ``#`` (a ``/`` is added), else InputError."""
+    if not re.match(r"^[A-Za-z][A-Za-z0-9+.-]*:\S+$", base) or any(c in base for c in '<>"{}|^`\\ '):
+        raise InputError(f"the base IRI {base!r} is not an absolute IRI such as {DEFAULT_BASE}")
+    return base if base.endswith(("/", "#")) else base + "/"
 
 
 def vocabulary_triples() -> list[Triple]:
@@ -279,6 +291,7 @@ class _GraphWriter:
     def __init__(self, graph: ConstructionGraph, model: BuildingModel):
         self.graph, self.model = graph, model
         self.site = graph.iri("site", "site")
+        self.storeys = {s.global_id for s in model.storeys}
         self.building = graph.iri("building", "building")
 
     def topology(self) -> Iterator[Triple]:
@@ -377,6 +390,8 @@ class _GraphWriter:
         if activity.target is not None:
             yield from _position(URIRef(f"{iri}/target"), iri, BRC.targetPosition, activity.target)
         if activity.storey:
+            if activity.storey not in self.storeys:
+                raise InputError(f"schedule activity {activity.id}: Storey {activity.storey!r} is not a storey of {self.model.source or 'the model'}")
             yield iri, BRC.onStorey, g.iri("storey", activity.storey)
         yield iri, DICE.hasEntityState, BRC.NotStarted
 
