@@ -160,6 +160,9 @@ def test_component_activities_carry_rcan_properties(graph, schedule, frame_model
     rows = graph.query("component_activities", globalId=column)
     assert [r["activityId"] for r in rows] == [a.id for a in schedule.of_component(column)]
     assert rows[0]["weightKg"] == pytest.approx(289.81)
+    size = sorted((rows[0]["sizeX"], rows[0]["sizeY"], rows[0]["sizeZ"]))
+    assert size[2] == pytest.approx(4.0, abs=0.01)  # the 4 m column; its W250x73 section below
+    assert size[0] == pytest.approx(0.254, abs=0.01) and size[1] == pytest.approx(0.254, abs=0.01)
     assert (rows[0]["targetX"], rows[0]["targetY"], rows[0]["targetZ"]) == pytest.approx(schedule["A0001"].target)
     assert {r["state"] for r in rows} == {"NotStarted"}
 

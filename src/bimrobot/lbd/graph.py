@@ -11,8 +11,10 @@ the few ``brc:`` terms of ``vocabulary.ttl``):
   between two elements does not exist in BOT). ``brc:realizingElement`` links the bolts, welds and
   cleats that realise it, ``brc:nodeId`` carries the thesis' node id ``<relating>:<related>``.
 * element properties: ``brc:globalId``, ``brc:ifcClass``, ``brc:weightKg`` (kg), ``rdfs:label`` (name),
-  and the placement origin as ``dice:hasQuality`` a ``dice:CartesianPosition`` with ``dice:hasX/Y/Z``
-  (metres, world frame, z up).
+  the placement origin as ``dice:hasQuality`` a ``dice:CartesianPosition`` with ``dice:hasX/Y/Z``
+  (metres, world frame, z up), and the size (thesis table 5.1: section dimensions, to match a
+  gripper) as ``dice:hasQuality`` a ``dice:CartesianVolume`` with ``dice:hasX/Y/ZLength``: the
+  extents of the body's bounding box in the element's local frame (metres).
 * activities: one ``dicp:Activity`` per schedule row with ``dice:precededBy`` its predecessors
   (FINISH_START), ``dicp:occupiesTimeInterval`` a ``dice:TimeInterval`` with ``dice:hasStart`` /
   ``dice:hasEnd`` ``dice:TimeInstant``s (``brc:atSecond``: seconds from the start of the build),
@@ -329,6 +331,13 @@ class _GraphWriter:
         if element.material:
             yield iri, BRC.material, Literal(element.material)
         yield from _position(URIRef(f"{iri}/position"), iri, DICE.hasQuality, element.position)
+        if len(element.vertices):
+            lengths = element.local_bounds[1] - element.local_bounds[0]
+            size = URIRef(f"{iri}/size")
+            yield iri, DICE.hasQuality, size
+            yield size, RDF.type, DICE.CartesianVolume
+            for prop, length in zip((DICE.hasXLength, DICE.hasYLength, DICE.hasZLength), lengths):
+                yield size, prop, _literal(float(length))
         yield iri, DICE.hasEntityState, BRC.OnYard
 
     def interface(self, connection) -> Iterator[Triple]:
