@@ -209,3 +209,8 @@ def test_render_modes():
     assert "moving col2" in out and out.count("\n") == 18 and "X" in out
     with pytest.raises(InputError, match="render_mode"):
         AssemblyEnv("E2S2", render_mode="video")
+
+
+def test_check_env_including_rendering():
+    # through gym.make the checker also tries the other render modes (human draws nothing without a display)
+    check_env(assembly.make_env("E2S4", render_mode="rgb_array").unwrapped)

@@ -34,6 +34,7 @@ def _register() -> None:
         gym.register(
             id=env_id(setting),
             entry_point="bimrobot.assembly.env:AssemblyEnv",
+            vector_entry_point="bimrobot.assembly.vector:AssemblyVectorEnv",
             max_episode_steps=TIME_LIMITS[setting[:2]],
             kwargs={"setting": setting},
         )

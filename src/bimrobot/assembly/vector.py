@@ -392,11 +392,16 @@ class BatchedAssemblySim:
 
 class AssemblyVectorEnv(gym.vector.VectorEnv):
     """A ``gymnasium.vector.VectorEnv`` of N assembly environments (same-step autoreset: an ended
-    episode's last observation is in ``info["final_obs"]``, its info in ``info["final_info"]``)."""
+    episode's last observation is in ``info["final_obs"]``, its info in ``info["final_info"]``).
+
+    Also what ``gym.make_vec("bimrobot/Assembly-E2S2-v0", num_envs=64)`` returns (the registered
+    ``vector_entry_point``)."""
 
     metadata = {"autoreset_mode": gym.vector.AutoresetMode.SAME_STEP, "render_modes": []}
 
     def __init__(self, setting: str, num_envs: int, seed: int | None = None, **env_kwargs):
+        if "max_episode_steps" in env_kwargs:  # from gym.make_vec through the registration
+            env_kwargs["time_limit"] = env_kwargs.pop("max_episode_steps")
         self.sim = BatchedAssemblySim(setting, num_envs, seed=seed, **env_kwargs)
         self.num_envs = num_envs
         self.single_observation_space = self.sim.single_observation_space
