@@ -1,1 +1,11 @@
+"""Linked building data: the construction knowledge graph of thesis chapter 5 (fig. 5.5).
 
+* :mod:`bimrobot.lbd.schedule`: ``Schedule`` / ``Activity``, read from the schedule CSV
+  (``load_schedule_csv``, validated) or an IFC work schedule (``load_schedule_ifc``).
+* :mod:`bimrobot.lbd.graph`: ``build_graph(model, schedule) -> ConstructionGraph``: BOT topology,
+  DiCon activities and live states, SPARQL queries from ``lbd/queries/*.rq``, Turtle / JSON-LD out.
+* :mod:`bimrobot.lbd.store`: the triple stores behind it (rdflib in memory, Oxigraph on disk, a remote
+  SPARQL endpoint).
+
+See docs/lbd.md.
+"""
