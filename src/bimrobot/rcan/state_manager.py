@@ -269,8 +269,8 @@ class StateManager:
         )
 
     def _notify(self, node: RcanNode, state: State, activity_state: str) -> None:
-        for observer in self.observers:
-            if hasattr(observer, "set_component_state"):
-                observer.set_component_state(node.component_id, state.value)
+        for observer in self.observers:  # the activity's outcome first, then the state it led to
             if hasattr(observer, "set_activity_state"):
                 observer.set_activity_state(node.activity_id, activity_state)
+            if hasattr(observer, "set_component_state"):
+                observer.set_component_state(node.component_id, state.value)
