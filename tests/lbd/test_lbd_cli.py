@@ -71,6 +71,10 @@ def test_bad_query_inputs_exit_2(frame_ifc, tmp_path, capsys):
     assert "unknown query 'no_such_query'" in capsys.readouterr().err
     assert main(["query", str(tmp_path / "absent.ttl"), "progress"]) == 2
     assert "does not exist" in capsys.readouterr().err
+    (tmp_path / "folder").mkdir()
+    assert main(["query", str(tmp_path / "folder"), "progress"]) == 2
+    assert "is a directory but not an Oxigraph store" in capsys.readouterr().err
+    assert not any((tmp_path / "folder").iterdir())
     assert main(["query", str(out), "component_state", "--bind", "globalId"]) == 2
     assert "is not VAR=VALUE" in capsys.readouterr().err
     broken = tmp_path / "broken.rq"

@@ -282,6 +282,8 @@ def load_store(path: str | os.PathLike) -> TripleStore:
         return SparqlEndpointStore(str(path))
     path = Path(path)
     if path.is_dir():
+        if not (path / "CURRENT").is_file():  # RocksDB's marker: don't create a store in a random folder
+            raise InputError(f"{path} is a directory but not an Oxigraph store")
         return OxigraphStore(path)
     if not path.is_file():
         raise InputError(f"the graph {path} does not exist")
