@@ -54,11 +54,11 @@ def dae_text(vertices: np.ndarray, faces: np.ndarray, name: str, rgba=DEFAULT_CO
     vertices = np.asarray(vertices, np.float64)
     faces = np.asarray(faces, np.int64)
     normals = _face_normals(vertices, faces)
-    positions = " ".join(map("{:.7g}".format, vertices.ravel().tolist()))
-    normal_text = " ".join(map("{:.4g}".format, normals.ravel().tolist()))
+    positions = _join("%.7g", vertices.ravel().tolist())
+    normal_text = _join("%.4g", normals.ravel().tolist())
     # Each triangle corner: vertex index, then normal index (= face index).
     indices = np.stack([faces, np.repeat(np.arange(len(faces))[:, None], 3, axis=1)], axis=2).ravel()
-    index_text = " ".join(map(str, indices.tolist()))
+    index_text = _join("%d", indices.tolist())
     r, g, b, a = rgba
     return _DAE_TEMPLATE.format(
         name=_xml_attr(name),
@@ -125,6 +125,13 @@ def _decimated(vertices: np.ndarray, faces: np.ndarray, max_triangles: int) -> t
     except Exception:  # the decimator refuses some degenerate meshes: keep the full body
         return vertices, faces
     return np.asarray(mesh.vertices), np.asarray(mesh.faces)
+
+
+def _join(pattern: str, values: list) -> str:
+    """Numbers as space-separated text (one %-format call: the fastest way in CPython)."""
+    if not values:
+        return ""
+    return ((pattern + " ") * len(values) % tuple(values))[:-1]
 
 
 def _face_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:

@@ -98,8 +98,11 @@ def occupancy(
         zmin, zmax = vertices[:, 2].min(), vertices[:, 2].max()
         if zmax < low or zmin > high:
             continue
-        for triangle in _clipped_projected_triangles(vertices, faces, low, high):
-            draw.polygon(to_pixels(triangle), fill=1)
+        triangles = _clipped_projected_triangles(vertices, faces, low, high)
+        if len(triangles):
+            pixels = to_pixels(triangles.reshape(-1, 2))
+            for start in range(0, len(pixels), 3):
+                draw.polygon(pixels[start : start + 3], fill=1)
         middle = (low + high) / 2
         if zmin < middle < zmax:
             for polygon in _section_polygons(vertices, faces, middle):

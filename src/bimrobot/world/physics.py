@@ -58,8 +58,8 @@ def merge_vertices(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray,
     if len(vertices) == 0 or len(faces) == 0:
         return vertices.reshape(-1, 3), faces.reshape(-1, 3)
     keys = np.round(vertices / MERGE_TOLERANCE_M).astype(np.int64)
-    _, first, inverse = np.unique(keys, axis=0, return_index=True, return_inverse=True)
-    merged_faces = inverse.reshape(-1)[faces]
+    first, inverse = trimesh.grouping.unique_rows(keys)
+    merged_faces = np.asarray(inverse).reshape(-1)[faces]
     keep = (
         (merged_faces[:, 0] != merged_faces[:, 1])
         & (merged_faces[:, 1] != merged_faces[:, 2])
@@ -74,9 +74,11 @@ def closed_and_consistent(faces: np.ndarray) -> bool:
     if len(faces) < 4:
         return False
     directed = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
-    if len(np.unique(directed, axis=0)) != len(directed):
+    stride = int(faces.max()) + 1
+    if len(np.unique(directed[:, 0] * stride + directed[:, 1])) != len(directed):
         return False
-    undirected, counts = np.unique(np.sort(directed, axis=1), axis=0, return_counts=True)
+    lower, upper = directed.min(axis=1), directed.max(axis=1)
+    _, counts = np.unique(lower * stride + upper, return_counts=True)
     return bool(np.all(counts == 2))
 
 
