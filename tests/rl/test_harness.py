@@ -164,6 +164,10 @@ def test_benchmark_grid_in_parallel_and_resumed(tmp_path):
     again = run_benchmark(spec, tmp_path, workers=1)
     assert [r["eval_mean"] for r in again] == [r["eval_mean"] for r in results]
     assert stamps == {p: p.stat().st_mtime for p in (tmp_path / "runs").glob("*/model.zip")}
+    # ... but never a run trained with another budget
+    longer = BenchmarkSpec(spec.settings, spec.algos, spec.seeds, 1024, profile="fast", overrides=spec.overrides)
+    with pytest.raises(InputError, match="E1S2-maskable-ppo-s0 was trained with timesteps=512, not 1024"):
+        run_benchmark(longer, tmp_path, workers=1)
 
 
 def test_benchmark_on_a_local_ray_instance(tmp_path):

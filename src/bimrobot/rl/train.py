@@ -85,9 +85,6 @@ def make_vec_env(setting: str, n_envs: int, seed: int) -> VecEnv:
         AssemblySB3VecEnv = None
     if AssemblySB3VecEnv is not None:
         venv = AssemblySB3VecEnv(setting, num_envs=n_envs, seed=seed)
-        if not venv.has_attr("action_masks"):  # MaskablePPO asks has_attr before calling env_method
-            original_has_attr = venv.has_attr
-            venv.has_attr = lambda name: name == "action_masks" or original_has_attr(name)
     else:  # pragma: no cover - only before the batched simulator exists
         from bimrobot.assembly import make_env
 
