@@ -90,3 +90,50 @@ def test_unacknowledged_message_is_delivered_again_after_a_crash(redis_url):
     assert later.receive(["rcan.robot.husky_ur5"], timeout_s=0.2) == []
     for broker in (sender, restarted, later):
         broker.close()
+
+
+def test_coordinator_killed_on_redis_resumes_without_repeating(redis_url, tmp_path, schedule_csv):
+    """The coordinator dies (SIGKILL) three times while the executor process keeps working; results it
+    never received wait in Redis. The resumed run executes every activity exactly once."""
+    import os
+    import signal
+    import sqlite3
+
+    import numpy as np
+
+    from test_rcan_crash_resume import done_count, write_capabilities
+
+    caps = write_capabilities(tmp_path / "caps.yaml")
+    site, journal = tmp_path / "site.sqlite", tmp_path / "journal.sqlite"
+    executor = subprocess.Popen([sys.executable, "-m", "bimrobot", "rcan", "executor", "--redis", redis_url,
+                                 "--capabilities", str(caps), "--state-db", str(site), "--time-scale", "0.01",
+                                 "--failure-probability", "0.2", "--seed", "4"],
+                                stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    command = [sys.executable, "-m", "bimrobot", "rcan", "run", "--schedule", str(schedule_csv), "--capabilities",
+               str(caps), "--redis", redis_url, "--no-local-executors", "--state-db", str(journal), "-q",
+               "--max-attempts", "8"]
+    try:
+        executor.stdout.readline()  # serving
+        rng = np.random.default_rng(7)
+        for k in sorted(rng.choice(np.arange(2, 28), size=3, replace=False)):
+            coordinator = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            while done_count(journal) < k and coordinator.poll() is None:
+                time.sleep(0.02)
+            os.kill(coordinator.pid, signal.SIGKILL)
+            coordinator.wait(timeout=30)
+        final = subprocess.run(command, capture_output=True, text=True, timeout=120)
+    finally:
+        executor.terminate()
+        executor.communicate(timeout=10)
+    assert final.returncode == 0, final.stdout + final.stderr
+    assert "32/32 activities done" in final.stdout
+    executed = sqlite3.connect(site).execute(
+        "SELECT activity_id, attempt, COUNT(*) FROM sim_execution GROUP BY activity_id, attempt").fetchall()
+    assert all(n == 1 for _, _, n in executed)  # no goal executed twice
+    con = sqlite3.connect(journal)
+    done = con.execute("SELECT activity_id, COUNT(*) FROM journal WHERE event='done' GROUP BY activity_id").fetchall()
+    assert len(done) == 32 and all(n == 1 for _, n in done)
+    final_attempts = dict(con.execute("SELECT activity_id, attempts FROM activity"))
+    # the journal's last attempt of each activity is the last attempt a robot executed
+    assert {a: max(n for b, n, _ in executed if b == a) for a in final_attempts} == final_attempts
+    assert set(con.execute("SELECT state FROM component").fetchall()) == {("Assembled",)}

@@ -12,6 +12,7 @@ from __future__ import annotations
 import hashlib
 import json
 import time
+import uuid
 from dataclasses import dataclass, field
 from typing import Callable, Iterable
 
@@ -75,10 +76,13 @@ class RcanSystem:
         self.log(f"[component {activity.component_id}] publishes {activity.activity_id} '{activity.kind.label}' "
                  f"target ({t.x:.2f}, {t.y:.2f}, {t.z:.2f})" + (f" attempt {attempt}" if attempt > 1 else ""))
         self._unreceived += 1
-        self.broker.send(ACTIVITY_TOPIC, {"activity_id": activity.activity_id, "attempt": attempt})
+        self.broker.send(ACTIVITY_TOPIC, {"activity_id": activity.activity_id, "attempt": attempt, "run": self._run_token})
 
     # --- message handlers --------------------------------------------------------------------------
     def _on_activity(self, message: Message) -> None:
+        if message.payload.get("run") != self._run_token:  # left on a shared Redis by an earlier, killed run
+            self.broker.ack(message)
+            return
         self._unreceived -= 1
         self._waiting.append((message.payload["activity_id"], int(message.payload["attempt"])))
         self.broker.ack(message)
@@ -163,6 +167,7 @@ class RcanSystem:
         store.set_meta("plan", signature)
         store.register([(a.activity_id, a.component_id, a.kind.value) for a in activities],
                        dict.fromkeys(a.component_id for a in activities))
+        self._run_token = uuid.uuid4().hex
         self._waiting, self._in_flight, self._sent_at, self._latencies = [], {}, {}, []
         self._done, self._escalations, self._finished_s, self._unreceived = set(), [], {}, 0
         resumed = self._restore(activities)
