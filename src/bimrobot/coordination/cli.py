@@ -135,6 +135,9 @@ def run_simulate(args) -> int:
     )
     if smart.inferred:
         print(f"inferred joints (no IfcRelConnectsWithRealizingElements): {len(smart.inferred)}, listed in summary.json")
+    if smart.unknown_weight:
+        print(f"warning: {len(smart.unknown_weight)} components have no weight in the model; payload checks treat them as 0 kg "
+              f"(listed under unknown_weight in summary.json)")
     if smart.duplicates:
         print(f"not built: {len(smart.duplicates)} elements duplicating a connected element in place (listed in summary.json)")
     print(f"fleet {fleet.name}, evaluator {result.evaluator}: makespan {result.makespan:.1f} s, {result.steps} steps, "

@@ -115,7 +115,6 @@ def solve_optimal(
         model.Add(depart[t.key] <= start[t.key])
         for p in t.predecessors:
             model.Add(depart[t.key] >= end[p])
-    by_key = {t.key: t for t in tasks}
     for r in fleet.robots:
         mine = [t for t in tasks if (t.key, r.name) in assigned]
         if not mine:
@@ -156,7 +155,6 @@ def solve_optimal(
         t.key: next(r.name for r in capable[t.key] if solver.Value(assigned[t.key, r.name]))
         for t in tasks
     }
-    del by_key
     return OptimalSchedule(
         makespan=solver.Value(makespan) / SCALE,
         lower_bound=solver.BestObjectiveBound() / SCALE,

@@ -42,7 +42,6 @@ from bimrobot.sco.states import Event, State, at_least
 log = logging.getLogger(__name__)
 
 ACTIVITY_RANK = {"assemble": 0, "position": 1, "transport": 2}
-PREDEFINED_TYPE = {"transport": "LOGISTIC", "position": "INSTALLATION", "assemble": "CONSTRUCTION"}
 
 
 @dataclass
@@ -302,6 +301,7 @@ class ConstructionSimulation:
             raise BimrobotError(self._stall_reason(unfinished))
         makespan = max((a.finish for a in self.activities if not a.aborted), default=0.0)
         self._number_by_start()
+        log.info("%s built by %s (%s): makespan %.1f s, %d allocation rounds", self.smart.source, self.fleet.name, self.evaluator.name, makespan, self.steps)
         return SimulationResult(
             model=self.smart.source,
             fleet=self.fleet.name,

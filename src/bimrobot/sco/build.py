@@ -185,6 +185,11 @@ def build_smart_model(
         unconnected=sorted(gid for gid, c in components.items() if not c.connection_nodes),
         unknown_weight=sorted(gid for gid, c in components.items() if c.weight_kg is None),
     )
+    if smart.unknown_weight:
+        log.warning(
+            "%d components have no weight in the model (e.g. %s): payload checks treat them as 0 kg",
+            len(smart.unknown_weight), smart.unknown_weight[0],
+        )
     log.info(
         "%s: %d components, %d connection nodes, %d joints (%s)",
         smart.source, len(components), len(nodes), len(joints), connection_source,
