@@ -14,6 +14,8 @@ keyword occurs in the lower-cased material name wins, so specific keywords come 
 
 from __future__ import annotations
 
+from typing import Callable
+
 import numpy as np
 
 from bimrobot.bim.model import WeightSource
@@ -106,9 +108,12 @@ def resolve_weight(
     weight_quantities: dict[str, float],
     weight_properties: dict[str, float],
     material: str | None,
-    volume_m3: float,
+    volume_m3: float | Callable[[], float],
 ) -> tuple[float | None, WeightSource]:
-    """Choose an element's mass (kg) and its source, following the order in the module docstring."""
+    """Choose an element's mass (kg) and its source, following the order in the module docstring.
+
+    ``volume_m3`` may be a function, called only when the volume is needed (step 3).
+    """
     quantity = pick_weight_quantity({k: v for k, v in weight_quantities.items() if v > 0})
     if quantity is not None:
         return quantity, WeightSource.QUANTITY
@@ -116,6 +121,8 @@ def resolve_weight(
     if prop is not None:
         return prop[1], WeightSource.PROPERTY
     density = density_of(material)
-    if density is not None and volume_m3 > 0:
-        return volume_m3 * density, WeightSource.DENSITY
+    if density is not None:
+        volume = volume_m3() if callable(volume_m3) else volume_m3
+        if volume > 0:
+            return volume * density, WeightSource.DENSITY
     return None, WeightSource.UNKNOWN

@@ -92,14 +92,14 @@ def load_model(
             vertices.setflags(write=False)
             faces.setflags(write=False)
             meshes[geometry_id] = (vertices, faces)
-            volumes[geometry_id] = mesh_volume(vertices, faces)
         vertices, faces = meshes[geometry_id]
         if len(faces) == 0:
             empty_bodies.add(shape.id)
             continue
         placement = np.asarray(ifcopenshell.util.shape.get_shape_matrix(shape), dtype=np.float64)
+        volume = _lazy_volume(volumes, geometry_id, vertices, faces)
         elements[product.GlobalId] = _element(
-            product, placement, vertices, faces, volumes[geometry_id], mass_scale, (storey_cache, type_cache)
+            product, placement, vertices, faces, volume, mass_scale, (storey_cache, type_cache)
         )
 
     skipped = [_skipped(p, p.id() in empty_bodies) for p in candidates if p.id() not in seen or p.id() in empty_bodies]
@@ -124,6 +124,17 @@ def load_model(
         connections=_connections(ifc, elements),
         skipped=skipped,
     )
+
+
+def _lazy_volume(cache: dict[str, float], key: str, vertices: np.ndarray, faces: np.ndarray):
+    """A function giving the mesh volume (m3), computed once per geometry and only when asked for."""
+
+    def volume() -> float:
+        if key not in cache:
+            cache[key] = mesh_volume(vertices, faces)
+        return cache[key]
+
+    return volume
 
 
 def open_ifc(path: Path) -> ifcopenshell.file:
