@@ -180,3 +180,39 @@ def test_random_allocator_is_reproducible_with_its_seed():
         runs.append([(a.activity, a.global_id, a.robot) for a in result.activities])
     assert runs[0] == runs[1]
     assert runs[0] != runs[2]
+
+
+from hypothesis import given, settings, strategies as st  # noqa: E402
+
+from bimrobot.coordination.fleet import fleet_from_dict  # noqa: E402
+
+
+@settings(max_examples=15, deadline=None)
+@given(
+    nx=st.integers(1, 3), ny=st.integers(1, 2), floors=st.integers(1, 2),
+    per_kind=st.integers(1, 3), manipulators=st.integers(0, 2),
+    evaluator=st.sampled_from(["least-cost", "quickest-finish", "greedy-nearest", "random"]),
+    speed=st.floats(0.3, 2.0), seed=st.integers(0, 1000),
+)
+def test_any_frame_and_fleet_builds_completely_and_consistently(nx, ny, floors, per_kind, manipulators, evaluator, speed, seed):
+    robots = []
+    for i in range(per_kind):
+        robots.append({"name": f"T{i}", "kind": "transport", "speed": speed, "carry_load": 300, "platform_size": [4, 1]})
+        robots.append({"name": f"P{i}", "kind": "positioning", "speed": speed, "payload": 300, "reach": 4.5, "time_per_node": 30 + 30 * i})
+        robots.append({"name": f"A{i}", "kind": "assembly", "speed": speed, "reach": 4.5, "time_per_point": 20 + 10 * i})
+    for i in range(manipulators):
+        robots.append({"name": f"M{i}", "kind": "mobile_manipulator", "speed": speed, "carry_load": 300, "platform_size": [4, 1],
+                       "payload": 300, "reach": 4.5, "time_per_node": 90, "time_per_point": 45})
+    fleet = fleet_from_dict({"name": "random", "robots": robots}, "hypothesis")
+    model = generated_frame(nx, ny, floors)
+    smart = build_smart_model(model)
+    result = simulate(smart, fleet, evaluator=evaluator, seed=seed, storey_elevations=[s.elevation for s in model.storeys])
+    assert all(c.state == State.ASSEMBLED for c in smart.components.values())
+    by_id = {a.id: a for a in result.activities}
+    for a in result.activities:
+        assert all(a.start >= by_id[p].finish - 1e-6 for p in a.predecessors)
+    for robot in result.robots:
+        mine = sorted((a.start, a.finish) for a in result.activities if a.robot == robot.name)
+        assert all(f1 <= s2 + 1e-6 for (_, f1), (s2, _) in zip(mine, mine[1:]))
+    transports = sorted(a.global_id for a in result.activities if a.activity == "transport")
+    assert transports == sorted(c.id for c in smart.components.values() if not c.prebuilt)

@@ -72,6 +72,7 @@ def register(subparsers) -> None:
     simulate.add_argument("--seed", type=int, default=0, help="seed of the random allocator (default 0)")
     simulate.add_argument("--breakdown", type=_breakdown, action="append", default=[], metavar="ROBOT@SECONDS", help="the robot breaks down for good at that time (repeatable)")
     simulate.add_argument("--no-gantt", action="store_true", help="skip the Gantt chart (faster on big buildings)")
+    simulate.add_argument("--no-progress", action="store_true", help="no progress bar")
     simulate.set_defaults(func=run_simulate)
 
     allocators = subparsers.add_parser(
@@ -123,9 +124,12 @@ def run_simulate(args) -> int:
     from bimrobot.coordination.simulation import simulate
     from bimrobot.io import atomic_output_dir
 
+    from tqdm import tqdm
+
     model, elevations, fleet, site, smart_model = _prepare(args)
     smart = smart_model()
-    result = simulate(smart, fleet, site, args.evaluator, args.seed, args.breakdown, elevations)
+    with tqdm(total=len(smart.components), desc="components assembled", unit="", disable=True if args.no_progress else None, leave=False) as bar:
+        result = simulate(smart, fleet, site, args.evaluator, args.seed, args.breakdown, elevations, on_assembled=lambda _: bar.update(1))
     with atomic_output_dir(args.output) as tmp:
         write_outputs(result, tmp, gantt=not args.no_gantt)
     info = smart.summary()

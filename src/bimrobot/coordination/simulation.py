@@ -131,6 +131,7 @@ class ConstructionSimulation:
     ``evaluator``: least-cost | quickest-finish | greedy-nearest | random. ``breakdowns``: (robot name,
     time s) pairs; the robot stops for good at that time. ``storey_elevations``: metres, to compute the
     reach a node needs (height above the floor the robot stands on); defaults to ground level 0.
+    ``on_assembled``: called with the component id whenever a component becomes Assembled (progress).
     Raises InputError before simulating when a component cannot be handled by any robot of the fleet.
     """
 
@@ -143,8 +144,10 @@ class ConstructionSimulation:
         seed: int = 0,
         breakdowns: list[tuple[str, float]] | tuple = (),
         storey_elevations: list[float] | None = None,
+        on_assembled=None,
     ):
         self.smart = smart
+        self.on_assembled = on_assembled
         self.fleet = fleet
         self.site = site or default_site()
         self.evaluator = make_evaluator(evaluator, seed)
@@ -352,6 +355,8 @@ class ConstructionSimulation:
         if history[-1][1] != str(component.state):
             history.append((self.env.now, str(component.state)))
             self._event("state", component=component.id, state=str(component.state))
+            if component.state == State.ASSEMBLED and self.on_assembled is not None:
+                self.on_assembled(component.id)
 
     def _publish(self, activity: str, component: Component, joint: Joint | None = None, predecessors=()) -> None:
         request = self._request(activity, component, joint)
@@ -383,6 +388,11 @@ class ConstructionSimulation:
     def _publish_transport(self, gid: str) -> None:
         component = self.smart.components[gid]
         supporters = self.smart.supporters[gid]
+        if supporters:
+            self._say(
+                f"Component: {gid} is a required connection component (RCC) of {', '.join(supporters)}, "
+                f"whose position is fixed: publish its transport"
+            )
         predecessors = [self.position_activity.get(s) for s in supporters] + [self.floor_gate.get(component.floor)]
         self._publish("transport", component, predecessors=predecessors)
 
@@ -716,6 +726,7 @@ def simulate(
     seed: int = 0,
     breakdowns=(),
     storey_elevations: list[float] | None = None,
+    on_assembled=None,
 ) -> SimulationResult:
     """Run one build; see :class:`ConstructionSimulation`."""
-    return ConstructionSimulation(smart, fleet, site, evaluator, seed, breakdowns, storey_elevations).run()
+    return ConstructionSimulation(smart, fleet, site, evaluator, seed, breakdowns, storey_elevations, on_assembled).run()
