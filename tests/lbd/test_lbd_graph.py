@@ -50,6 +50,12 @@ def test_element_properties_weight_class_position(graph, frame_model):
     assert (position, RDF.type, DICE.CartesianPosition) in g
     xyz = [g.value(position, p).toPython() for p in (DICE.hasX, DICE.hasY, DICE.hasZ)]
     assert xyz == pytest.approx(column.position.tolist())
+    # property sets, as read from the IFC file
+    from bimrobot.lbd.graph import PROPS
+
+    assert g.value(iri, PROPS["Pset_ColumnCommon.Reference"]).toPython() == "W250x73"
+    assert g.value(iri, PROPS["Pset_ColumnCommon.LoadBearing"]).toPython() is True
+    assert len(build_graph(frame_model, properties=False)) < len(build_graph(frame_model))
 
 
 def test_connections_are_interfaces_of_both_elements_with_their_bolts(graph, frame_model):
@@ -280,3 +286,15 @@ def test_custom_base_is_kept_when_reopened(frame_model, schedule, tmp_path):
     assert reopened.activity_state("A0001") == "Completed"
     with pytest.raises(InputError, match="is not an absolute IRI"):
         build_graph(frame_model, base="not an iri")
+
+
+def test_turtle_keeps_full_double_precision(frame_model, schedule, tmp_path):
+    import dataclasses
+
+    from bimrobot.lbd.schedule import Schedule
+
+    first = dataclasses.replace(schedule.activities[0], target=(123.4567891, -0.000123456789, 98765.4321))
+    graph = build_graph(frame_model, Schedule([first]))
+    reopened = ConstructionGraph.open(graph.serialize(tmp_path / "precise.ttl"))
+    (row,) = reopened.query("component_activities", globalId=first.global_id)
+    assert (row["targetX"], row["targetY"], row["targetZ"]) == (123.4567891, -0.000123457, 98765.4321)  # 1e-9 m grid

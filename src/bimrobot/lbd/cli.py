@@ -54,6 +54,7 @@ def register(subparsers) -> None:
         help="directory of the persistent Oxigraph store (--store oxigraph), or URL of the SPARQL endpoint (--store sparql)",
     )
     graph.add_argument("--base", default=None, help="base IRI of the graph's resources")
+    graph.add_argument("--no-properties", action="store_true", help="leave the elements' property-set values out")
     graph.set_defaults(func=graph_command)
 
     query = subparsers.add_parser(
@@ -96,7 +97,8 @@ def graph_command(args) -> int:
         args.store_path.parent.mkdir(parents=True, exist_ok=True)
         store_path = Path(tempfile.mkdtemp(prefix=f".{args.store_path.name}.", dir=args.store_path.parent))
     try:
-        graph = build_graph(model, schedule, store=args.store, path=store_path, base=args.base or DEFAULT_BASE)
+        graph = build_graph(model, schedule, store=args.store, path=store_path, base=args.base or DEFAULT_BASE,
+                            properties=not args.no_properties)
         graph.serialize(args.output, args.format)
         triples = len(graph)
         graph.close()

@@ -14,7 +14,8 @@ the few ``brc:`` terms of ``vocabulary.ttl``):
   the placement origin as ``dice:hasQuality`` a ``dice:CartesianPosition`` with ``dice:hasX/Y/Z``
   (metres, world frame, z up), and the size (thesis table 5.1: section dimensions, to match a
   gripper) as ``dice:hasQuality`` a ``dice:CartesianVolume`` with ``dice:hasX/Y/ZLength``: the
-  extents of the body's bounding box in the element's local frame (metres).
+  extents of the body's bounding box in the element's local frame (metres). With ``properties=True``
+  every property-set value of the element too, as ``props:<Pset>.<Name>`` (units as in the IFC file).
 * activities: one ``dicp:Activity`` per schedule row with ``dice:precededBy`` its predecessors
   (FINISH_START), ``dicp:occupiesTimeInterval`` a ``dice:TimeInterval`` with ``dice:hasStart`` /
   ``dice:hasEnd`` ``dice:TimeInstant``s (``brc:atSecond``: seconds from the start of the build),
@@ -57,9 +58,13 @@ BOT = Namespace("https://w3id.org/bot#")
 DICE = Namespace("https://w3id.org/digitalconstruction/0.5/Entities#")
 DICP = Namespace("https://w3id.org/digitalconstruction/0.5/Processes#")
 BRC = Namespace("https://bimrobot.example/ns#")
+PROPS = Namespace("https://bimrobot.example/props#")
 DEFAULT_BASE = "https://bimrobot.example/data/"
 
-PREFIXES = {"bot": str(BOT), "dice": str(DICE), "dicp": str(DICP), "brc": str(BRC), "xsd": str(XSD), "rdfs": str(RDFS)}
+PREFIXES = {
+    "bot": str(BOT), "dice": str(DICE), "dicp": str(DICP), "brc": str(BRC), "props": str(PROPS),
+    "xsd": str(XSD), "rdfs": str(RDFS),
+}  # fmt: skip
 VOCABULARY_FILE = Path(__file__).with_name("vocabulary.ttl")
 QUERY_DIR = Path(__file__).with_name("queries")
 
@@ -92,8 +97,7 @@ def _literal(value: Any) -> Literal:
     if isinstance(value, bool):
         return Literal(value)
     if isinstance(value, float):
-        # Nanometre / nanosecond precision: drops float noise (3.8200000000000007) that Turtle's
-        # short double form would not round-trip.
+        # Nanometre / nanosecond precision: drops float noise (3.8200000000000007).
         return Literal(round(value, 9), datatype=XSD.double)
     return Literal(value)
 
@@ -270,16 +274,18 @@ def build_graph(
     store: str = "memory",
     path: str | os.PathLike | None = None,
     base: str = DEFAULT_BASE,
+    properties: bool = True,
 ) -> ConstructionGraph:
     """The construction graph of ``model`` and, when given, its ``schedule``.
 
     ``store``: ``"memory"`` (rdflib, default), ``"oxigraph"`` (persistent, in the empty or new
     directory ``path``) or ``"sparql"`` (the default graph of the SPARQL 1.1 endpoint at URL ``path``,
     e.g. ``http://127.0.0.1:7878`` for ``oxigraph serve``). Every element starts ``OnYard`` and every activity ``NotStarted``. A schedule
-    row whose GlobalId is not an element of the model raises :class:`InputError`.
+    row whose GlobalId is not an element of the model raises :class:`InputError`. ``properties``: also
+    write every property-set value (``props:<Pset>.<Name>``).
     """
     graph = ConstructionGraph(open_store(store, path), base)
-    writer = _GraphWriter(graph, model)
+    writer = _GraphWriter(graph, model, properties)
     graph.store.add_all(vocabulary_triples())
     graph.store.add_all(writer.topology())
     if schedule is not None:
@@ -290,8 +296,8 @@ def build_graph(
 class _GraphWriter:
     """Yields the triples of one model (and schedule), in the order of fig. 5.5."""
 
-    def __init__(self, graph: ConstructionGraph, model: BuildingModel):
-        self.graph, self.model = graph, model
+    def __init__(self, graph: ConstructionGraph, model: BuildingModel, properties: bool = True):
+        self.graph, self.model, self.properties = graph, model, properties
         self.site = graph.iri("site", "site")
         self.storeys = {s.global_id for s in model.storeys}
         self.building = graph.iri("building", "building")
@@ -338,6 +344,8 @@ class _GraphWriter:
             yield size, RDF.type, DICE.CartesianVolume
             for prop, length in zip((DICE.hasXLength, DICE.hasYLength, DICE.hasZLength), lengths):
                 yield size, prop, _literal(float(length))
+        if self.properties:
+            yield from _property_values(iri, element.properties)
         yield iri, DICE.hasEntityState, BRC.OnYard
 
     def interface(self, connection) -> Iterator[Triple]:
@@ -431,6 +439,20 @@ class _GraphWriter:
             yield iri, DICP.hasOutputObject, element
         if activity.node_id and activity.node_id in interfaces:
             yield iri, DICP.hasObject, self.graph.interface_iri(activity.node_id)
+
+
+def property_iri(key: str) -> URIRef:
+    """``"Pset_ColumnCommon/Reference"`` -> ``props:Pset_ColumnCommon.Reference`` (other characters
+    than letters, digits, ``_``, ``-`` percent-encoded)."""
+    pset, _, name = key.rpartition("/")
+    local = f"{pset}.{name}" if pset else name
+    return PROPS[quote(local, safe="_-.")]
+
+
+def _property_values(iri: URIRef, properties: dict) -> Iterator[Triple]:
+    for key, value in properties.items():
+        if isinstance(value, (bool, int, float, str)) and value != "":
+            yield iri, property_iri(str(key)), _literal(value)
 
 
 def _position(iri: URIRef, owner: URIRef, link: URIRef, xyz: Iterable[float]) -> Iterator[Triple]:

@@ -47,6 +47,23 @@ def python_value(term: Node | None) -> Any:
     return str(term)
 
 
+def _exact_turtle_serializer():
+    """rdflib's Turtle serializer, except that xsd:double literals keep their full lexical form.
+
+    rdflib writes doubles in its shorthand as ``f"{value:e}"`` (7 significant digits), which would
+    turn 123.4567891 m into 1.234568e+02; ``"123.4567891"^^xsd:double`` is exact.
+    """
+    from rdflib.plugins.serializers.turtle import _GEN_QNAME_FOR_DT, TurtleSerializer
+
+    class ExactTurtleSerializer(TurtleSerializer):
+        def label(self, node, position):
+            if isinstance(node, rdflib.Literal) and node.datatype == rdflib.XSD.double:
+                return node._literal_n3(use_plain=False, qname_callback=lambda dt: self.get_pname(dt, _GEN_QNAME_FOR_DT))
+            return super().label(node, position)
+
+    return ExactTurtleSerializer
+
+
 class TripleStore(Protocol):
     """What the construction graph needs from a store."""
 
@@ -92,6 +109,9 @@ class RdflibStore:
             self.graph.bind(prefix, namespace, override=True)
         if format == "json-ld":
             self.graph.serialize(destination=str(path), format="json-ld", context=dict(prefixes), auto_compact=True)
+        elif format == "turtle":
+            with open(path, "wb") as handle:
+                _exact_turtle_serializer()(self.graph).serialize(handle, encoding="utf-8")
         else:
             self.graph.serialize(destination=str(path), format=FORMATS[format][0])
 
