@@ -9,7 +9,7 @@ robot, on the sim robots with no sleeping) through:
 - ROS 2 actions against the shipped robot node (in-process broker, ``ros2`` backend),
 
 and prints activities per second and the p50/p99 latency from sending an RCAN node to receiving its
-result. Redis is started on a free loopback port and stopped afterwards; ROS 2 runs with shared-memory
+result (best of ``--repeats`` runs each). Redis is started on a free loopback port and stopped afterwards; ROS 2 runs with shared-memory
 transport on a random domain. Usage: ``python bench/rcan.py [--activities 400] [--no-redis] [--no-ros]``.
 """
 
@@ -24,6 +24,7 @@ import shutil
 import socket
 import subprocess
 import sys
+import tempfile
 import time
 
 import numpy as np
@@ -54,15 +55,28 @@ def bench_plan(n: int) -> list[RcanActivity]:
     return plan
 
 
+def write_table() -> str:
+    """The bench's capability table as a temporary file (JSON is YAML) for the other processes."""
+    handle, path = tempfile.mkstemp(prefix="bench-rcan-", suffix=".yaml")
+    with os.fdopen(handle, "w") as out:
+        json.dump(TABLE, out)
+    return path
+
+
+REPEATS = 3
+
+
 def measure(name: str, n: int, **kwargs) -> dict:
+    """The best of :data:`REPEATS` runs (the machine is shared: the best run is the least disturbed)."""
     caps = parse_capabilities(TABLE, "bench table")
-    started = time.perf_counter()
-    report = run_plan(bench_plan(n), caps, timeout_s=300, **kwargs)
-    wall = time.perf_counter() - started
-    assert report.status == "completed", f"{name}: {report.status}"
-    latencies = np.array(report.latencies_s) * 1000
-    return {"transport": name, "activities": n, "activities_per_s": n / report.wall_s, "wall_s": wall,
-            "p50_ms": float(np.percentile(latencies, 50)), "p99_ms": float(np.percentile(latencies, 99))}
+    runs = []
+    for _ in range(REPEATS):
+        report = run_plan(bench_plan(n), caps, timeout_s=300, **kwargs)
+        assert report.status == "completed", f"{name}: {report.status}"
+        latencies = np.array(report.latencies_s) * 1000
+        runs.append({"transport": name, "activities": n, "activities_per_s": n / report.wall_s,
+                     "p50_ms": float(np.percentile(latencies, 50)), "p99_ms": float(np.percentile(latencies, 99))})
+    return max(runs, key=lambda run: run["activities_per_s"])
 
 
 @contextlib.contextmanager
@@ -97,24 +111,27 @@ def main() -> int:
     parser.add_argument("--activities", type=int, default=400)
     parser.add_argument("--no-redis", action="store_true")
     parser.add_argument("--no-ros", action="store_true")
+    parser.add_argument("--repeats", type=int, default=3, help="runs per transport; the best is reported")
     parser.add_argument("--json", help="also write the results to this JSON file")
     args = parser.parse_args()
+    global REPEATS
+    REPEATS = args.repeats
     n = args.activities
     rows = [measure("in-process", n)]
     if not args.no_redis:
         with redis_server() as url:
             rows.append(measure("redis (executor threads)", n, redis_url=url))
         with redis_server() as url:
-            caps_file = os.path.abspath("bench-rcan-caps.json")
-            with open(caps_file, "w") as handle:
-                json.dump(TABLE, handle)  # JSON is YAML
+            caps_file = write_table()
             executor = subprocess.Popen([sys.executable, "-m", "bimrobot", "rcan", "executor", "--redis", url,
-                                         "--capabilities", caps_file], stdout=subprocess.DEVNULL)
+                                         "--capabilities", caps_file], stdout=subprocess.PIPE, text=True)
+            executor.stdout.readline()  # "rcan executor serving ...": it is up
             try:
                 rows.append(measure("redis (executor process)", n, redis_url=url, spawn_executors=False))
             finally:
                 executor.terminate()
                 executor.wait(timeout=10)
+                executor.stdout.close()
                 os.unlink(caps_file)
     if not args.no_ros:
         from bimrobot.rcan.backends import ros2
@@ -125,16 +142,15 @@ def main() -> int:
         else:
             os.environ.setdefault("FASTDDS_BUILTIN_TRANSPORTS", "SHM")
             os.environ.setdefault("ROS_DOMAIN_ID", str(random.randint(1, 200)))
-            caps_file = os.path.abspath("bench-rcan-caps.json")
-            with open(caps_file, "w") as handle:
-                json.dump(TABLE, handle)
+            caps_file = write_table()
             try:
                 with ros2.robot_node_process(caps_file):
                     rows.append(measure("ros2 actions", n, backend="ros2"))
             finally:
                 os.unlink(caps_file)
     reference = rows[0]
-    print(f"RCAN transports, {n} activities (2 robots, sim kinematics without sleeping); ratios vs in-process")
+    print(f"RCAN transports, {n} activities (2 robots, sim kinematics without sleeping), best of {REPEATS} runs; "
+          "ratios vs in-process")
     print(f"{'transport':28s} {'act/s':>9s} {'p50 ms':>8s} {'p99 ms':>8s} {'act/s ratio':>12s} {'p50 ratio':>10s}")
     for row in rows:
         print(f"{row['transport']:28s} {row['activities_per_s']:9.1f} {row['p50_ms']:8.2f} {row['p99_ms']:8.2f} "

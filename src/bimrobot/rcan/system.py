@@ -155,8 +155,11 @@ class RcanSystem:
         self.broker.ack(message)
 
     # --- the run -----------------------------------------------------------------------------------
-    def run(self, activities: Iterable[RcanActivity], timeout_s: float = 600.0) -> RunReport:
-        """Execute ``activities`` to the end (or until blocked), resuming a journaled earlier run."""
+    def run(self, activities: Iterable[RcanActivity], timeout_s: float | None = None) -> RunReport:
+        """Execute ``activities`` to the end (or until blocked), resuming a journaled earlier run.
+
+        ``timeout_s``: give up (TimeoutError) after this many real seconds; None waits as long as it takes.
+        """
         activities = list(activities)
         self._plan = {a.activity_id: a for a in activities}
         self._check_plan(activities)
@@ -185,7 +188,7 @@ class RcanSystem:
             self._dispatch_waiting()
             if not self._unreceived and not self._in_flight and not self._newly_ready(activities, published):
                 break  # finished, or blocked: waiting activities that no free robot will ever take
-            if time.perf_counter() - started > timeout_s:
+            if timeout_s is not None and time.perf_counter() - started > timeout_s:
                 raise TimeoutError(f"RCAN run did not finish within {timeout_s:.0f} s; in flight: {sorted(self._in_flight)}")
         return self._report(activities, started, resumed)
 
@@ -260,7 +263,7 @@ def run_plan(
     observers: Iterable = (),
     log: Callable[[str], None] | None = None,
     backend_options: dict | None = None,
-    timeout_s: float = 600.0,
+    timeout_s: float | None = None,
 ) -> RunReport:
     """Run a plan end to end: broker (in-process, or Redis at ``redis_url``), executors, state manager.
 
