@@ -654,66 +654,55 @@ def sample_prebuilt_slots(cs: CompiledScenario, rng: np.random.Generator) -> lis
     return slots
 
 
-def _lying_runs(cs: CompiledScenario, length: int) -> list:
-    """Index ``(axis * W + x) * L + y`` of node1 -> the (x, y) cell indices of a lying run of ``length``
-    at z = 1, or None when it leaves the grid or touches an obstacle or a foundation (cached)."""
-    cache = cs.__dict__.setdefault("_lying_runs", {})
+def _lying_candidates(cs: CompiledScenario, length: int):
+    """Every lying pose of a run of ``length`` at z = 1 with node1 in the yard, clear of obstacles and
+    foundations: its (x, y) cell indices (K, length), its probability under the yard draw (K,), and its
+    (node1, node2). Cached on the compiled scenario."""
+    cache = cs.__dict__.setdefault("_lying_candidates", {})
     if length not in cache:
-        runs: list = [None] * (2 * cs.W * cs.L)
+        cells, weights, nodes = [], [], []
+        n_x = len(cs.yard_x)
         for x in cs.yard_x:
             ylo, yhi = cs.yard_y[x]
             for y in range(ylo, yhi + 1):
                 for axis in (0, 1):
-                    cells = [(x - k, y) if axis == 0 else (x, y - k) for k in range(length)]
-                    ok = all(
+                    run = [(x - k, y) if axis == 0 else (x, y - k) for k in range(length)]
+                    if all(
                         0 <= cx < cs.W and 0 <= cy < cs.L
                         and not cs.static_blocked[(cx * cs.L + cy) * cs.H + 1]
                         and (cx, cy) not in cs.foundation_xy
-                        for cx, cy in cells
-                    )
-                    if ok:
-                        runs[(axis * cs.W + x) * cs.L + y] = tuple(cx * cs.L + cy for cx, cy in cells)
-        cache[length] = runs
+                        for cx, cy in run
+                    ):
+                        cells.append([cx * cs.L + cy for cx, cy in run])
+                        # axis 1/2, x uniform over the yard's x values, y uniform over x's range
+                        weights.append(1.0 / (2 * n_x * (yhi - ylo + 1)))
+                        nodes.append(((x, y, 1), (run[-1][0], run[-1][1], 1)))
+        cache[length] = (np.array(cells, np.int64).reshape(-1, length), np.array(weights), nodes)
     return cache[length]
 
 
 def sample_layout(cs: CompiledScenario, rng: np.random.Generator) -> list[tuple[Cell, Cell]]:
     """A random initial layout: every handled component flat at z = 1 in the yard, along x or y.
 
-    For each component in handling order: the axis is x or y (1/2 each), node1's x uniform over the
-    yard's x values and its y uniform over the range of the yard region that holds that x; node2 =
-    node1 - (length - 1) along the axis. A draw that overlaps another component, an obstacle or a
-    foundation is redrawn (up to 32 draws, taken from one ``rng.random((32, 3))`` call); a component that
-    does not fit in 32 draws redraws the whole layout, at most MAX_LAYOUT_ATTEMPTS times, then InputError.
+    The draw for one component: the axis x or y (1/2 each), node1's x uniform over the yard's x values and
+    its y uniform over the range of the yard region that holds that x, node2 = node1 - (length - 1) along
+    the axis; a draw that overlaps another component, an obstacle or a foundation is redrawn. That is
+    sampled exactly, with one ``rng.random()`` per component: the draw's distribution restricted to the
+    poses that fit. A component that fits nowhere redraws the whole layout (at most MAX_LAYOUT_ATTEMPTS
+    times, then InputError).
     """
-    xs = cs.yard_x
-    n_x = len(xs)
-    L = cs.L
-    axis_offset = cs.W * cs.L  # index offset of axis y in the run tables
-    y_ranges = [(cs.yard_y[x][0], cs.yard_y[x][1] - cs.yard_y[x][0] + 1) for x in xs]
-    runs = [_lying_runs(cs, n) for n in cs.comp_len]
+    candidates = [_lying_candidates(cs, n) for n in cs.comp_len]
     for _ in range(MAX_LAYOUT_ATTEMPTS):
-        occupied = bytearray(cs.W * cs.L)
+        occupied = np.zeros(cs.W * cs.L, bool)
         layout: list[tuple[Cell, Cell]] = []
-        for ci in range(cs.n_comp):
-            table = runs[ci]
-            for axis_u, x_u, y_u in rng.random((32, 3)).tolist():
-                xi = int(x_u * n_x)
-                ylo, ny = y_ranges[xi]
-                cells = table[(axis_offset if axis_u >= 0.5 else 0) + xs[xi] * L + ylo + int(y_u * ny)]
-                if cells is None:
-                    continue
-                for c in cells:
-                    if occupied[c]:
-                        break
-                else:
-                    for c in cells:
-                        occupied[c] = 1
-                    first, last = cells[0], cells[-1]
-                    layout.append(((first // L, first % L, 1), (last // L, last % L, 1)))
-                    break
-            else:
+        for cells, weights, nodes in candidates:
+            fits = weights * ~occupied[cells].any(axis=1) if len(cells) else weights
+            cumulative = np.cumsum(fits)
+            if not len(cumulative) or cumulative[-1] <= 0.0:
                 break
+            pick = int(np.searchsorted(cumulative, rng.random() * cumulative[-1], side="right"))
+            occupied[cells[pick]] = True
+            layout.append(nodes[pick])
         else:
             return layout
     raise InputError(

@@ -232,12 +232,20 @@ class BatchedAssemblySim:
         R = len(envs)
         if R == 0:
             return
-        prebuilt = np.zeros((R, self.n_prebuilt), np.int64)
-        for r, e in enumerate(envs):
-            rng = self.rngs[e]
-            prebuilt[r] = sample_prebuilt_slots(cs, rng)
-            starts = cs.fixed_starts if cs.fixed_starts is not None else sample_layout(cs, rng)
-            self.starts[e] = starts
+        # the per-env draws, in the single env's order (prebuilt slots, then the layout)
+        random_slots = any(len(options) > 1 for options in cs.prebuilt_slots)
+        if random_slots or cs.fixed_starts is None:
+            slots, layouts = [], []
+            for e in envs.tolist():
+                rng = self.rngs[e]
+                slots.append(sample_prebuilt_slots(cs, rng))
+                if cs.fixed_starts is None:
+                    layouts.append(sample_layout(cs, rng))
+            prebuilt = np.array(slots, np.int64).reshape(R, self.n_prebuilt)
+            self.starts[envs] = np.array(layouts if layouts else [cs.fixed_starts] * R, np.int64)
+        else:
+            prebuilt = np.array([[options[0] for options in cs.prebuilt_slots]] * R, np.int64).reshape(R, -1)
+            self.starts[envs] = np.array(cs.fixed_starts, np.int64)
         self.occ[envs] = self.static
         self.filled[envs] = False
         self.filled[envs, -1] = True
