@@ -18,6 +18,7 @@ from bimrobot.rl.benchmark import (
     parse_timesteps,
     parse_timesteps_per_env,
     run_benchmark,
+    summarise_finished,
     time_to_score,
 )
 from bimrobot.rl.policy import load_policy
@@ -142,8 +143,9 @@ def test_table_cells_are_mean_and_standard_error_over_seeds():
     assert row["train_se"] == pytest.approx(2.0 / np.sqrt(3))  # sample std 2, 3 seeds
     assert row["eval_mean"] == pytest.approx(-11.0)
     assert row["train_score"] == pytest.approx((-12.0 - ref["random"]) / (ref["optimal"] - ref["random"]))
-    table = markdown_table([row], BenchmarkSpec(["E1S1"], ["ppo"], [0, 1, 2], 1000), "bimrobot rl benchmark ...")
+    table = markdown_table([row], BenchmarkSpec(["E1S1", "E4S4"], ["ppo"], [0, 1, 2], 1000), "bimrobot rl benchmark ...")
     assert "| E1S1 | **-12.00 ± 1.15 (" in table
+    assert "| E4S4 | not run |" in table and "Finished runs: 3 of 6" in table
     assert "bimrobot rl benchmark ..." in table
 
 
@@ -164,7 +166,11 @@ def test_benchmark_grid_in_parallel_and_resumed(tmp_path):
     again = run_benchmark(spec, tmp_path, workers=1)
     assert [r["eval_mean"] for r in again] == [r["eval_mean"] for r in results]
     assert stamps == {p: p.stat().st_mtime for p in (tmp_path / "runs").glob("*/model.zip")}
-    # ... but never a run trained with another budget
+    # the summary alone can be rebuilt from the finished runs
+    (tmp_path / "table.md").unlink()
+    assert len(summarise_finished(spec, tmp_path)) == 4
+    assert "Finished runs: 4 of 4." in (tmp_path / "table.md").read_text()
+    # ... but never from, or on top of, runs trained with another budget
     longer = BenchmarkSpec(spec.settings, spec.algos, spec.seeds, 1024, profile="fast", overrides=spec.overrides)
     with pytest.raises(InputError, match="E1S2-maskable-ppo-s0 was trained with timesteps=512, not 1024"):
         run_benchmark(longer, tmp_path, workers=1)

@@ -205,6 +205,21 @@ def run_benchmark(spec: BenchmarkSpec, out: str | Path, workers: int = 1, ray_ad
     return results
 
 
+def summarise_finished(spec: BenchmarkSpec, out: str | Path, command: str = "") -> list[dict[str, Any]]:
+    """Rewrite ``out``'s summary from the grid's runs that have finished, training nothing."""
+    out = Path(out)
+    results = []
+    for config in spec.configs():
+        run_dir = out / "runs" / config.run_name
+        if (run_dir / "results.json").is_file():
+            _check_same_run(config, run_dir)
+            results.append(_run_one(config, str(out / "runs")))
+    if not results:
+        raise InputError(f"{out / 'runs'} holds no finished run of this grid")
+    write_summary(out, spec, results, command)
+    return results
+
+
 def time_to_score(episodes: list[tuple[int, float]], setting: str, goal: float = SCORE_GOAL,
                   window: int = LAST_EPISODES) -> int | None:
     """Env steps until the mean of the last ``window`` training episodes first reached a score of ``goal``."""
@@ -224,7 +239,7 @@ def _mean_se(values: Iterable[float | None]) -> tuple[float, float, int] | None:
     data = np.array([v for v in values if v is not None], dtype=float)
     if len(data) == 0:
         return None
-    se = float(data.std(ddof=1) / np.sqrt(len(data))) if len(data) > 1 else 0.0
+    se = float(data.std(ddof=1) / np.sqrt(len(data))) if len(data) > 1 else None  # undefined for one seed
     return float(data.mean()), se, len(data)
 
 
@@ -262,14 +277,17 @@ def aggregate(results: list[dict[str, Any]]) -> list[dict[str, Any]]:
 def _fmt(mean: float | None, se: float | None, score: float | None) -> str:
     if mean is None:
         return "n/a"
-    return f"{mean:.2f} ± {se:.2f} ({score:.2f})"
+    spread = f" ± {se:.2f}" if se is not None else ""
+    return f"{mean:.2f}{spread} ({score:.2f})"
 
 
 def markdown_table(rows: list[dict[str, Any]], spec: BenchmarkSpec, command: str) -> str:
     """Table 6.1's layout (settings x algorithms) twice, for training and greedy evaluation, plus the goal check."""
-    algos = [a for a in spec.algos if any(r["algo"] == a for r in rows)]
+    algos = list(spec.algos)
     by_cell = {(r["setting"], r["algo"]): r for r in rows}
-    settings = [s for s in spec.settings if any(r["setting"] == s for r in rows)]
+    settings = list(spec.settings)
+    finished = sum(r["seeds"] for r in rows)
+    total = len(spec.settings) * len(spec.algos) * len(spec.seeds)
     lines = [
         "# Assembly-planning benchmark results",
         "",
@@ -280,6 +298,8 @@ def markdown_table(rows: list[dict[str, Any]], spec: BenchmarkSpec, command: str
         + (f"; potential-based distance shaping of the training reward, scale {spec.shaping:g} (reported returns "
            "are the environment's own)" if spec.shaping else "; no reward shaping")
         + f"; seeds {spec.seeds}; env steps per run: " + ", ".join(f"{s} {spec.budget(s):,}" for s in settings) + ".",
+        f"Finished runs: {finished} of {total}"
+        + ("." if finished == total else "; cells marked [n/m seeds] have fewer seeds, 'not run' cells none."),
         "Cells: mean ± standard error over seeds of the mean return, (normalised score "
         "`(return - random) / (optimal - random)` of that mean). Best per row in bold.",
         "",
@@ -309,6 +329,9 @@ def markdown_table(rows: list[dict[str, Any]], spec: BenchmarkSpec, command: str
     ]
     for setting in settings:
         candidates = [by_cell[(setting, a)] for a in algos if (setting, a) in by_cell]
+        if not candidates:
+            lines.append(f"| {setting} | not run | | | {THESIS_BEST_SCORE[setting]:.2f} | | | | |")
+            continue
         best = max(candidates, key=lambda c: max(c["train_score"] or -np.inf, c["eval_score"] or -np.inf))
         best_score = max(best["train_score"] or -np.inf, best["eval_score"] or -np.inf)
         thesis = THESIS_BEST_SCORE[setting]

@@ -80,6 +80,8 @@ def register(subparsers) -> None:
     bench.add_argument("--ray", default=None, metavar="ADDRESS",
                        help="run the grid on a Ray cluster ('auto', 'local' or host:port; needs pip install ray)")
     bench.add_argument("-o", "--out", default="benchmark", help="output folder (default benchmark/)")
+    bench.add_argument("--summary-only", action="store_true",
+                       help="train nothing: rewrite the table and plots from the runs of this grid that have finished")
     common(bench)
     bench.set_defaults(func=_benchmark)
 
@@ -153,6 +155,7 @@ def _benchmark(args) -> int:
         parse_timesteps,
         parse_timesteps_per_env,
         run_benchmark,
+        summarise_finished,
     )
 
     if args.workers < 1:
@@ -163,7 +166,10 @@ def _benchmark(args) -> int:
         profile=args.profile, eval_episodes=args.eval_episodes, threads=args.threads, shaping=args.shaping,
     )
     command = "bimrobot " + " ".join(shlex.quote(a) for a in sys.argv[1:]) if sys.argv[1:] else ""
-    results = run_benchmark(spec, args.out, workers=args.workers, ray_address=args.ray, command=command)
+    if args.summary_only:
+        results = summarise_finished(spec, args.out, command=command)
+    else:
+        results = run_benchmark(spec, args.out, workers=args.workers, ray_address=args.ray, command=command)
     print(f"{len(results)} runs; summary in {args.out}/: table.md, table.csv, grid.json, learning_curves.png; "
           f"run dirs in {args.out}/runs/")
     return 0
