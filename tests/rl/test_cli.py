@@ -1,0 +1,36 @@
+"""``bimrobot rl``: bad input is one sentence on stderr, exit status 2, and no output written."""
+
+from __future__ import annotations
+
+import pytest
+
+from bimrobot.cli import main
+
+
+@pytest.mark.parametrize(
+    "argv,message",
+    [
+        (["rl", "train", "--setting", "E9S9", "--algo", "ppo"], "unknown setting 'E9S9'"),
+        (["rl", "train", "--setting", "E1S1", "--algo", "ppo", "--timesteps", "lots"], "cannot read 'lots'"),
+        (["rl", "train", "--setting", "E1S1", "--algo", "ppo", "--set", "gamma"], "write KEY=VALUE"),
+        (["rl", "benchmark", "--seeds", "4-1"], "--seeds: cannot read '4-1'"),
+        (["rl", "benchmark", "--settings", "E1S9"], "unknown setting 'E1S9'"),
+        (["rl", "benchmark", "--algos", "ppo,sac"], "unknown algorithm 'sac'"),
+        (["rl", "benchmark", "--timesteps-per-env", "E1:1e5"], "--timesteps-per-env: cannot read 'E1:1e5'"),
+    ],
+)
+def test_bad_input_exits_2_with_one_sentence(tmp_path, capsys, argv, message):
+    assert main(argv + ["-o", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert message in err and err.count("\n") == 1
+    assert not (tmp_path / "out").exists()
+
+
+def test_eval_of_a_folder_that_is_not_a_run_dir(tmp_path, capsys):
+    assert main(["rl", "eval", str(tmp_path)]) == 2
+    assert "is not a bimrobot rl run dir: config.json is missing" in capsys.readouterr().err
+
+
+def test_summary_only_without_finished_runs(tmp_path, capsys):
+    assert main(["rl", "benchmark", "--settings", "E1S1", "--summary-only", "-o", str(tmp_path)]) == 2
+    assert "holds no finished run of this grid" in capsys.readouterr().err
