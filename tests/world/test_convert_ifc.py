@@ -152,6 +152,7 @@ def test_cli_converts_and_prints_where_and_what(tmp_path, cli):
         ("ISO-10303-21;\nHEADER;\nFILE_SCHEMA(('IFC4'));\nENDSEC;\nDATA;\n#1=IFCPROJECT('0", ["bad.ifc"], "bad.ifc"),
         ("", ["frame.ifc", "--include", "Column"], "--include expects IFC class names"),
         ("", ["frame.ifc", "--map-band", "2", "1"], "--map-band"),
+        ("", ["frame.ifc", "--default-density", "0"], "--default-density"),
     ],
 )
 def test_cli_bad_input_exits_2_with_one_sentence_and_no_output(tmp_path, cli, setup, args, message):

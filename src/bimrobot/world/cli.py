@@ -58,6 +58,9 @@ def register(subparsers) -> None:
                         help="height band above each storey cut for the map, metres (default 0.1 1.5)")
     parser.add_argument("--map-margin", type=float, default=1.0, metavar="M",
                         help="free border around the model in the maps, metres (default 1.0)")
+    parser.add_argument("--default-density", type=float, default=2400.0, metavar="KG_M3",
+                        help="density for elements without any weight in the BIM, kg/m3 (default 2400, concrete; "
+                        "7850 for a steel model); report.json marks those masses as assumed")
     parser.add_argument("--no-maps", action="store_true", help="do not write occupancy maps")
     parser.add_argument("--package-name", help="ROS package name (default: from the output folder name)")
     parser.add_argument("--no-progress", action="store_true", help="no progress bars")
@@ -102,6 +105,7 @@ def convert_command(args: argparse.Namespace) -> int:
         map_band=tuple(args.map_band),
         map_margin=args.map_margin,
         package_name=args.package_name,
+        default_density=args.default_density,
         maps=not args.no_maps,
     )
     report = convert(

@@ -69,7 +69,7 @@ class ConvertOptions:
             (self.map_resolution > 0, f"--map-resolution must be positive, not {self.map_resolution}"),
             (self.map_band[0] < self.map_band[1], f"--map-band must be LOW HIGH with LOW < HIGH, not {self.map_band}"),
             (self.map_margin >= 0, f"--map-margin must not be negative, not {self.map_margin}"),
-            (self.default_density > 0, f"the default density must be positive, not {self.default_density}"),
+            (self.default_density > 0, f"--default-density must be positive, not {self.default_density}"),
         ]
         for ok, message in checks:
             if not ok:
@@ -171,6 +171,7 @@ def build_package(
         timings["total"] = time.perf_counter() - started + (load_seconds or 0.0)
 
         report = _report(model, package, world_name, world_files, converted, skipped, maps, yard, options, timings)
+        report["ground_z_m"] = ground_z
         (tmp / "report.json").write_text(json.dumps(report, indent=2), encoding="utf-8")
         (tmp / "README.md").write_text(_readme(report), encoding="utf-8")
     log.info("wrote %s: %d models, %d skipped", out_dir, len(converted), len(skipped))
