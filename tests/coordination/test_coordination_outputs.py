@@ -125,3 +125,14 @@ def test_optimal_schedule_bounds_the_market_and_matches_it_on_one_robot_chain(tm
     rows = json.loads((tmp_path / "cmp" / "allocators.json").read_text())
     assert rows[-1]["allocator"] == "optimal (CP-SAT)" and rows[-1]["gap_pct"] == 0.0
     assert all(row["gap_pct"] >= -0.01 for row in rows)
+
+
+def test_prebuilt_classes_are_on_site_from_the_start(tmp_path, capsys):
+    out = tmp_path / "sim"
+    assert main(["simulate", "generated:2x1x1", "--fleet", "fleet2", "--prebuilt", "IfcFooting,IfcColumn", "-o", str(out)]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert len(summary["smart_components"]["prebuilt"]) == 4  # 2 footings + 2 columns
+    rows = load_schedule_csv(out / "schedule.csv")
+    assert {r["GlobalId"] for r in rows if r["Activity"] == "transport"} == {"beam-0-x-0-0"}
+    assert main(["simulate", "generated:2x1x1", "--prebuilt", "Slab", "-o", str(tmp_path / "bad")]) == 2
+    assert "--prebuilt expects IFC class names such as IfcSlab, got 'Slab'" in capsys.readouterr().err

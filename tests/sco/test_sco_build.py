@@ -106,3 +106,16 @@ def test_a_model_without_buildable_elements_is_refused():
     bolt = box_element("BOLT", "IfcMechanicalFastener", "", "L1", (0, 0, 0), (0.02, 0.02, 0.1), 0.3)
     with pytest.raises(InputError, match="no buildable element"):
         build_smart_model(_model([bolt], []))
+
+
+def test_size_is_measured_along_the_member_even_when_it_lies_diagonally():
+    beam = box_element("B", "IfcBeam", "", "L2", (0, 0, 0), (5.0, 0.16, 0.31), 190.0)
+    angle = np.pi / 4
+    rotation = np.array([[np.cos(angle), -np.sin(angle), 0], [np.sin(angle), np.cos(angle), 0], [0, 0, 1]])
+    beam.placement = np.eye(4)
+    beam.placement[:3, :3] = rotation
+    beam.placement[:3, 3] = (1.0, 2.0, 3.7)
+    column = box_element("C", "IfcColumn", "", "L1", (0.8, 1.8, 0.0), (1.2, 2.2, 3.7), 289.0)
+    smart = build_smart_model(_model([beam, column], [Connection("B", "C", inferred=True)]))
+    assert smart.components["B"].size == pytest.approx((5.0, 0.31, 0.16))
+    assert smart.components["B"].origin == pytest.approx([1.0, 2.0, 3.7])

@@ -50,6 +50,11 @@ def _add_common(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--site", help="site YAML: yard, robot_home, construction_area, model_offset (default: thesis fig. 4.11)")
     parser.add_argument("-o", "--output", required=True, help="output folder (replaced atomically)")
     parser.add_argument(
+        "--prebuilt", default="IfcFooting,IfcPile", metavar="CLASSES",
+        help="comma-separated IFC classes already built on site, e.g. cast-in-place slabs and walls "
+        "(default IfcFooting,IfcPile)",
+    )
+    parser.add_argument(
         "--tolerance", type=float, default=0.01,
         help="metres; bodies this close count as touching when connections are inferred (default 0.01)",
     )
@@ -116,7 +121,13 @@ def _prepare(args):
     fleet = load_fleet(args.fleet)
     site = load_site(args.site)
     model, elevations = load_building(args.model, args.tolerance)
-    return model, elevations, fleet, site, lambda: build_smart_model(model, inferred_tolerance_m=args.tolerance)
+    prebuilt = tuple(c.strip() for c in args.prebuilt.split(",") if c.strip())
+    bad = [c for c in prebuilt if not c.startswith("Ifc")]
+    if bad:
+        raise InputError(f"--prebuilt expects IFC class names such as IfcSlab, got {bad[0]!r}")
+    return model, elevations, fleet, site, lambda: build_smart_model(
+        model, prebuilt_classes=prebuilt, inferred_tolerance_m=args.tolerance
+    )
 
 
 def run_simulate(args) -> int:

@@ -227,7 +227,9 @@ def _floor_of(element: Element, model: BuildingModel, floors: list[str]) -> int:
 
 def _component(element: Element, model: BuildingModel, floors: list[str], prebuilt_classes) -> Component:
     bounds = element.world_bounds
-    extents = sorted((float(v) for v in bounds[1] - bounds[0]), reverse=True)
+    # Size in the element's own frame: a member's length along its axis even when it lies diagonally.
+    local = element.local_bounds
+    extents = sorted((float(v) for v in local[1] - local[0]), reverse=True)
     centre = bounds.mean(axis=0)
     return Component(
         id=element.global_id,

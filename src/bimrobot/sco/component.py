@@ -75,7 +75,7 @@ class Component(ConstructionObject):
     ``weight_kg`` may be None when the model gives no weight. ``target_position``: installed position
     of the component's reference point (centre of its world bounding box, metres); ``origin``: its
     placement origin in the world frame (metres). ``size``: extents of
-    the world bounding box sorted longest first (metres). ``bottom_z``: lowest point (metres).
+    the bounding box in the element's own frame, sorted longest first (metres). ``bottom_z``: lowest point (metres).
     ``prebuilt``: foundations that are on site before the simulation starts (state PositionFixed).
     """
 
