@@ -68,6 +68,16 @@ def test_split_files_pass_schema_validation(tmp_path, steel_frame_ifc, steel_fra
         assert _schema_errors(path) == [], path.name
 
 
+def test_split_real_files_pass_schema_validation(tmp_path, shared_ifc):
+    """ifcColumn: a material shared by the element and its type, welds, Chinese names."""
+    out = tmp_path / "parts"
+    split_model(shared_ifc("ifcColumn.ifc"), out)
+    files = sorted(out.glob("*.ifc"))
+    assert len(files) == 7  # column, base plate, slab, anchor bolt and 3 curve-only welds
+    for path in files:
+        assert _schema_errors(path) == [], path.name
+
+
 def test_split_keeps_the_connections_that_involve_the_element(tmp_path, steel_frame_ifc, steel_frame_model):
     out = tmp_path / "parts"
     split_model(steel_frame_ifc, out)

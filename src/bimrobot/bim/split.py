@@ -101,6 +101,7 @@ class _Extraction:
         self.element = element
         self.target = ifcopenshell.file(schema=source.schema_identifier)
         self.copies: dict[int, ifcopenshell.entity_instance] = {}
+        self.associations: dict[int, ifcopenshell.entity_instance] = {}
 
     def run(self) -> ifcopenshell.file:
         self._copy_header()
@@ -219,12 +220,16 @@ class _Extraction:
         original = original or self.element
         copy = copy or self.copies[self.element.id()]
         for relation in getattr(original, "HasAssociations", ()) or ():
+            if relation.id() in self.associations:  # one relation for the element and its type: merge
+                merged = self.associations[relation.id()]
+                merged.RelatedObjects = tuple(merged.RelatedObjects) + (copy,)
+                continue
             values = {"RelatedObjects": [copy]}
             for index in range(len(relation)):
                 attribute = relation.attribute_name(index)
                 if attribute.startswith("Relating") and relation[index] is not None:
                     values[attribute] = self._value(relation[index])
-            self._relation(relation, **values)
+            self.associations[relation.id()] = self._relation(relation, **values)
 
     def _connections(self) -> None:
         relations = []
