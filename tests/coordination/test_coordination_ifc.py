@@ -88,3 +88,16 @@ def test_ifc_unit_needs_longer_platforms_than_table_4_1(ifc_unit_model, tmp_path
     result = simulate(smart, load_fleet(fleet), storey_elevations=[s.elevation for s in ifc_unit_model.storeys])
     assert all(c.state == State.ASSEMBLED for c in smart.components.values())
     assert sum(1 for a in result.activities if a.activity == "transport") == 8
+
+
+def test_lbd_importer_accepts_our_schedule(steel_frame_model, tmp_path):
+    """The schedule CSV is the contract with the lbd/rcan parts: their validated importer must take it."""
+    lbd_schedule = pytest.importorskip("bimrobot.lbd.schedule")
+    from bimrobot.coordination.schedule import write_schedule_csv
+
+    smart = build_smart_model(steel_frame_model)
+    result = simulate(smart, load_fleet("fleet2"), breakdowns=[("TransportRobot12", 20.0)],
+                      storey_elevations=[s.elevation for s in steel_frame_model.storeys])
+    path = write_schedule_csv(result.activities, tmp_path / "schedule.csv")
+    schedule = lbd_schedule.load_schedule_csv(path, steel_frame_model)
+    assert len(schedule.activities) == sum(1 for a in result.activities if not a.aborted)

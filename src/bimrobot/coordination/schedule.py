@@ -23,6 +23,7 @@ def schedule_rows(activities) -> list[dict]:
     """CSV rows (dicts keyed by :data:`COLUMNS`) for the completed activities, by start time."""
     rows = []
     for a in sorted((a for a in activities if not a.aborted), key=lambda a: (a.start, a.id)):
+        start, finish = round(a.start, 3), round(a.finish, 3)  # Duration = Finish - Start as written
         rows.append({
             "Identification": a.id,
             "Name": a.name,
@@ -30,9 +31,9 @@ def schedule_rows(activities) -> list[dict]:
             "Activity": a.activity,
             "GlobalId": a.global_id,
             "Robot": a.robot,
-            "Start": f"{a.start:.3f}",
-            "Finish": f"{a.finish:.3f}",
-            "Duration": f"{a.finish - a.start:.3f}",
+            "Start": f"{start:.3f}",
+            "Finish": f"{finish:.3f}",
+            "Duration": f"{finish - start:.3f}",
             "Predecessors": " ".join(a.predecessors),
             "TargetX": f"{a.target[0]:.4f}",
             "TargetY": f"{a.target[1]:.4f}",
