@@ -654,14 +654,19 @@ def sample_prebuilt_slots(cs: CompiledScenario, rng: np.random.Generator) -> lis
     return slots
 
 
+def _fits_somewhere(cs: CompiledScenario, length: int, occupied: bytearray) -> bool:
+    cells = _lying_candidates(cs, length)[0]
+    if not len(cells):
+        return False
+    return not np.frombuffer(bytes(occupied), np.uint8)[cells].any(axis=1).all()
+
+
 def _lying_candidates(cs: CompiledScenario, length: int):
     """Every lying pose of a run of ``length`` at z = 1 with node1 in the yard, clear of obstacles and
-    foundations: its (x, y) cell indices (K, length), its probability under the yard draw (K,), and its
-    (node1, node2). Cached on the compiled scenario."""
+    foundations: its (x, y) cell indices (K, length) and its (axis, node1, node2). Cached."""
     cache = cs.__dict__.setdefault("_lying_candidates", {})
     if length not in cache:
-        cells, weights, nodes = [], [], []
-        n_x = len(cs.yard_x)
+        cells, poses = [], []
         for x in cs.yard_x:
             ylo, yhi = cs.yard_y[x]
             for y in range(ylo, yhi + 1):
@@ -674,35 +679,70 @@ def _lying_candidates(cs: CompiledScenario, length: int):
                         for cx, cy in run
                     ):
                         cells.append([cx * cs.L + cy for cx, cy in run])
-                        # axis 1/2, x uniform over the yard's x values, y uniform over x's range
-                        weights.append(1.0 / (2 * n_x * (yhi - ylo + 1)))
-                        nodes.append(((x, y, 1), (run[-1][0], run[-1][1], 1)))
-        cache[length] = (np.array(cells, np.int64).reshape(-1, length), np.array(weights), nodes)
+                        poses.append((axis, (x, y, 1), (run[-1][0], run[-1][1], 1)))
+        cache[length] = (np.array(cells, np.int64).reshape(-1, length), poses)
+    return cache[length]
+
+
+def _lying_table(cs: CompiledScenario, length: int) -> list:
+    """Index ``(axis * W + x) * L + y`` of node1 -> the (x, y) cell indices of the lying run, or None when
+    it leaves the grid or touches an obstacle or a foundation (cached on the compiled scenario)."""
+    cache = cs.__dict__.setdefault("_lying_table", {})
+    if length not in cache:
+        table: list = [None] * (2 * cs.W * cs.L)
+        cells, poses = _lying_candidates(cs, length)
+        for run, (axis, node1, _) in zip(cells.tolist(), poses):
+            table[(axis * cs.W + node1[0]) * cs.L + node1[1]] = tuple(run)
+        cache[length] = table
     return cache[length]
 
 
 def sample_layout(cs: CompiledScenario, rng: np.random.Generator) -> list[tuple[Cell, Cell]]:
     """A random initial layout: every handled component flat at z = 1 in the yard, along x or y.
 
-    The draw for one component: the axis x or y (1/2 each), node1's x uniform over the yard's x values and
-    its y uniform over the range of the yard region that holds that x, node2 = node1 - (length - 1) along
-    the axis; a draw that overlaps another component, an obstacle or a foundation is redrawn. That is
-    sampled exactly, with one ``rng.random()`` per component: the draw's distribution restricted to the
-    poses that fit. A component that fits nowhere redraws the whole layout (at most MAX_LAYOUT_ATTEMPTS
-    times, then InputError).
+    For each component in handling order: the axis is x or y (1/2 each), node1's x uniform over the yard's
+    x values and its y uniform over the range of the yard region that holds that x; node2 = node1 -
+    (length - 1) along the axis. A draw that overlaps another component, an obstacle or a foundation is
+    redrawn; a component that fits nowhere (checked exactly after every 32 failed draws) redraws the whole
+    layout, at most MAX_LAYOUT_ATTEMPTS times, then InputError. The uniforms come from
+    ``rng.random(192)`` blocks, three per draw (axis, x, y).
     """
-    candidates = [_lying_candidates(cs, n) for n in cs.comp_len]
+    xs = cs.yard_x
+    n_x = len(xs)
+    L = cs.L
+    axis_offset = cs.W * cs.L  # index offset of axis y in the run tables
+    y_ranges = [(cs.yard_y[x][0], cs.yard_y[x][1] - cs.yard_y[x][0] + 1) for x in xs]
+    tables = [_lying_table(cs, n) for n in cs.comp_len]
     for _ in range(MAX_LAYOUT_ATTEMPTS):
-        occupied = np.zeros(cs.W * cs.L, bool)
+        occupied = bytearray(cs.W * cs.L)
         layout: list[tuple[Cell, Cell]] = []
-        for cells, weights, nodes in candidates:
-            fits = weights * ~occupied[cells].any(axis=1) if len(cells) else weights
-            cumulative = np.cumsum(fits)
-            if not len(cumulative) or cumulative[-1] <= 0.0:
-                break
-            pick = int(np.searchsorted(cumulative, rng.random() * cumulative[-1], side="right"))
-            occupied[cells[pick]] = True
-            layout.append(nodes[pick])
+        uniforms: list[float] = []
+        used = 0
+        for ci, table in enumerate(tables):
+            failures = 0
+            while True:
+                if used == len(uniforms):
+                    uniforms, used = rng.random(192).tolist(), 0
+                axis_u, x_u, y_u = uniforms[used], uniforms[used + 1], uniforms[used + 2]
+                used += 3
+                xi = int(x_u * n_x)
+                ylo, ny = y_ranges[xi]
+                cells = table[(axis_offset if axis_u >= 0.5 else 0) + xs[xi] * L + ylo + int(y_u * ny)]
+                if cells is not None:
+                    for c in cells:
+                        if occupied[c]:
+                            break
+                    else:
+                        for c in cells:
+                            occupied[c] = 1
+                        first, last = cells[0], cells[-1]
+                        layout.append(((first // L, first % L, 1), (last // L, last % L, 1)))
+                        break
+                failures += 1
+                if failures % 32 == 0 and not _fits_somewhere(cs, cs.comp_len[ci], occupied):
+                    break
+            if len(layout) <= ci:
+                break  # this component fits nowhere: redraw the whole layout
         else:
             return layout
     raise InputError(
