@@ -23,8 +23,8 @@ import numpy as np
 import trimesh
 import yaml
 from PIL import Image, ImageDraw
-from shapely.geometry import MultiLineString, Polygon
-from shapely.ops import polygonize, unary_union
+import shapely
+from shapely.geometry import Polygon
 
 OCCUPIED, FREE = 0, 254
 OCCUPIED_THRESH, FREE_THRESH = 0.65, 0.196
@@ -139,7 +139,8 @@ def _section_polygons(vertices: np.ndarray, faces: np.ndarray, z: float) -> list
     lines = lines[np.any(lines[:, 0] != lines[:, 1], axis=1)]
     if len(lines) == 0:
         return []
-    faces_2d = [p for p in polygonize(unary_union(MultiLineString(lines.tolist()))) if p.area > 0]
+    noded = shapely.union_all(shapely.linestrings(lines))
+    faces_2d = [p for p in shapely.get_parts(shapely.polygonize(shapely.get_parts(noded))) if p.area > 0]
     shells = [Polygon(p.exterior) for p in faces_2d]
     solid = []
     for index, face in enumerate(faces_2d):
