@@ -9,6 +9,7 @@ the first problem it finds (:class:`bimrobot.errors.InputError`).
 from __future__ import annotations
 
 import csv
+import logging
 import math
 import os
 from dataclasses import dataclass, field
@@ -20,6 +21,8 @@ from bimrobot.io import atomic_output_file
 
 if TYPE_CHECKING:  # pragma: no cover
     from bimrobot.bim.model import BuildingModel
+
+log = logging.getLogger(__name__)
 
 #: Column order of the schedule CSV (``docs/conventions.md``).
 CSV_COLUMNS = (
@@ -405,11 +408,15 @@ def schedule_from_task_rows(rows: list, source: Path | None, model: BuildingMode
             return fallback
         return (datetime.fromisoformat(iso) - epoch).total_seconds()
 
+    known_storeys = {s.global_id for s in model.storeys} if model is not None else set()
     leaves, phases = [], []
     for row in rows:
         start = seconds(row.start, 0.0)
         finish = seconds(row.finish, start)
         output = row.outputs[0] if row.outputs else None
+        if model is not None and output and output not in model.elements and output not in known_storeys:
+            log.warning("IfcTask %s outputs %s, which is not an element of the model: left unlinked", row.global_id, output)
+            output = None
         kind = TASK_TYPE_ACTIVITIES.get(row.predefined_type, "assemble" if output else "")
         target = None
         storey = row.storey
