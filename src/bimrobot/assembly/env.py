@@ -56,7 +56,7 @@ class AssemblyEnv(gym.Env):
 
     ## Description
 
-    The voxel simulator of the thesis' chapter 6 (Zhu, "BIM-based robotic construction", 2024): the site is
+    The voxel simulator of the thesis bimrobot implements (chapter 6, DRL for assembly planning): the site is
     a 15 x 15 x 9 grid of unit cells (x, y, z; z up; z = 0 is the ground where the foundations are). Columns
     are runs of 4 cells, beams of 3. The components are handled one at a time in a fixed order (columns before
     the beams they support): the *current* component is the first one not yet placed. When it becomes
