@@ -352,7 +352,8 @@ def _skipped(product, empty_body: bool) -> SkippedProduct:
     if empty_body:
         reason = "its body triangulates to no faces"
     elif product.Representation is None:
-        reason = "no representation"
+        parts = [p for rel in getattr(product, "IsDecomposedBy", ()) or () for p in rel.RelatedObjects]
+        reason = f"an assembly without its own body ({len(parts)} parts)" if parts else "no representation"
     else:
         types = sorted({r.RepresentationType or "unknown" for r in product.Representation.Representations})
         if set(types) <= _CURVE_ONLY_TYPES:
