@@ -63,3 +63,19 @@ def test_capabilities_command_prints_table_5_2(capsys):
     out = capsys.readouterr().out
     assert "mobile_base    Move to component, Transport" in out
     assert "husky_ur5" in out and "payload 5 kg, reach 0.85 m" in out
+
+
+def test_technician_fixes_the_cause_and_retries_the_escalated_activity(tmp_path, capsys):
+    import sqlite3
+
+    db = str(tmp_path / "state.sqlite")
+    broken = ["rcan", "run", "--experiment", "1", "--state-db", db, "--max-attempts", "2", "-q"]
+    assert main([*broken, "--failure-probability", "1"]) == 1
+    assert "ESCALATED: Move to component" in capsys.readouterr().out
+    assert main(broken) == 1  # resumed without --retry-escalated: still escalated, nothing re-executed
+    assert main([*broken, "--retry-escalated"]) == 0  # the robot works again (p = 0)
+    assert "5/5 activities done" in capsys.readouterr().out
+    journal = sqlite3.connect(db).execute(
+        "SELECT event, attempt FROM journal WHERE activity_id='E1.1' ORDER BY seq").fetchall()
+    assert journal == [("started", 1), ("failed", 1), ("started", 2), ("escalated", 2), ("reopened", 2),
+                       ("started", 3), ("done", 3)]

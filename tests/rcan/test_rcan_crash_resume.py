@@ -71,12 +71,12 @@ def test_sigkill_at_random_points_then_resume_matches_uninterrupted_run(tmp_path
     # kill points spread over the run: once k activities are done, plus a random fraction of a second
     # (mid-activity, mid-transaction or between messages)
     done_after_kill = []
-    for k in sorted(rng.choice(np.arange(1, 30), size=6, replace=False)):
+    for k in sorted(rng.choice(np.arange(1, 25), size=6, replace=False)):
         process = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         deadline = time.monotonic() + 60
         while done_count(db) < k and process.poll() is None and time.monotonic() < deadline:
             time.sleep(0.02)
-        time.sleep(float(rng.uniform(0.0, 0.2)))
+        time.sleep(float(rng.uniform(0.0, 0.1)))
         os.kill(process.pid, signal.SIGKILL)
         process.wait(timeout=30)
         done_after_kill.append(done_count(db))

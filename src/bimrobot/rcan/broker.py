@@ -127,11 +127,12 @@ class RedisBroker(Broker):
     """
 
     def __init__(self, url: str = "redis://127.0.0.1:6379/0", group: str = "rcan", consumer: str = "rcan-1",
-                 prefix: str = "bimrobot:"):
+                 prefix: str = "bimrobot:", max_length: int = 100_000):
         redis = require_extra("redis", "redis")
         self._redis = redis.Redis.from_url(url, decode_responses=True)
         self._redis.ping()
         self.group, self.consumer, self.prefix = group, consumer, prefix
+        self.max_length = max_length  # streams are trimmed (approximately) to this many messages
         self._known_groups: set[str] = set()
         self._pending_checked: set[str] = set()
 
@@ -149,7 +150,7 @@ class RedisBroker(Broker):
         self._known_groups.add(key)
 
     def send(self, topic: str, payload: dict) -> str:
-        return self._redis.xadd(self._key(topic), {"data": json.dumps(payload)})
+        return self._redis.xadd(self._key(topic), {"data": json.dumps(payload)}, maxlen=self.max_length, approximate=True)
 
     def receive(self, topics: Iterable[str], timeout_s: float = 1.0, count: int = 16) -> list[Message]:
         keys = [self._key(t) for t in topics]

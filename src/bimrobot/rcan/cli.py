@@ -40,6 +40,8 @@ def register(subparsers) -> None:
     run.add_argument("--model", help="IFC model of the schedule (component weights, GlobalId check)")
     _common(run)
     run.add_argument("--max-attempts", type=int, default=3, help="attempts before a failure is escalated (default 3)")
+    run.add_argument("--retry-escalated", action="store_true",
+                     help="with a --state-db of an earlier run: retry the activities it escalated (the cause is fixed)")
     run.add_argument("--no-local-executors", action="store_true",
                      help="do not start executors here; `bimrobot rcan executor` processes serve the robots (needs --redis)")
     run.add_argument("--yard", type=float, nargs=3, default=(-10.0, -10.0, 0.0), metavar=("X", "Y", "Z"),
@@ -154,7 +156,7 @@ def _run(args) -> int:
         report = run_plan(activities, capabilities, backend=args.backend, state_db=args.state_db,
                           redis_url=args.redis, spawn_executors=not args.no_local_executors,
                           max_attempts=args.max_attempts, log=log, backend_options=options,
-                          observers=observers)
+                          observers=observers, retry_escalated=args.retry_escalated)
     states = {}
     for state in report.component_states.values():
         states[state] = states.get(state, 0) + 1

@@ -37,7 +37,8 @@ CREATE TABLE IF NOT EXISTS journal (
     attempt INTEGER NOT NULL, robot TEXT, message TEXT, finished_s REAL, wall_time REAL);
 CREATE TABLE IF NOT EXISTS activity (
     activity_id TEXT PRIMARY KEY, component_id TEXT, kind TEXT, status TEXT NOT NULL,
-    attempts INTEGER NOT NULL DEFAULT 0, robot TEXT, finished_s REAL, message TEXT);
+    attempts INTEGER NOT NULL DEFAULT 0, robot TEXT, finished_s REAL, message TEXT,
+    attempt_base INTEGER NOT NULL DEFAULT 0);
 CREATE TABLE IF NOT EXISTS component (global_id TEXT PRIMARY KEY, state TEXT NOT NULL);
 CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT);
 """
@@ -124,6 +125,17 @@ class StateStore:
             db.executemany("INSERT OR IGNORE INTO activity (activity_id, component_id, kind, status) VALUES (?, ?, ?, 'pending')",
                            [(a, c, k) for a, c, k in activities])
             db.executemany("INSERT OR IGNORE INTO component VALUES (?, ?)", [(g, State.ON_YARD.value) for g in components])
+
+    def reopen_escalated(self) -> list[str]:
+        """Make escalated activities pending again (a technician fixed the cause), each with a fresh
+        retry budget; attempt numbers go on counting, so every attempt keeps its own id. Returns their ids."""
+        with self.transaction() as db:
+            ids = [r[0] for r in db.execute("SELECT activity_id FROM activity WHERE status='escalated' ORDER BY activity_id")]
+            db.execute("UPDATE activity SET status='pending', attempt_base=attempts WHERE status='escalated'")
+            db.executemany("INSERT INTO journal (activity_id, event, attempt, wall_time) "
+                           "SELECT activity_id, 'reopened', attempts, ? FROM activity WHERE activity_id=?",
+                           [(time.time(), i) for i in ids])
+        return ids
 
     def activity_rows(self) -> dict[str, dict]:
         rows = self.db.execute("SELECT activity_id, component_id, kind, status, attempts, robot, finished_s, message FROM activity")
@@ -234,7 +246,8 @@ class StateManager:
     def result(self, node: RcanNode, result: ActivityResult) -> Decision:
         """Handle a robot's result: advance on success, retry or escalate on failure."""
         with self.store.transaction() as db:
-            row = db.execute("SELECT status, attempts FROM activity WHERE activity_id=?", (node.activity_id,)).fetchone()
+            row = db.execute("SELECT status, attempts, attempt_base FROM activity WHERE activity_id=?",
+                             (node.activity_id,)).fetchone()
             if row and (row[0] != STARTED or row[1] != result.attempt):
                 return Decision("duplicate", self._component_state(db, node.component_id).value)
             if result.success:
@@ -243,7 +256,7 @@ class StateManager:
                 db.execute("UPDATE activity SET status='done', finished_s=?, message=? WHERE activity_id=?",
                            (result.finished_s, result.message, node.activity_id))
                 decision = Decision(DONE, state.value)
-            elif result.attempt < self.policy.max_attempts:
+            elif result.attempt - (row[2] if row else 0) < self.policy.max_attempts:
                 self._journal(db, node, result, "failed")
                 db.execute("UPDATE activity SET status='pending', message=? WHERE activity_id=?",
                            (result.message, node.activity_id))
@@ -256,7 +269,7 @@ class StateManager:
                 db.execute("UPDATE activity SET status='escalated', message=? WHERE activity_id=?",
                            (result.message, node.activity_id))
                 report = EscalationReport(node.component_id, node.activity_id, node.kind.label, node.robot,
-                                          result.attempt, result.message)
+                                          result.attempt - (row[2] if row else 0), result.message)
                 log.warning("%s", report)
                 decision = Decision(ESCALATED, state.value, report=report)
         self._notify(node, State(decision.component_state), decision.verdict)

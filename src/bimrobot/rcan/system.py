@@ -155,10 +155,13 @@ class RcanSystem:
         self.broker.ack(message)
 
     # --- the run -----------------------------------------------------------------------------------
-    def run(self, activities: Iterable[RcanActivity], timeout_s: float | None = None) -> RunReport:
+    def run(self, activities: Iterable[RcanActivity], timeout_s: float | None = None,
+            retry_escalated: bool = False) -> RunReport:
         """Execute ``activities`` to the end (or until blocked), resuming a journaled earlier run.
 
         ``timeout_s``: give up (TimeoutError) after this many real seconds; None waits as long as it takes.
+        ``retry_escalated``: activities an earlier run escalated get a fresh retry budget (the technician
+        has dealt with the cause).
         """
         activities = list(activities)
         self._plan = {a.activity_id: a for a in activities}
@@ -170,6 +173,9 @@ class RcanSystem:
         store.set_meta("plan", signature)
         store.register([(a.activity_id, a.component_id, a.kind.value) for a in activities],
                        dict.fromkeys(a.component_id for a in activities))
+        if retry_escalated:
+            for activity_id in store.reopen_escalated():
+                self.log(f"[state manager] {activity_id} was escalated: retrying it")
         self._run_token = uuid.uuid4().hex
         self._waiting, self._in_flight, self._sent_at, self._latencies = [], {}, {}, []
         self._done, self._escalations, self._finished_s, self._unreceived = set(), [], {}, 0
@@ -264,13 +270,14 @@ def run_plan(
     log: Callable[[str], None] | None = None,
     backend_options: dict | None = None,
     timeout_s: float | None = None,
+    retry_escalated: bool = False,
 ) -> RunReport:
     """Run a plan end to end: broker (in-process, or Redis at ``redis_url``), executors, state manager.
 
     ``state_db``: SQLite file for the journal (and for the ``sim`` backend's world, so a resumed run
     finds the robots where they were). ``spawn_executors=False`` expects executors in other processes
     (``bimrobot rcan executor``) on the same Redis. ``backend_options`` go to the backend (``sim``:
-    ``time_scale``, ``failure_probability``, ``seed``).
+    ``time_scale``, ``failure_probability``, ``seed``). ``retry_escalated``: see :meth:`RcanSystem.run`.
     """
     from bimrobot.rcan.backends import create_backend
     from bimrobot.rcan.broker import InProcessBroker, RedisBroker
@@ -294,7 +301,7 @@ def run_plan(
                 executors.append(executor)
                 threads.append(executor.start_thread())
         system = RcanSystem(broker, capabilities, manager, backend, log)
-        return system.run(activities, timeout_s=timeout_s)
+        return system.run(activities, timeout_s=timeout_s, retry_escalated=retry_escalated)
     finally:
         for executor in executors:
             executor.stop.set()
