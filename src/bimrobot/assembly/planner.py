@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from bimrobot.assembly.env import MOVES, AssemblyEnv, AssemblyState
-from bimrobot.assembly.scenario import SETTINGS, CompiledScenario, benchmark_scenario, lifted_pose, run_cells
+from bimrobot.assembly.scenario import SETTINGS, benchmark_scenario, lifted_pose, run_cells
 from bimrobot.errors import BimrobotError, InputError
 
 REFERENCE_FILE = Path(__file__).with_name("settings") / "reference_returns.json"
@@ -55,7 +55,7 @@ class _Search:
         for slot in state.prebuilt_slots:
             self._mark(base, cs.target_cells[slot])
         self.base = base
-        self.waiting = [[cs.unflat(f) for f in map(lambda c: cs.flat(*c), run_cells(*s))] for s in state.starts]
+        self.waiting = [run_cells(*start) for start in state.starts]  # lying cells of each component
         self.n_prebuilt = len(state.prebuilt_slots)
         self._memo: dict[tuple[int, frozenset[int]], tuple[float, tuple[int, ...]]] = {}
 

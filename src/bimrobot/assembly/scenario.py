@@ -24,7 +24,6 @@ from bimrobot.errors import InputError
 SETTINGS_DIR = Path(__file__).with_name("settings")
 SETTINGS = [f"E{e}S{s}" for e in range(1, 5) for s in range(1, 5)]
 COMPONENT_LENGTHS = {"column": 4, "beam": 3}
-AXES = {0: "x", 1: "y", 2: "z"}
 MAX_LAYOUT_ATTEMPTS = 1000
 
 Cell = tuple[int, int, int]
@@ -449,11 +448,6 @@ def _validate_order(sc: Scenario) -> None:
                     f"{sc.source}: components.{c.id}: the column slots of group {list(group)} are not all filled "
                     "before this beam is handled (columns must come before the beams they support)"
                 )
-
-
-def _static_blocked(sc: Scenario) -> set[Cell]:
-    W, L, _ = sc.grid
-    return {c for box in sc.obstacles for c in box.cells()}
 
 
 def _validate_fixed_layout(sc: Scenario, obstacle_cells: set[Cell]) -> None:
