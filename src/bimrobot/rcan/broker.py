@@ -89,10 +89,12 @@ class Router:
 
 
 class InProcessBroker(Broker):
-    """Thread-safe queues, one per topic. Messages are serialised to JSON and back like on the wire."""
+    """Thread-safe queues, one per topic. Messages are serialised to JSON and back like on the wire.
+    A topic nobody reads keeps only its last ``max_length`` messages (like the trimmed Redis streams).
+    """
 
-    def __init__(self) -> None:
-        self._queues: dict[str, deque] = defaultdict(deque)
+    def __init__(self, max_length: int = 100_000) -> None:
+        self._queues: dict[str, deque] = defaultdict(lambda: deque(maxlen=max_length))
         self._ready = threading.Condition()
         self._ids = itertools.count(1)
 

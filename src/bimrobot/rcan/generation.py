@@ -223,11 +223,10 @@ class NodeGenerator:
         self.allocator = allocator
         self.backend = backend
 
-    def instantiate(self, activity: RcanActivity) -> RcanNode:
-        robot = self.allocator.allocate(activity)
-        return RcanNode(
-            node_id=f"rcan/{activity.activity_id}",
-            activity=activity,
-            robot=robot.name,
-            backend=self.backend,
-        )
+    def instantiate(self, activity: RcanActivity, robot: str | None = None) -> RcanNode:
+        """The RCAN node of ``activity`` on ``robot`` (None: the allocator chooses); commits the robot."""
+        if robot is None:
+            robot = self.allocator.allocate(activity).name
+        else:
+            self.allocator.commit(activity.component_id, robot, activity.activity_id)
+        return RcanNode(node_id=f"rcan/{activity.activity_id}", activity=activity, robot=robot, backend=self.backend)

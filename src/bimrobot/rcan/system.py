@@ -96,8 +96,7 @@ class RcanSystem:
             if robot is None:
                 still_waiting.append((activity_id, attempt))
                 continue
-            node = RcanNode(f"rcan/{activity_id}", activity, robot, self.generator.backend)
-            self.allocator.commit(activity.component_id, robot, activity_id)
+            node = self.generator.instantiate(activity, robot)
             self.log(f"[generation] RCAN node {node.node_id} instantiated: component {activity.component_id}, "
                      f"activity '{activity.kind.label}', robot {robot}, backend {node.backend}")
             before = self.state.store.component_states().get(activity.component_id)
@@ -229,7 +228,7 @@ class RcanSystem:
                 if activity.releases_robot:
                     self.allocator.release(activity.component_id)
             elif row["status"] == STARTED:
-                node = RcanNode(f"rcan/{activity.activity_id}", activity, row["robot"], self.generator.backend)
+                node = RcanNode(f"rcan/{activity.activity_id}", activity, row["robot"], self.generator.backend)  # as journaled
                 self.log(f"[state manager] resuming {node.node_id}: re-sending attempt {row['attempts']} to {row['robot']}")
                 self._send(node, row["attempts"])
                 resent += 1
