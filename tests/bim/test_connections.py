@@ -5,7 +5,6 @@ from __future__ import annotations
 from collections import Counter
 
 import numpy as np
-import pytest
 
 from bimrobot.bim.connections import candidate_pairs, infer_connections
 

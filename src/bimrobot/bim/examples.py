@@ -36,7 +36,6 @@ import ifcopenshell.api.aggregate
 import ifcopenshell.api.context
 import ifcopenshell.api.geometry
 import ifcopenshell.api.material
-import ifcopenshell.api.profile
 import ifcopenshell.api.project
 import ifcopenshell.api.pset
 import ifcopenshell.api.root

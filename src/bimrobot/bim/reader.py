@@ -63,8 +63,8 @@ def load_model(
     """
     path = Path(path)
     ifc = open_ifc(path)
-    include_classes = _class_names(ifc, include, path, "include")
-    exclude_classes = _class_names(ifc, exclude, path, "exclude")
+    include_classes = resolve_class_names(ifc, include, path, "include")
+    exclude_classes = resolve_class_names(ifc, exclude, path, "exclude")
     if include_classes and exclude_classes:
         raise InputError(f"{path}: give either include or exclude classes, not both")
 
@@ -218,7 +218,7 @@ def candidate_products(ifc: ifcopenshell.file, include: list[str], exclude: list
     return products
 
 
-def _class_names(ifc: ifcopenshell.file, classes: Iterable[str] | str | None, path: Path, option: str) -> list[str]:
+def resolve_class_names(ifc: ifcopenshell.file, classes: Iterable[str] | str | None, path: Path, option: str) -> list[str]:
     """Validated IFC class names, spelled as in the schema."""
     if classes is None:
         return []

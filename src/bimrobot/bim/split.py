@@ -27,9 +27,8 @@ from pathlib import Path
 from typing import Iterable
 
 import ifcopenshell
-import ifcopenshell.util.element
 
-from bimrobot.bim.reader import _class_names, candidate_products, open_ifc
+from bimrobot.bim.reader import candidate_products, open_ifc, resolve_class_names
 from bimrobot.errors import InputError
 from bimrobot.io import atomic_output_dir
 
@@ -61,9 +60,9 @@ def split_model(
     """
     path = Path(path)
     source = open_ifc(path)
-    products = candidate_products(
-        source, _class_names(source, include, path, "include"), _class_names(source, exclude, path, "exclude")
-    )
+    include_classes = resolve_class_names(source, include, path, "include")
+    exclude_classes = resolve_class_names(source, exclude, path, "exclude")
+    products = candidate_products(source, include_classes, exclude_classes)
     if not products:
         raise InputError(f"{path} contains no building element to split")
     from bimrobot.world.names import safe_name
