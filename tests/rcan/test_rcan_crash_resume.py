@@ -13,7 +13,6 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from bimrobot.rcan.system import run_plan
 
 from conftest import TABLE_5_2  # noqa: E402  (tests/rcan/conftest.py)
 
