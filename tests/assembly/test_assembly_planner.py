@@ -160,3 +160,21 @@ def test_reference_table_is_shipped_and_normalises():
     # the never-placing policy is a little worse than random in every setting
     assert table["E4S4"]["random"] >= -1185.0
     assert np.isfinite([r["optimal"] for r in table.values()]).all()
+
+
+def test_planner_policy_takes_over_after_detours_and_resets():
+    from bimrobot.assembly.planner import planner_policy
+
+    env = assembly.make_env("E3S4")
+    policy = planner_policy(env)
+    for episode in range(2):
+        obs, info = env.reset(seed=episode)
+        for _ in range(5):  # someone else moves first: up, up, down, down, up
+            obs, *_, info = env.step(4)
+        total, terminated = 0.0, False
+        best_from_here = plan(env).return_
+        while not terminated:
+            obs, reward, terminated, truncated, info = env.step(policy(obs, info))
+            total += reward
+            assert not truncated
+        assert total == pytest.approx(best_from_here)

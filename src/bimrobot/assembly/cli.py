@@ -136,17 +136,10 @@ def _make_policy(spec: str, env, seed: int):
     """(obs, info) -> action for 'planner' or 'random'."""
     import numpy as np
 
-    from bimrobot.assembly.planner import plan
+    from bimrobot.assembly.planner import planner_policy
 
     if spec == "planner":
-        queue: list[int] = []
-
-        def planner_policy(obs, info):
-            if not queue:
-                queue.extend(plan(env).actions)
-            return queue.pop(0)
-
-        return planner_policy
+        return planner_policy(env)
     rng = np.random.default_rng(seed)
     return lambda obs, info: int(rng.integers(6))
 

@@ -257,6 +257,24 @@ def plan(env_or_state: AssemblyEnv | AssemblyState) -> Plan:
     return Plan(actions, float(value), assignment)
 
 
+def planner_policy(env):
+    """The planner as a policy, ``policy(obs, info) -> action`` (the signature of ``bimrobot.rl``'s
+    ``load_policy``) for the given env. It plans again whenever the episode is not where its plan left
+    it (a reset, or a step it did not choose), so it can also take over an episode half-way."""
+    env = getattr(env, "unwrapped", env)
+    queue: list[int] = []
+    expected: list = [None]  # (episode's layout object, elapsed steps) after the last planned action
+
+    def policy(obs, info) -> int:
+        if not queue or expected[0] != (id(env._starts), env._elapsed):
+            queue[:] = plan(env).actions
+        action = queue.pop(0)
+        expected[0] = (id(env._starts), env._elapsed + 1)
+        return action
+
+    return policy
+
+
 def optimal_return(setting: str, seed: int | None = None) -> float:
     """The optimal return of a benchmark setting's reset with ``seed``."""
     env = AssemblyEnv(setting)
