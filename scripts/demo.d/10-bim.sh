@@ -8,9 +8,9 @@ mkdir -p "$out"
 frame="$DEMO_OUT/frame.ifc"
 "$BIMROBOT" example steel-frame -o "$frame"
 "$BIMROBOT" example greenhouse -o "$out/greenhouse.ifc"
-"$BIMROBOT" inspect "$frame" --infer-connections
+"$BIMROBOT" inspect "$frame" --infer-connections --no-progress
 "$BIMROBOT" inspect "$frame" --json --elements > "$out/steel_frame_summary.json"
-"$BIMROBOT" split "$frame" -o "$out/steel_frame_parts"
+"$BIMROBOT" split "$frame" -o "$out/steel_frame_parts" --no-progress
 
 echo
 echo "bim: $frame is the thesis' chapter-4 frame (IFC4, metres): 4 footings, 4 W250x73 columns,"

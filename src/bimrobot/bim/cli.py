@@ -71,6 +71,11 @@ def _add_filters(parser: argparse.ArgumentParser) -> None:
     group = parser.add_mutually_exclusive_group()
     group.add_argument("--include", metavar="CLASSES", help="only these IFC classes, e.g. 'IfcColumn, IfcBeam'")
     group.add_argument("--exclude", metavar="CLASSES", help="all but these IFC classes")
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar (shown on a terminal otherwise)")
+
+
+def _progress(args) -> bool:
+    return not args.no_progress and sys.stderr.isatty()
 
 
 def _example(args) -> int:
@@ -87,7 +92,7 @@ def _example(args) -> int:
 def _inspect(args) -> int:
     from bimrobot.bim import load_model
 
-    model = load_model(args.model, include=args.include, exclude=args.exclude, progress=sys.stderr.isatty())
+    model = load_model(args.model, include=args.include, exclude=args.exclude, progress=_progress(args))
     summary = summarize(model)
     if args.infer_connections is not None:
         from bimrobot.bim.connections import infer_connections
@@ -118,7 +123,7 @@ def _inspect(args) -> int:
 def _split(args) -> int:
     from bimrobot.bim.split import split_model
 
-    written = split_model(args.model, args.output, include=args.include, exclude=args.exclude, progress=sys.stderr.isatty())
+    written = split_model(args.model, args.output, include=args.include, exclude=args.exclude, progress=_progress(args))
     counts = Counter(f.ifc_class for f in written)
     print(f"wrote {len(written)} IFC files and index.json to {args.output}/: " + ", ".join(f"{n} {c}" for c, n in sorted(counts.items())))
     return 0
