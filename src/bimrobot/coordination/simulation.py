@@ -35,7 +35,7 @@ from bimrobot.coordination.market import (
     propose,
 )
 from bimrobot.errors import BimrobotError, InputError
-from bimrobot.sco.build import SmartModel
+from bimrobot.sco.build import SmartModel, gc_paused
 from bimrobot.sco.component import Component, Joint
 from bimrobot.sco.states import Event, State, at_least
 
@@ -297,7 +297,8 @@ class ConstructionSimulation:
         for robot, when in self.breakdowns:
             self.env.process(self._breakdown(robot, when))
         self._request_dispatch()
-        self.env.run()
+        with gc_paused():
+            self.env.run()
 
         unfinished = [c.id for c in components.values() if c.state != State.ASSEMBLED]
         if unfinished:

