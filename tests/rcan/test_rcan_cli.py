@@ -20,7 +20,7 @@ def test_experiment_prints_the_interaction_log(capsys):
 
 def test_schedule_run_writes_report_and_resumes_as_done(tmp_path, schedule_csv, capsys):
     caps = tmp_path / "caps.yaml"
-    from test_rcan_crash_resume import write_capabilities
+    from rcan_helpers import write_capabilities
 
     write_capabilities(caps)
     args = ["rcan", "run", "--schedule", str(schedule_csv), "--capabilities", str(caps), "-q",

@@ -11,18 +11,9 @@ import time
 from pathlib import Path
 
 import numpy as np
-import yaml
 
 
-from conftest import TABLE_5_2  # noqa: E402  (tests/rcan/conftest.py)
-
-
-def write_capabilities(path: Path) -> Path:
-    robot = {"types": ["mobile_base", "manipulator", "gripper"], "payload_kg": 1000, "reach_m": 5.0,
-             "speed_m_s": 1.0, "arm_speed_m_s": 0.5, "handling_s": {"pick_up": 10, "install": 20}}
-    path.write_text(yaml.safe_dump({"robot_types": TABLE_5_2, "robots": {
-        "crane_a": {**robot, "home": [0.0, 0.0, 0.0]}, "crane_b": {**robot, "home": [5.0, 0.0, 0.0]}}}))
-    return path
+from rcan_helpers import done_count, write_capabilities
 
 
 def outcome(db: Path) -> dict:
@@ -39,16 +30,6 @@ def outcome(db: Path) -> dict:
     }
     con.close()
     return result
-
-
-def done_count(db: Path) -> int:
-    try:
-        con = sqlite3.connect(db)
-        return con.execute("SELECT COUNT(*) FROM activity WHERE status='done'").fetchone()[0]
-    except sqlite3.OperationalError:  # killed before the tables were created
-        return 0
-    finally:
-        con.close()
 
 
 def test_sigkill_at_random_points_then_resume_matches_uninterrupted_run(tmp_path, schedule_csv):

@@ -101,7 +101,7 @@ def test_coordinator_killed_on_redis_resumes_without_repeating(redis_url, tmp_pa
 
     import numpy as np
 
-    from test_rcan_crash_resume import done_count, write_capabilities
+    from rcan_helpers import done_count, write_capabilities
 
     caps = write_capabilities(tmp_path / "caps.yaml")
     site, journal = tmp_path / "site.sqlite", tmp_path / "journal.sqlite"

@@ -1,0 +1,65 @@
+"""Helpers shared by the RCAN tests: capability tables and schedules built in the test, journal probes."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from bimrobot.lbd.schedule import Activity, write_schedule_csv
+from bimrobot.rcan.generation import parse_capabilities
+
+TABLE_5_2 = {
+    "mobile_base": {"activities": ["move_to_component", "transport"]},
+    "manipulator": {"activities": ["position_for_picking_up", "position_for_installing"]},
+    "gripper": {"activities": ["pick_up", "install"]},
+}
+
+
+def two_crane_capabilities():
+    """Two identical mobile manipulators that carry 1000 kg and reach 5 m."""
+    robot = {"types": ["mobile_base", "manipulator", "gripper"], "payload_kg": 1000, "reach_m": 5.0,
+             "speed_m_s": 1.0, "arm_speed_m_s": 0.5, "handling_s": {"pick_up": 10, "install": 20}}
+    return parse_capabilities({"robot_types": TABLE_5_2, "robots": {
+        "crane_a": {**robot, "home": [0.0, 0.0, 0.0]}, "crane_b": {**robot, "home": [5.0, 0.0, 0.0]}}}, "test table")
+
+
+def frame_schedule(path: Path, components: int = 4) -> Path:
+    """A schedule of ``components`` columns: transport, position, assemble each; columns 2.. wait for
+    the previous column's assembly (a chain through the frame)."""
+    rows, previous = [], ()
+    for i in range(components):
+        gid = f"COL{i:02d}xxxxxxxxxxxxxxxxx"[:22]
+        target = (3.0 * i, 4.0, 0.0)
+        t, p, a = f"A{3 * i + 1:04d}", f"A{3 * i + 2:04d}", f"A{3 * i + 3:04d}"
+        start = 100.0 * i
+        rows += [
+            Activity(t, f"Transport {gid}", "transport", gid, None, start, start + 30, previous, target),
+            Activity(p, f"Position {gid}", "position", gid, None, start + 30, start + 40, (t,), target),
+            Activity(a, f"Assemble {gid}", "assemble", gid, None, start + 40, start + 60, (p,), target),
+        ]
+        previous = (a,) if i % 2 else ()  # two independent chains: both robots work
+    return write_schedule_csv(rows, path)
+
+
+
+def write_capabilities(path: Path) -> Path:
+    """The two-crane capability table as a YAML file (for CLI runs in subprocesses)."""
+    import yaml
+
+    robot = {"types": ["mobile_base", "manipulator", "gripper"], "payload_kg": 1000, "reach_m": 5.0,
+             "speed_m_s": 1.0, "arm_speed_m_s": 0.5, "handling_s": {"pick_up": 10, "install": 20}}
+    path.write_text(yaml.safe_dump({"robot_types": TABLE_5_2, "robots": {
+        "crane_a": {**robot, "home": [0.0, 0.0, 0.0]}, "crane_b": {**robot, "home": [5.0, 0.0, 0.0]}}}))
+    return path
+
+
+def done_count(db: Path) -> int:
+    """How many activities the state database records as done (0 before its tables exist)."""
+    import sqlite3
+
+    con = sqlite3.connect(db)
+    try:
+        return con.execute("SELECT COUNT(*) FROM activity WHERE status='done'").fetchone()[0]
+    except sqlite3.OperationalError:  # killed before the tables were created
+        return 0
+    finally:
+        con.close()
