@@ -216,3 +216,15 @@ def test_any_frame_and_fleet_builds_completely_and_consistently(nx, ny, floors, 
         assert all(f1 <= s2 + 1e-6 for (_, f1), (s2, _) in zip(mine, mine[1:]))
     transports = sorted(a.global_id for a in result.activities if a.activity == "transport")
     assert transports == sorted(c.id for c in smart.components.values() if not c.prebuilt)
+
+
+def test_joints_among_prebuilt_components_are_already_made():
+    """With footings and columns prebuilt, only the beam's joints are assembled by robots."""
+    model = generated_frame(2, 1, 1)
+    smart = build_smart_model(model, prebuilt_classes=("IfcFooting", "IfcColumn"))
+    assert smart.components["footing-0-0"].state == State.ASSEMBLED  # its only joint is with its column
+    assert smart.components["column-0-0-0"].state == State.POSITION_FIXED  # waits for the beam
+    result = simulate(smart, load_fleet("fleet1"), storey_elevations=[s.elevation for s in model.storeys])
+    assembled = {a.name.split()[1] for a in result.activities if a.activity == "assemble"}
+    assert assembled == {n.id for n in smart.nodes.values() if "clip" in n.id}
+    assert all(c.state == State.ASSEMBLED for c in smart.components.values())

@@ -216,6 +216,13 @@ class ConstructionSimulation:
             request.reach_needed = self._reach_for_joint(joint)
         return request
 
+    def _joints_to_build(self) -> list[Joint]:
+        """Joints with at least one node still to assemble (joints among prebuilt parts are done)."""
+        return [
+            joint for joint in self.smart.joints.values()
+            if any(self.smart.nodes[n].state != State.ASSEMBLED for n in joint.node_ids)
+        ]
+
     def _check_capabilities(self) -> None:
         """Every component must be transportable, positionable and assemblable by some robot."""
         checks: list[tuple[TaskRequest, str]] = []
@@ -224,7 +231,7 @@ class ConstructionSimulation:
                 continue
             for activity in ("transport", "position"):
                 checks.append((self._request(activity, component), f"component {component.id} ({component.ifc_class} '{component.name}')"))
-        for joint in self.smart.joints.values():
+        for joint in self._joints_to_build():
             owner = self.smart.components[joint.component_ids[0]]
             checks.append((self._request("assemble", owner, joint), f"joint {joint.id} (components {', '.join(joint.component_ids)})"))
         # Robots with the same abilities answer alike: check one of each.
@@ -281,7 +288,7 @@ class ConstructionSimulation:
             for s in supporters:
                 self.dependants.setdefault(s, []).append(gid)
         self.open_on_floor = [0] * len(self.smart.floors)
-        for joint in self.smart.joints.values():
+        for joint in self._joints_to_build():
             self.open_on_floor[joint.floor] += 1
         for component in components.values():
             if not component.connection_nodes and not component.prebuilt:
@@ -291,7 +298,7 @@ class ConstructionSimulation:
         for gid, missing in self.missing_supporters.items():
             if missing == 0:
                 self.ready_by_floor.setdefault(components[gid].floor, []).append(gid)
-        for joint in self.smart.joints.values():  # joints made only of foundations
+        for joint in self._joints_to_build():  # e.g. a footing joint made of prebuilt parts only
             self._maybe_publish_assembly(joint)
         self._open_floor(0)
         for robot, when in self.breakdowns:

@@ -178,6 +178,14 @@ def build_smart_model(
             component.state = State.POSITION_FIXED
             for node in component.connection_nodes:
                 node.state = State.POSITION_FIXED
+    # Joints among prebuilt components only (a wall standing on a cast slab) are already made.
+    for joint in joints.values():
+        if all(components[gid].prebuilt for gid in joint.component_ids):
+            for node_id in joint.node_ids:
+                nodes[node_id].state = State.ASSEMBLED
+    for component in components.values():
+        if component.prebuilt and all(n.state == State.ASSEMBLED for n in component.connection_nodes):
+            component.state = State.ASSEMBLED
 
     supporters = {
         gid: tuple(
