@@ -24,6 +24,10 @@ if sdf_validator():
         print(f"ign sdf -k {world}: {'Valid' if valid else output}")
 else:
     print("(ign sdf not installed: SDF validation skipped)")
+from bimrobot.world.render import render_package
+picture = render_package(package, package.parent / "frame_world.png", title="frame_pkg: the converted steel frame")
+print(f"picture of the world: {picture}")
 sys.exit(1 if found else 0)
 PY
-echo "world: the Gazebo package is in $PKG/ (worlds/, models/<GlobalId>/, launch/, maps/, report.json, README.md)"
+echo "world: the Gazebo package is in $PKG/ (worlds/, models/<GlobalId>/, launch/, maps/, report.json, README.md);"
+echo "       a picture of its world is $DEMO_OUT/frame_world.png"

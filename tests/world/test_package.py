@@ -199,9 +199,12 @@ def _matrix(xyz_rpy):
     return matrix
 
 
-def test_static_flag_is_configurable(tmp_path):
-    build_package(frame_model(), tmp_path / "dyn", ConvertOptions(static=False))
+def test_static_flag_is_configurable_and_buried_dynamic_parts_are_warned_about(tmp_path):
+    report = build_package(frame_model(), tmp_path / "dyn", ConvertOptions(static=False))
     assert not any(info.static for info in read_models(tmp_path / "dyn"))
+    # The base plate lies 20 mm below the ground (Level 1 at 0 m): dynamic, it would be pushed up.
+    assert any("1 dynamic model(s) reach below the ground plane at z = 0 m" in w for w in report["warnings"])
+    assert any("1 element(s) have no weight in the BIM" in w for w in report["warnings"])
 
 
 def test_decimated_collision_respects_the_triangle_budget(tmp_path):

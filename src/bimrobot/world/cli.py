@@ -134,6 +134,7 @@ def summary(report: dict, output: Path) -> str:
         f"  maps:     {', '.join(m['yaml'] for m in report['maps']) or 'none'}",
         f"  skipped:  {counts['skipped']} (reasons in report.json)",
     ]
+    lines += [f"  warning:  {warning}" for warning in report.get("warnings", [])]
     if "sim" in report["world_files"]:
         lines.append(f"  run:      ros2 launch {output}/launch/gz_sim.launch.py")
     if "classic" in report["world_files"]:

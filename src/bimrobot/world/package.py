@@ -172,6 +172,9 @@ def build_package(
 
         report = _report(model, package, world_name, world_files, converted, skipped, maps, yard, options, timings)
         report["ground_z_m"] = ground_z
+        report["warnings"] = _warnings(converted, options, ground_z)
+        for warning in report["warnings"]:
+            log.warning("%s", warning)
         (tmp / "report.json").write_text(json.dumps(report, indent=2), encoding="utf-8")
         (tmp / "README.md").write_text(_readme(report), encoding="utf-8")
     log.info("wrote %s: %d models, %d skipped", out_dir, len(converted), len(skipped))
@@ -343,6 +346,37 @@ def _write_maps(
             "occupied_cells": int(occupied.sum()),
         })
     return written
+
+
+FAR_FROM_ORIGIN_M = 1000.0
+"""Beyond this distance from the world origin, single-precision meshes and physics lose millimetres."""
+
+
+def _warnings(converted: list[_Converted], options: ConvertOptions, ground_z: float) -> list[str]:
+    """Things a user should know before starting the simulation (also logged)."""
+    warnings = []
+    extent = _world_extent(converted)
+    if not options.is_static:
+        below = [item.name for item in converted
+                 if (item.body.vertices @ item.pose[:3, :3].T + item.pose[:3, 3])[:, 2].min() < ground_z - 1e-6]
+        if below:
+            warnings.append(
+                f"{len(below)} dynamic model(s) reach below the ground plane at z = {ground_z:g} m (e.g. {below[0]}); "
+                "the physics engine will push them up at the start: use --static, --layout yard or --exclude their class"
+            )
+    distance = float(np.abs(extent).max())
+    if distance > FAR_FROM_ORIGIN_M:
+        warnings.append(
+            f"the model lies up to {distance:.0f} m from the world origin; Gazebo's single-precision meshes and "
+            "physics lose accuracy that far out: move the IFC project origin near the building"
+        )
+    assumed = sum(1 for item in converted if item.mass.mass_assumed)
+    if assumed:
+        warnings.append(
+            f"{assumed} element(s) have no weight in the BIM: their mass is volume x {options.default_density:g} kg/m3 "
+            "(--default-density)"
+        )
+    return warnings
 
 
 def _report(model, package, world_name, world_files, converted, skipped, maps, yard, options, timings) -> dict:
