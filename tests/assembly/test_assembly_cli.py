@@ -35,6 +35,8 @@ def test_play_planner_writes_a_gif(tmp_path, capsys):
     assert "placed in order: col3, beam1" in out
     frames = imageio.mimread(gif)
     assert len(frames) >= 20 and frames[0].shape[:2] == (480, 640)
+    colours = {tuple(c) for c in frames[5][..., :3].reshape(-1, 3)}
+    assert (0x2F, 0x6F, 0xDB) in colours and (0xF3, 0x9C, 0x34) in colours  # moving blue, waiting orange
 
 
 def test_play_random_ansi(capsys):
