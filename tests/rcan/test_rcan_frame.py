@@ -59,6 +59,9 @@ def test_frame_schedule_through_rcan_assembles_every_component_and_updates_the_g
     heaviest = max(model.elements[gid].weight_kg for gid in built)
     assert heaviest > 5.0
     assert all(a.weight_kg == model.elements[a.component_id].weight_kg for a in plan)
+    # sections for gripper matching come from the members' bounding boxes, e.g. a W250x73 column
+    sections = {model.elements[a.component_id].ifc_class: a.section_m for a in plan}
+    assert sections["IfcColumn"] == pytest.approx((0.253, 0.254), abs=1e-3)
 
     # a component with several connection nodes is Assembled only after its last install
     for gid in built:

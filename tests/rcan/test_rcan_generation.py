@@ -91,3 +91,19 @@ def test_capability_yaml_file_errors(tmp_path):
     bad.write_text("robot_types: [unclosed\n")
     with pytest.raises(InputError, match="bad.yaml is not valid YAML"):
         load_capabilities(bad)
+
+
+def test_gripper_opening_is_matched_to_the_component_section(table_5_2):
+    table = parse_capabilities({"robot_types": table_5_2, "robots": {
+        "small_gripper": {"types": ["manipulator", "gripper"], "payload_kg": 500, "gripper_opening_m": [0.02, 0.12]},
+        "wide_gripper": {"types": ["manipulator", "gripper"], "payload_kg": 500, "gripper_opening_m": [0.1, 0.4]},
+    }})
+    column = RcanActivity("A.1", "W250", K.PICK_UP, Pose(0, 0, 0), 290.0, section_m=(0.253, 0.254))
+    assert [r.name for r in table.capable_robots(K.PICK_UP, 290.0, column.section_m)] == ["wide_gripper"]
+    rod = RcanActivity("B.1", "ROD", K.PICK_UP, Pose(0, 0, 0), 2.0, section_m=(0.03, 0.03))
+    assert TaskAllocator(table).choose(rod) == "small_gripper"
+    slab = RcanActivity("C.1", "SLAB", K.INSTALL, Pose(0, 0, 0), 100.0, section_m=(0.6, 1.2))
+    with pytest.raises(InputError, match=r"section 0.600 x 1.200 m\): it needs a gripper with that payload and gripper opening"):
+        TaskAllocator(table).choose(slab)
+    with pytest.raises(InputError, match=r"robots.r.gripper_opening_m must be \[min, max\] in metres"):
+        parse_capabilities({"robot_types": table_5_2, "robots": {"r": {"types": ["gripper"], "gripper_opening_m": [0.3, 0.1]}}})

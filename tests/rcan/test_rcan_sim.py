@@ -42,6 +42,10 @@ def test_robot_refuses_what_a_real_robot_cannot_do(sim):
     sim.execute(node("B.3", K.POSITION_FOR_PICKING_UP, (-3.0, 0.5, 0.2)))
     heavy = sim.execute(node("B.4", K.PICK_UP, (-3.0, 0.5, 0.2), weight=12.0))
     assert not heavy.success and "12.0 kg, over the 5.0 kg payload" in heavy.message
+    wide = RcanNode("rcan/B.6", RcanActivity("B.6", "COL", K.PICK_UP, Pose(-3.0, 0.5, 0.2), 2.0, section_m=(0.3, 0.3)),
+                    "husky_ur5", "sim")
+    too_wide = sim.execute(wide)
+    assert not too_wide.success and "the 0.300 x 0.300 m section of COL does not fit the gripper of husky_ur5" in too_wide.message
     transport = sim.execute(node("B.5", K.TRANSPORT, (2.0, 0.0, 0.0)))
     assert not transport.success and "does not hold COL" in transport.message
 

@@ -29,7 +29,9 @@ class RobotSpec:
     """A robot on site. Lengths in metres, speeds in m/s, times in seconds, payload in kg.
 
     ``reach_m`` is measured horizontally from the base; ``handling_s`` maps an activity name
-    (``pick_up``, ``install``) to the time the gripper needs for it; ``home`` is the start pose.
+    (``pick_up``, ``install``) to the time the gripper needs for it; ``home`` is the start pose;
+    ``gripper_opening_m`` the (min, max) jaw opening, matched against a component's section (Table 5.1),
+    or None when the gripper takes any section.
     """
 
     name: str
@@ -41,10 +43,18 @@ class RobotSpec:
     arm_speed_m_s: float
     handling_s: dict[str, float] = field(default_factory=dict)
     home: Pose = Pose(0.0, 0.0, 0.0)
+    gripper_opening_m: tuple[float, float] | None = None
 
     def can(self, kind: ActivityKind) -> bool:
         """Whether one of this robot's types performs ``kind`` (Table 5.2)."""
         return kind in self.activities
+
+    def can_grip(self, section_m: tuple[float, float] | None) -> bool:
+        """Whether the gripper closes on a section (width, depth in m) across its narrower side."""
+        if section_m is None or self.gripper_opening_m is None or not self.can(ActivityKind.PICK_UP):
+            return True
+        low, high = self.gripper_opening_m
+        return low <= min(section_m) <= high
 
 
 @dataclass(frozen=True)
@@ -59,9 +69,11 @@ class CapabilityTable:
         """The robot types able to perform ``kind``."""
         return sorted(name for name, kinds in self.robot_types.items() if kind in kinds)
 
-    def capable_robots(self, kind: ActivityKind, weight_kg: float = 0.0) -> list[RobotSpec]:
-        """Robots that perform ``kind`` and carry ``weight_kg``, in file order."""
-        return [r for r in self.robots.values() if r.can(kind) and r.payload_kg >= weight_kg]
+    def capable_robots(self, kind: ActivityKind, weight_kg: float = 0.0,
+                       section_m: tuple[float, float] | None = None) -> list[RobotSpec]:
+        """Robots that perform ``kind``, carry ``weight_kg`` and grip ``section_m``, in file order."""
+        return [r for r in self.robots.values()
+                if r.can(kind) and r.payload_kg >= weight_kg and r.can_grip(section_m)]
 
 
 def load_capabilities(path: str | Path | None = None) -> CapabilityTable:
@@ -127,6 +139,10 @@ def _parse_robot(name: str, entry: object, robot_types: dict, source: str) -> Ro
     handling = entry.get("handling_s", {}) or {}
     if not isinstance(handling, dict) or not all(isinstance(v, (int, float)) and v >= 0 for v in handling.values()):
         raise InputError(f"{where}.handling_s must map activity names to seconds")
+    opening = entry.get("gripper_opening_m")
+    if opening is not None and not (isinstance(opening, list) and len(opening) == 2
+                                    and all(isinstance(v, (int, float)) for v in opening) and 0 <= opening[0] <= opening[1]):
+        raise InputError(f"{where}.gripper_opening_m must be [min, max] in metres, got {opening!r}")
     speed = number("speed_m_s", 1.0)
     if speed == 0:
         raise InputError(f"{where}.speed_m_s must be positive")
@@ -140,6 +156,7 @@ def _parse_robot(name: str, entry: object, robot_types: dict, source: str) -> Ro
         arm_speed_m_s=number("arm_speed_m_s", 0.5) or 0.5,
         handling_s={str(k): float(v) for k, v in handling.items()},
         home=Pose(*(float(v) for v in home)),
+        gripper_opening_m=tuple(float(v) for v in opening) if opening is not None else None,
     )
 
 
@@ -205,13 +222,15 @@ class TaskAllocator:
         return robot
 
     def capable(self, activity: RcanActivity) -> list[RobotSpec]:
-        capable = self.capabilities.capable_robots(activity.kind, activity.weight_kg)
+        capable = self.capabilities.capable_robots(activity.kind, activity.weight_kg, activity.section_m)
         if not capable:
             types = " or ".join(self.capabilities.types_for(activity.kind)) or "no robot type"
+            section = (f", section {activity.section_m[0]:.3f} x {activity.section_m[1]:.3f} m"
+                       if activity.section_m else "")
             raise InputError(
                 f"no robot can {activity.kind.label.lower()} component {activity.component_id} "
-                f"(activity {activity.activity_id}, {activity.weight_kg:.1f} kg): it needs a {types} "
-                f"with that payload in {self.capabilities.source}"
+                f"(activity {activity.activity_id}, {activity.weight_kg:.1f} kg{section}): it needs a {types} "
+                f"with that payload{' and gripper opening' if section else ''} in {self.capabilities.source}"
             )
         return capable
 

@@ -46,6 +46,7 @@ class RcanNode:
             "activity": a.kind.value,
             "target": [a.target.x, a.target.y, a.target.z, a.target.yaw],
             "weight_kg": a.weight_kg,
+            "section_m": list(a.section_m) if a.section_m else None,
             "releases_robot": a.releases_robot,
             "robot": self.robot,
             "backend": self.backend,
@@ -61,6 +62,7 @@ class RcanNode:
             kind=kind,
             target=Pose(*message["target"]),
             weight_kg=float(message.get("weight_kg", 0.0)),
+            section_m=tuple(message["section_m"]) if message.get("section_m") else None,
             frees_robot=None if frees is None or bool(frees) == (kind is ActivityKind.INSTALL) else bool(frees),
         )
         return cls(message["node_id"], activity, message["robot"], message["backend"])

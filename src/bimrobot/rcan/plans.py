@@ -61,13 +61,13 @@ def plan_from_schedule(schedule, model=None, yard: tuple[float, float, float] = 
             elif row.activity == "assemble":  # carried straight from transport to assembly
                 kinds = (K.POSITION_FOR_INSTALLING, K.INSTALL)
             held.discard(gid)  # positioned (PositionFixed) or installed: the robot lets go
-        weight = _weight(model, gid)
+        weight, section = _weight(model, gid), _section(model, gid)
         previous = tuple(last_of_row[p] for p in row.predecessors)
         for n, kind in enumerate(kinds, start=1):
             activity_id = f"{row.id}.{n}"
             activities.append(RcanActivity(
                 activity_id=activity_id, component_id=gid, kind=kind, target=goals[kind],
-                weight_kg=weight, robot=row.robot, predecessors=previous,
+                weight_kg=weight, section_m=section, robot=row.robot, predecessors=previous,
                 start=row.start, finish=row.finish, name=f"{kind.label} {gid}",
                 frees_robot=True if (row.activity == "position" and kind is K.POSITION_FOR_INSTALLING) else None,
             ))
@@ -85,6 +85,15 @@ def _weight(model, gid: str) -> float:
     return float(element.weight_kg or 0.0)
 
 
+def _section(model, gid: str) -> tuple[float, float] | None:
+    """The two smaller extents of the element's local bounding box (m): what a gripper closes on."""
+    if model is None:
+        return None
+    lo, hi = model.elements[gid].local_bounds
+    extents = sorted(float(v) for v in hi - lo)
+    return (round(extents[0], 4), round(extents[1], 4))
+
+
 @dataclass(frozen=True)
 class Experiment:
     """One of the thesis' three RCAN experiments (section 5.3.3)."""
@@ -99,13 +108,16 @@ COLUMN_ID = "267VPu8ab9991QBA3MI3UN"
 FOOTING_ID = "1kTvXnbbzCWw8lcMd1dR4o"
 COLUMN_KG = 2.0  # light-weight scale column, within the UR5's 5 kg payload
 FOOTING_KG = 3.5
+COLUMN_SECTION_M = (0.04, 0.04)  # the thesis' prototype gripper is sized to the components' sections
+FOOTING_SECTION_M = (0.10, 0.10)
 
 
-def _chain(prefix: str, component: str, weight: float, steps: list[tuple[ActivityKind, Pose]]) -> tuple[RcanActivity, ...]:
+def _chain(prefix: str, component: str, weight: float, section: tuple[float, float],
+           steps: list[tuple[ActivityKind, Pose]]) -> tuple[RcanActivity, ...]:
     out, previous = [], ()
     for n, (kind, pose) in enumerate(steps, start=1):
         activity_id = f"{prefix}.{n}"
-        out.append(RcanActivity(activity_id, component, kind, pose, weight, robot="husky_ur5",
+        out.append(RcanActivity(activity_id, component, kind, pose, weight, section_m=section, robot="husky_ur5",
                                 predecessors=previous, name=f"{kind.label} {component}"))
         previous = (activity_id,)
     return tuple(out)
@@ -122,16 +134,16 @@ def experiment(number: int) -> Experiment:
         install = Pose(0.55, -0.35, 0.30)  # 0.65 m from the base: within the UR5's reach
         steps = [(K.MOVE_TO_COMPONENT, stand), (K.POSITION_FOR_PICKING_UP, pick_column), (K.PICK_UP, pick_column),
                  (K.POSITION_FOR_INSTALLING, install), (K.INSTALL, install)]
-        return Experiment(1, "column within the manipulator's reach", _chain("E1", COLUMN_ID, COLUMN_KG, steps))
+        return Experiment(1, "column within the manipulator's reach", _chain("E1", COLUMN_ID, COLUMN_KG, COLUMN_SECTION_M, steps))
     if number == 2:
         install = Pose(4.0, 2.0, 0.30)  # 4.5 m away: the base has to transport the column
         steps = [(K.MOVE_TO_COMPONENT, stand), (K.POSITION_FOR_PICKING_UP, pick_column), (K.PICK_UP, pick_column),
                  (K.TRANSPORT, Pose(4.0, 2.6, 0.0)), (K.POSITION_FOR_INSTALLING, install), (K.INSTALL, install)]
-        return Experiment(2, "column that needs transport", _chain("E2", COLUMN_ID, COLUMN_KG, steps))
+        return Experiment(2, "column that needs transport", _chain("E2", COLUMN_ID, COLUMN_KG, COLUMN_SECTION_M, steps))
     if number == 3:
         pick_footing = Pose(0.0, -0.75, 0.10)
         install = Pose(4.0, -2.0, 0.0)
         steps = [(K.MOVE_TO_COMPONENT, stand), (K.POSITION_FOR_PICKING_UP, pick_footing), (K.PICK_UP, pick_footing),
                  (K.TRANSPORT, Pose(4.0, -1.4, 0.0)), (K.POSITION_FOR_INSTALLING, install), (K.INSTALL, install)]
-        return Experiment(3, "footing that needs transport", _chain("E3", FOOTING_ID, FOOTING_KG, steps))
+        return Experiment(3, "footing that needs transport", _chain("E3", FOOTING_ID, FOOTING_KG, FOOTING_SECTION_M, steps))
     raise InputError(f"there is no experiment {number}: the thesis has experiments 1, 2 and 3")

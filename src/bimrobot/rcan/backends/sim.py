@@ -171,6 +171,9 @@ class KinematicSite:
         if kind is ActivityKind.PICK_UP:
             if state["holding"]:
                 return 0.0, f"robot {spec.name} already holds {state['holding']}", {}
+            if not spec.can_grip(node.activity.section_m):
+                w, d = node.activity.section_m
+                return 0.0, f"the {w:.3f} x {d:.3f} m section of {node.component_id} does not fit the gripper of {spec.name}", {}
             if node.activity.weight_kg > spec.payload_kg:
                 return 0.0, f"{node.component_id} weighs {node.activity.weight_kg:.1f} kg, over the {spec.payload_kg:.1f} kg payload of {spec.name}", {}
             return handling, None, {"holding": node.component_id, "component": (target, spec.name)}
