@@ -56,6 +56,9 @@ def test_site_file_overrides_defaults_and_is_validated(tmp_path):
     path.write_text("yard: [[20, 0], [20]]\n")
     with pytest.raises(InputError, match=r"site.yaml: yard\[1\] must be a pair of numbers"):
         load_site(path)
+    path.write_text("idle_robots: home\n")
+    with pytest.raises(InputError, match="key 'idle_robots' must be 'stay' or 'yard', got 'home'"):
+        load_site(path)
     path.write_text("depot: [0, 0]\n")
     with pytest.raises(InputError, match="unknown key 'depot'"):
         load_site(path)

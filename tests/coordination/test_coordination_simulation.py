@@ -228,3 +228,40 @@ def test_joints_among_prebuilt_components_are_already_made():
     assembled = {a.name.split()[1] for a in result.activities if a.activity == "assemble"}
     assert assembled == {n.id for n in smart.nodes.values() if "clip" in n.id}
     assert all(c.state == State.ASSEMBLED for c in smart.components.values())
+
+
+def test_idle_robots_can_return_to_the_nearest_yard():
+    # As the hand-computed one-column build, but idle robots drive back to the yard at (6, 0).
+    site = Site(yard=((6.0, 0.0),), robot_home=((10.0, 0.0), (0.0, 8.0), (0.0, -6.0)),
+                construction_area=((-1, -1), (1, 1)), model_offset=(0.0, 0.0), idle_robots="yard")
+    result = simulate(build_smart_model(_one_column()), load_fleet("fleet1"), site)
+    assert result.makespan == pytest.approx(634.0)  # nothing waits for the returning robots
+    robots = {r.name: r for r in result.robots}
+    # transport robot: 20 s of task, then 6 m back from the column (0, 0) to the yard at 0.5 m/s
+    assert robots["TransportRobot11"].busy_time == pytest.approx(20.0)
+    assert robots["TransportRobot11"].travel_time == pytest.approx(20.0 + 12.0)
+    assert robots["PositioningRobot21"].travel_time == pytest.approx(8.0 + 6.0)
+    assert any("TransportRobot11 has no task and returns to the yard" in line for line in result.log_lines)
+
+
+def test_a_returning_robot_is_called_away_from_where_it_is(tmp_path):
+    smart, elevations = _frame(3, 2, 1)
+    site = Site(yard=((12.5, 4.0), (12.5, 6.0)), robot_home=((18.5, 4.0),), construction_area=((3.0, 1.5), (10.5, 8.0)),
+                idle_robots="yard")
+    fleet = tmp_path / "slow_positioning.yaml"  # positioning robots crawl: their way back takes minutes
+    fleet.write_text(
+        "robots:\n"
+        "  - {name: T1, kind: transport, speed: 0.8, carry_load: 300, platform_size: [4, 1]}\n"
+        "  - {name: P1, kind: positioning, speed: 0.02, payload: 300, reach: 4, time_per_node: 10}\n"
+        "  - {name: A1, kind: assembly, speed: 1.0, reach: 4, time_per_point: 5}\n"
+    )
+    result = simulate(smart, load_fleet(fleet), site, storey_elevations=elevations)
+    assert all(c.state == State.ASSEMBLED for c in smart.components.values())
+    stopped = [e for e in result.events if e["event"] == "return_stopped"]
+    assert stopped  # some robot was given a task on its way back
+    for event in stopped:  # ... and set off from where it was, between the site and the yard
+        assert 3.0 <= event["x"] <= 12.5 + 1e-9
+    for robot in result.robots:
+        mine = sorted((a.start, a.finish) for a in result.activities if a.robot == robot.name)
+        assert all(f1 <= s2 + 1e-9 for (_, f1), (s2, _) in zip(mine, mine[1:]))
+        assert robot.travel_time > 0

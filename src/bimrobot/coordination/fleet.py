@@ -184,12 +184,15 @@ class Site:
     ``yard``: component pick-up positions, used in turn; ``robot_home``: robot start positions, used in
     turn (a robot's own ``home`` wins); ``construction_area``: [[xmin, ymin], [xmax, ymax]], the building
     is centred in it unless ``model_offset`` [dx, dy] (model frame -> site frame) is given.
+    ``idle_robots``: "stay" (a robot with nothing to do waits where it finished; default) or "yard" (it
+    drives back to the nearest yard position, as in the thesis, and can be called away on the way).
     """
 
     yard: tuple[tuple[float, float], ...]
     robot_home: tuple[tuple[float, float], ...]
     construction_area: tuple[tuple[float, float], tuple[float, float]]
     model_offset: tuple[float, float] | None = None
+    idle_robots: str = "stay"
     source: str = "default site (thesis fig. 4.11)"
 
     def offset_for(self, model_min_xy: np.ndarray, model_max_xy: np.ndarray) -> np.ndarray:
@@ -204,7 +207,7 @@ class Site:
 def site_from_dict(data, source: str) -> Site:
     if not isinstance(data, dict):
         raise InputError(f"{source}: expected a mapping with yard, robot_home and construction_area")
-    allowed = {"yard", "robot_home", "construction_area", "model_offset"}
+    allowed = {"yard", "robot_home", "construction_area", "model_offset", "idle_robots"}
     extra = set(data) - allowed
     if extra:
         raise InputError(f"{source}: unknown key '{sorted(extra)[0]}' (allowed: {', '.join(sorted(allowed))})")
@@ -230,6 +233,10 @@ def site_from_dict(data, source: str) -> Site:
         values["construction_area"] = default.construction_area
     if "model_offset" in data:
         values["model_offset"] = _point(data["model_offset"], f"{source}: model_offset")
+    if "idle_robots" in data:
+        if data["idle_robots"] not in ("stay", "yard"):
+            raise InputError(f"{source}: key 'idle_robots' must be 'stay' or 'yard', got {data['idle_robots']!r}")
+        values["idle_robots"] = data["idle_robots"]
     return Site(**values, source=source)
 
 

@@ -87,6 +87,7 @@ class _Robot:
     free_at: float = 0.0
     end_position: np.ndarray | None = None
     leg: tuple | None = None  # (t0, p0, t1, p1) of the current drive
+    returning: simpy.Process | None = None  # driving back to the yard while idle
 
 
 @dataclass
@@ -444,6 +445,39 @@ class ConstructionSimulation:
         yield self.env.timeout(0)
         self.dispatch_scheduled = False
         self._dispatch()
+        if self.site.idle_robots == "yard":
+            self._send_idle_robots_to_yard()
+
+    def _send_idle_robots_to_yard(self) -> None:
+        """Robots left without a task after working drive to the nearest yard position (thesis 4.5.3)."""
+        yard = np.array(self.site.yard, dtype=float)
+        for robot in self.robots.values():
+            if robot.task is not None or robot.broken or robot.returning is not None or robot.stats.steps == 0:
+                continue
+            target = yard[int(np.argmin(np.hypot(*(yard - robot.position).T)))]
+            if np.hypot(*(target - robot.position)) > 1e-6:
+                robot.returning = self.env.process(self._return_to_yard(robot, target))
+
+    def _return_to_yard(self, robot: _Robot, target: np.ndarray):
+        self._say(f"{robot.spec.name} has no task and returns to the yard at ({target[0]:.2f}, {target[1]:.2f})")
+        try:
+            yield from self._drive(robot, target)
+        except simpy.Interrupt:
+            return  # called away: _stop_return already took the position where it was
+        robot.returning = None
+
+    def _stop_return(self, robot: _Robot) -> None:
+        """Stop a robot on its way back to the yard, where it is now (travel so far counted)."""
+        if robot.returning is None:
+            return
+        if robot.returning.is_alive:
+            t0 = robot.leg[0] if robot.leg else self.env.now
+            robot.position = self._position_now(robot)
+            robot.stats.travel_time += self.env.now - t0
+            robot.leg = None
+            robot.returning.interrupt("new task")
+            self._event("return_stopped", robot=robot.spec.name, x=round(float(robot.position[0]), 3), y=round(float(robot.position[1]), 3))
+        robot.returning = None
 
     def _dispatch(self) -> None:
         """One allocation round: award pending requests, highest priority first, to the best proposals."""
@@ -487,7 +521,7 @@ class ConstructionSimulation:
             if incapability(robot.spec, request):
                 continue
             idle = robot.task is None
-            position = robot.position if idle else robot.end_position
+            position = (self._position_now(robot) if robot.returning else robot.position) if idle else robot.end_position
             available = notice.time if idle else max(notice.time, robot.free_at)
             if promised and robot.spec.name in promised:  # already waited for by an earlier request
                 available, position = promised[robot.spec.name]
@@ -504,6 +538,7 @@ class ConstructionSimulation:
     def _award(self, request: TaskRequest, robot: _Robot, proposal, bidders: int) -> None:
         for activity in robot.spec.activities:
             self.idle[activity].discard(robot.spec.name)
+        self._stop_return(robot)
         robot.task = request
         robot.free_at = proposal.finish_time
         robot.end_position = request.end
@@ -672,6 +707,7 @@ class ConstructionSimulation:
     def _breakdown(self, name: str, when: float):
         yield self.env.timeout(when)
         robot = self.robots[name]
+        self._stop_return(robot)
         robot.broken = True
         robot.stats.broken_at = self.env.now
         for activity in ACTIVITIES:
