@@ -42,10 +42,15 @@ class RobotExecutor:
         return result
 
     def serve(self, poll_s: float = 0.2) -> None:
-        """Loop until :attr:`stop` is set."""
+        """Loop until :attr:`stop` is set. A broker error (e.g. Redis restarting) is logged and retried:
+        unacknowledged messages are delivered again once the broker is back."""
         while not self.stop.is_set():
-            for message in self.broker.receive(self.topics, timeout_s=poll_s, count=1):
-                self.handle(message)
+            try:
+                for message in self.broker.receive(self.topics, timeout_s=poll_s, count=1):
+                    self.handle(message)
+            except Exception:  # noqa: BLE001 - keep serving; the coordinator is waiting for results
+                log.exception("robot executor for %s: broker error, retrying in 1 s", ", ".join(self.topics))
+                self.stop.wait(1.0)
 
     def start_thread(self) -> threading.Thread:
         thread = threading.Thread(target=self.serve, name=f"rcan-executor-{self.topics}", daemon=True)
