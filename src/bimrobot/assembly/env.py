@@ -184,12 +184,13 @@ class AssemblyEnv(gym.Env):
             self.observation_space = spaces.Box(np.zeros_like(high), high, dtype=np.int8)
         else:
             self.observation_space = spaces.Box(0, FREE_TARGET, (W, L, H), dtype=np.int8)
-        # move tables: flat-index delta and per-axis extents for each action
+        # flat-index change of each action (cells are flattened as (x * L + y) * H + z)
         self._delta = [(dx * L + dy) * H + dz for dx, dy, dz in MOVES]
         self._renderer = None
         self._obs = np.zeros((W, L, N_CHANNELS), np.int8)
         self._obs_flat = self._obs.reshape(-1)
         self._done = True
+        self._started = False
 
     # ----------------------------------------------------------------------------------------- API
 
@@ -203,6 +204,8 @@ class AssemblyEnv(gym.Env):
 
     def step(self, action):
         a = int(action)
+        if not self._started:
+            raise gym.error.ResetNeeded("call reset() before step()")
         if self._done:  # stepping a finished episode changes nothing (reset to start another)
             return self._observation(), 0.0, True, False, self._info(False, None)
         mask = self._mask
@@ -239,7 +242,7 @@ class AssemblyEnv(gym.Env):
 
     def action_masks(self) -> np.ndarray:
         """The moves that would not be blocked (for sb3-contrib's MaskablePPO)."""
-        return np.array(self._mask, dtype=bool)
+        return np.array(self._mask if not self._done else (False,) * 6, dtype=bool)
 
     def snapshot(self) -> AssemblyState:
         """The episode's state, for the planner."""
@@ -314,6 +317,7 @@ class AssemblyEnv(gym.Env):
 
     def _start_state(self, starts, prebuilt, placed, current, corner, steps, elapsed) -> None:
         cs = self._cs
+        self._started = True
         self._starts = starts
         self._prebuilt = prebuilt
         self._placed = list(placed)
