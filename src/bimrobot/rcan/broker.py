@@ -24,7 +24,7 @@ from collections import defaultdict, deque
 from dataclasses import dataclass
 from typing import Callable, Iterable
 
-from bimrobot.errors import require_extra
+from bimrobot.errors import InputError, require_extra
 
 ACTIVITY_TOPIC = "rcan.activity"
 RESULT_TOPIC = "rcan.result"
@@ -131,8 +131,11 @@ class RedisBroker(Broker):
     def __init__(self, url: str = "redis://127.0.0.1:6379/0", group: str = "rcan", consumer: str = "rcan-1",
                  prefix: str = "bimrobot:", max_length: int = 100_000):
         redis = require_extra("redis", "redis")
-        self._redis = redis.Redis.from_url(url, decode_responses=True)
-        self._redis.ping()
+        try:
+            self._redis = redis.Redis.from_url(url, decode_responses=True)
+            self._redis.ping()
+        except (ValueError, redis.RedisError) as exc:
+            raise InputError(f"cannot reach Redis at {url}: {exc}") from None
         self.group, self.consumer, self.prefix = group, consumer, prefix
         self.max_length = max_length  # streams are trimmed (approximately) to this many messages
         self._known_groups: set[str] = set()
