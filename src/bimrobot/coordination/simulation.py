@@ -591,7 +591,6 @@ class ConstructionSimulation:
         node_windows = None
         try:
             yield from self._drive(robot, request.start)
-            work_started = self.env.now
             if request.activity == "transport":
                 component.update_state(Event.START_TRANSPORT)
                 self._note_state(component)
@@ -625,59 +624,68 @@ class ConstructionSimulation:
             return
         robot.stats.steps += 1
         robot.stats.busy_time += self.env.now - started
-        self._finish(robot, request, started, work_started, node_windows)
+        self._finish(robot, request, started, node_windows)
 
-    def _finish(self, robot: _Robot, request: TaskRequest, started: float, work_started: float, node_windows) -> None:
-        component = self.smart.components[request.component_id]
-        name = robot.spec.name
-        storey = component.storey_id or ""
+    def _finish(self, robot: _Robot, request: TaskRequest, started: float, node_windows) -> None:
+        """The task is done: update the smart objects, record the activity, free the robot."""
         if request.activity == "transport":
-            component.update_state(Event.FINISH_TRANSPORT)
-            self._note_state(component)
-            self._say(f"Component: {component.id} is arrived, {name} is free for next work")
-            activity = self._record("transport", component, f"Transport {component.id}", name, started, request.predecessors)
-            component.publish_positioning()
-            self._note_state(component)
-            self._publish("position", component, predecessors=[activity.id])
+            self._finish_transport(robot, request, started)
         elif request.activity == "position":
-            component.finish_positioning()
-            self._note_state(component)
-            self._say(f"Component: {component.id} position is fixed, {name} is free for next work")
-            activity = self._record("position", component, f"Position {component.id}", name, started, request.predecessors)
-            self.position_activity[component.id] = activity.id
-            if component.state == State.ASSEMBLED:  # no nodes to fasten
-                self.open_on_floor[component.floor] -= 1
-            for dependant in self.dependants.get(component.id, []):
-                self.missing_supporters[dependant] -= 1
-                if self.missing_supporters[dependant] == 0:
-                    floor = self.smart.components[dependant].floor
-                    if floor <= self.current_floor:
-                        self._publish_transport(dependant)
-                    else:
-                        self.ready_by_floor.setdefault(floor, []).append(dependant)
-            for node in component.connection_nodes:
-                self._maybe_publish_assembly(self.smart.joints[node.joint_id])
+            self._finish_positioning(robot, request, started)
         else:
-            joint = self.smart.joints[request.joint_id]
-            previous = None
-            for node, begin, end in node_windows:
-                owner = self.smart.components[node.component_id]
-                owner.node_event(node, Event.FINISH_ASSEMBLY)
-                self._note_state(owner)
-                row_start = started if previous is None else begin
-                predecessors = tuple(request.predecessors) + ((previous,) if previous else ())
-                activity = self._record(
-                    "assemble", owner, f"Assemble {node.id}", name, row_start, predecessors, finish=end
-                )
-                previous = activity.id
-            self._say(f"Nodes: {' and '.join(joint.node_ids)} are assembled, {name} is free for next work")
-            self.open_on_floor[joint.floor] -= 1
+            self._finish_assembly(robot, request, started, node_windows)
+        name = robot.spec.name
         robot.task = None
         for activity_name in robot.spec.activities:
             self.idle[activity_name].add(name)
         self._event("finish", request=request.id, activity=request.activity, component=request.component_id, robot=name)
         self._maybe_close_floor()
         self._request_dispatch()
+
+    def _finish_transport(self, robot: _Robot, request: TaskRequest, started: float) -> None:
+        component, name = self.smart.components[request.component_id], robot.spec.name
+        component.update_state(Event.FINISH_TRANSPORT)
+        self._note_state(component)
+        self._say(f"Component: {component.id} is arrived, {name} is free for next work")
+        activity = self._record("transport", component, f"Transport {component.id}", name, started, request.predecessors)
+        component.publish_positioning()
+        self._note_state(component)
+        self._publish("position", component, predecessors=[activity.id])
+
+    def _finish_positioning(self, robot: _Robot, request: TaskRequest, started: float) -> None:
+        component, name = self.smart.components[request.component_id], robot.spec.name
+        component.finish_positioning()
+        self._note_state(component)
+        self._say(f"Component: {component.id} position is fixed, {name} is free for next work")
+        activity = self._record("position", component, f"Position {component.id}", name, started, request.predecessors)
+        self.position_activity[component.id] = activity.id
+        if component.state == State.ASSEMBLED:  # no nodes to fasten
+            self.open_on_floor[component.floor] -= 1
+        for dependant in self.dependants.get(component.id, []):  # components it carries
+            self.missing_supporters[dependant] -= 1
+            if self.missing_supporters[dependant] == 0:
+                floor = self.smart.components[dependant].floor
+                if floor <= self.current_floor:
+                    self._publish_transport(dependant)
+                else:
+                    self.ready_by_floor.setdefault(floor, []).append(dependant)
+        for node in component.connection_nodes:
+            self._maybe_publish_assembly(self.smart.joints[node.joint_id])
+
+    def _finish_assembly(self, robot: _Robot, request: TaskRequest, started: float, node_windows) -> None:
+        """One schedule row per node: the first includes the drive to the joint."""
+        joint, name = self.smart.joints[request.joint_id], robot.spec.name
+        previous = None
+        for node, begin, end in node_windows:
+            owner = self.smart.components[node.component_id]
+            owner.node_event(node, Event.FINISH_ASSEMBLY)
+            self._note_state(owner)
+            row_start = started if previous is None else begin
+            predecessors = tuple(request.predecessors) + ((previous,) if previous else ())
+            activity = self._record("assemble", owner, f"Assemble {node.id}", name, row_start, predecessors, finish=end)
+            previous = activity.id
+        self._say(f"Nodes: {' and '.join(joint.node_ids)} are assembled, {name} is free for next work")
+        self.open_on_floor[joint.floor] -= 1
 
     def _record(self, activity, component, name, robot, start, predecessors, finish=None, aborted=False) -> Activity:
         self.activity_counter += 1
@@ -720,6 +728,8 @@ class ConstructionSimulation:
     def _abort(self, robot: _Robot, request: TaskRequest, started: float) -> None:
         """Roll the interrupted task back and auction it again; nothing is lost."""
         component = self.smart.components[request.component_id]
+        if robot.leg is not None:  # stopped while driving: count the part of the drive it made
+            robot.stats.travel_time += self.env.now - robot.leg[0]
         robot.position = self._position_now(robot)
         robot.leg = None
         robot.stats.busy_time += self.env.now - started
