@@ -175,3 +175,26 @@ def test_cli_refuses_to_overwrite_a_folder_it_did_not_write(tmp_path, cli):
     status, _, err = cli("convert", "frame.ifc", "-o", "notes", cwd=tmp_path)
     assert status == 2 and "did not write" in err
     assert (tmp_path / "notes" / "thesis.txt").read_text() == "precious"
+
+
+def test_steel_frame_map_shows_the_four_columns_and_a_free_bay(frame_package):
+    from bimrobot.bim import load_model
+    from bimrobot.world.navmap import read_map
+
+    out, report = frame_package
+    model = load_model(report["source"])
+    level_1 = next(m for m in report["maps"] if m["storey_name"] == "Level 1")
+    meta, occupied = read_map(out / level_1["yaml"])
+    origin_x, origin_y = meta["origin"][:2]
+
+    def occupied_at(x, y):
+        row = occupied.shape[0] - 1 - int(np.floor((y - origin_y) / meta["resolution"]))
+        return bool(occupied[row, int(np.floor((x - origin_x) / meta["resolution"]))])
+
+    columns = model.by_class("IfcColumn")
+    assert len(columns) == 4
+    for column in columns:
+        x, y = column.centroid[:2]
+        assert occupied_at(x, y), f"column {column.name} at ({x:.2f}, {y:.2f}) m is not on the map"
+    centre = np.mean([c.centroid[:2] for c in columns], axis=0)
+    assert not occupied_at(*centre)

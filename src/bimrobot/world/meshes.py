@@ -8,6 +8,8 @@ through Assimp in Gazebo Sim only (not Classic), so one DAE serves both simulato
 agree with Gazebo. Vertices stay in the element's local frame (the SDF link frame), metres.
 
 STL for collision: every physics engine loads it (pybullet too), and it carries no material noise.
+Colours are opaque on purpose: COLLADA ``<transparency>`` is read inverted by some loaders, which
+makes whole models invisible.
 """
 
 from __future__ import annotations
@@ -31,7 +33,7 @@ CLASS_COLOURS: dict[str, tuple[float, float, float, float]] = {
     "IfcWall": (0.88, 0.84, 0.76, 1.0),
     "IfcWallStandardCase": (0.88, 0.84, 0.76, 1.0),
     "IfcRoof": (0.65, 0.30, 0.25, 1.0),
-    "IfcWindow": (0.55, 0.75, 0.90, 0.6),
+    "IfcWindow": (0.55, 0.75, 0.90, 1.0),
     "IfcDoor": (0.55, 0.38, 0.22, 1.0),
     "IfcStair": (0.70, 0.70, 0.68, 1.0),
     "IfcRailing": (0.35, 0.35, 0.35, 1.0),
@@ -72,7 +74,6 @@ def dae_text(vertices: np.ndarray, faces: np.ndarray, name: str, rgba=DEFAULT_CO
         indices=index_text,
         colour=f"{r:.3f} {g:.3f} {b:.3f} {a:.3f}",
         ambient=f"{r * 0.4:.3f} {g * 0.4:.3f} {b * 0.4:.3f} 1",
-        transparency=f"{a:.3f}",
     )
 
 
@@ -161,7 +162,6 @@ _DAE_TEMPLATE = """<?xml version="1.0" encoding="utf-8"?>
             <diffuse><color>{colour}</color></diffuse>
             <specular><color>0.1 0.1 0.1 1</color></specular>
             <shininess><float>10</float></shininess>
-            <transparency><float>{transparency}</float></transparency>
           </phong>
         </technique>
       </profile_COMMON>

@@ -88,10 +88,12 @@ def occupancy(
     def to_pixels(points: np.ndarray) -> list[tuple[float, float]]:
         # Continuous pixel coordinates (pixel i spans [i, i+1]) shifted by half a pixel, because
         # Pillow puts pixel centres on integer coordinates.
-        u = (points[:, 0] - origin[0]) / resolution - 0.5
-        v = rows - (points[:, 1] - origin[1]) / resolution - 0.5
+        # Rounded to a micro-pixel: Pillow truncates, and 20.999999999999996 must count as 21.
+        u = np.round((points[:, 0] - origin[0]) / resolution - 0.5, 6)
+        v = np.round(rows - (points[:, 1] - origin[1]) / resolution - 0.5, 6)
         return list(zip(u.tolist(), v.tolist()))
 
+    outlines: list[np.ndarray] = []  # (k, 2, 2) segments whose cells are marked exactly (thin parts)
     for vertices, faces in bodies:
         if len(faces) == 0:
             continue
@@ -103,15 +105,36 @@ def occupancy(
             pixels = to_pixels(triangles.reshape(-1, 2))
             for start in range(0, len(pixels), 3):
                 draw.polygon(pixels[start : start + 3], fill=1)
+            outlines.append(np.stack([triangles, np.roll(triangles, -1, axis=1)], axis=2).reshape(-1, 2, 2))
         middle = (low + high) / 2
         if zmin < middle < zmax:
             for polygon in _section_polygons(vertices, faces, middle):
                 draw.polygon(to_pixels(np.asarray(polygon.exterior.coords)), fill=1)
                 for hole in polygon.interiors:
                     draw.polygon(to_pixels(np.asarray(hole.coords)), fill=0)
-                    draw.line(to_pixels(np.asarray(hole.coords)), fill=1)
-                draw.line(to_pixels(np.asarray(polygon.exterior.coords)), fill=1)
-    return np.array(image, dtype=bool)
+                for ring in [polygon.exterior, *polygon.interiors]:
+                    coords = np.asarray(ring.coords)[:, :2]
+                    outlines.append(np.stack([coords[:-1], coords[1:]], axis=1))
+    grid = np.array(image, dtype=bool)
+    if outlines:
+        _mark_segments(grid, np.concatenate(outlines), origin, resolution)
+    return grid
+
+
+def _mark_segments(grid: np.ndarray, segments: np.ndarray, origin: tuple[float, float], resolution: float) -> None:
+    """Mark every cell that a 2-D segment (k, 2, 2; metres) passes through, so parts thinner than a
+    cell (a 9 mm web, a sheet) still block the map. Sampled at a quarter cell."""
+    lengths = np.linalg.norm(segments[:, 1] - segments[:, 0], axis=1)
+    counts = np.ceil(lengths / (resolution / 4)).astype(int) + 1
+    owner = np.repeat(np.arange(len(segments)), counts)
+    steps = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
+    fraction = steps / np.maximum(np.repeat(counts, counts) - 1, 1)
+    points = segments[owner, 0] + (segments[owner, 1] - segments[owner, 0]) * fraction[:, None]
+    rows, cols = grid.shape
+    col = np.floor((points[:, 0] - origin[0]) / resolution).astype(int)
+    row = rows - 1 - np.floor((points[:, 1] - origin[1]) / resolution).astype(int)
+    inside = (row >= 0) & (row < rows) & (col >= 0) & (col < cols)
+    grid[row[inside], col[inside]] = True
 
 
 def _clipped_projected_triangles(vertices: np.ndarray, faces: np.ndarray, low: float, high: float) -> np.ndarray:
