@@ -10,6 +10,13 @@ from pathlib import Path
 from typing import Iterator
 
 
+def _apply_umask(path: Path, mode: int) -> None:
+    """Give ``path`` the permissions a normal create would (mkdtemp/mkstemp make them owner-only)."""
+    mask = os.umask(0)
+    os.umask(mask)
+    os.chmod(path, mode & ~mask)
+
+
 @contextlib.contextmanager
 def atomic_output_dir(target: str | os.PathLike, overwrite: bool = True) -> Iterator[Path]:
     """Yield a temporary directory next to ``target``; on success it replaces ``target``.
@@ -20,6 +27,7 @@ def atomic_output_dir(target: str | os.PathLike, overwrite: bool = True) -> Iter
     target = Path(target).resolve()
     target.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent))
+    _apply_umask(tmp, 0o777)
     try:
         yield tmp
     except BaseException:
@@ -46,6 +54,7 @@ def atomic_output_file(target: str | os.PathLike) -> Iterator[Path]:
     fd, name = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
     os.close(fd)
     tmp = Path(name)
+    _apply_umask(tmp, 0o666)
     try:
         yield tmp
     except BaseException:
