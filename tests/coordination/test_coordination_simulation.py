@@ -265,3 +265,16 @@ def test_a_returning_robot_is_called_away_from_where_it_is(tmp_path):
         mine = sorted((a.start, a.finish) for a in result.activities if a.robot == robot.name)
         assert all(f1 <= s2 + 1e-9 for (_, f1), (s2, _) in zip(mine, mine[1:]))
         assert robot.travel_time > 0
+
+
+def test_a_repaired_robot_comes_back_and_finishes_the_build():
+    """fleet 1 has one assembly robot: without repair the build stalls, with a 900 s repair it ends 900 s or less later."""
+    smart, elevations = _frame()
+    base = simulate(smart, load_fleet("fleet1"), storey_elevations=elevations).makespan
+    smart, _ = _frame()
+    result = simulate(smart, load_fleet("fleet1"), breakdowns=[("AssemblyRobot31", 600.0, 900.0)], storey_elevations=elevations)
+    assert all(c.state == State.ASSEMBLED for c in smart.components.values())
+    assert any("AssemblyRobot31 is repaired after 900 s" in line for line in result.log_lines)
+    restart = min(a.start for a in result.activities if a.robot == "AssemblyRobot31" and a.start > 600.0 and not a.aborted)
+    assert restart == pytest.approx(1500.0)
+    assert base < result.makespan <= base + 900.0 + 600.0  # at worst the repair plus the lost work

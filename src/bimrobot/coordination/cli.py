@@ -14,6 +14,7 @@ SIMULATE_EXAMPLES = """examples:
   bimrobot simulate frame.ifc --fleet fleet2 -o sim/
   bimrobot simulate frame.ifc --fleet my_fleet.yaml --site site.yaml --evaluator quickest-finish -o sim/
   bimrobot simulate frame.ifc --fleet fleet2 --breakdown AssemblyRobot32@600 -o sim_fault/
+  bimrobot simulate frame.ifc --fleet fleet1 --breakdown AssemblyRobot31@600+900 -o sim_repair/
   bimrobot simulate generated:10x10x5 --fleet fleet2 -o big/     # a generated 10 x 10 column, 5-floor frame
 
 output (in the -o folder): events.log (Listing 4.2 style), events.jsonl, robots.csv / robots.txt
@@ -33,15 +34,20 @@ pip install 'bimrobot[optimize]'). Writes allocators.csv and allocators.md.
 GENERATED = re.compile(r"^generated:(\d+)x(\d+)x(\d+)$")
 
 
-def _breakdown(text: str) -> tuple[str, float]:
+def _breakdown(text: str) -> tuple[str, float, float | None]:
+    """ROBOT@SECONDS (for good) or ROBOT@SECONDS+REPAIR_SECONDS."""
     name, sep, when = text.rpartition("@")
+    at, plus, repair = when.partition("+")
     try:
-        seconds = float(when)
+        seconds = float(at)
+        repair_s = float(repair) if plus else None
     except ValueError:
         seconds = None
     if not sep or not name or seconds is None:
-        raise argparse.ArgumentTypeError(f"expected ROBOT@SECONDS, e.g. AssemblyRobot32@600, got {text!r}")
-    return name, seconds
+        raise argparse.ArgumentTypeError(
+            f"expected ROBOT@SECONDS or ROBOT@SECONDS+REPAIR, e.g. AssemblyRobot32@600+900, got {text!r}"
+        )
+    return name, seconds, repair_s
 
 
 def _add_common(parser: argparse.ArgumentParser) -> None:
@@ -75,7 +81,7 @@ def register(subparsers) -> None:
     _add_common(simulate)
     simulate.add_argument("--evaluator", default="least-cost", choices=EVALUATORS, help="how the winning bid is chosen (default least-cost; greedy-nearest and random are baselines)")
     simulate.add_argument("--seed", type=int, default=0, help="seed of the random allocator (default 0)")
-    simulate.add_argument("--breakdown", type=_breakdown, action="append", default=[], metavar="ROBOT@SECONDS", help="the robot breaks down for good at that time (repeatable)")
+    simulate.add_argument("--breakdown", type=_breakdown, action="append", default=[], metavar="ROBOT@SECONDS[+REPAIR]", help="the robot breaks down at that time, for good or for REPAIR seconds (repeatable)")
     simulate.add_argument("--no-gantt", action="store_true", help="skip the Gantt chart (faster on big buildings)")
     simulate.add_argument("--no-progress", action="store_true", help="no progress bar")
     simulate.set_defaults(func=run_simulate)

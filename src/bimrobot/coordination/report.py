@@ -42,7 +42,7 @@ def summary(result: SimulationResult) -> dict:
         "aborted_activities": sum(1 for a in result.activities if a.aborted),
         "fleet_utilisation": round(result.utilisation, 4),
         "floor_finish_s": [round(t, 3) for t in result.floor_finish],
-        "breakdowns": [{"robot": r, "time_s": t} for r, t in result.breakdowns],
+        "breakdowns": [{"robot": b[0], "time_s": b[1], "repair_s": b[2] if len(b) > 2 else None} for b in result.breakdowns],
         "robots": robot_table_rows(result),
         "smart_components": result.smart_summary,
     }

@@ -12,7 +12,8 @@ from the fleet). Several robots work at once. Rules, as in the thesis:
   component of a joint has its position fixed the joint asks to be assembled (all its points,
   ``time_per_point`` each). A component is Assembled when all its nodes are.
 - A robot that breaks down (``breakdowns``) drops its task: the component stays where it is, its
-  state goes back to the waiting state and the task is auctioned again (logged).
+  state goes back to the waiting state and the task is auctioned again (logged). It stays out of the
+  market for good, or for its repair time when one is given.
 
 Times are seconds from the start of the build.
 """
@@ -106,7 +107,7 @@ class SimulationResult:
     state_history: dict[str, list[tuple[float, str]]]
     floor_finish: list[float]
     smart_summary: dict
-    breakdowns: list[tuple[str, float]] = field(default_factory=list)
+    breakdowns: list[tuple] = field(default_factory=list)
 
     @property
     def utilisation(self) -> float:
@@ -130,7 +131,8 @@ class ConstructionSimulation:
     """One build of ``smart`` by ``fleet`` on ``site``; call :meth:`run`.
 
     ``evaluator``: least-cost | quickest-finish | greedy-nearest | random. ``breakdowns``: (robot name,
-    time s) pairs; the robot stops for good at that time. ``storey_elevations``: metres, to compute the
+    time s) pairs, the robot stops for good at that time, or (robot name, time s, repair s) triples, it
+    is back in the market after the repair. ``storey_elevations``: metres, to compute the
     reach a node needs (height above the floor the robot stands on); defaults to ground level 0.
     ``on_assembled``: called with the component id whenever a component becomes Assembled (progress).
     Raises InputError before simulating when a component cannot be handled by any robot of the fleet.
@@ -143,7 +145,7 @@ class ConstructionSimulation:
         site: Site | None = None,
         evaluator: str = "least-cost",
         seed: int = 0,
-        breakdowns: list[tuple[str, float]] | tuple = (),
+        breakdowns: list[tuple] | tuple = (),
         storey_elevations: list[float] | None = None,
         on_assembled=None,
     ):
@@ -152,14 +154,14 @@ class ConstructionSimulation:
         self.fleet = fleet
         self.site = site or default_site()
         self.evaluator = make_evaluator(evaluator, seed)
-        self.breakdowns = list(breakdowns)
+        self.breakdowns = [(b[0], float(b[1]), float(b[2]) if len(b) > 2 and b[2] is not None else None) for b in breakdowns]
         self.elevations = sorted(storey_elevations or [0.0])
         names = {r.name for r in fleet.robots}
-        for robot, when in self.breakdowns:
+        for robot, when, repair in self.breakdowns:
             if robot not in names:
                 raise InputError(f"breakdown names robot {robot!r}, which is not in fleet {fleet.name} ({', '.join(sorted(names))})")
-            if when < 0:
-                raise InputError(f"breakdown time of {robot} must be >= 0 s, got {when}")
+            if when < 0 or (repair is not None and repair <= 0):
+                raise InputError(f"breakdown of {robot}: time must be >= 0 s and repair > 0 s, got {when} and {repair}")
         self._place_on_site()
         self._check_capabilities()
 
@@ -302,8 +304,8 @@ class ConstructionSimulation:
         for joint in self._joints_to_build():  # e.g. a footing joint made of prebuilt parts only
             self._maybe_publish_assembly(joint)
         self._open_floor(0)
-        for robot, when in self.breakdowns:
-            self.env.process(self._breakdown(robot, when))
+        for robot, when, repair in self.breakdowns:
+            self.env.process(self._breakdown(robot, when, repair))
         self._request_dispatch()
         with gc_paused():
             self.env.run()
@@ -712,7 +714,7 @@ class ConstructionSimulation:
         point = component.target_position if component.origin is None else component.origin
         return (float(point[0]), float(point[1]), float(point[2]))
 
-    def _breakdown(self, name: str, when: float):
+    def _breakdown(self, name: str, when: float, repair: float | None):
         yield self.env.timeout(when)
         robot = self.robots[name]
         self._stop_return(robot)
@@ -724,6 +726,15 @@ class ConstructionSimulation:
         self._event("breakdown", robot=name, request=robot.task.id if robot.task else None)
         if robot.task is not None and robot.process is not None and robot.process.is_alive:
             robot.process.interrupt("breakdown")
+        if repair is None:
+            return
+        yield self.env.timeout(repair)
+        robot.broken = False
+        for activity in robot.spec.activities:
+            self.idle[activity].add(name)
+        self._say(f"{name} is repaired after {repair:g} s and back in the market")
+        self._event("repaired", robot=name)
+        self._request_dispatch()
 
     def _abort(self, robot: _Robot, request: TaskRequest, started: float) -> None:
         """Roll the interrupted task back and auction it again; nothing is lost."""
