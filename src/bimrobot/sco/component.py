@@ -32,7 +32,10 @@ class ConstructionObject:
 
     @property
     def requirement(self) -> Requirement:
-        """The construction requirement under the current state (e.g. NeedToTransfer when OnYard)."""
+        """The construction requirement under the current state (e.g. NeedToTransfer when OnYard).
+
+        It is derived from the state, so the UML's UpdateRequirement happens with every UpdateState.
+        """
         return REQUIREMENT_OF[self.state]
 
     def update_state(self, event: Event) -> State:
@@ -66,6 +69,14 @@ class ConnectionNode(ConstructionObject):
     state: State = State.IN_LOCATION
 
     kind = "connection node"
+
+    @property
+    def node_state(self) -> State:
+        return self.state
+
+    @property
+    def node_requirement(self) -> Requirement:
+        return self.requirement
 
 
 @dataclass(eq=False)
