@@ -100,7 +100,7 @@ def register(subparsers) -> None:
     allocators.set_defaults(func=run_allocators)
 
 
-def load_building(spec: str, tolerance: float):
+def load_building(spec: str):
     """(BuildingModel, storey elevations in metres) from an IFC path or ``generated:NXxNYxF``."""
     match = GENERATED.match(spec)
     if match:
@@ -126,7 +126,7 @@ def _prepare(args):
 
     fleet = load_fleet(args.fleet)
     site = load_site(args.site)
-    model, elevations = load_building(args.model, args.tolerance)
+    model, elevations = load_building(args.model)
     prebuilt = tuple(c.strip() for c in args.prebuilt.split(",") if c.strip())
     bad = [c for c in prebuilt if not c.startswith("Ifc")]
     if bad:
