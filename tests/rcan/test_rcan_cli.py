@@ -81,3 +81,22 @@ def test_technician_fixes_the_cause_and_retries_the_escalated_activity(tmp_path,
         "SELECT event, attempt FROM journal WHERE activity_id='E1.1' ORDER BY seq").fetchall()
     assert journal == [("started", 1), ("failed", 1), ("started", 2), ("escalated", 2), ("reopened", 2),
                        ("started", 3), ("done", 3)]
+
+
+def test_ifc_work_schedule_runs_through_rcan(shared_ifc, tmp_path, capsys):
+    """construction-scheduling-task.ifc: a slab and four walls in an IfcWorkSchedule; targets are the
+    elements' placements; the 13 t slab needs a robot that carries it."""
+    ifc = shared_ifc("construction-scheduling-task.ifc")
+    assert main(["rcan", "run", "--schedule", str(ifc), "-q"]) == 2
+    assert "no robot can take 'Move to component' of component 20WrgxqpbDtferON_k1P2X" in capsys.readouterr().err
+    caps = tmp_path / "crane.yaml"
+    caps.write_text(
+        "robot_types:\n"
+        "  mobile_base: {activities: [move_to_component, transport]}\n"
+        "  manipulator: {activities: [position_for_picking_up, position_for_installing]}\n"
+        "  gripper: {activities: [pick_up, install]}\n"
+        "robots:\n"
+        "  crawler_crane: {types: [mobile_base, manipulator, gripper], payload_kg: 20000, reach_m: 30,\n"
+        "                  speed_m_s: 0.5, handling_s: {install: 600}}\n")
+    assert main(["rcan", "run", "--schedule", str(ifc), "--capabilities", str(caps), "-q"]) == 0
+    assert "components: 5 Assembled" in capsys.readouterr().out

@@ -35,7 +35,7 @@ def test_allocator_matches_type_and_payload(table_5_2):
     move = RcanActivity("C.1", "PLATE2", K.MOVE_TO_COMPONENT, Pose(0, 0, 0))
     assert allocator.choose(move) == "base_only"
     too_heavy = RcanActivity("D.1", "SLAB", K.INSTALL, Pose(0, 0, 0), weight_kg=900.0)
-    with pytest.raises(InputError, match=r"no robot can install component SLAB \(activity D.1, 900.0 kg\)"):
+    with pytest.raises(InputError, match=r"no robot can take 'Install' of component SLAB \(activity D.1, 900.0 kg\)"):
         allocator.choose(too_heavy)
     assert allocator.choose(light_pick) in {"light_arm", "heavy_arm"}
 

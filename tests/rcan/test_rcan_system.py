@@ -105,7 +105,7 @@ def test_plan_with_unknown_predecessor_or_incapable_fleet_is_refused(cranes):
     with pytest.raises(InputError, match="activity E1.2 names unknown predecessor NOPE"):
         run_plan([exp[0], RcanActivity("E1.2", COLUMN_ID, K.PICK_UP, Pose(0, 0, 0), predecessors=("NOPE",))], cranes)
     heavy = [RcanActivity("X.1", "SLAB", K.PICK_UP, Pose(0, 0, 0), weight_kg=5000.0)]
-    with pytest.raises(InputError, match="no robot can pick up component SLAB"):
+    with pytest.raises(InputError, match="no robot can take 'Pick up' of component SLAB"):
         run_plan(heavy, cranes)
 
 

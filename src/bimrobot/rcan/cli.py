@@ -36,7 +36,8 @@ def register(subparsers) -> None:
     what = run.add_mutually_exclusive_group(required=True)
     what.add_argument("--experiment", type=int, choices=(1, 2, 3),
                       help="1: column within reach; 2: column that needs transport; 3: footing")
-    what.add_argument("--schedule", help="schedule CSV (docs/conventions.md) to execute")
+    what.add_argument("--schedule", help="schedule CSV (docs/conventions.md), or an IFC file with an "
+                                         "IfcWorkSchedule (its tasks' output elements are the components)")
     run.add_argument("--model", help="IFC model of the schedule (component weights, GlobalId check)")
     _common(run)
     run.add_argument("--max-attempts", type=int, default=3, help="attempts before a failure is escalated (default 3)")
@@ -116,14 +117,15 @@ def _load_plan(args):
         exp = experiment(args.experiment)
         print(f"== RCAN experiment {exp.number}: {exp.title}", flush=True)
         return list(exp.activities), None
-    from bimrobot.lbd.schedule import load_schedule_csv
+    from bimrobot.lbd.schedule import load_schedule_csv, load_schedule_ifc
 
     model = None
-    if args.model:
+    from_ifc = args.schedule.lower().endswith(".ifc")
+    if args.model or from_ifc:
         from bimrobot.bim import load_model
 
-        model = load_model(args.model)
-    schedule = load_schedule_csv(args.schedule, model)
+        model = load_model(args.model or args.schedule)  # an IFC work schedule usually sits in its model
+    schedule = load_schedule_ifc(args.schedule, model) if from_ifc else load_schedule_csv(args.schedule, model)
     graph = None
     if args.graph:
         from bimrobot.lbd.graph import build_graph
@@ -141,7 +143,7 @@ def _run(args) -> int:
         raise InputError("--no-local-executors needs --redis: executors in other processes talk through Redis")
     if args.max_attempts < 1:
         raise InputError(f"--max-attempts must be at least 1, got {args.max_attempts}")
-    if args.graph and not (args.schedule and args.model):
+    if args.graph and not (args.schedule and (args.model or args.schedule.lower().endswith(".ifc"))):
         raise InputError("--graph needs --schedule and --model: the graph links the model's elements and the schedule")
     options = _backend_options(args)
     capabilities = load_capabilities(args.capabilities)

@@ -228,7 +228,7 @@ class TaskAllocator:
             section = (f", section {activity.section_m[0]:.3f} x {activity.section_m[1]:.3f} m"
                        if activity.section_m else "")
             raise InputError(
-                f"no robot can {activity.kind.label.lower()} component {activity.component_id} "
+                f"no robot can take '{activity.kind.label}' of component {activity.component_id} "
                 f"(activity {activity.activity_id}, {activity.weight_kg:.1f} kg{section}): it needs a {types} "
                 f"with that payload{' and gripper opening' if section else ''} in {self.capabilities.source}"
             )

@@ -20,6 +20,9 @@ def plan_from_schedule(schedule, model=None, yard: tuple[float, float, float] = 
                        yard_spacing_m: float = 2.0, standoff_m: float = 0.6) -> list[RcanActivity]:
     """RCAN activities for every row of ``schedule`` (a :class:`bimrobot.lbd.schedule.Schedule`).
 
+    A row without a target position (an IFC work schedule's task) goes to its element's placement
+    origin in ``model``.
+
     ``model`` (a BuildingModel) supplies component weights (kg; the allocator only gives a component to
     robots whose payload carries it); without it weights are 0. Ids are ``<Identification>.<n>``; the first activity of a row
     waits for the last one of each predecessor row. A ``position`` or ``assemble`` row of a component no
@@ -36,12 +39,16 @@ def plan_from_schedule(schedule, model=None, yard: tuple[float, float, float] = 
         if row.activity not in SCHEDULE_DECOMPOSITION:
             raise InputError(f"schedule activity {row.id} has activity {row.activity!r}; RCAN knows "
                              f"{', '.join(SCHEDULE_DECOMPOSITION)}")
-        if not row.global_id or row.target is None:
-            raise InputError(f"schedule activity {row.id} needs a GlobalId and TargetX/Y/Z for RCAN")
         gid = row.global_id
+        target = row.target
+        if target is None and model is not None and gid in model.elements:
+            target = tuple(float(v) for v in model.elements[gid].position)  # e.g. an IfcTask's output element
+        if not gid or target is None:
+            raise InputError(f"schedule activity {row.id} needs a GlobalId and a target position "
+                             f"(TargetX/Y/Z, or the element's placement in --model) for RCAN")
         if gid not in slots:
             slots[gid] = Pose(yard[0] + yard_spacing_m * len(slots), yard[1], yard[2])
-        slot, installed = slots[gid], Pose(*row.target)
+        slot, installed = slots[gid], Pose(*target)
         goals = {
             K.MOVE_TO_COMPONENT: Pose(slot.x, slot.y - standoff_m, 0.0),
             K.POSITION_FOR_PICKING_UP: slot,
