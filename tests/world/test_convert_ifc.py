@@ -198,3 +198,42 @@ def test_steel_frame_map_shows_the_four_columns_and_a_free_bay(frame_package):
         assert occupied_at(x, y), f"column {column.name} at ({x:.2f}, {y:.2f}) m is not on the map"
     centre = np.mean([c.centroid[:2] for c in columns], axis=0)
     assert not occupied_at(*centre)
+
+
+def test_yard_components_lie_still_on_the_ground_in_pybullet(tmp_path):
+    """Every pick-up pose is a resting pose: simulated for 2 s, no component moves more than 1 cm."""
+    pybullet = pytest.importorskip("pybullet")
+    ifc = examples.steel_frame(tmp_path / "frame.ifc")
+    out = tmp_path / "yard"
+    report = convert(ifc, out, ConvertOptions(layout="yard", maps=False), exclude=["IfcMechanicalFastener"])
+    infos = {i.name: i for i in read_models(out)}
+    client = pybullet.connect(pybullet.DIRECT)
+    try:
+        pybullet.setGravity(0, 0, -9.81, physicsClientId=client)
+        plane = pybullet.createCollisionShape(pybullet.GEOM_PLANE, physicsClientId=client)
+        pybullet.createMultiBody(0, plane, basePosition=[0, 0, report["ground_z_m"]], physicsClientId=client)
+        bodies = {}
+        for entry in report["converted"]:
+            info = infos[entry["model"]]
+            stl = next(f for f in info.mesh_files if f.suffix == ".stl")
+            shape = pybullet.createCollisionShape(pybullet.GEOM_MESH, fileName=str(stl), physicsClientId=client)
+            pose = entry["pose_xyz_rpy"]
+            bodies[entry["model"]] = pybullet.createMultiBody(
+                baseMass=info.mass,
+                baseCollisionShapeIndex=shape,
+                basePosition=pose[:3],
+                baseOrientation=pybullet.getQuaternionFromEuler(pose[3:]),
+                baseInertialFramePosition=info.center_of_mass.tolist(),
+                physicsClientId=client,
+            )
+        start = {name: np.array(pybullet.getBasePositionAndOrientation(b, physicsClientId=client)[0])
+                 for name, b in bodies.items()}
+        for _ in range(480):
+            pybullet.stepSimulation(physicsClientId=client)
+        moved = {name: float(np.linalg.norm(
+            np.array(pybullet.getBasePositionAndOrientation(b, physicsClientId=client)[0]) - start[name]))
+            for name, b in bodies.items()}
+    finally:
+        pybullet.disconnect(client)
+    assert len(moved) == 24
+    assert max(moved.values()) < 0.01, {name: round(d, 3) for name, d in moved.items() if d >= 0.01}

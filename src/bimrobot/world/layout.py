@@ -80,21 +80,28 @@ def installed_poses(elements: list[Element]) -> dict[str, np.ndarray]:
 
 
 def yard_poses(
-    elements: list[Element], ground_z: float, gap: float = 3.0, spacing: float = 0.5
+    elements: list[Element],
+    ground_z: float,
+    gap: float = 3.0,
+    spacing: float = 0.5,
+    centers_of_mass: dict[str, np.ndarray] | None = None,
 ) -> tuple[dict[str, np.ndarray], Yard]:
     """Pick-up poses on a yard beside the building (see the module docstring) and the yard itself.
 
     ``gap``: distance (m) between the building's bounding box and the yard; ``spacing``: clear
     distance (m) between neighbouring components. Rows run along y; a new row starts when a row is
     as deep as the building (at least 10 m). Components are sorted longest first, so similar parts
-    (all columns, all beams) lie together.
+    (all columns, all beams) lie together. ``centers_of_mass`` (local frame, m; default: the mean
+    vertex) decide which face a part rests on: of the flat orientations, the one with the lowest
+    centre of mass, so an angle lies on a leg rather than balancing on its edges.
     """
     if not elements:
         return {}, Yard(np.zeros((2, 2)), ground_z)
     building_min = np.min([e.world_bounds[0] for e in elements], axis=0)
     building_max = np.max([e.world_bounds[1] for e in elements], axis=0)
     row_depth = max(building_max[1] - building_min[1], 10.0)
-    laid = {e.global_id: _lay_flat(e) for e in elements}
+    centers = centers_of_mass or {}
+    laid = {e.global_id: _lay_flat(e, centers.get(e.global_id)) for e in elements}
     order = sorted(elements, key=lambda e: (-_extents(laid[e.global_id], e)[0], e.ifc_class, e.global_id))
     poses: dict[str, np.ndarray] = {}
     row_x, cursor_y, row_length = building_max[0] + gap, building_min[1], 0.0
@@ -117,9 +124,10 @@ def yard_poses(
     return poses, Yard(np.array([start, far_corner]), ground_z)
 
 
-def _lay_flat(element: Element) -> np.ndarray:
+def _lay_flat(element: Element, center_of_mass: np.ndarray | None = None) -> np.ndarray:
     """World rotation of the element on the yard: its installed rotation followed by the right-angle
-    turn that puts its longest world extent along x and its shortest along z."""
+    turn that puts its longest world extent along x and its shortest along z; among the turns about x
+    that keep the thinnest side vertical, the one with the lowest centre of mass (a stable rest)."""
     installed = rigid(element.placement)[:3, :3]
     extents = np.ptp(element.vertices @ installed.T, axis=0)
     order = np.argsort(-extents, kind="stable")
@@ -127,7 +135,18 @@ def _lay_flat(element: Element) -> np.ndarray:
     turn[np.arange(3), order] = 1.0
     if np.linalg.det(turn) < 0:
         turn[1] *= -1
-    return turn @ installed
+    base = turn @ installed
+    center = element.vertices.mean(axis=0) if center_of_mass is None else np.asarray(center_of_mass, float)
+    candidates = []
+    for quarter_turns in range(4):
+        angle = quarter_turns * np.pi / 2
+        about_x = np.array([[1, 0, 0], [0, np.cos(angle), -np.sin(angle)], [0, np.sin(angle), np.cos(angle)]])
+        rotation = np.round(about_x) @ base
+        rotated = element.vertices @ rotation.T
+        height = np.ptp(rotated[:, 2])
+        center_height = (rotation @ center)[2] - rotated[:, 2].min()
+        candidates.append((round(height, 4), round(center_height, 6), quarter_turns, rotation))
+    return min(candidates, key=lambda c: c[:3])[3]
 
 
 def _extents(rotation: np.ndarray, element: Element) -> np.ndarray:

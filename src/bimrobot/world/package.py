@@ -220,7 +220,8 @@ def ground_height(model: BuildingModel, elements: list[Element]) -> float:
 def _place(converted: list[_Converted], ground_z: float, options: ConvertOptions) -> layout.Yard | None:
     elements = [item.element for item in converted]
     if options.layout == "yard":
-        poses, yard = layout.yard_poses(elements, ground_z)
+        centers = {item.element.global_id: item.mass.center_of_mass for item in converted}
+        poses, yard = layout.yard_poses(elements, ground_z, centers_of_mass=centers)
     else:
         poses, yard = layout.installed_poses(elements), None
     for item in converted:
