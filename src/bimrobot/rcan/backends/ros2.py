@@ -96,7 +96,7 @@ class Ros2Backend(ExecutorBackend):
 
     name = "ros2"
 
-    def __init__(self, capabilities: CapabilityTable, server_timeout_s: float = 15.0, result_timeout_s: float = 600.0):
+    def __init__(self, capabilities: CapabilityTable, server_timeout_s: float = 30.0, result_timeout_s: float = 600.0):
         rclpy, self._action = load_ros2()
         from rclpy.action import ActionClient
         from rclpy.executors import MultiThreadedExecutor
