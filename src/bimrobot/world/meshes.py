@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
+from bimrobot.errors import MissingExtraError
 from bimrobot.world.physics import Body, convex_hull
 
 CLASS_COLOURS: dict[str, tuple[float, float, float, float]] = {
@@ -121,6 +122,7 @@ def collision_mesh(body: Body, method: str, max_triangles: int) -> tuple[np.ndar
 def _decimated(vertices: np.ndarray, faces: np.ndarray, max_triangles: int) -> tuple[np.ndarray, np.ndarray]:
     if len(faces) <= max_triangles:
         return vertices, faces
+    _require_decimator()
     try:
         mesh = trimesh.Trimesh(vertices, faces, process=False).simplify_quadric_decimation(face_count=max_triangles)
     except Exception:  # the decimator refuses some degenerate meshes: keep the full body
@@ -133,6 +135,16 @@ def _join(pattern: str, values: list) -> str:
     if not values:
         return ""
     return ((pattern + " ") * len(values) % tuple(values))[:-1]
+
+
+def _require_decimator() -> None:
+    """trimesh's quadric decimation runs on the fast-simplification package."""
+    try:
+        import fast_simplification  # noqa: F401
+    except ImportError as exc:  # pragma: no cover - depends on the environment
+        raise MissingExtraError(
+            "decimating collision meshes needs the package fast-simplification: pip install fast-simplification"
+        ) from exc
 
 
 def _face_normals(vertices: np.ndarray, faces: np.ndarray) -> np.ndarray:
