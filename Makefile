@@ -5,7 +5,7 @@ DEMO_OUT ?= demo-out
 
 .PHONY: setup demo test clean
 
-$(VENV)/.installed: pyproject.toml scripts/setup.sh
+$(VENV)/.installed: pyproject.toml scripts/setup.sh scripts/setup-ros2.sh src/bimrobot/rcan/backends/ros2_pkg/bimrobot_interfaces/action/ConstructionActivity.action
 	VENV=$(VENV) scripts/setup.sh
 
 setup: $(VENV)/.installed
