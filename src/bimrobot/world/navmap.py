@@ -105,27 +105,42 @@ def occupancy(
             pixels = to_pixels(triangles.reshape(-1, 2))
             for start in range(0, len(pixels), 3):
                 draw.polygon(pixels[start : start + 3], fill=1)
-            outlines.append(np.stack([triangles, np.roll(triangles, -1, axis=1)], axis=2).reshape(-1, 2, 2))
+            thin = triangles[_thin_triangles(triangles, resolution)]
+            if len(thin):
+                outlines.append(np.stack([thin, np.roll(thin, -1, axis=1)], axis=2).reshape(-1, 2, 2))
         middle = (low + high) / 2
         if zmin < middle < zmax:
             for polygon in _section_polygons(vertices, faces, middle):
                 draw.polygon(to_pixels(np.asarray(polygon.exterior.coords)), fill=1)
                 for hole in polygon.interiors:
                     draw.polygon(to_pixels(np.asarray(hole.coords)), fill=0)
-                for ring in [polygon.exterior, *polygon.interiors]:
-                    coords = np.asarray(ring.coords)[:, :2]
-                    outlines.append(np.stack([coords[:-1], coords[1:]], axis=1))
+                if 2 * polygon.area / max(polygon.length, 1e-12) < 2 * resolution:  # thinner than ~4 cells
+                    for ring in [polygon.exterior, *polygon.interiors]:
+                        coords = np.asarray(ring.coords)[:, :2]
+                        outlines.append(np.stack([coords[:-1], coords[1:]], axis=1))
     grid = np.array(image, dtype=bool)
     if outlines:
         _mark_segments(grid, np.concatenate(outlines), origin, resolution)
     return grid
 
 
+def _thin_triangles(triangles: np.ndarray, resolution: float) -> np.ndarray:
+    """Mask of projected triangles (k, 3, 2) narrower than two cells: Pillow may skip their cells."""
+    edges = np.roll(triangles, -1, axis=1) - triangles
+    longest = np.linalg.norm(edges, axis=2).max(axis=1)
+    doubled_area = np.abs(edges[:, 0, 0] * edges[:, 1, 1] - edges[:, 0, 1] * edges[:, 1, 0])
+    return doubled_area / np.maximum(longest, 1e-12) < 2 * resolution
+
+
 def _mark_segments(grid: np.ndarray, segments: np.ndarray, origin: tuple[float, float], resolution: float) -> None:
     """Mark every cell that a 2-D segment (k, 2, 2; metres) passes through, so parts thinner than a
-    cell (a 9 mm web, a sheet) still block the map. Sampled at a quarter cell."""
+    cell (a 9 mm web, a sheet) still block the map. Sampled every half cell (a corner clipped by
+    less than that may stay free); segments that project onto each other are sampled once."""
+    segments = np.round(segments, 5)
+    segments = np.unique(np.sort(segments.view([("x", float), ("y", float)]).reshape(-1, 2), axis=1)
+                         .view(float).reshape(-1, 2, 2), axis=0)
     lengths = np.linalg.norm(segments[:, 1] - segments[:, 0], axis=1)
-    counts = np.ceil(lengths / (resolution / 4)).astype(int) + 1
+    counts = np.ceil(lengths / (resolution / 2)).astype(int) + 1
     owner = np.repeat(np.arange(len(segments)), counts)
     steps = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
     fraction = steps / np.maximum(np.repeat(counts, counts) - 1, 1)
