@@ -206,8 +206,12 @@ def run_benchmark(spec: BenchmarkSpec, out: str | Path, workers: int = 1, ray_ad
 
 
 def summarise_finished(spec: BenchmarkSpec, out: str | Path, command: str = "") -> list[dict[str, Any]]:
-    """Rewrite ``out``'s summary from the grid's runs that have finished, training nothing."""
+    """Rewrite ``out``'s summary from the grid's runs that have finished, training nothing. The command
+    line shown stays the one that trained the grid (from ``grid.json``) when there is one."""
     out = Path(out)
+    previous = out / "grid.json"
+    if previous.is_file():
+        command = json.loads(previous.read_text()).get("command") or command
     results = []
     for config in spec.configs():
         run_dir = out / "runs" / config.run_name

@@ -1,6 +1,6 @@
 """Learning curves like the thesis' fig. 6.15: one panel per setting, one line per algorithm.
 
-A line is the mean over seeds of each run's smoothed training return (mean of the last ``window`` finished
+A line is the mean over seeds (their number per algorithm, in legend order, in the panel title) of each run's smoothed training return (mean of the last ``window`` finished
 episodes at each point of a common env-step grid), the band its standard error over seeds; dashed lines
 mark the planner's optimal return and the random policy's mean return.
 """
@@ -60,20 +60,22 @@ def _plot_setting(ax, setting: str, runs: list[dict[str, Any]], algos: list[str]
 
     horizon = max((r["timesteps"] for r in runs), default=1)
     grid = np.linspace(horizon / CURVE_POINTS, horizon, CURVE_POINTS)
+    seed_counts = []
     for algo in algos:
         curves = np.array([smoothed_curve(r.get("episodes", []), grid) for r in runs if r["algo"] == algo])
         if len(curves) == 0:
             continue
+        seed_counts.append(str(len(curves)))
         valid = ~np.isnan(curves).all(axis=0)
         mean = np.nanmean(curves[:, valid], axis=0)
         count = (~np.isnan(curves[:, valid])).sum(axis=0)
         se = np.nanstd(curves[:, valid], axis=0, ddof=0) / np.sqrt(np.maximum(count, 1))
-        ax.plot(grid[valid], mean, color=colours[algo], label=f"{algo} ({len(curves)} seeds)", lw=1.4)
+        ax.plot(grid[valid], mean, color=colours[algo], label=algo, lw=1.4)
         ax.fill_between(grid[valid], mean - se, mean + se, color=colours[algo], alpha=0.2, lw=0)
     ref = reference_returns(setting)
     ax.axhline(ref["optimal"], color="black", ls="--", lw=0.8, label="optimal (planner)")
     ax.axhline(ref["random"], color="grey", ls=":", lw=0.8, label="random policy")
-    ax.set_title(setting)
+    ax.set_title(f"{setting} (seeds: {', '.join(seed_counts)})", fontsize=10)
     ax.set_xlabel("env steps")
     ax.set_ylabel("return")
     ax.ticklabel_format(axis="x", style="sci", scilimits=(0, 0))
