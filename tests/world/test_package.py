@@ -210,6 +210,7 @@ def test_static_flag_is_configurable_and_buried_dynamic_parts_are_warned_about(t
 def test_decimated_collision_respects_the_triangle_budget(tmp_path):
     import trimesh
 
+    pytest.importorskip("fast_simplification", reason="the quadric decimator (pip install fast-simplification)")
     model = frame_model()
     sphere = trimesh.creation.icosphere(subdivisions=4, radius=0.5)
     element = next(iter(model.elements.values()))

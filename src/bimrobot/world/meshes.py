@@ -14,6 +14,7 @@ makes whole models invisible.
 
 from __future__ import annotations
 
+import logging
 from pathlib import Path
 
 import numpy as np
@@ -40,6 +41,8 @@ CLASS_COLOURS: dict[str, tuple[float, float, float, float]] = {
     "IfcRailing": (0.35, 0.35, 0.35, 1.0),
 }
 DEFAULT_COLOUR = (0.65, 0.65, 0.65, 1.0)
+
+log = logging.getLogger(__name__)
 
 
 def colour_of(ifc_class: str) -> tuple[float, float, float, float]:
@@ -110,7 +113,11 @@ def collision_mesh(body: Body, method: str, max_triangles: int) -> tuple[np.ndar
             return _decimated(body.vertices, body.faces, max_triangles)
         vertices, faces = body.hull
         if len(faces) > max_triangles:
-            smaller = convex_hull(_decimated(body.vertices, body.faces, max_triangles)[0])
+            try:
+                smaller = convex_hull(_decimated(body.vertices, body.faces, max_triangles)[0])
+            except MissingExtraError:  # without the decimator a hull over budget is still a hull
+                log.warning("collision hull of %d triangles kept over the budget of %d", len(faces), max_triangles)
+                smaller = None
             if smaller is not None and len(smaller[1]) < len(faces):
                 vertices, faces = smaller
         return vertices, faces
