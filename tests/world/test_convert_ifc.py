@@ -134,9 +134,12 @@ def cli(capsys, monkeypatch):
 def test_cli_converts_and_prints_where_and_what(tmp_path, cli):
     ifc = examples.greenhouse(tmp_path / "greenhouse.ifc")
     status, out, err = cli("convert", str(ifc), "-o", "gh_pkg", "--include", "IfcColumn, IfcBeam", "--layout", "yard",
-                           cwd=tmp_path)
+                           "--validate", cwd=tmp_path)
     assert status == 0, err
     assert "wrote gh_pkg/" in out and "19 (10 IfcBeam, 9 IfcColumn)" in out
+    assert "check:    19 models: meshes present, masses and inertia physical" in out
+    if sdf_validator():
+        assert "ign sdf -k worlds/" in out and ": Valid" in out
     report = json.loads((tmp_path / "gh_pkg" / "report.json").read_text())
     assert report["counts"]["by_class"] == {"IfcBeam": 10, "IfcColumn": 9}
     assert report["yard"] is not None

@@ -64,6 +64,9 @@ def register(subparsers) -> None:
     parser.add_argument("--no-maps", action="store_true", help="do not write occupancy maps")
     parser.add_argument("--package-name", help="ROS package name (default: from the output folder name)")
     parser.add_argument("--no-progress", action="store_true", help="no progress bars")
+    parser.add_argument("--validate", action="store_true",
+                        help="check the written package: meshes present, masses and inertia physical, and every "
+                        "world through the SDF validator (`ign sdf -k`, when installed); exit 1 if anything fails")
     parser.set_defaults(func=convert_command)
 
 
@@ -117,7 +120,29 @@ def convert_command(args: argparse.Namespace) -> int:
         progress=not args.no_progress and sys.stderr.isatty(),
     )
     print(summary(report, args.output))
-    return 0
+    return validate_package(args.output, report) if args.validate else 0
+
+
+def validate_package(output: Path, report: dict) -> int:
+    """Print the package checks; 0 when everything passes, 1 otherwise."""
+    from bimrobot.world.check import problems, sdf_validator, validate_sdf
+
+    found = problems(output)
+    models = len(list((output / "models").iterdir()))
+    print(f"  check:    {models} models: meshes present, masses and inertia physical" if not found
+          else "  check:    FAILED\n" + "\n".join(f"    {problem}" for problem in found))
+    failed = bool(found)
+    if sdf_validator() is None:
+        print("  check:    `ign sdf` not installed (apt-get install ignition-tools libsdformat-dev): SDF not validated")
+    for world in report["world_files"].values():
+        if sdf_validator() is None:
+            break
+        valid, text = validate_sdf(output / world, output / "models")
+        print(f"  check:    ign sdf -k {world}: {'Valid' if valid else 'INVALID'}")
+        if not valid:
+            print("\n".join(f"    {line}" for line in text.splitlines()))
+            failed = True
+    return 1 if failed else 0
 
 
 def summary(report: dict, output: Path) -> str:
