@@ -244,3 +244,23 @@ def test_bad_options_are_refused_with_the_option_named(tmp_path, options, messag
     with pytest.raises(InputError, match=message):
         build_package(frame_model(), tmp_path / "bad", options)
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize(
+    "site, source, expected",
+    [
+        ("Construction site", "frame.ifc", "construction_site"),
+        ("Topography : Surface", "ifcUnit.ifc", "ifcunit"),  # Revit's default site name
+        ("Default", "engine_web-ifc_example.ifc", "engine_web_ifc_example"),
+        ("表面:335313", "ifcColumn.ifc", "ifccolumn"),
+        ("", None, "test_frame"),
+    ],
+)
+def test_world_is_named_by_the_site_unless_the_site_name_is_a_tool_default(site, source, expected):
+    from pathlib import Path
+
+    from bimrobot.world.package import world_name_of
+
+    model = frame_model()
+    model.site_name, model.source = site, Path(source) if source else None
+    assert world_name_of(model) == expected

@@ -148,7 +148,7 @@ def build_package(
         raise InputError(f"{source}: the model has no element with solid geometry to convert")
     out_dir = Path(out_dir)
     package = options.package_name or ros_package_name(out_dir.name)
-    world_name = slug(model.site_name or model.project_name or (model.source.stem if model.source else ""), "site")
+    world_name = world_name_of(model)
     timings: dict[str, float] = {"load": load_seconds} if load_seconds is not None else {}
     with atomic_output_dir(out_dir) as tmp:
         tick = time.perf_counter()
@@ -179,6 +179,19 @@ def build_package(
         (tmp / "README.md").write_text(_readme(report), encoding="utf-8")
     log.info("wrote %s: %d models, %d skipped", out_dir, len(converted), len(skipped))
     return report
+
+
+GENERIC_SITE_NAMES = {"", "site", "default", "default_site", "surface", "topography", "topography_surface",
+                      "unnamed", "my_site"}
+"""Site names authoring tools write by default (Revit: "Topography : Surface"); they do not name a world."""
+
+
+def world_name_of(model: BuildingModel) -> str:
+    """The world's name and file stem: the IfcSite's name, unless it is a tool default, then the file name."""
+    site = slug(model.site_name or "", "")
+    if site not in GENERIC_SITE_NAMES and not site.replace("_", "").isdigit():  # "表面:335313" -> "335313"
+        return site
+    return slug(model.source.stem if model.source else model.project_name or "", "site")
 
 
 def _prepare_elements(model: BuildingModel, options: ConvertOptions, progress: bool):
