@@ -174,7 +174,7 @@ def build_package(
         report["ground_z_m"] = ground_z
         report["warnings"] = _warnings(converted, options, ground_z)
         for warning in report["warnings"]:
-            log.warning("%s", warning)
+            log.info("%s", warning)  # the CLI prints them in its summary
         (tmp / "report.json").write_text(json.dumps(report, indent=2), encoding="utf-8")
         (tmp / "README.md").write_text(_readme(report), encoding="utf-8")
     log.info("wrote %s: %d models, %d skipped", out_dir, len(converted), len(skipped))
