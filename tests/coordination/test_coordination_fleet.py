@@ -31,7 +31,7 @@ def test_builtin_fleets_are_table_4_1():
         ("robots:\n  - {name: A, kind: assembly, speed: 1, reach: 4, time_per_point: 30, payload: 9}", r"unknown key 'payload' for a assembly robot"),
         ("robots:\n  - {name: A, kind: assembly, speed: 1, reach: 4, time_per_point: 30, methods: [glue]}", r"key 'methods' must be a list drawn from"),
         ("robots:\n  - {name: A, kind: assembly, speed: 1, reach: 4, time_per_point: 30}\n  - {name: A, kind: assembly, speed: 1, reach: 4, time_per_point: 30}", "robot name 'A' is used twice"),
-        ("robots:\n  - {name: T, kind: transport\n", r"line \d+ is not valid YAML"),
+        ("robots:\n  - {name: T, kind: transport\n", r"line \d+: not valid YAML"),
     ],
 )
 def test_bad_fleet_files_name_file_and_key(tmp_path, body, message):

@@ -17,8 +17,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
+from bimrobot.config import parse_yaml
 from bimrobot.errors import InputError
 
 SETTINGS_DIR = Path(__file__).with_name("settings")
@@ -181,13 +181,7 @@ def load_scenario(path: str | Path) -> Scenario:
 
 
 def _read_yaml(path: Path) -> Any:
-    try:
-        with open(path, encoding="utf-8") as fh:
-            return yaml.safe_load(fh)
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        where = f" line {mark.line + 1}" if mark else ""
-        raise InputError(f"{path}{where}: not valid YAML ({getattr(exc, 'problem', exc)})") from None
+    return parse_yaml(path.read_text(encoding="utf-8"), str(path))
 
 
 def parse_scenario(data: dict[str, Any], source: str = "<memory>") -> Scenario:

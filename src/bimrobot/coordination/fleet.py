@@ -23,8 +23,8 @@ from importlib import resources
 from pathlib import Path
 
 import numpy as np
-import yaml
 
+from bimrobot.config import parse_yaml
 from bimrobot.errors import InputError
 
 ACTIVITIES = ("transport", "position", "assemble")
@@ -168,13 +168,7 @@ def load_fleet(spec: str | Path) -> Fleet:
             raise InputError(f"fleet {spec!r} is neither a built-in fleet ({', '.join(BUILTIN_FLEETS)}) nor a file")
         text = path.read_text()
         source = str(path)
-    try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        line = f" line {mark.line + 1}" if mark else ""
-        raise InputError(f"{source}:{line} is not valid YAML ({getattr(exc, 'problem', exc)})") from None
-    return fleet_from_dict(data, source)
+    return fleet_from_dict(parse_yaml(text, source), source)
 
 
 @dataclass(frozen=True)
@@ -256,10 +250,4 @@ def load_site(path: str | Path | None) -> Site:
     path = Path(path)
     if not path.is_file():
         raise InputError(f"site file {str(path)!r} does not exist")
-    try:
-        data = yaml.safe_load(path.read_text())
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        line = f" line {mark.line + 1}" if mark else ""
-        raise InputError(f"{path}:{line} is not valid YAML ({getattr(exc, 'problem', exc)})") from None
-    return site_from_dict(data, str(path))
+    return site_from_dict(parse_yaml(path.read_text(), str(path)), str(path))

@@ -15,8 +15,8 @@ from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
 
-import yaml
 
+from bimrobot.config import parse_yaml
 from bimrobot.errors import InputError
 from bimrobot.rcan.activities import ActivityKind, Pose, RcanActivity
 from bimrobot.rcan.node import RcanNode
@@ -90,11 +90,7 @@ def load_capabilities(path: str | Path | None = None) -> CapabilityTable:
             raise InputError(f"capability table {path} does not exist")
         text = path.read_text()
         source = str(path)
-    try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        raise InputError(f"{source} is not valid YAML: {str(exc).splitlines()[0]}") from None
-    return parse_capabilities(data, source)
+    return parse_capabilities(parse_yaml(text, source), source)
 
 
 def parse_capabilities(data: object, source: str = "capability table") -> CapabilityTable:
