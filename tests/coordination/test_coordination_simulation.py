@@ -1,6 +1,5 @@
 """The market-based construction simulation: known times, thesis rules, faults."""
 
-import numpy as np
 import pytest
 
 from bimrobot.bim.model import BuildingModel, Connection, Storey

@@ -48,7 +48,7 @@ def test_experiments_over_ros2_match_the_sim_backend(ros2_robots, number, compon
     caps = load_capabilities()
     ros_log, sim_log = [], []
     on_ros = run_plan(experiment(number).activities, caps, backend="ros2", log=ros_log.append)
-    on_sim = run_plan(experiment(number).activities, caps, backend="sim", log=sim_log.append)
+    run_plan(experiment(number).activities, caps, backend="sim", log=sim_log.append)
     assert on_ros.status == "completed" and on_ros.component_states == {component: "Assembled"}
     # the same interaction, step by step (robot times differ: the robot node's site carries on between
     # experiments, like a real site, while each sim run starts at home)
