@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import random
 import re
+import time
 
 import pytest
 
@@ -63,6 +64,10 @@ def test_feedback_idempotent_goal_and_robot_checks(backend):
     first = backend.execute(node, 1, ready_at_s=100.0, feedback=lambda p, phase: robot_node_state.append((p, phase)))
     assert first.success and first.started_s == pytest.approx(100.0)
     assert first.duration_s == pytest.approx(((1 + 5) ** 2 + (2 + 5) ** 2) ** 0.5 / 0.8)  # from home (-5, -5) at 0.8 m/s
+    # ROS 2 delivers feedback on its own topic: the last message may land just after the result.
+    deadline = time.monotonic() + 5.0
+    while len(robot_node_state) < 2 and time.monotonic() < deadline:
+        time.sleep(0.05)
     assert [p for p, _ in robot_node_state] == [0.0, 1.0]
     assert backend.execute(node, 1) == first  # the same goal again: the robot node returns its result
     pick = RcanNode("rcan/F.2", RcanActivity("F.2", "COLX", K.PICK_UP, Pose(9.0, 9.0, 0.0)), "heavy_mobile_manipulator", "ros2")
