@@ -34,3 +34,21 @@ def test_eval_of_a_folder_that_is_not_a_run_dir(tmp_path, capsys):
 def test_summary_only_without_finished_runs(tmp_path, capsys):
     assert main(["rl", "benchmark", "--settings", "E1S1", "--summary-only", "-o", str(tmp_path)]) == 2
     assert "holds no finished run of this grid" in capsys.readouterr().err
+
+
+def test_help_lists_the_algorithms_without_loading_torch():
+    """``bimrobot --help`` and every other command build the whole parser: that must not import PyTorch."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys; from bimrobot.cli import build_parser; "
+        "text = build_parser()._subparsers._group_actions[0].choices['rl'].format_help(); "
+        "print('torch' in sys.modules)"
+    )
+    loaded = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert loaded.strip() == "False"
+    from bimrobot.rl.algorithms import ALGORITHMS
+    from bimrobot.rl.names import ALGORITHM_NAMES
+
+    assert tuple(ALGORITHMS) == ALGORITHM_NAMES

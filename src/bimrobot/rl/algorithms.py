@@ -28,6 +28,7 @@ from torch import nn
 from torch.nn import functional as F
 
 from bimrobot.errors import InputError
+from bimrobot.rl.names import ALGORITHM_NAMES, PROFILE_NAMES
 
 
 def td_targets(
@@ -212,6 +213,8 @@ def fast_hyperparameters(algo: str, setting: str) -> dict[str, Any]:
 
 
 HYPERPARAMETER_PROFILES = {"thesis": thesis_hyperparameters, "fast": fast_hyperparameters}
+
+assert tuple(ALGORITHMS) == ALGORITHM_NAMES and tuple(HYPERPARAMETER_PROFILES) == PROFILE_NAMES, "update rl/names.py"
 
 
 def hyperparameters(algo: str, setting: str, profile: str = "thesis", overrides: dict | None = None) -> dict:

@@ -24,7 +24,7 @@ BENCHMARK_EXAMPLE = """examples:
 
 def register(subparsers) -> None:
     """Add this part's sub-commands to the bimrobot parser."""
-    from bimrobot.rl.algorithms import ALGORITHMS, HYPERPARAMETER_PROFILES
+    from bimrobot.rl.names import ALGORITHM_NAMES, PROFILE_NAMES
 
     rl = subparsers.add_parser("rl", help="DRL assembly planning: train, evaluate, benchmark (thesis ch. 6)",
                                description="Train and benchmark DRL agents on the assembly-planning settings.")
@@ -32,7 +32,7 @@ def register(subparsers) -> None:
     rl.set_defaults(func=lambda args: (rl.print_help(), 1)[1])
 
     def common(parser: argparse.ArgumentParser) -> None:
-        parser.add_argument("--profile", choices=list(HYPERPARAMETER_PROFILES), default="thesis",
+        parser.add_argument("--profile", choices=list(PROFILE_NAMES), default="thesis",
                             help="hyperparameters: 'thesis' = appendix A.1 (default), 'fast' = more envs and larger "
                                  "batches for a small CPU budget (see docs/rl.md)")
         parser.add_argument("--shaping", type=float, default=0.0, metavar="SCALE",
@@ -45,7 +45,7 @@ def register(subparsers) -> None:
                                 formatter_class=argparse.RawDescriptionHelpFormatter,
                                 description="Train, checkpoint and evaluate; writes the run dir <out>/<setting>-<algo>-s<seed>.")
     train.add_argument("--setting", required=True, help="E1S1 .. E4S4")
-    train.add_argument("--algo", required=True, choices=list(ALGORITHMS))
+    train.add_argument("--algo", required=True, choices=list(ALGORITHM_NAMES))
     train.add_argument("--timesteps", default="1e6", help="env steps (e.g. 1e6, 250k; default 1e6)")
     train.add_argument("--seed", type=int, default=0)
     train.add_argument("-o", "--out", default="runs", help="parent folder of the run dir (default runs/)")
@@ -71,7 +71,7 @@ def register(subparsers) -> None:
                                             "table.csv, grid.json and learning_curves.png to the output folder.")
     bench.add_argument("--settings", default="all", help="all, E1..E4, S1..S4 or a comma list (default all)")
     bench.add_argument("--algos", default="ppo,maskable-ppo,double-dqn",
-                       help=f"comma list or 'all' ({', '.join(ALGORITHMS)})")
+                       help=f"comma list or 'all' ({', '.join(ALGORITHM_NAMES)})")
     bench.add_argument("--seeds", default="0-2", help="e.g. 0-4 or 0,3,7 (default 0-2)")
     bench.add_argument("--timesteps", default="1e6", help="env steps per run (default 1e6)")
     bench.add_argument("--timesteps-per-env", default=None, metavar="E1=...,E4=...",
