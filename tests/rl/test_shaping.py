@@ -1,4 +1,5 @@
-"""Potential-based distance shaping: the potential is minus the Manhattan distance to the nearest eligible slot."""
+"""Potential-based distance shaping: the potential is minus the distance (shortest unblocked path, or Manhattan)
+to the nearest eligible slot."""
 
 from __future__ import annotations
 
@@ -14,7 +15,7 @@ X_PLUS, Y_PLUS, Z_MINUS = 2, 3, 5
 def test_potential_and_shaped_reward_on_env2_s2():
     """Env2 S2: col2 is lifted at corner (7, 3, 2); the column slots' corners are (9, 9, 1) and (9, 13, 1),
     9 and 13 cells away (the spec's worked example: 9 moves to slot (9, 9))."""
-    venv = DistanceShaping(AssemblySB3VecEnv("E2S2", num_envs=2, seed=0), gamma=0.9, scale=1.0)
+    venv = DistanceShaping(AssemblySB3VecEnv("E2S2", num_envs=2, seed=0), gamma=0.9, scale=1.0, metric="manhattan")
     venv.reset()
     assert venv.potential().tolist() == [-9.0, -9.0]
     _, rewards, _, _ = venv.step(np.array([X_PLUS, Z_MINUS]))
@@ -42,3 +43,46 @@ def test_episode_returns_in_infos_stay_unshaped():
             episode = infos[0]["episode"]
     assert episode is not None and episode["r"] == pytest.approx(-1.8333, abs=1e-3)  # the spec's optimum
     assert shaped_total != pytest.approx(episode["r"])
+
+
+@pytest.mark.parametrize("setting", [f"E{e}S{s}" for e in range(1, 5) for s in range(1, 5)])
+def test_path_potential_is_the_planners_shortest_path(setting):
+    """At every reset the path potential is minus the exact planner's breadth-first distance (computed
+    forwards from the lifted pose, ours backwards from the slots) to the nearest slot the component may fill."""
+    from bimrobot.assembly import make_env
+    from bimrobot.assembly.planner import _Search
+
+    envs = 4
+    venv = DistanceShaping(AssemblySB3VecEnv(setting, num_envs=envs, seed=100), gamma=0.9, scale=1.0)
+    venv.reset()
+    potentials = venv.potential()
+    single = make_env(setting).unwrapped
+    for i in range(envs):
+        single.reset(seed=100 + i)
+        state = single.snapshot()
+        search = _Search(state, single.r0, single.epsilon, single.completion_bonus)
+        filled = frozenset(state.prebuilt_slots)
+        occ = search.occupancy(0, filled)
+        start = tuple(v + 1 for v in search.start_pose(0, occ, state.corner))
+        goals = search.eligible(0, filled)
+        dist = search.distances(search.valid_poses(0, occ), start, goals)
+        nearest = min(int(dist[cell]) for cell in goals if dist[cell] > 0)
+        assert potentials[i] == -nearest, f"{setting} env {i}"
+
+
+def test_path_potential_sees_the_obstacle_that_manhattan_walks_into():
+    """E1S4: col3 is lifted at (7, 2, 2) (cells z 2..5) and its slots lie beyond the obstacle x 9..14, y 5..7,
+    z 1..4, so it must pass at x = 7..8. Moving to x = 8 is progress for both potentials; moving on to x = 9
+    brings it closer in Manhattan distance but leaves it one move further from the slot (it must come back)."""
+    path = DistanceShaping(AssemblySB3VecEnv("E1S4", num_envs=2, seed=0), gamma=1.0, metric="path")
+    manhattan = DistanceShaping(AssemblySB3VecEnv("E1S4", num_envs=2, seed=0), gamma=1.0, metric="manhattan")
+    path.reset(), manhattan.reset()
+    assert path.sim.pos.tolist() == [[7, 2, 2], [7, 2, 2]]
+    seen = []
+    for _ in range(2):
+        path.step(np.array([X_PLUS, X_PLUS]))
+        manhattan.step(np.array([X_PLUS, X_PLUS]))
+        seen.append((path.potential().copy(), manhattan.potential().copy()))
+    (path_x8, manhattan_x8), (path_x9, manhattan_x9) = seen
+    assert (path_x9 == path_x8 - 1).all()
+    assert (manhattan_x9 == manhattan_x8 + 1).all()

@@ -125,6 +125,7 @@ class BenchmarkSpec:
     eval_episodes: int = 20
     threads: int = 1
     shaping: float = 0.0
+    shaping_metric: str = "path"
     overrides: dict[str, dict[str, Any]] = field(default_factory=dict)  # per algorithm
 
     def budget(self, setting: str) -> int:
@@ -136,7 +137,7 @@ class BenchmarkSpec:
         return [
             TrainConfig(setting, algo, self.budget(setting), seed, self.profile, dict(self.overrides.get(algo, {})),
                         self.eval_episodes, checkpoint_every=max(self.budget(setting) // 4, 1), threads=self.threads,
-                        shaping=self.shaping)
+                        shaping=self.shaping, shaping_metric=self.shaping_metric)
             for seed in self.seeds
             for setting in self.settings
             for algo in self.algos
@@ -156,7 +157,10 @@ def _run_one(config: TrainConfig, runs_dir: str) -> dict[str, Any]:
 def _check_same_run(config: TrainConfig, run_dir: Path) -> None:
     """A finished run is reused only if it was trained as ``config`` asks; otherwise a clear error."""
     stored = json.loads((run_dir / "config.json").read_text())
-    for key in ("timesteps", "profile", "shaping", "overrides"):
+    stored.setdefault("shaping_metric", "manhattan")  # run dirs from before the path metric existed
+    for key in ("timesteps", "profile", "shaping", "shaping_metric", "overrides"):
+        if key == "shaping_metric" and not config.shaping:
+            continue
         if stored.get(key) != getattr(config, key):
             raise InputError(
                 f"{run_dir} was trained with {key}={stored.get(key)!r}, not {getattr(config, key)!r}: "
@@ -299,7 +303,8 @@ def markdown_table(rows: list[dict[str, Any]], spec: BenchmarkSpec, command: str
         "",
         f"Hyperparameter profile `{spec.profile}`"
         + (f", overrides {spec.overrides}" if spec.overrides else "")
-        + (f"; potential-based distance shaping of the training reward, scale {spec.shaping:g} (reported returns "
+        + (f"; potential-based distance shaping of the training reward ({spec.shaping_metric} distance), scale "
+           f"{spec.shaping:g} (reported returns "
            "are the environment's own)" if spec.shaping else "; no reward shaping")
         + f"; seeds {spec.seeds}; env steps per run: " + ", ".join(f"{s} {spec.budget(s):,}" for s in settings) + ".",
         f"Finished runs: {finished} of {total}"

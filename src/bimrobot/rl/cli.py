@@ -24,7 +24,7 @@ BENCHMARK_EXAMPLE = """examples:
 
 def register(subparsers) -> None:
     """Add this part's sub-commands to the bimrobot parser."""
-    from bimrobot.rl.names import ALGORITHM_NAMES, PROFILE_NAMES
+    from bimrobot.rl.names import ALGORITHM_NAMES, PROFILE_NAMES, SHAPING_METRICS
 
     rl = subparsers.add_parser("rl", help="DRL assembly planning: train, evaluate, benchmark (thesis ch. 6)",
                                description="Train and benchmark DRL agents on the assembly-planning settings.")
@@ -38,6 +38,9 @@ def register(subparsers) -> None:
         parser.add_argument("--shaping", type=float, default=0.0, metavar="SCALE",
                             help="potential-based distance shaping of the training reward (0 = off, default); "
                                  "reported returns are always the env's own")
+        parser.add_argument("--shaping-metric", choices=list(SHAPING_METRICS), default="path",
+                            help="the shaping's distance to the nearest free slot: 'path' = shortest path of "
+                                 "unblocked moves (default), 'manhattan' = L1, blind to obstacles")
         parser.add_argument("--eval-episodes", type=int, default=20, help="greedy evaluation episodes (default 20)")
         parser.add_argument("--threads", type=int, default=1, help="torch threads per run (default 1)")
 
@@ -109,7 +112,7 @@ def _train(args) -> int:
         setting=args.setting.upper(), algo=args.algo, timesteps=parse_timesteps(args.timesteps), seed=args.seed,
         profile=args.profile, overrides=_overrides(args.set), eval_episodes=args.eval_episodes,
         checkpoint_every=parse_timesteps(args.checkpoint_every), threads=args.threads,
-        progress_bar=not args.no_progress, shaping=args.shaping,
+        progress_bar=not args.no_progress, shaping=args.shaping, shaping_metric=args.shaping_metric,
     )
     run_dir = train(config, args.out)
     results = json.loads((run_dir / "results.json").read_text())
@@ -164,6 +167,7 @@ def _benchmark(args) -> int:
         settings=parse_settings(args.settings), algos=parse_algos(args.algos), seeds=parse_seeds(args.seeds),
         timesteps=parse_timesteps(args.timesteps), budgets=parse_timesteps_per_env(args.timesteps_per_env),
         profile=args.profile, eval_episodes=args.eval_episodes, threads=args.threads, shaping=args.shaping,
+        shaping_metric=args.shaping_metric,
     )
     command = "bimrobot " + " ".join(shlex.quote(a) for a in sys.argv[1:]) if sys.argv[1:] else ""
     if args.summary_only:

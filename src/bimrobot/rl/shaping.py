@@ -5,20 +5,32 @@ pays. A random walk of 100 steps almost never carries a component the ~14 cells 
 learners see nearly no reward (measured: MaskablePPO on E1S2, 100k steps, no placement learnt).
 
 :class:`DistanceShaping` adds ``F = scale * (gamma * phi(s') - phi(s))`` to the *training* reward, with
-``phi(s) = -`` the Manhattan distance (cells) from the current component's pose to the nearest pose at
-which it would fill an eligible free slot (obstacles ignored). Potential-based shaping of this form leaves
+``phi(s) = -`` the distance (cells, moves) from the current component's pose to the nearest pose at
+which it would fill an eligible free slot. Two metrics:
+
+* ``"path"`` (default): the length of the shortest path of moves that are not blocked, found by a
+  breadth-first search over the component's free poses (obstacles, foundations, waiting and placed
+  components all block). Nothing but the current component moves while it is current, so one search per
+  component, when it is picked up, serves all its steps. Poses from which no slot can be reached get the
+  distance ``2 (W + L + H)``.
+* ``"manhattan"``: the L1 distance, blind to obstacles (the first version; on the crowded S4 settings it
+  points straight into the obstacles and training stalls, see docs/rl.md).
+
+Potential-based shaping of this form leaves
 the optimal policies unchanged (Ng, Harada & Russell 1999). It is applied to the training signal only:
 the Monitor-style ``episode`` returns, the evaluation and every reported figure are the environment's own
 reward. The policy still acts on observations alone.
 
-It reads the batched simulator's state (``sim.pos``, ``sim.cur``, ``sim.filled``, ``sim.supports``,
-``sim.cs.comp_arrival``), so it only wraps :func:`bimrobot.assembly.vector.AssemblySB3VecEnv`.
+It reads the batched simulator's state (``sim.pos``, ``sim.pflat``, ``sim.occ``, ``sim.cur``, ``sim.filled``,
+``sim.supports``, ``sim.arrival``), so it only wraps :func:`bimrobot.assembly.vector.AssemblySB3VecEnv`.
 """
 
 from __future__ import annotations
 
 import numpy as np
 from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper
+
+from bimrobot.rl.names import SHAPING_METRICS
 
 
 def slot_corners(sim) -> np.ndarray:
@@ -32,6 +44,45 @@ def slot_corners(sim) -> np.ndarray:
     return corners
 
 
+def path_distances(sim, envs: np.ndarray) -> np.ndarray:
+    """(len(envs), P) int32: moves from each padded min-corner pose of env e's current component to its
+    nearest eligible free slot pose, by breadth-first search from the slots over the free poses; poses
+    that are not free or reach no slot get ``2 (W + L + H)``. Envs are searched together, as arrays."""
+    cs = sim.cs
+    R, P = len(envs), sim.P
+    far = 2 * (cs.W + cs.L + cs.H)
+    comps = np.minimum(sim.cur[envs], cs.n_comp)  # n_comp (no current component) is the padding row
+    # a pose is free when none of the component's cells is occupied; cells past the grid's end are blocked
+    occupied = np.ones((R, P + int(sim.offsets.max()) + 1), bool)
+    occupied[:, :P] = sim.occ[envs] != 0
+    cells = np.arange(P)[None, :, None] + sim.offsets[comps][:, None, :]
+    free = ~np.take_along_axis(occupied, cells.reshape(R, -1), axis=1).reshape(R, P, -1).any(axis=2)
+    slot = sim.arrival[comps]  # (R, P): target filled by arriving at that pose, -1 none
+    target = np.maximum(slot, 0)
+    rows = np.arange(R)[:, None]
+    filled = sim.filled[envs]
+    eligible = (
+        (slot >= 0)
+        & ~filled[rows, target]
+        & filled[rows, sim.supports[target, 0]]
+        & filled[rows, sim.supports[target, 1]]
+    )
+    distance = np.full((R, P), far, np.int32)
+    frontier = eligible & free
+    reached = frontier.copy()
+    steps = 0
+    while frontier.any():
+        distance[frontier] = steps
+        steps += 1
+        grown = np.zeros_like(frontier)
+        for shift in sim.stride.tolist():  # one cell along x, y or z
+            grown[:, shift:] |= frontier[:, :-shift]
+            grown[:, :-shift] |= frontier[:, shift:]
+        frontier = grown & free & ~reached
+        reached |= frontier
+    return np.minimum(distance, far)
+
+
 class DistanceShaping(VecEnvWrapper):
     """Adds ``scale * (gamma * phi(s') - phi(s))`` to the rewards of an AssemblySB3VecEnv (see module doc).
 
@@ -39,17 +90,23 @@ class DistanceShaping(VecEnvWrapper):
     it is taken as ``phi(s)``.
     """
 
-    def __init__(self, venv: VecEnv, gamma: float, scale: float = 1.0):
+    def __init__(self, venv: VecEnv, gamma: float, scale: float = 1.0, metric: str = "path"):
         super().__init__(venv)
         if not hasattr(venv, "sim"):
             raise TypeError("DistanceShaping needs the batched assembly simulator (AssemblySB3VecEnv)")
+        if metric not in SHAPING_METRICS:
+            raise ValueError(f"unknown shaping metric {metric!r}: choose one of {', '.join(SHAPING_METRICS)}")
         self.sim = venv.sim
-        self.gamma, self.scale = float(gamma), float(scale)
+        self.gamma, self.scale, self.metric = float(gamma), float(scale), metric
         self.corners = slot_corners(self.sim)
         self._phi_before = np.zeros(self.num_envs)
+        self._fields = np.zeros((self.num_envs, self.sim.P), np.int32)  # path distances, per env
+        self._field_of = np.full((self.num_envs, 2), -1, np.int64)  # (episode count, component) searched
 
     def potential(self) -> np.ndarray:
-        """phi of every env's current state: minus the L1 distance (cells) to the nearest eligible slot pose."""
+        """phi of every env's current state: minus the distance (cells) to the nearest eligible slot pose."""
+        if self.metric == "path":
+            return self._path_potential()
         sim = self.sim
         corners = self.corners[np.minimum(sim.cur, len(self.corners) - 1)]  # (N, T, 3)
         filled = sim.filled[:, :-1]
@@ -59,13 +116,26 @@ class DistanceShaping(VecEnvWrapper):
         distance = np.where(eligible, distance, np.inf).min(axis=1)
         return -np.where(np.isfinite(distance), distance, 0.0)
 
+    def _path_potential(self) -> np.ndarray:
+        sim = self.sim
+        # a component's search stays valid until the next one is picked up or the episode restarts
+        now = np.stack([self._episodes, sim.cur], axis=1)
+        stale = np.flatnonzero((now != self._field_of).any(axis=1))
+        if stale.size:
+            self._fields[stale] = path_distances(sim, stale)
+            self._field_of[stale] = now[stale]
+        return -self._fields[np.arange(self.num_envs), sim.pflat].astype(np.float64)
+
     def reset(self):
         obs = self.venv.reset()
+        self._episodes = np.zeros(self.num_envs, np.int64)
+        self._field_of[:] = -1
         self._phi_before = self.potential()
         return obs
 
     def step_wait(self):
         obs, rewards, dones, infos = self.venv.step_wait()
+        self._episodes += dones
         phi_after = self.potential()
         for i in np.flatnonzero(dones):
             truncated = infos[i].get("TimeLimit.truncated", False)

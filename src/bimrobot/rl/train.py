@@ -35,6 +35,7 @@ from stable_baselines3.common.vec_env import DummyVecEnv, VecEnv, VecMonitor
 from bimrobot.errors import InputError
 from bimrobot.io import atomic_output_dir
 from bimrobot.rl.algorithms import get_algorithm, hyperparameters
+from bimrobot.rl.names import SHAPING_METRICS
 
 log = logging.getLogger(__name__)
 
@@ -57,6 +58,7 @@ class TrainConfig:
     threads: int = 1
     progress_bar: bool = False
     shaping: float = 0.0  # scale of the potential-based distance shaping (bimrobot.rl.shaping); 0 = off
+    shaping_metric: str = "path"  # its distance: "path" (shortest unblocked path) or "manhattan"
 
     @property
     def run_name(self) -> str:
@@ -74,6 +76,8 @@ class TrainConfig:
             raise InputError(f"--shaping must be >= 0, got {self.shaping}")
         if self.eval_episodes < 0:
             raise InputError(f"--eval-episodes must be >= 0, got {self.eval_episodes}")
+        if self.shaping_metric not in SHAPING_METRICS:
+            raise InputError(f"--shaping-metric must be one of {', '.join(SHAPING_METRICS)}, got {self.shaping_metric!r}")
 
 
 def make_vec_env(setting: str, n_envs: int, seed: int) -> VecEnv:
@@ -217,7 +221,7 @@ def train(config: TrainConfig, out_dir: str | Path) -> Path:
         if config.shaping > 0:
             from bimrobot.rl.shaping import DistanceShaping
 
-            venv = DistanceShaping(venv, gamma=params["gamma"], scale=config.shaping)
+            venv = DistanceShaping(venv, gamma=params["gamma"], scale=config.shaping, metric=config.shaping_metric)
         model = build_model(config, venv)
         model.set_logger(configure(str(tmp), ["csv", "tensorboard"]))
         episode_log = EpisodeLog(tmp / "episodes.csv")
