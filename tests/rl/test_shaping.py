@@ -15,18 +15,20 @@ X_PLUS, Y_PLUS, Z_MINUS = 2, 3, 5
 def test_potential_and_shaped_reward_on_env2_s2():
     """Env2 S2: col2 is lifted at corner (7, 3, 2); the column slots' corners are (9, 9, 1) and (9, 13, 1),
     9 and 13 cells away (the spec's worked example: 9 moves to slot (9, 9))."""
-    venv = DistanceShaping(AssemblySB3VecEnv("E2S2", num_envs=2, seed=0), gamma=0.9, scale=1.0, metric="manhattan")
+    venv = DistanceShaping(AssemblySB3VecEnv("E2S2", num_envs=2, seed=0), scale=0.5, metric="manhattan")
     venv.reset()
     assert venv.potential().tolist() == [-9.0, -9.0]
     _, rewards, _, _ = venv.step(np.array([X_PLUS, Z_MINUS]))
-    # env reward -1 per step; shaping 0.9 * (-8) - (-9) = +1.8 for both moves towards the slot
-    assert rewards == pytest.approx([0.8, 0.8])
+    # env reward -1 per step; shaping +0.5 for a move one cell closer
+    assert rewards == pytest.approx([-0.5, -0.5])
     _, rewards, _, _ = venv.step(np.array([0, 0]))  # x-1: back away from the slot, 8 -> 9 cells
-    assert rewards == pytest.approx([-1 + 0.9 * -9 + 8, -1 + 0.9 * -9 + 8])
+    assert rewards == pytest.approx([-1.5, -1.5])
 
 
-def test_episode_returns_in_infos_stay_unshaped():
-    venv = DistanceShaping(AssemblySB3VecEnv("E2S2", num_envs=1, seed=0), gamma=0.9, scale=1.0)
+def test_episode_returns_in_infos_stay_unshaped_and_placing_is_never_punished():
+    """Along the optimal plan every move is one cell of progress: the shaping adds exactly +1 per action,
+    with no penalty when the next component is picked up far from its slot."""
+    venv = DistanceShaping(AssemblySB3VecEnv("E2S2", num_envs=1, seed=0), scale=1.0)
     venv.reset()
     # follow the exact planner's optimal plan to the end of the episode
     from bimrobot.assembly import make_env
@@ -42,7 +44,21 @@ def test_episode_returns_in_infos_stay_unshaped():
         if dones[0]:
             episode = infos[0]["episode"]
     assert episode is not None and episode["r"] == pytest.approx(-1.8333, abs=1e-3)  # the spec's optimum
-    assert shaped_total != pytest.approx(episode["r"])
+    assert shaped_total == pytest.approx(episode["r"] + len(actions))
+
+
+def test_no_shaping_on_a_time_limit_truncation():
+    venv = DistanceShaping(AssemblySB3VecEnv("E1S2", num_envs=1, seed=0), scale=1.0)
+    venv.reset()
+    total, steps = 0.0, 0
+    while True:  # shuttle up (away from the slot) and down until the 100-step limit
+        _, rewards, dones, infos = venv.step(np.array([4 if steps % 2 == 0 else 5]))
+        total, steps = total + float(rewards[0]), steps + 1
+        if dones[0]:
+            break
+    assert infos[0]["TimeLimit.truncated"] and steps == 100 and infos[0]["episode"]["r"] == -185.0
+    # 50 moves away (-1 each), 49 back (+1 each); the truncating step's move earns nothing
+    assert total == pytest.approx(-185.0 - 1.0)
 
 
 @pytest.mark.parametrize("setting", [f"E{e}S{s}" for e in range(1, 5) for s in range(1, 5)])
@@ -53,7 +69,7 @@ def test_path_potential_is_the_planners_shortest_path(setting):
     from bimrobot.assembly.planner import _Search
 
     envs = 4
-    venv = DistanceShaping(AssemblySB3VecEnv(setting, num_envs=envs, seed=100), gamma=0.9, scale=1.0)
+    venv = DistanceShaping(AssemblySB3VecEnv(setting, num_envs=envs, seed=100), scale=1.0)
     venv.reset()
     potentials = venv.potential()
     single = make_env(setting).unwrapped
@@ -74,8 +90,8 @@ def test_path_potential_sees_the_obstacle_that_manhattan_walks_into():
     """E1S4: col3 is lifted at (7, 2, 2) (cells z 2..5) and its slots lie beyond the obstacle x 9..14, y 5..7,
     z 1..4, so it must pass at x = 7..8. Moving to x = 8 is progress for both potentials; moving on to x = 9
     brings it closer in Manhattan distance but leaves it one move further from the slot (it must come back)."""
-    path = DistanceShaping(AssemblySB3VecEnv("E1S4", num_envs=2, seed=0), gamma=1.0, metric="path")
-    manhattan = DistanceShaping(AssemblySB3VecEnv("E1S4", num_envs=2, seed=0), gamma=1.0, metric="manhattan")
+    path = DistanceShaping(AssemblySB3VecEnv("E1S4", num_envs=2, seed=0), metric="path")
+    manhattan = DistanceShaping(AssemblySB3VecEnv("E1S4", num_envs=2, seed=0), metric="manhattan")
     path.reset(), manhattan.reset()
     assert path.sim.pos.tolist() == [[7, 2, 2], [7, 2, 2]]
     seen = []

@@ -4,9 +4,13 @@ The benchmark's reward is sparse: every step costs the same whatever its directi
 pays. A random walk of 100 steps almost never carries a component the ~14 cells to its slot, so on-policy
 learners see nearly no reward (measured: MaskablePPO on E1S2, 100k steps, no placement learnt).
 
-:class:`DistanceShaping` adds ``F = scale * (gamma * phi(s') - phi(s))`` to the *training* reward, with
-``phi(s) = -`` the distance (cells, moves) from the current component's pose to the nearest pose at
-which it would fill an eligible free slot. Two metrics:
+:class:`DistanceShaping` adds ``F = scale * (psi(s') - psi(s))`` to the *training* reward. The potential
+``psi`` is the distance progress so far (cells): the sum, over the components picked up so far, of each
+one's distance to its nearest eligible free slot at pick-up, minus the current component's distance now.
+So a move towards the slot earns ``+scale``, a move away or a blocked move towards nothing ``-scale`` or 0,
+the placing move ``+scale`` (its last cell of distance), and picking up the next component costs nothing.
+The distance is measured in moves from the current component's pose to the nearest pose at which it would
+fill an eligible free slot, by one of two metrics:
 
 * ``"path"`` (default): the length of the shortest path of moves that are not blocked, found by a
   breadth-first search over the component's free poses (obstacles, foundations, waiting and placed
@@ -16,8 +20,14 @@ which it would fill an eligible free slot. Two metrics:
 * ``"manhattan"``: the L1 distance, blind to obstacles (the first version; on the crowded S4 settings it
   points straight into the obstacles and training stalls, see docs/rl.md).
 
-Potential-based shaping of this form leaves
-the optimal policies unchanged (Ng, Harada & Russell 1999). It is applied to the training signal only:
+Why undiscounted progress and not the textbook ``gamma * phi(s') - phi(s)`` with ``phi = -distance``: with
+the thesis' gamma = 0.9 and distances of 10-20 cells, the term ``(1 - gamma) * distance`` pays +1..+2 per
+step, as much as the step cost, and every pick-up costs ``gamma *`` the next component's distance (about
+-12) against a placement reward of +2..+13. Measured on E1S4 (MaskablePPO, 200k steps): the agent learnt
+to carry the column to the far corner of the site and shuttle there, never placing (score 0.18). Shaping by
+a potential difference leaves the optimal policies of the episodic, undiscounted objective unchanged (Ng,
+Harada & Russell 1999): the shaped return of an episode is its return plus ``psi(end) - psi(start)``.
+It is applied to the training signal only:
 the Monitor-style ``episode`` returns, the evaluation and every reported figure are the environment's own
 reward. The policy still acts on observations alone.
 
@@ -84,27 +94,28 @@ def path_distances(sim, envs: np.ndarray) -> np.ndarray:
 
 
 class DistanceShaping(VecEnvWrapper):
-    """Adds ``scale * (gamma * phi(s') - phi(s))`` to the rewards of an AssemblySB3VecEnv (see module doc).
+    """Adds ``scale * (psi(s') - psi(s))`` to the rewards of an AssemblySB3VecEnv (see module doc).
 
-    ``phi(s')`` is 0 for a terminal state; for a time-limit truncation (the simulator has already reset)
-    it is taken as ``phi(s)``.
+    On a step that places a component (or ends the episode by placing the last) that is ``scale *`` the
+    distance before the step; on a time-limit truncation (the simulator has already reset) it is 0.
     """
 
-    def __init__(self, venv: VecEnv, gamma: float, scale: float = 1.0, metric: str = "path"):
+    def __init__(self, venv: VecEnv, scale: float = 1.0, metric: str = "path"):
         super().__init__(venv)
         if not hasattr(venv, "sim"):
             raise TypeError("DistanceShaping needs the batched assembly simulator (AssemblySB3VecEnv)")
         if metric not in SHAPING_METRICS:
             raise ValueError(f"unknown shaping metric {metric!r}: choose one of {', '.join(SHAPING_METRICS)}")
         self.sim = venv.sim
-        self.gamma, self.scale, self.metric = float(gamma), float(scale), metric
+        self.scale, self.metric = float(scale), metric
         self.corners = slot_corners(self.sim)
         self._phi_before = np.zeros(self.num_envs)
         self._fields = np.zeros((self.num_envs, self.sim.P), np.int32)  # path distances, per env
         self._field_of = np.full((self.num_envs, 2), -1, np.int64)  # (episode count, component) searched
 
     def potential(self) -> np.ndarray:
-        """phi of every env's current state: minus the distance (cells) to the nearest eligible slot pose."""
+        """Minus the distance (cells) from each env's current component to its nearest eligible slot pose
+        (the part of ``psi`` that changes while one component moves)."""
         if self.metric == "path":
             return self._path_potential()
         sim = self.sim
@@ -131,17 +142,20 @@ class DistanceShaping(VecEnvWrapper):
         self._episodes = np.zeros(self.num_envs, np.int64)
         self._field_of[:] = -1
         self._phi_before = self.potential()
+        self._component_before = self.sim.cur.copy()
         return obs
 
     def step_wait(self):
         obs, rewards, dones, infos = self.venv.step_wait()
         self._episodes += dones
         phi_after = self.potential()
-        for i in np.flatnonzero(dones):
-            truncated = infos[i].get("TimeLimit.truncated", False)
-            phi_after_i = self._phi_before[i] if truncated else 0.0
-            rewards[i] += self.scale * (self.gamma * phi_after_i - self._phi_before[i])
-        alive = ~dones
-        rewards[alive] += self.scale * (self.gamma * phi_after[alive] - self._phi_before[alive])
+        truncated = np.array([bool(info.get("TimeLimit.truncated", False)) for info in infos])
+        placed = (dones & ~truncated) | (~dones & (self.sim.cur != self._component_before))
+        moved = ~dones & ~placed
+        shaping = np.zeros(self.num_envs)
+        shaping[placed] = -self._phi_before[placed]  # the last cell of distance; the next pick-up is free
+        shaping[moved] = phi_after[moved] - self._phi_before[moved]
+        rewards += self.scale * shaping
         self._phi_before = phi_after
+        self._component_before = self.sim.cur.copy()
         return obs, rewards, dones, infos

@@ -221,7 +221,7 @@ def train(config: TrainConfig, out_dir: str | Path) -> Path:
         if config.shaping > 0:
             from bimrobot.rl.shaping import DistanceShaping
 
-            venv = DistanceShaping(venv, gamma=params["gamma"], scale=config.shaping, metric=config.shaping_metric)
+            venv = DistanceShaping(venv, scale=config.shaping, metric=config.shaping_metric)
         model = build_model(config, venv)
         model.set_logger(configure(str(tmp), ["csv", "tensorboard"]))
         episode_log = EpisodeLog(tmp / "episodes.csv")
