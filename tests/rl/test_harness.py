@@ -149,6 +149,26 @@ def test_table_cells_are_mean_and_standard_error_over_seeds():
     assert "bimrobot rl benchmark ..." in table
 
 
+def test_time_to_score_in_env_steps_and_wall_seconds_median_over_seeds():
+    ref = reference_returns("E1S1")
+    good = ref["random"] + 1.1 * (ref["optimal"] - ref["random"])  # 82 of them in 100 score 0.902
+
+    def run(seed: int, bad_episodes: int) -> dict:
+        returns = [ref["random"]] * bad_episodes + [good] * 150
+        return {"setting": "E1S1", "algo": "ppo", "seed": seed, "timesteps": 10_000, "train_last100_mean": good,
+                "eval_mean": good, "train_seconds": 100.0,
+                "episodes": [(10 * (i + 1), r) for i, r in enumerate(returns)],
+                "episode_wall_s": [0.5 * (i + 1) for i in range(len(returns))]}
+
+    # the rolling mean of 100 passes 0.9 at the 82nd good episode; the median seed has 200 bad ones first
+    (row,) = aggregate([run(0, 100), run(1, 200), run(2, 300)])
+    assert row["seeds_reaching_0.9"] == 3
+    assert row["median_steps_to_0.9"] == 10 * (200 + 82)
+    assert row["median_wall_s_to_0.9"] == pytest.approx(0.5 * (200 + 82))
+    table = markdown_table([row], BenchmarkSpec(["E1S1"], ["ppo"], [0, 1, 2], 10_000), "")
+    assert "| 3/3 | 2,820 | 141 s |" in table
+
+
 @pytest.mark.slow
 def test_benchmark_grid_in_parallel_and_resumed(tmp_path):
     spec = BenchmarkSpec(["E1S2"], ["maskable-ppo", "double-dqn"], [0, 1], 512, profile="fast", eval_episodes=2,

@@ -7,7 +7,7 @@ after every finished run, rewrites the summary in ``out/``:
 * ``table.md`` / ``table.csv``: per setting and algorithm, mean +- standard error over seeds of (a) the mean
   return of the last 100 training episodes and (b) the mean return of 20 greedy evaluation episodes, each
   with its normalised score ``(return - random) / (optimal - random)``, and the env steps until the mean of
-  the last 100 training episodes first reached a score of 0.9;
+  the last 100 training episodes first reached a score of 0.9 (and the wall time of training until then);
 * ``learning_curves.png``: one panel per setting (thesis fig. 6.15);
 * ``grid.json``: the command line, the grid and every run's results.
 
@@ -151,6 +151,7 @@ def _run_one(config: TrainConfig, runs_dir: str) -> dict[str, Any]:
         train(config, runs_dir)
     results = json.loads((run_dir / "results.json").read_text())
     results["episodes"] = read_episodes(run_dir)
+    results["episode_wall_s"] = read_episode_wall_seconds(run_dir)
     return results
 
 
@@ -172,6 +173,12 @@ def read_episodes(run_dir: Path) -> list[tuple[int, float]]:
     """(timestep, return) of every training episode of a run dir."""
     with open(run_dir / "episodes.csv", newline="") as handle:
         return [(int(row["timestep"]), float(row["return"])) for row in csv.DictReader(handle)]
+
+
+def read_episode_wall_seconds(run_dir: Path) -> list[float]:
+    """Wall-clock seconds since the start of training at which each training episode ended."""
+    with open(run_dir / "episodes.csv", newline="") as handle:
+        return [float(row["wall_s"]) for row in csv.DictReader(handle)]
 
 
 def _pool(workers: int, ray_address: str | None):
@@ -231,6 +238,13 @@ def summarise_finished(spec: BenchmarkSpec, out: str | Path, command: str = "") 
 def time_to_score(episodes: list[tuple[int, float]], setting: str, goal: float = SCORE_GOAL,
                   window: int = LAST_EPISODES) -> int | None:
     """Env steps until the mean of the last ``window`` training episodes first reached a score of ``goal``."""
+    index = episode_reaching_score(episodes, setting, goal, window)
+    return None if index is None else int(episodes[index][0])
+
+
+def episode_reaching_score(episodes: list[tuple[int, float]], setting: str, goal: float = SCORE_GOAL,
+                           window: int = LAST_EPISODES) -> int | None:
+    """Index of the training episode after which the mean of the last ``window`` first scored ``goal``."""
     from bimrobot.assembly.planner import reference_returns
 
     ref = reference_returns(setting)
@@ -240,7 +254,7 @@ def time_to_score(episodes: list[tuple[int, float]], setting: str, goal: float =
         return None
     rolling = np.convolve(returns, np.ones(window) / window, mode="valid")
     reached = np.flatnonzero(rolling >= threshold)
-    return int(episodes[reached[0] + window - 1][0]) if len(reached) else None
+    return int(reached[0] + window - 1) if len(reached) else None
 
 
 def _mean_se(values: Iterable[float | None]) -> tuple[float, float, int] | None:
@@ -262,8 +276,9 @@ def aggregate(results: list[dict[str, Any]]) -> list[dict[str, Any]]:
     for (setting, algo), runs in sorted(cells.items()):
         train_stats = _mean_se(r["train_last100_mean"] for r in runs)
         eval_stats = _mean_se(r["eval_mean"] for r in runs)
-        times = [time_to_score(r.get("episodes", []), setting) for r in runs]
-        reached = [t for t in times if t is not None]
+        indices = [episode_reaching_score(r.get("episodes", []), setting) for r in runs]
+        reached = [r["episodes"][i][0] for r, i in zip(runs, indices) if i is not None]
+        reached_wall = [r["episode_wall_s"][i] for r, i in zip(runs, indices) if i is not None and r.get("episode_wall_s")]
         rows.append({
             "setting": setting,
             "algo": algo,
@@ -277,6 +292,7 @@ def aggregate(results: list[dict[str, Any]]) -> list[dict[str, Any]]:
             "eval_score": score(setting, eval_stats[0]) if eval_stats else None,
             "seeds_reaching_0.9": len(reached),
             "median_steps_to_0.9": int(np.median(reached)) if reached else None,
+            "median_wall_s_to_0.9": float(np.median(reached_wall)) if reached_wall else None,
             "train_hours": sum(r["train_seconds"] for r in runs) / 3600,
         })
     return rows
@@ -333,22 +349,23 @@ def markdown_table(rows: list[dict[str, Any]], spec: BenchmarkSpec, command: str
         "## Goal check: best algorithm per setting against the thesis' best cell",
         "",
         "| setting | best algorithm | score (train, last 100) | score (greedy eval) | thesis best | >= 0.9 | beats thesis "
-        "| seeds reaching 0.9 | median env steps to 0.9 |",
-        "|---|---|---|---|---|---|---|---|---|",
+        "| seeds reaching 0.9 | median env steps to 0.9 | median wall time to 0.9 |",
+        "|---|---|---|---|---|---|---|---|---|---|",
     ]
     for setting in settings:
         candidates = [by_cell[(setting, a)] for a in algos if (setting, a) in by_cell]
         if not candidates:
-            lines.append(f"| {setting} | not run | | | {THESIS_BEST_SCORE[setting]:.2f} | | | | |")
+            lines.append(f"| {setting} | not run | | | {THESIS_BEST_SCORE[setting]:.2f} | | | | | |")
             continue
         best = max(candidates, key=lambda c: max(c["train_score"] or -np.inf, c["eval_score"] or -np.inf))
         best_score = max(best["train_score"] or -np.inf, best["eval_score"] or -np.inf)
         thesis = THESIS_BEST_SCORE[setting]
-        steps = best["median_steps_to_0.9"]
+        steps, wall = best["median_steps_to_0.9"], best["median_wall_s_to_0.9"]
         lines.append(
             f"| {setting} | {best['algo']} | {_num(best['train_score'])} | {_num(best['eval_score'])} | {thesis:.2f} "
             f"| {'yes' if best_score >= SCORE_GOAL else 'no'} | {'yes' if best_score > thesis else 'no'} "
-            f"| {best['seeds_reaching_0.9']}/{best['seeds']} | {f'{steps:,}' if steps is not None else '-'} |"
+            f"| {best['seeds_reaching_0.9']}/{best['seeds']} | {f'{steps:,}' if steps is not None else '-'} "
+            f"| {f'{wall:.0f} s' if wall is not None else '-'} |"
         )
     lines.append("")
     return "\n".join(lines)
@@ -370,7 +387,7 @@ def write_summary(out: Path, spec: BenchmarkSpec, results: list[dict[str, Any]],
             writer = csv.DictWriter(handle, fieldnames=list(rows[0]))
             writer.writeheader()
             writer.writerows(rows)
-    runs = [{k: v for k, v in r.items() if k != "episodes"} for r in results]
+    runs = [{k: v for k, v in r.items() if k not in ("episodes", "episode_wall_s")} for r in results]
     with atomic_output_file(out / "grid.json") as tmp:
         tmp.write_text(json.dumps({"command": command, "spec": asdict(spec), "runs": runs}, indent=2))
     with atomic_output_file(out / "learning_curves.png") as tmp:

@@ -17,7 +17,7 @@ EVAL_EXAMPLE = """example:
 """
 BENCHMARK_EXAMPLE = """examples:
   bimrobot rl benchmark --settings all --algos maskable-ppo,double-dqn --seeds 0-2 --workers 2 \\
-      --profile fast --shaping 1 --timesteps-per-env E1=1e5,E2=1e5,E3=4e5,E4=8e5 -o docs/results/
+      --profile fast --shaping 1 --timesteps-per-env E1=2e5,E2=3e5,E3=6e5,E4=1e6 -o docs/results/maskable-ppo
   bimrobot rl benchmark --settings E1,E2 --algos all --seeds 0-4 --workers 16 --ray auto -o bench_out/
 """
 
