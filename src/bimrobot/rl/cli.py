@@ -1,4 +1,4 @@
-"""Sub-commands of the rl part (registered by bimrobot.cli): ``bimrobot rl train | eval | benchmark``."""
+"""Sub-commands of the rl part (registered by bimrobot.cli): ``bimrobot rl train | eval | benchmark | compare``."""
 
 from __future__ import annotations
 
@@ -19,6 +19,10 @@ BENCHMARK_EXAMPLE = """examples:
   bimrobot rl benchmark --settings all --algos maskable-ppo,double-dqn --seeds 0-2 --workers 2 \\
       --profile fast --shaping 1 --timesteps-per-env E1=2e5,E2=3e5,E3=6e5,E4=1e6 -o docs/results/maskable-ppo
   bimrobot rl benchmark --settings E1,E2 --algos all --seeds 0-4 --workers 16 --ray auto -o bench_out/
+"""
+COMPARE_EXAMPLE = """example:
+  bimrobot rl compare docs/results/double-dqn docs/results/baselines docs/results/maskable-ppo \\
+      -o docs/results/table.md
 """
 
 
@@ -87,6 +91,14 @@ def register(subparsers) -> None:
                        help="train nothing: rewrite the table and plots from the runs of this grid that have finished")
     common(bench)
     bench.set_defaults(func=_benchmark)
+
+    compare = commands.add_parser("compare", help="one Table 6.1 from several benchmark output folders",
+                                  epilog=COMPARE_EXAMPLE, formatter_class=argparse.RawDescriptionHelpFormatter,
+                                  description="Put the algorithms of several benchmark grids side by side (scores, "
+                                              "env steps to 0.9, goal check against the thesis' best cells).")
+    compare.add_argument("grids", nargs="+", metavar="GRID", help="a bimrobot rl benchmark output folder")
+    compare.add_argument("-o", "--out", required=True, help="the Markdown file to write")
+    compare.set_defaults(func=_compare)
 
 
 def _overrides(pairs: list[str]) -> dict:
@@ -176,4 +188,12 @@ def _benchmark(args) -> int:
         results = run_benchmark(spec, args.out, workers=args.workers, ray_address=args.ray, command=command)
     print(f"{len(results)} runs; summary in {args.out}/: table.md, table.csv, grid.json, learning_curves.png; "
           f"run dirs in {args.out}/runs/")
+    return 0
+
+
+def _compare(args) -> int:
+    from bimrobot.rl.compare import write_comparison
+
+    out = write_comparison(args.grids, args.out)
+    print(f"comparison of {len(args.grids)} grids written to {out}")
     return 0
