@@ -31,18 +31,10 @@ import numpy as np
 from bimrobot.errors import InputError
 from bimrobot.io import atomic_output_file
 from bimrobot.rl.algorithms import ALGORITHMS, get_algorithm
+from bimrobot.rl.compare import SCORE_GOAL, THESIS_BEST_SCORE
 from bimrobot.rl.train import LAST_EPISODES, TrainConfig, train
 
 log = logging.getLogger(__name__)
-
-SCORE_GOAL = 0.9
-# The thesis' best cell per setting (Table 6.1), as normalised scores measured on the published code (issue 6).
-THESIS_BEST_SCORE = {
-    "E1S1": 0.99, "E1S2": 0.99, "E1S3": 0.99, "E1S4": 0.99,
-    "E2S1": 0.95, "E2S2": 0.91, "E2S3": 0.98, "E2S4": 0.85,
-    "E3S1": 0.65, "E3S2": 0.67, "E3S3": 0.81, "E3S4": 0.75,
-    "E4S1": 0.58, "E4S2": 0.60, "E4S3": 0.64, "E4S4": 0.71,
-}  # fmt: skip
 
 
 def parse_settings(text: str) -> list[str]:
