@@ -16,11 +16,14 @@ Finished runs are skipped, so an interrupted benchmark continues where it stoppe
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import json
 import logging
 import multiprocessing
 import re
+import signal
+import threading
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -173,9 +176,34 @@ def read_episode_wall_seconds(run_dir: Path) -> list[float]:
         return [float(row["wall_s"]) for row in csv.DictReader(handle)]
 
 
+def _exit_on_sigterm(signum: int, frame: Any) -> None:
+    raise SystemExit(128 + signum)
+
+
+def _worker_exits_on_sigterm() -> None:
+    """Pool initializer: a terminated worker unwinds, so its unfinished run dir is removed, not left half-written."""
+    signal.signal(signal.SIGTERM, _exit_on_sigterm)
+
+
+@contextlib.contextmanager
+def _sigterm_stops_the_pool():
+    """While the grid runs, SIGTERM leaves the ``with pool`` block like Ctrl-C does, which terminates the
+    workers too; by default SIGTERM kills only this process and the spawned workers would train on."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGTERM, _exit_on_sigterm)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
 def _pool(workers: int, ray_address: str | None):
     if ray_address is None:
-        return multiprocessing.get_context("spawn").Pool(processes=workers, maxtasksperchild=1)
+        return multiprocessing.get_context("spawn").Pool(
+            processes=workers, initializer=_worker_exits_on_sigterm, maxtasksperchild=1
+        )
     from bimrobot.errors import require_extra
 
     require_extra("ray", "ray")
@@ -198,7 +226,7 @@ def run_benchmark(spec: BenchmarkSpec, out: str | Path, workers: int = 1, ray_ad
     results: list[dict[str, Any]] = []
     start = time.perf_counter()
     log.info("benchmark: %d runs on %d workers -> %s", len(configs), workers, out)
-    with _pool(workers, ray_address) as pool:
+    with _sigterm_stops_the_pool(), _pool(workers, ray_address) as pool:
         pending = [pool.apply_async(_run_one, (config, str(runs_dir))) for config in configs]
         for config, job in zip(configs, pending):
             results.append(job.get())

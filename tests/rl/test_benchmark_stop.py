@@ -1,0 +1,57 @@
+"""Stopping a benchmark with SIGTERM (what a scheduler or `kill` sends) stops its training workers too."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+pytest.importorskip("sb3_contrib")
+
+
+def _children(pid: int) -> list[int]:
+    children = Path(f"/proc/{pid}/task/{pid}/children")
+    return [int(child) for child in children.read_text().split()] if children.exists() else []
+
+
+def _alive(pid: int) -> bool:
+    status = Path(f"/proc/{pid}/status")
+    if not status.exists():
+        return False
+    return "State:\tZ" not in status.read_text()
+
+
+def _wait_for(condition, timeout_s: float) -> bool:
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        if condition():
+            return True
+        time.sleep(0.2)
+    return False
+
+
+@pytest.mark.skipif(not Path("/proc/self/task").exists(), reason="needs Linux /proc to find the workers")
+def test_sigterm_stops_the_workers_and_leaves_no_half_written_run(tmp_path):
+    out = tmp_path / "grid"
+    command = [sys.executable, "-m", "bimrobot.cli", "rl", "benchmark", "--settings", "E1S1", "--algos", "a2c",
+               "--seeds", "0", "--timesteps", "1e7", "--workers", "1", "--threads", "1", "-o", str(out)]
+    master = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    try:
+        training = lambda: any((out / "runs").glob(".E1S1-a2c-s0.*.tmp/episodes.csv"))  # noqa: E731
+        assert _wait_for(training, 120), "the worker never started training"
+        workers = _children(master.pid)
+        assert workers, "the benchmark has no worker processes"
+        master.send_signal(signal.SIGTERM)
+        master.wait(timeout=60)
+        assert master.returncode != 0
+        assert _wait_for(lambda: not any(_alive(pid) for pid in workers), 30), "a worker kept training"
+        assert not list((out / "runs").iterdir()), "an unfinished run dir was left behind"
+    finally:
+        if master.poll() is None:
+            os.kill(master.pid, signal.SIGKILL)
+            master.wait()
