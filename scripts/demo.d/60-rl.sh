@@ -16,4 +16,4 @@ echo "  config.json, model.zip     what was trained and the trained model (bimro
 echo "  episodes.csv, progress.csv every training episode's return; SB3's training log (tensorboard --logdir $out)"
 echo "  results.json               last-100 training mean, 10 greedy evaluation episodes, normalised scores"
 echo "  $out/E1S2-maskable-ppo.gif  the trained agent playing one episode"
-echo "  The full benchmark table (all 16 settings) is in docs/results/maskable-ppo/table.md."
+echo "  The full benchmark table (all 16 settings, every algorithm benchmarked) is in docs/results/table.md."
