@@ -77,7 +77,7 @@ class BatchedAssemblySim:
         self.single_observation_space = AssemblyEnv(scenario=scenario).observation_space
         self.single_action_space = gym.spaces.Discrete(6)
         self._build_tables()
-        W, L, H, C, T = cs.W, cs.L, cs.H, cs.n_comp, cs.n_target
+        W, L, C, T = cs.W, cs.L, cs.n_comp, cs.n_target
         self.occ = np.zeros((N, self.P), np.uint8)
         self._occ_flat = self.occ.reshape(-1)
         self._env_base = np.arange(N, dtype=np.int64) * self.P
