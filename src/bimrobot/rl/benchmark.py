@@ -233,6 +233,10 @@ def run_benchmark(spec: BenchmarkSpec, out: str | Path, workers: int = 1, ray_ad
             log.info("finished %s (%d/%d, %.0f s)", config.run_name, len(results), len(configs),
                      time.perf_counter() - start)
             write_summary(out, spec, results, command)
+        # a clean shutdown: leaving the block would terminate() the workers, and a SIGTERM reaching one
+        # that is already exiting prints a spurious SystemExit traceback from its atexit handlers
+        pool.close()
+        pool.join()
     return results
 
 
