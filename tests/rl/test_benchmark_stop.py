@@ -35,7 +35,8 @@ def _wait_for(condition, timeout_s: float) -> bool:
     return False
 
 
-@pytest.mark.skipif(not Path("/proc/self/task").exists(), reason="needs Linux /proc to find the workers")
+@pytest.mark.skipif(not Path(f"/proc/{os.getpid()}/task/{os.getpid()}/children").exists(),
+                    reason="needs Linux /proc/<pid>/task/<pid>/children to find the workers")
 def test_sigterm_stops_the_workers_and_leaves_no_half_written_run(tmp_path):
     out = tmp_path / "grid"
     command = [sys.executable, "-m", "bimrobot.cli", "rl", "benchmark", "--settings", "E1S1", "--algos", "a2c",
