@@ -24,6 +24,7 @@ class WeightSource(str, enum.Enum):
     QUANTITY = "IfcQuantityWeight"
     PROPERTY = "weight property"  # e.g. Revit's Structural/Exact Weight
     DENSITY = "volume x material density"
+    ASSUMED = "assumed density (--unknown-weight)"  # set by bimrobot.bim.unknown_weight, never by the reader
     UNKNOWN = "unknown"
 
 

@@ -30,6 +30,7 @@ import ifcopenshell.util.unit
 
 from bimrobot.bim.model import BuildingModel, Connection, Element, SkippedProduct, Storey
 from bimrobot.bim.quantities import mesh_volume, resolve_weight
+from bimrobot.bim.selection import describe, select_products
 from bimrobot.errors import InputError
 
 log = logging.getLogger(__name__)
@@ -55,25 +56,20 @@ def load_model(
 ) -> BuildingModel:
     """Read ``path`` (IFC2X3, IFC4 or IFC4X3_ADD2) into a BuildingModel (metres, z up, kg).
 
-    ``include`` / ``exclude``: IFC class names (a list or a comma-separated string such as
-    ``"IfcColumn, IfcBeam"``); subclasses count, so ``"IfcBuildingElement"`` takes walls, beams, ...
+    ``include`` / ``exclude``: IfcOpenShell selectors (see :mod:`bimrobot.bim.selection`), e.g.
+    ``"IfcColumn, IfcBeam"`` or ``"IfcElement, ! IfcFurnishingElement"``, or lists of class names;
+    subclasses count, so ``"IfcBuildingElement"`` takes walls, beams, ...
     ``progress``: show a tqdm bar over the geometry pass. ``threads``: geometry threads (default: up to 2).
     Raises :class:`~bimrobot.errors.InputError` naming the file when it is missing, not IFC, truncated,
     of an unsupported schema, or holds no element with solid geometry.
     """
     path = Path(path)
     ifc = open_ifc(path)
-    include_classes = resolve_class_names(ifc, include, path, "include")
-    exclude_classes = resolve_class_names(ifc, exclude, path, "exclude")
-    if include_classes and exclude_classes:
-        raise InputError(f"{path}: give either include or exclude classes, not both")
-
     length_scale = ifcopenshell.util.unit.calculate_unit_scale(ifc)
     mass_scale, mass_name = _mass_unit(ifc)
-    candidates = candidate_products(ifc, include_classes, exclude_classes)
+    candidates = select_products(ifc, as_selector(include), as_selector(exclude), path)
     if not candidates:
-        wanted = f" of class {', '.join(include_classes)}" if include_classes else ""
-        raise InputError(f"{path} contains no building element{wanted}")
+        raise InputError(f"{path} contains no building element ({describe(as_selector(include), as_selector(exclude))})")
 
     elements: dict[str, Element] = {}
     meshes: dict[str, tuple[np.ndarray, np.ndarray]] = {}
@@ -138,34 +134,68 @@ def _lazy_volume(cache: dict[str, float], key: str, vertices: np.ndarray, faces:
 
 
 def open_ifc(path: Path) -> ifcopenshell.file:
-    """Open an IFC-SPF file, or raise InputError with one sentence naming the file and the problem."""
+    """Open an IFC-SPF file or an ``.ifczip`` holding one; InputError with one sentence when it cannot."""
     if not path.exists():
         raise InputError(f"{path}: no such file")
     if not path.is_file():
         raise InputError(f"{path} is not a file")
     with open(path, "rb") as stream:
+        magic = stream.read(4)
+    if magic.startswith(b"PK"):
+        return _open_ifczip(path)
+    with open(path, "rb") as stream:
         head = stream.read(4096)
         stream.seek(max(0, path.stat().st_size - 4096))
         tail = stream.read()
+    return _open_spf(path, path, head, tail)
+
+
+def _open_ifczip(path: Path) -> ifcopenshell.file:
+    """Open the one IFC-SPF file inside a zip archive (``.ifczip``, as many tools export)."""
+    import tempfile
+    import zipfile
+
+    try:
+        with zipfile.ZipFile(path) as archive:
+            members = [m for m in archive.infolist() if not m.is_dir() and m.filename.lower().endswith(".ifc")]
+            if not members:
+                names = ", ".join(archive.namelist()[:5]) or "nothing"
+                raise InputError(f"{path} is a zip archive without an .ifc file inside (it holds {names})")
+            if len(members) > 1:
+                names = ", ".join(m.filename for m in members[:5])
+                raise InputError(f"{path} is a zip archive with {len(members)} .ifc files ({names}); give one model per archive")
+            member = members[0]
+            with archive.open(member) as stream:
+                head = stream.read(4096)
+            with tempfile.TemporaryDirectory(prefix="bimrobot-ifczip-") as folder:
+                inner = Path(archive.extract(member, folder))
+                with open(inner, "rb") as stream:
+                    stream.seek(max(0, inner.stat().st_size - 4096))
+                    tail = stream.read()
+                return _open_spf(inner, Path(f"{path}!{member.filename}"), head, tail)
+    except zipfile.BadZipFile as exc:
+        raise InputError(f"{path} looks like a zip archive but cannot be read ({exc})") from None
+
+
+def _open_spf(path: Path, shown: Path, head: bytes, tail: bytes) -> ifcopenshell.file:
+    """Check the header and the end of an IFC-SPF file, then parse it; ``shown`` names it in messages."""
     stripped = head.lstrip(b"\xef\xbb\xbf \t\r\n")
-    if stripped.startswith(b"PK"):
-        raise InputError(f"{path} is a zip archive (ifcZIP?): unzip it and give the .ifc file inside")
     if stripped.startswith(b"<"):
-        raise InputError(f"{path} is XML (ifcXML?), which is not supported: export IFC-SPF (.ifc) instead")
+        raise InputError(f"{shown} is XML (ifcXML?), which is not supported: export IFC-SPF (.ifc) instead")
     if not stripped.startswith(b"ISO-10303-21"):
-        raise InputError(f"{path} is not an IFC file (an IFC-SPF file starts with 'ISO-10303-21;')")
+        raise InputError(f"{shown} is not an IFC file (an IFC-SPF file starts with 'ISO-10303-21;')")
     if b"END-ISO-10303-21" not in tail:
-        raise InputError(f"{path} is truncated: it does not end with 'END-ISO-10303-21;'")
+        raise InputError(f"{shown} is truncated: it does not end with 'END-ISO-10303-21;'")
     match = re.search(rb"FILE_SCHEMA\s*\(\s*\(\s*'([^']*)'", head)
     schema = match.group(1).decode("ascii", "replace").upper() if match else "unknown"
     try:
-        ifc = ifcopenshell.open(str(path))
+        ifc = ifcopenshell.open(str(path), format=".ifc")
     except ifcopenshell.SchemaError:
         raise InputError(
-            f"{path} uses the unsupported IFC schema {schema} (supported: {', '.join(SUPPORTED_SCHEMAS)})"
+            f"{shown} uses the unsupported IFC schema {schema} (supported: {', '.join(SUPPORTED_SCHEMAS)})"
         ) from None
     except Exception as exc:  # ifcopenshell raises its own Error or RuntimeError on malformed files
-        raise InputError(f"{path} could not be parsed as IFC: {exc}") from None
+        raise InputError(f"{shown} could not be parsed as IFC: {exc}") from None
     return ifc
 
 
@@ -203,38 +233,11 @@ def iterate_shapes(
             bar.close()
 
 
-def candidate_products(ifc: ifcopenshell.file, include: list[str], exclude: list[str]) -> list:
-    """IfcElements that may carry a body, filtered by class (subclasses included), in file order."""
-    products = []
-    for product in ifc.by_type("IfcElement"):
-        if product.is_a("IfcFeatureElement") or product.is_a("IfcVirtualElement"):
-            continue
-        if include and not any(product.is_a(c) for c in include):
-            continue
-        if exclude and any(product.is_a(c) for c in exclude):
-            continue
-        products.append(product)
-    products.sort(key=lambda p: p.id())
-    return products
-
-
-def resolve_class_names(ifc: ifcopenshell.file, classes: Iterable[str] | str | None, path: Path, option: str) -> list[str]:
-    """Validated IFC class names, spelled as in the schema."""
-    if classes is None:
-        return []
-    if isinstance(classes, str):
-        classes = classes.split(",")
-    schema = ifcopenshell.ifcopenshell_wrapper.schema_by_name(ifc.schema_identifier)
-    names = []
-    for raw in classes:
-        name = raw.strip()
-        if not name:
-            continue
-        try:
-            names.append(schema.declaration_by_name(name).name())
-        except Exception:
-            raise InputError(f"{path}: {option} names '{name}', which is not an {ifc.schema} class") from None
-    return names
+def as_selector(value: Iterable[str] | str | None) -> str | None:
+    """A selector string from a selector, or from a list of class names (joined with ', ')."""
+    if value is None or isinstance(value, str):
+        return value
+    return ", ".join(v.strip() for v in value if v.strip()) or None
 
 
 def _element(product, placement, vertices, faces, volume, mass_scale, caches) -> Element:

@@ -28,7 +28,8 @@ from typing import Iterable
 
 import ifcopenshell
 
-from bimrobot.bim.reader import candidate_products, open_ifc, resolve_class_names
+from bimrobot.bim.reader import as_selector, open_ifc
+from bimrobot.bim.selection import select_products
 from bimrobot.errors import InputError
 from bimrobot.io import atomic_output_dir
 
@@ -60,9 +61,7 @@ def split_model(
     """
     path = Path(path)
     source = open_ifc(path)
-    include_classes = resolve_class_names(source, include, path, "include")
-    exclude_classes = resolve_class_names(source, exclude, path, "exclude")
-    products = candidate_products(source, include_classes, exclude_classes)
+    products = select_products(source, as_selector(include), as_selector(exclude), path)
     if not products:
         raise InputError(f"{path} contains no building element to split")
     from bimrobot.world.names import safe_name
