@@ -112,6 +112,20 @@ class Element:
 
 
 @dataclass(frozen=True)
+class Assembly:
+    """An ``IfcElementAssembly`` lifted and placed as one unit (a precast cast unit, a steel sub-frame).
+
+    Only outermost assemblies are kept: a Tekla precast balcony that holds embedded steel assemblies is
+    one unit. ``part_ids``: GlobalIds of the loaded elements anywhere below it, in file order.
+    """
+
+    global_id: str
+    name: str
+    storey_id: str | None
+    part_ids: tuple[str, ...]
+
+
+@dataclass(frozen=True)
 class SkippedProduct:
     """A product that did not become an Element, and why (e.g. a curve-only weld)."""
 
@@ -138,6 +152,15 @@ class BuildingModel:
     elements: dict[str, Element]
     connections: list[Connection]
     skipped: list[SkippedProduct] = field(default_factory=list)
+    assemblies: dict[str, Assembly] = field(default_factory=dict)
+
+    def assembly_of(self, global_id: str) -> Assembly | None:
+        """The outermost assembly that holds the element, or None."""
+        return self._assembly_by_part.get(global_id)
+
+    @cached_property
+    def _assembly_by_part(self) -> dict[str, Assembly]:
+        return {part: assembly for assembly in self.assemblies.values() for part in assembly.part_ids}
 
     def element(self, global_id: str) -> Element:
         """The element with this GlobalId (KeyError naming it when absent)."""

@@ -28,7 +28,7 @@ import ifcopenshell.util.placement
 import ifcopenshell.util.shape
 import ifcopenshell.util.unit
 
-from bimrobot.bim.model import BuildingModel, Connection, Element, SkippedProduct, Storey
+from bimrobot.bim.model import Assembly, BuildingModel, Connection, Element, SkippedProduct, Storey
 from bimrobot.bim.quantities import mesh_volume, resolve_weight
 from bimrobot.bim.selection import describe, select_products
 from bimrobot.errors import InputError
@@ -119,6 +119,7 @@ def load_model(
         elements=elements,
         connections=_connections(ifc, elements),
         skipped=skipped,
+        assemblies=_assemblies(ifc, elements, storey_cache),
     )
 
 
@@ -389,6 +390,22 @@ def _connections(ifc: ifcopenshell.file, elements: dict[str, Element]) -> list[C
             )
         )
     return connections
+
+
+def _assemblies(ifc: ifcopenshell.file, elements: dict[str, Element], storey_cache: dict) -> dict[str, Assembly]:
+    """Outermost IfcElementAssemblies with at least one loaded part (parts of nested assemblies included)."""
+    order = {gid: index for index, gid in enumerate(elements)}
+    assemblies = {}
+    for assembly in ifc.by_type("IfcElementAssembly"):
+        outer = ifcopenshell.util.element.get_aggregate(assembly)
+        if outer is not None and outer.is_a("IfcElementAssembly"):
+            continue  # a sub-assembly: its parts belong to the outer unit
+        below = ifcopenshell.util.element.get_decomposition(assembly, is_recursive=True)
+        parts = sorted((p.GlobalId for p in below if p.GlobalId in order), key=order.__getitem__)
+        if parts:
+            storey = _storey_of(assembly, storey_cache)
+            assemblies[assembly.GlobalId] = Assembly(assembly.GlobalId, assembly.Name or "", storey, tuple(parts))
+    return assemblies
 
 
 def _storeys(ifc: ifcopenshell.file, length_scale: float) -> list[Storey]:
