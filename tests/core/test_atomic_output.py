@@ -1,40 +1,134 @@
-"""Atomic output: nothing half-written on failure, normal permissions on success."""
+"""The output policy (bimrobot.io): what is refused, what is replaced, and that failures leave nothing."""
 
+import json
 import os
 import stat
+from pathlib import Path
 
 import pytest
 
-from bimrobot.io import atomic_output_dir, atomic_output_file
+from bimrobot.errors import InputError
+from bimrobot.io import MARKER, atomic_output_dir, atomic_output_file, check_output, signature
 
 
-def test_failed_run_leaves_no_directory(tmp_path):
-    target = tmp_path / "pkg"
+def _snapshot(folder: Path) -> dict:
+    """Every file under ``folder`` with its bytes (the 'byte for byte' check)."""
+    return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+def _write_ours(target: Path, text: str = "new") -> None:
+    with atomic_output_dir(target, kind="test", inputs=[]) as tmp:
+        (tmp / "result.txt").write_text(text)
+
+
+def test_failed_run_leaves_no_directory_and_no_parents_it_created(tmp_path):
+    target = tmp_path / "a" / "b" / "pkg"
     with pytest.raises(RuntimeError):
-        with atomic_output_dir(target) as tmp:
+        with atomic_output_dir(target, kind="test") as tmp:
             (tmp / "half.sdf").write_text("<sdf")
             raise RuntimeError("conversion failed")
-    assert not target.exists()
     assert list(tmp_path.iterdir()) == []
 
 
-def test_successful_run_replaces_the_old_output(tmp_path):
-    target = tmp_path / "pkg"
-    target.mkdir()
-    (target / "old.txt").write_text("old")
-    with atomic_output_dir(target) as tmp:
-        (tmp / "new.txt").write_text("new")
-    assert sorted(p.name for p in target.iterdir()) == ["new.txt"]
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["pkg"]
+def test_a_folder_bimrobot_wrote_is_replaced_and_the_replacement_is_announced(tmp_path, capsys):
+    model = tmp_path / "model.ifc"
+    model.write_text("ISO-10303-21;")
+    target = tmp_path / "out"
+    _write_ours(target, "first")
+    with atomic_output_dir(target, kind="simulate", inputs=[model]) as tmp:
+        (tmp / "result.txt").write_text("second")
+    assert (target / "result.txt").read_text() == "second"
+    marker = json.loads((target / MARKER).read_text())
+    assert marker["kind"] == "simulate" and marker["inputs"] == [str(model.resolve())]
+    assert "replacing" in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["model.ifc", "out"]  # no backup or temp left
+
+
+@pytest.mark.parametrize("case", ["dot", "input", "parent_of_input", "foreign_folder", "symlink_to_foreign", "under_a_file"])
+def test_refused_targets_are_left_byte_for_byte(tmp_path, monkeypatch, case):
+    project = tmp_path / "project"
+    project.mkdir()
+    model = project / "model.ifc"
+    model.write_bytes(b"ISO-10303-21; my model")
+    (project / "notes.txt").write_text("mine")
+    foreign = tmp_path / "foreign"
+    foreign.mkdir()
+    (foreign / "thesis.docx").write_bytes(b"\x00important")
+    (tmp_path / "link").symlink_to(foreign)
+    monkeypatch.chdir(project)
+    target = {
+        "dot": ".", "input": "model.ifc", "parent_of_input": str(project), "foreign_folder": str(foreign),
+        "symlink_to_foreign": str(tmp_path / "link"), "under_a_file": "notes.txt/out",
+    }[case]
+    before = _snapshot(tmp_path)
+    with pytest.raises(InputError) as error:
+        with atomic_output_dir(target, kind="test", inputs=[model]) as tmp:
+            (tmp / "x").write_text("x")
+    assert "\n" not in str(error.value)
+    assert _snapshot(tmp_path) == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["foreign", "link", "project"]
+
+
+def test_a_foreign_file_is_refused_and_a_signed_one_replaced(tmp_path):
+    foreign = tmp_path / "report.json"
+    foreign.write_text('{"mine": true}')
+    with pytest.raises(InputError, match="did not write"):
+        check_output(foreign, folder=False)
+    ours = tmp_path / "ours.json"
+    for value in (1, 2):
+        with atomic_output_file(ours) as tmp:
+            tmp.write_text(json.dumps({"generator": signature("test"), "value": value}))
+    assert json.loads(ours.read_text())["value"] == 2
+    assert foreign.read_text() == '{"mine": true}'
+
+
+def test_a_writer_that_forgets_the_signature_is_a_bug_not_a_silent_file(tmp_path):
+    with pytest.raises(RuntimeError, match="signature"):
+        with atomic_output_file(tmp_path / "x.json") as tmp:
+            tmp.write_text("{}")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_folder_where_a_file_is_wanted_and_the_reverse(tmp_path):
+    (tmp_path / "dir").mkdir()
+    (tmp_path / "file.txt").write_text("x")
+    with pytest.raises(InputError, match="is a folder"):
+        check_output(tmp_path / "dir", folder=False)
+    with pytest.raises(InputError, match="not a folder"):
+        check_output(tmp_path / "file.txt", folder=True)
+
+
+def test_an_empty_folder_may_be_used(tmp_path):
+    (tmp_path / "empty").mkdir()
+    _write_ours(tmp_path / "empty")
+    assert (tmp_path / "empty" / "result.txt").read_text() == "new"
+
+
+@pytest.mark.skipif(os.geteuid() == 0, reason="root may write into read-only folders")
+def test_an_unwritable_folder_is_one_sentence(tmp_path):
+    locked = tmp_path / "locked"
+    locked.mkdir()
+    locked.chmod(0o500)
+    try:
+        with pytest.raises(InputError, match="not writable"):
+            check_output(locked / "out", folder=True)
+    finally:
+        locked.chmod(0o700)
+
+
+def test_a_path_on_a_read_only_filesystem_is_one_sentence():
+    # /proc refuses new entries even to root: the 'unwritable path' case on any Linux machine.
+    with pytest.raises(InputError, match="cannot write there|not writable"):
+        with atomic_output_dir("/proc/bimrobot-test-out", kind="test") as tmp:
+            (tmp / "x").write_text("x")
 
 
 def test_outputs_get_the_umask_permissions_not_owner_only(tmp_path):
     old = os.umask(0o022)
     try:
-        with atomic_output_dir(tmp_path / "pkg") as tmp:
-            (tmp / "a.txt").write_text("x")
+        _write_ours(tmp_path / "pkg")
         with atomic_output_file(tmp_path / "table.json") as tmp_file:
-            tmp_file.write_text("{}")
+            tmp_file.write_text(json.dumps({"generator": signature()}))
     finally:
         os.umask(old)
     assert stat.S_IMODE((tmp_path / "pkg").stat().st_mode) == 0o755
@@ -43,10 +137,20 @@ def test_outputs_get_the_umask_permissions_not_owner_only(tmp_path):
 
 def test_failed_file_write_keeps_the_previous_file(tmp_path):
     target = tmp_path / "table.json"
-    target.write_text("previous")
+    target.write_text(json.dumps({"generator": signature(), "rows": 1}))
+    previous = target.read_bytes()
     with pytest.raises(ValueError):
         with atomic_output_file(target) as tmp_file:
             tmp_file.write_text("partial")
             raise ValueError("bad row")
-    assert target.read_text() == "previous"
+    assert target.read_bytes() == previous
     assert sorted(p.name for p in tmp_path.iterdir()) == ["table.json"]
+
+
+def test_control_characters_in_a_path_are_escaped_in_the_message(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "evil\x1b[31m").mkdir()
+    (tmp_path / "evil\x1b[31m" / "f").write_text("x")
+    with pytest.raises(InputError) as error:
+        check_output("evil\x1b[31m", folder=True)
+    assert "\x1b" not in str(error.value) and "\\x1b" in str(error.value)
