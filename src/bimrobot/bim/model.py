@@ -62,6 +62,9 @@ class Element:
     ``placement``: 4x4 local-to-world matrix (metres). ``vertices`` (n, 3) float64 and ``faces`` (m, 3)
     int64: the triangulated body in the local frame (metres). ``weight_kg`` is None when unknown.
     ``properties``: property-set values as ``{"Pset/Name": value}`` (units as in the file).
+    ``density_kg_m3``: the density of the element's material structure (kg/m3; None when unknown),
+    used for the weight when ``weight_source`` is DENSITY and to check a weight the model gives.
+    ``weight_basis``: how the weight was found, or why it is unknown, in words.
     """
 
     global_id: str
@@ -75,6 +78,15 @@ class Element:
     weight_kg: float | None = None
     weight_source: WeightSource = WeightSource.UNKNOWN
     properties: dict = field(default_factory=dict)
+    density_kg_m3: float | None = None
+    weight_basis: str = ""
+
+    @cached_property
+    def volume_m3(self) -> float:
+        """Enclosed volume of the body (m3), from its mesh."""
+        from bimrobot.bim.quantities import mesh_volume
+
+        return mesh_volume(self.vertices, self.faces)
 
     @cached_property
     def mesh(self):

@@ -102,8 +102,6 @@ def apply_unknown_weight_rule(elements: Iterable[Element], rule: UnknownWeightRu
     rule twice changes nothing. ``source`` names the model in the refusal. Raises InputError with the
     count by class when ``rule`` is refuse and any element has no weight.
     """
-    from bimrobot.bim.quantities import mesh_volume
-
     unknown = [e for e in elements if e.weight_source is WeightSource.UNKNOWN]
     report = UnknownWeights(rule, classes=Counter(e.ifc_class for e in unknown))
     if not unknown:
@@ -115,10 +113,11 @@ def apply_unknown_weight_rule(elements: Iterable[Element], rule: UnknownWeightRu
             "and --unknown-weight is refuse; give a density such as --unknown-weight 2400, or leave them out with --exclude"
         )
     for element in unknown:
-        volume = mesh_volume(element.vertices, element.faces)
+        volume = element.volume_m3
         if volume > 0:
             element.weight_kg = volume * rule.density_kg_m3
             element.weight_source = WeightSource.ASSUMED
+            element.weight_basis = f"assumed: {volume:.4g} m3 x {rule.density_kg_m3:g} kg/m3 (--unknown-weight); {element.weight_basis}"
             report.assumed[element.global_id] = element.weight_kg
         else:
             report.assumed[element.global_id] = None
