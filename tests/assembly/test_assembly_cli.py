@@ -63,7 +63,9 @@ def test_validate_good_and_bad_files(tmp_path, capsys):
     bad.write_text(yaml.safe_dump(data))
     assert main(["assembly", "validate", str(bad)]) == 2
     err = capsys.readouterr().err
-    assert err == f"bimrobot assembly: error: {bad}: components.col2: unknown component type 'truss' (expected one of column, beam)\n"
+    line = next(n for n, text in enumerate(bad.read_text().splitlines(), 1) if "truss" in text)
+    assert err == (f"bimrobot assembly: error: {bad} line {line}: components.col2: unknown component type 'truss' "
+                   "(expected one of column, beam)\n")
 
 
 def test_help_has_examples():

@@ -213,3 +213,48 @@ def test_render_modes():
 def test_check_env_including_rendering():
     # through gym.make the checker also tries the other render modes (human draws nothing without a display)
     check_env(assembly.make_env("E2S4", render_mode="rgb_array").unwrapped)
+
+
+
+@pytest.mark.parametrize("action", [6, -1, 2.0, "up", None, True, np.array([1, 2]), np.int64(99)])
+def test_an_action_outside_the_action_space_is_one_clear_sentence(action):
+    """Not an IndexError (6), not a silent wrap-around (-1 used to move as action 5), not a TypeError."""
+    env = assembly.make_env("E2S2")
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match=r"is outside the action space Discrete\(6\): give an integer 0\.\.5") as error:
+        env.step(action)
+    assert isinstance(error.value, InputError) and "\n" not in str(error.value)
+    # the refused step changed nothing: the next move gives what it gives right after a reset
+    reference = assembly.make_env("E2S2")
+    reference.reset(seed=0)
+    expected = reference.step(X_PLUS)
+    observed = env.step(X_PLUS)
+    np.testing.assert_array_equal(observed[0], expected[0])
+    assert observed[1] == expected[1]
+
+
+def test_numpy_integers_and_one_element_arrays_are_actions():
+    """What a policy's predict() returns is accepted as it is."""
+    rewards = []
+    for action in (X_PLUS, np.int64(X_PLUS), np.array(X_PLUS), np.array([X_PLUS])):
+        env = assembly.make_env("E2S2")
+        env.reset(seed=0)
+        rewards.append(env.step(action)[1])
+    assert rewards == [-1.0] * 4
+
+
+@pytest.mark.parametrize(
+    "kwargs,message",
+    [
+        ({"r0": float("nan")}, "r0 must be a finite number"),
+        ({"r0": 1.0}, r"r0 must be >= -1e\+06 and < 0"),
+        ({"epsilon": -2}, "epsilon must be a whole number of steps from 0 to 100000"),
+        ({"completion_bonus": float("inf")}, "completion_bonus must be a finite number"),
+    ],
+)
+def test_impossible_reward_constants_are_refused(kwargs, message):
+    from bimrobot.assembly.vector import BatchedAssemblySim
+
+    for make in (AssemblyEnv, BatchedAssemblySim):
+        with pytest.raises(InputError, match=message):
+            make(**kwargs)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import copy
+import re
 from pathlib import Path
 
 import pytest
@@ -84,7 +85,7 @@ def test_target_outside_grid(tmp_path):
     def mutate(d):
         d["targets"]["beam1"]["cells"] = [[9, 13, 4], [9, 15, 4]]
 
-    bad(tmp_path, mutate, r"targets\.beam1: cell \(9, 15, 4\) is outside the grid")
+    bad(tmp_path, mutate, r"site.yaml line \d+: targets\.beam1\.cells: cell \(9, 15, 4\) is outside the grid")
 
 
 def test_unknown_component_type(tmp_path):
@@ -169,3 +170,70 @@ def test_custom_scenario_with_explicit_groups_and_a_prebuilt_column(tmp_path):
     with pytest.raises(InputError, match=r"interchangeable: unknown target 'col7'"):
         data["interchangeable"] = [["col2", "col7"]]
         load_scenario(write(tmp_path, data))
+
+
+E2S2_TEXT = (SETTINGS_DIR / "E2S2.yaml").read_text()
+COL2_CELLS = "cells: [[9, 9, 1], [9, 9, 4]]"
+
+
+@pytest.mark.parametrize(
+    "old,new,message",
+    [
+        ("r0: -1.0", "r0: .nan", r"line 9: key 'reward\.r0' is NaN; expected a finite number"),
+        ("completion_bonus: 10.0", "completion_bonus: -.inf", r"line 11: key 'reward\.completion_bonus' is infinite"),
+        ("r0: -1.0", "r0: -1.0e308", r"line 9: key 'reward\.r0' is -1e\+308, beyond any physical value"),
+        ("time_limit: 100", "time_limit: 1" + "0" * 400, r"line 7: key 'time_limit' is a 401-digit number"),
+        (COL2_CELLS, "cells: [[9, 9, 1], [9, 9, 1" + "0" * 50 + "]]", r"line 21: key 'targets\.col2\.cells\[1\]\[2\]' is a 51-digit"),
+        (COL2_CELLS, "cells: [[9, 9, 1], [9, 9, 1000000000]]",
+         r"line 21: targets\.col2\.cells: cell \(9, 9, 1000000000\) is outside the grid \(0 <= x < 15"),
+        ("grid: [15, 15, 9]", "grid: [100000, 100000, 9]",
+         r"line 6: grid: \[100000, 100000, 9\] must be 2 to 64 cells along every axis"),
+        ("layout: fixed", "layout: random\nyard: [{x: [0, 900000000], y: [0, 3]}]",
+         r"line 13: yard\[0\]: x range \[0, 900000000\] leaves the grid \(0 <= x < 15\)"),
+        ("time_limit: 100", "time_limit: 1000000000", r"line 7: time_limit: must be an integer from 1 to 100000"),
+        ("r0: -1.0", "r0: 2", r"line 9: reward\.r0: must be a finite number >= -1e\+06 and < 0, got 2"),
+        ("epsilon: 15", "epsilon: -1", r"line 10: reward\.epsilon: must be an integer from 0 to 100000, got -1"),
+        ("  target: col3\n", "  target: col3\n  length: 40\n",
+         r"components\.col3\.length: must be an integer from 1 to 4, got 40"),
+        ("  target: col3\n", "  target: col3\n  prebuilt: 'no'\n", r"components\.col3\.prebuilt: expected true or false"),
+        ("targets:\n  col2:\n    type: column\n", "targets:\n  col2: 5\n  colx:\n    type: column\n",
+         r"line 19: targets\.col2: expected a mapping"),
+    ],
+)
+def test_impossible_numbers_and_shapes_exit_2_with_one_sentence(tmp_path, capsys, old, new, message):
+    """Through the command line: the file, the line and the key, exit status 2, no traceback, and it is
+    refused before anything grid-sized is allocated (a 10**9 coordinate used to build a 10**9-cell list)."""
+    from bimrobot.cli import main
+
+    assert old in E2S2_TEXT
+    path = tmp_path / "site.yaml"
+    path.write_text(E2S2_TEXT.replace(old, new, 1))
+    assert main(["assembly", "validate", str(path)]) == 2
+    captured = capsys.readouterr()
+    assert captured.err.startswith(f"bimrobot assembly: error: {path}")
+    assert re.search(message, captured.err), captured.err
+    assert captured.err.count("\n") == 1 and "Traceback" not in captured.err and captured.out == ""
+
+
+@pytest.mark.parametrize(
+    "old,new",
+    [
+        (COL2_CELLS, "cells: [[9, 9, 1], [9, 9, 1000000000]]"),  # a 10**9-cell run
+        ("layout: fixed", "layout: random\nyard: [{x: [0, 999999999], y: [0, 999999999]}]"),  # a 10**18-cell yard
+        ("grid: [15, 15, 9]", "grid: [1000000, 1000000, 1000]"),
+    ],
+)
+def test_huge_coordinates_are_refused_before_any_allocation(tmp_path, old, new):
+    """Measured before the fix: 104 MB per million cells of a target run, so a 10**9 coordinate needed ~100 GB."""
+    import tracemalloc
+
+    path = tmp_path / "site.yaml"
+    path.write_text(E2S2_TEXT.replace(old, new, 1))
+    tracemalloc.start()
+    try:
+        with pytest.raises(InputError):
+            load_scenario(path)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 10_000_000  # bytes: the YAML text and its parse, nothing grid-sized

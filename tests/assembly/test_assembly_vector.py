@@ -165,6 +165,36 @@ def test_bad_arguments():
         sim.step(np.array([0, 6]))
 
 
+@pytest.mark.parametrize(
+    "actions,message",
+    [
+        ([0, 7], r"action 7 of environment 1 is outside the action space Discrete\(6\)"),
+        ([-1, 0], r"action -1 of environment 0 is outside the action space"),
+        ([0, 1, 2], r"are not 2 integer moves 0\.\.5, one per environment"),
+        ([0.0, 1.0], r"are not 2 integer moves 0\.\.5"),
+        ("ab", r"are not 2 integer moves"),
+        ([[0], [1, 2]], r"are not 2 integer moves"),
+    ],
+)
+def test_batched_actions_outside_the_action_space_are_one_clear_sentence(actions, message):
+    """In the batched simulator and both its Gymnasium and SB3 faces: a ValueError naming the action."""
+    for env in (BatchedAssemblySim("E2S2", 2, seed=0), AssemblyVectorEnv("E2S2", 2, seed=0)):
+        env.reset()
+        with pytest.raises(ValueError, match=message) as error:
+            env.step(actions)
+        assert isinstance(error.value, InputError) and "\n" not in str(error.value)
+    sb3 = AssemblySB3VecEnv("E2S2", 2, seed=0)
+    sb3.reset()
+    with pytest.raises(ValueError, match=message):
+        sb3.step(actions)
+
+
+@pytest.mark.parametrize("num_envs", [0, -3, 10**9, 2.5])
+def test_impossible_numbers_of_environments(num_envs):
+    with pytest.raises(InputError, match=r"num_envs must be an integer from 1 to 4096"):
+        BatchedAssemblySim("E2S2", num_envs)
+
+
 def test_make_vec_gives_the_batched_simulator():
     import gymnasium as gym
 

@@ -35,7 +35,7 @@ def test_inspect_table_on_ifc_unit(shared_ifc, capsys):
     assert "length MILLIMETRE (x0.001 -> m)" in out
     assert "connections (IfcRelConnectsWithRealizingElements): 36" in out
     assert "4 x IfcFastener: curve-only geometry" in out
-    assert "weights: 20 found, 44 missing" in out
+    assert "weights: 16 found, 48 missing, 0 suspect" in out  # 4 base plates of "Metal Stud Layer": unknown
 
 
 def test_split_cli(tmp_path, capsys):
@@ -77,4 +77,46 @@ def test_bad_input_exit_status_of_the_installed_command(tmp_path):
     main(["example", "greenhouse", "-o", str(path)])
     result = run_cli("inspect", str(path), "--include", "IfcBeem")
     assert result.returncode == 2
-    assert result.stderr.strip() == f"bimrobot inspect: error: {path}: include names 'IfcBeem', which is not an IFC4 class"
+    assert result.stderr.strip() == (
+        f"bimrobot inspect: error: {path}: --include names 'IfcBeem', which is not an IFC4 class "
+        "(this model's element classes: IfcBeam, IfcColumn, IfcFooting)"
+    )
+
+
+def test_inspect_and_split_take_include_and_exclude_together(tmp_path, capsys, steel_frame_ifc):
+    selector = ["--include", "IfcElement", "--exclude", "IfcMechanicalFastener, IfcFooting"]
+    assert main(["split", str(steel_frame_ifc), "-o", str(tmp_path / "parts"), *selector]) == 0
+    assert "wrote 20 IFC files" in capsys.readouterr().out  # 4 columns, 4 beams, 4 plates, 8 clip angles
+    assert main(["inspect", str(steel_frame_ifc), "--json", *selector]) == 0
+    assert json.loads(capsys.readouterr().out)["elements"] == 20
+
+
+def test_inspect_reads_an_ifczip(shared_ifc, capsys):
+    assert main(["inspect", str(shared_ifc("ROOT-staal.ifczip")), "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["schema"] == "IFC2X3" and summary["elements"] > 0
+
+
+def test_example_writes_a_file_it_recognises_and_replaces_only_that(tmp_path, capsys, monkeypatch):
+    from bimrobot import io
+
+    monkeypatch.chdir(tmp_path)
+    assert main(["example", "steel-frame", "-o", "frame.ifc"]) == 0
+    assert io.has_signature(tmp_path / "frame.ifc")
+    capsys.readouterr()
+    assert main(["example", "greenhouse", "-o", "frame.ifc"]) == 0  # bimrobot's own file: replaced, said once
+    err = capsys.readouterr().err
+    assert err.strip().splitlines() == ["bimrobot: replacing frame.ifc (a file bimrobot wrote)"]
+    assert "Chapter 3 light steel frame" in (tmp_path / "frame.ifc").read_text()
+    (tmp_path / "mine.ifc").write_bytes(b"ISO-10303-21;\n/* the user's model */\n")
+    (tmp_path / "folder").mkdir()
+    for target, message in [
+        ("mine.ifc", "is an existing file that bimrobot did not write"),
+        ("folder", "is a folder; give a file name"),
+        ("mine.ifc/x.ifc", "is a file, not a folder"),
+    ]:
+        assert main(["example", "greenhouse", "-o", target]) == 2
+        err = capsys.readouterr().err
+        assert message in err and len(err.strip().splitlines()) == 1
+    assert (tmp_path / "mine.ifc").read_bytes() == b"ISO-10303-21;\n/* the user's model */\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["folder", "frame.ifc", "mine.ifc"]

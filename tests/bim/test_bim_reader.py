@@ -174,15 +174,81 @@ def test_properties_equal_ifcopenshell_get_psets(shared_ifc, name):
         assert element.properties == expected, element.global_id
 
 
-def test_zip_and_xml_are_named(tmp_path, steel_frame_ifc):
+def test_ifczip_reads_like_the_ifc_inside_and_xml_is_named(tmp_path, steel_frame_ifc, steel_frame_model):
     import zipfile
 
     archive = tmp_path / "model.ifczip"
-    with zipfile.ZipFile(archive, "w") as zipped:
-        zipped.write(steel_frame_ifc, "model.ifc")
-    with pytest.raises(InputError, match=r"model\.ifczip is a zip archive"):
-        load_model(archive)
+    with zipfile.ZipFile(archive, "w", zipfile.ZIP_DEFLATED) as zipped:
+        zipped.write(steel_frame_ifc, "export/model.ifc")
+        zipped.writestr("__MACOSX/export/._model.ifc", b"\x00\x05\x16\x07")  # Finder's metadata: not a model
+    zipped_model = load_model(archive)
+    assert list(zipped_model.elements) == list(steel_frame_model.elements)
+    assert zipped_model.source == archive
+    assert len(zipped_model.connections) == len(steel_frame_model.connections)
+    empty = tmp_path / "empty.ifczip"
+    with zipfile.ZipFile(empty, "w") as zipped:
+        zipped.writestr("readme.txt", "no model here")
+    with pytest.raises(InputError, match=r"empty\.ifczip is a zip archive without an \.ifc file inside"):
+        load_model(empty)
     xml = tmp_path / "model.ifcxml"
     xml.write_text('<?xml version="1.0"?>\n<ifcXML/>\n')
     with pytest.raises(InputError, match=r"model\.ifcxml is XML"):
         load_model(xml)
+
+
+def test_real_ifczip_loads(shared_ifc):
+    model = load_model(shared_ifc("ROOT-staal.ifczip"))
+    assert model.schema == "IFC2X3"
+    assert len(model.elements) > 0
+    assert model.source.name == "ROOT-staal.ifczip"
+
+
+def walls_sharing_a_global_id(path):
+    """Three 5 m walls authored with ifcopenshell.api; the second carries the first one's GlobalId."""
+    import ifcopenshell.api.aggregate
+    import ifcopenshell.api.context
+    import ifcopenshell.api.geometry
+    import ifcopenshell.api.project
+    import ifcopenshell.api.root
+    import ifcopenshell.api.spatial
+    import ifcopenshell.api.unit
+
+    ifc = ifcopenshell.api.project.create_file(version="IFC4")
+    project = ifcopenshell.api.root.create_entity(ifc, ifc_class="IfcProject", name="Walls")
+    ifcopenshell.api.unit.assign_unit(ifc)
+    context = ifcopenshell.api.context.add_context(ifc, context_type="Model")
+    body = ifcopenshell.api.context.add_context(ifc, context_type="Model", context_identifier="Body",
+                                                target_view="MODEL_VIEW", parent=context)
+    storey = ifcopenshell.api.root.create_entity(ifc, ifc_class="IfcBuildingStorey", name="Level 0")
+    ifcopenshell.api.aggregate.assign_object(ifc, products=[storey], relating_object=project)
+    walls = []
+    for index in range(3):
+        wall = ifcopenshell.api.root.create_entity(ifc, ifc_class="IfcWall", name=f"Wall {index}")
+        representation = ifcopenshell.api.geometry.add_wall_representation(ifc, context=body, length=5, height=3,
+                                                                           thickness=0.2)
+        ifcopenshell.api.geometry.assign_representation(ifc, product=wall, representation=representation)
+        matrix = np.eye(4)
+        matrix[1, 3] = 2.0 * index
+        ifcopenshell.api.geometry.edit_object_placement(ifc, product=wall, matrix=matrix)
+        ifcopenshell.api.spatial.assign_container(ifc, products=[wall], relating_structure=storey)
+        walls.append(wall)
+    walls[1].GlobalId = walls[0].GlobalId
+    ifc.write(str(path))
+    return path, [(w.id(), w.GlobalId) for w in walls]
+
+
+def test_duplicate_global_ids_keep_every_element_and_are_reported(tmp_path, caplog):
+    path, walls = walls_sharing_a_global_id(tmp_path / "walls.ifc")
+    (first_id, shared), (second_id, _), (_, third) = walls
+    with caplog.at_level("WARNING", logger="bimrobot.bim.reader"):
+        model = load_model(path)
+    assert list(model.elements) == [shared, f"{shared}#{second_id}", third]
+    assert [e.name for e in model.elements.values()] == ["Wall 0", "Wall 1", "Wall 2"]
+    assert all(key == e.global_id for key, e in model.elements.items())
+    # the second wall is the one 2 m along y: its own body, not a copy of the first
+    assert model.elements[f"{shared}#{second_id}"].position[1] == pytest.approx(2.0)
+    (record,) = [r for r in caplog.records if "GlobalId" in r.getMessage()]
+    message = record.getMessage()
+    assert len(message.splitlines()) == 1
+    assert f"'{shared}' by #{first_id} IfcWall and #{second_id} IfcWall" in message
+    assert f"'{shared}#{second_id}'" in message

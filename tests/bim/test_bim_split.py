@@ -49,7 +49,8 @@ def test_split_steel_frame_one_valid_file_per_element(tmp_path, steel_frame_ifc,
     out = tmp_path / "parts"
     written = split_model(steel_frame_ifc, out)
     assert len(written) == 88
-    assert sorted(p.name for p in out.iterdir()) == sorted([f.path.name for f in written] + ["index.json"])
+    expected = [f.path.name for f in written] + ["index.json", ".bimrobot-output.json"]  # and the output marker
+    assert sorted(p.name for p in out.iterdir()) == sorted(expected)
     index = json.loads((out / "index.json").read_text())
     assert {row["GlobalId"] for row in index["elements"]} == set(steel_frame_model.elements)
     for original in steel_frame_model.elements.values():
@@ -139,3 +140,157 @@ def test_split_bad_input_leaves_no_output(tmp_path):
         split_model(bad, out)
     assert not out.exists()
     assert list(tmp_path.iterdir()) == [bad]
+
+
+# ---- precast assemblies (Tekla exports) ------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def prefab(tmp_path_factory):
+    """MULTICOM-Prefab split by assembly, and the model it came from (skipped when ../shared is absent)."""
+    path = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "ifc" / "MULTICOM-Prefab.ifc"
+    if not path.exists():
+        pytest.skip(f"{path} is absent: the shared test data lives beside the repository, not in it")
+    out = tmp_path_factory.mktemp("prefab") / "units"
+    return path, out, split_model(path, out), load_model(path)
+
+
+@pytest.mark.slow
+def test_split_precast_writes_one_file_per_outermost_assembly_with_all_its_parts(prefab):
+    """Each file re-opens with exactly its assembly's parts, at the same place, with the same weights."""
+    _, out, written, original = prefab
+    assert len(original.assemblies) == 118
+    assert {gid for a in original.assemblies.values() for gid in a.part_ids} == set(original.elements)  # all 301
+    assert len(original.elements) == 301
+    assert len(written) == 118 == len(list(out.glob("*.ifc")))
+    assert {f.global_id for f in written} == set(original.assemblies)
+    for assembly in original.assemblies.values():
+        part = load_model(out / f"{safe_name(assembly.global_id)}.ifc")
+        assert set(part.elements) == set(assembly.part_ids), assembly.global_id
+        assert list(part.assemblies) == [assembly.global_id]
+        for part_id in assembly.part_ids:
+            copy, source = part.elements[part_id], original.elements[part_id]
+            np.testing.assert_allclose(copy.world_vertices, source.world_vertices, atol=1e-6)
+            assert copy.weight_kg == source.weight_kg and copy.ifc_class == source.ifc_class
+
+
+def test_split_index_lists_each_assembly_and_its_parts(prefab):
+    path, out, written, original = prefab
+    index = json.loads((out / "index.json").read_text())
+    assert index["split_by"] == "assembly" and index["files"] == 118 and index["source"] == str(path)
+    rows = {row["GlobalId"]: row for row in index["elements"]}
+    for assembly in original.assemblies.values():
+        row = rows[assembly.global_id]
+        assert row["class"] == "IfcElementAssembly" and row["file"] == f"{safe_name(assembly.global_id)}.ifc"
+        assert [p["GlobalId"] for p in row["parts"]] == [p for p in assembly.part_ids]
+
+
+def test_split_assembly_files_pass_schema_validation(prefab):
+    _, out, written, _ = prefab
+    biggest = sorted(written, key=lambda f: len(f.parts))[-3:]  # nested sub-assemblies, shared psets
+    for split_file in biggest:
+        assert _schema_errors(out / split_file.path.name) == [], split_file.path.name
+
+
+def test_split_tekla_stairs_by_assembly_and_by_element(tmp_path, shared_ifc):
+    source = shared_ifc("MULTICOM-trappen_bordessen.ifc")
+    original = load_model(source)
+    assert len(original.assemblies) == 9
+    written = split_model(source, tmp_path / "units")
+    assemblies = [f for f in written if f.ifc_class == "IfcElementAssembly"]
+    assert len(assemblies) == 9
+    in_assemblies = {p.global_id for f in assemblies for p in f.parts}
+    assert in_assemblies >= {gid for a in original.assemblies.values() for gid in a.part_ids}
+    singles = [f for f in written if not f.parts]
+    assert not in_assemblies & {f.global_id for f in singles}  # every element in one file only
+    assert len(list((tmp_path / "units").glob("*.ifc"))) == len(written)
+    by_element = split_model(source, tmp_path / "parts", by_element=True)
+    assert len(by_element) == len(list((tmp_path / "parts").glob("*.ifc")))
+    assert len(by_element) == len(original.elements) + len(original.skipped)
+    assert json.loads((tmp_path / "parts" / "index.json").read_text())["split_by"] == "element"
+
+
+def test_split_ifczip_reads_the_model_inside(tmp_path, shared_ifc):
+    source = shared_ifc("ROOT-staal.ifczip")
+    written = split_model(source, tmp_path / "steel", include="IfcColumn")
+    assert written and {f.ifc_class for f in written} == {"IfcColumn"}
+    assert len(list((tmp_path / "steel").glob("*.ifc"))) == len(written)
+    first = load_model(written[0].path)
+    assert list(first.elements) == [written[0].global_id]
+
+
+# ---- duplicate GlobalIds, output policy --------------------------------------------------------------
+
+
+def test_split_duplicate_global_ids_write_every_element(tmp_path, capsys):
+    from test_bim_reader import walls_sharing_a_global_id
+
+    from bimrobot.cli import main
+
+    path, walls = walls_sharing_a_global_id(tmp_path / "walls.ifc")
+    (_, shared), (second_id, _), _ = walls
+    assert main(["split", str(path), "-o", str(tmp_path / "parts")]) == 0
+    out = capsys.readouterr().out
+    assert "wrote 3 IFC files" in out
+    files = sorted(p.name for p in (tmp_path / "parts").glob("*.ifc"))
+    assert len(files) == 3 and f"{safe_name(shared)}.ifc" in files and f"{safe_name(f'{shared}#{second_id}')}.ifc" in files
+    index = json.loads((tmp_path / "parts" / "index.json").read_text())
+    assert [row["GlobalId"] for row in index["elements"]][:2] == [shared, f"{shared}#{second_id}"]
+    second = load_model(tmp_path / "parts" / f"{safe_name(f'{shared}#{second_id}')}.ifc")
+    assert [e.name for e in second.elements.values()] == ["Wall 1"]
+
+
+def _snapshot(folder: Path) -> dict[str, bytes]:
+    return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+@pytest.mark.parametrize(
+    "output, message",
+    [
+        ("model.ifc", "is an input of this command"),
+        (".", "is the current directory"),
+        ("..", "contains the current directory"),
+        ("notes", "a folder that bimrobot did not write and it is not empty"),
+        ("linked", "a folder that bimrobot did not write and it is not empty"),
+        ("notes/thesis.txt/parts", "is a file, not a folder"),
+    ],
+)
+def test_split_refuses_outputs_that_would_destroy_data(tmp_path, monkeypatch, capsys, greenhouse_ifc, output, message):
+    from bimrobot.cli import main
+
+    project = tmp_path / "project"
+    project.mkdir()
+    (project / "model.ifc").write_bytes(greenhouse_ifc.read_bytes())
+    (project / "notes").mkdir()
+    (project / "notes" / "thesis.txt").write_text("precious")
+    (project / "linked").symlink_to(project / "notes")
+    monkeypatch.chdir(project)
+    before = _snapshot(tmp_path)
+    assert main(["split", "model.ifc", "-o", output]) == 2
+    err = capsys.readouterr().err
+    assert message in err and len(err.strip().splitlines()) == 1
+    assert _snapshot(tmp_path) == before
+
+
+def test_split_refuses_the_folder_holding_its_input(tmp_path, capsys, greenhouse_ifc):
+    from bimrobot.cli import main
+
+    (tmp_path / "model.ifc").write_bytes(greenhouse_ifc.read_bytes())
+    before = _snapshot(tmp_path)
+    assert main(["split", str(tmp_path / "model.ifc"), "-o", str(tmp_path)]) == 2
+    assert "contains an input of this command" in capsys.readouterr().err
+    assert _snapshot(tmp_path) == before
+
+
+def test_split_replaces_its_own_output_and_says_so(tmp_path, capsys, greenhouse_ifc):
+    from bimrobot.cli import main
+
+    out = tmp_path / "parts"
+    assert main(["split", str(greenhouse_ifc), "-o", str(out)]) == 0
+    capsys.readouterr()
+    assert main(["split", str(greenhouse_ifc), "-o", str(out), "--include", "IfcColumn"]) == 0
+    captured = capsys.readouterr()
+    assert "wrote 9 IFC files" in captured.out
+    (line,) = captured.err.strip().splitlines()
+    assert line.startswith(f"bimrobot: replacing {out} (split output of {greenhouse_ifc.name}")
+    assert len(list(out.glob("*.ifc"))) == 9

@@ -27,7 +27,7 @@ def test_builtin_fleets_are_table_4_1():
         ("robots: []", "key 'robots' must be a non-empty list"),
         ("robots:\n  - {name: T, kind: crane, speed: 1}", r"robots\[0\] \(T\): key 'kind' must be one of"),
         ("robots:\n  - {name: T, kind: transport, speed: 1, carry_load: 300}", r"robots\[0\] \(T\): missing key 'platform_size'"),
-        ("robots:\n  - {name: T, kind: transport, speed: -1, carry_load: 300, platform_size: [4, 1]}", r"key 'speed' must be a positive number, got -1"),
+        ("robots:\n  - {name: T, kind: transport, speed: -1, carry_load: 300, platform_size: [4, 1]}", r"line 2: robots\[0\] \(T\): key 'speed' must be > 0 and <= 50 m/s, got -1"),
         ("robots:\n  - {name: A, kind: assembly, speed: 1, reach: 4, time_per_point: 30, payload: 9}", r"unknown key 'payload' for a assembly robot"),
         ("robots:\n  - {name: A, kind: assembly, speed: 1, reach: 4, time_per_point: 30, methods: [glue]}", r"key 'methods' must be a list drawn from"),
         ("robots:\n  - {name: A, kind: assembly, speed: 1, reach: 4, time_per_point: 30}\n  - {name: A, kind: assembly, speed: 1, reach: 4, time_per_point: 30}", "robot name 'A' is used twice"),
@@ -42,6 +42,75 @@ def test_bad_fleet_files_name_file_and_key(tmp_path, body, message):
     assert str(path) in str(error.value)
 
 
+FLEET_LINE = "name: f\nrobots:\n  - name: T\n    kind: transport\n    speed: 1.0\n    carry_load: 300\n    platform_size: [4, 1]\n"
+
+
+@pytest.mark.parametrize(
+    "replace, message",
+    [
+        # NaN, infinity and absurd magnitudes never reach the simulation (a NaN load time made "makespan nan s")
+        (("carry_load: 300", "carry_load: 300\n    load_time: .nan"), r"bad_fleet.yaml line 7: key 'robots\[0\].load_time' is NaN"),
+        (("speed: 1.0", "speed: .inf"), r"line 5: key 'robots\[0\].speed' is infinite"),
+        (("speed: 1.0", "speed: 51"), r"line 5: robots\[0\] \(T\): key 'speed' must be > 0 and <= 50 m/s, got 51"),
+        (("speed: 1.0", "speed: 0"), r"line 5: robots\[0\] \(T\): key 'speed' must be > 0 and <= 50 m/s, got 0"),
+        (("carry_load: 300", "carry_load: 0"), r"line 6: robots\[0\] \(T\): key 'carry_load' must be > 0 and <= 1e\+06 kg, got 0"),
+        (("carry_load: 300", "carry_load: 2000000"), r"line 6: robots\[0\] \(T\): key 'carry_load' must be > 0 and <= 1e\+06 kg"),
+        (("carry_load: 300", "carry_load: '300'"), r"line 6: robots\[0\] \(T\): key 'carry_load' must be a number in kg, got '300'"),
+        (("carry_load: 300", "carry_load: 300\n    unload_time: -5"), r"line 7: robots\[0\] \(T\): key 'unload_time' must be >= 0 and <= 86400 s, got -5"),
+        (("platform_size: [4, 1]", "platform_size: [4, 1000]"), r"line 7: robots\[0\] \(T\): key 'platform_size' must be > 0 and <= 100 m, got 1000"),
+        (("platform_size: [4, 1]", "platform_size: [4, 1]\n    home: [1.0e+8, 0]"), r"line 8: robots\[0\] \(T\): key 'home' must be >= -1e\+06 and <= 1e\+06 m"),
+        (("speed: 1.0", "speed: 1.0e+308"), r"line 5: key 'robots\[0\].speed' is 1e\+308, beyond any physical value"),
+    ],
+)
+def test_fleet_numbers_are_finite_and_physical(tmp_path, replace, message):
+    path = tmp_path / "bad_fleet.yaml"
+    path.write_text(FLEET_LINE.replace(*replace))
+    with pytest.raises(InputError, match=message):
+        load_fleet(path)
+
+
+@pytest.mark.parametrize(
+    "body, message",
+    [
+        ("yard: [[12.5, 4], [1.0e+308, 6]]\n", r"site.yaml line 1: key 'yard\[1\]\[0\]' is 1e\+308, beyond any physical value"),
+        ("yard: [[12.5, 4], [5.0e+6, 6]]\n", r"site.yaml line 1: key 'yard\[1\]' must be >= -1e\+06 and <= 1e\+06 m, got 5e\+06"),
+        ("robot_home: [[.nan, 4]]\n", r"site.yaml line 1: key 'robot_home\[0\]\[0\]' is NaN"),
+        ("construction_area: [[0, 0], [10, true]]\n", r"line 1: key 'construction_area\[1\]' must be a number in m, got True"),
+        ("\nmodel_offset: [0, 3.0e+7]\n", r"site.yaml line 2: key 'model_offset' must be >= -2e\+07 and <= 2e\+07 m"),
+    ],
+)
+def test_site_numbers_are_finite_and_physical(tmp_path, body, message):
+    path = tmp_path / "site.yaml"
+    path.write_text(body)
+    with pytest.raises(InputError, match=message):
+        load_site(path)
+
+
+def test_a_yard_kilometres_from_the_building_is_refused_before_simulating(tmp_path):
+    from bimrobot.coordination.generate import generated_frame
+    from bimrobot.coordination.simulation import ConstructionSimulation
+    from bimrobot.sco import build_smart_model
+
+    path = tmp_path / "site.yaml"
+    path.write_text("yard: [[12.5, 4], [900000, 6]]\n")
+    with pytest.raises(InputError, match=r"site.yaml: yard position \(900000, 6\) is 900.0 km from the building"):
+        ConstructionSimulation(build_smart_model(generated_frame(2, 1, 1)), load_fleet("fleet1"), load_site(path))
+
+
+def test_site_crane_fleet_handles_20_t_and_15_m():
+    fleet = load_fleet("site-crane")
+    assert {r.kind for r in fleet.robots} == {"transport", "positioning", "assembly"}
+    for robot in fleet.by_activity("transport"):
+        assert robot.carry_load == 20000 and robot.platform_size == (15.0, 15.0)
+        assert incapability(robot, _request(weight_kg=20000, size=(15.0, 3.0))) is None
+    for robot in fleet.by_activity("position"):
+        assert incapability(robot, _request(activity="position", weight_kg=20000, reach_needed=15.0)) is None
+    for robot in fleet.by_activity("assemble"):
+        assert incapability(robot, _request(activity="assemble", reach_needed=15.0, methods=frozenset({"bolt", "weld"}))) is None
+    # cranes and crews are slower than Table 4.1's robots: walking pace with a suspended load
+    assert all(r.speed <= 1.0 for r in fleet.robots)
+
+
 def test_unknown_fleet_name_is_refused():
     with pytest.raises(InputError, match="neither a built-in fleet"):
         load_fleet("fleet3")
@@ -54,7 +123,7 @@ def test_site_file_overrides_defaults_and_is_validated(tmp_path):
     assert site.yard == ((20.0, 0.0), (20.0, 2.0)) and site.model_offset == (1.5, 2.0)
     assert site.robot_home == default_site().robot_home
     path.write_text("yard: [[20, 0], [20]]\n")
-    with pytest.raises(InputError, match=r"site.yaml: yard\[1\] must be a pair of numbers"):
+    with pytest.raises(InputError, match=r"site.yaml line 1: key 'yard\[1\]' must be a pair of numbers"):
         load_site(path)
     path.write_text("idle_robots: home\n")
     with pytest.raises(InputError, match="key 'idle_robots' must be 'stay' or 'yard', got 'home'"):

@@ -80,7 +80,7 @@ def test_ifc_unit_cleats_are_connectors_and_duplicates_are_not_built(ifc_unit_mo
 
 
 def test_ifc_unit_needs_longer_platforms_than_table_4_1(ifc_unit_model, tmp_path):
-    with pytest.raises(InputError, match=r"can transport component .*IfcBeam.*platform 4 x 1 m < component 4.47 x 0.31 m"):
+    with pytest.raises(InputError, match=r"cannot build 2 of 8 components: 2 IfcBeam need a carrier for up to 173 kg and 4.47 x 0.31 m .* on up to 4 x 1 m"):
         simulate(build_smart_model(ifc_unit_model), load_fleet("fleet2"))
     fleet = tmp_path / "fleet2-long.yaml"
     fleet.write_text(LONG_PLATFORM_FLEET)

@@ -69,6 +69,7 @@ def test_simulate_cli_writes_every_output(tmp_path, capsys):
     assert "makespan" in printed and "AssemblyRobot31" in printed
     assert {p.name for p in out.iterdir()} == {
         "events.log", "events.jsonl", "robots.csv", "robots.txt", "summary.json", "states.json", "schedule.csv", "gantt.png",
+        ".bimrobot-output.json",  # the marker that lets a later run replace the folder
     }
     summary = json.loads((out / "summary.json").read_text())
     assert summary["fleet"] == "fleet1" and summary["evaluator"] == "least-cost"
@@ -134,5 +135,9 @@ def test_prebuilt_classes_are_on_site_from_the_start(tmp_path, capsys):
     assert len(summary["smart_components"]["prebuilt"]) == 4  # 2 footings + 2 columns
     rows = load_schedule_csv(out / "schedule.csv")
     assert {r["GlobalId"] for r in rows if r["Activity"] == "transport"} == {"beam-0-x-0-0"}
-    assert main(["simulate", "generated:2x1x1", "--prebuilt", "Slab", "-o", str(tmp_path / "bad")]) == 2
-    assert "--prebuilt expects IFC class names such as IfcSlab, got 'Slab'" in capsys.readouterr().err
+    capsys.readouterr()
+    assert main(["simulate", "generated:2x1x1", "--prebuilt", "IfcSlb", "-o", str(tmp_path / "bad")]) == 2
+    assert capsys.readouterr().err.strip().endswith(
+        "--prebuilt names 'IfcSlb', which is not an IFC class (this model's classes: IfcBeam, IfcColumn, IfcFooting, IfcPlate)"
+    )
+    assert not (tmp_path / "bad").exists()

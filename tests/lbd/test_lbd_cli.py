@@ -83,3 +83,34 @@ def test_bad_query_inputs_exit_2(frame_ifc, tmp_path, capsys):
     assert "is invalid" in capsys.readouterr().err
     assert main(["graph", str(frame_ifc), "-o", str(tmp_path / "frame.xyz")]) == 2
     assert "cannot tell the RDF format" in capsys.readouterr().err
+
+
+def test_include_and_exclude_choose_the_elements(frame_ifc, tmp_path, capsys):
+    out = tmp_path / "columns.ttl"
+    assert main(["graph", str(frame_ifc), "-o", str(out), "--include", "IfcColumn"]) == 0
+    assert " triples, 4 elements, " in capsys.readouterr().out
+    graph = rdflib.Graph().parse(out)
+    classes = {str(o) for o in graph.objects(None, rdflib.URIRef("https://bimrobot.example/ns#ifcClass"))}
+    assert classes == {"IfcColumn"}
+    assert main(["graph", str(frame_ifc), "-o", str(out), "--exclude", "IfcFastener, IfcMechanicalFastener"]) == 0
+    capsys.readouterr()
+    assert main(["graph", str(frame_ifc), "-o", str(out), "--include", "IfcColumn, IfcNoSuchThing"]) == 2
+    err = capsys.readouterr().err
+    assert "names 'IfcNoSuchThing', which is not an IFC4 class" in err and err.count("\n") == 1
+
+
+def test_unwritable_folder_is_one_sentence(frame_ifc, tmp_path, capsys):
+    import os
+
+    if os.geteuid() == 0:
+        pytest.skip("root may write into any folder: an unwritable folder cannot be made")
+    locked = tmp_path / "locked"
+    locked.mkdir()
+    locked.chmod(0o555)
+    try:
+        assert main(["graph", str(frame_ifc), "-o", str(locked / "g.ttl")]) == 2
+        err = capsys.readouterr().err
+        assert "is not writable" in err and err.count("\n") == 1
+        assert not any(locked.iterdir())
+    finally:
+        locked.chmod(0o755)

@@ -298,3 +298,63 @@ def test_turtle_keeps_full_double_precision(frame_model, schedule, tmp_path):
     reopened = ConstructionGraph.open(graph.serialize(tmp_path / "precise.ttl"))
     (row,) = reopened.query("component_activities", globalId=first.global_id)
     assert (row["targetX"], row["targetY"], row["targetZ"]) == (123.4567891, -0.000123457, 98765.4321)  # 1e-9 m grid
+
+
+@pytest.fixture(scope="module")
+def precast_model():
+    """MULTICOM-trappen_bordessen.ifc: Tekla precast stairs and landings, with IfcElementAssemblies."""
+    from pathlib import Path
+
+    from bimrobot.bim import load_model
+
+    path = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "ifc" / "MULTICOM-trappen_bordessen.ifc"
+    if not path.exists():
+        pytest.skip(f"{path} is absent: the shared test data lives beside the repository, not in it")
+    return load_model(path)
+
+
+def test_precast_assemblies_are_elements_with_their_parts_as_sub_elements(precast_model, ontology_file, tmp_path):
+    from bimrobot.lbd.schedule import Activity, Schedule
+
+    model = precast_model
+    assert model.assemblies, "the Tekla export groups its parts into assemblies"
+    graph = build_graph(model)
+    g = rdflib_graph(graph)
+    for gid, assembly in model.assemblies.items():
+        iri = graph.element_iri(gid)
+        assert (iri, RDF.type, BOT.Element) in g
+        assert g.value(iri, BRC.ifcClass).toPython() == "IfcElementAssembly"
+        assert {graph.id_of(p) for p in g.objects(iri, BOT.hasSubElement)} == set(assembly.part_ids)
+        assert len(list(g.subjects(BOT.containsElement, iri))) == 1  # in its storey (or the building)
+        weights = [model.elements[p].weight_kg for p in assembly.part_ids]
+        if all(w is not None for w in weights):  # the unit weighs what its parts weigh together
+            assert g.value(iri, BRC.weightKg).toPython() == pytest.approx(sum(weights))
+        else:
+            assert g.value(iri, BRC.weightKg) is None  # unknown, not a guess
+    # every term is defined: bot:hasSubElement relates two bot:Elements in BOT itself
+    bot = rdflib.Graph().parse(ontology_file("bot.ttl"), format="turtle")
+    assert (BOT.hasSubElement, rdflib.RDFS.domain, BOT.Element) in bot and (BOT.hasSubElement, rdflib.RDFS.range, BOT.Element) in bot
+
+    # a schedule may name the assembly: the unit is the activity's object, and its parts follow its state
+    unit, assembly = next(iter(model.assemblies.items()))
+    row = Activity("A1", "Transport unit", "transport", unit, "Crane", 0.0, 60.0)
+    with_schedule = build_graph(model, Schedule([row]))
+    assert with_schedule.query("component_activities", globalId=unit)[0]["activityId"] == "A1"
+    with_schedule.set_component_state(unit, "InTransit")
+    assert {with_schedule.component_state(p) for p in assembly.part_ids} == {"InTransit"}
+
+    # element by element: no assembly in the graph
+    by_element = rdflib_graph(build_graph(model, assemblies=False))
+    assert not list(by_element.triples((None, BOT.hasSubElement, None)))
+    assert len(set(by_element.subjects(RDF.type, BOT.Element))) == len(model.elements)
+
+
+def test_schedule_rows_may_name_an_assembly(precast_model, tmp_path):
+    unit = next(iter(precast_model.assemblies))
+    path = tmp_path / "units.csv"
+    path.write_text("Identification,Activity,GlobalId,Start,Finish\n"
+                    f"A1,transport,{unit},0,60\nA2,transport,NOT_A_UNIT,0,60\n")
+    with pytest.raises(InputError, match="line 3: GlobalId 'NOT_A_UNIT' is not an element of"):
+        load_schedule_csv(path, model=precast_model)
+    path.write_text("Identification,Activity,GlobalId,Start,Finish\n" f"A1,transport,{unit},0,60\n")
+    assert load_schedule_csv(path, model=precast_model).global_ids() == {unit}

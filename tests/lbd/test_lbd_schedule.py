@@ -60,7 +60,14 @@ def test_csv_round_trip_keeps_every_field(frame_schedule_csv, frame_model, tmp_p
         (1, "A2,x,INSTALLATION,fly,COL,P,100,220,,A1,,,,", "line 3: Activity 'fly' is not one of transport, position, assemble"),
         (1, "A2,x,BOGUS,position,COL,P,100,220,,A1,,,,", "line 3: PredefinedType 'BOGUS' is not an IfcTaskTypeEnum"),
         (1, "A2,x,INSTALLATION,position,,P,100,220,,A1,,,,", "line 3: GlobalId is empty"),
-        (1, "A2,x,INSTALLATION,position,COL,P,100,220,,A1,1,two,3,", "line 3: TargetX/TargetY/TargetZ"),
+        (1, "A2,x,INSTALLATION,position,COL,P,100,220,,A1,1,two,3,", "line 3: TargetY 'two' is not a number of metres"),
+        # valid float syntax, impossible values: refused with file, line and column
+        (1, "A2,x,INSTALLATION,position,COL,P,nan,220,,A1,,,,", "line 3: Start 'nan' must be a finite number of seconds"),
+        (1, "A2,x,INSTALLATION,position,COL,P,100,inf,,A1,,,,", "line 3: Finish 'inf' must be a finite number of seconds"),
+        (1, "A2,x,INSTALLATION,position,COL,P,100,1e308,,A1,,,,", "line 3: Finish '1e308' must be a finite number of seconds >= 0 and <= 1e+09"),
+        (1, "A2,x,INSTALLATION,position,COL,P,100,220,NaN,A1,,,,", "line 3: Duration 'NaN' must be a finite number"),
+        (1, "A2,x,INSTALLATION,position,COL,P,100,220,,A1,1,2,1e308,", "line 3: TargetZ '1e308' must be a finite number of metres"),
+        (1, "A2,x,INSTALLATION,position,COL,P,100,220,,A1,-inf,2,3,", "line 3: TargetX '-inf' must be a finite number of metres"),
         (1, "A2,x,INSTALLATION,position,COL,P,100,220,,A2,,,,", "line 3: activity A2 lists itself as a predecessor"),
     ],
 )
@@ -126,3 +133,63 @@ def test_ifc_work_schedule_tasks_sequences_and_assigned_elements(shared_ifc):
 def test_ifc_without_tasks_is_an_input_error(shared_ifc):
     with pytest.raises(InputError, match="has no IfcTask"):
         load_schedule_ifc(shared_ifc("column-extruded-solid.ifc"))
+
+
+def test_header_only_schedule_is_an_error_not_an_empty_build(tmp_path):
+    path = tmp_path / "schedule.csv"
+    path.write_text(HEADER, encoding="utf-8")
+    with pytest.raises(InputError, match="schedule.csv has a header but no activity"):
+        load_schedule_csv(path)
+    path.write_text(HEADER + "\n\n", encoding="utf-8")  # blank lines are no activities either
+    with pytest.raises(InputError, match="has a header but no activity"):
+        load_schedule_csv(path)
+    path.write_text("", encoding="utf-8")
+    with pytest.raises(InputError, match=r"line 1: missing column\(s\) Identification"):
+        load_schedule_csv(path)
+
+
+def test_leading_comment_lines_are_skipped_and_line_numbers_stay_true(tmp_path):
+    path = tmp_path / "schedule.csv"
+    path.write_text("# written by bimrobot 0.1.0 (simulate)\n" + HEADER + "\n".join(GOOD_ROWS) + "\n", encoding="utf-8")
+    assert [a.id for a in load_schedule_csv(path)] == ["A1", "A2", "A3", "A4"]
+    rows = list(GOOD_ROWS)
+    rows[1] = "A2,x,INSTALLATION,position,COL,P,100,nan,,A1,,,,"
+    path.write_text("# a comment\n" + HEADER + "\n".join(rows) + "\n", encoding="utf-8")
+    with pytest.raises(InputError, match="line 4: Finish 'nan'"):  # the file's own line 4
+        load_schedule_csv(path)
+
+
+def test_a_schedule_file_that_is_no_csv_is_one_sentence(tmp_path, shared_ifc):
+    with pytest.raises(InputError, match=r"line 1: missing column\(s\) Identification, Activity"):
+        load_schedule_csv(shared_ifc("column-extruded-solid.ifc"))  # an IFC given as the schedule
+    binary = tmp_path / "binary.csv"
+    binary.write_bytes(b"\x89PNG\r\n\x1a\n\xff\xfe\x00")
+    with pytest.raises(InputError, match="is not a UTF-8 text file"):
+        load_schedule_csv(binary)
+    with pytest.raises(InputError, match="is a folder, not a CSV file"):
+        load_schedule_csv(tmp_path)
+
+
+def test_real_schependomlaan_event_log_is_refused_as_not_a_bimrobot_schedule():
+    """The project's real as-planned event log is a 4D log, not a bimrobot schedule: one sentence."""
+    from pathlib import Path
+
+    log = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "schedules" / "schependomlaan-eventlog-as-planned.csv"
+    if not log.exists():
+        pytest.skip(f"{log} is absent: the shared test data lives beside the repository, not in it")
+    with pytest.raises(InputError, match=r"missing column\(s\) .*a bimrobot schedule CSV is expected"):
+        load_schedule_csv(log)
+
+
+def test_written_schedule_is_replaced_but_a_foreign_csv_is_not(tmp_path):
+    schedule = load_schedule_csv(write_csv(tmp_path, GOOD_ROWS))
+    out = tmp_path / "out.csv"
+    write_schedule_csv(schedule, out)
+    write_schedule_csv(schedule, out)  # bimrobot's own schedule: replaced
+    assert load_schedule_csv(out).activities == schedule.activities
+    foreign = tmp_path / "mine.csv"
+    foreign.write_text("name,value\nx,1\n")
+    before = foreign.read_bytes()
+    with pytest.raises(InputError, match="existing file that bimrobot did not write"):
+        write_schedule_csv(schedule, foreign)
+    assert foreign.read_bytes() == before

@@ -53,10 +53,17 @@ def write_capabilities(path: Path) -> Path:
 
 
 def done_count(db: Path) -> int:
-    """How many activities the state database records as done (0 before its tables exist)."""
-    import sqlite3
+    """How many activities the state database records as done (0 before it or its tables exist).
 
-    con = sqlite3.connect(db)
+    Opened read-only: a plain connect would create an empty file at ``db``, which the run then
+    refuses as a file bimrobot did not write."""
+    import sqlite3
+    from urllib.parse import quote
+
+    try:
+        con = sqlite3.connect(f"file:{quote(str(db))}?mode=ro", uri=True)
+    except sqlite3.OperationalError:  # not created yet
+        return 0
     try:
         return con.execute("SELECT COUNT(*) FROM activity WHERE status='done'").fetchone()[0]
     except sqlite3.OperationalError:  # killed before the tables were created

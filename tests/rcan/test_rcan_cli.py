@@ -85,18 +85,21 @@ def test_technician_fixes_the_cause_and_retries_the_escalated_activity(tmp_path,
 
 def test_ifc_work_schedule_runs_through_rcan(shared_ifc, tmp_path, capsys):
     """construction-scheduling-task.ifc: a slab and four walls in an IfcWorkSchedule; targets are the
-    elements' placements; the 13 t slab needs a robot that carries it."""
+    elements' placements; the 13 t slab needs a robot that carries it (the built-in site crane)."""
     ifc = shared_ifc("construction-scheduling-task.ifc")
-    assert main(["rcan", "run", "--schedule", str(ifc), "-q"]) == 2
-    assert "no robot can take 'Move to component' of component 20WrgxqpbDtferON_k1P2X" in capsys.readouterr().err
-    caps = tmp_path / "crane.yaml"
-    caps.write_text(
+    assert main(["rcan", "run", "--schedule", str(ifc), "-q"]) == 0
+    assert "components: 5 Assembled" in capsys.readouterr().out
+    light = tmp_path / "light.yaml"
+    light.write_text(
         "robot_types:\n"
         "  mobile_base: {activities: [move_to_component, transport]}\n"
         "  manipulator: {activities: [position_for_picking_up, position_for_installing]}\n"
         "  gripper: {activities: [pick_up, install]}\n"
         "robots:\n"
-        "  crawler_crane: {types: [mobile_base, manipulator, gripper], payload_kg: 20000, reach_m: 30,\n"
-        "                  speed_m_s: 0.5, handling_s: {install: 600}}\n")
-    assert main(["rcan", "run", "--schedule", str(ifc), "--capabilities", str(caps), "-q"]) == 0
-    assert "components: 5 Assembled" in capsys.readouterr().out
+        "  small_crane: {types: [mobile_base, manipulator, gripper], payload_kg: 2000, reach_m: 30,\n"
+        "                speed_m_s: 0.5, handling_s: {install: 600}}\n")
+    assert main(["rcan", "run", "--schedule", str(ifc), "--capabilities", str(light), "-q"]) == 2
+    err = capsys.readouterr().err
+    # every component no robot can take, in one sentence: the slab and the four walls
+    assert "no robot can take 'Move to component' of component 20WrgxqpbDtferON_k1P2X" in err
+    assert "4 more component(s) cannot be taken either; the heaviest weighs" in err and err.count("\n") == 1

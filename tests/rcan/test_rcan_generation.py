@@ -77,7 +77,17 @@ TABLE_5_2 = {
      "robot_types.arm: unknown construction activity 'weld'"),
     ({"robot_types": TABLE_5_2, "robots": {"r": {"types": ["crane"]}}}, "robots.r.types names unknown robot type 'crane'"),
     ({"robot_types": TABLE_5_2, "robots": {"r": {"types": ["gripper"], "payload_kg": -1}}},
-     "robots.r.payload_kg must be a non-negative number"),
+     "robot 'r': key 'payload_kg' must be >= 0 and <= 5e[+]06 kg, got -1"),
+    ({"robot_types": TABLE_5_2, "robots": {"r": {"types": ["gripper"], "payload_kg": "heavy"}}},
+     "robot 'r': key 'payload_kg' must be a number in kg, got 'heavy'"),
+    ({"robot_types": TABLE_5_2, "robots": {"r": {"types": ["mobile_base"], "speed_m_s": 0}}},
+     "robot 'r': key 'speed_m_s' must be > 0 and <= 20 m/s, got 0"),
+    ({"robot_types": TABLE_5_2, "robots": {"r": {"types": ["gripper"], "handling_s": {"pick_upp": 3}}}},
+     "robot 'r': handling_s: unknown construction activity 'pick_upp'"),
+    ({"robot_types": TABLE_5_2, "robots": {"r": {"types": ["gripper"], "handling_s": {"install": -5}}}},
+     "robot 'r' handling_s: key 'install' must be >= 0 and <= 86400 s, got -5"),
+    ({"robot_types": TABLE_5_2, "robots": {"r": {"types": ["gripper"], "home": [0, 0]}}},
+     "robot 'r': key 'home' must be a list of 3 numbers in metres"),
 ])
 def test_bad_capability_table_names_the_key(data, message):
     with pytest.raises(InputError, match=message):
@@ -105,5 +115,39 @@ def test_gripper_opening_is_matched_to_the_component_section(table_5_2):
     slab = RcanActivity("C.1", "SLAB", K.INSTALL, Pose(0, 0, 0), 100.0, section_m=(0.6, 1.2))
     with pytest.raises(InputError, match=r"section 0.600 x 1.200 m\): it needs a gripper with that payload and gripper opening"):
         TaskAllocator(table).choose(slab)
-    with pytest.raises(InputError, match=r"robots.r.gripper_opening_m must be \[min, max\] in metres"):
+    with pytest.raises(InputError, match=r"robot 'r': key 'gripper_opening_m' must be \[min, max\] with min <= max"):
         parse_capabilities({"robot_types": table_5_2, "robots": {"r": {"types": ["gripper"], "gripper_opening_m": [0.3, 0.1]}}})
+
+
+@pytest.mark.parametrize("value, message", [
+    (".nan", "key 'robots.crane.payload_kg' is NaN"),
+    (".inf", "key 'robots.crane.payload_kg' is infinite"),
+    ("1e308", "key 'robots.crane.payload_kg' is 1e[+]308, beyond any physical value"),
+    ("10000000", "line 7: robot 'crane': key 'payload_kg' must be >= 0 and <= 5e[+]06 kg, got 1e[+]07"),
+])
+def test_impossible_numbers_in_a_capability_file_name_file_key_and_line(tmp_path, value, message):
+    path = tmp_path / "caps.yaml"
+    path.write_text(
+        "robot_types:\n"
+        "  base: {activities: [move_to_component, transport]}\n"
+        "  arm: {activities: [position_for_picking_up, position_for_installing, pick_up, install]}\n"
+        "robots:\n"
+        "  crane:\n"
+        "    types: [base, arm]\n"
+        f"    payload_kg: {value}\n"
+        "    reach_m: 15\n")
+    with pytest.raises(InputError, match=f"caps.yaml line 7: {message}" if "line 7" not in message else message):
+        load_capabilities(path)
+
+
+def test_capability_file_numbers_in_range_are_read_with_units(tmp_path):
+    path = tmp_path / "caps.yaml"
+    path.write_text(
+        "robot_types:\n  all: {activities: [move_to_component, transport, position_for_picking_up, pick_up,"
+        " position_for_installing, install]}\n"
+        "robots:\n  crane: {types: [all], payload_kg: 2e4, reach_m: 15, speed_m_s: 0.8, handling_s: {Pick up: 300},"
+        " home: [155000.0, 463000.0, 0], gripper_opening_m: [0, 2]}\n")
+    crane = load_capabilities(path).robots["crane"]
+    assert (crane.payload_kg, crane.reach_m, crane.speed_m_s) == (20000.0, 15.0, 0.8)
+    assert crane.handling_s == {"pick_up": 300.0}  # the activity name normalised, as Table 5.2 spells it
+    assert crane.home.as_tuple() == (155000.0, 463000.0, 0.0)  # georeferenced coordinates are fine

@@ -9,6 +9,7 @@ import pytest
 
 from bimrobot.assembly.planner import reference_returns
 from bimrobot.errors import InputError
+from bimrobot.io import MARKER
 from bimrobot.rl.benchmark import (
     BenchmarkSpec,
     aggregate,
@@ -89,8 +90,9 @@ def test_double_dueling_dqn_trains_on_the_batched_env(tmp_path):
 
 
 def test_a_failing_run_leaves_no_run_dir(tmp_path):
-    with pytest.raises(TypeError):
-        train(TrainConfig("E1S1", "ppo", 64, overrides={"not_a_ppo_argument": 1}), tmp_path)
+    """An unknown hyperparameter is refused before the run dir exists (it used to be a TypeError from SB3)."""
+    with pytest.raises(InputError, match="unknown hyperparameter for ppo; valid names: batch_size, "):
+        train(TrainConfig("E1S1", "ppo", 64, overrides={"not_a_ppo_argument": 1}), tmp_path / "runs")
     assert list(tmp_path.iterdir()) == []
 
 
@@ -99,7 +101,9 @@ def test_a_failing_run_leaves_no_run_dir(tmp_path):
     [
         (TrainConfig("E5S1", "ppo", 10), "unknown setting 'E5S1'"),
         (TrainConfig("E1S1", "sac", 10), "unknown algorithm 'sac'"),
-        (TrainConfig("E1S1", "ppo", 0), "--timesteps must be a positive"),
+        (TrainConfig("E1S1", "ppo", 0), "--timesteps must be a number of env steps from 1 to 1e"),
+        (TrainConfig("E1S1", "ppo", 10, seed=-1), "--seed must be from 0 to 2147483647"),
+        (TrainConfig("E1S1", "dqn", 10, overrides={"buffer_size": 10**12}), "buffer_size must be >= 1 and <= 1e"),
     ],
 )
 def test_bad_training_requests_are_clear_errors(tmp_path, config, message):
@@ -179,6 +183,8 @@ def test_benchmark_grid_in_parallel_and_resumed(tmp_path):
     table = (tmp_path / "table.md").read_text()
     assert "| setting | maskable-ppo | double-dqn |" in table and "| E1S2 |" in table
     assert (tmp_path / "learning_curves.png").read_bytes()[:4] == b"\x89PNG"
+    assert json.loads((tmp_path / MARKER).read_text())["kind"] == "rl benchmark"
+    assert all(json.loads((run / MARKER).read_text())["kind"] == "rl train run" for run in (tmp_path / "runs").iterdir())
     grid = json.loads((tmp_path / "grid.json").read_text())
     assert grid["command"] == "test grid" and len(grid["runs"]) == 4
     # a second call reuses the finished runs instead of training again

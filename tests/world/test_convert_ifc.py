@@ -12,12 +12,12 @@ import pytest
 from bimrobot.bim import examples
 from bimrobot.cli import main
 from bimrobot.world.check import problems, read_models, sdf_validator, validate_sdf
-from bimrobot.world.package import ConvertOptions, convert
+from bimrobot.world.package import GENERIC_SITE_NAMES, ConvertOptions, convert
 
 SHARED_IFC = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "ifc"
 
 needs_ign = pytest.mark.skipif(sdf_validator() is None, reason="`ign sdf` is not installed (ignition-tools)")
-SHARED_FILES = sorted(p.name for p in SHARED_IFC.glob("*.ifc")) if SHARED_IFC.exists() else []
+SHARED_FILES = sorted(p.name for p in SHARED_IFC.glob("*.ifc*")) if SHARED_IFC.exists() else []
 
 
 @pytest.fixture(scope="module")
@@ -110,7 +110,14 @@ def test_every_shared_ifc_file_converts_to_a_valid_package(tmp_path, shared_ifc,
     out = tmp_path / "pkg"
     report = convert(shared_ifc(name), out, ConvertOptions())  # SDF 1.6 is checked on the synthetic frame
     assert report["counts"]["converted"] > 0
+    assert report["counts"]["converted"] == len(list((out / "models").iterdir()))  # what it says it wrote
     assert problems(out) == []
+    # Tool-default site and storey names ("Undefined", "Default", "Topography : Surface") name nothing.
+    assert report["world"] not in GENERIC_SITE_NAMES
+    assert not [p.name for p in out.rglob("*") if p.stem.lower() in {"undefined", "default", "topography_surface"}]
+    if name == "MULTICOM-trappen_bordessen.ifc":  # Tekla: site and storey "Undefined"
+        assert report["world_files"] == {"sim": "worlds/multicom_trappen_bordessen.sdf"}
+        assert [(m["yaml"], m["storey_name"]) for m in report["maps"]] == [("maps/storey_1.yaml", "Undefined")]
     for world in report["world_files"].values():
         valid, output = validate_sdf(out / world, out / "models")
         assert valid, f"{name} {world}: {output}"
@@ -153,9 +160,9 @@ def test_cli_converts_and_prints_where_and_what(tmp_path, cli):
         (None, ["missing.ifc"], "missing.ifc: no such file"),
         ("not IFC at all\n", ["bad.ifc"], "bad.ifc"),
         ("ISO-10303-21;\nHEADER;\nFILE_SCHEMA(('IFC4'));\nENDSEC;\nDATA;\n#1=IFCPROJECT('0", ["bad.ifc"], "bad.ifc"),
-        ("", ["frame.ifc", "--include", "Column"], "--include expects IFC class names"),
+        ("", ["frame.ifc", "--include", "Column"], "--include 'Column' is not a valid IfcOpenShell selector"),
+        ("", ["frame.ifc", "--include", "IfcColumm"], "--include names 'IfcColumm', which is not an IFC4 class"),
         ("", ["frame.ifc", "--map-band", "2", "1"], "--map-band"),
-        ("", ["frame.ifc", "--default-density", "0"], "--default-density"),
     ],
 )
 def test_cli_bad_input_exits_2_with_one_sentence_and_no_output(tmp_path, cli, setup, args, message):
@@ -171,72 +178,161 @@ def test_cli_bad_input_exits_2_with_one_sentence_and_no_output(tmp_path, cli, se
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".out_pkg")]
 
 
-def test_cli_refuses_to_overwrite_a_folder_it_did_not_write(tmp_path, cli):
+@pytest.mark.parametrize("option", ["--unknown-weight", "--default-density"])
+def test_cli_refuses_an_impossible_density(tmp_path, cli, option):
     examples.steel_frame(tmp_path / "frame.ifc")
-    (tmp_path / "notes").mkdir()
-    (tmp_path / "notes" / "thesis.txt").write_text("precious")
-    status, _, err = cli("convert", "frame.ifc", "-o", "notes", cwd=tmp_path)
-    assert status == 2 and "did not write" in err
-    assert (tmp_path / "notes" / "thesis.txt").read_text() == "precious"
+    with pytest.raises(SystemExit) as exited:  # argparse: usage line and the error, exit 2
+        cli("convert", "frame.ifc", "-o", "out_pkg", option, "0", cwd=tmp_path)
+    assert exited.value.code == 2
+    assert not (tmp_path / "out_pkg").exists()
 
 
-def test_steel_frame_map_shows_the_four_columns_and_a_free_bay(frame_package):
-    from bimrobot.bim import load_model
-    from bimrobot.world.navmap import read_map
-
-    out, report = frame_package
-    model = load_model(report["source"])
-    level_1 = next(m for m in report["maps"] if m["storey_name"] == "Level 1")
-    meta, occupied = read_map(out / level_1["yaml"])
-    origin_x, origin_y = meta["origin"][:2]
-
-    def occupied_at(x, y):
-        row = occupied.shape[0] - 1 - int(np.floor((y - origin_y) / meta["resolution"]))
-        return bool(occupied[row, int(np.floor((x - origin_x) / meta["resolution"]))])
-
-    columns = model.by_class("IfcColumn")
-    assert len(columns) == 4
-    for column in columns:
-        x, y = column.centroid[:2]
-        assert occupied_at(x, y), f"column {column.name} at ({x:.2f}, {y:.2f}) m is not on the map"
-    centre = np.mean([c.centroid[:2] for c in columns], axis=0)
-    assert not occupied_at(*centre)
+def _snapshot(folder: Path) -> dict[str, bytes]:
+    return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
 
 
-def test_yard_components_lie_still_on_the_ground_in_pybullet(tmp_path):
-    """Every pick-up pose is a resting pose: simulated for 2 s, no component moves more than 1 cm."""
-    pybullet = pytest.importorskip("pybullet")
-    ifc = examples.steel_frame(tmp_path / "frame.ifc")
-    out = tmp_path / "yard"
-    report = convert(ifc, out, ConvertOptions(layout="yard", maps=False), exclude=["IfcMechanicalFastener"])
-    infos = {i.name: i for i in read_models(out)}
-    client = pybullet.connect(pybullet.DIRECT)
-    try:
-        pybullet.setGravity(0, 0, -9.81, physicsClientId=client)
-        plane = pybullet.createCollisionShape(pybullet.GEOM_PLANE, physicsClientId=client)
-        pybullet.createMultiBody(0, plane, basePosition=[0, 0, report["ground_z_m"]], physicsClientId=client)
-        bodies = {}
-        for entry in report["converted"]:
-            info = infos[entry["model"]]
-            stl = next(f for f in info.mesh_files if f.suffix == ".stl")
-            shape = pybullet.createCollisionShape(pybullet.GEOM_MESH, fileName=str(stl), physicsClientId=client)
-            pose = entry["pose_xyz_rpy"]
-            bodies[entry["model"]] = pybullet.createMultiBody(
-                baseMass=info.mass,
-                baseCollisionShapeIndex=shape,
-                basePosition=pose[:3],
-                baseOrientation=pybullet.getQuaternionFromEuler(pose[3:]),
-                baseInertialFramePosition=info.center_of_mass.tolist(),
-                physicsClientId=client,
-            )
-        start = {name: np.array(pybullet.getBasePositionAndOrientation(b, physicsClientId=client)[0])
-                 for name, b in bodies.items()}
-        for _ in range(480):
-            pybullet.stepSimulation(physicsClientId=client)
-        moved = {name: float(np.linalg.norm(
-            np.array(pybullet.getBasePositionAndOrientation(b, physicsClientId=client)[0]) - start[name]))
-            for name, b in bodies.items()}
-    finally:
-        pybullet.disconnect(client)
-    assert len(moved) == 24
-    assert max(moved.values()) < 0.01, {name: round(d, 3) for name, d in moved.items() if d >= 0.01}
+@pytest.mark.parametrize(
+    "output, message",
+    [
+        (".", "is the current directory"),
+        ("frame.ifc", "is an input of this command"),
+        ("..", "a folder that contains the current directory"),
+        ("notes", "a folder that bimrobot did not write and it is not empty"),
+        ("notes/thesis.txt", "is an existing file, not a folder"),
+        ("notes/thesis.txt/pkg", "is a file, not a folder, so nothing can be written under it"),
+        ("linked", "a folder that bimrobot did not write and it is not empty"),
+    ],
+)
+def test_cli_refuses_outputs_that_would_destroy_data_and_leaves_them_byte_for_byte(tmp_path, cli, output, message):
+    project = tmp_path / "project"
+    project.mkdir()
+    examples.steel_frame(project / "frame.ifc")
+    (project / "notes").mkdir()
+    (project / "notes" / "thesis.txt").write_text("precious")
+    (project / "linked").symlink_to(project / "notes")
+    before = _snapshot(tmp_path)
+    status, out, err = cli("convert", "frame.ifc", "-o", output, cwd=project)
+    assert status == 2, out
+    assert message in err and len(err.strip().splitlines()) == 1
+    assert _snapshot(tmp_path) == before
+    assert sorted(p.name for p in project.iterdir()) == ["frame.ifc", "linked", "notes"]
+
+
+def test_cli_refuses_the_folder_holding_the_input_before_reading_it(tmp_path, cli):
+    """The path is checked before the model is read: a huge model would otherwise be read for nothing."""
+    (tmp_path / "models").mkdir()
+    examples.steel_frame(tmp_path / "models" / "frame.ifc")
+    status, _, err = cli("convert", "models/frame.ifc", "-o", "models", cwd=tmp_path)
+    assert status == 2 and "contains an input of this command" in err
+    (tmp_path / "models" / "frame.ifc").write_text("not IFC")  # refused before it is read: no parse error
+    status, _, err = cli("convert", "models/frame.ifc", "-o", "models", cwd=tmp_path)
+    assert status == 2 and "contains an input of this command" in err
+
+
+def test_cli_replaces_its_own_package_and_says_so(tmp_path, cli):
+    examples.greenhouse(tmp_path / "gh.ifc")
+    assert cli("convert", "gh.ifc", "-o", "pkg", "--no-maps", cwd=tmp_path)[0] == 0
+    (tmp_path / "pkg" / "stale.txt").write_text("from the last run")
+    status, _, err = cli("convert", "gh.ifc", "-o", "pkg", "--no-maps", "--include", "IfcColumn", cwd=tmp_path)
+    assert status == 0
+    (line,) = err.strip().splitlines()
+    assert line.startswith("bimrobot: replacing pkg (convert output of gh.ifc, written ")
+    assert line.endswith("the new one is from gh.ifc")
+    assert not (tmp_path / "pkg" / "stale.txt").exists()
+    assert len(list((tmp_path / "pkg" / "models").iterdir())) == 9
+
+
+def _weightless_walls(path: Path, shared_global_id: bool = False, site: str = "Undefined") -> Path:
+    """Three 5 m x 3 m x 0.2 m walls with no material and no weight; optionally two share a GlobalId."""
+    import ifcopenshell.api.aggregate
+    import ifcopenshell.api.context
+    import ifcopenshell.api.geometry
+    import ifcopenshell.api.project
+    import ifcopenshell.api.root
+    import ifcopenshell.api.spatial
+    import ifcopenshell.api.unit
+
+    ifc = ifcopenshell.api.project.create_file(version="IFC4")
+    project = ifcopenshell.api.root.create_entity(ifc, ifc_class="IfcProject", name="Walls")
+    ifcopenshell.api.unit.assign_unit(ifc)
+    model = ifcopenshell.api.context.add_context(ifc, context_type="Model")
+    body = ifcopenshell.api.context.add_context(ifc, context_type="Model", context_identifier="Body",
+                                                target_view="MODEL_VIEW", parent=model)
+    site_entity = ifcopenshell.api.root.create_entity(ifc, ifc_class="IfcSite", name=site)
+    ifcopenshell.api.aggregate.assign_object(ifc, products=[site_entity], relating_object=project)
+    walls = []
+    for index in range(3):
+        wall = ifcopenshell.api.root.create_entity(ifc, ifc_class="IfcWall", name=f"Wall {index}")
+        representation = ifcopenshell.api.geometry.add_wall_representation(ifc, context=body, length=5, height=3,
+                                                                           thickness=0.2)
+        ifcopenshell.api.geometry.assign_representation(ifc, product=wall, representation=representation)
+        matrix = np.eye(4)
+        matrix[1, 3] = 2.0 * index
+        ifcopenshell.api.geometry.edit_object_placement(ifc, product=wall, matrix=matrix)
+        ifcopenshell.api.spatial.assign_container(ifc, products=[wall], relating_structure=site_entity)
+        walls.append(wall)
+    if shared_global_id:
+        walls[1].GlobalId = walls[0].GlobalId
+    ifc.write(str(path))
+    return path
+
+
+def test_cli_unknown_weight_rule_is_reported_and_refuse_lists_the_classes(tmp_path, cli):
+    _weightless_walls(tmp_path / "walls.ifc")
+    status, out, err = cli("convert", "walls.ifc", "-o", "pkg", "--unknown-weight", "refuse", cwd=tmp_path)
+    assert status == 2
+    assert "3 element(s) have no weight in the model (3 IfcWall" in err and "--unknown-weight is refuse" in err
+    assert not (tmp_path / "pkg").exists()
+    status, out, err = cli("convert", "walls.ifc", "-o", "pkg", "--unknown-weight", "1800", cwd=tmp_path)
+    assert status == 0, err
+    assert "unknown:  3 element(s) have no weight in the model (3 IfcWall): assume volume x 1800 kg/m3" in out
+    report = json.loads((tmp_path / "pkg" / "report.json").read_text())
+    assert report["unknown_weight"]["count"] == 3 and report["unknown_weight"]["rule"] == "assume volume x 1800 kg/m3"
+    wall_kg = 5 * 3 * 0.2 * 1800
+    assert list(report["unknown_weight"]["elements"].values()) == [pytest.approx(wall_kg)] * 3
+    assert [info.mass for info in read_models(tmp_path / "pkg")] == [pytest.approx(wall_kg)] * 3
+
+
+def test_cli_deprecated_default_density_still_works(tmp_path, cli):
+    _weightless_walls(tmp_path / "walls.ifc")
+    status, out, err = cli("convert", "walls.ifc", "-o", "pkg", "--no-maps", "--default-density", "7850", cwd=tmp_path)
+    assert status == 0
+    assert "--default-density is deprecated; use --unknown-weight" in err
+    assert "assume volume x 7850 kg/m3" in out
+
+
+def test_cli_duplicate_global_ids_become_distinct_models_and_are_reported(tmp_path, cli):
+    """Two walls share a GlobalId: three models, not two, and the user is told which entities."""
+    _weightless_walls(tmp_path / "walls.ifc", shared_global_id=True)
+    status, out, err = cli("convert", "walls.ifc", "-o", "pkg", "--validate", cwd=tmp_path)
+    assert status == 0, out + err
+    assert "models:   3 (3 IfcWall)" in out
+    report = json.loads((tmp_path / "pkg" / "report.json").read_text())
+    assert report["counts"]["converted"] == 3 == len(list((tmp_path / "pkg" / "models").iterdir()))
+    (shared, keys), = report["duplicate_global_ids"].items()
+    assert keys[0] == shared and keys[1].startswith(f"{shared}#")
+    assert "1 GlobalId(s) are shared by several elements" in out
+    world = ET.parse(tmp_path / "pkg" / report["world_files"]["sim"]).getroot()
+    assert len(world.findall("world/include")) == 3
+
+
+def test_generic_site_name_never_names_the_world(tmp_path):
+    """Tekla's 'Undefined' site: the world is named after the file, never undefined.sdf."""
+    ifc = _weightless_walls(tmp_path / "Stairs Block-A.ifc", site="Undefined")
+    report = convert(ifc, tmp_path / "pkg", ConvertOptions(target="both"))
+    assert report["world"] == "stairs_block_a"
+    assert sorted(p.name for p in (tmp_path / "pkg" / "worlds").iterdir()) == ["stairs_block_a.sdf", "stairs_block_a.world"]
+
+
+def test_ifczip_converts_like_the_ifc_inside(tmp_path):
+    import zipfile
+
+    ifc = examples.greenhouse(tmp_path / "greenhouse.ifc")
+    archive = tmp_path / "greenhouse.ifczip"
+    with zipfile.ZipFile(archive, "w", zipfile.ZIP_DEFLATED) as zipped:
+        zipped.write(ifc, "inside/greenhouse.ifc")
+    report = convert(archive, tmp_path / "pkg", ConvertOptions(maps=False))
+    plain = convert(ifc, tmp_path / "plain", ConvertOptions(maps=False))
+    assert report["counts"] == plain["counts"]
+    assert report["world"] == plain["world"] == "greenhouse_site"
+    assert report["source"] == str(archive)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import py_compile
 import xml.etree.ElementTree as ET
+from pathlib import Path
 
 import collada
 import numpy as np
@@ -15,7 +16,7 @@ from bimrobot.world.check import problems, read_models, sdf_validator, validate_
 from bimrobot.world.navmap import read_map
 from bimrobot.world.package import ConvertOptions, build_package
 
-from .conftest import COLUMN_SIZE, COLUMN_XY, frame_model
+from .conftest import COLUMN_SIZE, COLUMN_XY, box_element, frame_model
 
 needs_ign = pytest.mark.skipif(sdf_validator() is None, reason="`ign sdf` is not installed (ignition-tools)")
 
@@ -89,9 +90,13 @@ def test_report_says_what_was_skipped_and_where_each_weight_came_from(package):
     ]
     assert on_disk["counts"]["weight_sources"] == {
         "IfcQuantityWeight": 6,
-        "assumed: volume x default density 2400 kg/m3": 1,
+        "assumed: volume x 2400 kg/m3 (--unknown-weight)": 1,
     }
     assert on_disk["counts"]["total_mass_kg"] == pytest.approx(4 * 289.81 + 2 * 134.39 + 0.4 * 0.4 * 0.02 * 2400)
+    unknown = on_disk["unknown_weight"]
+    assert unknown["rule"] == "assume volume x 2400 kg/m3" and unknown["by_class"] == {"IfcPlate": 1}
+    assert unknown["elements"] == {"2Plate$000000000000000": pytest.approx(0.4 * 0.4 * 0.02 * 2400)}
+    assert unknown["message"].startswith("1 element(s) have no weight in the model (1 IfcPlate)")
 
 
 @pytest.mark.sdf
@@ -204,7 +209,7 @@ def test_static_flag_is_configurable_and_buried_dynamic_parts_are_warned_about(t
     assert not any(info.static for info in read_models(tmp_path / "dyn"))
     # The base plate lies 20 mm below the ground (Level 1 at 0 m): dynamic, it would be pushed up.
     assert any("1 dynamic model(s) reach below the ground plane at z = 0 m" in w for w in report["warnings"])
-    assert any("1 element(s) have no weight in the BIM" in w for w in report["warnings"])
+    assert report["unknown_weight"]["count"] == 1
 
 
 def test_decimated_collision_respects_the_triangle_budget(tmp_path):
@@ -253,14 +258,100 @@ def test_bad_options_are_refused_with_the_option_named(tmp_path, options, messag
         ("Topography : Surface", "ifcUnit.ifc", "ifcunit"),  # Revit's default site name
         ("Default", "engine_web-ifc_example.ifc", "engine_web_ifc_example"),
         ("表面:335313", "ifcColumn.ifc", "ifccolumn"),
+        ("Undefined", "MULTICOM-trappen_bordessen.ifc", "multicom_trappen_bordessen"),  # Tekla's default
+        ("Site #1", "construction-scheduling-task.ifc", "construction_scheduling_task"),
+        ("Site", "ROOT-staal.ifczip", "root_staal"),
         ("", None, "test_frame"),
+        ("Undefined", "Undefined.ifc", "test_frame"),  # the file name says nothing either: the project
     ],
 )
 def test_world_is_named_by_the_site_unless_the_site_name_is_a_tool_default(site, source, expected):
-    from pathlib import Path
-
     from bimrobot.world.package import world_name_of
 
     model = frame_model()
     model.site_name, model.source = site, Path(source) if source else None
     assert world_name_of(model) == expected
+
+
+def test_unknown_weight_refuse_lists_the_classes_and_writes_nothing(tmp_path):
+    from bimrobot.bim.unknown_weight import UnknownWeightRule
+
+    with pytest.raises(InputError, match=r"1 element\(s\) have no weight in the model \(1 IfcPlate, e\.g\. 2Plate"):
+        build_package(frame_model(), tmp_path / "refused", ConvertOptions(unknown_weight=UnknownWeightRule(None)))
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_physics_fallback_uses_the_same_rule_for_a_body_without_closed_volume(tmp_path):
+    """A flat plate (no closed volume): the rule cannot price it, physics does, with the same density."""
+    from bimrobot.bim.unknown_weight import UnknownWeightRule
+
+    model = frame_model()
+    plate = model.element("2Plate$000000000000000")
+    plate.vertices = np.array([[0, 0, 0], [0.4, 0, 0], [0.4, 0.4, 0], [0, 0.4, 0]], float)
+    plate.faces = np.array([[0, 1, 2], [0, 2, 3]])
+    report = build_package(model, tmp_path / "p", ConvertOptions(unknown_weight=UnknownWeightRule(1000.0), maps=False))
+    entry = next(e for e in report["converted"] if e["global_id"] == plate.global_id)
+    assert entry["weight_source"] == "assumed: volume x 1000 kg/m3 (--unknown-weight)"
+    assert entry["mass_kg"] == pytest.approx(0.4 * 0.4 * 0.001 * 1000)  # box of the minimum thickness
+    assert report["unknown_weight"]["elements"][plate.global_id] == pytest.approx(entry["mass_kg"], abs=1e-3)
+
+
+def test_hostile_names_and_ids_stay_out_of_the_xml_and_file_names(tmp_path):
+    """Ids and names with control characters, '/', '..', '__model__' or 300 characters: every file
+    name is portable, every XML file parses, no control character is written raw."""
+    import re
+
+    from bimrobot.world.names import global_id_from_safe_name, is_shortened
+
+    model = frame_model()
+    hostile = ["__model__", "../../etc/passwd", "bell\x07\x1b[31mred", "world", "x" * 300]
+    originals = list(model.elements.values())
+    model.elements = {}
+    for element, new_id in zip(originals, hostile + [e.global_id for e in originals[len(hostile):]]):
+        element.global_id = new_id
+        element.name = "name with \x00 NUL, \x1b escape & <tag> and\nnewline"
+        model.elements[new_id] = element
+    model.site_name = "Site\x01"
+    model.source = Path("weird -- \x02name.ifc")
+    out = tmp_path / "p"
+    report = build_package(model, out, ConvertOptions(target="both"))
+    assert report["counts"]["converted"] == len(model.elements) == len(list((out / "models").iterdir()))
+    for path in out.rglob("*"):
+        name = path.name
+        assert re.fullmatch(r"[A-Za-z0-9_.\-]+", name) and name not in (".", "..") and len(name) <= 255, name
+        if path.is_file() and path.suffix in {".sdf", ".world", ".config", ".launch", ".xml", ".dae", ".py", ".yaml", ".md", ".json"}:
+            text = path.read_text(encoding="utf-8")
+            assert not re.search(r"[\x00-\x08\x0b\x0c\x0e-\x1f\x7f]", text), path
+            if path.suffix in {".sdf", ".world", ".config", ".launch", ".xml", ".dae"}:
+                ET.parse(path)  # well-formed XML
+    py_compile.compile(str(out / "launch" / "gz_sim.launch.py"), doraise=True)
+    names = {e["global_id"]: e["model"] for e in report["converted"]}
+    assert names["__model__"] == "__model_.5f" and names["world"] == "worl.64"
+    for global_id, name in names.items():
+        if is_shortened(name):
+            assert global_id == "x" * 300 and len(name) <= 200
+        else:
+            assert global_id_from_safe_name(name) == global_id
+    config = ET.parse(out / "models" / names["world"] / "model.config").getroot()
+    assert "\\x00 NUL" in config.findtext("description") and "<tag>" in config.findtext("description")
+    assert not (out / "worlds" / "site.sdf").exists()
+
+
+def test_maps_of_storeys_with_tool_default_names_are_numbered(tmp_path):
+    from bimrobot.bim.model import Storey
+
+    model = frame_model()
+    model.storeys = [Storey("3storey1$$$$$$$$$$$$$$", "Undefined", 0.0), Storey("3storey2$$$$$$$$$$$$$$", "Level 2", 4.0)]
+    report = build_package(model, tmp_path / "p", ConvertOptions())
+    assert [m["yaml"] for m in report["maps"]] == ["maps/storey_1.yaml", "maps/level_2.yaml"]
+    assert report["maps"][0]["storey_name"] == "Undefined"
+
+
+def test_duplicate_keys_are_distinct_models(tmp_path):
+    model = frame_model()
+    first = next(iter(model.elements.values()))
+    twin = box_element(f"{first.global_id}#99", "IfcColumn", COLUMN_SIZE, first.placement.copy(), 289.81)
+    model.elements[twin.global_id] = twin
+    report = build_package(model, tmp_path / "p", ConvertOptions(maps=False))
+    assert report["counts"]["converted"] == 8 == len(list((tmp_path / "p" / "models").iterdir()))
+    assert report["duplicate_global_ids"] == {first.global_id: [first.global_id, twin.global_id]}

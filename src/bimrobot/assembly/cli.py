@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 from pathlib import Path
 
@@ -91,18 +92,37 @@ def _settings(arg: str) -> list[str]:
     return chosen
 
 
+MAX_EPISODES = 100_000
+MAX_FPS = 100.0
+
+
+def _check_seed(seed: int) -> None:
+    from bimrobot.assembly.env import MAX_SEED
+    from bimrobot.errors import InputError
+
+    if not 0 <= seed <= MAX_SEED:
+        raise InputError(f"--seed must be from 0 to {MAX_SEED}, got {seed}")
+
+
 def cmd_optimum(args) -> int:
     from tqdm import tqdm
 
     from bimrobot.assembly.planner import REFERENCE_FILE, compute_reference_returns
+    from bimrobot.assembly.scenario import SETTINGS_DIR
     from bimrobot.errors import InputError
-    from bimrobot.io import atomic_output_file
+    from bimrobot.io import atomic_output_file, check_output, signature
 
     settings = _settings(args.setting)
-    if args.episodes < 2:
-        raise InputError(f"--episodes must be at least 2, got {args.episodes}")
+    if not 2 <= args.episodes <= MAX_EPISODES:
+        raise InputError(f"--episodes must be from 2 to {MAX_EPISODES}, got {args.episodes}")
     if args.write and (args.setting != "all" or args.episodes != 100):
         raise InputError("--write stores the reference table: use it with --setting all and the default --episodes 100")
+    inputs = [SETTINGS_DIR / f"{setting}.yaml" for setting in settings]
+    # before the minute of planning, so that a bad path never throws the table away
+    if args.json:
+        check_output(args.json, folder=False, inputs=inputs, option="--json")
+    if args.write:
+        check_output(REFERENCE_FILE, folder=False, inputs=inputs, option="--write")
     rows = {}
     for setting in tqdm(settings, desc="settings", disable=len(settings) < 2 or not sys.stderr.isatty()):
         rows[setting] = compute_reference_returns(setting, args.episodes)
@@ -116,17 +136,18 @@ def cmd_optimum(args) -> int:
         f"random: uniform random actions, {args.episodes} seeded episodes"
     )
     table = {
+        "generator": signature("assembly optimum"),
         "description": "Optimal (exact planner) and uniformly random policy mean returns per setting; "
         "written by `bimrobot assembly optimum --setting all --write`. "
         "score = (return - random) / (optimal - random).",
         "settings": rows,
     }
     if args.json:
-        with atomic_output_file(args.json) as tmp:
+        with atomic_output_file(args.json, inputs=inputs, option="--json") as tmp:
             tmp.write_text(json.dumps(table, indent=2) + "\n")
         print(f"wrote {args.json}")
     if args.write:
-        with atomic_output_file(REFERENCE_FILE) as tmp:
+        with atomic_output_file(REFERENCE_FILE, inputs=inputs, option="--write") as tmp:
             tmp.write_text(json.dumps(table, indent=2) + "\n")
         print(f"wrote {REFERENCE_FILE}")
     return 0
@@ -162,13 +183,19 @@ def cmd_play(args) -> int:
 
     from bimrobot.assembly import make_env
     from bimrobot.assembly.env import AssemblyEnv
-    from bimrobot.assembly.scenario import load_scenario
+    from bimrobot.assembly.scenario import SETTINGS_DIR, load_scenario
     from bimrobot.errors import InputError
-    from bimrobot.io import atomic_output_file
+    from bimrobot.io import atomic_output_file, check_output
 
     render_mode = "rgb_array" if args.gif else ("ansi" if args.ansi else None)
-    if args.fps <= 0:
-        raise InputError(f"--fps must be positive, got {args.fps}")
+    if not (math.isfinite(args.fps) and 0 < args.fps <= MAX_FPS):
+        raise InputError(f"--fps must be a number of frames per second above 0 and at most {MAX_FPS:g}, got {args.fps}")
+    _check_seed(args.seed)
+    inputs = [args.scenario] if args.scenario else [SETTINGS_DIR / f"{args.setting}.yaml"] if args.setting else []
+    if args.policy not in ("planner", "random"):
+        inputs += [Path(args.policy) / "model.zip", Path(args.policy) / "config.json"]
+    if args.gif:  # before the episode (and the policy's loading), so that a bad path costs nothing
+        check_output(args.gif, folder=False, inputs=inputs, option="--gif")
     run_policy = None if args.policy in ("planner", "random") else _load_run_policy(args.policy)
     if args.scenario:
         scenario = load_scenario(args.scenario)
@@ -211,7 +238,7 @@ def cmd_play(args) -> int:
         from bimrobot.assembly.render import write_gif
 
         frames += [frames[-1]] * int(args.fps)  # hold the last frame a second
-        with atomic_output_file(args.gif) as tmp:
+        with atomic_output_file(args.gif, inputs=inputs, option="--gif") as tmp:
             write_gif(frames, tmp, args.fps)
         print(f"wrote {args.gif} ({len(frames)} frames)")
     env.close()

@@ -29,6 +29,56 @@ N_CHANNELS = 7
 # cell codes of obs_mode="voxels"
 EMPTY, GROUND, FOUNDATION, OBSTACLE, WAITING, CURRENT, PLACED, FREE_TARGET = range(8)
 VOXEL_CODES = ("empty", "ground", "foundation", "obstacle", "waiting", "current", "placed", "free target")
+#: Largest reset seed the commands accept: NumPy's legacy seeding (used by SB3) takes seeds below 2**32,
+#: and runs add env indices and evaluation offsets to the seed they are given.
+MAX_SEED = 2**31 - 1
+ACTION_HELP = ", ".join(f"{i} {name}" for i, name in enumerate(ACTION_NAMES))
+
+
+class ActionError(InputError, ValueError):
+    """An action outside the action space ``Discrete(6)`` (a ValueError too, as Gymnasium users expect)."""
+
+
+def _shown(value) -> str:
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def check_action(action) -> int:
+    """``action`` as an int in 0..5, or an :class:`ActionError` naming it and the valid range.
+
+    Accepted: a Python or NumPy integer, or an integer array holding one element (what a policy's
+    ``predict`` returns). Floats, booleans and anything else are refused, as ``Discrete(6).contains`` does.
+    """
+    value = action
+    if isinstance(value, np.ndarray) and value.size == 1 and np.issubdtype(value.dtype, np.integer):
+        value = value.reshape(())[()]
+    if isinstance(value, (int, np.integer)) and not isinstance(value, (bool, np.bool_)) and 0 <= value < len(MOVES):
+        return int(value)
+    raise ActionError(f"action {_shown(action)} is outside the action space Discrete(6): give an integer 0..5 ({ACTION_HELP})")
+
+
+def reward_constants(reward, r0, epsilon, completion_bonus) -> tuple[float, int, float]:
+    """The scenario's reward constants with the given overrides (None keeps the scenario's), checked as
+    a scenario file's are: ``r0`` finite and negative (every step costs, which the planner relies on),
+    ``epsilon`` a whole number of steps >= 0, ``completion_bonus`` finite and >= 0."""
+    import math
+
+    from bimrobot.assembly.scenario import MAX_REWARD, MAX_TIME_LIMIT
+
+    r0 = reward.r0 if r0 is None else r0
+    epsilon = reward.epsilon if epsilon is None else epsilon
+    bonus = reward.completion_bonus if completion_bonus is None else completion_bonus
+    for name, value in (("r0", r0), ("completion_bonus", bonus)):
+        if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)) or not math.isfinite(value):
+            raise InputError(f"{name} must be a finite number, got {value!r}")
+    if not -MAX_REWARD <= r0 < 0:
+        raise InputError(f"r0 must be >= {-MAX_REWARD:g} and < 0 (the cost of a step), got {r0!r}")
+    if not 0 <= bonus <= MAX_REWARD:
+        raise InputError(f"completion_bonus must be from 0 to {MAX_REWARD:g}, got {bonus!r}")
+    if isinstance(epsilon, bool) or not isinstance(epsilon, (int, np.integer)) or not 0 <= epsilon <= MAX_TIME_LIMIT:
+        raise InputError(f"epsilon must be a whole number of steps from 0 to {MAX_TIME_LIMIT}, got {epsilon!r}")
+    return float(r0), int(epsilon), float(bonus)
 
 
 @dataclass(frozen=True)
@@ -170,9 +220,7 @@ class AssemblyEnv(gym.Env):
         self.obs_mode = obs_mode
         self.render_mode = render_mode
         reward = scenario.reward
-        self.r0 = float(reward.r0 if r0 is None else r0)
-        self.epsilon = int(reward.epsilon if epsilon is None else epsilon)
-        self.completion_bonus = float(reward.completion_bonus if completion_bonus is None else completion_bonus)
+        self.r0, self.epsilon, self.completion_bonus = reward_constants(reward, r0, epsilon, completion_bonus)
         cs = self._cs = compile_scenario(scenario)
         W, L, H = scenario.grid
         self.action_space = spaces.Discrete(6)
@@ -203,7 +251,7 @@ class AssemblyEnv(gym.Env):
         return self._observation(), self._info(False, None)
 
     def step(self, action):
-        a = int(action)
+        a = check_action(action)
         if not self._started:
             raise gym.error.ResetNeeded("call reset() before step()")
         if self._done:  # stepping a finished episode changes nothing (reset to start another)

@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from bimrobot.assembly.scenario import Scenario
+from bimrobot.io import signature
 
 if TYPE_CHECKING:  # pragma: no cover
     from bimrobot.assembly.env import AssemblyEnv
@@ -254,4 +255,6 @@ def write_gif(frames: list[np.ndarray], path, fps: float) -> None:
     palette_image = Image.new("P", (1, 1))
     palette_image.putpalette(palette)
     images = [Image.fromarray(frame).quantize(palette=palette_image, dither=Image.Dither.NONE) for frame in frames]
-    images[0].save(path, format="GIF", save_all=True, append_images=images[1:], duration=int(1000 / fps), loop=0)
+    # the signature in a GIF comment: how bimrobot knows later that the file is its own to replace
+    images[0].save(path, format="GIF", save_all=True, append_images=images[1:], duration=int(1000 / fps), loop=0,
+                   comment=signature("assembly play animation"))

@@ -12,19 +12,32 @@ into the lookup tables the environment, the batched simulator and the planner sh
 from __future__ import annotations
 
 import functools
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from bimrobot.config import parse_yaml
+from bimrobot.config import line_of, parse_yaml
 from bimrobot.errors import InputError
 
 SETTINGS_DIR = Path(__file__).with_name("settings")
 SETTINGS = [f"E{e}S{s}" for e in range(1, 5) for s in range(1, 5)]
 COMPONENT_LENGTHS = {"column": 4, "beam": 3}
 MAX_LAYOUT_ATTEMPTS = 1000
+#: Largest grid a scenario may ask for, cells per axis: the benchmark's is 15 x 15 x 9; observations are
+#: int8 (z <= 127) and the batched simulator keeps W x L x H bytes per environment.
+MAX_GRID_CELLS = 64
+#: Most entries in one list of a scenario (targets, components, obstacles, ...): channel 5 of the
+#: observation counts standing components in an int8.
+MAX_ENTRIES = 100
+#: A component spans at most 4 cells (the batched simulator reads a move's cells as one uint32).
+MAX_COMPONENT_LENGTH = 4
+#: Longest episode a scenario may ask for, steps (the benchmark's longest is 600).
+MAX_TIME_LIMIT = 100_000
+#: Largest magnitude of a reward constant (the benchmark's are -1 and 10).
+MAX_REWARD = 1e6
 
 Cell = tuple[int, int, int]
 
@@ -185,46 +198,78 @@ def _read_yaml(path: Path) -> Any:
 
 
 def parse_scenario(data: dict[str, Any], source: str = "<memory>") -> Scenario:
-    """Build a :class:`Scenario` from a plain mapping (the YAML content) and validate it."""
+    """Build a :class:`Scenario` from a plain mapping (the YAML content) and validate it.
+
+    Every number is checked against its range as it is read, and every coordinate against the grid, so
+    nothing grid-sized is allocated before the whole file is known to fit (:data:`MAX_GRID_CELLS` per axis).
+    Messages name the file, the line (when the mapping comes from :func:`bimrobot.config.parse_yaml`) and
+    the key.
+    """
     import copy
 
-    data = copy.deepcopy(data)
+    data = copy.deepcopy(data)  # keeps parse_yaml's line numbers (LineDict survives deepcopy)
     p = _Parser(source)
+    p.mapping(data, "the file", "")
     known = {
         "name", "description", "grid", "time_limit", "reward", "foundations", "obstacles", "layout", "yard",
         "construction_area", "targets", "components", "interchangeable",
     }
     for key in data:
         if key not in known:
-            raise InputError(f"{source}: unknown key '{key}' (expected one of {', '.join(sorted(known))})")
-    grid = p.triple(data.get("grid", [15, 15, 9]), "grid")
-    if min(grid) < 2:
-        raise InputError(f"{source}: grid {list(grid)} must be at least 2 cells along every axis")
-    reward_data = data.get("reward") or {}
+            raise InputError(f"{source}{line_of(data, key)}: unknown key '{key}' (expected one of {', '.join(sorted(known))})")
+    p.read_grid(data.get("grid", [15, 15, 9]), line_of(data, "grid"))
+    reward_data = p.mapping(data.get("reward") or {}, "reward", line_of(data, "reward"))
     for key in reward_data:
         if key not in ("r0", "epsilon", "completion_bonus"):
-            raise InputError(f"{source}: reward: unknown key '{key}' (expected r0, epsilon, completion_bonus)")
+            raise InputError(
+                f"{source}{line_of(reward_data, key)}: reward: unknown key '{key}' (expected r0, epsilon, completion_bonus)"
+            )
+
+    def reward_line(key: str) -> str:
+        return line_of(reward_data, key) or line_of(data, "reward")
+
+    # r0 < 0: the planner's optimality rests on every step costing something
     reward = Reward(
-        r0=float(reward_data.get("r0", -1.0)),
-        epsilon=p.integer(reward_data.get("epsilon", 15), "reward.epsilon"),
-        completion_bonus=float(reward_data.get("completion_bonus", 10.0)),
+        r0=p.real(reward_data.get("r0", -1.0), "reward.r0", reward_line("r0"), low=-MAX_REWARD, high=0.0, high_open=True),
+        epsilon=p.integer(reward_data.get("epsilon", 15), "reward.epsilon", reward_line("epsilon"), 0, MAX_TIME_LIMIT),
+        completion_bonus=p.real(
+            reward_data.get("completion_bonus", 10.0), "reward.completion_bonus", reward_line("completion_bonus"),
+            low=0.0, high=MAX_REWARD,
+        ),
     )
+    time_limit = p.integer(data.get("time_limit", 100), "time_limit", line_of(data, "time_limit"), 1, MAX_TIME_LIMIT)
+    targets_data = p.mapping(data.get("targets") or {}, "targets", line_of(data, "targets"))
+    p.count(targets_data, "targets", line_of(data, "targets"))
     targets = []
-    for tid, tdata in (data.get("targets") or {}).items():
+    for tid, tdata in targets_data.items():
         where = f"targets.{tid}"
-        ttype = p.component_type(tdata.get("type"), where)
-        node1, node2 = p.run(tdata.get("cells"), where)
+        line = line_of(targets_data, tid)
+        tdata = p.mapping(tdata, where, line)
+        ttype = p.component_type(tdata.get("type"), where, line_of(tdata, "type") or line)
+        node1, node2 = p.run(tdata.get("cells"), f"{where}.cells", line_of(tdata, "cells") or line)
         targets.append(Target(str(tid), ttype, node1, node2))
+    components_data = p.sequence(data.get("components") or [], "components", line_of(data, "components"))
+    p.count(components_data, "components", line_of(data, "components"))
     components = []
-    for i, cdata in enumerate(data.get("components") or []):
+    for i, cdata in enumerate(components_data):
+        cdata = p.mapping(cdata, f"components[{i}]", line_of(data, "components"))
         cid = str(cdata.get("id", f"#{i}"))
         where = f"components.{cid}"
-        ctype = p.component_type(cdata.get("type"), where)
-        length = p.integer(cdata.get("length", COMPONENT_LENGTHS[ctype]), f"{where}.length")
-        start = p.run(cdata["start"], f"{where}.start") if cdata.get("start") is not None else None
+        line = f" line {cdata.line}" if getattr(cdata, "line", None) else line_of(data, "components")
+        ctype = p.component_type(cdata.get("type"), where, line_of(cdata, "type") or line)
+        length = p.integer(
+            cdata.get("length", COMPONENT_LENGTHS[ctype]), f"{where}.length", line_of(cdata, "length") or line,
+            1, MAX_COMPONENT_LENGTH,
+        )
+        start_line = line_of(cdata, "start") or line
+        start = p.run(cdata["start"], f"{where}.start", start_line) if cdata.get("start") is not None else None
         target = str(cdata.get("target", cid))
-        components.append(Component(cid, ctype, length, target, start, bool(cdata.get("prebuilt", False))))
+        prebuilt = cdata.get("prebuilt", False)
+        if not isinstance(prebuilt, bool):
+            raise p.fail(f"{where}.prebuilt", f"expected true or false, got {prebuilt!r}", line_of(cdata, "prebuilt") or line)
+        components.append(Component(cid, ctype, length, target, start, prebuilt))
     interchangeable = data.get("interchangeable", False)
+    interchangeable_line = line_of(data, "interchangeable")
     if interchangeable is True:  # every type (and, through the cells, every beam axis) is one group
         groups = []
         for ttype in COMPONENT_LENGTHS:
@@ -234,17 +279,36 @@ def parse_scenario(data: dict[str, Any], source: str = "<memory>") -> Scenario:
         interchangeable = groups
     elif interchangeable is False or interchangeable is None:
         interchangeable = []
+    elif not isinstance(interchangeable, list) or not all(isinstance(g, list) for g in interchangeable):
+        raise p.fail("interchangeable", f"expected true, false or a list of target-id lists, got {interchangeable!r}",
+                     interchangeable_line)
+
+    def boxes(key: str) -> tuple[Box, ...]:
+        items = p.sequence(data.get(key) or [], key, line_of(data, key))
+        p.count(items, key, line_of(data, key))
+        return tuple(p.box(b, f"{key}[{i}]", _item_line(b, line_of(data, key))) for i, b in enumerate(items))
+
+    foundations_data = p.sequence(data.get("foundations") or [], "foundations", line_of(data, "foundations"))
+    p.count(foundations_data, "foundations", line_of(data, "foundations"))
+    layout = data.get("layout", "fixed")
+    if layout not in ("fixed", "random"):
+        raise p.fail("layout", f"expected 'fixed' or 'random', got {layout!r}", line_of(data, "layout"))
     scenario = Scenario(
         name=str(data.get("name", "scenario")),
-        grid=grid,
-        time_limit=p.integer(data.get("time_limit", 100), "time_limit"),
+        grid=p.grid,
+        time_limit=time_limit,
         components=tuple(components),
         targets=tuple(targets),
-        foundations=tuple(tuple(p.pair(f, f"foundations[{i}]")) for i, f in enumerate(data.get("foundations") or [])),
-        obstacles=tuple(p.box(b, f"obstacles[{i}]") for i, b in enumerate(data.get("obstacles") or [])),
-        layout=str(data.get("layout", "fixed")),
-        yard=tuple(p.box(b, f"yard[{i}]") for i, b in enumerate(data.get("yard") or [])),
-        construction_area=p.box(data["construction_area"], "construction_area") if data.get("construction_area") else None,
+        foundations=tuple(
+            p.pair(f, f"foundations[{i}]", line_of(data, "foundations")) for i, f in enumerate(foundations_data)
+        ),
+        obstacles=boxes("obstacles"),
+        layout=layout,
+        yard=boxes("yard"),
+        construction_area=(
+            p.box(data["construction_area"], "construction_area", line_of(data, "construction_area"))
+            if data.get("construction_area") else None
+        ),
         interchangeable=tuple(tuple(str(t) for t in g) for g in interchangeable),
         reward=reward,
         description=str(data.get("description", "")),
@@ -254,53 +318,118 @@ def parse_scenario(data: dict[str, Any], source: str = "<memory>") -> Scenario:
     return scenario
 
 
+def _item_line(item: Any, fallback: str) -> str:
+    """`` line N`` of a mapping item of a YAML list (its own line), else ``fallback``."""
+    line = getattr(item, "line", None)
+    return f" line {line}" if line else fallback
+
+
 class _Parser:
-    """Small typed readers that raise InputError naming the offending key."""
+    """Small typed readers that raise InputError naming the file, the line and the offending key.
+
+    Every coordinate is checked against the grid (read first) as it is read, so a number like 10**6
+    in a cell never reaches a ``range()`` or an array shape.
+    """
 
     def __init__(self, source: str):
         self.source = source
+        self.grid: Cell = (0, 0, 0)
 
-    def fail(self, where: str, what: str) -> InputError:
-        return InputError(f"{self.source}: {where}: {what}")
+    def fail(self, where: str, what: str, line: str = "") -> InputError:
+        return InputError(f"{self.source}{line}: {where}: {what}")
 
-    def integer(self, value: Any, where: str) -> int:
-        if isinstance(value, bool) or not isinstance(value, int):
-            raise self.fail(where, f"expected an integer, got {value!r}")
+    def mapping(self, value: Any, where: str, line: str) -> dict:
+        if not isinstance(value, dict):
+            raise self.fail(where, f"expected a mapping (key: value lines), got {value!r}", line)
         return value
 
-    def triple(self, value: Any, where: str) -> Cell:
-        if not isinstance(value, (list, tuple)) or len(value) != 3:
-            raise self.fail(where, f"expected [x, y, z], got {value!r}")
-        return tuple(self.integer(v, where) for v in value)  # type: ignore[return-value]
+    def sequence(self, value: Any, where: str, line: str) -> list:
+        if not isinstance(value, list):
+            raise self.fail(where, f"expected a list, got {value!r}", line)
+        return value
 
-    def pair(self, value: Any, where: str) -> tuple[int, int]:
-        if not isinstance(value, (list, tuple)) or len(value) != 2:
-            raise self.fail(where, f"expected [x, y], got {value!r}")
-        return tuple(self.integer(v, where) for v in value)  # type: ignore[return-value]
+    def count(self, items: Any, where: str, line: str) -> None:
+        if len(items) > MAX_ENTRIES:
+            raise self.fail(where, f"{len(items)} entries; a scenario holds at most {MAX_ENTRIES}", line)
 
-    def run(self, value: Any, where: str) -> tuple[Cell, Cell]:
-        if not isinstance(value, (list, tuple)) or len(value) != 2:
-            raise self.fail(where, f"expected [[x, y, z], [x, y, z]] (node1, node2), got {value!r}")
-        node1, node2 = self.triple(value[0], where), self.triple(value[1], where)
+    def integer(self, value: Any, where: str, line: str = "", low: int | None = None, high: int | None = None) -> int:
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise self.fail(where, f"expected an integer, got {value!r}", line)
+        if (low is not None and value < low) or (high is not None and value > high):
+            raise self.fail(where, f"must be an integer from {low} to {high}, got {value}", line)
+        return value
+
+    def real(self, value: Any, where: str, line: str, low: float, high: float, high_open: bool = False) -> float:
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise self.fail(where, f"expected a number, got {value!r}", line)
+        if not math.isfinite(value) or value < low or value > high or (high_open and value == high):
+            upper = f"< {high:g}" if high_open else f"<= {high:g}"
+            shown = f"{value:g}" if isinstance(value, float) or abs(value) < 10**15 else "a huge number"
+            raise self.fail(where, f"must be a finite number >= {low:g} and {upper}, got {shown}", line)
+        return float(value)
+
+    def read_grid(self, value: Any, line: str) -> None:
+        if not isinstance(value, list) or len(value) != 3:
+            raise self.fail("grid", f"expected [W, L, H] cells, got {value!r}", line)
+        dims = [self.integer(v, "grid", line) for v in value]
+        if min(dims) < 2 or max(dims) > MAX_GRID_CELLS:
+            raise self.fail(
+                "grid",
+                f"{dims} must be 2 to {MAX_GRID_CELLS} cells along every axis (the benchmark's grid is 15 x 15 x 9; "
+                "larger grids exceed what the batched simulator and the planner are sized for)",
+                line,
+            )
+        self.grid = tuple(dims)  # type: ignore[assignment]
+
+    def cell(self, value: Any, where: str, line: str) -> Cell:
+        if not isinstance(value, list) or len(value) != 3:
+            raise self.fail(where, f"expected [x, y, z], got {value!r}", line)
+        cell = tuple(self.integer(v, where, line) for v in value)
+        W, L, H = self.grid
+        if not all(0 <= c < n for c, n in zip(cell, self.grid)):
+            raise self.fail(where, f"cell {cell} is outside the grid (0 <= x < {W}, 0 <= y < {L}, 0 <= z < {H})", line)
+        return cell  # type: ignore[return-value]
+
+    def pair(self, value: Any, where: str, line: str) -> tuple[int, int]:
+        if not isinstance(value, list) or len(value) != 2:
+            raise self.fail(where, f"expected [x, y], got {value!r}", line)
+        x, y = (self.integer(v, where, line) for v in value)
+        W, L, _ = self.grid
+        if not (0 <= x < W and 0 <= y < L):
+            raise self.fail(where, f"({x}, {y}) lies outside the {W} x {L} grid", line)
+        return x, y
+
+    def run(self, value: Any, where: str, line: str) -> tuple[Cell, Cell]:
+        if not isinstance(value, list) or len(value) != 2:
+            raise self.fail(where, f"expected [[x, y, z], [x, y, z]] (node1, node2), got {value!r}", line)
+        node1, node2 = self.cell(value[0], where, line), self.cell(value[1], where, line)
         if sum(a != b for a, b in zip(node1, node2)) > 1:
-            raise self.fail(where, f"{list(node1)} -> {list(node2)} is not a straight run along x, y or z")
+            raise self.fail(where, f"{list(node1)} -> {list(node2)} is not a straight run along x, y or z", line)
         return node1, node2
 
-    def component_type(self, value: Any, where: str) -> str:
+    def component_type(self, value: Any, where: str, line: str) -> str:
         if value not in COMPONENT_LENGTHS:
-            raise self.fail(where, f"unknown component type {value!r} (expected one of {', '.join(COMPONENT_LENGTHS)})")
+            raise self.fail(where, f"unknown component type {value!r} (expected one of {', '.join(COMPONENT_LENGTHS)})", line)
         return value
 
-    def box(self, value: Any, where: str) -> Box:
+    def box(self, value: Any, where: str, line: str) -> Box:
         if not isinstance(value, dict):
-            raise self.fail(where, f"expected a box {{x: [lo, hi], y: [lo, hi], z: [lo, hi]}}, got {value!r}")
+            raise self.fail(where, f"expected a box {{x: [lo, hi], y: [lo, hi], z: [lo, hi]}}, got {value!r}", line)
+        for key in value:
+            if key not in ("x", "y", "z"):
+                raise self.fail(where, f"unknown key '{key}' (expected x, y, z)", line_of(value, key) or line)
         ranges = {}
-        for axis in ("x", "y", "z"):
+        for axis, size in zip(("x", "y", "z"), self.grid):
             rng = value.get(axis, [0, 0])
-            pair = self.pair(rng, f"{where}.{axis}")
-            if pair[0] > pair[1]:
-                raise self.fail(where, f"{axis} range {list(pair)} is empty")
-            ranges[axis] = pair
+            axis_line = line_of(value, axis) or line
+            if not isinstance(rng, list) or len(rng) != 2:
+                raise self.fail(f"{where}.{axis}", f"expected [lo, hi], got {rng!r}", axis_line)
+            lo, hi = (self.integer(v, f"{where}.{axis}", axis_line) for v in rng)
+            if lo > hi:
+                raise self.fail(where, f"{axis} range {[lo, hi]} is empty", axis_line)
+            if lo < 0 or hi >= size:
+                raise self.fail(where, f"{axis} range {[lo, hi]} leaves the grid (0 <= {axis} < {size})", axis_line)
+            ranges[axis] = (lo, hi)
         return Box(ranges["x"], ranges["y"], ranges["z"])
 
 
@@ -315,6 +444,8 @@ def validate_scenario(sc: Scenario) -> None:
     def inside(cell: Cell) -> bool:
         return 0 <= cell[0] < W and 0 <= cell[1] < L and 0 <= cell[2] < H
 
+    if min(sc.grid) < 2 or max(sc.grid) > MAX_GRID_CELLS:  # a Scenario built in code, not read by parse_scenario
+        raise InputError(f"{src}: grid {list(sc.grid)} must be 2 to {MAX_GRID_CELLS} cells along every axis")
     if sc.layout not in ("fixed", "random"):
         raise InputError(f"{src}: layout: expected 'fixed' or 'random', got {sc.layout!r}")
     if sc.time_limit < 1:
@@ -330,7 +461,11 @@ def validate_scenario(sc: Scenario) -> None:
                 raise InputError(f"{src}: obstacles[{i}] reaches {cell}, outside the {W} x {L} x {H} grid")
         if box.z[0] < 1:
             raise InputError(f"{src}: obstacles[{i}] must start at z >= 1 (z = 0 is the ground)")
-    obstacle_cells = {c for box in sc.obstacles for c in box.cells()}
+    # the union of the boxes on a grid first: overlapping boxes never list a cell twice
+    occupied = np.zeros(sc.grid, bool)
+    for box in sc.obstacles:
+        occupied[box.x[0]:box.x[1] + 1, box.y[0]:box.y[1] + 1, box.z[0]:box.z[1] + 1] = True
+    obstacle_cells = set(map(tuple, np.argwhere(occupied).tolist()))
 
     ids = [t.id for t in sc.targets]
     if len(set(ids)) != len(ids):

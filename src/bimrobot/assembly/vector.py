@@ -17,7 +17,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium.utils import seeding
 
-from bimrobot.assembly.env import MOVES, N_CHANNELS, AssemblyEnv
+from bimrobot.assembly.env import ACTION_HELP, MOVES, N_CHANNELS, ActionError, AssemblyEnv, _shown, reward_constants
 from bimrobot.assembly.scenario import (
     Scenario,
     benchmark_scenario,
@@ -28,6 +28,28 @@ from bimrobot.assembly.scenario import (
 from bimrobot.errors import InputError
 
 _MOVES = np.array(MOVES, np.int64)
+#: Most environments of one batch (a few kB each; SB3 rollouts hold n_steps observations of each).
+MAX_ENVS = 4096
+
+
+def check_actions(actions, num_envs: int) -> np.ndarray:
+    """``actions`` as an (N,) int64 array of moves 0..5, or an :class:`ActionError` naming the first bad one."""
+    try:
+        a = np.asarray(actions)
+    except (TypeError, ValueError):  # ragged nested lists
+        a = np.asarray([None])
+    if a.size != num_envs or not np.issubdtype(a.dtype, np.integer):
+        raise ActionError(
+            f"actions {_shown(actions)} are not {num_envs} integer moves 0..5, one per environment ({ACTION_HELP})"
+        )
+    a = a.reshape(num_envs).astype(np.int64)
+    bad = np.flatnonzero((a < 0) | (a >= len(MOVES)))
+    if bad.size:
+        raise ActionError(
+            f"action {a[bad[0]]} of environment {bad[0]} is outside the action space Discrete(6): "
+            f"give integers 0..5 ({ACTION_HELP})"
+        )
+    return a
 
 
 class BatchedAssemblySim:
@@ -63,16 +85,14 @@ class BatchedAssemblySim:
     ):
         if obs_mode != "thesis":
             raise InputError("the batched simulator supports obs_mode='thesis' only")
-        if num_envs < 1:
-            raise InputError(f"num_envs must be at least 1, got {num_envs}")
+        if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or not 1 <= num_envs <= MAX_ENVS:
+            raise InputError(f"num_envs must be an integer from 1 to {MAX_ENVS}, got {num_envs!r}")
         scenario = scenario if scenario is not None else benchmark_scenario(setting)
         self.scenario = scenario
         self.num_envs = N = int(num_envs)
         cs = self.cs = compile_scenario(scenario)
         reward = scenario.reward
-        self.r0 = float(reward.r0 if r0 is None else r0)
-        self.epsilon = int(reward.epsilon if epsilon is None else epsilon)
-        self.completion_bonus = float(reward.completion_bonus if completion_bonus is None else completion_bonus)
+        self.r0, self.epsilon, self.completion_bonus = reward_constants(reward, r0, epsilon, completion_bonus)
         self.time_limit = int(scenario.time_limit if time_limit is None else time_limit)
         self.single_observation_space = AssemblyEnv(scenario=scenario).observation_space
         self.single_action_space = gym.spaces.Discrete(6)
@@ -180,9 +200,7 @@ class BatchedAssemblySim:
         """Advance every environment by one action; ended episodes restart at once when ``autoreset``
         (without it, ended environments ignore their actions and pay 0 until :meth:`reset`)."""
         N = self.num_envs
-        a = np.asarray(actions, np.int64).reshape(N)
-        if a.min() < 0 or a.max() > 5:
-            raise InputError("actions must be integers in 0..5")
+        a = check_actions(actions, N)
         active = ~self.done
         idx = np.flatnonzero(active)
         self._clear_current(idx)
@@ -494,7 +512,7 @@ def _sb3_class():
             return obs
 
         def step_async(self, actions):
-            self._actions = np.asarray(actions).reshape(self.num_envs)
+            self._actions = actions  # checked by sim.step: N integers in 0..5
 
         def step_wait(self):
             obs, reward, terminated, truncated, info = self.sim.step(self._actions)

@@ -1,8 +1,12 @@
 """IFC reading: the only part of bimrobot that imports ifcopenshell.
 
-``load_model(path) -> BuildingModel`` (see :mod:`bimrobot.bim.model` for the data it returns).
-``bimrobot.bim.examples`` writes the thesis' example buildings; ``bimrobot.bim.split`` writes one IFC
-file per element; ``bimrobot.bim.connections.infer_connections`` finds joints from touching geometry.
+``load_model(path) -> BuildingModel`` (see :mod:`bimrobot.bim.model` for the data it returns) reads
+``.ifc`` and ``.ifczip`` files; ``include`` / ``exclude`` are IfcOpenShell selectors
+(:mod:`bimrobot.bim.selection`). Elements are keyed by GlobalId; a GlobalId that the file gives to
+several products (which IFC forbids) is reported and the later products are keyed
+``<GlobalId>#<step id>``, so no element is lost. ``bimrobot.bim.examples`` writes the thesis' example
+buildings; ``bimrobot.bim.split`` writes one IFC file per assembly or element;
+``bimrobot.bim.connections.infer_connections`` finds joints from touching geometry.
 """
 
 from bimrobot.bim.model import BuildingModel, Connection, Element, SkippedProduct, Storey, WeightSource

@@ -52,25 +52,34 @@ def register(subparsers) -> None:
 
     split = subparsers.add_parser(
         "split",
-        help="write one IFC file per building element",
-        description="Split an IFC model into one valid IFC file per building element (same schema), "
-        "keeping its GlobalId, spatial context, placement chain, representation, property and quantity "
-        "sets, material and the connection relations that involve it. Writes <GlobalId>.ifc files "
-        "('$' written as '-') and index.json into the output directory, replacing it atomically.",
+        help="write one IFC file per assembly or building element",
+        description="Split an IFC model into valid IFC files (same schema): by default one per outermost "
+        "IfcElementAssembly with all its parts when the model has assemblies (in precast and steel exports "
+        "the assembly is what is lifted and placed), and one per element that belongs to no assembly; "
+        "--by-element gives one file per element. Each file keeps the GlobalIds, spatial context, placement "
+        "chain, representation, property and quantity sets, material and the connection relations. Writes "
+        "<GlobalId>.ifc files ('$' written as '-') and index.json into the output folder, atomically; an "
+        "output folder that bimrobot wrote is replaced, any other non-empty folder is refused.",
         epilog="examples:\n  bimrobot split frame.ifc -o frame_parts/\n"
-        "  bimrobot split model.ifc -o beams/ --include IfcBeam\n",
+        "  bimrobot split precast.ifc -o units/                 # one file per precast unit (assembly)\n"
+        "  bimrobot split precast.ifc -o parts/ --by-element\n"
+        "  bimrobot split model.ifczip -o beams/ --include IfcBeam\n",
         formatter_class=raw,
     )
-    split.add_argument("model", type=Path, help="IFC file to split")
-    split.add_argument("-o", "--output", type=Path, required=True, help="output directory (replaced)")
+    split.add_argument("model", type=Path, help="IFC file to split (.ifc or .ifczip)")
+    split.add_argument("-o", "--output", type=Path, required=True, help="output folder (a new one, or one bimrobot wrote)")
+    split.add_argument(
+        "--by-element", action="store_true",
+        help="one file per element, even when the model has assemblies (default: one file per outermost assembly)",
+    )
     _add_filters(split)
     split.set_defaults(func=_split)
 
 
 def _add_filters(parser: argparse.ArgumentParser) -> None:
-    group = parser.add_mutually_exclusive_group()
-    group.add_argument("--include", metavar="CLASSES", help="only these IFC classes, e.g. 'IfcColumn, IfcBeam'")
-    group.add_argument("--exclude", metavar="CLASSES", help="all but these IFC classes")
+    from bimrobot.bim.selection import add_selection_options
+
+    add_selection_options(parser, built=False)
     parser.add_argument("--no-progress", action="store_true", help="no progress bar (shown on a terminal otherwise)")
 
 
@@ -79,13 +88,14 @@ def _progress(args) -> bool:
 
 
 def _example(args) -> int:
+    from bimrobot import io
     from bimrobot.bim.examples import EXAMPLES
+    from bimrobot.world.names import printable
 
     output = args.output or Path(f"{args.name}.ifc")
-    if output.is_dir():
-        raise InputError(f"{output} is a directory; give the IFC file to write, e.g. {output / (args.name + '.ifc')}")
+    io.check_output(output, folder=False)
     EXAMPLES[args.name](output)
-    print(f"wrote {output} ({args.name}, IFC4, metres); see what it holds with: bimrobot inspect {output}")
+    print(f"wrote {printable(str(output))} ({args.name}, IFC4, metres); see what it holds with: bimrobot inspect {printable(str(output))}")
     return 0
 
 
@@ -100,6 +110,7 @@ def _inspect(args) -> int:
         inferred = infer_connections(model, tolerance=args.infer_connections)
         summary["inferred_connections"] = {"tolerance_m": args.infer_connections, "count": len(inferred)}
     if args.elements:
+        suspect = {row["GlobalId"]: row["reason"] for row in summary["suspect_weights"]}
         summary["element_list"] = [
             {
                 "GlobalId": e.global_id,
@@ -109,6 +120,10 @@ def _inspect(args) -> int:
                 "material": e.material,
                 "weight_kg": e.weight_kg,
                 "weight_source": e.weight_source.value,
+                "weight_basis": e.weight_basis,
+                "density_kg_m3": e.density_kg_m3,
+                "volume_m3": round(e.volume_m3, 9),
+                "suspect": suspect.get(e.global_id),
                 "position_m": [round(float(v), 4) for v in e.position],
             }
             for e in model.elements.values()
@@ -121,28 +136,69 @@ def _inspect(args) -> int:
 
 
 def _split(args) -> int:
+    from bimrobot import io
     from bimrobot.bim.split import split_model
+    from bimrobot.world.names import printable
 
-    written = split_model(args.model, args.output, include=args.include, exclude=args.exclude, progress=_progress(args))
-    counts = Counter(f.ifc_class for f in written)
-    print(f"wrote {len(written)} IFC files and index.json to {args.output}/: " + ", ".join(f"{n} {c}" for c, n in sorted(counts.items())))
+    io.check_output(args.output, folder=True, inputs=[args.model])  # before reading a large model
+    written = split_model(
+        args.model, args.output, include=args.include, exclude=args.exclude, progress=_progress(args),
+        by_element=True if args.by_element else None,
+    )
+    assemblies = [f for f in written if f.parts]
+    singles = Counter(f.ifc_class for f in written if not f.parts)
+    what = []
+    if assemblies:
+        parts = Counter(p.ifc_class for f in assemblies for p in f.parts)
+        what.append(
+            f"{len(assemblies)} assemblies with {sum(parts.values())} parts ("
+            + ", ".join(f"{n} {c}" for c, n in sorted(parts.items())) + ")"
+        )
+    if singles:
+        what.append(("single elements: " if assemblies else "") + ", ".join(f"{n} {c}" for c, n in sorted(singles.items())))
+    print(f"wrote {len(written)} IFC files and index.json to {printable(str(args.output))}/: " + "; ".join(what))
     return 0
 
 
 def summarize(model) -> dict:
-    """A JSON-ready summary of a BuildingModel: classes, storeys, connections, units, weights, skipped."""
+    """A JSON-ready summary of a BuildingModel: classes, storeys, connections, units, weights, skipped.
+
+    Weights: "found" counts plausible weights only; a weight that :func:`~bimrobot.bim.quantities.weight_check`
+    finds implausible is "suspect", listed under ``suspect_weights`` with the reason and left out of the
+    class and total masses (kg). "missing" counts elements whose weight is unknown.
+    """
+    from bimrobot.bim.quantities import weight_check
+
+    suspect_weights = []
+    for element in model.elements.values():
+        reason = weight_check(element.weight_kg, element.weight_source, element.volume_m3, element.density_kg_m3)
+        if reason is not None:
+            suspect_weights.append(
+                {
+                    "GlobalId": element.global_id,
+                    "class": element.ifc_class,
+                    "name": element.name,
+                    "material": element.material,
+                    "weight_kg": element.weight_kg,
+                    "weight_source": element.weight_source.value,
+                    "volume_m3": round(element.volume_m3, 9),
+                    "reason": reason,
+                }
+            )
+    suspect = {row["GlobalId"] for row in suspect_weights}
     by_class: dict[str, dict] = {}
     for element in model.elements.values():
         row = by_class.setdefault(element.ifc_class, {"count": 0, "weight_kg": 0.0, "weights_missing": 0})
         row["count"] += 1
         if element.weight_kg is None:
             row["weights_missing"] += 1
-        else:
+        elif element.global_id not in suspect:
             row["weight_kg"] += element.weight_kg
     for row in by_class.values():
         row["weight_kg"] = round(row["weight_kg"], 3)
     per_storey = Counter(e.storey_id for e in model.elements.values())
     sources = Counter(e.weight_source.value for e in model.elements.values())
+    found = [e for e in model.elements.values() if e.weight_kg is not None and e.global_id not in suspect]
     return {
         "file": str(model.source),
         "schema": model.schema,
@@ -161,20 +217,25 @@ def summarize(model) -> dict:
             "types": dict(Counter(c.connection_type or "(none)" for c in model.connections)),
         },
         "weights": {
-            "found": sum(n for source, n in sources.items() if source != "unknown"),
+            "found": len(found),
             "missing": sources.get("unknown", 0),
+            "suspect": len(suspect_weights),
             "by_source": dict(sources),
-            "total_kg": round(sum(e.weight_kg or 0.0 for e in model.elements.values()), 3),
+            "total_kg": round(sum(e.weight_kg for e in found), 3),
+            "suspect_kg": round(sum(row["weight_kg"] for row in suspect_weights), 3),
         },
+        "suspect_weights": suspect_weights,
         "skipped": [{"GlobalId": s.global_id, "class": s.ifc_class, "name": s.name, "reason": s.reason} for s in model.skipped],
     }
 
 
 def format_summary(summary: dict) -> str:
-    """The human-readable table that ``bimrobot inspect`` prints."""
+    """The human-readable table that ``bimrobot inspect`` prints (names made printable)."""
+    from bimrobot.world.names import printable
+
     units = summary["units"]
     lines = [
-        f"{summary['file']}: {summary['schema']}, project {summary['project']!r}, site {summary['site']!r}",
+        printable(f"{summary['file']}: {summary['schema']}, project {summary['project']!r}, site {summary['site']!r}"),
         f"units: length {units['length']} (x{units['length_scale_to_m']:g} -> m), mass {units['mass']}",
         "",
         f"{'class':<28}{'count':>7}{'weight kg':>13}{'no weight':>11}",
@@ -185,24 +246,33 @@ def format_summary(summary: dict) -> str:
     lines.append(f"{'total':<28}{summary['elements']:>7}{weights['total_kg']:>13.2f}{weights['missing']:>11}")
     lines += ["", "storeys:"]
     for storey in summary["storeys"]:
-        lines.append(f"  {storey['name']:<24} {storey['elevation_m']:>9.3f} m {storey['elements']:>6} elements")
+        lines.append(f"  {printable(storey['name']):<24} {storey['elevation_m']:>9.3f} m {storey['elements']:>6} elements")
     if summary["elements_without_storey"]:
         lines.append(f"  {'(none)':<24} {'':>11} {summary['elements_without_storey']:>6} elements")
     connections = summary["connections"]
-    types = ", ".join(f"{t} {n}" for t, n in connections["types"].items()) or "-"
+    types = ", ".join(f"{printable(t)} {n}" for t, n in connections["types"].items()) or "-"
     lines += ["", f"connections (IfcRelConnectsWithRealizingElements): {connections['count']}  [{types}]"]
     if "inferred_connections" in summary:
         inferred = summary["inferred_connections"]
         lines.append(f"connections inferred from touching geometry (<= {inferred['tolerance_m']} m): {inferred['count']}")
     by_source = ", ".join(f"{source} {n}" for source, n in weights["by_source"].items())
-    lines.append(f"weights: {weights['found']} found, {weights['missing']} missing  [{by_source}]")
+    lines.append(
+        f"weights: {weights['found']} found, {weights['missing']} missing, {weights['suspect']} suspect  [{by_source}]"
+    )
+    if summary["suspect_weights"]:
+        lines += ["", f"suspect weights ({len(summary['suspect_weights'])}, not in the totals above):"]
+        for row in summary["suspect_weights"]:
+            material = row["material"] or "no material"
+            lines.append(printable(f"  {row['GlobalId']} {row['class']} {row['name']!r} ({material}): {row['reason']}"))
     if summary["skipped"]:
         lines += ["", f"skipped ({len(summary['skipped'])} products without a solid body):"]
         for reason, n in Counter((s["class"], s["reason"]) for s in summary["skipped"]).items():
             lines.append(f"  {n} x {reason[0]}: {reason[1]}")
     if "element_list" in summary:
-        lines += ["", f"{'GlobalId':<24}{'class':<24}{'weight kg':>11}  {'source':<26}name"]
+        lines += ["", f"{'GlobalId':<24}{'class':<24}{'weight kg':>11}  {'source':<26}name: how"]
         for e in summary["element_list"]:
             weight = f"{e['weight_kg']:.2f}" if e["weight_kg"] is not None else "-"
-            lines.append(f"{e['GlobalId']:<24}{e['class']:<24}{weight:>11}  {e['weight_source']:<26}{e['name']}")
+            source = "suspect" if e.get("suspect") else e["weight_source"]
+            line = f"{e['GlobalId']:<24}{e['class']:<24}{weight:>11}  {source:<26}{e['name']}: {e['weight_basis']}"
+            lines.append(printable(line))
     return "\n".join(lines)

@@ -43,7 +43,7 @@ import ifcopenshell.api.spatial
 import ifcopenshell.api.unit
 import ifcopenshell.guid
 
-from bimrobot.io import atomic_output_file
+from bimrobot import io
 
 STEEL_DENSITY = 7850.0  # kg/m3
 CONCRETE_DENSITY = 2400.0  # kg/m3
@@ -198,8 +198,18 @@ class _Author:
         )
         return relation
 
-    def write(self, path: str | Path) -> Path:
-        with atomic_output_file(path) as tmp:
+    def write(self, path: str | Path, what: str) -> Path:
+        """Write the file atomically through bimrobot's output policy (a file bimrobot wrote is replaced,
+        any other existing file is refused). The header's originating system carries the signature that
+        lets a later run recognise the file as bimrobot's."""
+        header = self.file.header.file_name
+        header.name = Path(path).name
+        header.originating_system = io.signature(f"example {what}")
+        header.preprocessor_version = f"IfcOpenShell {ifcopenshell.version}"
+        header.author = ("bimrobot",)
+        header.organization = ("",)
+        header.authorization = ""
+        with io.atomic_output_file(path) as tmp:
             self.file.write(str(tmp))
         return Path(path)
 
@@ -320,7 +330,7 @@ def steel_frame(path: str | Path) -> Path:
             joint_origin = np.r_[corners[column_index], 0.0] + into_beam * face
             _clip_angle_joint(author, f"{label}{end}", level_2, columns[column_index], beam,
                               _frame(joint_origin, into_beam), beam_axis_z)
-    return author.write(path)
+    return author.write(path, "steel-frame")
 
 
 def _clip_angle_joint(author: _Author, label: str, storey, column, beam, joint: np.ndarray, beam_axis_z: float) -> None:
@@ -377,7 +387,7 @@ def greenhouse(path: str | Path) -> Path:
             start = (i * bay, j * bay, eaves_z + IPE120.depth)
             name = f"Gable beam {'ABC'[j]}{i + 1}-{'ABC'[j + 1]}{i + 1}"
             _beam(author, name, eaves, start, (0, 1, 0), IPE120, bay, IPE120.mass_per_m * bay)
-    return author.write(path)
+    return author.write(path, "greenhouse")
 
 
 EXAMPLES = {"steel-frame": steel_frame, "greenhouse": greenhouse}

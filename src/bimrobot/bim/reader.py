@@ -13,9 +13,12 @@ modelled as a curve) is reported in ``BuildingModel.skipped`` with the reason.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import os
 import re
+import shutil
+import zlib
 from pathlib import Path
 from typing import Iterable, Iterator
 
@@ -29,7 +32,7 @@ import ifcopenshell.util.shape
 import ifcopenshell.util.unit
 
 from bimrobot.bim.model import Assembly, BuildingModel, Connection, Element, SkippedProduct, Storey
-from bimrobot.bim.quantities import mesh_volume, resolve_weight
+from bimrobot.bim.quantities import MaterialDensities, mesh_volume, resolve_weight
 from bimrobot.bim.selection import describe, select_products
 from bimrobot.errors import InputError
 
@@ -69,13 +72,18 @@ def load_model(
     mass_scale, mass_name = _mass_unit(ifc)
     candidates = select_products(ifc, as_selector(include), as_selector(exclude), path)
     if not candidates:
-        raise InputError(f"{path} contains no building element ({describe(as_selector(include), as_selector(exclude))})")
+        raise InputError(f"{_shown(path)} contains no building element ({describe(as_selector(include), as_selector(exclude))})")
+    keys = product_keys(ifc)  # a duplicated GlobalId must not make one element replace another
+    duplicates = duplicate_global_ids(ifc)
+    if duplicates:
+        log.warning("%s", duplicates_message(path, duplicates, keys))
 
     elements: dict[str, Element] = {}
     meshes: dict[str, tuple[np.ndarray, np.ndarray]] = {}
     volumes: dict[str, float] = {}
     storey_cache: dict[int, str | None] = {}
     type_cache: dict[int, tuple[dict, dict, dict]] = {}
+    materials = MaterialDensities(ifc)  # each material definition walked once
     seen: set[int] = set()
     empty_bodies: set[int] = set()
     for shape in iterate_shapes(ifc, candidates, progress=progress, threads=threads):
@@ -94,15 +102,19 @@ def load_model(
             continue
         placement = np.asarray(ifcopenshell.util.shape.get_shape_matrix(shape), dtype=np.float64)
         volume = _lazy_volume(volumes, geometry_id, vertices, faces)
-        elements[product.GlobalId] = _element(
-            product, placement, vertices, faces, volume, mass_scale, (storey_cache, type_cache)
-        )
+        element = _element(product, placement, vertices, faces, volume, mass_scale, (storey_cache, type_cache, materials))
+        element.global_id = product_key(product, keys)
+        elements[element.global_id] = element
 
-    skipped = [_skipped(p, p.id() in empty_bodies) for p in candidates if p.id() not in seen or p.id() in empty_bodies]
+    skipped = [
+        dataclasses.replace(_skipped(p, p.id() in empty_bodies), global_id=product_key(p, keys))
+        for p in candidates
+        if p.id() not in seen or p.id() in empty_bodies
+    ]
     if not elements:
-        raise InputError(f"{path} contains no element with solid geometry ({len(skipped)} products without a solid body)")
+        raise InputError(f"{_shown(path)} contains no element with solid geometry ({len(skipped)} products without a solid body)")
 
-    order = {p.GlobalId: i for i, p in enumerate(candidates)}
+    order = {product_key(p, keys): i for i, p in enumerate(candidates)}
     elements = dict(sorted(elements.items(), key=lambda item: order[item[0]]))
     return BuildingModel(
         source=path,
@@ -117,9 +129,9 @@ def load_model(
         },
         storeys=_storeys(ifc, length_scale),
         elements=elements,
-        connections=_connections(ifc, elements),
+        connections=_connections(ifc, elements, keys),
         skipped=skipped,
-        assemblies=_assemblies(ifc, elements, storey_cache),
+        assemblies=_assemblies(ifc, elements, storey_cache, keys),
     )
 
 
@@ -134,51 +146,78 @@ def _lazy_volume(cache: dict[str, float], key: str, vertices: np.ndarray, faces:
     return volume
 
 
-def open_ifc(path: Path) -> ifcopenshell.file:
-    """Open an IFC-SPF file or an ``.ifczip`` holding one; InputError with one sentence when it cannot."""
+def open_ifc(path: str | os.PathLike) -> ifcopenshell.file:
+    """Open an IFC-SPF file or an ``.ifczip`` holding one; InputError with one sentence when it cannot.
+
+    Messages name the file with control characters escaped (:func:`bimrobot.world.names.printable`).
+    """
+    path = Path(path)
+    shown = _shown(path)
     if not path.exists():
-        raise InputError(f"{path}: no such file")
+        raise InputError(f"{shown}: no such file")
     if not path.is_file():
-        raise InputError(f"{path} is not a file")
-    with open(path, "rb") as stream:
-        magic = stream.read(4)
-    if magic.startswith(b"PK"):
+        raise InputError(f"{shown} is not a file")
+    try:
+        with open(path, "rb") as stream:
+            head = stream.read(4096)
+            stream.seek(max(0, path.stat().st_size - 4096))
+            tail = stream.read()
+    except OSError as exc:
+        raise InputError(f"{shown} cannot be read ({exc.strerror})") from None
+    if head.startswith(b"PK"):
         return _open_ifczip(path)
-    with open(path, "rb") as stream:
-        head = stream.read(4096)
-        stream.seek(max(0, path.stat().st_size - 4096))
-        tail = stream.read()
-    return _open_spf(path, path, head, tail)
+    return _open_spf(path, shown, head, tail)
+
+
+def _shown(path) -> str:
+    from bimrobot.world.names import printable
+
+    return printable(str(path))
 
 
 def _open_ifczip(path: Path) -> ifcopenshell.file:
-    """Open the one IFC-SPF file inside a zip archive (``.ifczip``, as many tools export)."""
+    """Open the one IFC-SPF file inside a zip archive (``.ifczip``, as many tools export).
+
+    macOS metadata entries (``__MACOSX/``, ``._*``) are not models and are ignored.
+    """
     import tempfile
     import zipfile
 
+    shown = _shown(path)
     try:
         with zipfile.ZipFile(path) as archive:
-            members = [m for m in archive.infolist() if not m.is_dir() and m.filename.lower().endswith(".ifc")]
+            members = [
+                m for m in archive.infolist()
+                if not m.is_dir() and m.filename.lower().endswith(".ifc")
+                and not m.filename.startswith("__MACOSX/") and not Path(m.filename).name.startswith("._")
+            ]
             if not members:
                 names = ", ".join(archive.namelist()[:5]) or "nothing"
-                raise InputError(f"{path} is a zip archive without an .ifc file inside (it holds {names})")
+                raise InputError(f"{shown} is a zip archive without an .ifc file inside (it holds {_shown(names)})")
             if len(members) > 1:
                 names = ", ".join(m.filename for m in members[:5])
-                raise InputError(f"{path} is a zip archive with {len(members)} .ifc files ({names}); give one model per archive")
+                raise InputError(
+                    f"{shown} is a zip archive with {len(members)} .ifc files ({_shown(names)}); give one model per archive"
+                )
             member = members[0]
+            inner_shown = f"{shown}!{_shown(member.filename)}"
             with archive.open(member) as stream:
                 head = stream.read(4096)
             with tempfile.TemporaryDirectory(prefix="bimrobot-ifczip-") as folder:
-                inner = Path(archive.extract(member, folder))
+                inner = Path(folder) / "model.ifc"  # not the member's own name: it may hold any path
+                with archive.open(member) as stream, open(inner, "wb") as copy:
+                    shutil.copyfileobj(stream, copy)
                 with open(inner, "rb") as stream:
                     stream.seek(max(0, inner.stat().st_size - 4096))
                     tail = stream.read()
-                return _open_spf(inner, Path(f"{path}!{member.filename}"), head, tail)
-    except zipfile.BadZipFile as exc:
-        raise InputError(f"{path} looks like a zip archive but cannot be read ({exc})") from None
+                return _open_spf(inner, inner_shown, head, tail)
+    except (zipfile.BadZipFile, zipfile.LargeZipFile, NotImplementedError, EOFError, zlib.error) as exc:
+        raise InputError(f"{shown} looks like a zip archive but cannot be read ({_shown(exc)})") from None
+    except OSError as exc:
+        raise InputError(f"{shown} cannot be read ({exc.strerror or exc})") from None
 
 
-def _open_spf(path: Path, shown: Path, head: bytes, tail: bytes) -> ifcopenshell.file:
+def _open_spf(path: Path, shown: str, head: bytes, tail: bytes) -> ifcopenshell.file:
     """Check the header and the end of an IFC-SPF file, then parse it; ``shown`` names it in messages."""
     stripped = head.lstrip(b"\xef\xbb\xbf \t\r\n")
     if stripped.startswith(b"<"):
@@ -188,7 +227,7 @@ def _open_spf(path: Path, shown: Path, head: bytes, tail: bytes) -> ifcopenshell
     if b"END-ISO-10303-21" not in tail:
         raise InputError(f"{shown} is truncated: it does not end with 'END-ISO-10303-21;'")
     match = re.search(rb"FILE_SCHEMA\s*\(\s*\(\s*'([^']*)'", head)
-    schema = match.group(1).decode("ascii", "replace").upper() if match else "unknown"
+    schema = _shown(match.group(1).decode("ascii", "replace").upper()) if match else "unknown"
     try:
         ifc = ifcopenshell.open(str(path), format=".ifc")
     except ifcopenshell.SchemaError:
@@ -196,7 +235,8 @@ def _open_spf(path: Path, shown: Path, head: bytes, tail: bytes) -> ifcopenshell
             f"{shown} uses the unsupported IFC schema {schema} (supported: {', '.join(SUPPORTED_SCHEMAS)})"
         ) from None
     except Exception as exc:  # ifcopenshell raises its own Error or RuntimeError on malformed files
-        raise InputError(f"{shown} could not be parsed as IFC: {exc}") from None
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise InputError(f"{shown} could not be parsed as IFC: {_shown(first)}") from None
     return ifc
 
 
@@ -242,10 +282,10 @@ def as_selector(value: Iterable[str] | str | None) -> str | None:
 
 
 def _element(product, placement, vertices, faces, volume, mass_scale, caches) -> Element:
-    storey_cache, type_cache = caches
-    material = _material_name(product)
+    storey_cache, type_cache, materials = caches
+    material = materials.of(product)
     properties, quantities, weight_properties = _property_values(product, mass_scale, type_cache)
-    weight, source = resolve_weight(quantities, weight_properties, material, volume)
+    weight = resolve_weight(quantities, weight_properties, material, volume)
     return Element(
         global_id=product.GlobalId,
         ifc_class=product.is_a(),
@@ -254,21 +294,13 @@ def _element(product, placement, vertices, faces, volume, mass_scale, caches) ->
         placement=placement,
         vertices=vertices,
         faces=faces,
-        material=material,
-        weight_kg=weight,
-        weight_source=source,
+        material=", ".join(material.names) or None,
+        weight_kg=weight.kg,
+        weight_source=weight.source,
         properties=properties,
+        density_kg_m3=material.body_density_kg_m3,
+        weight_basis=weight.basis,
     )
-
-
-def _material_name(product) -> str | None:
-    """The element's material name(s), joined with ', ' when it has several (layers, profiles, ...)."""
-    try:
-        materials = ifcopenshell.util.element.get_materials(product, should_inherit=True)
-    except Exception:  # malformed material associations should not stop the import
-        return None
-    names = [m.Name for m in materials if getattr(m, "Name", None)]
-    return ", ".join(dict.fromkeys(names)) or None
 
 
 def _property_values(product, mass_scale: float, type_cache: dict) -> tuple[dict, dict[str, float], dict[str, float]]:
@@ -367,24 +399,26 @@ def _skipped(product, empty_body: bool) -> SkippedProduct:
     return SkippedProduct(product.GlobalId, product.is_a(), product.Name or "", reason)
 
 
-def _connections(ifc: ifcopenshell.file, elements: dict[str, Element]) -> list[Connection]:
+def _connections(ifc: ifcopenshell.file, elements: dict[str, Element], keys: dict[int, str]) -> list[Connection]:
     """Every IfcRelConnectsWithRealizingElements whose relating and related elements were loaded.
 
     Realizing ids are kept even when those products are not elements (e.g. curve-only welds).
+    Elements are named by their key (:func:`product_key`: the GlobalId, made distinct for duplicates).
     """
     connections = []
     for relation in ifc.by_type("IfcRelConnectsWithRealizingElements"):
         relating, related = relation.RelatingElement, relation.RelatedElement
         if relating is None or related is None:
             continue
-        if relating.GlobalId not in elements or related.GlobalId not in elements:
+        relating_id, related_id = product_key(relating, keys), product_key(related, keys)
+        if relating_id not in elements or related_id not in elements:
             log.debug("connection %s involves an element that was not loaded", relation.GlobalId)
             continue
         connections.append(
             Connection(
-                relating_id=relating.GlobalId,
-                related_id=related.GlobalId,
-                realizing_ids=tuple(r.GlobalId for r in relation.RealizingElements or ()),
+                relating_id=relating_id,
+                related_id=related_id,
+                realizing_ids=tuple(product_key(r, keys) for r in relation.RealizingElements or ()),
                 connection_type=relation.ConnectionType or "",
                 global_id=relation.GlobalId,
             )
@@ -392,20 +426,94 @@ def _connections(ifc: ifcopenshell.file, elements: dict[str, Element]) -> list[C
     return connections
 
 
-def _assemblies(ifc: ifcopenshell.file, elements: dict[str, Element], storey_cache: dict) -> dict[str, Assembly]:
+def _assemblies(
+    ifc: ifcopenshell.file, elements: dict[str, Element], storey_cache: dict, keys: dict[int, str]
+) -> dict[str, Assembly]:
     """Outermost IfcElementAssemblies with at least one loaded part (parts of nested assemblies included)."""
     order = {gid: index for index, gid in enumerate(elements)}
     assemblies = {}
     for assembly in ifc.by_type("IfcElementAssembly"):
-        outer = ifcopenshell.util.element.get_aggregate(assembly)
-        if outer is not None and outer.is_a("IfcElementAssembly"):
+        if outermost_assembly(assembly).id() != assembly.id():
             continue  # a sub-assembly: its parts belong to the outer unit
         below = ifcopenshell.util.element.get_decomposition(assembly, is_recursive=True)
-        parts = sorted((p.GlobalId for p in below if p.GlobalId in order), key=order.__getitem__)
+        parts = sorted((key for p in below if (key := product_key(p, keys)) in order), key=order.__getitem__)
         if parts:
             storey = _storey_of(assembly, storey_cache)
-            assemblies[assembly.GlobalId] = Assembly(assembly.GlobalId, assembly.Name or "", storey, tuple(parts))
+            key = product_key(assembly, keys)
+            assemblies[key] = Assembly(key, assembly.Name or "", storey, tuple(parts))
     return assemblies
+
+
+def outermost_assembly(product):
+    """The outermost IfcElementAssembly that holds ``product`` (itself when it is one), or None."""
+    found = product if product.is_a("IfcElementAssembly") else None
+    node = product
+    for _ in range(32):  # aggregation trees are shallow; the bound guards against cyclic files
+        parent = ifcopenshell.util.element.get_aggregate(node)
+        if parent is None or not parent.is_a("IfcElementAssembly"):
+            break
+        found = node = parent
+    return found
+
+
+# ---- duplicate GlobalIds ---------------------------------------------------------------------------
+#
+# Some exporters write the same GlobalId on two entities (copied objects, merged files). bimrobot keys
+# elements by GlobalId everywhere, so a duplicate would silently replace an element. Instead, the first
+# product (in file order) keeps its GlobalId and every later one is keyed ``<GlobalId>#<step id>``,
+# which names it uniquely in the model, in file names (``#`` is escaped by ``safe_name``) and in reports,
+# and the duplicates are reported in one line.
+
+
+def product_keys(ifc: ifcopenshell.file) -> dict[int, str]:
+    """Step id -> key of every IfcProduct that cannot be keyed by its GlobalId alone.
+
+    That is a product whose GlobalId an earlier IfcProduct of the file already carries (key
+    ``<GlobalId>#<step id>``), or one without a GlobalId (key ``#<step id>``). Products not listed
+    are keyed by their GlobalId (see :func:`product_key`). The keys do not depend on any selection.
+    """
+    keys: dict[int, str] = {}
+    seen: set[str] = set()
+    for product in sorted(ifc.by_type("IfcProduct"), key=lambda p: p.id()):
+        global_id = product.GlobalId or ""
+        if global_id and global_id not in seen:
+            seen.add(global_id)
+        else:
+            keys[product.id()] = f"{global_id}#{product.id()}"
+    return keys
+
+
+def product_key(product, keys: dict[int, str]) -> str:
+    """The product's key in a BuildingModel: its GlobalId, or the distinct key :func:`product_keys` gave it."""
+    return keys.get(product.id()) or product.GlobalId
+
+
+def duplicate_global_ids(ifc: ifcopenshell.file) -> dict[str, list]:
+    """GlobalId -> the entities (IfcRoot, in file order) that carry it, for every GlobalId used more than once."""
+    holders: dict[str, list] = {}
+    for entity in ifc.by_type("IfcRoot"):
+        holders.setdefault(entity.GlobalId or "", []).append(entity)
+    return {gid: sorted(found, key=lambda e: e.id()) for gid, found in holders.items() if len(found) > 1}
+
+
+def duplicates_message(source, duplicates: dict[str, list], keys: dict[int, str], shown: int = 3) -> str:
+    """One line naming the duplicated GlobalIds and their entities, and what bimrobot does about them."""
+    from bimrobot.world.names import printable
+
+    def entities(found: list) -> str:
+        return " and ".join(f"#{e.id()} {e.is_a()}" for e in found)
+
+    listed = "; ".join(f"'{printable(gid) or '(empty)'}' by {entities(found)}" for gid, found in list(duplicates.items())[:shown])
+    more = f" and {len(duplicates) - shown} more" if len(duplicates) > shown else ""
+    renamed = [key for found in duplicates.values() for e in found if (key := keys.get(e.id()))]
+    if renamed:
+        action = f"every element is kept, the later ones keyed as <GlobalId>#<step id> (e.g. '{printable(renamed[0])}')"
+    else:
+        action = "no two elements share one, so every element keeps its GlobalId"
+    return (
+        f"{printable(str(source))}: {len(duplicates)} GlobalId(s) are used by more than one entity, "
+        f"which IFC forbids: {listed}{more}; {action}"
+    )
 
 
 def _storeys(ifc: ifcopenshell.file, length_scale: float) -> list[Storey]:

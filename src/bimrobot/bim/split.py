@@ -1,49 +1,94 @@
-"""Split an IFC model into one valid IFC file per building element (thesis section 3.3, fig. 3.4).
+"""Split an IFC model into valid IFC files: one per precast/steel assembly, or one per building element
+(thesis section 3.3, fig. 3.4).
+
+**Units.** In Tekla precast and steel exports the ``IfcElementAssembly`` is what is cast, lifted and
+placed, so by default (when the model has assemblies) every *outermost* assembly becomes one file
+holding all its parts (nested sub-assemblies folded in); an element that belongs to no assembly gets a
+file of its own. ``by_element=True`` writes one file per element, assemblies included, as a model
+without assemblies always is.
 
 Each file has the source's schema and header description and holds:
 
-- the element itself with its GlobalId, placement chain and representation (with mapped type
-  geometry), and the openings that cut it (``IfcRelVoidsElement``), so its body is the original one;
-- its spatial context: project (units, representation contexts), site, building, storey (or space),
+- the unit's elements with their GlobalIds, placement chains and representations (with mapped type
+  geometry), and the openings that cut them (``IfcRelVoidsElement``), so their bodies are the original
+  ones; for an assembly, the assembly and its sub-assemblies (no body of their own) with the
+  ``IfcRelAggregates`` that tie the parts to them;
+- their spatial context: project (units, representation contexts), site, building, storey (or space),
   each with its GlobalId and placement but without its own representation (no terrain), linked by
-  ``IfcRelAggregates`` / ``IfcRelContainedInSpatialStructure`` relations that name only this element;
-- its property sets and quantity sets, its type (and the type's property sets), material and
+  ``IfcRelAggregates`` / ``IfcRelContainedInSpatialStructure`` relations that name only this unit's
+  elements; a parent that is not part of the unit (e.g. the stair of a flight) is copied the same way;
+- their property sets and quantity sets, types (and the types' property sets), material and
   classification associations;
-- every connection relation that involves it (``IfcRelConnectsElements`` and subclasses such as
-  ``IfcRelConnectsWithRealizingElements``, as relating, related or realizing element). The other
-  elements of a connection appear as reference stubs: same class, GlobalId and Name, no placement or
-  geometry, so the file still says what the element connects to without carrying the neighbours' bodies.
+- every connection relation that involves them (``IfcRelConnectsElements`` and subclasses such as
+  ``IfcRelConnectsWithRealizingElements``, as relating, related or realizing element). Elements outside
+  the unit appear as reference stubs: same class, GlobalId and Name, no placement or geometry, so the
+  file still says what the unit connects to without carrying the neighbours' bodies.
 
-Files are named ``<safe GlobalId>.ifc`` (:func:`bimrobot.world.names.safe_name`) and written
-atomically into the output directory together with ``index.json`` (GlobalId -> file, class, name).
+Files are named ``<safe key>.ifc`` (:func:`bimrobot.world.names.safe_name` of the assembly's or
+element's GlobalId; a GlobalId that the file uses twice is keyed ``<GlobalId>#<step id>`` as in
+:func:`bimrobot.bim.load_model`) and written atomically into the output folder together with
+``index.json`` (key -> file, class, name, and for assemblies their parts).
 """
 
 from __future__ import annotations
 
 import json
+import logging
 import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterable
 
 import ifcopenshell
+import ifcopenshell.util.element
 
-from bimrobot.bim.reader import as_selector, open_ifc
-from bimrobot.bim.selection import select_products
+from bimrobot import io
+from bimrobot.bim.reader import (
+    as_selector,
+    duplicate_global_ids,
+    duplicates_message,
+    open_ifc,
+    outermost_assembly,
+    product_key,
+    product_keys,
+)
+from bimrobot.bim.selection import describe, select_products
 from bimrobot.errors import InputError
-from bimrobot.io import atomic_output_dir
+from bimrobot.world.names import printable, safe_name
+
+log = logging.getLogger(__name__)
 
 _SPATIAL_ATTRIBUTES_TO_DROP = {"Representation"}
 
 
 @dataclass(frozen=True)
+class SplitPart:
+    """An element inside an assembly's file: key (GlobalId), IFC class and name."""
+
+    global_id: str
+    ifc_class: str
+    name: str
+
+
+@dataclass(frozen=True)
 class SplitFile:
-    """One written file: the element's GlobalId, IFC class, name and the file's path."""
+    """One written file: the unit's key (the element's or assembly's GlobalId), IFC class, name, the
+    file's path and, for an assembly, the parts it holds (empty for a single element)."""
 
     global_id: str
     ifc_class: str
     name: str
     path: Path
+    parts: tuple[SplitPart, ...] = ()
+
+
+@dataclass
+class _Unit:
+    """What goes into one file: ``head`` names it; ``members`` are copied with their bodies and data."""
+
+    head: object
+    members: list
+    parts: list
 
 
 def split_model(
@@ -52,65 +97,130 @@ def split_model(
     include: Iterable[str] | str | None = None,
     exclude: Iterable[str] | str | None = None,
     progress: bool = False,
+    by_element: bool | None = None,
 ) -> list[SplitFile]:
-    """Write one IFC file per building element of ``path`` into ``output_dir`` (replaced atomically).
+    """Write one IFC file per assembly or element of ``path`` into ``output_dir`` (written atomically).
 
-    ``include`` / ``exclude`` filter by IFC class as in :func:`bimrobot.bim.load_model`. Every
-    ``IfcElement`` except openings and virtual elements is split, including products without a solid
-    body (e.g. curve-only welds), since their IFC data is still worth keeping.
+    ``include`` / ``exclude``: IfcOpenShell selectors as in :func:`bimrobot.bim.load_model`.
+    ``by_element``: one file per element; ``None`` (default) splits by outermost IfcElementAssembly
+    when the model has assemblies, else by element. Every ``IfcElement`` except openings and virtual
+    elements is written, including products without a solid body (e.g. curve-only welds), since their
+    IFC data is still worth keeping. ``output_dir`` follows :mod:`bimrobot.io`'s policy.
     """
     path = Path(path)
+    io.check_output(output_dir, folder=True, inputs=[path])
     source = open_ifc(path)
     products = select_products(source, as_selector(include), as_selector(exclude), path)
     if not products:
-        raise InputError(f"{path} contains no building element to split")
-    from bimrobot.world.names import safe_name
+        raise InputError(f"{printable(str(path))} contains no building element to split ({describe(as_selector(include), as_selector(exclude))})")
+    keys = product_keys(source)
+    duplicates = duplicate_global_ids(source)
+    if duplicates:
+        log.warning("%s", duplicates_message(path, duplicates, keys))
+    if by_element is None:
+        by_element = not any(outermost_assembly(p) is not None for p in products)
+    units = _units_by_element(products) if by_element else _units_by_assembly(products)
 
-    iterable = products
+    iterable = units
     if progress:
         from tqdm import tqdm
 
-        iterable = tqdm(products, unit="element", desc="split")
-    written = []
-    with atomic_output_dir(output_dir) as tmp:
-        for product in iterable:
-            name = f"{safe_name(product.GlobalId)}.ifc"
-            extract_element(source, product).write(str(tmp / name))
-            written.append(SplitFile(product.GlobalId, product.is_a(), product.Name or "", Path(output_dir) / name))
-        index = {
-            "source": str(path),
-            "schema": source.schema_identifier,
-            "elements": [
-                {"GlobalId": f.global_id, "file": f.path.name, "class": f.ifc_class, "name": f.name} for f in written
-            ],
-        }
-        (tmp / "index.json").write_text(json.dumps(index, indent=2, ensure_ascii=False) + "\n", encoding="utf-8")
+        iterable = tqdm(units, unit="file", desc="split")
+    written: list[SplitFile] = []
+    with io.atomic_output_dir(output_dir, kind="split", inputs=[path]) as tmp:
+        for unit in iterable:
+            key = product_key(unit.head, keys)
+            name = f"{safe_name(key)}.ifc"
+            _Extraction(source, unit.members, name).run().write(str(tmp / name))
+            parts = tuple(SplitPart(product_key(p, keys), p.is_a(), p.Name or "") for p in unit.parts)
+            written.append(SplitFile(key, unit.head.is_a(), unit.head.Name or "", Path(output_dir) / name, parts))
+        on_disk = sorted(p.name for p in tmp.glob("*.ifc"))
+        if len(on_disk) != len(written):  # two keys with one file name would lose a unit: never silently
+            raise RuntimeError(f"bimrobot bug: {len(written)} files were written but {len(on_disk)} are in {tmp}")
+        (tmp / "index.json").write_text(json.dumps(_index(path, source, written, by_element), indent=2, ensure_ascii=False) + "\n", encoding="utf-8")
     return written
+
+
+def _units_by_element(products: list) -> list[_Unit]:
+    return [_Unit(p, [p], []) for p in products]
+
+
+def _units_by_assembly(products: list) -> list[_Unit]:
+    """One unit per outermost assembly holding a selected product; a product in no assembly alone.
+
+    An assembly's members are itself, its sub-assemblies and its selected parts (file order); an
+    assembly chosen by the selection whose parts all were left out is written alone, like any element.
+    """
+    units: dict[int, _Unit] = {}
+    for product in products:
+        outer = outermost_assembly(product)
+        if outer is None:
+            units[product.id()] = _Unit(product, [product], [])
+            continue
+        unit = units.get(outer.id())
+        if unit is None:
+            below = ifcopenshell.util.element.get_decomposition(outer, is_recursive=True)
+            subassemblies = sorted((e for e in below if e.is_a("IfcElementAssembly")), key=lambda e: e.id())
+            unit = units[outer.id()] = _Unit(outer, [outer, *subassemblies], [])
+        if not product.is_a("IfcElementAssembly"):
+            unit.members.append(product)
+            unit.parts.append(product)
+    return sorted(units.values(), key=lambda u: u.head.id())
+
+
+def _index(path: Path, source: ifcopenshell.file, written: list[SplitFile], by_element: bool) -> dict:
+    rows = []
+    for f in written:
+        row = {"GlobalId": f.global_id, "file": f.path.name, "class": f.ifc_class, "name": f.name}
+        if f.ifc_class == "IfcElementAssembly" and not by_element:
+            row["parts"] = [{"GlobalId": p.global_id, "class": p.ifc_class, "name": p.name} for p in f.parts]
+        rows.append(row)
+    return {
+        "generator": io.signature("split"),
+        "source": str(path),
+        "schema": source.schema_identifier,
+        "split_by": "element" if by_element else "assembly",
+        "files": len(written),
+        "elements": rows,
+    }
 
 
 def extract_element(source: ifcopenshell.file, element) -> ifcopenshell.file:
     """A new IFC file (same schema) holding ``element`` and its context, as the module docstring lists."""
-    return _Extraction(source, element).run()
+    return _Extraction(source, [element], f"{element.GlobalId}.ifc").run()
+
+
+def extract_assembly(source: ifcopenshell.file, assembly) -> ifcopenshell.file:
+    """A new IFC file holding ``assembly``, its sub-assemblies and all its parts, with their context."""
+    below = ifcopenshell.util.element.get_decomposition(assembly, is_recursive=True)
+    parts = (e for e in below if e.is_a("IfcElement") and not (e.is_a("IfcFeatureElement") or e.is_a("IfcVirtualElement")))
+    members = [assembly, *sorted(parts, key=lambda e: e.id())]
+    return _Extraction(source, members, f"{assembly.GlobalId}.ifc").run()
 
 
 class _Extraction:
-    def __init__(self, source: ifcopenshell.file, element):
+    """Copy ``members`` (the first names the file) and their context from ``source`` into a new file."""
+
+    def __init__(self, source: ifcopenshell.file, members: list, file_name: str):
         self.source = source
-        self.element = element
+        self.members = members
+        self.file_name = file_name
         self.target = ifcopenshell.file(schema=source.schema_identifier)
         self.copies: dict[int, ifcopenshell.entity_instance] = {}
-        self.associations: dict[int, ifcopenshell.entity_instance] = {}
+        self.relations: dict[int, ifcopenshell.entity_instance] = {}  # source relation id -> its copy
 
     def run(self) -> ifcopenshell.file:
         self._copy_header()
-        element = self.target.add(self.element)
-        self.copies[self.element.id()] = element
-        self._spatial_context(self.element)
+        for member in self.members:  # all members first: a relation between two of them joins the copies
+            self.copies[member.id()] = self.target.add(member)
+        for member in self.members:
+            self._spatial_context(member)
         for project in self.source.by_type("IfcProject"):
             self._spatial(project)
-        self._openings()
-        self._definitions()
-        self._associations()
+        for member in self.members:
+            self._openings(member)
+            self._definitions(member)
+            self._associations(member, self.copies[member.id()])
         self._connections()
         return self.target
 
@@ -118,11 +228,14 @@ class _Extraction:
         description = self.source.header.file_description.description
         if description:
             self.target.header.file_description.description = tuple(description)
-        self.target.header.file_name.name = f"{self.element.GlobalId}.ifc"
-        self.target.header.file_name.preprocessor_version = f"bimrobot split (IfcOpenShell {ifcopenshell.version})"
+        self.target.header.file_name.name = self.file_name
+        self.target.header.file_name.preprocessor_version = f"{io.signature('split')}, IfcOpenShell {ifcopenshell.version}"
+        system = self.source.header.file_name.originating_system
+        if system:
+            self.target.header.file_name.originating_system = system
 
     def _spatial(self, spatial):
-        """Copy a project / spatial element without its own representation (placement chain kept)."""
+        """Copy a project / spatial element / outside parent without its own representation (placement kept)."""
         key = spatial.id()
         if key not in self.copies:
             values = {}
@@ -149,30 +262,23 @@ class _Extraction:
             decomposes = [r for r in getattr(node, "Decomposes", ()) or () if r.is_a("IfcRelAggregates")]
             nests = [r for r in getattr(node, "Nests", ()) or ()]
             if contained:
-                relation = contained[0]
-                parent = relation.RelatingStructure
-                self._relation(relation, RelatedElements=[self._node(node)], RelatingStructure=self._node(parent))
+                relation, related, relating = contained[0], "RelatedElements", "RelatingStructure"
             elif decomposes:
-                relation = decomposes[0]
-                parent = relation.RelatingObject
-                self._relation(relation, RelatedObjects=[self._node(node)], RelatingObject=self._node(parent))
+                relation, related, relating = decomposes[0], "RelatedObjects", "RelatingObject"
             elif nests:
-                relation = nests[0]
-                parent = relation.RelatingObject
-                self._relation(relation, RelatedObjects=[self._node(node)], RelatingObject=self._node(parent))
+                relation, related, relating = nests[0], "RelatedObjects", "RelatingObject"
             else:
                 return
+            parent = getattr(relation, relating)
+            if not self._shared(relation, related, self._node(node), **{relating: self._node(parent)}):
+                return  # the chain above was recreated by an earlier member
             node = parent
 
     def _node(self, entity):
-        """The copy of an element or spatial node on the way up (the element itself, or a spatial copy)."""
+        """The copy of a member, or of a spatial node or outside parent on the way up (without its body)."""
         if entity.id() in self.copies:
             return self.copies[entity.id()]
-        if entity.is_a("IfcSpatialElement") or entity.is_a("IfcSpatialStructureElement") or entity.is_a("IfcProject"):
-            return self._spatial(entity)
-        copy = self.target.add(entity)  # e.g. an IfcElementAssembly that the element is part of
-        self.copies[entity.id()] = copy
-        return copy
+        return self._spatial(entity)
 
     def _relation(self, relation, **overrides):
         """Create a copy of ``relation`` (GlobalId, OwnerHistory, Name kept) with the given attributes."""
@@ -182,69 +288,77 @@ class _Extraction:
         values.update(overrides)
         return self.target.create_entity(relation.is_a(), **values)
 
-    def _openings(self) -> None:
-        for relation in getattr(self.element, "HasOpenings", ()) or ():
+    def _shared(self, relation, related: str, copy, **overrides) -> bool:
+        """Copy a one-to-many relation once and add ``copy`` to its ``related`` list; True when new.
+
+        Several members often share one relation (the storey's containment, a type, a property set,
+        a material): one copy keeps the file free of duplicate GlobalIds.
+        """
+        existing = self.relations.get(relation.id())
+        if existing is None:
+            self.relations[relation.id()] = self._relation(relation, **{related: [copy]}, **overrides)
+            return True
+        current = tuple(getattr(existing, related) or ())
+        if copy not in current:
+            setattr(existing, related, current + (copy,))
+        return False
+
+    def _openings(self, member) -> None:
+        for relation in getattr(member, "HasOpenings", ()) or ():
             self._relation(
                 relation,
-                RelatingBuildingElement=self.copies[self.element.id()],
+                RelatingBuildingElement=self.copies[member.id()],
                 RelatedOpeningElement=self.target.add(relation.RelatedOpeningElement),
             )
-        for relation in getattr(self.element, "HasProjections", ()) or ():
+        for relation in getattr(member, "HasProjections", ()) or ():
             self._relation(
                 relation,
-                RelatingElement=self.copies[self.element.id()],
+                RelatingElement=self.copies[member.id()],
                 RelatedFeatureElement=self.target.add(relation.RelatedFeatureElement),
             )
 
-    def _definitions(self) -> None:
+    def _definitions(self, member) -> None:
         """Property / quantity sets and the type (IFC2X3 keeps the type in IsDefinedBy, IFC4 in IsTypedBy)."""
-        element = self.copies[self.element.id()]
-        relations = list(getattr(self.element, "IsDefinedBy", ()) or ()) + list(getattr(self.element, "IsTypedBy", ()) or ())
+        element = self.copies[member.id()]
+        relations = list(getattr(member, "IsDefinedBy", ()) or ()) + list(getattr(member, "IsTypedBy", ()) or ())
         for relation in relations:
             if relation.is_a("IfcRelDefinesByProperties"):
-                self._relation(
-                    relation,
-                    RelatedObjects=[element],
-                    RelatingPropertyDefinition=self._value(relation.RelatingPropertyDefinition),
-                )
+                definition = self._value(relation.RelatingPropertyDefinition)
+                self._shared(relation, "RelatedObjects", element, RelatingPropertyDefinition=definition)
             elif relation.is_a("IfcRelDefinesByType"):
                 original_type = relation.RelatingType
                 copied_type = self.target.add(original_type)
-                self._relation(relation, RelatedObjects=[element], RelatingType=copied_type)
-                self._associations(original_type, copied_type)
+                if self._shared(relation, "RelatedObjects", element, RelatingType=copied_type):
+                    self._associations(original_type, copied_type)
 
-    def _associations(self, original=None, copy=None) -> None:
-        """Material and classification associations of the element (or of its type)."""
-        original = original or self.element
-        copy = copy or self.copies[self.element.id()]
+    def _associations(self, original, copy) -> None:
+        """Material and classification associations of a member (or of its type)."""
         for relation in getattr(original, "HasAssociations", ()) or ():
-            if relation.id() in self.associations:  # one relation for the element and its type: merge
-                merged = self.associations[relation.id()]
-                merged.RelatedObjects = tuple(merged.RelatedObjects) + (copy,)
+            if relation.id() in self.relations:  # one relation for several members or a type: merge
+                self._shared(relation, "RelatedObjects", copy)
                 continue
-            values = {"RelatedObjects": [copy]}
+            values = {}
             for index in range(len(relation)):
                 attribute = relation.attribute_name(index)
                 if attribute.startswith("Relating") and relation[index] is not None:
                     values[attribute] = self._value(relation[index])
-            self.associations[relation.id()] = self._relation(relation, **values)
+            self._shared(relation, "RelatedObjects", copy, **values)
 
     def _connections(self) -> None:
-        relations = []
-        for inverse in ("ConnectedTo", "ConnectedFrom", "IsConnectionRealization"):
-            relations.extend(getattr(self.element, inverse, ()) or ())
         done = set()
-        for relation in relations:
-            if relation.id() in done:
-                continue
-            done.add(relation.id())
-            values = {}
-            for index in range(len(relation)):
-                attribute = relation.attribute_name(index)
-                if attribute in ("GlobalId", "OwnerHistory", "Name", "Description") or relation[index] is None:
-                    continue
-                values[attribute] = self._connection_value(relation[index])
-            self._relation(relation, **values)
+        for member in self.members:
+            for inverse in ("ConnectedTo", "ConnectedFrom", "IsConnectionRealization"):
+                for relation in getattr(member, inverse, ()) or ():
+                    if relation.id() in done:
+                        continue
+                    done.add(relation.id())
+                    values = {}
+                    for index in range(len(relation)):
+                        attribute = relation.attribute_name(index)
+                        if attribute in ("GlobalId", "OwnerHistory", "Name", "Description") or relation[index] is None:
+                            continue
+                        values[attribute] = self._connection_value(relation[index])
+                    self._relation(relation, **values)
 
     def _connection_value(self, value):
         if isinstance(value, tuple):
@@ -254,7 +368,7 @@ class _Extraction:
         return self._value(value)
 
     def _stub(self, product):
-        """The element itself, or a reference stub of another product (class, GlobalId, Name only)."""
+        """A member itself, or a reference stub of another product (class, GlobalId, Name only)."""
         key = product.id()
         if key not in self.copies:
             values = {"GlobalId": product.GlobalId, "Name": product.Name}

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import re
 from pathlib import Path
 
@@ -16,6 +17,9 @@ SIMULATE_EXAMPLES = """examples:
   bimrobot simulate frame.ifc --fleet fleet2 --breakdown AssemblyRobot32@600 -o sim_fault/
   bimrobot simulate frame.ifc --fleet fleet1 --breakdown AssemblyRobot31@600+900 -o sim_repair/
   bimrobot simulate generated:10x10x5 --fleet fleet2 -o big/     # a generated 10 x 10 column, 5-floor frame
+  bimrobot simulate house.ifc --fleet site-crane --prebuilt IfcFooting,IfcSlab,IfcWall -o house_sim/
+  bimrobot simulate precast.ifc --fleet site-crane -o units/                 # one component per IfcElementAssembly
+  bimrobot simulate precast.ifc --fleet site-crane --by-element -o parts/   # every element on its own
 
 output (in the -o folder): events.log (Listing 4.2 style), events.jsonl, robots.csv / robots.txt
 (per robot: steps, busy time, utilisation), summary.json (makespan, steps, utilisation), states.json
@@ -34,8 +38,12 @@ pip install 'bimrobot[optimize]'). Writes allocators.csv and allocators.md.
 GENERATED = re.compile(r"^generated:(\d+)x(\d+)x(\d+)$")
 
 
+#: Longest time (s) a breakdown, a repair or the CP-SAT limit may take: 1e9 s is 31 years.
+MAX_SECONDS = 1e9
+
+
 def _breakdown(text: str) -> tuple[str, float, float | None]:
-    """ROBOT@SECONDS (for good) or ROBOT@SECONDS+REPAIR_SECONDS."""
+    """ROBOT@SECONDS (for good) or ROBOT@SECONDS+REPAIR_SECONDS; times finite, >= 0 and > 0 s."""
     name, sep, when = text.rpartition("@")
     at, plus, repair = when.partition("+")
     try:
@@ -47,23 +55,65 @@ def _breakdown(text: str) -> tuple[str, float, float | None]:
         raise argparse.ArgumentTypeError(
             f"expected ROBOT@SECONDS or ROBOT@SECONDS+REPAIR, e.g. AssemblyRobot32@600+900, got {text!r}"
         )
+    if not (0 <= seconds <= MAX_SECONDS):
+        raise argparse.ArgumentTypeError(f"the breakdown time must be >= 0 and <= {MAX_SECONDS:g} s, got {at!r} in {text!r}")
+    if repair_s is not None and not (0 < repair_s <= MAX_SECONDS):
+        raise argparse.ArgumentTypeError(f"the repair time must be > 0 and <= {MAX_SECONDS:g} s, got {repair!r} in {text!r}")
     return name, seconds, repair_s
 
 
+def _ranged(kind, low: float, high: float, unit: str, low_inclusive: bool = True):
+    """An argparse ``type``: a finite ``kind`` (int or float) in [low, high] (or (low, high])."""
+    def parse(text: str):
+        try:
+            value = kind(text)
+        except ValueError:
+            value = None
+        ok = value is not None and math.isfinite(value) and (value >= low if low_inclusive else value > low) and value <= high
+        if not ok:
+            what = "a whole number" if kind is int else "a number"
+            raise argparse.ArgumentTypeError(
+                f"expected {what} {'>=' if low_inclusive else '>'} {low:g} and <= {high:g}{' ' + unit if unit else ''}, got {text!r}"
+            )
+        return value
+
+    return parse
+
+
 def _add_common(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("model", help="IFC file, or generated:NXxNYxFLOORS for a generated steel frame")
-    parser.add_argument("--fleet", default="fleet2", help="fleet1, fleet2 (thesis Table 4.1) or a fleet YAML file (default fleet2)")
+    from bimrobot.bim.selection import add_selection_options
+    from bimrobot.bim.unknown_weight import add_unknown_weight_option
+    from bimrobot.sco.build import MAX_TOLERANCE_M
+
+    parser.add_argument("model", help="IFC file (.ifc, .ifczip), or generated:NXxNYxFLOORS for a generated steel frame")
+    parser.add_argument(
+        "--fleet", default="fleet2",
+        help="fleet1, fleet2 (thesis Table 4.1), site-crane (carries, positions and assembles anything up to "
+        "20 t and 15 m) or a fleet YAML file (default fleet2)",
+    )
     parser.add_argument("--site", help="site YAML: yard, robot_home, construction_area, model_offset (default: thesis fig. 4.11)")
-    parser.add_argument("-o", "--output", required=True, help="output folder (replaced atomically)")
+    parser.add_argument(
+        "-o", "--output", required=True,
+        help="output folder: a new or empty folder, or one bimrobot wrote (replaced atomically)",
+    )
     parser.add_argument(
         "--prebuilt", default="IfcFooting,IfcPile", metavar="CLASSES",
-        help="comma-separated IFC classes already built on site, e.g. cast-in-place slabs and walls "
+        help="comma-separated IFC classes (subclasses count) that are work of others, e.g. cast-in-place "
+        "slabs and walls: IfcFooting,IfcSlab,IfcWall; IfcElementAssembly marks every assembly unit "
         "(default IfcFooting,IfcPile)",
     )
     parser.add_argument(
-        "--tolerance", type=float, default=0.01,
-        help="metres; bodies this close count as touching when connections are inferred (default 0.01)",
+        "--tolerance", type=_ranged(float, 0.0, MAX_TOLERANCE_M, "m", low_inclusive=False), default=0.01,
+        help=f"metres, > 0 and <= {MAX_TOLERANCE_M:g}; bodies this close count as touching when connections "
+        "are inferred (default 0.01)",
     )
+    parser.add_argument(
+        "--by-element", action="store_true",
+        help="build element by element even when the model groups them into assemblies "
+        "(by default an IfcElementAssembly is one component, lifted and placed as a unit)",
+    )
+    add_selection_options(parser, built=True)
+    add_unknown_weight_option(parser)
 
 
 def register(subparsers) -> None:
@@ -80,7 +130,7 @@ def register(subparsers) -> None:
     )
     _add_common(simulate)
     simulate.add_argument("--evaluator", default="least-cost", choices=EVALUATORS, help="how the winning bid is chosen (default least-cost; greedy-nearest and random are baselines)")
-    simulate.add_argument("--seed", type=int, default=0, help="seed of the random allocator (default 0)")
+    simulate.add_argument("--seed", type=_ranged(int, 0, 2**32 - 1, ""), default=0, help="seed of the random allocator (default 0)")
     simulate.add_argument("--breakdown", type=_breakdown, action="append", default=[], metavar="ROBOT@SECONDS[+REPAIR]", help="the robot breaks down at that time, for good or for REPAIR seconds (repeatable)")
     simulate.add_argument("--no-gantt", action="store_true", help="skip the Gantt chart (faster on big buildings)")
     simulate.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -93,15 +143,24 @@ def register(subparsers) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     _add_common(allocators)
-    allocators.add_argument("--seeds", type=int, default=5, help="runs of the random allocator (default 5)")
+    allocators.add_argument("--seeds", type=_ranged(int, 1, 1000, ""), default=5, help="runs of the random allocator, 1 to 1000 (default 5)")
     allocators.add_argument("--no-optimal", action="store_true", help="skip the CP-SAT optimum")
-    allocators.add_argument("--time-limit", type=float, default=60.0, help="CP-SAT time limit, seconds (default 60)")
-    allocators.add_argument("--max-tasks", type=int, default=60, help="largest build (in tasks) given to CP-SAT (default 60)")
+    allocators.add_argument(
+        "--time-limit", type=_ranged(float, 0.0, 86_400.0, "s", low_inclusive=False), default=60.0,
+        help="CP-SAT time limit, seconds, > 0 and <= 86400 (default 60)",
+    )
+    allocators.add_argument(
+        "--max-tasks", type=_ranged(int, 1, 100_000, ""), default=60,
+        help="largest build (in tasks) given to CP-SAT, at least 1 (default 60)",
+    )
     allocators.set_defaults(func=run_allocators)
 
 
-def load_building(spec: str):
-    """(BuildingModel, storey elevations in metres) from an IFC path or ``generated:NXxNYxF``."""
+def load_building(spec: str, include: str | None = None, exclude: str | None = None):
+    """(BuildingModel, storey elevations in metres) from an IFC path or ``generated:NXxNYxF``.
+
+    ``include`` / ``exclude``: IfcOpenShell selectors (:mod:`bimrobot.bim.selection`), for IFC files.
+    """
     match = GENERATED.match(spec)
     if match:
         from bimrobot.coordination.generate import generated_frame
@@ -109,6 +168,8 @@ def load_building(spec: str):
         nx, ny, floors = (int(v) for v in match.groups())
         if min(nx, ny, floors) < 1:
             raise InputError(f"{spec}: NX, NY and FLOORS must be at least 1")
+        if nx * ny * floors > 1_000_000:
+            raise InputError(f"{spec}: at most 1,000,000 columns (NX x NY x FLOORS), got {nx * ny * floors:,}")
         model = generated_frame(nx, ny, floors)
     else:
         path = Path(spec)
@@ -116,23 +177,46 @@ def load_building(spec: str):
             raise InputError(f"model file {spec!r} does not exist")
         from bimrobot.bim import load_model
 
-        model = load_model(path)
+        model = load_model(path, include=include, exclude=exclude)
     return model, [s.elevation for s in model.storeys]
 
 
-def _prepare(args):
-    from bimrobot.coordination.fleet import load_fleet, load_site
-    from bimrobot.sco.build import build_smart_model
+def _inputs(args) -> list[str]:
+    """The files the command reads (for the output policy): the model, a fleet file, a site file."""
+    from bimrobot.coordination.fleet import BUILTIN_FLEETS
 
+    files = [] if GENERATED.match(args.model) else [args.model]
+    if args.fleet not in BUILTIN_FLEETS:
+        files.append(args.fleet)
+    if args.site:
+        files.append(args.site)
+    return files
+
+
+def _prepare(args):
+    """Check the output path, read fleet, site and model, apply the unknown-weight rule.
+
+    Returns (model, elevations, fleet, site, unknown-weight report, a function building a fresh
+    SmartModel). Everything a user can get wrong is refused here, before the long work starts.
+    """
+    from bimrobot.bim.unknown_weight import apply_unknown_weight_rule
+    from bimrobot.coordination.fleet import load_fleet, load_site
+    from bimrobot.io import check_output
+    from bimrobot.sco.build import build_smart_model, prebuilt_rule
+
+    check_output(args.output, folder=True, inputs=_inputs(args))
     fleet = load_fleet(args.fleet)
     site = load_site(args.site)
-    model, elevations = load_building(args.model)
+    names = {r.name for r in fleet.robots}
+    for robot, *_ in getattr(args, "breakdown", []):
+        if robot not in names:
+            raise InputError(f"--breakdown names robot {robot!r}, which is not in fleet {fleet.name} ({', '.join(sorted(names))})")
+    model, elevations = load_building(args.model, args.include, args.exclude)
     prebuilt = tuple(c.strip() for c in args.prebuilt.split(",") if c.strip())
-    bad = [c for c in prebuilt if not c.startswith("Ifc")]
-    if bad:
-        raise InputError(f"--prebuilt expects IFC class names such as IfcSlab, got {bad[0]!r}")
-    return model, elevations, fleet, site, lambda: build_smart_model(
-        model, prebuilt_classes=prebuilt, inferred_tolerance_m=args.tolerance
+    prebuilt_rule(model, prebuilt)  # an unknown class name is refused now, with the model's classes
+    weights = apply_unknown_weight_rule(model.elements.values(), args.unknown_weight, str(model.source or args.model))
+    return model, elevations, fleet, site, weights, lambda: build_smart_model(
+        model, prebuilt_classes=prebuilt, inferred_tolerance_m=args.tolerance, by_element=args.by_element
     )
 
 
@@ -143,22 +227,30 @@ def run_simulate(args) -> int:
 
     from tqdm import tqdm
 
-    model, elevations, fleet, site, smart_model = _prepare(args)
+    model, elevations, fleet, site, weights, smart_model = _prepare(args)
     smart = smart_model()
-    with tqdm(total=len(smart.components), desc="components assembled", unit="", disable=True if args.no_progress else None, leave=False) as bar:
+    to_build = sum(1 for c in smart.components.values() if not c.prebuilt)
+    with tqdm(total=to_build, desc="components assembled", unit="", disable=True if args.no_progress else None, leave=False) as bar:
         result = simulate(smart, fleet, site, args.evaluator, args.seed, args.breakdown, elevations, on_assembled=lambda _: bar.update(1))
-    with atomic_output_dir(args.output) as tmp:
-        write_outputs(result, tmp, gantt=not args.no_gantt)
+    with atomic_output_dir(args.output, kind="simulate", inputs=_inputs(args)) as tmp:
+        write_outputs(result, tmp, gantt=not args.no_gantt, unknown_weight=weights.as_dict())
     info = smart.summary()
+    units = f", {info['assembly_units']} of them assembly units" if info["assembly_units"] else ""
+    later = f", {len(info['prebuilt_after_supports'])} made once what they rest on is placed" if info["prebuilt_after_supports"] else ""
     print(
-        f"{len(smart.components)} components ({len(info['prebuilt'])} prebuilt), {info['connection_nodes']} connection nodes, "
-        f"{info['joints']} joints from {info['connection_source']}"
+        f"{len(smart.components)} components{units} ({len(info['prebuilt'])} prebuilt{later}), "
+        f"{info['connection_nodes']} connection nodes, {info['joints']} joints from {info['connection_source']}"
     )
+    if smart.internal_connections:
+        print(f"{smart.internal_connections} connections between parts of one assembly are internal (made in the factory, not on site)")
     if smart.inferred:
         print(f"inferred joints (no IfcRelConnectsWithRealizingElements): {len(smart.inferred)}, listed in summary.json")
+    message = weights.message()
+    if message:
+        print(message)
     if smart.unknown_weight:
-        print(f"warning: {len(smart.unknown_weight)} components have no weight in the model; payload checks treat them as 0 kg "
-              f"(listed under unknown_weight in summary.json)")
+        print(f"warning: {len(smart.unknown_weight)} components have no weight and no closed volume; payload checks "
+              f"cannot verify them (listed under components_without_weight in summary.json)")
     if smart.duplicates:
         print(f"not built: {len(smart.duplicates)} elements duplicating a connected element in place (listed in summary.json)")
     print(f"fleet {fleet.name}, evaluator {result.evaluator}: makespan {result.makespan:.1f} s, {result.steps} steps, "
@@ -170,19 +262,20 @@ def run_simulate(args) -> int:
 
 
 def run_allocators(args) -> int:
-    from bimrobot.coordination.compare import compare_allocators, format_markdown, write_csv
+    from bimrobot.coordination.compare import compare_allocators, format_markdown, write_outputs
     from bimrobot.io import atomic_output_dir
 
-    model, elevations, fleet, site, smart_model = _prepare(args)
+    model, elevations, fleet, site, weights, smart_model = _prepare(args)
+    message = weights.message()
+    if message:
+        print(message)
     rows = compare_allocators(
         smart_model, fleet, site, elevations,
         seeds=args.seeds, optimal=not args.no_optimal, time_limit_s=args.time_limit, max_tasks=args.max_tasks,
     )
     table = format_markdown(rows, title=f"{args.model}, fleet {fleet.name}")
-    with atomic_output_dir(args.output) as tmp:
-        write_csv(rows, tmp / "allocators.csv")
-        (tmp / "allocators.md").write_text(table + "\n")
-        (tmp / "allocators.json").write_text(json.dumps(rows, indent=2) + "\n")
+    with atomic_output_dir(args.output, kind="allocators", inputs=_inputs(args)) as tmp:
+        write_outputs(rows, table, tmp)
     print(table)
     print(f"output: {Path(args.output).resolve()}/ (allocators.csv, allocators.md, allocators.json)")
     return 0

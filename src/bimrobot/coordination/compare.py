@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import json
 import logging
 import statistics
 from pathlib import Path
@@ -82,9 +83,19 @@ def format_markdown(rows: list[dict], title: str) -> str:
     return "\n".join(lines)
 
 
+def write_outputs(rows: list[dict], table: str, folder: Path) -> list[Path]:
+    """allocators.csv, allocators.md and allocators.json in ``folder`` (a fresh folder from
+    :func:`bimrobot.io.atomic_output_dir`, which owns the output policy); returns the paths."""
+    folder = Path(folder)
+    write_csv(rows, folder / "allocators.csv")
+    (folder / "allocators.md").write_text(table + "\n", encoding="utf-8")
+    (folder / "allocators.json").write_text(json.dumps(rows, indent=2) + "\n", encoding="utf-8")
+    return [folder / name for name in ("allocators.csv", "allocators.md", "allocators.json")]
+
+
 def write_csv(rows: list[dict], path: Path) -> None:
     fields = ["allocator", "makespan_s", "gap_pct", "runs", "min_s", "max_s", "lower_bound_s", "status", "tasks", "steps", "note"]
-    with open(path, "w", newline="") as handle:
+    with open(path, "w", newline="", encoding="utf-8") as handle:
         writer = csv.DictWriter(handle, fieldnames=fields, extrasaction="ignore")
         writer.writeheader()
         writer.writerows(rows)

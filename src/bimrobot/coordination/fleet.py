@@ -13,6 +13,9 @@ mobile_manipulator all three: every key above
 ================== =========================================================================
 
 Optional keys: ``load_time`` and ``unload_time`` (s, transport), ``methods`` (assembly), ``home`` [x, y].
+
+Every number must be finite and physically plausible (:data:`RANGES`); a value outside its range is
+refused before anything is simulated, naming the file, the robot, the key and its line.
 """
 
 from __future__ import annotations
@@ -24,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bimrobot.config import parse_yaml
+from bimrobot.config import line_of, number, parse_yaml
 from bimrobot.errors import InputError
 
 ACTIVITIES = ("transport", "position", "assemble")
@@ -40,8 +43,29 @@ ACTIVITY_KEYS = {
     "assemble": ("speed", "reach", "time_per_point"),
 }
 OPTIONAL_KEYS = ("load_time", "unload_time", "methods", "home")
-BUILTIN_FLEETS = ("fleet1", "fleet2")
+BUILTIN_FLEETS = ("fleet1", "fleet2", "site-crane")
 METHODS = ("bolt", "weld")
+
+#: Physical range of each robot key: (low, high, unit); low is exclusive except for handling times,
+#: which may be 0. Speeds: the fastest site vehicle is far below 50 m/s (180 km/h); loads: the largest
+#: mobile cranes lift about 1,200 t, so 1e6 kg; a reach or platform beyond 300 m / 100 m is a typo;
+#: one handling step longer than a day (86,400 s) is not a step.
+RANGES = {
+    "speed": (0.0, 50.0, "m/s"),
+    "carry_load": (0.0, 1e6, "kg"),
+    "payload": (0.0, 1e6, "kg"),
+    "reach": (0.0, 300.0, "m"),
+    "time_per_node": (0.0, 86_400.0, "s"),
+    "time_per_point": (0.0, 86_400.0, "s"),
+    "load_time": (0.0, 86_400.0, "s"),
+    "unload_time": (0.0, 86_400.0, "s"),
+}
+#: Platform length and width (m).
+PLATFORM_RANGE_M = (0.0, 100.0)
+#: Site positions (yard, homes, construction area) within this many metres of the site origin; the
+#: model offset may be as large as projected map coordinates (UTM northings reach 1e7 m).
+SITE_COORDINATE_LIMIT_M = 1e6
+OFFSET_LIMIT_M = 2e7
 
 
 @dataclass(frozen=True)
@@ -80,62 +104,65 @@ class Fleet:
         return [r for r in self.robots if r.can(activity)]
 
 
-def _positive(value, where: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
-        raise InputError(f"{where} must be a positive number, got {value!r}")
+def _number_in(value, label: str, low: float, high: float, unit: str, low_inclusive: bool = False) -> float:
+    """``value`` as a finite float in (low, high] (or [low, high]); ``label`` names file, key and line."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise InputError(f"{label} must be a number in {unit}, got {value!r}")
+    if not math.isfinite(value):
+        raise InputError(f"{label} must be a finite number in {unit}, got {value!r}")
+    if (value < low if low_inclusive else value <= low) or value > high:
+        raise InputError(f"{label} must be {'>=' if low_inclusive else '>'} {low:g} and <= {high:g} {unit}, got {value:g}")
     return float(value)
 
 
-def _point(value, where: str) -> tuple[float, float]:
-    if (
-        not isinstance(value, (list, tuple))
-        or len(value) != 2
-        or not all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value)
-    ):
-        raise InputError(f"{where} must be a pair of numbers [x, y] in metres, got {value!r}")
-    return (float(value[0]), float(value[1]))
+def _point(mapping, key, source: str, where: str = "", limit: float = SITE_COORDINATE_LIMIT_M, item: int | None = None) -> tuple[float, float]:
+    """``mapping[key]`` (or its item ``item``) as [x, y] metres, each within +-``limit``."""
+    shown = key if item is None else f"{key}[{item}]"
+    label = f"{source}{line_of(mapping, key)}: {where + ': ' if where else ''}key '{shown}'"
+    value = mapping[key] if item is None else mapping[key][item]
+    if not isinstance(value, (list, tuple)) or len(value) != 2:
+        raise InputError(f"{label} must be a pair of numbers [x, y] in metres, got {value!r}")
+    x, y = (_number_in(v, label, -limit, limit, "m", low_inclusive=True) for v in value)
+    return (x, y)
 
 
-def _robot(entry, where: str) -> RobotSpec:
+def _robot(entry, source: str, index: int) -> RobotSpec:
+    where = f"robots[{index}]"
     if not isinstance(entry, dict):
-        raise InputError(f"{where} must be a mapping with name, kind, speed, ..., got {entry!r}")
+        raise InputError(f"{source}: {where} must be a mapping with name, kind, speed, ..., got {entry!r}")
     name = entry.get("name")
     if not isinstance(name, str) or not name.strip():
-        raise InputError(f"{where}: key 'name' must be a non-empty string")
+        raise InputError(f"{source}{line_of(entry, 'name')}: {where}: key 'name' must be a non-empty string")
     where = f"{where} ({name})"
     kind = entry.get("kind")
     if kind not in KIND_ACTIVITIES:
-        raise InputError(f"{where}: key 'kind' must be one of {', '.join(KIND_ACTIVITIES)}, got {kind!r}")
+        raise InputError(f"{source}{line_of(entry, 'kind')}: {where}: key 'kind' must be one of {', '.join(KIND_ACTIVITIES)}, got {kind!r}")
     needed = {key for activity in KIND_ACTIVITIES[kind] for key in ACTIVITY_KEYS[activity]}
     allowed = needed | set(OPTIONAL_KEYS) | {"name", "kind"}
     for key in entry:
         if key not in allowed:
-            raise InputError(f"{where}: unknown key '{key}' for a {kind} robot (allowed: {', '.join(sorted(allowed))})")
+            raise InputError(f"{source}{line_of(entry, key)}: {where}: unknown key '{key}' for a {kind} robot (allowed: {', '.join(sorted(allowed))})")
     for key in sorted(needed):
         if key not in entry:
-            raise InputError(f"{where}: missing key '{key}' (a {kind} robot needs {', '.join(sorted(needed))})")
+            raise InputError(f"{source}: {where}: missing key '{key}' (a {kind} robot needs {', '.join(sorted(needed))})")
     values: dict = {"name": name, "kind": kind}
-    for key in needed - {"platform_size"}:
-        values[key] = _positive(entry[key], f"{where}: key '{key}'")
+    for key in sorted((needed - {"platform_size"}) | ({"load_time", "unload_time"} & set(entry))):
+        low, high, unit = RANGES[key]
+        values[key] = number(entry, key, source, low=low, high=high, low_inclusive=key in ("load_time", "unload_time"), unit=unit, where=where)
     if "platform_size" in needed:
         size = entry["platform_size"]
+        label = f"{source}{line_of(entry, 'platform_size')}: {where}: key 'platform_size'"
         if not isinstance(size, (list, tuple)) or len(size) != 2:
-            raise InputError(f"{where}: key 'platform_size' must be [length, width] in metres, got {size!r}")
-        length, width = (_positive(v, f"{where}: key 'platform_size'") for v in size)
+            raise InputError(f"{label} must be [length, width] in metres, got {size!r}")
+        length, width = (_number_in(v, label, *PLATFORM_RANGE_M, "m") for v in size)
         values["platform_size"] = (max(length, width), min(length, width))
-    for key in ("load_time", "unload_time"):
-        if key in entry:
-            value = entry[key]
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or value < 0:
-                raise InputError(f"{where}: key '{key}' must be a number of seconds >= 0, got {value!r}")
-            values[key] = float(value)
     if "methods" in entry:
         methods = entry["methods"]
         if not isinstance(methods, list) or not methods or any(m not in METHODS for m in methods):
-            raise InputError(f"{where}: key 'methods' must be a list drawn from {list(METHODS)}, got {methods!r}")
+            raise InputError(f"{source}{line_of(entry, 'methods')}: {where}: key 'methods' must be a list drawn from {list(METHODS)}, got {methods!r}")
         values["methods"] = tuple(methods)
     if "home" in entry:
-        values["home"] = _point(entry["home"], f"{where}: key 'home'")
+        values["home"] = _point(entry, "home", source, where)
     return RobotSpec(**values)
 
 
@@ -149,7 +176,7 @@ def fleet_from_dict(data, source: str) -> Fleet:
     extra = set(data) - {"name", "robots"}
     if extra:
         raise InputError(f"{source}: unknown top-level key '{sorted(extra)[0]}' (allowed: name, robots)")
-    specs = tuple(_robot(entry, f"{source}: robots[{i}]") for i, entry in enumerate(robots))
+    specs = tuple(_robot(entry, source, i) for i, entry in enumerate(robots))
     names = [r.name for r in specs]
     duplicate = next((n for n in names if names.count(n) > 1), None)
     if duplicate:
@@ -158,7 +185,7 @@ def fleet_from_dict(data, source: str) -> Fleet:
 
 
 def load_fleet(spec: str | Path) -> Fleet:
-    """A built-in fleet ("fleet1", "fleet2") or a fleet YAML file, validated."""
+    """A built-in fleet ("fleet1", "fleet2", "site-crane") or a fleet YAML file, validated."""
     if str(spec) in BUILTIN_FLEETS:
         text = resources.files("bimrobot.coordination").joinpath("fleets", f"{spec}.yaml").read_text()
         source = f"built-in fleet {spec}"
@@ -211,25 +238,25 @@ def site_from_dict(data, source: str) -> Site:
         if key in data:
             points = data[key]
             if not isinstance(points, list) or not points:
-                raise InputError(f"{source}: key '{key}' must be a non-empty list of [x, y] positions in metres")
-            values[key] = tuple(_point(p, f"{source}: {key}[{i}]") for i, p in enumerate(points))
+                raise InputError(f"{source}{line_of(data, key)}: key '{key}' must be a non-empty list of [x, y] positions in metres")
+            values[key] = tuple(_point(data, key, source, item=i) for i in range(len(points)))
         else:
             values[key] = getattr(default, key)
     if "construction_area" in data:
         area = data["construction_area"]
         if not isinstance(area, list) or len(area) != 2:
-            raise InputError(f"{source}: key 'construction_area' must be [[xmin, ymin], [xmax, ymax]] in metres")
-        low, high = (_point(p, f"{source}: construction_area") for p in area)
+            raise InputError(f"{source}{line_of(data, 'construction_area')}: key 'construction_area' must be [[xmin, ymin], [xmax, ymax]] in metres")
+        low, high = (_point(data, "construction_area", source, item=i) for i in range(2))
         if not (low[0] < high[0] and low[1] < high[1]):
-            raise InputError(f"{source}: key 'construction_area' must have xmin < xmax and ymin < ymax, got {area!r}")
+            raise InputError(f"{source}{line_of(data, 'construction_area')}: key 'construction_area' must have xmin < xmax and ymin < ymax, got {area!r}")
         values["construction_area"] = (low, high)
     else:
         values["construction_area"] = default.construction_area
     if "model_offset" in data:
-        values["model_offset"] = _point(data["model_offset"], f"{source}: model_offset")
+        values["model_offset"] = _point(data, "model_offset", source, limit=OFFSET_LIMIT_M)
     if "idle_robots" in data:
         if data["idle_robots"] not in ("stay", "yard"):
-            raise InputError(f"{source}: key 'idle_robots' must be 'stay' or 'yard', got {data['idle_robots']!r}")
+            raise InputError(f"{source}{line_of(data, 'idle_robots')}: key 'idle_robots' must be 'stay' or 'yard', got {data['idle_robots']!r}")
         values["idle_robots"] = data["idle_robots"]
     return Site(**values, source=source)
 

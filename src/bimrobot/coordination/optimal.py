@@ -54,13 +54,16 @@ def task_graph(smart: SmartModel, sim: ConstructionSimulation) -> list[_Task]:
     for component in components.values():
         if component.prebuilt:
             continue
-        preds = [f"position:{s}" for s in smart.supporters[component.id] if not components[s].prebuilt]
+        # a prebuilt supporter made later stands once its own robot-built supporters do
+        preds = [f"position:{s}" for s in smart.robot_supporters(component.id)]
         preds += [key for floor, keys in joints_by_floor.items() if floor < component.floor for key in keys]
         tasks.append(_Task(f"transport:{component.id}", "transport", sim._request("transport", component), preds))
         tasks.append(_Task(f"position:{component.id}", "position", sim._request("position", component), [f"transport:{component.id}"]))
     for joint in smart.joints.values():
         members = [components[g] for g in joint.component_ids]
         preds = [f"position:{m.id}" for m in members if not m.prebuilt]
+        preds += [f"position:{s}" for m in members if m.prebuilt for s in smart.robot_supporters(m.id)]
+        preds = list(dict.fromkeys(preds))
         if not preds:
             continue  # foundations only: nothing for robots to wait for, but still assembled
         tasks.append(_Task(f"assemble:{joint.id}", "assemble", sim._request("assemble", members[0], joint), preds))

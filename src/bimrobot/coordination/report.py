@@ -30,9 +30,16 @@ def robot_table_rows(result: SimulationResult) -> list[dict]:
     return rows
 
 
-def summary(result: SimulationResult) -> dict:
-    """Makespan, steps, utilisation and provenance (JSON-serialisable)."""
+def summary(result: SimulationResult, unknown_weight: dict | None = None) -> dict:
+    """Makespan, steps, utilisation and provenance (JSON-serialisable).
+
+    ``unknown_weight``: what the ``--unknown-weight`` rule did
+    (:meth:`bimrobot.bim.unknown_weight.UnknownWeights.as_dict`), reported as is.
+    """
+    from bimrobot.io import signature
+
     return {
+        "generator": signature("simulate summary"),
         "model": result.model,
         "fleet": result.fleet,
         "evaluator": result.evaluator,
@@ -44,6 +51,7 @@ def summary(result: SimulationResult) -> dict:
         "floor_finish_s": [round(t, 3) for t in result.floor_finish],
         "breakdowns": [{"robot": b[0], "time_s": b[1], "repair_s": b[2] if len(b) > 2 else None} for b in result.breakdowns],
         "robots": robot_table_rows(result),
+        "unknown_weight": unknown_weight,
         "smart_components": result.smart_summary,
     }
 
@@ -99,23 +107,27 @@ def plot_gantt(result: SimulationResult, path: Path) -> None:
     plt.close(fig)
 
 
-def write_outputs(result: SimulationResult, out_dir: Path, gantt: bool = True) -> list[Path]:
-    """Write every output file into ``out_dir`` (which must exist); returns the paths written."""
+def write_outputs(result: SimulationResult, out_dir: Path, gantt: bool = True, unknown_weight: dict | None = None) -> list[Path]:
+    """Write every output file into ``out_dir``; returns the paths written.
+
+    ``out_dir`` is a fresh folder from :func:`bimrobot.io.atomic_output_dir`, which applies the output
+    policy (nothing here replaces a file bimrobot did not write). ``unknown_weight``: see :func:`summary`.
+    """
     out_dir = Path(out_dir)
-    paths = []
-    (out_dir / "events.log").write_text("\n".join(result.log_lines) + "\n")
-    with open(out_dir / "events.jsonl", "w") as handle:
+    (out_dir / "events.log").write_text("\n".join(result.log_lines) + "\n", encoding="utf-8")
+    with open(out_dir / "events.jsonl", "w", encoding="utf-8") as handle:
         for event in result.events:
             handle.write(json.dumps(event) + "\n")
-    with open(out_dir / "robots.csv", "w", newline="") as handle:
+    with open(out_dir / "robots.csv", "w", newline="", encoding="utf-8") as handle:
         rows = robot_table_rows(result)
         writer = csv.DictWriter(handle, fieldnames=list(rows[0]))
         writer.writeheader()
         writer.writerows(rows)
-    (out_dir / "summary.json").write_text(json.dumps(summary(result), indent=2) + "\n")
-    (out_dir / "robots.txt").write_text(format_robot_table(result) + "\n")
+    (out_dir / "summary.json").write_text(json.dumps(summary(result, unknown_weight), indent=2) + "\n", encoding="utf-8")
+    (out_dir / "robots.txt").write_text(format_robot_table(result) + "\n", encoding="utf-8")
     (out_dir / "states.json").write_text(
-        json.dumps({gid: [[round(t, 3), s] for t, s in h] for gid, h in result.state_history.items()}, indent=1) + "\n"
+        json.dumps({gid: [[round(t, 3), s] for t, s in h] for gid, h in result.state_history.items()}, indent=1) + "\n",
+        encoding="utf-8",
     )
     write_schedule_csv(result.activities, out_dir / "schedule.csv")
     paths = [out_dir / n for n in ("events.log", "events.jsonl", "robots.csv", "robots.txt", "summary.json", "states.json", "schedule.csv")]

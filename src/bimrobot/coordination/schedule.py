@@ -43,10 +43,23 @@ def schedule_rows(activities) -> list[dict]:
     return rows
 
 
-def write_schedule_csv(activities, path: str | Path) -> Path:
-    """Write the schedule atomically; returns the path."""
-    with atomic_output_file(path) as tmp:
-        with open(tmp, "w", newline="") as handle:
+def is_schedule_csv(path: str | Path) -> bool:
+    """Whether ``path`` is a schedule CSV bimrobot wrote: its first line is exactly the :data:`COLUMNS`
+    header. A CSV cannot carry a signature comment every reader skips, so this is the output policy's
+    recogniser for :func:`write_schedule_csv`."""
+    try:
+        with open(path, encoding="utf-8-sig", newline="") as handle:
+            first = handle.readline(4096)
+    except (OSError, UnicodeDecodeError):
+        return False
+    return first.rstrip("\r\n") == ",".join(COLUMNS)
+
+
+def write_schedule_csv(activities, path: str | Path, inputs=(), option: str = "-o") -> Path:
+    """Write the schedule atomically under the output policy (:mod:`bimrobot.io`): an existing file
+    is replaced only when it is a schedule CSV (:func:`is_schedule_csv`); returns the path."""
+    with atomic_output_file(path, inputs=inputs, option=option, recognise=is_schedule_csv) as tmp:
+        with open(tmp, "w", newline="", encoding="utf-8") as handle:
             writer = csv.DictWriter(handle, fieldnames=COLUMNS)
             writer.writeheader()
             writer.writerows(schedule_rows(activities))
@@ -85,6 +98,8 @@ def load_schedule_csv(path: str | Path) -> list[dict]:
             ids.add(raw["Identification"])
             row["Predecessors"] = raw["Predecessors"].split() if raw["Predecessors"] else []
             rows.append(row)
+    if not rows:
+        raise InputError(f"{path}: the schedule has a header but no activity")
     for row in rows:
         unknown = [p for p in row["Predecessors"] if p not in ids]
         if unknown:

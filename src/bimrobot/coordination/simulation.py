@@ -43,6 +43,9 @@ from bimrobot.sco.states import Event, State, at_least
 log = logging.getLogger(__name__)
 
 ACTIVITY_RANK = {"assemble": 0, "position": 1, "transport": 2}
+#: A yard or robot home farther than this from the building (metres) is a mistake in the site file
+#: (e.g. a georeferenced model_offset), not a site: robots would drive for days.
+MAX_SITE_DISTANCE_M = 10_000.0
 
 
 @dataclass
@@ -168,8 +171,25 @@ class ConstructionSimulation:
     # ---------------------------------------------------------------- set-up
     def _place_on_site(self) -> None:
         comps = list(self.smart.components.values())
+        if all(c.prebuilt for c in comps):
+            raise InputError(
+                f"every one of the {len(comps)} components of {self.smart.source} is prebuilt: nothing is left for "
+                "the robots to build (see --prebuilt)"
+            )
         centres = np.array([c.target_position[:2] for c in comps])
         self.offset = self.site.offset_for(centres.min(axis=0), centres.max(axis=0))
+        building = (centres.min(axis=0) + centres.max(axis=0)) / 2 + self.offset
+        places = [("yard position", p, self.site.source) for p in self.site.yard]
+        places += [("robot home", p, self.site.source) for p in self.site.robot_home]
+        places += [(f"home of robot {r.name}", r.home, self.fleet.source) for r in self.fleet.robots if r.home]
+        for what, point, source in places:
+            distance = float(np.hypot(*(np.asarray(point, dtype=float) - building)))
+            if distance > MAX_SITE_DISTANCE_M:
+                raise InputError(
+                    f"{source}: {what} ({point[0]:g}, {point[1]:g}) is {distance / 1000:,.1f} km from the building "
+                    f"(centred at ({building[0]:.1f}, {building[1]:.1f}) m in the site frame); a site is at most "
+                    f"{MAX_SITE_DISTANCE_M / 1000:g} km across: check the positions and model_offset"
+                )
         self.yard_of: dict[str, np.ndarray] = {}
         to_build = sorted((c for c in comps if not c.prebuilt), key=lambda c: (c.floor, c.bottom_z, c.id))
         for index, component in enumerate(to_build):
@@ -227,16 +247,11 @@ class ConstructionSimulation:
         ]
 
     def _check_capabilities(self) -> None:
-        """Every component must be transportable, positionable and assemblable by some robot."""
-        checks: list[tuple[TaskRequest, str]] = []
-        for component in self.smart.components.values():
-            if component.prebuilt:
-                continue
-            for activity in ("transport", "position"):
-                checks.append((self._request(activity, component), f"component {component.id} ({component.ifc_class} '{component.name}')"))
-        for joint in self._joints_to_build():
-            owner = self.smart.components[joint.component_ids[0]]
-            checks.append((self._request("assemble", owner, joint), f"joint {joint.id} (components {', '.join(joint.component_ids)})"))
+        """Pre-flight: every component and joint must be doable by some robot of the fleet.
+
+        Raises ONE InputError listing everything the fleet cannot do, grouped by IFC class with the
+        capacity it would need (mass, platform length x width, reach), and what the fleet has.
+        """
         # Robots with the same abilities answer alike: check one of each.
         distinct: dict[str, list[RobotSpec]] = {}
         for activity in ACTIVITIES:
@@ -244,16 +259,91 @@ class ConstructionSimulation:
             for r in self.fleet.by_activity(activity):
                 seen.setdefault((r.kind, r.carry_load, r.platform_size, r.payload, r.reach, r.methods), r)
             distinct[activity] = list(seen.values())
-        for request, what in checks:
-            robots = distinct[request.activity]
-            if not robots:
-                raise InputError(f"fleet {self.fleet.name} has no robot that can {request.activity} ({what} needs one)")
-            if any(incapability(r, request) is None for r in robots):
-                continue
-            reasons = [incapability(r, request) for r in robots]
-            if all(reasons):
-                detail = "; ".join(f"{r.name}: {why}" for r, why in zip(robots, reasons))
-                raise InputError(f"no robot of fleet {self.fleet.name} can {request.activity} {what}: {detail}")
+
+        def impossible(request: TaskRequest) -> bool:
+            return all(incapability(r, request) for r in distinct[request.activity])
+
+        by_class: dict[str, dict] = {}
+        to_build = [c for c in self.smart.components.values() if not c.prebuilt]
+        for component in to_build:
+            for activity in ("transport", "position"):
+                request = self._request(activity, component)
+                if not impossible(request):
+                    continue
+                need = by_class.setdefault(component.ifc_class, {"ids": set(), "transport": None, "position": None})
+                need["ids"].add(component.id)
+                worst = need[activity] or {"kg": 0.0, "length": 0.0, "width": 0.0, "reach": 0.0, "example": component.id}
+                if request.weight_kg > worst["kg"]:
+                    worst["example"] = component.id
+                worst["kg"] = max(worst["kg"], request.weight_kg)
+                worst["length"] = max(worst["length"], request.size[0])
+                worst["width"] = max(worst["width"], request.size[1])
+                worst["reach"] = max(worst["reach"], request.reach_needed)
+                need[activity] = worst
+        joints = self._joints_to_build()
+        failing_joints, joint_reach, joint_methods = [], 0.0, set()
+        for joint in joints:
+            owner = self.smart.components[joint.component_ids[0]]
+            request = self._request("assemble", owner, joint)
+            if impossible(request):
+                failing_joints.append(joint.id)
+                joint_reach = max(joint_reach, request.reach_needed)
+                joint_methods |= set(request.methods)
+        if not by_class and not failing_joints:
+            return
+        parts = []
+        for ifc_class, need in sorted(by_class.items(), key=lambda item: (-len(item[1]["ids"]), item[0])):
+            wants = []
+            if need["transport"]:
+                t = need["transport"]
+                wants.append(f"a carrier for up to {t['kg']:,.0f} kg and {t['length']:.2f} x {t['width']:.2f} m")
+            if need["position"]:
+                q = need["position"]
+                wants.append(f"a positioner for up to {q['kg']:,.0f} kg at {q['reach']:.2f} m reach")
+            example = (need["transport"] or need["position"])["example"]
+            count = len(need["ids"])
+            parts.append(f"{count} {ifc_class} need{'s' if count == 1 else ''} {' and '.join(wants)} (e.g. {example})")
+        if failing_joints:
+            parts.append(
+                f"{len(failing_joints)} joints need an assembler with {joint_reach:.2f} m reach doing "
+                f"{', '.join(sorted(joint_methods))} (e.g. {failing_joints[0]})"
+            )
+        stronger = ", e.g. --fleet site-crane" if self.fleet.name != "site-crane" else ""
+        counts = []
+        if by_class:
+            counts.append(f"{sum(len(n['ids']) for n in by_class.values())} of {len(to_build)} components")
+        if failing_joints:
+            counts.append(f"{len(failing_joints)} of {len(joints)} joints")
+        raise InputError(
+            f"fleet {self.fleet.name} cannot build {' and '.join(counts)}: {'; '.join(parts)}; "
+            f"the fleet {self._capacity_text(distinct)} (give a stronger fleet{stronger}, mark cast-in-place "
+            "classes as work of others with --prebuilt, or leave elements out with --exclude)"
+        )
+
+    @staticmethod
+    def _capacity_text(distinct: dict[str, list[RobotSpec]]) -> str:
+        """What the fleet can do at most, per activity, in words."""
+        words = []
+        carriers, positioners, assemblers = distinct["transport"], distinct["position"], distinct["assemble"]
+        if carriers:
+            length = max(r.platform_size[0] for r in carriers)
+            width = max(r.platform_size[1] for r in carriers)
+            words.append(f"carries at most {max(r.carry_load for r in carriers):,.0f} kg on up to {length:g} x {width:g} m")
+        else:
+            words.append("has no transport robot")
+        if positioners:
+            words.append(
+                f"positions at most {max(r.payload for r in positioners):,.0f} kg with up to "
+                f"{max(r.reach for r in positioners):g} m reach"
+            )
+        else:
+            words.append("has no positioning robot")
+        if assemblers:
+            methods = sorted({m for r in assemblers for m in r.methods})
+            words.append(f"assembles with up to {max(r.reach for r in assemblers):g} m reach ({', '.join(methods)})")
+        else:
+            words.append("has no assembly robot")
+        return ", ".join(words[:-1]) + " and " + words[-1]
 
     # ---------------------------------------------------------------- run
     def run(self) -> SimulationResult:
@@ -276,15 +366,20 @@ class ConstructionSimulation:
         self.activity_counter = 0
         self.dispatch_scheduled = False
         self.floor_finish: list[float] = []
-        self.position_activity: dict[str, str] = {}
+        # component id -> the schedule activities after which its position is fixed (its own positioning;
+        # for a prebuilt component made later, the positioning of the robot-built parts it rests on)
+        self.position_activity: dict[str, tuple[str, ...]] = {}
         self.floor_gate: dict[int, str] = {}
         self.current_floor = 0
 
         components = self.smart.components
+        later = set(self.smart.prebuilt_later)
+        # Everything not in place yet waits for its supporters: robot-built components and prebuilt ones
+        # that rest on robot-built ones (made by others once those are fixed).
         self.missing_supporters = {
             gid: sum(1 for s in self.smart.supporters[gid] if not at_least(components[s].state, State.POSITION_FIXED))
             for gid, c in components.items()
-            if not c.prebuilt
+            if not c.prebuilt or gid in later
         }
         self.dependants: dict[str, list[str]] = {}
         for gid, supporters in self.smart.supporters.items():
@@ -299,7 +394,7 @@ class ConstructionSimulation:
         self.assembly_published: set[str] = set()
         self.ready_by_floor: dict[int, list[str]] = {}
         for gid, missing in self.missing_supporters.items():
-            if missing == 0:
+            if missing == 0 and gid not in later:
                 self.ready_by_floor.setdefault(components[gid].floor, []).append(gid)
         for joint in self._joints_to_build():  # e.g. a footing joint made of prebuilt parts only
             self._maybe_publish_assembly(joint)
@@ -404,8 +499,9 @@ class ConstructionSimulation:
                 f"Component: {gid} is a required connection component (RCC) of {', '.join(supporters)}, "
                 f"whose position is fixed: publish its transport"
             )
-        predecessors = [self.position_activity.get(s) for s in supporters] + [self.floor_gate.get(component.floor)]
-        self._publish("transport", component, predecessors=predecessors)
+        predecessors = [a for s in supporters for a in self.position_activity.get(s, ())]
+        predecessors.append(self.floor_gate.get(component.floor))
+        self._publish("transport", component, predecessors=list(dict.fromkeys(predecessors)))
 
     def _maybe_close_floor(self) -> None:
         while self.open_on_floor[self.current_floor] == 0:
@@ -425,6 +521,8 @@ class ConstructionSimulation:
     def _maybe_publish_assembly(self, joint: Joint) -> None:
         if joint.id in self.assembly_published:
             return
+        if all(self.smart.nodes[n].state == State.ASSEMBLED for n in joint.node_ids):
+            return  # made with the prebuilt parts it joins
         members = [self.smart.components[g] for g in joint.component_ids]
         if not all(at_least(m.state, State.POSITION_FIXED) for m in members):
             return
@@ -434,8 +532,8 @@ class ConstructionSimulation:
             component = self.smart.components[node.component_id]
             component.node_event(node, Event.PUBLISH_ASSEMBLY)
             self._note_state(component)
-        predecessors = [self.position_activity.get(m.id) for m in members]
-        self._publish("assemble", members[0], joint, predecessors)
+        predecessors = [a for m in members for a in self.position_activity.get(m.id, ())]
+        self._publish("assemble", members[0], joint, list(dict.fromkeys(predecessors)))
 
     # ---------------------------------------------------------------- market
     def _request_dispatch(self) -> None:
@@ -660,19 +758,48 @@ class ConstructionSimulation:
         self._note_state(component)
         self._say(f"Component: {component.id} position is fixed, {name} is free for next work")
         activity = self._record("position", component, f"Position {component.id}", name, started, request.predecessors)
-        self.position_activity[component.id] = activity.id
+        self.position_activity[component.id] = (activity.id,)
         if component.state == State.ASSEMBLED:  # no nodes to fasten
             self.open_on_floor[component.floor] -= 1
+        self._position_fixed(component)
+
+    def _position_fixed(self, component: Component) -> None:
+        """``component`` stands in place: release what it carries and the joints it completes."""
         for dependant in self.dependants.get(component.id, []):  # components it carries
+            if dependant not in self.missing_supporters:
+                continue  # prebuilt and on site from the start
             self.missing_supporters[dependant] -= 1
             if self.missing_supporters[dependant] == 0:
-                floor = self.smart.components[dependant].floor
-                if floor <= self.current_floor:
+                carried = self.smart.components[dependant]
+                if carried.prebuilt:
+                    self._prebuilt_in_place(carried)
+                    continue
+                if carried.floor <= self.current_floor:
                     self._publish_transport(dependant)
                 else:
-                    self.ready_by_floor.setdefault(floor, []).append(dependant)
+                    self.ready_by_floor.setdefault(carried.floor, []).append(dependant)
         for node in component.connection_nodes:
             self._maybe_publish_assembly(self.smart.joints[node.joint_id])
+
+    def _prebuilt_in_place(self, component: Component) -> None:
+        """A prebuilt component resting on robot-built ones is made by others now, in no robot time."""
+        component.state = State.POSITION_FIXED
+        for node in component.connection_nodes:
+            if node.state != State.ASSEMBLED:
+                node.state = State.POSITION_FIXED
+        if all(node.state == State.ASSEMBLED for node in component.connection_nodes):
+            component.state = State.ASSEMBLED
+        self._note_state(component)
+        supporters = self.smart.supporters[component.id]
+        self.position_activity[component.id] = tuple(
+            dict.fromkeys(a for s in supporters for a in self.position_activity.get(s, ()))
+        )
+        self._say(
+            f"Component: {component.id} (prebuilt, work of others) is in place: what it rests on "
+            f"({', '.join(supporters)}) has its position fixed"
+        )
+        self._event("prebuilt_in_place", component=component.id, supporters=list(supporters))
+        self._position_fixed(component)
 
     def _finish_assembly(self, robot: _Robot, request: TaskRequest, started: float, node_windows) -> None:
         """One schedule row per node: the first includes the drive to the joint."""

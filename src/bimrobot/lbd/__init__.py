@@ -6,6 +6,8 @@
   DiCon activities and live states, SPARQL queries from ``lbd/queries/*.rq``, Turtle / JSON-LD out.
 * :mod:`bimrobot.lbd.store`: the triple stores behind it (rdflib in memory, Oxigraph on disk, a remote
   SPARQL endpoint).
+* :mod:`bimrobot.lbd.components`: what robots build, an element or a precast ``IfcElementAssembly``
+  lifted as one unit (weight, position, section of either).
 
 See docs/lbd.md.
 """

@@ -5,9 +5,7 @@ from __future__ import annotations
 import argparse
 import csv
 import json
-import shutil
 import sys
-import tempfile
 import time
 from pathlib import Path
 
@@ -32,29 +30,37 @@ QUERY_EXAMPLES = """examples:
 
 def register(subparsers) -> None:
     """Add this part's sub-commands to the ``bimrobot`` parser."""
+    from bimrobot.bim.selection import add_selection_options
     from bimrobot.lbd.graph import query_names
 
     graph = subparsers.add_parser(
         "graph",
         help="build the construction knowledge graph (BOT + DiCon + schedule + states) of an IFC model",
         description="Build the RDF construction graph of an IFC model: BOT topology, element properties, "
-        "connections as bot:Interface, DiCon activities from a schedule, and the live states.",
+        "precast assemblies with their parts, connections as bot:Interface, DiCon activities from a "
+        "schedule, and the live states.",
         epilog=GRAPH_EXAMPLES,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    graph.add_argument("model", type=Path, help="IFC file")
+    graph.add_argument("model", type=Path, help="IFC file (.ifc or .ifczip)")
     source = graph.add_mutually_exclusive_group()
     source.add_argument("--schedule", type=Path, help="schedule CSV (docs/conventions.md), e.g. from `bimrobot simulate`")
     source.add_argument("--ifc-schedule", action="store_true", help="take the activities from the model's IfcWorkSchedule")
-    graph.add_argument("-o", "--output", type=Path, required=True, help="graph file to write (.ttl, .jsonld)")
-    graph.add_argument("--format", choices=["turtle", "json-ld"], help="default: from the output suffix")
+    graph.add_argument("-o", "--output", type=Path, required=True, help="graph file to write (.ttl, .jsonld, .nt)")
+    graph.add_argument("--format", choices=["turtle", "json-ld", "ntriples"], help="default: from the output suffix")
     graph.add_argument("--store", choices=["memory", "oxigraph", "sparql"], default="memory", help="triple store (default: memory)")
     graph.add_argument(
         "--store-path",
-        help="directory of the persistent Oxigraph store (--store oxigraph), or URL of the SPARQL endpoint (--store sparql)",
+        help="new folder for the persistent Oxigraph store (--store oxigraph), or URL of the SPARQL endpoint (--store sparql)",
     )
     graph.add_argument("--base", default=None, help="base IRI of the graph's resources")
     graph.add_argument("--no-properties", action="store_true", help="leave the elements' property-set values out")
+    graph.add_argument(
+        "--by-element", action="store_true",
+        help="every element on its own: leave the model's IfcElementAssemblies out (by default each is an element "
+        "with its parts as bot:hasSubElement, the unit that is lifted)",
+    )
+    add_selection_options(graph, built=True)
     graph.set_defaults(func=graph_command)
 
     query = subparsers.add_parser(
@@ -72,46 +78,63 @@ def register(subparsers) -> None:
     query.set_defaults(func=query_command)
 
 
+def _check_outputs(args, inputs: list) -> None:
+    """The output policy for -o and --store-path, applied before the model is read."""
+    from bimrobot import io
+
+    io.check_output(args.output, folder=False, inputs=inputs, option="-o")
+    if args.store == "oxigraph":
+        io.check_output(args.store_path, folder=True, inputs=inputs, option="--store-path")
+        store, output = Path(args.store_path).resolve(), Path(args.output).resolve()
+        if store == output or store in output.parents:
+            raise InputError(f"-o {args.output} is inside the --store-path folder {args.store_path}; write the graph file elsewhere")
+
+
 def graph_command(args) -> int:
+    from bimrobot import io
     from bimrobot.bim import load_model
-    from bimrobot.lbd.graph import DEFAULT_BASE, build_graph
+    from bimrobot.lbd.graph import DEFAULT_BASE, build_graph, checked_base
     from bimrobot.lbd.schedule import load_schedule_csv, load_schedule_ifc
     from bimrobot.lbd.store import format_for
 
-    format_for(args.output, args.format)  # fail on a bad suffix before the slow work
     if args.store != "memory" and args.store_path is None:
         raise InputError(f"--store {args.store} needs --store-path ({'DIR' if args.store == 'oxigraph' else 'URL'})")
+    if args.store == "memory" and args.store_path is not None:
+        raise InputError("--store-path is only used with --store oxigraph (a folder) or --store sparql (a URL)")
+    inputs = [args.model, args.schedule]
+    _check_outputs(args, inputs)
+    format_for(args.output, args.format)  # fail on a bad suffix before the slow work
+    base = checked_base(args.base or DEFAULT_BASE)
     started = time.perf_counter()
-    model = load_model(args.model)
+    model = load_model(args.model, include=args.include, exclude=args.exclude)
     schedule = None
     if args.schedule is not None:
         schedule = load_schedule_csv(args.schedule, model=model)
     elif args.ifc_schedule:
         schedule = load_schedule_ifc(args.model, model=model)
-    store_path = args.store_path if args.store == "sparql" else None
+    options = {"base": base, "properties": not args.no_properties, "assemblies": not args.by_element}
+
+    def build_and_write(store: str, path) -> int:
+        graph = build_graph(model, schedule, store=store, path=path, **options)
+        try:
+            graph.serialize(args.output, args.format, inputs=inputs, option="-o")
+            return len(graph)
+        finally:
+            graph.close()
+
     if args.store == "oxigraph":
-        # Build into a temporary sibling directory, renamed into place only on success.
-        args.store_path = Path(args.store_path)
-        if args.store_path.exists():
-            raise InputError(f"the Oxigraph store directory {args.store_path} already exists: remove it or choose another")
-        args.store_path.parent.mkdir(parents=True, exist_ok=True)
-        store_path = Path(tempfile.mkdtemp(prefix=f".{args.store_path.name}.", dir=args.store_path.parent))
-    try:
-        graph = build_graph(model, schedule, store=args.store, path=store_path, base=args.base or DEFAULT_BASE,
-                            properties=not args.no_properties)
-        graph.serialize(args.output, args.format)
-        triples = len(graph)
-        graph.close()
-    except BaseException:
-        if args.store == "oxigraph":
-            shutil.rmtree(store_path, ignore_errors=True)
-        raise
-    if args.store == "oxigraph":
-        store_path.rename(args.store_path)
+        # Built in a temporary sibling folder that becomes --store-path only when everything worked.
+        with io.atomic_output_dir(args.store_path, kind="graph (Oxigraph store)", inputs=inputs, option="--store-path") as tmp:
+            triples = build_and_write("oxigraph", tmp)
+    else:
+        triples = build_and_write(args.store, args.store_path if args.store == "sparql" else None)
     activities = len(schedule.activities) + len(schedule.phases) if schedule else 0
+    assemblies = 0 if args.by_element else len(model.assemblies)
     print(
-        f"{args.output}: {triples} triples, {len(model.elements)} elements, {len(model.storeys)} storeys, "
-        f"{len(model.connections)} connections, {activities} activities ({time.perf_counter() - started:.1f} s)"
+        f"{args.output}: {triples} triples, {len(model.elements)} elements"
+        + (f" ({assemblies} assemblies)" if assemblies else "")
+        + f", {len(model.storeys)} storeys, {len(model.connections)} connections, {activities} activities "
+        f"({time.perf_counter() - started:.1f} s)"
     )
     if args.store != "memory":
         print(f"{'Oxigraph store' if args.store == 'oxigraph' else 'SPARQL endpoint'}: {args.store_path}")

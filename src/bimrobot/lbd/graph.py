@@ -10,6 +10,12 @@ the few ``brc:`` terms of ``vocabulary.ttl``):
   example of an interface is "the connection in which the two elements meet"; an adjacency property
   between two elements does not exist in BOT). ``brc:realizingElement`` links the bolts, welds and
   cleats that realise it, ``brc:nodeId`` carries the thesis' node id ``<relating>:<related>``.
+* precast assemblies: an outermost ``IfcElementAssembly`` (the unit a crane lifts in Tekla precast and
+  steel exports) is a ``bot:Element`` of its own, contained in its storey, with ``bot:hasSubElement``
+  each of its parts (which stay elements of their storey too); its weight is the sum of its parts'
+  (left out when one is unknown), its position the bottom centre and its size the extents along the
+  world axes of the union of its parts. A state set on the assembly is set on its parts too: they
+  travel and are placed together. ``build_graph(..., assemblies=False)`` leaves assemblies out.
 * element properties: ``brc:globalId``, ``brc:ifcClass``, ``brc:weightKg`` (kg), ``rdfs:label`` (name),
   the placement origin as ``dice:hasQuality`` a ``dice:CartesianPosition`` with ``dice:hasX/Y/Z``
   (metres, world frame, z up), and the size (thesis table 5.1: section dimensions, to match a
@@ -45,7 +51,9 @@ import rdflib
 from pyparsing import ParseException
 from rdflib import RDF, RDFS, XSD, Literal, Namespace, URIRef
 
+from bimrobot import io
 from bimrobot.errors import InputError
+from bimrobot.lbd import components
 from bimrobot.lbd.schedule import Activity, Schedule
 from bimrobot.lbd.store import TripleStore, format_for, load_store, open_store, write_atomically
 
@@ -111,6 +119,7 @@ class ConstructionGraph:
     def __init__(self, store: TripleStore, base: str = DEFAULT_BASE):
         self.store = store
         self.base = checked_base(base)
+        self._parts: dict[URIRef, list[URIRef]] | None = None
 
     # ------------------------------------------------------------------------------------ IRIs
     def iri(self, kind: str, identifier: str) -> URIRef:
@@ -139,7 +148,18 @@ class ConstructionGraph:
         name or a ``bimrobot.sco.states.State``. Raises :class:`InputError` for an unknown id or state.
         """
         name = _state_name(state, COMPONENT_STATES, "component")
-        self.store.replace(self._stateful(global_id), DICE.hasEntityState, BRC[name])
+        subject = self._stateful(global_id)
+        self.store.replace(subject, DICE.hasEntityState, BRC[name])
+        for part in self._sub_elements().get(subject, ()):
+            self.store.replace(part, DICE.hasEntityState, BRC[name])  # an assembly's parts move with it
+
+    def _sub_elements(self) -> dict[URIRef, list[URIRef]]:
+        """Assembly IRI -> its parts' IRIs (bot:hasSubElement), read once: the topology does not change."""
+        if self._parts is None:
+            self._parts = {}
+            for row in self.store.select(f"SELECT ?whole ?part WHERE {{ ?whole <{BOT.hasSubElement}> ?part }}"):
+                self._parts.setdefault(URIRef(row["whole"]), []).append(URIRef(row["part"]))
+        return self._parts
 
     def set_activity_state(self, activity_id: str, state: Any) -> None:
         """Record the execution state (NotStarted, Started, Completed, Failed) of an activity."""
@@ -183,10 +203,15 @@ class ConstructionGraph:
             raise InputError(f"the SPARQL query {shown} is invalid: {exc}".splitlines()[0]) from None
 
     # ------------------------------------------------------------------------------ in and out
-    def serialize(self, path: str | os.PathLike, format: str | None = None) -> Path:
-        """Write the graph as Turtle or JSON-LD (``format`` "turtle"/"json-ld", else from the suffix)."""
+    def serialize(self, path: str | os.PathLike, format: str | None = None, inputs: Iterable = (),
+                  option: str = "-o") -> Path:
+        """Write the graph as Turtle or JSON-LD (``format`` "turtle"/"json-ld", else from the suffix),
+        under the output policy of :mod:`bimrobot.io`: ``inputs`` are the files it was built from,
+        ``option`` how the user named ``path`` (for messages). The file is signed (a ``#`` comment in
+        Turtle, a ``"generator"`` key in JSON-LD) so that a later run may replace it."""
         kinds = {kind: f"{self.base}{kind}/" for kind in ("site", "building", "storey", "element", "interface", "activity", "robot")}
-        return write_atomically(self.store, path, format_for(path, format), {**PREFIXES, **kinds})
+        return write_atomically(self.store, path, format_for(path, format), {**PREFIXES, **kinds},
+                                io.signature("construction graph"), inputs=inputs, option=option)
 
     @classmethod
     def open(cls, path: str | os.PathLike, base: str | None = None) -> "ConstructionGraph":
@@ -275,17 +300,19 @@ def build_graph(
     path: str | os.PathLike | None = None,
     base: str = DEFAULT_BASE,
     properties: bool = True,
+    assemblies: bool = True,
 ) -> ConstructionGraph:
     """The construction graph of ``model`` and, when given, its ``schedule``.
 
     ``store``: ``"memory"`` (rdflib, default), ``"oxigraph"`` (persistent, in the empty or new
     directory ``path``) or ``"sparql"`` (the default graph of the SPARQL 1.1 endpoint at URL ``path``,
     e.g. ``http://127.0.0.1:7878`` for ``oxigraph serve``). Every element starts ``OnYard`` and every activity ``NotStarted``. A schedule
-    row whose GlobalId is not an element of the model raises :class:`InputError`. ``properties``: also
-    write every property-set value (``props:<Pset>.<Name>``).
+    row whose GlobalId is not an element (or assembly) of the model raises :class:`InputError`.
+    ``properties``: also write every property-set value (``props:<Pset>.<Name>``). ``assemblies``:
+    write the model's assemblies with their parts as sub-elements (default).
     """
     graph = ConstructionGraph(open_store(store, path), base)
-    writer = _GraphWriter(graph, model, properties)
+    writer = _GraphWriter(graph, model, properties, assemblies)
     graph.store.add_all(vocabulary_triples())
     graph.store.add_all(writer.topology())
     if schedule is not None:
@@ -296,8 +323,9 @@ def build_graph(
 class _GraphWriter:
     """Yields the triples of one model (and schedule), in the order of fig. 5.5."""
 
-    def __init__(self, graph: ConstructionGraph, model: BuildingModel, properties: bool = True):
+    def __init__(self, graph: ConstructionGraph, model: BuildingModel, properties: bool = True, assemblies: bool = True):
         self.graph, self.model, self.properties = graph, model, properties
+        self.assemblies = dict(getattr(model, "assemblies", {})) if assemblies else {}
         self.site = graph.iri("site", "site")
         self.storeys = {s.global_id for s in model.storeys}
         self.building = graph.iri("building", "building")
@@ -319,6 +347,8 @@ class _GraphWriter:
         storeys = {s.global_id for s in model.storeys}
         for element in model.elements.values():
             yield from self.element(element, storeys)
+        for assembly in self.assemblies.values():
+            yield from self.assembly(assembly, storeys)
         for connection in model.connections:
             yield from self.interface(connection)
 
@@ -346,6 +376,34 @@ class _GraphWriter:
                 yield size, prop, _literal(float(length))
         if self.properties:
             yield from _property_values(iri, element.properties)
+        yield iri, DICE.hasEntityState, BRC.OnYard
+
+    def assembly(self, assembly, storeys: set[str]) -> Iterator[Triple]:
+        """An assembly as a bot:Element with its parts as bot:hasSubElement (see the module docstring)."""
+        g, model, gid = self.graph, self.model, assembly.global_id
+        iri = g.element_iri(gid)
+        storey = components.storey_id(model, gid)
+        yield (g.iri("storey", storey) if storey in storeys else self.building), BOT.containsElement, iri
+        yield iri, RDF.type, BOT.Element
+        yield iri, BRC.globalId, Literal(gid)
+        yield iri, BRC.ifcClass, Literal("IfcElementAssembly")
+        if assembly.name:
+            yield iri, RDFS.label, Literal(assembly.name)
+        for part in assembly.part_ids:
+            if part in model.elements:
+                yield iri, BOT.hasSubElement, g.element_iri(part)
+        weight = components.weight_kg(model, gid)
+        if weight is not None:
+            yield iri, BRC.weightKg, _literal(weight)
+            yield iri, BRC.weightSource, Literal("sum of its parts")
+        yield from _position(URIRef(f"{iri}/position"), iri, DICE.hasQuality, components.position(model, gid))
+        size = components.extents(model, gid)
+        if size is not None:
+            volume = URIRef(f"{iri}/size")
+            yield iri, DICE.hasQuality, volume
+            yield volume, RDF.type, DICE.CartesianVolume
+            for prop, length in zip((DICE.hasXLength, DICE.hasYLength, DICE.hasZLength), size):
+                yield volume, prop, _literal(float(length))
         yield iri, DICE.hasEntityState, BRC.OnYard
 
     def interface(self, connection) -> Iterator[Triple]:
@@ -427,7 +485,7 @@ class _GraphWriter:
         gid = activity.global_id
         if not gid:
             return
-        if gid in self.model.elements:
+        if gid in self.model.elements or gid in self.assemblies:
             element = self.graph.element_iri(gid)
         elif any(s.global_id == gid for s in self.model.storeys):
             element = self.graph.iri("storey", gid)  # an IFC summary task that outputs a storey

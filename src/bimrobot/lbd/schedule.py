@@ -9,6 +9,7 @@ the first problem it finds (:class:`bimrobot.errors.InputError`).
 from __future__ import annotations
 
 import csv
+import heapq
 import logging
 import math
 import os
@@ -18,6 +19,8 @@ from typing import TYPE_CHECKING, Iterable, Iterator
 
 from bimrobot.errors import InputError
 from bimrobot.io import atomic_output_file
+from bimrobot.lbd import components
+from bimrobot.lbd.components import is_component
 
 if TYPE_CHECKING:  # pragma: no cover
     from bimrobot.bim.model import BuildingModel
@@ -57,6 +60,11 @@ IFC_TASK_TYPES = frozenset(
 
 #: Slack allowed when comparing times (s): CSV floats are printed with limited precision.
 TIME_TOLERANCE_S = 1e-6
+#: Largest time in a schedule (s): 1e9 s is 31 years, the bound of every number bimrobot reads.
+MAX_SECONDS = 1e9
+#: Largest coordinate of a target position (m): georeferenced site coordinates (UTM northings reach
+#: 1e7 m) fit, a number beyond any site does not.
+MAX_COORDINATE_M = 1e7
 
 
 @dataclass(frozen=True)
@@ -146,15 +154,25 @@ class Schedule:
         )
 
     def topological_order(self) -> list[Activity]:
-        """Activities so that each comes after its predecessors (ties by start time, then id)."""
+        """Activities so that each comes after its predecessors: at every step the earliest-starting
+        ready one (ties by id). Kahn's algorithm with a heap, O(n log n)."""
+        unmet = {a.id: len(set(a.predecessors)) for a in self.activities}  # a predecessor that is no activity: never met
+        successors: dict[str, list[Activity]] = {}
+        for a in self.activities:
+            for p in set(a.predecessors):
+                successors.setdefault(p, []).append(a)
+        heap = [(a.start, a.id, a) for a in self.activities if unmet[a.id] == 0]
+        heapq.heapify(heap)
         order: list[Activity] = []
-        done: set[str] = set()
-        while len(order) < len(self.activities):
-            batch = self.ready(done)
-            if not batch:  # only possible for a Schedule built by hand with a cycle
-                raise InputError(f"the activities of {self.source or 'the schedule'} form a cycle")
-            order.append(batch[0])
-            done.add(batch[0].id)
+        while heap:
+            _, _, activity = heapq.heappop(heap)
+            order.append(activity)
+            for successor in successors.get(activity.id, ()):
+                unmet[successor.id] -= 1
+                if unmet[successor.id] == 0:
+                    heapq.heappush(heap, (successor.start, successor.id, successor))
+        if len(order) < len(self.activities):  # only possible for a Schedule built by hand with a cycle
+            raise InputError(f"the activities of {self.source or 'the schedule'} form a cycle")
         return order
 
     def global_ids(self) -> set[str]:
@@ -178,28 +196,44 @@ class _Row:
         return (self.values.get(column) or "").strip()
 
     def seconds(self, column: str) -> float:
+        """The column as seconds: a finite number in [0, MAX_SECONDS] (no NaN, inf or 1e308)."""
         raw = self.text(column)
         try:
             value = float(raw)
         except ValueError:
-            raise InputError(f"{self.where()}: {column} {raw!r} is not a number of seconds") from None
-        if not math.isfinite(value) or value < 0:
-            raise InputError(f"{self.where()}: {column} {raw!r} must be a finite number of seconds >= 0")
+            raise InputError(f"{self.where()}: {column} {_shown(raw)} is not a number of seconds") from None
+        if not (math.isfinite(value) and 0 <= value <= MAX_SECONDS):
+            raise InputError(
+                f"{self.where()}: {column} {_shown(raw)} must be a finite number of seconds >= 0 and <= {MAX_SECONDS:g}"
+            )
         return value
 
     def target(self) -> tuple[float, float, float] | None:
-        raw = [self.text(c) for c in ("TargetX", "TargetY", "TargetZ")]
+        """(TargetX, TargetY, TargetZ) in metres, each finite and within MAX_COORDINATE_M, or None when all empty."""
+        columns = ("TargetX", "TargetY", "TargetZ")
+        raw = [self.text(c) for c in columns]
         if not any(raw):
             return None
-        try:
-            xyz = tuple(float(v) for v in raw)
-        except ValueError:
-            raise InputError(
-                f"{self.where()}: TargetX/TargetY/TargetZ {raw} must be three numbers in metres (or all empty)"
-            ) from None
-        if not all(math.isfinite(v) for v in xyz):
-            raise InputError(f"{self.where()}: TargetX/TargetY/TargetZ {raw} must be finite")
-        return xyz  # type: ignore[return-value]
+        xyz = []
+        for column, text in zip(columns, raw):
+            try:
+                value = float(text)
+            except ValueError:
+                raise InputError(
+                    f"{self.where()}: {column} {_shown(text)} is not a number of metres (TargetX/Y/Z: three numbers, or all empty)"
+                ) from None
+            if not (math.isfinite(value) and abs(value) <= MAX_COORDINATE_M):
+                raise InputError(
+                    f"{self.where()}: {column} {_shown(text)} must be a finite number of metres within +-{MAX_COORDINATE_M:g}"
+                )
+            xyz.append(value)
+        return tuple(xyz)  # type: ignore[return-value]
+
+
+def _shown(text: str) -> str:
+    """A cell for a message: quoted, control characters escaped, cut at 40 characters."""
+    shown = text if len(text) <= 40 else text[:37] + "..."
+    return repr(shown)
 
 
 def _node_id_in(name: str, global_id: str) -> str | None:
@@ -250,29 +284,49 @@ def _activity_from_row(row: _Row) -> Activity:
     )
 
 
+def _schedule_lines(path: Path) -> tuple[list[str], int]:
+    """The CSV's lines after its leading ``#`` comment lines, and how many were skipped.
+
+    Schedule files written by bimrobot may open with a ``# written by bimrobot ...`` line."""
+    try:
+        text = path.read_text(encoding="utf-8-sig")
+    except IsADirectoryError:
+        raise InputError(f"the schedule {path} is a folder, not a CSV file") from None
+    except OSError as exc:
+        raise InputError(f"cannot read the schedule {path}: {exc.strerror}") from None
+    except UnicodeDecodeError:
+        raise InputError(f"the schedule {path} is not a UTF-8 text file (a CSV is expected, see docs/conventions.md)") from None
+    lines = text.splitlines(keepends=True)
+    skipped = 0
+    while skipped < len(lines) and lines[skipped].lstrip().startswith("#"):
+        skipped += 1
+    return lines[skipped:], skipped
+
+
 def load_schedule_csv(path: str | os.PathLike, model: BuildingModel | None = None) -> Schedule:
     """Read and validate a schedule CSV (format: ``docs/conventions.md``).
 
-    With ``model``, every GlobalId (and Storey) must exist in it. Raises :class:`InputError` naming the
-    file and line for: a missing column, an empty or duplicate Identification, an unknown Activity or
-    PredefinedType, a time that is not a number >= 0, Finish before Start, a Duration that is not
-    Finish - Start, an unknown GlobalId/Storey/predecessor, an activity that starts before a
-    predecessor finishes, and a cycle in the predecessors.
+    With ``model``, every GlobalId (and Storey) must be an element (or an assembly) of it or a storey.
+    Raises :class:`InputError` naming the file and line for: a missing column, a file without any
+    activity, an empty or duplicate Identification, an unknown Activity or PredefinedType, a time that
+    is not a finite number of seconds in [0, 1e9], a target that is not a finite coordinate, Finish
+    before Start, a Duration that is not Finish - Start, an unknown GlobalId/Storey/predecessor, an
+    activity that starts before a predecessor finishes, and a cycle in the predecessors.
     """
     path = Path(path)
+    text_lines, skipped = _schedule_lines(path)
     try:
-        handle = path.open(newline="", encoding="utf-8-sig")
-    except OSError as exc:
-        raise InputError(f"cannot read the schedule {path}: {exc.strerror}") from None
-    with handle:
-        reader = csv.DictReader(handle)
+        reader = csv.DictReader(text_lines)
         missing = [c for c in REQUIRED_COLUMNS if c not in (reader.fieldnames or [])]
         if missing:
-            raise InputError(f"{path}, line 1: missing column(s) {', '.join(missing)} (see docs/conventions.md)")
+            raise InputError(
+                f"{path}, line {skipped + 1}: missing column(s) {', '.join(missing)} (a bimrobot schedule CSV "
+                "is expected, see docs/conventions.md)"
+            )
         activities: list[Activity] = []
-        lines: dict[str, int] = {}
+        lines: dict[str, int] = {}  # activity id -> its line in the file
         for values in reader:
-            row = _Row(values, path, reader.line_num)
+            row = _Row(values, path, reader.line_num + skipped)
             if not any((v or "").strip() for v in values.values() if isinstance(v, str)):
                 continue  # blank line
             activity = _activity_from_row(row)
@@ -282,6 +336,10 @@ def load_schedule_csv(path: str | os.PathLike, model: BuildingModel | None = Non
                 )
             lines[activity.id] = row.line
             activities.append(activity)
+    except csv.Error as exc:
+        raise InputError(f"{path}, line {reader.line_num + skipped}: not a valid CSV row ({exc})") from None
+    if not activities:
+        raise InputError(f"the schedule {path} has a header but no activity: nothing to build")
     schedule = Schedule(activities, source=path)
     _check_references(schedule, lines, model)
     _check_sequence(schedule, lines)
@@ -292,8 +350,9 @@ def _check_references(schedule: Schedule, lines: dict[str, int], model: Building
     known_storeys = {s.global_id for s in model.storeys} if model is not None else None
     for activity in schedule.activities:
         where = f"{schedule.source}, line {lines[activity.id]}"
-        if model is not None and activity.global_id not in model.elements:
-            raise InputError(f"{where}: GlobalId {activity.global_id!r} is not an element of {model.source or 'the model'}")
+        if model is not None and not is_component(model, activity.global_id):
+            raise InputError(f"{where}: GlobalId {activity.global_id!r} is not an element of {model.source or 'the model'}"
+                             " (or it was left out by --include/--exclude)")
         if known_storeys is not None and activity.storey and activity.storey not in known_storeys:
             raise InputError(f"{where}: Storey {activity.storey!r} is not a storey of {model.source or 'the model'}")
         for predecessor in activity.predecessors:
@@ -344,10 +403,27 @@ def _check_sequence(schedule: Schedule, lines: dict[str, int]) -> None:
         )
 
 
-def write_schedule_csv(schedule: Schedule | Iterable[Activity], path: str | os.PathLike) -> Path:
-    """Write activities as a schedule CSV (``docs/conventions.md``), atomically; returns the path."""
+def is_schedule_csv(path: str | os.PathLike) -> bool:
+    """Whether ``path`` is a schedule CSV bimrobot wrote: its first line is exactly the header of
+    :data:`CSV_COLUMNS` (a CSV cannot carry a signature comment for every reader). The output
+    policy's recogniser for :func:`write_schedule_csv`."""
+    try:
+        with open(path, encoding="utf-8-sig", newline="") as handle:
+            first = handle.readline(4096)
+    except (OSError, UnicodeDecodeError):
+        return False
+    return first.rstrip("\r\n") == ",".join(CSV_COLUMNS)
+
+
+def write_schedule_csv(
+    schedule: Schedule | Iterable[Activity], path: str | os.PathLike, inputs: Iterable = (), option: str = "-o"
+) -> Path:
+    """Write activities as a schedule CSV (``docs/conventions.md``), atomically; returns the path.
+
+    The output policy applies (:mod:`bimrobot.io`): an existing file is replaced only when it is a
+    schedule CSV (:func:`is_schedule_csv`)."""
     path = Path(path)
-    with atomic_output_file(path) as tmp:
+    with atomic_output_file(path, inputs=inputs, option=option, recognise=is_schedule_csv) as tmp:
         with tmp.open("w", newline="", encoding="utf-8") as handle:
             writer = csv.DictWriter(handle, fieldnames=CSV_COLUMNS)
             writer.writeheader()
@@ -414,16 +490,15 @@ def schedule_from_task_rows(rows: list, source: Path | None, model: BuildingMode
         start = seconds(row.start, 0.0)
         finish = seconds(row.finish, start)
         output = row.outputs[0] if row.outputs else None
-        if model is not None and output and output not in model.elements and output not in known_storeys:
+        if model is not None and output and not is_component(model, output) and output not in known_storeys:
             log.warning("IfcTask %s outputs %s, which is not an element of the model: left unlinked", row.global_id, output)
             output = None
         kind = TASK_TYPE_ACTIVITIES.get(row.predefined_type, "assemble" if output else "")
         target = None
         storey = row.storey
-        if model is not None and output in model.elements:
-            element = model.elements[output]
-            target = tuple(float(v) for v in element.position)
-            storey = element.storey_id or storey
+        if model is not None and is_component(model, output):
+            target = tuple(float(v) for v in components.position(model, output))
+            storey = components.storey_id(model, output) or storey
         activity = Activity(
             id=row.global_id,
             name=row.name or row.global_id,

@@ -8,6 +8,7 @@ remote SPARQL 1.1 endpoint (Fuseki, GraphDB, ``oxigraph serve``) is reached thro
 
 from __future__ import annotations
 
+import json
 import os
 from pathlib import Path
 from typing import Any, Iterable, Protocol
@@ -75,7 +76,7 @@ class TripleStore(Protocol):
 
     def select(self, sparql: str) -> list[dict[str, Any]]: ...
 
-    def serialize(self, path: Path, format: str, prefixes: dict[str, str]) -> None: ...
+    def serialize(self, path: Path, format: str, prefixes: dict[str, str], signature: str | None = None) -> None: ...
 
     def __len__(self) -> int: ...
 
@@ -104,22 +105,44 @@ class RdflibStore:
         names = [str(v) for v in result.vars]
         return [{name: python_value(row[i]) for i, name in enumerate(names)} for row in result]
 
-    def serialize(self, path: Path, format: str, prefixes: dict[str, str]) -> None:
+    def serialize(self, path: Path, format: str, prefixes: dict[str, str], signature: str | None = None) -> None:
+        """Write the graph to ``path``; ``signature`` (e.g. ``io.signature(...)``) goes in as a first
+        ``#`` comment line (Turtle, N-Triples) or a top-level ``"generator"`` key that the JSON-LD
+        context maps to null, so it is no triple and every JSON-LD processor ignores it."""
         for prefix, namespace in prefixes.items():
             self.graph.bind(prefix, namespace, override=True)
         if format == "json-ld":
-            self.graph.serialize(destination=str(path), format="json-ld", context=dict(prefixes), auto_compact=True)
-        elif format == "turtle":
-            with open(path, "wb") as handle:
+            text = self.graph.serialize(format="json-ld", context=dict(prefixes), auto_compact=True)
+            with open(path, "w", encoding="utf-8") as handle:
+                json.dump(_signed_json_ld(json.loads(text), prefixes, signature), handle, indent=2, ensure_ascii=False)
+            return
+        with open(path, "wb") as handle:
+            if signature:
+                handle.write(f"# {signature}\n".encode("utf-8"))
+            if format == "turtle":
                 _exact_turtle_serializer()(self.graph).serialize(handle, encoding="utf-8")
-        else:
-            self.graph.serialize(destination=str(path), format=FORMATS[format][0])
+            else:
+                self.graph.serialize(destination=handle, format=FORMATS[format][0], encoding="utf-8")
 
     def __len__(self) -> int:
         return len(self.graph)
 
     def close(self) -> None:
         self.graph.close()
+
+
+def _signed_json_ld(document: Any, prefixes: dict[str, str], signature: str | None) -> dict:
+    """``{"@context": ..., "generator": signature, "@graph": [...]}`` from rdflib's compacted output."""
+    if isinstance(document, list):
+        document = {"@context": dict(prefixes), "@graph": document}
+    elif "@graph" not in document:  # a single node, compacted to the top level
+        context = document.pop("@context", dict(prefixes))
+        document = {"@context": context, "@graph": [document] if document else []}
+    if not signature:
+        return document
+    context = document.get("@context")
+    context = {**context, "generator": None} if isinstance(context, dict) else [context, {"generator": None}]
+    return {"@context": context, "generator": signature, "@graph": document["@graph"]}
 
 
 class OxigraphStore:
@@ -181,14 +204,14 @@ class OxigraphStore:
         names = [v.value for v in result.variables]
         return [{name: python_value(self._rdflib(solution[name])) for name in names} for solution in result]
 
-    def serialize(self, path: Path, format: str, prefixes: dict[str, str]) -> None:
+    def serialize(self, path: Path, format: str, prefixes: dict[str, str], signature: str | None = None) -> None:
         # Through rdflib, so both stores write the same Turtle / JSON-LD (prefixes, compaction).
         graph = rdflib.Graph()
         graph.addN(
             (self._rdflib(q.subject), self._rdflib(q.predicate), self._rdflib(q.object), graph)
             for q in self.store.quads_for_pattern(None, None, None, self.ox.DefaultGraph())
         )
-        RdflibStore(graph).serialize(path, format, prefixes)
+        RdflibStore(graph).serialize(path, format, prefixes, signature)
 
     def __len__(self) -> int:
         return len(self.store)
@@ -262,11 +285,11 @@ class SparqlEndpointStore:
     def __len__(self) -> int:
         return int(self.select("SELECT (COUNT(*) AS ?n) WHERE { ?s ?p ?o }")[0]["n"])
 
-    def serialize(self, path: Path, format: str, prefixes: dict[str, str]) -> None:
+    def serialize(self, path: Path, format: str, prefixes: dict[str, str], signature: str | None = None) -> None:
         local = rdflib.Graph()
         for row in self._query("SELECT ?s ?p ?o WHERE { ?s ?p ?o }"):
             local.add((row[0], row[1], row[2]))
-        RdflibStore(local).serialize(path, format, prefixes)
+        RdflibStore(local).serialize(path, format, prefixes, signature)
 
     def close(self) -> None:
         """Nothing to release: every request is its own HTTP exchange."""
@@ -290,7 +313,7 @@ def open_store(kind: str = "memory", path: str | os.PathLike | None = None) -> T
         if path is None:
             raise InputError("the oxigraph store needs a directory: give --store-path (or path=)")
         if Path(path).exists() and (not Path(path).is_dir() or any(Path(path).iterdir())):
-            raise InputError(f"the Oxigraph store directory {path} is not empty: remove it or choose another")
+            raise InputError(f"the Oxigraph store directory {path} is not empty: give a new or empty folder")
         return OxigraphStore(path)
     raise InputError(f"unknown store {kind!r}: use 'memory', 'oxigraph' or 'sparql'")
 
@@ -317,8 +340,18 @@ def load_store(path: str | os.PathLike) -> TripleStore:
     return RdflibStore(graph)
 
 
-def write_atomically(store: TripleStore, path: str | os.PathLike, format: str, prefixes: dict[str, str]) -> Path:
-    """Serialize ``store`` to ``path`` via a temporary file, so a failure leaves nothing half-written."""
-    with atomic_output_file(path) as tmp:
-        store.serialize(tmp, format, prefixes)
+def write_atomically(
+    store: TripleStore,
+    path: str | os.PathLike,
+    format: str,
+    prefixes: dict[str, str],
+    signature: str,
+    inputs: Iterable = (),
+    option: str = "-o",
+) -> Path:
+    """Serialize ``store`` to ``path`` under the output policy (:mod:`bimrobot.io`): via a temporary
+    file, so a failure leaves nothing half-written, and signed, so a later run may replace it.
+    ``inputs``: the files the graph was built from (never overwritten)."""
+    with atomic_output_file(path, inputs=inputs, option=option) as tmp:
+        store.serialize(tmp, format, prefixes, signature)
     return Path(path)

@@ -82,20 +82,23 @@ class RcanActivity:
     """One construction activity a smart component publishes (Table 5.1's properties).
 
     ``activity_id`` is unique and stable across runs; ``target`` is the activity's goal pose (world
-    frame, metres); ``weight_kg`` the component's weight (for matching a robot's payload);
+    frame, metres); ``weight_kg`` the component's weight in kg (for matching a robot's payload), None
+    when unknown (the model does not give it: no payload can be checked, and reports say so);
     ``section_m`` its section size (width, depth) in metres for matching a gripper, if known;
     ``robot`` a robot requested by the schedule (None lets the allocator choose); ``predecessors``
     the activity ids that must be done first; ``start``/``finish`` the planned times in seconds.
     ``frees_robot``: after this activity the robot lets go of the component and may take other work
     (None: only after an install; True on a positioning that leaves the component PositionFixed for
-    a separate assembly, as in chapter 4).
+    a separate assembly, as in chapter 4). ``lifts``: the robot carries the component in this
+    activity's chain (False for work on a component already in place, e.g. fixing a joint on a
+    footing or on a prebuilt slab: its weight and section do not limit the robot).
     """
 
     activity_id: str
     component_id: str
     kind: ActivityKind
     target: Pose
-    weight_kg: float = 0.0
+    weight_kg: float | None = None
     section_m: tuple[float, float] | None = None
     robot: str | None = None
     predecessors: tuple[str, ...] = field(default_factory=tuple)
@@ -103,6 +106,7 @@ class RcanActivity:
     finish: float = 0.0
     name: str = ""
     frees_robot: bool | None = None
+    lifts: bool = True
 
     @property
     def releases_robot(self) -> bool:

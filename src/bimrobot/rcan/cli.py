@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
+import os
 import sys
 from dataclasses import asdict
 
@@ -21,6 +23,9 @@ RUN_EXAMPLES = """examples:
 
 def register(subparsers) -> None:
     """Add this part's sub-commands to the bimrobot parser."""
+    from bimrobot.bim.selection import add_selection_options
+    from bimrobot.bim.unknown_weight import add_unknown_weight_option
+
     rcan = subparsers.add_parser("rcan", help="RCAN: drive robots from construction activities (thesis ch. 5)",
                                  description="Robot Construction Action Nodes: the middle layer between smart "
                                              "components and robots.", epilog=RUN_EXAMPLES,
@@ -38,7 +43,9 @@ def register(subparsers) -> None:
                       help="1: column within reach; 2: column that needs transport; 3: footing")
     what.add_argument("--schedule", help="schedule CSV (docs/conventions.md), or an IFC file with an "
                                          "IfcWorkSchedule (its tasks' output elements are the components)")
-    run.add_argument("--model", help="IFC model of the schedule (component weights, GlobalId check)")
+    run.add_argument("--model", help="IFC model of the schedule (component weights and sections, GlobalId check)")
+    add_selection_options(run, built=True)
+    add_unknown_weight_option(run)
     _common(run)
     run.add_argument("--max-attempts", type=int, default=3, help="attempts before a failure is escalated (default 3)")
     run.add_argument("--retry-escalated", action="store_true",
@@ -52,9 +59,10 @@ def register(subparsers) -> None:
     run.add_argument("--robot-node", choices=("spawn", "external"), default="spawn",
                      help="ros2: start the shipped robot node for the run (spawn, default) or use robots that "
                           "already serve /bimrobot/<robot>/<activity> (external)")
-    run.add_argument("--report", help="also write the run report (JSON) to this file")
+    run.add_argument("--report", help="also write the run report (JSON) to this new file (or one bimrobot wrote)")
     run.add_argument("--graph", help="with --schedule and --model: write the construction graph (BOT + DiCon + "
-                                     "live states, Turtle) as it stands after the run to this file")
+                                     "live states; Turtle, or JSON-LD for .jsonld) as it stands after the run "
+                                     "to this new file (or one bimrobot wrote)")
     run.add_argument("-q", "--quiet", action="store_true", help="no interaction log, only the summary")
     run.set_defaults(func=_run)
 
@@ -83,7 +91,8 @@ def register(subparsers) -> None:
     node.add_argument("--time-scale", type=float, default=0.0, help="real seconds per simulated second (default 0)")
     node.add_argument("--failure-probability", type=float, default=0.0, help="chance an activity fails (default 0)")
     node.add_argument("--seed", type=int, default=0, help="seed of the failure draws (default 0)")
-    node.add_argument("--state-db", default=":memory:", help="SQLite file for the robots' world (default in memory)")
+    node.add_argument("--state-db", default=":memory:",
+                      help="SQLite file for the robots' world, new or bimrobot's (default in memory)")
     node.set_defaults(func=_robot_node)
 
 
@@ -91,7 +100,8 @@ def _common(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--backend", choices=("sim", "ros2"), default="sim", help="executor backend (default sim)")
     parser.add_argument("--capabilities", help="capability YAML (default: the built-in Table 5.2 and robots)")
     parser.add_argument("--state-db", default=":memory:",
-                        help="SQLite file for the journal and the simulated site; a rerun resumes (default in memory)")
+                        help="SQLite file for the journal and the simulated site, new or from an earlier run, "
+                             "which is resumed (default in memory); another program's file is refused")
     parser.add_argument("--redis", help="Redis URL for the broker (default: in-process)")
     parser.add_argument("--time-scale", type=float, default=0.0,
                         help="sim: real seconds slept per simulated second (default 0, as fast as possible)")
@@ -99,62 +109,133 @@ def _common(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seed", type=int, default=0, help="sim: seed of the failure draws (default 0)")
 
 
-def _backend_options(args) -> dict:
+def _check_sim_options(args) -> None:
     if not 0.0 <= args.failure_probability <= 1.0:
         raise InputError(f"--failure-probability must be between 0 and 1, got {args.failure_probability}")
-    if args.time_scale < 0:
-        raise InputError(f"--time-scale must be non-negative, got {args.time_scale}")
+    if not (math.isfinite(args.time_scale) and 0 <= args.time_scale <= 1000):
+        raise InputError(f"--time-scale must be between 0 and 1000 real seconds per simulated second, got {args.time_scale}")
+
+
+def _backend_options(args) -> dict:
+    _check_sim_options(args)
     if args.backend == "sim":
         return {"time_scale": args.time_scale, "failure_probability": args.failure_probability, "seed": args.seed}
     return {}
 
 
+def _is_ifc(path: str | None) -> bool:
+    return bool(path) and path.lower().endswith((".ifc", ".ifczip"))
+
+
+def _inputs(args) -> list:
+    """Every file ``rcan run`` reads: the schedule, the model, the capability table."""
+    return [p for p in (getattr(args, "schedule", None), getattr(args, "model", None), args.capabilities) if p]
+
+
+def _check_outputs(args, inputs: list) -> None:
+    """The output policy for --report, --graph and --state-db, before anything is read or run."""
+    from bimrobot.io import check_output
+    from bimrobot.rcan.state_manager import is_state_db
+
+    outputs = {}
+    for option, path in (("--report", getattr(args, "report", None)), ("--graph", getattr(args, "graph", None))):
+        if path is not None:
+            check_output(path, folder=False, inputs=inputs, option=option)
+            outputs[option] = path
+    if args.state_db != ":memory:":
+        check_output(args.state_db, folder=False, inputs=inputs, option="--state-db", recognise=is_state_db)
+        outputs["--state-db"] = args.state_db
+    seen: dict = {}
+    for option, path in outputs.items():
+        key = os.path.realpath(path)
+        if key in seen:
+            raise InputError(f"{seen[key]} and {option} name the same file {path}; give each its own file")
+        seen[key] = option
+
+
 def _load_plan(args):
-    """(RCAN activities, construction graph or None) for the run."""
+    """(RCAN activities, construction graph or None, unknown-weight report or None) for the run."""
     from bimrobot.rcan.plans import experiment, plan_from_schedule
 
     if args.experiment:
         exp = experiment(args.experiment)
         print(f"== RCAN experiment {exp.number}: {exp.title}", flush=True)
-        return list(exp.activities), None
+        return list(exp.activities), None, None
     from bimrobot.lbd.schedule import load_schedule_csv, load_schedule_ifc
 
-    model = None
-    from_ifc = args.schedule.lower().endswith(".ifc")
+    model, weights = None, None
+    from_ifc = _is_ifc(args.schedule)
     if args.model or from_ifc:
         from bimrobot.bim import load_model
+        from bimrobot.bim.unknown_weight import apply_unknown_weight_rule
 
-        model = load_model(args.model or args.schedule)  # an IFC work schedule usually sits in its model
+        source = args.model or args.schedule  # an IFC work schedule usually sits in its model
+        model = load_model(source, include=args.include, exclude=args.exclude)
+        weights = apply_unknown_weight_rule(model.elements.values(), args.unknown_weight, str(source))
+        if weights.message():
+            print(weights.message(), flush=True)
     schedule = load_schedule_ifc(args.schedule, model) if from_ifc else load_schedule_csv(args.schedule, model)
     graph = None
     if args.graph:
         from bimrobot.lbd.graph import build_graph
 
         graph = build_graph(model, schedule)
-    return plan_from_schedule(schedule, model, tuple(args.yard), standoff_m=args.standoff), graph
+    return plan_from_schedule(schedule, model, tuple(args.yard), standoff_m=args.standoff), graph, weights
+
+
+def _robot_notice(activities, capabilities) -> None:
+    """One line when the schedule names robots the capability table does not have (e.g. the fleet of
+    `bimrobot simulate`): their rows go to capable robots of the table instead."""
+    unknown = sorted({a.robot for a in activities if a.robot and a.robot not in capabilities.robots})
+    if unknown:
+        shown = ", ".join(unknown[:5]) + (f" and {len(unknown) - 5} more" if len(unknown) > 5 else "")
+        print(f"the schedule names robot(s) {shown}, which are not in {capabilities.source}: their activities go "
+              f"to capable robots of the table ({', '.join(capabilities.robots)})", flush=True)
+
+
+def _unknown_weight_notice(activities, model_given: bool) -> list[str]:
+    from bimrobot.rcan.plans import unknown_weight_components
+
+    unknown = unknown_weight_components(activities)
+    if unknown:
+        why = "the model gives no weight and no closed volume" if model_given else "no --model gives their weights"
+        print(f"{len(unknown)} component(s) have an unknown weight ({why}): robots' payloads are not checked "
+              f"for them, e.g. {unknown[0]}", flush=True)
+    return unknown
 
 
 def _run(args) -> int:
-    from bimrobot.io import atomic_output_file
+    from bimrobot.io import atomic_output_file, signature
     from bimrobot.rcan.generation import load_capabilities
+    from bimrobot.rcan.state_manager import removed_unless_used
     from bimrobot.rcan.system import run_plan
 
     if args.no_local_executors and not args.redis:
         raise InputError("--no-local-executors needs --redis: executors in other processes talk through Redis")
     if args.max_attempts < 1:
         raise InputError(f"--max-attempts must be at least 1, got {args.max_attempts}")
-    if args.graph and not (args.schedule and (args.model or args.schedule.lower().endswith(".ifc"))):
+    if args.graph and not (args.schedule and (args.model or _is_ifc(args.schedule))):
         raise InputError("--graph needs --schedule and --model: the graph links the model's elements and the schedule")
+    if args.model and not args.schedule:
+        raise InputError("--model is read with --schedule; the experiments bring their own components")
+    if not all(math.isfinite(v) and abs(v) <= 1e7 for v in args.yard):
+        raise InputError(f"--yard must be three finite coordinates within +-1e7 m, got {' '.join(map(str, args.yard))}")
+    if not (math.isfinite(args.standoff) and 0 <= args.standoff <= 100):
+        raise InputError(f"--standoff must be between 0 and 100 m, got {args.standoff}")
     options = _backend_options(args)
+    inputs = _inputs(args)
+    _check_outputs(args, inputs)
     capabilities = load_capabilities(args.capabilities)
-    activities, graph = _load_plan(args)
+    activities, graph, weights = _load_plan(args)
+    _robot_notice(activities, capabilities)
+    unknown = _unknown_weight_notice(activities, args.model is not None or _is_ifc(args.schedule)) if args.schedule else []
     observers = []
     if graph is not None:
         from bimrobot.rcan.observers import GraphStateObserver
 
         observers.append(GraphStateObserver(graph, activities))
     log = None if args.quiet else (lambda line: print(line, flush=True))
-    with _robots(args):
+    with removed_unless_used(args.state_db), _robots(args):
         report = run_plan(activities, capabilities, backend=args.backend, state_db=args.state_db,
                           redis_url=args.redis, spawn_executors=not args.no_local_executors,
                           max_attempts=args.max_attempts, log=log, backend_options=options,
@@ -171,11 +252,16 @@ def _run(args) -> int:
     if report.blocked and not report.escalations:
         print(f"blocked: {', '.join(report.blocked[:10])} wait for a robot that never becomes free", flush=True)
     if args.report:
-        with atomic_output_file(args.report) as tmp:
-            data = asdict(report)
-            tmp.write_text(json.dumps(data, indent=2, default=str))
+        data = {"generator": signature("rcan run report"), **asdict(report)}
+        data["unknown_weight"] = {**(weights.as_dict() if weights else {"rule": str(args.unknown_weight)}),
+                                  "components_with_unknown_weight": unknown}
+        with atomic_output_file(args.report, inputs=inputs, option="--report") as tmp:
+            tmp.write_text(json.dumps(data, indent=2, default=str), encoding="utf-8")
     if graph is not None:
-        graph.serialize(args.graph, format="turtle")
+        from bimrobot.lbd.store import SUFFIX_FORMATS
+
+        fmt = SUFFIX_FORMATS.get(os.path.splitext(args.graph)[1].lower(), "turtle")
+        graph.serialize(args.graph, format=fmt, inputs=inputs, option="--graph")
         print(f"construction graph with live states: {args.graph}", flush=True)
     return 0 if report.status == "completed" else 1
 
@@ -203,11 +289,17 @@ def _executor(args) -> int:
 
     if not args.redis:
         raise InputError("rcan executor needs --redis URL: it serves robots for a coordinator in another process")
+    if args.state_db != ":memory:":
+        from bimrobot.io import check_output
+        from bimrobot.rcan.state_manager import is_state_db
+
+        check_output(args.state_db, folder=False, inputs=_inputs(args), option="--state-db", recognise=is_state_db)
     capabilities = load_capabilities(args.capabilities)
     robots = args.robot or list(capabilities.robots)
     unknown = [r for r in robots if r not in capabilities.robots]
     if unknown:
-        raise InputError(f"robot {unknown[0]!r} is not in {capabilities.source}")
+        raise InputError(f"--robot {unknown[0]!r} is not a robot of {capabilities.source} "
+                         f"(its robots: {', '.join(capabilities.robots)})")
     options = _backend_options(args)
     if args.backend == "sim":
         options["db_path"] = args.state_db
@@ -241,6 +333,12 @@ def _robot_node(args) -> int:
     from bimrobot.rcan.backends.ros2 import serve_robot_node
     from bimrobot.rcan.generation import load_capabilities
 
+    _check_sim_options(args)
+    if args.state_db != ":memory:":
+        from bimrobot.io import check_output
+        from bimrobot.rcan.state_manager import is_state_db
+
+        check_output(args.state_db, folder=False, inputs=_inputs(args), option="--state-db", recognise=is_state_db)
     return serve_robot_node(load_capabilities(args.capabilities), time_scale=args.time_scale,
                             failure_probability=args.failure_probability, seed=args.seed, db_path=args.state_db)
 

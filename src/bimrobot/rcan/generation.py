@@ -11,12 +11,13 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
 
-
-from bimrobot.config import parse_yaml
+from bimrobot.config import line_of, parse_yaml
+from bimrobot.config import number as config_number
 from bimrobot.errors import InputError
 from bimrobot.rcan.activities import ActivityKind, Pose, RcanActivity
 from bimrobot.rcan.node import RcanNode
@@ -69,17 +70,37 @@ class CapabilityTable:
         """The robot types able to perform ``kind``."""
         return sorted(name for name, kinds in self.robot_types.items() if kind in kinds)
 
-    def capable_robots(self, kind: ActivityKind, weight_kg: float = 0.0,
+    def capable_robots(self, kind: ActivityKind, weight_kg: float | None = None,
                        section_m: tuple[float, float] | None = None) -> list[RobotSpec]:
-        """Robots that perform ``kind``, carry ``weight_kg`` and grip ``section_m``, in file order."""
+        """Robots that perform ``kind``, carry ``weight_kg`` and grip ``section_m``, in file order.
+
+        An unknown weight (None) cannot be checked against a payload: every robot of the kind passes,
+        and the run reports those components as of unknown weight.
+        """
         return [r for r in self.robots.values()
-                if r.can(kind) and r.payload_kg >= weight_kg and r.can_grip(section_m)]
+                if r.can(kind) and (weight_kg is None or r.payload_kg >= weight_kg) and r.can_grip(section_m)]
+
+
+#: Physical ranges of a robot's numbers in a capability table: key -> (low, high, low inclusive, unit).
+#: The largest land cranes lift about 5,000 t and reach about 250 m; nothing on a site drives faster
+#: than a road vehicle (20 m/s); a gripper takes less than a day per pick-up or install.
+ROBOT_RANGES = {
+    "payload_kg": (0.0, 5.0e6, True, "kg"),
+    "reach_m": (0.0, 250.0, True, "m"),
+    "speed_m_s": (0.0, 20.0, False, "m/s"),
+    "arm_speed_m_s": (0.0, 10.0, False, "m/s"),
+}
+HANDLING_RANGE_S = (0.0, 86400.0)
+GRIPPER_RANGE_M = (0.0, 20.0)
+#: A robot's home may be anywhere a site is (georeferenced coordinates included), within 1e7 m.
+HOME_RANGE_M = 1.0e7
 
 
 def load_capabilities(path: str | Path | None = None) -> CapabilityTable:
     """Read and validate a capability table; ``None`` reads the built-in one.
 
-    Raises :class:`InputError` naming the file and key on any malformed entry.
+    Raises :class:`InputError` naming the file, key and line on any malformed entry or number out of
+    its physical range (:data:`ROBOT_RANGES`).
     """
     if path is None:
         text = resources.files("bimrobot.rcan").joinpath(DEFAULT_CAPABILITIES).read_text()
@@ -88,7 +109,10 @@ def load_capabilities(path: str | Path | None = None) -> CapabilityTable:
         path = Path(path)
         if not path.is_file():
             raise InputError(f"capability table {path} does not exist")
-        text = path.read_text()
+        try:
+            text = path.read_text(encoding="utf-8")
+        except (OSError, UnicodeDecodeError) as exc:
+            raise InputError(f"cannot read the capability table {path}: {getattr(exc, 'strerror', None) or exc}") from None
         source = str(path)
     return parse_capabilities(parse_yaml(text, source), source)
 
@@ -98,22 +122,40 @@ def parse_capabilities(data: object, source: str = "capability table") -> Capabi
     if not isinstance(data, dict) or not isinstance(data.get("robot_types"), dict):
         raise InputError(f"{source}: expected a mapping with 'robot_types' and 'robots'")
     if not isinstance(data.get("robots"), dict) or not data["robots"]:
-        raise InputError(f"{source}: 'robots' must map at least one robot name to its specification")
+        raise InputError(f"{source}{line_of(data, 'robots')}: 'robots' must map at least one robot name to its specification")
     robot_types: dict[str, frozenset[ActivityKind]] = {}
     for type_name, entry in data["robot_types"].items():
         activities = (entry or {}).get("activities") if isinstance(entry, dict) else None
+        where = f"{source}{line_of(data['robot_types'], type_name)}: robot_types.{type_name}"
         if not isinstance(activities, list):
-            raise InputError(f"{source}: robot_types.{type_name}.activities must be a list of activity names")
+            raise InputError(f"{where}.activities must be a list of activity names")
         try:
-            robot_types[type_name] = frozenset(ActivityKind.parse(str(a)) for a in activities)
+            robot_types[str(type_name)] = frozenset(ActivityKind.parse(str(a)) for a in activities)
         except ValueError as exc:
-            raise InputError(f"{source}: robot_types.{type_name}: {exc}") from None
-    robots = {name: _parse_robot(name, entry, robot_types, source) for name, entry in data["robots"].items()}
+            raise InputError(f"{where}: {exc}") from None
+    robots = {str(name): _parse_robot(str(name), entry, robot_types, source, line_of(data["robots"], name))
+              for name, entry in data["robots"].items()}
     return CapabilityTable(robot_types, robots, source)
 
 
-def _parse_robot(name: str, entry: object, robot_types: dict, source: str) -> RobotSpec:
-    where = f"{source}: robots.{name}"
+def _coordinates(entry: dict, key: str, source: str, robot: str, line: str, count: int, low: float, high: float,
+                 default: list | None = None) -> tuple[float, ...] | None:
+    """``entry[key]`` as ``count`` numbers in metres, each in ``[low, high]``; None when absent and no
+    default. ``line``: the robot's line, used when the key's own is unknown."""
+    value = entry.get(key, default)
+    if value is None:
+        return None
+    label = f"{source}{line_of(entry, key) or line}: robot '{robot}': key '{key}'"
+    if not (isinstance(value, list) and len(value) == count
+            and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value)):
+        raise InputError(f"{label} must be a list of {count} numbers in metres, got {value!r}")
+    if not all(low <= v <= high and math.isfinite(v) for v in value):
+        raise InputError(f"{label} must hold numbers between {low:g} and {high:g} m, got {value!r}")
+    return tuple(float(v) for v in value)
+
+
+def _parse_robot(name: str, entry: object, robot_types: dict, source: str, line: str = "") -> RobotSpec:
+    where = f"{source}{line}: robots.{name}"
     if not isinstance(entry, dict):
         raise InputError(f"{where} must be a mapping")
     types = entry.get("types")
@@ -122,37 +164,41 @@ def _parse_robot(name: str, entry: object, robot_types: dict, source: str) -> Ro
     unknown = [t for t in types if t not in robot_types]
     if unknown:
         raise InputError(f"{where}.types names unknown robot type {unknown[0]!r} (known: {', '.join(robot_types)})")
+    robot = f"robot '{name}'"
 
-    def number(key: str, default: float | None = None) -> float:
-        value = entry.get(key, default)
-        if not isinstance(value, (int, float)) or isinstance(value, bool) or value < 0:
-            raise InputError(f"{where}.{key} must be a non-negative number, got {value!r}")
-        return float(value)
+    def number(key: str, default: float) -> float:
+        low, high, inclusive, unit = ROBOT_RANGES[key]
+        return config_number(entry, key, source, low=low, high=high, low_inclusive=inclusive, unit=unit,
+                             default=default, where=robot)
 
-    home = entry.get("home", [0.0, 0.0, 0.0])
-    if not (isinstance(home, list) and len(home) == 3 and all(isinstance(v, (int, float)) for v in home)):
-        raise InputError(f"{where}.home must be [x, y, z] in metres, got {home!r}")
+    home = _coordinates(entry, "home", source, name, line, 3, -HOME_RANGE_M, HOME_RANGE_M, [0.0, 0.0, 0.0])
     handling = entry.get("handling_s", {}) or {}
-    if not isinstance(handling, dict) or not all(isinstance(v, (int, float)) and v >= 0 for v in handling.values()):
-        raise InputError(f"{where}.handling_s must map activity names to seconds")
-    opening = entry.get("gripper_opening_m")
-    if opening is not None and not (isinstance(opening, list) and len(opening) == 2
-                                    and all(isinstance(v, (int, float)) for v in opening) and 0 <= opening[0] <= opening[1]):
-        raise InputError(f"{where}.gripper_opening_m must be [min, max] in metres, got {opening!r}")
-    speed = number("speed_m_s", 1.0)
-    if speed == 0:
-        raise InputError(f"{where}.speed_m_s must be positive")
+    if not isinstance(handling, dict):
+        raise InputError(f"{source}{line_of(entry, 'handling_s') or line}: {robot}: key 'handling_s' must map "
+                         "activity names (pick_up, install, ...) to seconds")
+    handling_s = {}
+    for key in handling:
+        try:
+            kind = ActivityKind.parse(str(key))
+        except ValueError as exc:
+            raise InputError(f"{source}{line_of(handling, key) or line}: {robot}: handling_s: {exc}") from None
+        handling_s[kind.value] = config_number(handling, key, source, low=HANDLING_RANGE_S[0], high=HANDLING_RANGE_S[1],
+                                               unit="s", where=f"{robot} handling_s")
+    opening = _coordinates(entry, "gripper_opening_m", source, name, line, 2, *GRIPPER_RANGE_M)
+    if opening is not None and opening[0] > opening[1]:
+        raise InputError(f"{source}{line_of(entry, 'gripper_opening_m') or line}: {robot}: key 'gripper_opening_m' "
+                         f"must be [min, max] with min <= max, got {list(opening)}")
     return RobotSpec(
         name=name,
         types=tuple(types),
         activities=frozenset().union(*(robot_types[t] for t in types)),
         payload_kg=number("payload_kg", 0.0),
         reach_m=number("reach_m", 0.0),
-        speed_m_s=speed,
-        arm_speed_m_s=number("arm_speed_m_s", 0.5) or 0.5,
-        handling_s={str(k): float(v) for k, v in handling.items()},
-        home=Pose(*(float(v) for v in home)),
-        gripper_opening_m=tuple(float(v) for v in opening) if opening is not None else None,
+        speed_m_s=number("speed_m_s", 1.0),
+        arm_speed_m_s=number("arm_speed_m_s", 0.5),
+        handling_s=handling_s,
+        home=Pose(*home),
+        gripper_opening_m=opening,
     )
 
 
@@ -218,17 +264,23 @@ class TaskAllocator:
         return robot
 
     def capable(self, activity: RcanActivity) -> list[RobotSpec]:
-        capable = self.capabilities.capable_robots(activity.kind, activity.weight_kg, activity.section_m)
+        lifted = activity.lifts  # a component in place limits no robot by its weight or section
+        capable = self.capabilities.capable_robots(activity.kind, activity.weight_kg if lifted else None,
+                                                   activity.section_m if lifted else None)
         if not capable:
             types = " or ".join(self.capabilities.types_for(activity.kind)) or "no robot type"
             section = (f", section {activity.section_m[0]:.3f} x {activity.section_m[1]:.3f} m"
                        if activity.section_m else "")
             raise InputError(
                 f"no robot can take '{activity.kind.label}' of component {activity.component_id} "
-                f"(activity {activity.activity_id}, {activity.weight_kg:.1f} kg{section}): it needs a {types} "
+                f"(activity {activity.activity_id}, {_kg(activity.weight_kg)}{section}): it needs a {types} "
                 f"with that payload{' and gripper opening' if section else ''} in {self.capabilities.source}"
             )
         return capable
+
+
+def _kg(weight_kg: float | None) -> str:
+    return "unknown weight" if weight_kg is None else f"{weight_kg:.1f} kg"
 
 
 class NodeGenerator:

@@ -48,6 +48,7 @@ class RcanNode:
             "weight_kg": a.weight_kg,
             "section_m": list(a.section_m) if a.section_m else None,
             "releases_robot": a.releases_robot,
+            "lifts": a.lifts,
             "robot": self.robot,
             "backend": self.backend,
         }
@@ -61,8 +62,9 @@ class RcanNode:
             component_id=message["component_id"],
             kind=kind,
             target=Pose(*message["target"]),
-            weight_kg=float(message.get("weight_kg", 0.0)),
+            weight_kg=None if message.get("weight_kg") is None else float(message["weight_kg"]),
             section_m=tuple(message["section_m"]) if message.get("section_m") else None,
             frees_robot=None if frees is None or bool(frees) == (kind is ActivityKind.INSTALL) else bool(frees),
+            lifts=bool(message.get("lifts", True)),
         )
         return cls(message["node_id"], activity, message["robot"], message["backend"])

@@ -11,6 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from bimrobot.errors import InputError
+from bimrobot.lbd import components
 from bimrobot.rcan.activities import SCHEDULE_DECOMPOSITION, ActivityKind, Pose, RcanActivity
 
 K = ActivityKind
@@ -20,11 +21,15 @@ def plan_from_schedule(schedule, model=None, yard: tuple[float, float, float] = 
                        yard_spacing_m: float = 2.0, standoff_m: float = 0.6) -> list[RcanActivity]:
     """RCAN activities for every row of ``schedule`` (a :class:`bimrobot.lbd.schedule.Schedule`).
 
-    A row without a target position (an IFC work schedule's task) goes to its element's placement
-    origin in ``model``.
+    A row without a target position (an IFC work schedule's task) goes to its component's position
+    in ``model`` (an element's placement origin; see :mod:`bimrobot.lbd.components` for an assembly).
 
-    ``model`` (a BuildingModel) supplies component weights (kg; the allocator only gives a component to
-    robots whose payload carries it); without it weights are 0. Ids are ``<Identification>.<n>``; the first activity of a row
+    ``model`` (a BuildingModel, with :func:`bimrobot.bim.unknown_weight.apply_unknown_weight_rule`
+    already applied) supplies component weights (kg; the allocator only gives a component to robots
+    whose payload carries it) and sections; a component whose weight stays unknown, and every
+    component without ``model``, has ``weight_kg`` None: no payload is checked for it, and the run
+    reports it. A GlobalId may name an element or an assembly (lifted as one unit: the sum of its
+    parts' weights). Ids are ``<Identification>.<n>``; the first activity of a row
     waits for the last one of each predecessor row. A ``position`` or ``assemble`` row of a component no
     robot holds (in place already, e.g. a footing, or a further connection node after the first
     install) starts by moving a robot to it: move to component, position for installing, install. A
@@ -41,8 +46,8 @@ def plan_from_schedule(schedule, model=None, yard: tuple[float, float, float] = 
                              f"{', '.join(SCHEDULE_DECOMPOSITION)}")
         gid = row.global_id
         target = row.target
-        if target is None and model is not None and gid in model.elements:
-            target = tuple(float(v) for v in model.elements[gid].position)  # e.g. an IfcTask's output element
+        if target is None and model is not None and gid and components.is_component(model, gid):
+            target = tuple(float(v) for v in components.position(model, gid))  # e.g. an IfcTask's output element
         if not gid or target is None:
             raise InputError(f"schedule activity {row.id} needs a GlobalId and a target position "
                              f"(TargetX/Y/Z, or the element's placement in --model) for RCAN")
@@ -58,6 +63,7 @@ def plan_from_schedule(schedule, model=None, yard: tuple[float, float, float] = 
             K.INSTALL: installed,
         }
         kinds = SCHEDULE_DECOMPOSITION[row.activity]
+        lifts = row.activity == "transport" or gid in held  # else the robot works on it where it stands
         if row.activity == "transport":
             held.add(gid)
         else:
@@ -77,28 +83,32 @@ def plan_from_schedule(schedule, model=None, yard: tuple[float, float, float] = 
                 weight_kg=weight, section_m=section, robot=row.robot, predecessors=previous,
                 start=row.start, finish=row.finish, name=f"{kind.label} {gid}",
                 frees_robot=True if (row.activity == "position" and kind is K.POSITION_FOR_INSTALLING) else None,
+                lifts=lifts,
             ))
             previous = (activity_id,)
         last_of_row[row.id] = previous[0]
     return activities
 
 
-def _weight(model, gid: str) -> float:
+def _weight(model, gid: str) -> float | None:
+    """The component's weight in kg, or None when unknown (no model, or the model does not give it)."""
     if model is None:
-        return 0.0
-    element = model.elements.get(gid)
-    if element is None:
+        return None
+    if not components.is_component(model, gid):
         raise InputError(f"schedule names component {gid}, which is not in {model.source or 'the model'}")
-    return float(element.weight_kg or 0.0)
+    return components.weight_kg(model, gid)
 
 
 def _section(model, gid: str) -> tuple[float, float] | None:
-    """The two smaller extents of the element's local bounding box (m): what a gripper closes on."""
+    """The two smaller extents of the component (m): what a gripper closes on; None without a model."""
     if model is None:
         return None
-    lo, hi = model.elements[gid].local_bounds
-    extents = sorted(float(v) for v in hi - lo)
-    return (round(extents[0], 4), round(extents[1], 4))
+    return components.section_m(model, gid)
+
+
+def unknown_weight_components(activities: list[RcanActivity]) -> list[str]:
+    """The components a robot lifts in the plan whose weight is unknown (no payload can be checked)."""
+    return list(dict.fromkeys(a.component_id for a in activities if a.weight_kg is None and a.lifts))
 
 
 @dataclass(frozen=True)

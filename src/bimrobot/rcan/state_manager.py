@@ -15,13 +15,17 @@ attempt) so an idempotent robot returns the result it already has instead of wor
 
 from __future__ import annotations
 
+import contextlib
 import logging
+import os
 import sqlite3
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Iterable
+from typing import Iterable, Iterator
+from urllib.parse import quote
 
+from bimrobot.errors import InputError
 from bimrobot.rcan.activities import ActivityKind
 from bimrobot.rcan.backends.interfaces import ActivityResult
 from bimrobot.rcan.node import RcanNode
@@ -30,6 +34,12 @@ from bimrobot.sco.states import Event, State, at_least, next_state
 log = logging.getLogger(__name__)
 
 PENDING, STARTED, DONE, ESCALATED = "pending", "started", "done", "escalated"
+
+#: ``PRAGMA application_id`` of every SQLite database bimrobot writes (the bytes ``BIMR``): how a later
+#: run tells its own state database from somebody else's SQLite file (SQLite header, offset 68).
+APPLICATION_ID = int.from_bytes(b"BIMR", "big")
+
+_SQLITE_MAGIC = b"SQLite format 3\x00"
 
 SCHEMA = """
 CREATE TABLE IF NOT EXISTS journal (
@@ -99,14 +109,106 @@ def _walk(state: State, target: State) -> list[Event]:
     return events
 
 
+def is_state_db(path: str | os.PathLike) -> bool:
+    """Whether ``path`` is an SQLite database bimrobot wrote: its header (the first 100 bytes) starts
+    with the SQLite magic and holds :data:`APPLICATION_ID` at offset 68. The output policy's recogniser
+    for ``--state-db``."""
+    try:
+        with open(path, "rb") as stream:
+            header = stream.read(100)
+    except OSError:
+        return False
+    return header.startswith(_SQLITE_MAGIC) and int.from_bytes(header[68:72], "big") == APPLICATION_ID
+
+
+def connect_state_db(path: str | os.PathLike, option: str = "--state-db") -> sqlite3.Connection:
+    """Open (or create) a bimrobot state database, marked with :data:`APPLICATION_ID`, in WAL mode.
+
+    An existing file that is not a bimrobot state database (another program's SQLite file, any other
+    file) is refused with an InputError and left untouched: no table is ever added to a user's
+    database. An empty file counts as new (another process of the same run may have just created it).
+    """
+    name = str(path)
+    if name != ":memory:":
+        file = Path(name)
+        if file.is_dir():
+            raise InputError(f"{option} {name} is a folder; give a file name")
+        if file.exists() and file.stat().st_size > 0 and not is_state_db(file):
+            raise InputError(
+                f"{option} {name} is an existing file that is not a bimrobot state database; "
+                "give a new file name (nothing was changed)"
+            )
+        try:
+            file.parent.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise InputError(f"{option} {name}: cannot create its folder ({exc.strerror})") from None
+    try:
+        db = sqlite3.connect(name, isolation_level=None, check_same_thread=False)
+        if db.execute("PRAGMA application_id").fetchone()[0] == 0:
+            # set before WAL mode, so the mark is in the main file's header at once, not in the WAL
+            db.execute(f"PRAGMA application_id={APPLICATION_ID}")
+        db.execute("PRAGMA journal_mode=WAL")
+        db.execute("PRAGMA synchronous=FULL")
+    except sqlite3.Error as exc:
+        raise InputError(f"{option} {name}: cannot open it as an SQLite database ({exc})") from None
+    return db
+
+
+def _journal_is_empty(path: str) -> bool:
+    """True when the bimrobot state database at ``path`` records no started activity (or no journal)."""
+    try:
+        # read-write although it only reads: a read-only connection to a WAL database leaves -wal and
+        # -shm files behind when it closes; this one checkpoints and removes them
+        db = sqlite3.connect(f"file:{quote(path)}?mode=rw", uri=True)
+    except sqlite3.Error:
+        return False
+    try:
+        return db.execute("SELECT COUNT(*) FROM journal").fetchone()[0] == 0
+    except sqlite3.OperationalError as exc:
+        return "no such table" in str(exc)
+    finally:
+        db.close()
+
+
+@contextlib.contextmanager
+def removed_unless_used(path: str | os.PathLike | None) -> Iterator[None]:
+    """Around a run: a state database this run creates is removed again when the run ends before its
+    first activity started (a failed start leaves no state file behind). An existing database, one of
+    another program, and ``:memory:`` are never touched."""
+    name = None if path is None else str(path)
+    if name is None or name == ":memory:" or os.path.lexists(name):
+        yield
+        return
+    missing = []  # folders the run may create for the file, deepest first
+    folder = Path(name).absolute().parent
+    while not folder.exists():
+        missing.append(folder)
+        folder = folder.parent
+    try:
+        yield
+    finally:
+        if os.path.exists(name) and (os.path.getsize(name) == 0 or is_state_db(name)) and _journal_is_empty(name):
+            for suffix in ("", "-wal", "-shm", "-journal"):
+                with contextlib.suppress(FileNotFoundError):
+                    os.unlink(name + suffix)
+        if not os.path.exists(name):
+            for folder in missing:
+                try:
+                    folder.rmdir()
+                except OSError:  # not empty (something else was put there) or already gone
+                    break
+
+
 class StateStore:
-    """The SQLite journal and the current activity and component states (``:memory:`` by default)."""
+    """The SQLite journal and the current activity and component states (``:memory:`` by default).
+
+    The file is a bimrobot state database (:func:`connect_state_db`); another program's SQLite file
+    is refused.
+    """
 
     def __init__(self, path: str | Path = ":memory:"):
         self.path = str(path)
-        self.db = sqlite3.connect(self.path, isolation_level=None, check_same_thread=False)
-        self.db.execute("PRAGMA journal_mode=WAL")
-        self.db.execute("PRAGMA synchronous=FULL")
+        self.db = connect_state_db(self.path)
         self.db.executescript(SCHEMA)
 
     def transaction(self):
@@ -141,6 +243,11 @@ class StateStore:
         rows = self.db.execute("SELECT activity_id, component_id, kind, status, attempts, robot, finished_s, message FROM activity")
         keys = ("activity_id", "component_id", "kind", "status", "attempts", "robot", "finished_s", "message")
         return {r[0]: dict(zip(keys, r)) for r in rows}
+
+    def component_state(self, global_id: str) -> str | None:
+        """The current state of one component (None before it is registered)."""
+        row = self.db.execute("SELECT state FROM component WHERE global_id=?", (global_id,)).fetchone()
+        return row[0] if row else None
 
     def component_states(self) -> dict[str, str]:
         return dict(self.db.execute("SELECT global_id, state FROM component ORDER BY global_id"))

@@ -99,7 +99,7 @@ class RcanSystem:
             node = self.generator.instantiate(activity, robot)
             self.log(f"[generation] RCAN node {node.node_id} instantiated: component {activity.component_id}, "
                      f"activity '{activity.kind.label}', robot {robot}, backend {node.backend}")
-            before = self.state.store.component_states().get(activity.component_id)
+            before = self.state.store.component_state(activity.component_id)
             state = self.state.started(node, attempt)
             if state.value != before:
                 self.log(f"[component {activity.component_id}] state: {state.value}")
@@ -113,6 +113,8 @@ class RcanSystem:
                 return None
             return holder
         busy = set(self._in_flight) | self.allocator.committed_robots()
+        if len(busy) >= len(self.capabilities.robots):
+            return None  # every robot works or holds a component: no need to ask the allocator
         return self.allocator.choose(activity, exclude=busy)
 
     def _send(self, node: RcanNode, attempt: int) -> None:
@@ -181,34 +183,59 @@ class RcanSystem:
         resumed = self._restore(activities)
         published = set(self._done) | {a for a, _ in self._waiting} | {n.activity_id for n, _ in self._in_flight.values()}
         published |= {r.activity_id for r in self._escalations}
+        # Which activities wait for which (done activities count as met), to publish in plan order,
+        # without rescanning the whole plan on every turn of the loop.
+        order = {a.activity_id: n for n, a in enumerate(activities)}
+        unmet = {a.activity_id: len({p for p in a.predecessors if p not in self._done}) for a in activities}
+        successors: dict[str, list[str]] = {}
+        for a in activities:
+            for p in set(a.predecessors):
+                successors.setdefault(p, []).append(a.activity_id)
+        ready = {i for i, n in unmet.items() if n == 0 and i not in published}
+        counted = set(self._done)
         started = time.perf_counter()
         while True:
-            for activity in activities:  # components publish every activity whose predecessors are done
-                if activity.activity_id not in published and all(p in self._done for p in activity.predecessors):
-                    published.add(activity.activity_id)
-                    self.publish(activity)
+            for activity_id in sorted(ready, key=order.__getitem__):  # components publish what became ready
+                published.add(activity_id)
+                self.publish(self._plan[activity_id])
+            ready.clear()
             waiting_messages = self._unreceived or self._in_flight
             for message in self.broker.receive(self.router.topics, timeout_s=0.05 if waiting_messages else 0.0):
                 self.router.dispatch(message)
+            for finished in self._done - counted:
+                counted.add(finished)
+                for successor in successors.get(finished, ()):
+                    unmet[successor] -= 1
+                    if unmet[successor] == 0 and successor not in published:
+                        ready.add(successor)
             self._dispatch_waiting()
-            if not self._unreceived and not self._in_flight and not self._newly_ready(activities, published):
+            if not self._unreceived and not self._in_flight and not ready:
                 break  # finished, or blocked: waiting activities that no free robot will ever take
             if timeout_s is not None and time.perf_counter() - started > timeout_s:
                 raise TimeoutError(f"RCAN run did not finish within {timeout_s:.0f} s; in flight: {sorted(self._in_flight)}")
         return self._report(activities, started, resumed)
 
-    def _newly_ready(self, activities, published) -> bool:
-        return any(a.activity_id not in published and all(p in self._done for p in a.predecessors) for a in activities)
-
     def _check_plan(self, activities: list[RcanActivity]) -> None:
         ids = set(self._plan)
         if len(ids) != len(activities):
             raise InputError("the RCAN plan has duplicate activity ids")
+        refused: list[tuple[RcanActivity, InputError]] = []
         for a in activities:
             missing = [p for p in a.predecessors if p not in ids]
             if missing:
                 raise InputError(f"activity {a.activity_id} names unknown predecessor {missing[0]}")
-            self.allocator.capable(a)  # raises the InputError naming the activity and component
+            try:
+                self.allocator.capable(a)
+            except InputError as exc:  # gathered: one message for every component no robot can take
+                refused.append((a, exc))
+        if refused:
+            components = list(dict.fromkeys(a.component_id for a, _ in refused))
+            message = str(refused[0][1])
+            if len(components) > 1:
+                weights = [a.weight_kg for a, _ in refused if a.weight_kg is not None]
+                heaviest = f"; the heaviest weighs {max(weights):,.0f} kg" if weights else ""
+                message += f"; {len(components) - 1} more component(s) cannot be taken either{heaviest}"
+            raise InputError(message)
         if not self.state.installs:
             for a in activities:
                 if a.kind is ActivityKind.INSTALL:
@@ -278,6 +305,15 @@ def run_plan(
     (``bimrobot rcan executor``) on the same Redis. ``backend_options`` go to the backend (``sim``:
     ``time_scale``, ``failure_probability``, ``seed``). ``retry_escalated``: see :meth:`RcanSystem.run`.
     """
+    from bimrobot.rcan.state_manager import removed_unless_used
+
+    with removed_unless_used(state_db):  # a run that fails before its first activity leaves no state file
+        return _run_plan(activities, capabilities, backend, state_db, redis_url, spawn_executors, max_attempts,
+                         observers, log, backend_options, timeout_s, retry_escalated)
+
+
+def _run_plan(activities, capabilities, backend, state_db, redis_url, spawn_executors, max_attempts, observers,
+              log, backend_options, timeout_s, retry_escalated) -> RunReport:
     from bimrobot.rcan.backends import create_backend
     from bimrobot.rcan.broker import InProcessBroker, RedisBroker
     from bimrobot.rcan.executor import RobotExecutor

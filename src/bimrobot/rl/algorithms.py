@@ -27,6 +27,7 @@ from stable_baselines3.dqn.policies import DQNPolicy, QNetwork
 from torch import nn
 from torch.nn import functional as F
 
+from bimrobot.assembly.vector import MAX_ENVS
 from bimrobot.errors import InputError
 from bimrobot.rl.names import ALGORITHM_NAMES, PROFILE_NAMES
 
@@ -218,9 +219,94 @@ assert tuple(ALGORITHMS) == ALGORITHM_NAMES and tuple(HYPERPARAMETER_PROFILES) =
 
 
 def hyperparameters(algo: str, setting: str, profile: str = "thesis", overrides: dict | None = None) -> dict:
-    """The hyperparameters of ``profile`` ("thesis" or "fast") for ``algo`` on ``setting``, then ``overrides``."""
+    """The hyperparameters of ``profile`` ("thesis" or "fast") for ``algo`` on ``setting``, then ``overrides``
+    (checked by :func:`check_overrides`)."""
     if profile not in HYPERPARAMETER_PROFILES:
         raise InputError(f"unknown hyperparameter profile {profile!r}: choose one of {', '.join(HYPERPARAMETER_PROFILES)}")
     params = HYPERPARAMETER_PROFILES[profile](algo, setting)
-    params.update(overrides or {})
+    params.update(check_overrides(algo, overrides or {}))
+    if not get_algorithm(algo).off_policy and params["n_envs"] * params["n_steps"] < 2:
+        # SB3 asserts it (advantage normalisation over a single step divides by zero)
+        raise InputError(f"{algo}: n_envs x n_steps must be at least 2, got {params['n_envs']} x {params['n_steps']}")
     return params
+
+
+#: Most env steps of one run: 1e10 is centuries at the simulator's few thousand steps per second.
+MAX_TIMESTEPS = 10**10
+
+# The hyperparameters ``--set KEY=VALUE`` may change: kind ("int", "float", "bool"; "float?" also takes null)
+# and the range of sensible values, inclusive (a low bound in parentheses is exclusive, as ``(0, 1]``).
+# Only scalar keyword arguments of SB3's constructors are listed: the rest (policy, env, buffer classes,
+# device, gSDE, which needs continuous actions) are the harness's to choose.
+TUNABLE: dict[str, tuple[str, float, float, bool]] = {
+    # name: (kind, low, high, low exclusive)
+    "n_envs": ("int", 1, MAX_ENVS, False),
+    "learning_rate": ("float", 0, 1, True),
+    "n_steps": ("int", 1, 100_000, False),
+    "batch_size": ("int", 2, 1_000_000, False),
+    "n_epochs": ("int", 1, 1000, False),
+    "gamma": ("float", 0, 1, False),
+    "gae_lambda": ("float", 0, 1, False),
+    "clip_range": ("float", 0, 10, True),
+    "clip_range_vf": ("float?", 0, 10, True),
+    "normalize_advantage": ("bool", 0, 1, False),
+    "ent_coef": ("float", 0, 100, False),
+    "vf_coef": ("float", 0, 100, False),
+    "max_grad_norm": ("float", 0, 1e6, True),
+    "target_kl": ("float?", 0, 100, True),
+    "stats_window_size": ("int", 1, 1_000_000, False),
+    "rms_prop_eps": ("float", 0, 1, True),
+    "use_rms_prop": ("bool", 0, 1, False),
+    "buffer_size": ("int", 1, 10_000_000, False),
+    "learning_starts": ("int", 0, MAX_TIMESTEPS, False),
+    "tau": ("float", 0, 1, True),
+    "train_freq": ("int", 1, 1_000_000, False),
+    "gradient_steps": ("int", -1, 10_000, False),  # -1: as many as env steps collected
+    "target_update_interval": ("int", 1, MAX_TIMESTEPS, False),
+    "exploration_fraction": ("float", 0, 1, False),
+    "exploration_initial_eps": ("float", 0, 1, False),
+    "exploration_final_eps": ("float", 0, 1, False),
+}
+
+
+def tunable_names(algo: str) -> list[str]:
+    """The hyperparameters of ``algo`` that ``--set`` may change, sorted."""
+    import inspect
+
+    accepted = set(inspect.signature(get_algorithm(algo).sb3_class.__init__).parameters) | {"n_envs"}
+    return sorted(name for name in TUNABLE if name in accepted)
+
+
+def check_overrides(algo: str, overrides: dict[str, Any]) -> dict[str, Any]:
+    """``overrides`` checked against ``algo``'s tunable hyperparameters and their ranges (an integral float
+    such as JSON's ``1e5`` becomes an int); an unknown name or a value of the wrong kind or out of range
+    is an InputError of one sentence naming the key and what is expected."""
+    import math
+
+    valid = tunable_names(algo)
+    checked = {}
+    for key, value in overrides.items():
+        if key not in valid:
+            raise InputError(f"--set {key}: unknown hyperparameter for {algo}; valid names: {', '.join(valid)}")
+        kind, low, high, low_open = TUNABLE[key]
+        bounds = f"{'>' if low_open else '>='} {low:g} and <= {high:g}"
+        if kind == "bool":
+            if not isinstance(value, bool):
+                raise InputError(f"--set {key}={value!r}: {key} must be true or false")
+            checked[key] = value
+            continue
+        if value is None and kind == "float?":
+            checked[key] = None
+            continue
+        number = isinstance(value, (int, float)) and not isinstance(value, bool)
+        if kind == "int":
+            if not number or (isinstance(value, float) and not value.is_integer()):
+                raise InputError(f"--set {key}={value!r}: {key} must be a whole number {bounds}")
+            value = int(value)
+        elif not number or not math.isfinite(value):
+            null = " (or null)" if kind == "float?" else ""
+            raise InputError(f"--set {key}={value!r}: {key} must be a finite number {bounds}{null}")
+        if value < low or value > high or (low_open and value == low):
+            raise InputError(f"--set {key}={value!r}: {key} must be {bounds}")
+        checked[key] = value
+    return checked

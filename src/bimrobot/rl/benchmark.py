@@ -11,7 +11,9 @@ after every finished run, rewrites the summary in ``out/``:
 * ``learning_curves.png``: one panel per setting (thesis fig. 6.15);
 * ``grid.json``: the command line, the grid and every run's results.
 
-Finished runs are skipped, so an interrupted benchmark continues where it stopped.
+Finished runs are skipped, so an interrupted benchmark continues where it stopped: the output folder is
+therefore kept in place while the grid runs (:func:`benchmark_folder`), not built aside and renamed at the
+end like other outputs; each run dir inside it is still written atomically.
 """
 
 from __future__ import annotations
@@ -21,19 +23,24 @@ import csv
 import json
 import logging
 import multiprocessing
+import os
 import re
+import shutil
 import signal
+import sys
+import tempfile
 import threading
 import time
+import uuid
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Any, Callable, Iterable, Iterator
 
 import numpy as np
 
 from bimrobot.errors import InputError
-from bimrobot.io import atomic_output_file
-from bimrobot.rl.algorithms import ALGORITHMS, get_algorithm
+from bimrobot.io import MARKER, check_output, describe_folder, signature
+from bimrobot.rl.algorithms import ALGORITHMS, MAX_TIMESTEPS, get_algorithm
 from bimrobot.rl.compare import SCORE_GOAL, THESIS_BEST_SCORE
 from bimrobot.rl.train import LAST_EPISODES, TrainConfig, train
 
@@ -70,28 +77,44 @@ def parse_algos(text: str) -> list[str]:
     return names
 
 
+#: Most seeds of one grid (each seed is a full row of runs).
+MAX_SEEDS = 1000
+#: Most parallel training processes (local or on a Ray cluster).
+MAX_WORKERS = 1024
+
+
 def parse_seeds(text: str) -> list[int]:
-    """ "0-4" (inclusive range), "0,3,7" or a mix "0-2,9"."""
+    """ "0-4" (inclusive range), "0,3,7" or a mix "0-2,9"; seeds 0..MAX_SEED, at most MAX_SEEDS of them."""
+    from bimrobot.assembly.env import MAX_SEED
+
     seeds: list[int] = []
     for part in (p.strip() for p in text.split(",") if p.strip()):
-        match = re.fullmatch(r"(\d+)(?:-(\d+))?", part)
+        match = re.fullmatch(r"(\d{1,12})(?:-(\d{1,12}))?", part)
         if not match or (match[2] is not None and int(match[2]) < int(match[1])):
             raise InputError(f"--seeds: cannot read {part!r}; write e.g. 0-4 or 0,3,7")
-        last = int(match[2]) if match[2] is not None else int(match[1])
-        seeds += [s for s in range(int(match[1]), last + 1) if s not in seeds]
+        first = int(match[1])
+        last = int(match[2]) if match[2] is not None else first
+        if last > MAX_SEED:
+            raise InputError(f"--seeds: {part!r} goes beyond the largest seed, {MAX_SEED}")
+        if last - first + 1 + len(seeds) > MAX_SEEDS:
+            raise InputError(f"--seeds: {text!r} asks for more than {MAX_SEEDS} seeds")
+        known = set(seeds)
+        seeds += [s for s in range(first, last + 1) if s not in known]
     if not seeds:
         raise InputError("--seeds is empty")
     return seeds
 
 
-def parse_timesteps(text: str) -> int:
-    """A step count such as "1e6", "250000" or "250k"."""
-    match = re.fullmatch(r"\s*([0-9.]+(?:e[0-9]+)?)\s*([kKmM]?)\s*", text)
+def parse_timesteps(text: str, option: str = "--timesteps") -> int:
+    """A step count such as "1e6", "250000" or "250k", from 1 to MAX_TIMESTEPS; ``option`` names it in errors."""
+    match = re.fullmatch(r"\s*([0-9]*\.?[0-9]+(?:[eE][0-9]+)?)\s*([kKmM]?)\s*", text)
     if not match:
-        raise InputError(f"cannot read {text!r} as a number of env steps; write e.g. 1e6, 250k or 250000")
-    value = float(match[1]) * {"": 1, "k": 1e3, "m": 1e6}[match[2].lower()]
-    if value < 1:
-        raise InputError(f"a number of env steps must be >= 1, got {text!r}")
+        raise InputError(f"{option}: cannot read {text!r} as a number of env steps; write e.g. 1e6, 250k or 250000")
+    value = float(match[1]) * {"": 1, "k": 1e3, "m": 1e6}[match[2].lower()]  # 1e400 is inf: refused below
+    if not value >= 1:
+        raise InputError(f"{option}: a number of env steps must be >= 1, got {text!r}")
+    if value > MAX_TIMESTEPS:
+        raise InputError(f"{option}: {text!r} env steps is more than the {MAX_TIMESTEPS:.0e} a run may take")
     return int(value)
 
 
@@ -103,8 +126,145 @@ def parse_timesteps_per_env(text: str | None) -> dict[str, int]:
         key = key.strip().upper()
         if not sep or not re.fullmatch(r"E[1-4](S[1-4])?", key):
             raise InputError(f"--timesteps-per-env: cannot read {part!r}; write e.g. E1=1e5,E4=2e6")
-        budgets[key] = parse_timesteps(value)
+        budgets[key] = parse_timesteps(value, f"--timesteps-per-env {key}")
     return budgets
+
+
+# ------------------------------------------------------------------------------------ the output folder
+
+BENCHMARK_KIND = "rl benchmark"
+_LEGACY_HEADING = "# Assembly-planning benchmark results"
+
+
+def _marker_kind(folder: Path) -> str | None:
+    try:
+        return json.loads((folder / MARKER).read_text(encoding="utf-8")).get("kind")
+    except (OSError, ValueError, AttributeError):
+        return None
+
+
+def _is_legacy_benchmark(folder: Path) -> bool:
+    """A benchmark folder written before output folders carried :data:`bimrobot.io.MARKER`: its grid.json
+    (with a spec and runs) and a table.md under the benchmark's own heading."""
+    try:
+        grid = json.loads((folder / "grid.json").read_text(encoding="utf-8"))
+        with open(folder / "table.md", encoding="utf-8") as handle:
+            head = [handle.readline().rstrip("\n") for _ in range(2)]
+    except (OSError, ValueError):
+        return False
+    return isinstance(grid, dict) and "spec" in grid and "runs" in grid and _LEGACY_HEADING in head
+
+
+def _existing_benchmark(out: str | Path, option: str) -> Path | None:
+    """The resolved folder when ``out`` is a benchmark folder bimrobot wrote (to be continued), else None.
+    The current directory is refused even then, as everywhere."""
+    path = Path(out).resolve()
+    if not path.is_dir():
+        return None
+    if (path / MARKER).is_file():
+        if _marker_kind(path) != BENCHMARK_KIND:
+            return None
+    elif not _is_legacy_benchmark(path):
+        return None
+    cwd = Path.cwd().resolve()
+    if cwd == path or path in cwd.parents:
+        check_output(out, folder=True, option=option)  # raises: the current directory
+    return path
+
+
+def _finished_runs(folder: Path) -> list[Path]:
+    runs = folder / "runs"
+    return [run for run in runs.iterdir() if (run / "results.json").is_file()] if runs.is_dir() else []
+
+
+def _write_marker(folder: Path) -> None:
+    from bimrobot import __version__
+
+    marker = {"kind": BENCHMARK_KIND, "inputs": [], "bimrobot": __version__,
+              "written": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
+    (folder / MARKER).write_text(json.dumps(marker, indent=2), encoding="utf-8")
+
+
+@contextlib.contextmanager
+def benchmark_folder(out: str | Path, *, option: str = "-o", create: bool = True) -> Iterator[Path]:
+    """The benchmark's output folder (resolved), under :mod:`bimrobot.io`'s policy adapted to a folder that
+    grows run by run and must survive an interruption so that the grid can be resumed.
+
+    * a benchmark folder bimrobot wrote (its marker says ``"rl benchmark"``, or it has the grid.json and
+      table.md of a benchmark from before markers) is continued: its finished runs of this grid are reused
+      and the summary rewritten; one line on stderr says so;
+    * a new or empty folder is created and marked at once;
+    * another folder bimrobot wrote (a ``simulate`` output, a run dir, ...) is replaced, saying so: it is
+      moved aside at once, put back if the benchmark fails before its first run finishes, deleted otherwise;
+    * everything :func:`bimrobot.io.check_output` refuses is refused (the current directory, a file, a
+      non-empty folder bimrobot did not write, a path under a file, a symlink to any of those).
+
+    If the benchmark fails or is interrupted before any run has finished, what this call created is
+    removed (no empty output folder is left). With ``create=False`` (``--summary-only``) only an existing
+    benchmark folder is accepted.
+    """
+    path = Path(out)
+    folder = _existing_benchmark(path, option)
+    if folder is not None:
+        if not (folder / MARKER).is_file():
+            _write_marker(folder)  # a benchmark folder from before markers: bimrobot's, now marked
+        if create:
+            finished = len(_finished_runs(folder))
+            print(f"bimrobot: continuing the benchmark in {path} ({finished} finished run{'' if finished == 1 else 's'}); "
+                  "finished runs of this grid are reused and the summary is rewritten", file=sys.stderr)
+        yield folder
+        return
+    replaced = check_output(path, folder=True, option=option)
+    if not create:
+        raise InputError(f"{path / 'runs'} holds no finished run of this grid")
+    folder = path.resolve()
+    backup = None
+    if replaced is not None:
+        print(f"bimrobot: replacing {path} ({describe_folder(replaced)}) with a benchmark folder", file=sys.stderr)
+        backup = folder.with_name(f".{folder.name}.{uuid.uuid4().hex[:8]}.old")
+        folder.rename(backup)
+    created = [node for node in (folder, *folder.parents) if not node.exists()]
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        _write_marker(folder)
+        (folder / "runs").mkdir(exist_ok=True)
+    except OSError as exc:
+        for node in created:
+            shutil.rmtree(node, ignore_errors=True) if node == folder else _rmdir_quietly(node)
+        if backup is not None:
+            backup.rename(folder)
+        raise InputError(f"{option} {path}: cannot write there ({exc.strerror})") from None
+    try:
+        yield folder
+    except BaseException:
+        if not _finished_runs(folder):
+            _undo(folder, created, backup)
+            backup = None
+        raise
+    finally:
+        if backup is not None:
+            shutil.rmtree(backup, ignore_errors=True)
+
+
+def _rmdir_quietly(folder: Path) -> None:
+    try:
+        folder.rmdir()
+    except OSError:
+        pass
+
+
+def _undo(folder: Path, created: list[Path], backup: Path | None) -> None:
+    """Remove what :func:`benchmark_folder` made of ``folder`` (no run finished), and put back what it replaced."""
+    if folder in created or backup is not None:
+        shutil.rmtree(folder, ignore_errors=True)
+    else:  # a folder that was empty before: empty again
+        shutil.rmtree(folder / "runs", ignore_errors=True)
+        (folder / MARKER).unlink(missing_ok=True)
+    for node in created:
+        if node != folder:
+            _rmdir_quietly(node)
+    if backup is not None:
+        backup.rename(folder)
 
 
 @dataclass
@@ -216,46 +376,52 @@ def _pool(workers: int, ray_address: str | None):
 def run_benchmark(spec: BenchmarkSpec, out: str | Path, workers: int = 1, ray_address: str | None = None,
                   command: str = "") -> list[dict[str, Any]]:
     """Run the grid (finished runs are reused) and keep ``out``'s summary up to date; all runs' results."""
-    out = Path(out)
-    runs_dir = out / "runs"
-    runs_dir.mkdir(parents=True, exist_ok=True)
     configs = spec.configs()
-    for config in configs:
-        if (runs_dir / config.run_name / "results.json").is_file():
-            _check_same_run(config, runs_dir / config.run_name)
-    results: list[dict[str, Any]] = []
-    start = time.perf_counter()
-    log.info("benchmark: %d runs on %d workers -> %s", len(configs), workers, out)
-    with _sigterm_stops_the_pool(), _pool(workers, ray_address) as pool:
-        pending = [pool.apply_async(_run_one, (config, str(runs_dir))) for config in configs]
-        for config, job in zip(configs, pending):
-            results.append(job.get())
-            log.info("finished %s (%d/%d, %.0f s)", config.run_name, len(results), len(configs),
-                     time.perf_counter() - start)
-            write_summary(out, spec, results, command)
-        # a clean shutdown: leaving the block would terminate() the workers, and a SIGTERM reaching one
-        # that is already exiting prints a spurious SystemExit traceback from its atexit handlers
-        pool.close()
-        pool.join()
+    for config in configs:  # bad options fail here, not in a worker after the folder exists
+        config.validate()
+    with _sigterm_stops_the_pool(), benchmark_folder(out) as folder:
+        runs_dir = folder / "runs"
+        for config in configs:
+            if (runs_dir / config.run_name / "results.json").is_file():
+                _check_same_run(config, runs_dir / config.run_name)
+        results: list[dict[str, Any]] = []
+        start = time.perf_counter()
+        log.info("benchmark: %d runs on %d workers -> %s", len(configs), workers, out)
+        with _pool(workers, ray_address) as pool:
+            pending = [pool.apply_async(_run_one, (config, str(runs_dir))) for config in configs]
+            for config, job in zip(configs, pending):
+                results.append(job.get())
+                log.info("finished %s (%d/%d, %.0f s)", config.run_name, len(results), len(configs),
+                         time.perf_counter() - start)
+                write_summary(folder, spec, results, command)
+            # a clean shutdown: leaving the block would terminate() the workers, and a SIGTERM reaching one
+            # that is already exiting prints a spurious SystemExit traceback from its atexit handlers
+            pool.close()
+            pool.join()
     return results
 
 
 def summarise_finished(spec: BenchmarkSpec, out: str | Path, command: str = "") -> list[dict[str, Any]]:
     """Rewrite ``out``'s summary from the grid's runs that have finished, training nothing. The command
     line shown stays the one that trained the grid (from ``grid.json``) when there is one."""
-    out = Path(out)
-    previous = out / "grid.json"
-    if previous.is_file():
-        command = json.loads(previous.read_text()).get("command") or command
-    results = []
     for config in spec.configs():
-        run_dir = out / "runs" / config.run_name
-        if (run_dir / "results.json").is_file():
-            _check_same_run(config, run_dir)
-            results.append(_run_one(config, str(out / "runs")))
-    if not results:
-        raise InputError(f"{out / 'runs'} holds no finished run of this grid")
-    write_summary(out, spec, results, command)
+        config.validate()
+    with benchmark_folder(out, create=False) as folder:
+        previous = folder / "grid.json"
+        if previous.is_file():
+            try:
+                command = json.loads(previous.read_text()).get("command") or command
+            except (ValueError, AttributeError):
+                pass  # a damaged grid.json is rewritten below
+        results = []
+        for config in spec.configs():
+            run_dir = folder / "runs" / config.run_name
+            if (run_dir / "results.json").is_file():
+                _check_same_run(config, run_dir)
+                results.append(_run_one(config, str(folder / "runs")))
+        if not results:
+            raise InputError(f"{Path(out) / 'runs'} holds no finished run of this grid")
+        write_summary(folder, spec, results, command)
     return results
 
 
@@ -337,7 +503,8 @@ def markdown_table(rows: list[dict[str, Any]], spec: BenchmarkSpec, command: str
     finished = sum(r["seeds"] for r in rows)
     total = len(spec.settings) * len(spec.algos) * len(spec.seeds)
     lines = [
-        "# Assembly-planning benchmark results",
+        f"<!-- {signature('rl benchmark table')} -->",
+        _LEGACY_HEADING,
         "",
         f"Command: `{command}`" if command else "",
         "",
@@ -404,15 +571,41 @@ def write_summary(out: Path, spec: BenchmarkSpec, results: list[dict[str, Any]],
     from bimrobot.rl.plots import plot_learning_curves
 
     rows = aggregate(results)
-    with atomic_output_file(out / "table.md") as tmp:
-        tmp.write_text(markdown_table(rows, spec, command))
-    with atomic_output_file(out / "table.csv") as tmp:
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+
+    def write_csv(tmp: Path) -> None:
         with open(tmp, "w", newline="") as handle:
             writer = csv.DictWriter(handle, fieldnames=list(rows[0]))
             writer.writeheader()
             writer.writerows(rows)
+
     runs = [{k: v for k, v in r.items() if k not in ("episodes", "episode_wall_s")} for r in results]
-    with atomic_output_file(out / "grid.json") as tmp:
-        tmp.write_text(json.dumps({"command": command, "spec": asdict(spec), "runs": runs}, indent=2))
-    with atomic_output_file(out / "learning_curves.png") as tmp:
-        plot_learning_curves(results, tmp, settings=spec.settings, algos=spec.algos)
+    grid = {"generator": signature("rl benchmark"), "command": command, "spec": asdict(spec), "runs": runs}
+    _replace_file(out / "table.md", lambda tmp: tmp.write_text(markdown_table(rows, spec, command)))
+    _replace_file(out / "table.csv", write_csv)
+    _replace_file(out / "grid.json", lambda tmp: tmp.write_text(json.dumps(grid, indent=2)))
+    _replace_file(out / "learning_curves.png",
+                  lambda tmp: plot_learning_curves(results, tmp, settings=spec.settings, algos=spec.algos))
+
+
+def _replace_file(path: Path, write: Callable[[Path], Any]) -> None:
+    """Write ``path`` through a temporary sibling renamed onto it. The summary files are part of the
+    benchmark folder, which :func:`benchmark_folder` has checked to be bimrobot's, so they are replaced
+    after every finished run without a line each on stderr."""
+    fd, name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    os.close(fd)
+    tmp = Path(name)
+    try:
+        write(tmp)
+        os.chmod(tmp, 0o666 & ~_umask())
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask

@@ -123,7 +123,7 @@ def _train(args) -> int:
     config = TrainConfig(
         setting=args.setting.upper(), algo=args.algo, timesteps=parse_timesteps(args.timesteps), seed=args.seed,
         profile=args.profile, overrides=_overrides(args.set), eval_episodes=args.eval_episodes,
-        checkpoint_every=parse_timesteps(args.checkpoint_every), threads=args.threads,
+        checkpoint_every=parse_timesteps(args.checkpoint_every, "--checkpoint-every"), threads=args.threads,
         progress_bar=not args.no_progress, shaping=args.shaping, shaping_metric=args.shaping_metric,
     )
     run_dir = train(config, args.out)
@@ -145,11 +145,14 @@ def _print_results(results: dict) -> None:
 
 
 def _eval(args) -> int:
+    from bimrobot.assembly.env import MAX_SEED
     from bimrobot.errors import InputError
-    from bimrobot.rl.train import evaluate_run
+    from bimrobot.rl.train import MAX_EVAL_EPISODES, evaluate_run
 
-    if args.episodes < 1:
-        raise InputError(f"--episodes must be at least 1, got {args.episodes}")
+    if not 1 <= args.episodes <= MAX_EVAL_EPISODES:
+        raise InputError(f"--episodes must be from 1 to {MAX_EVAL_EPISODES}, got {args.episodes}")
+    if args.seed is not None and not 0 <= args.seed <= MAX_SEED:
+        raise InputError(f"--seed must be from 0 to {MAX_SEED}, got {args.seed}")
     result = evaluate_run(args.run_dir, episodes=args.episodes, seed=args.seed)
     if args.json:
         print(json.dumps(result, indent=2))
@@ -163,6 +166,7 @@ def _eval(args) -> int:
 def _benchmark(args) -> int:
     from bimrobot.errors import InputError
     from bimrobot.rl.benchmark import (
+        MAX_WORKERS,
         BenchmarkSpec,
         parse_algos,
         parse_seeds,
@@ -173,8 +177,8 @@ def _benchmark(args) -> int:
         summarise_finished,
     )
 
-    if args.workers < 1:
-        raise InputError(f"--workers must be at least 1, got {args.workers}")
+    if not 1 <= args.workers <= MAX_WORKERS:
+        raise InputError(f"--workers must be from 1 to {MAX_WORKERS}, got {args.workers}")
     spec = BenchmarkSpec(
         settings=parse_settings(args.settings), algos=parse_algos(args.algos), seeds=parse_seeds(args.seeds),
         timesteps=parse_timesteps(args.timesteps), budgets=parse_timesteps_per_env(args.timesteps_per_env),

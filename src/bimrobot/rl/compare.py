@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from bimrobot.errors import InputError
-from bimrobot.io import atomic_output_file
+from bimrobot.io import atomic_output_file, has_signature, signature
 from bimrobot.rl.names import ALGORITHM_NAMES
 
 SCORE_GOAL = 0.9
@@ -35,6 +35,7 @@ assert sorted(COLUMN_ORDER) == sorted(ALGORITHM_NAMES)
 
 _INT_FIELDS = {"seeds", "timesteps", "seeds_reaching_0.9", "median_steps_to_0.9"}
 _TEXT_FIELDS = {"setting", "algo"}
+_REQUIRED_COLUMNS = {"setting", "algo", "seeds", "train_score", "eval_score", "seeds_reaching_0.9", "median_steps_to_0.9"}
 
 
 @dataclass
@@ -64,11 +65,17 @@ def read_grid(folder: str | Path) -> Grid:
     try:
         grid = json.loads((folder / "grid.json").read_text())
         spec, command = grid["spec"], grid.get("command", "")
-    except (json.JSONDecodeError, KeyError, TypeError) as error:
+    except (json.JSONDecodeError, UnicodeDecodeError, KeyError, TypeError, AttributeError) as error:
         raise InputError(f"{folder / 'grid.json'} is not a benchmark grid file ({error})") from None
+    if not isinstance(spec, dict) or not isinstance(spec.get("seeds"), list):
+        raise InputError(f"{folder / 'grid.json'} is not a benchmark grid file: its spec has no list of seeds")
     rows = []
-    with open(folder / "table.csv", newline="") as handle:
-        for line, raw in enumerate(csv.DictReader(handle), start=2):
+    with open(folder / "table.csv", newline="", encoding="utf-8", errors="replace") as handle:
+        reader = csv.DictReader(handle)
+        missing = _REQUIRED_COLUMNS - set(reader.fieldnames or [])
+        if missing:
+            raise InputError(f"{folder / 'table.csv'} is not a benchmark table: no column {', '.join(sorted(missing))}")
+        for line, raw in enumerate(reader, start=2):
             try:
                 rows.append({name: _parse_value(name, text) for name, text in raw.items()})
             except (TypeError, ValueError):
@@ -186,7 +193,8 @@ def comparison_markdown(grids: list[Grid]) -> str:
     algos = [a for a in COLUMN_ORDER if a in source]
     goal_lines, met, beaten = _goal_table(algos, cells)
     lines = [
-        "# Assembly-planning benchmark: all grids side by side (thesis Table 6.1)",
+        f"<!-- {signature('rl compare')} -->",
+        _HEADING,
         "",
         f"Goal (issue 6): the best learned policy scores >= {SCORE_GOAL} and above the thesis' best cell. "
         f"**Met on {met} of {len(SETTINGS)} settings; above the thesis' best cell on {beaten} of {len(SETTINGS)}.**",
@@ -221,12 +229,32 @@ def comparison_markdown(grids: list[Grid]) -> str:
     return "\n".join(lines)
 
 
+_HEADING = "# Assembly-planning benchmark: all grids side by side (thesis Table 6.1)"
+
+
+def is_comparison(path: Path) -> bool:
+    """True for a comparison table bimrobot wrote: its signature, or the heading of one from before signatures."""
+    if has_signature(path):
+        return True
+    try:
+        with open(path, encoding="utf-8") as handle:
+            return handle.readline().rstrip("\n") == _HEADING
+    except (OSError, UnicodeDecodeError):
+        return False
+
+
+def comparison_inputs(folders: list[str | Path]) -> list[Path]:
+    """The files of the grids a comparison reads or belongs beside (a grid's own summary is never its output)."""
+    return [Path(folder) / name for folder in folders
+            for name in ("grid.json", "table.csv", "table.md", "learning_curves.png")]
+
+
 def write_comparison(folders: list[str | Path], out: str | Path) -> Path:
     """Read the grids and write the combined Markdown table to ``out`` (nothing is written on bad input)."""
     if not folders:
         raise InputError("name at least one benchmark folder to compare")
     text = comparison_markdown([read_grid(folder) for folder in folders])
     out = Path(out)
-    with atomic_output_file(out) as tmp:
+    with atomic_output_file(out, inputs=comparison_inputs(folders), recognise=is_comparison) as tmp:
         tmp.write_text(text)
     return out

@@ -7,6 +7,7 @@ Used by ``bimrobot assembly play --policy <run dir>`` and ``bimrobot rl eval``. 
 from __future__ import annotations
 
 import json
+import zipfile
 from pathlib import Path
 from typing import Any, Callable
 
@@ -25,9 +26,16 @@ def read_config(run_dir: str | Path) -> dict[str, Any]:
     if not config_path.is_file():
         raise InputError(f"{run_dir} is not a bimrobot rl run dir: {config_path.name} is missing")
     try:
-        return json.loads(config_path.read_text())
+        config = json.loads(config_path.read_text())
     except json.JSONDecodeError as exc:
         raise InputError(f"{config_path} is not valid JSON (line {exc.lineno})") from None
+    except UnicodeDecodeError:
+        raise InputError(f"{config_path} is not a text file") from None
+    if not isinstance(config, dict) or not all(isinstance(config.get(key), str) for key in ("setting", "algo")):
+        raise InputError(f"{config_path} is not a run's config.json: it names no setting and algorithm")
+    if isinstance(config.get("seed"), bool) or not isinstance(config.get("seed"), int):
+        raise InputError(f"{config_path} is not a run's config.json: it has no integer seed")
+    return config
 
 
 def load_model(run_dir: str | Path):
@@ -38,7 +46,10 @@ def load_model(run_dir: str | Path):
     if not model_path.is_file():
         raise InputError(f"{run_dir} has no model.zip: the run did not finish")
     algorithm = get_algorithm(config.get("algo", "?"))
-    model = algorithm.sb3_class.load(model_path, device="cpu")
+    try:
+        model = algorithm.sb3_class.load(model_path, device="cpu")
+    except (zipfile.BadZipFile, ValueError, KeyError, RuntimeError, OSError, EOFError) as exc:
+        raise InputError(f"{model_path} cannot be loaded as a {config['algo']} model ({type(exc).__name__}: {exc})") from None
     return model, config
 
 

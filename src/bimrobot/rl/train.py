@@ -20,6 +20,7 @@ from __future__ import annotations
 import csv
 import json
 import logging
+import math
 import platform
 import time
 from dataclasses import asdict, dataclass, field
@@ -34,13 +35,17 @@ from stable_baselines3.common.vec_env import DummyVecEnv, VecEnv, VecMonitor
 
 from bimrobot.errors import InputError
 from bimrobot.io import atomic_output_dir
-from bimrobot.rl.algorithms import get_algorithm, hyperparameters
+from bimrobot.rl.algorithms import MAX_TIMESTEPS, get_algorithm, hyperparameters
 from bimrobot.rl.names import SHAPING_METRICS
 
 log = logging.getLogger(__name__)
 
 LAST_EPISODES = 100  # Table 6.1: mean return of the last 100 training episodes
 EVAL_SEED_OFFSET = 10_000  # evaluation resets never reuse a training seed
+MAX_EVAL_EPISODES = 100_000
+MAX_THREADS = 1024
+MAX_SHAPING = 1000.0  # the shaping pays +-scale per cell; the env's own rewards are about 1 per step
+RUN_KIND = "rl train run"  # the kind in a run dir's bimrobot.io marker
 
 
 @dataclass
@@ -65,19 +70,28 @@ class TrainConfig:
         return f"{self.setting}-{self.algo}-s{self.seed}"
 
     def validate(self) -> None:
+        """Refuse, in one sentence naming the option, anything that would fail or make no sense in training."""
         from bimrobot.assembly import SETTINGS
+        from bimrobot.assembly.env import MAX_SEED
 
         if self.setting not in SETTINGS:
             raise InputError(f"unknown setting {self.setting!r}: expected one of {', '.join(SETTINGS)}")
         get_algorithm(self.algo)
-        if self.timesteps < 1:
-            raise InputError(f"--timesteps must be a positive number of env steps, got {self.timesteps}")
-        if self.shaping < 0:
-            raise InputError(f"--shaping must be >= 0, got {self.shaping}")
-        if self.eval_episodes < 0:
-            raise InputError(f"--eval-episodes must be >= 0, got {self.eval_episodes}")
+        if not 1 <= self.timesteps <= MAX_TIMESTEPS:
+            raise InputError(f"--timesteps must be a number of env steps from 1 to {MAX_TIMESTEPS:.0e}, got {self.timesteps}")
+        if not 1 <= self.checkpoint_every <= MAX_TIMESTEPS:
+            raise InputError(f"--checkpoint-every must be from 1 to {MAX_TIMESTEPS:.0e} env steps, got {self.checkpoint_every}")
+        if not 0 <= self.seed <= MAX_SEED:
+            raise InputError(f"--seed must be from 0 to {MAX_SEED}, got {self.seed}")
+        if not (math.isfinite(self.shaping) and 0 <= self.shaping <= MAX_SHAPING):
+            raise InputError(f"--shaping must be a finite scale from 0 to {MAX_SHAPING:g}, got {self.shaping}")
+        if not 0 <= self.eval_episodes <= MAX_EVAL_EPISODES:
+            raise InputError(f"--eval-episodes must be from 0 to {MAX_EVAL_EPISODES}, got {self.eval_episodes}")
+        if not 1 <= self.threads <= MAX_THREADS:
+            raise InputError(f"--threads must be from 1 to {MAX_THREADS}, got {self.threads}")
         if self.shaping_metric not in SHAPING_METRICS:
             raise InputError(f"--shaping-metric must be one of {', '.join(SHAPING_METRICS)}, got {self.shaping_metric!r}")
+        hyperparameters(self.algo, self.setting, self.profile, self.overrides)  # unknown names, bad values
 
 
 def make_vec_env(setting: str, n_envs: int, seed: int) -> VecEnv:
@@ -208,12 +222,17 @@ def _versions() -> dict[str, str]:
 
 
 def train(config: TrainConfig, out_dir: str | Path) -> Path:
-    """Train, checkpoint, evaluate and write the run dir ``out_dir/<setting>-<algo>-s<seed>``; returns it."""
+    """Train, checkpoint, evaluate and write the run dir ``out_dir/<setting>-<algo>-s<seed>``; returns it.
+
+    ``out_dir`` is the parent: it may exist and hold other runs. The run dir follows :mod:`bimrobot.io`'s
+    policy (a run dir bimrobot wrote is replaced, saying so; anything else there is refused) and appears
+    only when the run completes: a failure or Ctrl-C leaves neither it nor a parent this call created.
+    """
     config.validate()
     th.set_num_threads(config.threads)
     params = hyperparameters(config.algo, config.setting, config.profile, config.overrides)
     run_dir = Path(out_dir) / config.run_name
-    with atomic_output_dir(run_dir) as tmp:
+    with atomic_output_dir(run_dir, kind=RUN_KIND, option="-o") as tmp:
         (tmp / "config.json").write_text(
             json.dumps({**asdict(config), "hyperparameters": params, "versions": _versions()}, indent=2)
         )

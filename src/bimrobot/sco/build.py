@@ -14,6 +14,18 @@ the assembly method from the ConnectionType or the realizing elements' class/nam
 When a model has no such relations (most real exports) the connections inferred from touching bodies
 (``Connection.inferred``) are used instead: each touching pair is a joint with a node on each side, and
 :attr:`SmartModel.inferred` says so.
+
+Precast and steel exports (Tekla) group parts into ``IfcElementAssembly`` units, the unit that is
+lifted and placed. By default, when the model has assemblies, each outermost assembly is ONE component
+(:func:`assembly_units`): its parts travel and are placed together, its mass is the sum of its parts',
+its body the union of theirs, its id the assembly's GlobalId and its class that of its heaviest part
+(``object_type`` says ``IfcElementAssembly``). Connections between parts of one assembly are made in the
+factory, not on site. ``by_element=True`` builds element by element instead.
+
+Prebuilt components (foundations, or what ``--prebuilt`` names, e.g. cast-in-place slabs and walls) are
+work of others. One is on site from the start only when everything it rests on is prebuilt too; one
+that rests on a robot-built component (a cast slab on a robot-placed downstand beam) is made by others,
+in no robot time, the moment everything it rests on has its position fixed (:attr:`SmartModel.prebuilt_later`).
 """
 
 from __future__ import annotations
@@ -22,10 +34,11 @@ import contextlib
 import gc
 import logging
 from dataclasses import dataclass, field
+from typing import Callable, Iterable
 
 import numpy as np
 
-from bimrobot.bim.model import BuildingModel, Connection, Element
+from bimrobot.bim.model import BuildingModel, Connection, Element, WeightSource
 from bimrobot.errors import InputError
 from bimrobot.sco.component import Component, ConnectionNode, Joint
 from bimrobot.sco.states import State
@@ -35,12 +48,21 @@ log = logging.getLogger(__name__)
 #: Classes that are foundations already built on site when the simulation starts (thesis 4.5.2).
 PREBUILT_CLASSES = ("IfcFooting", "IfcPile")
 #: Classes that are never components themselves (fasteners, non-physical or non-structural items).
+#: Reinforcement is cast into its concrete, never lifted by itself. (Proxies are components: Tekla exports
+#: precast floor plates as IfcBuildingElementProxy; leave them out with ``--exclude IfcBuildingElementProxy``.)
 NON_COMPONENT_CLASSES = (
     "IfcFastener", "IfcMechanicalFastener", "IfcDiscreteAccessory", "IfcOpeningElement",
-    "IfcSpace", "IfcAnnotation", "IfcGrid", "IfcVirtualElement", "IfcBuildingElementProxy",
+    "IfcSpace", "IfcAnnotation", "IfcGrid", "IfcVirtualElement",
+    "IfcReinforcingBar", "IfcReinforcingMesh", "IfcTendon", "IfcTendonAnchor",
 )
+#: The class name that, given to ``prebuilt_classes``, marks every assembly unit prebuilt.
+ASSEMBLY_CLASS = "IfcElementAssembly"
 #: A partner counts as carrying a component when its bottom is this much lower (metres).
 SUPPORT_MARGIN_M = 0.05
+#: Largest gap (metres) that may count as touching when connections are inferred.
+MAX_TOLERANCE_M = 0.5
+#: Schemas whose class names ``prebuilt_classes`` may use (a name valid in any of them is accepted).
+KNOWN_SCHEMAS = ("IFC2X3", "IFC4", "IFC4X3_ADD2")
 
 
 @dataclass
@@ -65,6 +87,10 @@ class SmartModel:
     duplicates: list[str] = field(default_factory=list)
     unconnected: list[str] = field(default_factory=list)
     unknown_weight: list[str] = field(default_factory=list)
+    partial_weight: list[str] = field(default_factory=list)
+    prebuilt_later: list[str] = field(default_factory=list)
+    assemblies: int = 0
+    internal_connections: int = 0
 
     @property
     def inferred(self) -> list[Joint]:
@@ -74,6 +100,23 @@ class SmartModel:
     def joints_of(self, component_id: str) -> list[Joint]:
         return [self.joints[self.nodes[n.id].joint_id] for n in self.components[component_id].connection_nodes]
 
+    def robot_supporters(self, component_id: str) -> tuple[str, ...]:
+        """The robot-built components that must have their position fixed before ``component_id`` can be.
+
+        Its supporters, where a prebuilt supporter made later (:attr:`prebuilt_later`) is replaced by what
+        it rests on in turn; prebuilt supporters on site from the start drop out.
+        """
+        found: dict[str, None] = {}
+        stack = list(self.supporters[component_id])
+        later = set(self.prebuilt_later)
+        while stack:
+            gid = stack.pop()
+            if not self.components[gid].prebuilt:
+                found[gid] = None
+            elif gid in later:
+                stack.extend(self.supporters[gid])
+        return tuple(sorted(found))
+
     def summary(self) -> dict:
         """Counts and provenance, for reports (JSON-serialisable)."""
         nodes = self.nodes.values()
@@ -82,7 +125,10 @@ class SmartModel:
             "connection_source": self.connection_source,
             "role_rule": self.role_rule,
             "components": len(self.components),
+            "assembly_units": self.assemblies,
+            "internal_connections_not_built": self.internal_connections,
             "prebuilt": sorted(c.id for c in self.components.values() if c.prebuilt),
+            "prebuilt_after_supports": self.prebuilt_later,
             "connection_nodes": len(self.nodes),
             "joints": len(self.joints),
             "assembly_points": sum(n.assembly_point_number for n in nodes),
@@ -91,7 +137,8 @@ class SmartModel:
             "inferred_joints": [list(j.component_ids) for j in self.inferred],
             "unconnected_components": self.unconnected,
             "duplicates_not_built": self.duplicates,
-            "unknown_weight": self.unknown_weight,
+            "components_without_weight": self.unknown_weight,
+            "assemblies_with_parts_without_weight": self.partial_weight,
             "floors": self.floor_names,
         }
 
@@ -117,53 +164,84 @@ def gc_paused():
 def build_smart_model(
     model: BuildingModel,
     *,
-    prebuilt_classes: tuple[str, ...] = PREBUILT_CLASSES,
+    prebuilt_classes: Iterable[str] = PREBUILT_CLASSES,
     inferred_tolerance_m: float = 0.01,
     inferred_assembly_points: int = 4,
     inferred_assembly_method: str = "bolt",
+    by_element: bool = False,
 ) -> SmartModel:
     """Components, connection nodes and joints of ``model``.
 
     Uses the model's ``IfcRelConnectsWithRealizingElements`` when there are any; otherwise connections
     inferred from touching geometry (``bimrobot.bim.connections.infer_connections`` with
-    ``inferred_tolerance_m``), each node of which gets ``inferred_assembly_points`` points fastened by
-    ``inferred_assembly_method``. Raises InputError when the model has no buildable element.
+    ``inferred_tolerance_m``, metres), each node of which gets ``inferred_assembly_points`` points
+    fastened by ``inferred_assembly_method``. When the model has assemblies (``model.assemblies``) each
+    is one component unless ``by_element``. ``prebuilt_classes``: IFC classes (subclasses count; and
+    ``IfcElementAssembly`` for every assembly unit) that are work of others. Raises InputError when the
+    model has no buildable element, a prebuilt class is not an IFC class, or the tolerance is not in
+    (0, 0.5] m.
     """
+    if not (0 < inferred_tolerance_m <= MAX_TOLERANCE_M):
+        raise InputError(
+            f"the contact tolerance must be > 0 and <= {MAX_TOLERANCE_M:g} m (bodies this close count as touching), "
+            f"got {inferred_tolerance_m!r}"
+        )
+    if isinstance(inferred_assembly_points, bool) or not isinstance(inferred_assembly_points, int) or inferred_assembly_points < 1:
+        raise InputError(f"inferred joints need at least 1 fastening point per node, got {inferred_assembly_points!r}")
+    is_prebuilt = prebuilt_rule(model, prebuilt_classes)
     explicit = [c for c in model.connections if not c.inferred]
-    if explicit:
-        connection_source = "IfcRelConnectsWithRealizingElements"
-        connections = explicit
+    realizing = {r for c in explicit for r in c.realizing_ids}
+    parts: dict[str, tuple[str, ...]] = {}
+    partial: list[str] = []
+    internal = 0
+    if model.assemblies and not by_element:
+        work, unit_of, parts, partial = assembly_units(model)
+        mapped = _map_connections(explicit, unit_of)
+        internal = len(explicit) - len(mapped)
+        if mapped:
+            connections, connection_source = mapped, "IfcRelConnectsWithRealizingElements between assemblies"
+        else:
+            inferred = [c for c in model.connections if c.inferred] or _infer(model, inferred_tolerance_m)
+            connections = _orient(_map_connections(inferred, unit_of), work)
+            connection_source = "inferred from geometry" if connections else "none"
+        related = set()
+        role_rule = "assemblies are joined directly to each other (connections between parts of one assembly are internal)"
     else:
-        connections = [c for c in model.connections if c.inferred]
-        if not connections:
-            connections = _infer(model, inferred_tolerance_m)
-        connection_source = "inferred from geometry" if connections else "none"
-
-    if connection_source == "IfcRelConnectsWithRealizingElements":
-        related, role_rule = connector_roles(model, connections)
-    else:
-        related, role_rule = set(), "no connectors: touching components are joined directly"
-    realizing = {r for c in connections for r in c.realizing_ids}
+        work = model
+        if explicit:
+            connection_source = "IfcRelConnectsWithRealizingElements"
+            connections = explicit
+        else:
+            connections = [c for c in model.connections if c.inferred]
+            if not connections:
+                connections = _infer(model, inferred_tolerance_m)
+            connection_source = "inferred from geometry" if connections else "none"
+        if connection_source == "IfcRelConnectsWithRealizingElements":
+            related, role_rule = connector_roles(model, connections)
+        else:
+            related, role_rule = set(), "no connectors: touching components are joined directly"
     component_ids = [
         gid
-        for gid, element in model.elements.items()
+        for gid, element in work.elements.items()
         if gid not in related and gid not in realizing and element.ifc_class not in NON_COMPONENT_CLASSES
     ]
     if not component_ids:
         raise InputError(f"{model.source or 'the model'} has no buildable element (columns, beams, footings, ...)")
 
-    floors, floor_names = _floor_order(model)
-    components = {gid: _component(model.elements[gid], model, floors, prebuilt_classes) for gid in component_ids}
+    floors, floor_names = _floor_order(work)
+    components = {
+        gid: _component(work.elements[gid], work, floors, is_prebuilt, parts.get(gid, ())) for gid in component_ids
+    }
 
     duplicates: list[str] = []
     if connection_source == "IfcRelConnectsWithRealizingElements":
-        joints, nodes = _joints_from_relations(model, connections, components, related)
-        duplicates = _duplicates_of_connected(model, components, nodes)
+        joints, nodes = _joints_from_relations(work, connections, components, related)
+        duplicates = _duplicates_of_connected(work, components, nodes)
         for gid in duplicates:
             del components[gid]
     else:
-        joints, nodes = _joints_inferred(
-            model, connections, components, inferred_assembly_points, inferred_assembly_method
+        joints, nodes = _direct_joints(
+            work, model, connections, components, inferred_assembly_points, inferred_assembly_method
         )
     for node in nodes.values():
         components[node.component_id].connection_nodes.append(node)
@@ -173,19 +251,6 @@ def build_smart_model(
             components[gid].relative_object_ids.extend(p for p in partners if p not in components[gid].relative_object_ids)
         for node_id in joint.node_ids:
             nodes[node_id].relative_object_ids = [n for n in joint.node_ids if n != node_id]
-    for component in components.values():
-        if component.prebuilt:
-            component.state = State.POSITION_FIXED
-            for node in component.connection_nodes:
-                node.state = State.POSITION_FIXED
-    # Joints among prebuilt components only (a wall standing on a cast slab) are already made.
-    for joint in joints.values():
-        if all(components[gid].prebuilt for gid in joint.component_ids):
-            for node_id in joint.node_ids:
-                nodes[node_id].state = State.ASSEMBLED
-    for component in components.values():
-        if component.prebuilt and all(n.state == State.ASSEMBLED for n in component.connection_nodes):
-            component.state = State.ASSEMBLED
 
     supporters = {
         gid: tuple(
@@ -198,6 +263,34 @@ def build_smart_model(
         )
         for gid, component in components.items()
     }
+    # A prebuilt component resting on a robot-built one (or on one made later) cannot be there from the
+    # start: it is made by others once what it rests on is fixed. Supporters are strictly lower, so one
+    # pass bottom-up decides it.
+    later: set[str] = set()
+    for component in sorted(components.values(), key=lambda c: (c.bottom_z, c.id)):
+        if component.prebuilt and any(
+            not components[s].prebuilt or s in later for s in supporters[component.id]
+        ):
+            later.add(component.id)
+    for component in components.values():
+        if component.prebuilt:
+            on_site = component.id not in later
+            component.state = State.POSITION_FIXED if on_site else State.IN_LOCATION
+            for node in component.connection_nodes:
+                node.state = component.state
+    # Joints among prebuilt components only (a wall standing on a cast slab) are made with them.
+    for joint in joints.values():
+        if all(components[gid].prebuilt for gid in joint.component_ids):
+            for node_id in joint.node_ids:
+                nodes[node_id].state = State.ASSEMBLED
+    for component in components.values():
+        if (
+            component.prebuilt
+            and component.id not in later
+            and all(n.state == State.ASSEMBLED for n in component.connection_nodes)
+        ):
+            component.state = State.ASSEMBLED
+
     smart = SmartModel(
         source=str(model.source or model.project_name),
         components=components,
@@ -212,10 +305,14 @@ def build_smart_model(
         duplicates=duplicates,
         unconnected=sorted(gid for gid, c in components.items() if not c.connection_nodes),
         unknown_weight=sorted(gid for gid, c in components.items() if c.weight_kg is None),
+        partial_weight=sorted(gid for gid in partial if gid in components),
+        prebuilt_later=sorted(later),
+        assemblies=sum(1 for c in components.values() if c.part_ids),
+        internal_connections=internal,
     )
     if smart.unknown_weight:
         log.warning(
-            "%d components have no weight in the model (e.g. %s): payload checks treat them as 0 kg",
+            "%d components have no weight, not even an assumed one (e.g. %s): payload checks cannot verify them",
             len(smart.unknown_weight), smart.unknown_weight[0],
         )
     log.info(
@@ -223,6 +320,157 @@ def build_smart_model(
         smart.source, len(components), len(nodes), len(joints), connection_source,
     )
     return smart
+
+
+def _schema(name: str):
+    import ifcopenshell
+
+    try:
+        return ifcopenshell.ifcopenshell_wrapper.schema_by_name(name)
+    except Exception:  # an unknown schema (e.g. a generated model): fall back to IFC4 where used
+        return None
+
+
+def _declaration(schema, name: str):
+    if schema is None:
+        return None
+    try:
+        return schema.declaration_by_name(name)
+    except Exception:
+        return None
+
+
+def prebuilt_rule(model: BuildingModel, classes: Iterable[str]) -> Callable[[str], bool]:
+    """A test ``ifc_class -> bool``: is a component of that class prebuilt (work of others)?
+
+    ``classes``: IFC class names; a class takes its subclasses in the model's schema (``IfcWall`` takes
+    ``IfcWallStandardCase``), as IfcOpenShell selectors do. A name valid in another IFC schema only
+    (e.g. ``IfcWallStandardCase`` asked of an IFC4X3 file) matches nothing. Raises InputError for a name
+    that is no IFC class at all, listing the classes the model has.
+    """
+    if isinstance(classes, str):
+        classes = classes.split(",")
+    known = [s for s in (_schema(n) for n in KNOWN_SCHEMAS) if s is not None]
+    own = _schema(model.schema) or _schema("IFC4")
+    wanted: set[str] = set()
+    for raw in classes:
+        name = str(raw).strip()
+        if not name:
+            continue
+        declarations = [d for d in (_declaration(s, name) for s in known) if d is not None]
+        if not declarations:
+            present = sorted(set(model.class_counts()) | ({ASSEMBLY_CLASS} if model.assemblies else set()))
+            raise InputError(
+                f"--prebuilt names '{name}', which is not an IFC class "
+                f"(this model's classes: {', '.join(present) or 'none'})"
+            )
+        wanted.add(declarations[0].name())
+    cache: dict[str, bool] = {}
+
+    def matches(ifc_class: str) -> bool:
+        if ifc_class not in cache:
+            declaration = _declaration(own, ifc_class)
+            names = {ifc_class}
+            while declaration is not None:
+                names.add(declaration.name())
+                declaration = declaration.supertype()
+            cache[ifc_class] = bool(names & wanted)
+        return cache[ifc_class]
+
+    matches.assemblies = ASSEMBLY_CLASS in wanted  # type: ignore[attr-defined]
+    return matches
+
+
+def assembly_units(model: BuildingModel) -> tuple[BuildingModel, dict[str, str], dict[str, tuple[str, ...]], list[str]]:
+    """The model with each outermost assembly replaced by one element: its unit.
+
+    A unit keeps the assembly's GlobalId, name and storey (else its heaviest part's), takes the class,
+    placement and local frame of its heaviest part, and as body the union of its parts' bodies (in that
+    frame, so its size is measured along the main part). Its weight is the sum of its parts' (kg), or
+    None when no part has one. Returns (the unit model, element id -> unit id for every part, unit id ->
+    part ids, ids of units with a part whose weight is unknown).
+    """
+    elements: dict[str, Element] = {}
+    unit_of: dict[str, str] = {}
+    parts_of: dict[str, tuple[str, ...]] = {}
+    partial: list[str] = []
+    for assembly in model.assemblies.values():
+        parts = [model.elements[p] for p in assembly.part_ids if p in model.elements]
+        if not parts:
+            continue
+        main = max(parts, key=_mass_proxy)
+        to_main = np.linalg.inv(main.placement)
+        vertices, faces, offset = [], [], 0
+        for part in parts:
+            homogeneous = np.c_[part.world_vertices, np.ones(len(part.vertices))]
+            vertices.append((homogeneous @ to_main.T)[:, :3])
+            faces.append(part.faces + offset)
+            offset += len(part.vertices)
+        weights = [p.weight_kg for p in parts if p.weight_kg is not None]
+        if len(weights) < len(parts):
+            partial.append(assembly.global_id)
+        sources = {p.weight_source for p in parts}
+        elements[assembly.global_id] = Element(
+            global_id=assembly.global_id,
+            ifc_class=main.ifc_class,
+            name=assembly.name or main.name,
+            storey_id=assembly.storey_id or main.storey_id,
+            placement=main.placement.copy(),
+            vertices=np.concatenate(vertices),
+            faces=np.concatenate(faces),
+            material=main.material,
+            weight_kg=float(sum(weights)) if weights else None,
+            weight_source=sources.pop() if len(sources) == 1 else (WeightSource.UNKNOWN if not weights else main.weight_source),
+        )
+        parts_of[assembly.global_id] = tuple(p.global_id for p in parts)
+        for part in parts:
+            unit_of[part.global_id] = assembly.global_id
+    # Keep file order: a unit takes the place of its first part.
+    ordered: dict[str, Element] = {}
+    for gid, element in model.elements.items():
+        unit = unit_of.get(gid)
+        if unit is None:
+            ordered[gid] = element
+        elif unit not in ordered:
+            ordered[unit] = elements[unit]
+    units = BuildingModel(
+        source=model.source,
+        schema=model.schema,
+        project_name=model.project_name,
+        site_name=model.site_name,
+        units=model.units,
+        storeys=model.storeys,
+        elements=ordered,
+        connections=[],
+        skipped=model.skipped,
+    )
+    return units, unit_of, parts_of, partial
+
+
+def _map_connections(connections: list[Connection], unit_of: dict[str, str]) -> list[Connection]:
+    """Connections between units (relations between parts of one unit are dropped: they are internal)."""
+    mapped = []
+    for c in connections:
+        a, b = unit_of.get(c.relating_id, c.relating_id), unit_of.get(c.related_id, c.related_id)
+        if a != b:
+            mapped.append(Connection(a, b, c.realizing_ids, c.connection_type, c.global_id, c.inferred))
+    return mapped
+
+
+def _orient(connections: list[Connection], model: BuildingModel) -> list[Connection]:
+    """One inferred connection per touching pair of units, the lower-reaching one relating."""
+    seen: set[frozenset] = set()
+    oriented = []
+    for c in connections:
+        pair = frozenset((c.relating_id, c.related_id))
+        if pair in seen:
+            continue
+        seen.add(pair)
+        a, b = model.elements[c.relating_id], model.elements[c.related_id]
+        if b.world_bounds[0, 2] < a.world_bounds[0, 2]:
+            a, b = b, a
+        oriented.append(Connection(a.global_id, b.global_id, inferred=True))
+    return oriented
 
 
 def _infer(model: BuildingModel, tolerance_m: float) -> list[Connection]:
@@ -253,16 +501,15 @@ def _floor_of(element: Element, model: BuildingModel, floors: list[str]) -> int:
     return floor
 
 
-def _component(element: Element, model: BuildingModel, floors: list[str], prebuilt_classes) -> Component:
+def _component(element: Element, model: BuildingModel, floors: list[str], is_prebuilt, part_ids=()) -> Component:
     bounds = element.world_bounds
-    # Size in the element's own frame: a member's length along its axis even when it lies diagonally.
-    local = element.local_bounds
-    extents = sorted((float(v) for v in local[1] - local[0]), reverse=True)
+    extents = sorted(own_extents(element), reverse=True)
     centre = bounds.mean(axis=0)
+    prebuilt = is_prebuilt(element.ifc_class) or bool(part_ids and getattr(is_prebuilt, "assemblies", False))
     return Component(
         id=element.global_id,
         name=element.name,
-        object_type=element.ifc_class,
+        object_type=ASSEMBLY_CLASS if part_ids else element.ifc_class,
         ifc_class=element.ifc_class,
         weight_kg=element.weight_kg,
         storey_id=element.storey_id,
@@ -272,8 +519,39 @@ def _component(element: Element, model: BuildingModel, floors: list[str], prebui
         position=centre.copy(),
         size=(extents[0], extents[1], extents[2]),
         bottom_z=float(bounds[0, 2]),
-        prebuilt=element.ifc_class in prebuilt_classes,
+        prebuilt=prebuilt,
+        part_ids=tuple(part_ids),
     )
+
+
+#: A body filling less than this share of its local box is measured again in its tightest oriented box.
+LOOSE_FILL = 0.5
+
+
+def own_extents(element: Element) -> tuple[float, float, float]:
+    """The element's extents (metres) in its own frame: a member's length along its axis.
+
+    The local frame of the placement is used (a diagonal beam is as long as it is). Some exports place
+    a body diagonally in an unrotated frame (ArchiCAD's rafters); when the body fills less than
+    :data:`LOOSE_FILL` of that box, the tightest oriented box (trimesh) is used if it is smaller.
+    """
+    local = element.local_bounds
+    extents = local[1] - local[0]
+    box = float(np.prod(extents))
+    vertices, faces = element.vertices, element.faces
+    if box > 0 and len(faces) and len(vertices) >= 4:
+        triangles = vertices[faces]
+        volume = abs(float(np.einsum("ij,ij->i", triangles[:, 0], np.cross(triangles[:, 1], triangles[:, 2])).sum())) / 6.0
+        if 0 < volume < LOOSE_FILL * box:
+            try:
+                import trimesh
+
+                _, oriented = trimesh.bounds.oriented_bounds(vertices)
+                if float(np.prod(oriented)) < box:
+                    extents = np.asarray(oriented)
+            except Exception:  # a degenerate hull (flat or needle-thin body): keep the local box
+                pass
+    return tuple(float(v) for v in extents)
 
 
 def assembly_method(connection: Connection, model: BuildingModel) -> str:
@@ -444,16 +722,28 @@ def _contact_point(a: Component, b: Component, model: BuildingModel) -> np.ndarr
     return (low + high) / 2.0  # centre of the overlap (or of the gap, when within tolerance)
 
 
-def _joints_inferred(model, connections, components, points: int, method: str):
-    """One joint per touching pair of components, with a node on each side."""
+def _direct_joints(model, source_model, connections, components, points: int, method: str):
+    """One joint per connected pair of components, with a node on each side.
+
+    Inferred pairs get ``points`` fastening points per node, made by ``method``; a relation from the file
+    (between two assemblies) keeps its realizing elements' count and method. Several relations between
+    the same pair add up on one joint.
+    """
     nodes: dict[str, ConnectionNode] = {}
     joints: dict[str, Joint] = {}
     for c in connections:
         a_id, b_id = c.relating_id, c.related_id
         if a_id not in components or b_id not in components or a_id == b_id:
             continue
-        joint_id = f"{a_id}:{b_id}"
-        if joint_id in joints or f"{b_id}:{a_id}" in joints:
+        if c.inferred:
+            count, how = points, method
+        else:
+            count, how = max(1, len(c.realizing_ids)), assembly_method(c, source_model)
+        joint_id = f"{a_id}:{b_id}" if f"{b_id}:{a_id}" not in joints else f"{b_id}:{a_id}"
+        if joint_id in joints:
+            if not c.inferred:
+                for node_id in joints[joint_id].node_ids:
+                    nodes[node_id].assembly_point_number += count
             continue
         a, b = components[a_id], components[b_id]
         position = _contact_point(a, b, model)
@@ -466,8 +756,8 @@ def _joints_inferred(model, connections, components, points: int, method: str):
                 object_type="ConnectionNode",
                 component_id=owner.id,
                 joint_id=joint_id,
-                assembly_point_number=points,
-                assembly_method=method,
+                assembly_point_number=count,
+                assembly_method=how,
                 level=floor,
                 position=position.copy(),
             )
@@ -476,9 +766,9 @@ def _joints_inferred(model, connections, components, points: int, method: str):
             component_ids=(a_id, b_id),
             node_ids=pair,
             connector_ids=(),
-            realizing_ids=(),
+            realizing_ids=tuple(c.realizing_ids),
             position=position,
             floor=floor,
-            inferred=True,
+            inferred=c.inferred,
         )
     return joints, nodes

@@ -87,7 +87,10 @@ class Component(ConstructionObject):
     of the component's reference point (centre of its world bounding box, metres); ``origin``: its
     placement origin in the world frame (metres). ``size``: extents of
     the bounding box in the element's own frame, sorted longest first (metres). ``bottom_z``: lowest point (metres).
-    ``prebuilt``: foundations that are on site before the simulation starts (state PositionFixed).
+    ``prebuilt``: work of others, not of the robots: foundations, or the classes given as prebuilt (on
+    site from the start, state PositionFixed, unless they rest on a robot-built component: see
+    :mod:`bimrobot.sco.build`). ``part_ids``: for an assembly unit (a precast unit lifted as one), the
+    GlobalIds of its parts; empty for a single element.
     """
 
     ifc_class: str = ""
@@ -99,6 +102,7 @@ class Component(ConstructionObject):
     size: tuple[float, float, float] = (0.0, 0.0, 0.0)
     bottom_z: float = 0.0
     prebuilt: bool = False
+    part_ids: tuple[str, ...] = ()
     connection_nodes: list[ConnectionNode] = field(default_factory=list)
 
     kind = "component"

@@ -123,7 +123,11 @@ NODE_TRANSITIONS: dict[tuple[State, Event], State] = {
 class InvalidTransitionError(BimrobotError):
     """An event that the state machine does not allow in the object's current state."""
 
-    def __init__(self, kind: str, object_id: str, state: State, event: Event):
+    def __init__(self, kind: str, object_id: str | None = None, state: State | None = None, event: Event | None = None):
+        if object_id is None:  # re-created from its message (SimPy re-raises a process's error this way)
+            super().__init__(kind)
+            self.object_id = self.state = self.event = None
+            return
         allowed = sorted(str(e) for (s, e) in _table(kind) if s == state)
         super().__init__(
             f"{kind} {object_id} in state {state} cannot take event {event} "

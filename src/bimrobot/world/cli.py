@@ -3,16 +3,17 @@
 from __future__ import annotations
 
 import argparse
-import re
 import sys
 from pathlib import Path
 
-from bimrobot.errors import InputError
+from bimrobot.bim.selection import add_selection_options
+from bimrobot.bim.unknown_weight import UnknownWeightRule, add_unknown_weight_option
 
 CONVERT_EXAMPLES = """examples:
   bimrobot convert frame.ifc -o frame_pkg/                       # Gazebo Sim package, installed, static
   bimrobot convert frame.ifc -o yard_pkg/ --layout yard          # components on a yard, dynamic
   bimrobot convert model.ifc -o pkg/ --include "IfcColumn, IfcBeam" --target both
+  bimrobot convert model.ifczip -o pkg/ --exclude "IfcFurnishingElement, IfcCovering" --unknown-weight 7850
   bimrobot convert model.ifc -o pkg/ --collision decimated --max-triangles 200 --map-band 0.2 1.8
 
 The package holds worlds/, models/<GlobalId>/ (model.sdf, model.config, meshes/), launch/ (ROS 2
@@ -33,8 +34,9 @@ def register(subparsers) -> None:
         epilog=CONVERT_EXAMPLES,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    parser.add_argument("ifc", type=Path, help="the IFC file (IFC2X3, IFC4, IFC4X3_ADD2)")
-    parser.add_argument("-o", "--output", type=Path, required=True, help="package directory to write")
+    parser.add_argument("ifc", type=Path, help="the IFC file (IFC2X3, IFC4, IFC4X3_ADD2; .ifc or .ifczip)")
+    parser.add_argument("-o", "--output", type=Path, required=True,
+                        help="package folder to write (a new one, or one bimrobot wrote, which is replaced)")
     parser.add_argument("--target", choices=["sim", "classic", "both"], default="sim",
                         help="sim: SDF 1.9 world for Gazebo Sim + ROS 2 launch (default); classic: SDF 1.6 world "
                         "for Gazebo Classic + ROS 1 launch; both")
@@ -43,8 +45,7 @@ def register(subparsers) -> None:
                         help="models are fixed in the world (default for --layout installed)")
     static.add_argument("--dynamic", dest="static", action="store_const", const=False,
                         help="models fall and can be moved (default for --layout yard)")
-    parser.add_argument("--include", metavar="CLASSES", help='only these IFC classes, e.g. "IfcColumn, IfcBeam"')
-    parser.add_argument("--exclude", metavar="CLASSES", help='leave out these IFC classes, e.g. "IfcFastener"')
+    add_selection_options(parser, built=False)
     parser.add_argument("--layout", choices=["installed", "yard"], default="installed",
                         help="installed: every element at its IFC placement (default); yard: laid out at "
                         "pick-up positions on a yard beside the building")
@@ -58,9 +59,9 @@ def register(subparsers) -> None:
                         help="height band above each storey cut for the map, metres (default 0.1 1.5)")
     parser.add_argument("--map-margin", type=float, default=1.0, metavar="M",
                         help="free border around the model in the maps, metres (default 1.0)")
-    parser.add_argument("--default-density", type=float, default=2400.0, metavar="KG_M3",
-                        help="density for elements without any weight in the BIM, kg/m3 (default 2400, concrete; "
-                        "7850 for a steel model); report.json marks those masses as assumed")
+    add_unknown_weight_option(parser)
+    parser.add_argument("--default-density", action=_DeprecatedDensity, type=UnknownWeightRule.parse,
+                        dest="unknown_weight", help=argparse.SUPPRESS)  # the old name, kept working
     parser.add_argument("--no-maps", action="store_true", help="do not write occupancy maps")
     parser.add_argument("--package-name", help="ROS package name (default: from the output folder name)")
     parser.add_argument("--no-progress", action="store_true", help="no progress bars")
@@ -70,34 +71,20 @@ def register(subparsers) -> None:
     parser.set_defaults(func=convert_command)
 
 
-def parse_classes(text: str | None, option: str) -> list[str] | None:
-    """``"IfcColumn, IfcBeam"`` -> ["IfcColumn", "IfcBeam"]; InputError on a name that is not an IFC class."""
-    if text is None:
-        return None
-    names = [name for name in re.split(r"[,\s]+", text) if name]
-    for name in names:
-        if not re.fullmatch(r"Ifc[A-Za-z0-9]+", name):
-            raise InputError(f"{option} expects IFC class names such as IfcColumn, not {name!r}")
-    if not names:
-        raise InputError(f"{option} needs at least one IFC class name")
-    return names
+class _DeprecatedDensity(argparse.Action):
+    """``--default-density KG_M3``: the old spelling of ``--unknown-weight KG_M3``; says so once."""
 
-
-def check_output(path: Path) -> None:
-    """Refuse to replace a file, or a non-empty folder that is not a package from an earlier convert."""
-    if path.exists() and not path.is_dir():
-        raise InputError(f"output {path} exists and is a file, not a package directory")
-    if path.is_dir() and any(path.iterdir()) and not (path / "report.json").exists():
-        raise InputError(f"output {path} is a non-empty folder that bimrobot did not write; choose another -o")
+    def __call__(self, parser, namespace, values, option_string=None):
+        print("bimrobot convert: --default-density is deprecated; use --unknown-weight", file=sys.stderr)
+        setattr(namespace, self.dest, values)
 
 
 def convert_command(args: argparse.Namespace) -> int:
     """``bimrobot convert``: read the IFC file, write the package, print what it holds."""
+    from bimrobot import io
     from bimrobot.world.package import ConvertOptions, convert
 
-    if not args.ifc.exists():
-        raise InputError(f"{args.ifc}: no such file")
-    check_output(args.output)
+    io.check_output(args.output, folder=True, inputs=[args.ifc])  # before the long read and conversion
     options = ConvertOptions(
         target=args.target,
         static=args.static,
@@ -108,15 +95,16 @@ def convert_command(args: argparse.Namespace) -> int:
         map_band=tuple(args.map_band),
         map_margin=args.map_margin,
         package_name=args.package_name,
-        default_density=args.default_density,
+        unknown_weight=args.unknown_weight,
         maps=not args.no_maps,
     )
+    options.validate()
     report = convert(
         args.ifc,
         args.output,
         options,
-        include=parse_classes(args.include, "--include"),
-        exclude=parse_classes(args.exclude, "--exclude"),
+        include=args.include,
+        exclude=args.exclude,
         progress=not args.no_progress and sys.stderr.isatty(),
     )
     print(summary(report, args.output))
@@ -126,11 +114,14 @@ def convert_command(args: argparse.Namespace) -> int:
 def validate_package(output: Path, report: dict) -> int:
     """Print the package checks; 0 when everything passes, 1 otherwise."""
     from bimrobot.world.check import problems, sdf_validator, validate_sdf
+    from bimrobot.world.names import printable
 
     found = problems(output)
     models = len(list((output / "models").iterdir()))
+    if models != report["counts"]["converted"]:
+        found.append(f"{models} model folders for {report['counts']['converted']} converted elements")
     print(f"  check:    {models} models: meshes present, masses and inertia physical" if not found
-          else "  check:    FAILED\n" + "\n".join(f"    {problem}" for problem in found))
+          else "  check:    FAILED\n" + "\n".join(f"    {printable(problem)}" for problem in found))
     failed = bool(found)
     if sdf_validator() is None:
         print("  check:    `ign sdf` not installed (apt-get install ignition-tools libsdformat-dev): SDF not validated")
@@ -140,28 +131,43 @@ def validate_package(output: Path, report: dict) -> int:
         valid, text = validate_sdf(output / world, output / "models")
         print(f"  check:    ign sdf -k {world}: {'Valid' if valid else 'INVALID'}")
         if not valid:
-            print("\n".join(f"    {line}" for line in text.splitlines()))
+            print("\n".join(f"    {printable(line)}" for line in text.splitlines()))
             failed = True
     return 1 if failed else 0
 
 
 def summary(report: dict, output: Path) -> str:
     """A few lines saying where the package is and what it holds."""
+    from bimrobot.world.names import printable
+
     counts = report["counts"]
+    shown = printable(str(output))
     classes = ", ".join(f"{n} {c}" for c, n in counts["by_class"].items())
     sources = ", ".join(f"{n} {s}" for s, n in counts["weight_sources"].items())
     lines = [
-        f"wrote {output}/ (ROS package {report['package']!r}) in {report['timings_s']['total']:.2f} s",
+        f"wrote {shown}/ (ROS package {report['package']!r}) in {report['timings_s']['total']:.2f} s",
         f"  models:   {counts['converted']} ({classes}), total {counts['total_mass_kg']} kg, "
         f"{'static' if report['options']['static'] else 'dynamic'}, {report['options']['layout']} layout",
         f"  weights:  {sources}",
+    ]
+    unknown = report.get("unknown_weight") or {}
+    if unknown.get("message"):
+        lines.append(f"  unknown:  {unknown['message']}")
+    duplicates = report.get("duplicate_global_ids") or {}
+    if duplicates:
+        example = next(iter(duplicates.values()))
+        lines.append(
+            f"  warning:  {len(duplicates)} GlobalId(s) are shared by several elements; each became its own model "
+            f"({printable(', '.join(example))}; all in report.json)"
+        )
+    lines += [
         f"  worlds:   {', '.join(report['world_files'].values())}",
         f"  maps:     {', '.join(m['yaml'] for m in report['maps']) or 'none'}",
         f"  skipped:  {counts['skipped']} (reasons in report.json)",
     ]
-    lines += [f"  warning:  {warning}" for warning in report.get("warnings", [])]
+    lines += [f"  warning:  {printable(warning)}" for warning in report.get("warnings", [])]
     if "sim" in report["world_files"]:
-        lines.append(f"  run:      ros2 launch {output}/launch/gz_sim.launch.py")
+        lines.append(f"  run:      ros2 launch {shown}/launch/gz_sim.launch.py")
     if "classic" in report["world_files"]:
-        lines.append(f"  run:      roslaunch {output}/launch/gazebo_classic.launch")
+        lines.append(f"  run:      roslaunch {shown}/launch/gazebo_classic.launch")
     return "\n".join(lines)

@@ -1,27 +1,48 @@
-"""Reversible, file- and SDF-safe names for IFC GlobalIds.
+"""Reversible, file- and SDF-safe names for IFC GlobalIds, and text that is safe to print or put in XML.
 
 An IFC GlobalId is 22 characters of the alphabet ``0-9 A-Z a-z _ $``. ``$`` is awkward in file names
 (shell expansion) and URIs, so :func:`safe_name` maps it to ``-``, which the GlobalId alphabet never
 uses; letters, digits and ``_`` are kept. Any other character (only possible for ids that are not
-GlobalIds) becomes ``.`` followed by the two hex digits of each of its UTF-8 bytes. The mapping is
-one-to-one, so :func:`global_id_from_safe_name` recovers the GlobalId exactly::
+GlobalIds: a malformed file, or bimrobot's ``<GlobalId>#<step id>`` key for a duplicated GlobalId)
+becomes ``.`` followed by the two hex digits of each of its UTF-8 bytes. The mapping is one-to-one,
+so :func:`global_id_from_safe_name` recovers the GlobalId exactly::
 
     >>> safe_name("2O2Fr$t4X7Zf8NOew3FLOH")
     '2O2Fr-t4X7Zf8NOew3FLOH'
     >>> global_id_from_safe_name("2O2Fr-t4X7Zf8NOew3FLOH")
     '2O2Fr$t4X7Zf8NOew3FLOH'
+    >>> safe_name("2O2Fr$t4X7Zf8NOew3FLOH#37")
+    '2O2Fr-t4X7Zf8NOew3FLOH.2337'
 
-The result is a valid SDF model/link name (no ``::``, never starts with ``__`` for a GlobalId, whose
-first character is ``0``-``3``), a valid ``model://`` URI path segment and a portable file name.
+Two more rules keep every result usable:
+
+* SDFormat reserves ``world`` and names that start *and* end with ``__`` (``__model__``): for those
+  the last character is escaped (``__model__`` -> ``__model_.5f``), so they stay reversible.
+* A name is at most :data:`MAX_NAME_LENGTH` characters, so that ``<name>_collision.stl`` fits in a
+  255-byte file name. A longer one keeps its first characters and ends with ``..`` and 20 hex digits
+  of its SHA-256 (``..`` never occurs otherwise): still unique and portable, but no longer reversible
+  by itself; the full id is recorded next to it (``index.json``, ``report.json``, ``model.config``).
+
+The result never contains ``/``, ``\\``, ``::``, ``$``, spaces or control characters, is never ``.`` or
+``..``, is a valid SDF model/link name, a ``model://`` URI segment and a portable file name.
 """
 
 from __future__ import annotations
 
+import hashlib
 import re
 import string
 
 _KEPT = frozenset(string.ascii_letters + string.digits + "_")
-_ESCAPE = re.compile(r"\.([0-9a-f]{2})")
+#: Longest name :func:`safe_name` returns (characters, all ASCII).
+MAX_NAME_LENGTH = 200
+_HASH_DIGITS = 20
+_SHORTENED = re.compile(r"\.\.[0-9a-f]{%d}$" % _HASH_DIGITS)
+_SDF_RESERVED = "world"
+
+
+def _escape(char: str) -> str:
+    return "".join(f".{byte:02x}" for byte in char.encode("utf-8", "surrogatepass"))
 
 
 def safe_name(global_id: str) -> str:
@@ -35,12 +56,31 @@ def safe_name(global_id: str) -> str:
         elif char == "$":
             out.append("-")
         else:
-            out.extend(f".{byte:02x}" for byte in char.encode("utf-8"))
-    return "".join(out)
+            out.append(_escape(char))
+    if global_id == _SDF_RESERVED or (len(global_id) >= 4 and global_id.startswith("__") and global_id.endswith("__")):
+        out[-1] = _escape(global_id[-1])
+    name = "".join(out)
+    if len(name) <= MAX_NAME_LENGTH:
+        return name
+    digest = hashlib.sha256(global_id.encode("utf-8", "surrogatepass")).hexdigest()[:_HASH_DIGITS]
+    keep = MAX_NAME_LENGTH - 2 - _HASH_DIGITS
+    head = name[:keep]
+    cut = head.rfind(".", max(0, keep - 2))  # never cut an escape (".xx") in two
+    if cut != -1:
+        head = head[:cut]
+    return f"{head}..{digest}"
+
+
+def is_shortened(name: str) -> bool:
+    """True when ``name`` is a :func:`safe_name` shortened with a hash (its id is recorded elsewhere)."""
+    return bool(_SHORTENED.search(name))
 
 
 def global_id_from_safe_name(name: str) -> str:
-    """Invert :func:`safe_name`: the original GlobalId (ValueError on a name it cannot have produced)."""
+    """Invert :func:`safe_name`: the original GlobalId (ValueError on a name it cannot have produced,
+    or on a shortened name, whose full id is in the index or report written beside it)."""
+    if is_shortened(name):
+        raise ValueError(f"{name!r} is a shortened name; its full id is recorded in index.json / report.json")
     if not name or not re.fullmatch(r"(?:[A-Za-z0-9_\-]|\.[0-9a-f]{2})+", name):
         raise ValueError(f"{name!r} is not a name produced by safe_name")
     raw = bytearray()
@@ -54,9 +94,22 @@ def global_id_from_safe_name(name: str) -> str:
         raw.extend(b"$" if char == "-" else char.encode("ascii"))
         position += 1
     try:
-        return raw.decode("utf-8")
+        text = raw.decode("utf-8", "surrogatepass")
     except UnicodeDecodeError:
         raise ValueError(f"{name!r} is not a name produced by safe_name") from None
+    if safe_name(text) != name:  # e.g. "world" written raw: safe_name never produces that
+        raise ValueError(f"{name!r} is not a name produced by safe_name")
+    return text
+
+
+def printable(text: str) -> str:
+    """``text`` with every non-printable character (control characters, line breaks, odd spaces) written
+    as a Python escape (``\\x01``, ``\\n``, ``\\u2028``): safe for a terminal line, a log, an XML text
+    node or attribute (XML 1.0 cannot hold most control characters even escaped). Letters of any
+    script are kept."""
+    if text.isprintable():
+        return text
+    return "".join(c if c.isprintable() else c.encode("unicode_escape", "backslashreplace").decode("ascii") for c in text)
 
 
 def slug(text: str, fallback: str = "site") -> str:
@@ -64,7 +117,7 @@ def slug(text: str, fallback: str = "site") -> str:
 
     Not reversible; used only where the label is also recorded elsewhere (report.json).
     """
-    cleaned = re.sub(r"[^a-z0-9]+", "_", text.lower()).strip("_")
+    cleaned = re.sub(r"[^a-z0-9]+", "_", text.lower()).strip("_")[:80].strip("_")
     return cleaned or fallback
 
 

@@ -10,26 +10,33 @@ Layout of the package written by :func:`build_package`::
       report.json, README.md, package.xml, CMakeLists.txt
 
 Everything is written into a temporary sibling directory and renamed into place at the end, so a
-failed conversion leaves no output behind. Units: metres, kg, seconds; z up.
+failed conversion leaves no output behind (:func:`bimrobot.io.atomic_output_dir`: a package bimrobot
+wrote is replaced, any other non-empty folder is refused). Units: metres, kg, seconds; z up.
+
+Elements whose weight the model does not give follow the one rule of
+:mod:`bimrobot.bim.unknown_weight` (``--unknown-weight``): body volume x a density, or refused. Names
+from the model (element names, file names) are escaped before they reach XML or the terminal.
 """
 
 from __future__ import annotations
 
 import json
 import logging
+import re
 import time
+from collections import Counter
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
 from tqdm import tqdm
 
-from bimrobot import __version__
-from bimrobot.bim.model import BuildingModel, Element
+from bimrobot import io
+from bimrobot.bim.model import BuildingModel, Element, WeightSource
+from bimrobot.bim.unknown_weight import UnknownWeightRule, UnknownWeights, apply_unknown_weight_rule
 from bimrobot.errors import InputError
-from bimrobot.io import atomic_output_dir
 from bimrobot.world import launch, layout, meshes, navmap, physics, sdf
-from bimrobot.world.names import ros_package_name, safe_name, slug
+from bimrobot.world.names import printable, ros_package_name, safe_name, slug
 
 log = logging.getLogger(__name__)
 
@@ -44,7 +51,8 @@ class ConvertOptions:
 
     ``static``: None means static models for the installed layout and dynamic ones on the yard (where
     robots pick them up). ``map_band``: (low, high) above each storey's elevation. ``max_triangles``:
-    triangle budget of each collision mesh.
+    triangle budget of each collision mesh. ``unknown_weight``: the rule for elements without a weight
+    in the model (:mod:`bimrobot.bim.unknown_weight`; default: volume x 2400 kg/m3).
     """
 
     target: str = "sim"
@@ -56,7 +64,7 @@ class ConvertOptions:
     map_band: tuple[float, float] = (0.1, 1.5)
     map_margin: float = 1.0
     package_name: str | None = None
-    default_density: float = physics.DEFAULT_DENSITY_KG_M3
+    unknown_weight: UnknownWeightRule = field(default_factory=UnknownWeightRule)
     maps: bool = True
 
     def validate(self) -> None:
@@ -69,7 +77,8 @@ class ConvertOptions:
             (self.map_resolution > 0, f"--map-resolution must be positive, not {self.map_resolution}"),
             (self.map_band[0] < self.map_band[1], f"--map-band must be LOW HIGH with LOW < HIGH, not {self.map_band}"),
             (self.map_margin >= 0, f"--map-margin must not be negative, not {self.map_margin}"),
-            (self.default_density > 0, f"--default-density must be positive, not {self.default_density}"),
+            (isinstance(self.unknown_weight, UnknownWeightRule),
+             f"--unknown-weight must be a density in kg/m3 or 'refuse', not {self.unknown_weight!r}"),
         ]
         for ok, message in checks:
             if not ok:
@@ -116,16 +125,18 @@ def convert(
     ifc_path: str | Path,
     out_dir: str | Path,
     options: ConvertOptions | None = None,
-    include: list[str] | None = None,
-    exclude: list[str] | None = None,
+    include: list[str] | str | None = None,
+    exclude: list[str] | str | None = None,
     progress: bool = False,
 ) -> dict:
-    """Read an IFC file and write its Gazebo package to ``out_dir``; return the report (also in
-    ``out_dir/report.json``). Bad input raises InputError and leaves no ``out_dir``."""
+    """Read an IFC file (``.ifc`` or ``.ifczip``) and write its Gazebo package to ``out_dir``; return
+    the report (also in ``out_dir/report.json``). ``include`` / ``exclude``: IfcOpenShell selectors
+    (:mod:`bimrobot.bim.selection`). Bad input raises InputError and leaves no ``out_dir``."""
     from bimrobot.bim import load_model  # imported here: only bim/ touches ifcopenshell
 
     options = options or ConvertOptions()
     options.validate()
+    io.check_output(out_dir, folder=True, inputs=[ifc_path])  # before the long read
     started = time.perf_counter()
     model = load_model(ifc_path, include=include, exclude=exclude, progress=progress)
     load_seconds = time.perf_counter() - started
@@ -139,18 +150,26 @@ def build_package(
     progress: bool = False,
     load_seconds: float | None = None,
 ) -> dict:
-    """Write the Gazebo package of ``model`` to ``out_dir`` atomically; return the report dict."""
+    """Write the Gazebo package of ``model`` to ``out_dir`` atomically; return the report dict.
+
+    Elements of unknown weight first get their mass by ``options.unknown_weight`` (in place; the
+    refusal lists them by class); ``report["unknown_weight"]`` says what was assumed.
+    """
     options = options or ConvertOptions()
     options.validate()
     started = time.perf_counter()
-    source = str(model.source) if model.source else "an in-memory BuildingModel"
+    source = printable(str(model.source)) if model.source else "an in-memory BuildingModel"
     if not model.elements:
         raise InputError(f"{source}: the model has no element with solid geometry to convert")
+    inputs = [model.source] if model.source else []
+    io.check_output(out_dir, folder=True, inputs=inputs)
     out_dir = Path(out_dir)
     package = options.package_name or ros_package_name(out_dir.name)
     world_name = world_name_of(model)
     timings: dict[str, float] = {"load": load_seconds} if load_seconds is not None else {}
-    with atomic_output_dir(out_dir) as tmp:
+    unknown = apply_unknown_weight_rule(model.elements.values(), options.unknown_weight, source)
+    _refuse_weightless(model, options, source)
+    with io.atomic_output_dir(out_dir, kind="convert", inputs=inputs) as tmp:
         tick = time.perf_counter()
         converted, skipped = _prepare_elements(model, options, progress)
         if not converted:
@@ -171,6 +190,10 @@ def build_package(
         timings["total"] = time.perf_counter() - started + (load_seconds or 0.0)
 
         report = _report(model, package, world_name, world_files, converted, skipped, maps, yard, options, timings)
+        report["unknown_weight"] = _unknown_weight_report(unknown, converted, options)
+        duplicates = _duplicate_keys(converted)
+        if duplicates:
+            report["duplicate_global_ids"] = duplicates
         report["ground_z_m"] = ground_z
         report["warnings"] = _warnings(converted, options, ground_z)
         for warning in report["warnings"]:
@@ -182,16 +205,72 @@ def build_package(
 
 
 GENERIC_SITE_NAMES = {"", "site", "default", "default_site", "surface", "topography", "topography_surface",
-                      "unnamed", "my_site"}
-"""Site names authoring tools write by default (Revit: "Topography : Surface"); they do not name a world."""
+                      "unnamed", "my_site", "undefined", "none", "null", "unknown", "untitled", "project",
+                      "default_project", "building", "default_building", "world"}
+"""Slugs of names authoring tools write by default (Revit: "Topography : Surface", "Default"; Tekla:
+"Undefined"; IfcOpenShell: "My Site"); they do not name a world, a map or a file."""
+
+GENERIC_STOREY_NAMES = {"", "undefined", "default", "storey", "building_storey", "level", "unnamed", "none",
+                        "null", "unknown", "untitled"}
+"""Slugs of storey names that say nothing (Tekla exports one storey named "Undefined")."""
+
+
+def _is_generic(name: str, generic: set[str]) -> bool:
+    # "Site #1", "Level 2" keep a number: "site_1" is generic, "level_2" is not (a storey needs its number);
+    # "表面:335313" slugs to "335313": a number alone names nothing.
+    return name in generic or name.replace("_", "").isdigit() or bool(re.fullmatch(r"(site|default)_\d+", name))
 
 
 def world_name_of(model: BuildingModel) -> str:
-    """The world's name and file stem: the IfcSite's name, unless it is a tool default, then the file name."""
-    site = slug(model.site_name or "", "")
-    if site not in GENERIC_SITE_NAMES and not site.replace("_", "").isdigit():  # "表面:335313" -> "335313"
-        return site
-    return slug(model.source.stem if model.source else model.project_name or "", "site")
+    """The world's name and file stem: the IfcSite's name, unless it is a tool default ("Undefined",
+    "Default", "Topography : Surface", ...); then the IFC file's name, then the project's, then "building"."""
+    candidates = [model.site_name or "", model.source.stem if model.source else "", model.project_name or ""]
+    for candidate in candidates:
+        name = slug(candidate, "")
+        if not _is_generic(name, GENERIC_SITE_NAMES):
+            return name
+    return "building"
+
+
+def _map_name(storey_name: str, index: int) -> str:
+    """File stem of a storey's map: its name (``storey_2`` for a storey named "2"), or ``storey_<n>``
+    (n from 1, lowest first) for a name that says nothing ("Undefined", "Default", empty)."""
+    name = slug(storey_name, "")
+    if name.isdigit():
+        return f"storey_{name}"
+    return f"storey_{index}" if _is_generic(name, GENERIC_STOREY_NAMES) else name
+
+
+def _refuse_weightless(model: BuildingModel, options: ConvertOptions, source: str) -> None:
+    """With ``--unknown-weight refuse``, also refuse elements whose model weight is zero or negative."""
+    if options.unknown_weight.density_kg_m3 is not None:
+        return
+    bad = [e for e in model.elements.values() if e.weight_kg is None or e.weight_kg <= 0]
+    if bad:
+        classes = ", ".join(f"{n} {c}" for c, n in Counter(e.ifc_class for e in bad).most_common())
+        raise InputError(
+            f"{source}: {len(bad)} element(s) have a weight of 0 kg or less in the model ({classes}, e.g. "
+            f"{printable(bad[0].global_id)}) and --unknown-weight is refuse; give a density such as --unknown-weight 2400"
+        )
+
+
+def _unknown_weight_report(unknown: UnknownWeights, converted: list, options: ConvertOptions) -> dict:
+    """``unknown.as_dict()`` plus the one-line message; elements that had no closed volume for the rule
+    get the mass physics gave them (the same density over their convex hull or box)."""
+    entry = unknown.as_dict()
+    for item in converted:
+        if item.element.global_id in entry["elements"] and entry["elements"][item.element.global_id] is None:
+            entry["elements"][item.element.global_id] = round(item.mass.mass, 3)
+    entry["message"] = unknown.message()
+    return entry
+
+
+def _duplicate_keys(converted: list) -> dict[str, list[str]]:
+    """GlobalId -> the model names of the elements that share it (keys ``<GlobalId>#<step id>``)."""
+    groups: dict[str, list[str]] = {}
+    for item in converted:
+        groups.setdefault(item.element.global_id.split("#")[0], []).append(item.element.global_id)
+    return {gid: keys for gid, keys in groups.items() if len(keys) > 1}
 
 
 def _prepare_elements(model: BuildingModel, options: ConvertOptions, progress: bool):
@@ -214,7 +293,7 @@ def _prepare_elements(model: BuildingModel, options: ConvertOptions, progress: b
         if len(geometry.body.faces) == 0:
             skipped.append(_skip(element, "its body has only degenerate triangles"))
             continue
-        mass = geometry.body.mass_properties(element.weight_kg, options.default_density)
+        mass = geometry.body.mass_properties(element.weight_kg, options.unknown_weight.density_kg_m3)
         converted.append(_Converted(element, safe_name(element.global_id), geometry, mass))
     return converted, skipped
 
@@ -273,7 +352,7 @@ def _write_models(models_dir: Path, converted: list[_Converted], options: Conver
         )
         for version, file_name in versions.items():
             (folder / file_name).write_text(sdf.model_sdf(spec, version), encoding="utf-8")
-        description = f'{element.ifc_class} "{element.name}" (IFC GlobalId {element.global_id}) from {source}'
+        description = f'{element.ifc_class} "{printable(element.name)}" (IFC GlobalId {printable(element.global_id)}) from {source}'
         (folder / "model.config").write_text(sdf.model_config(item.name, versions, description), encoding="utf-8")
 
 
@@ -338,8 +417,8 @@ def _write_maps(
     levels = [(s.global_id, s.name, s.elevation) for s in storeys] or [(None, "site", ground_z)]
     used: set[str] = set()
     written = []
-    for storey_id, storey_name, elevation in levels:
-        name = slug(storey_name, "storey")
+    for index, (storey_id, storey_name, elevation) in enumerate(levels, start=1):
+        name = _map_name(storey_name, index) if storey_id else "site"
         if name in used:
             name = f"{name}_{safe_name(storey_id) if storey_id else len(used)}"
         used.add(name)
@@ -384,12 +463,6 @@ def _warnings(converted: list[_Converted], options: ConvertOptions, ground_z: fl
             f"the model lies up to {distance:.0f} m from the world origin; Gazebo's single-precision meshes and "
             "physics lose accuracy that far out: move the IFC project origin near the building"
         )
-    assumed = sum(1 for item in converted if item.mass.mass_assumed)
-    if assumed:
-        warnings.append(
-            f"{assumed} element(s) have no weight in the BIM: their mass is volume x {options.default_density:g} kg/m3 "
-            "(--default-density)"
-        )
     return warnings
 
 
@@ -406,8 +479,7 @@ def _report(model, package, world_name, world_files, converted, skipped, maps, y
             "storey_id": element.storey_id,
             "material": element.material,
             "mass_kg": round(mass.mass, 6),
-            "weight_source": element.weight_source.value if not mass.mass_assumed else
-            f"assumed: volume x default density {options.default_density:g} kg/m3",
+            "weight_source": _weight_source(element, mass, options),
             "bim_weight_kg": element.weight_kg,
             "volume_m3": round(mass.volume, 9),
             "inertia_from": mass.inertia_method,
@@ -425,7 +497,7 @@ def _report(model, package, world_name, world_files, converted, skipped, maps, y
     options_dict = asdict(options)
     options_dict["static"] = options.is_static
     return {
-        "generator": f"bimrobot {__version__}",
+        "generator": io.signature("convert"),
         "source": str(model.source) if model.source else None,
         "schema": model.schema,
         "project": model.project_name,
@@ -453,12 +525,19 @@ def _report(model, package, world_name, world_files, converted, skipped, maps, y
     }
 
 
+def _weight_source(element: Element, mass: physics.MassProperties, options: ConvertOptions) -> str:
+    """Where the model's mass came from, in words (the same words for both ways of assuming it)."""
+    if element.weight_source is WeightSource.ASSUMED or mass.mass_assumed:
+        return f"assumed: volume x {options.unknown_weight.density_kg_m3:g} kg/m3 (--unknown-weight)"
+    return element.weight_source.value
+
+
 def _readme(report: dict) -> str:
     counts = report["counts"]
     worlds = ", ".join(f"`{path}`" for path in report["world_files"].values())
     assumed = sum(1 for e in report["converted"] if e["weight_source"].startswith("assumed"))
     lines = [
-        f"# {report['package']}: Gazebo package of {Path(report['source'] or 'model').name}",
+        f"# {report['package']}: Gazebo package of {printable(Path(report['source'] or 'model').name)}",
         "",
         f"Generated by {report['generator']}: {counts['converted']} building elements as Gazebo models "
         f"(total {counts['total_mass_kg']} kg), {counts['skipped']} products skipped (see `report.json`).",
@@ -477,7 +556,8 @@ def _readme(report: dict) -> str:
     if assumed:
         lines += [
             f"{assumed} element(s) had no weight in the BIM: their mass is volume x "
-            f"{report['options']['default_density']:g} kg/m3 (see `weight_source` in report.json).",
+            f"{report['options']['unknown_weight']['density_kg_m3']:g} kg/m3 (`--unknown-weight`; see "
+            "`weight_source` and `unknown_weight` in report.json).",
             "",
         ]
     lines += [

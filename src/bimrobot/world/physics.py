@@ -4,9 +4,11 @@ Everything is in the element's local frame (the SDF link frame): metres, kg, kg 
 about the centre of mass with axes parallel to the link frame, as SDF expects when the inertial pose
 has no rotation.
 
-Mass comes from the BIM weight (``Element.weight_kg``, whatever its source). When the BIM has no
-weight, the mass is the body volume times :data:`DEFAULT_DENSITY_KG_M3` and the result says so
-(``mass_assumed``). The tensor is the exact one of the solid mesh scaled to that mass (uniform
+Mass comes from the element's weight (``Element.weight_kg``, whatever its source, including the mass
+:mod:`bimrobot.bim.unknown_weight` assumed). An element still without a weight (its mesh encloses no
+volume, so the unknown-weight rule could not price it) gets the same rule's density times the volume
+the integrals are taken over (convex hull or box), and the result says so (``mass_assumed``); the
+default is :data:`DEFAULT_DENSITY_KG_M3`, the unknown-weight rule's own. The tensor is the exact one of the solid mesh scaled to that mass (uniform
 density); a mesh that is not a closed, consistently wound volume falls back to its convex hull, and a
 flat mesh to its bounding box with a minimum thickness of :data:`MIN_THICKNESS_M`.
 
@@ -23,10 +25,11 @@ import numpy as np
 import trimesh
 from scipy.spatial import ConvexHull, QhullError
 
+from bimrobot.bim import unknown_weight
 from bimrobot.bim.model import Element
 
-DEFAULT_DENSITY_KG_M3 = 2400.0
-"""Density used when the BIM gives no weight: normal-weight concrete, the bulk of most buildings."""
+DEFAULT_DENSITY_KG_M3 = unknown_weight.DEFAULT_DENSITY_KG_M3
+"""Density used when the BIM gives no weight: the one rule's default (normal-weight concrete)."""
 
 MIN_THICKNESS_M = 0.001
 """Thickness given to flat bodies (zero volume) so that their inertia stays positive definite."""
@@ -138,11 +141,14 @@ class Body:
         """Volume of the body the integrals are taken over (m^3)."""
         return self._integrals[0]
 
-    def mass_properties(self, weight_kg: float | None, default_density: float = DEFAULT_DENSITY_KG_M3) -> MassProperties:
-        """Mass properties for a given BIM weight (None or <= 0: volume x ``default_density``)."""
+    def mass_properties(self, weight_kg: float | None, default_density: float | None = DEFAULT_DENSITY_KG_M3) -> MassProperties:
+        """Mass properties for a given BIM weight (None or <= 0: volume x ``default_density``; a
+        ``default_density`` of None, the refuse rule, then raises ValueError: callers refuse first)."""
         volume, center, unit_inertia, method = self._integrals
         if weight_kg is not None and weight_kg > 0:
             mass, assumed = float(weight_kg), False
+        elif default_density is None:
+            raise ValueError("no weight and no density to assume one (--unknown-weight refuse)")
         else:
             mass, assumed = volume * default_density, True
         inertia = _symmetric_positive(np.asarray(unit_inertia, float) * (mass / volume))

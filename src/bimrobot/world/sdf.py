@@ -20,6 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from bimrobot.world.layout import format_pose
+from bimrobot.world.names import printable
 
 SIM_VERSION = "1.9"
 CLASSIC_VERSION = "1.6"
@@ -41,9 +42,11 @@ class ModelSpec:
 
 
 def _sub(parent: ET.Element, tag: str, text: str | None = None, **attributes: str) -> ET.Element:
-    child = ET.SubElement(parent, tag, attributes)
+    # XML 1.0 cannot hold most control characters, not even as character references: names and
+    # descriptions from the model are written with them escaped (names.printable).
+    child = ET.SubElement(parent, tag, {key: printable(value) for key, value in attributes.items()})
     if text is not None:
-        child.text = text
+        child.text = printable(text)
     return child
 
 
@@ -59,7 +62,7 @@ def _g(value: float) -> str:
 
 def model_element(spec: ModelSpec) -> ET.Element:
     """The ``<model>`` element of one building element."""
-    model = ET.Element("model", name=spec.name)
+    model = ET.Element("model", name=printable(spec.name))
     _sub(model, "static", "true" if spec.static else "false")
     _sub(model, "pose", format_pose(spec.pose))
     link = _sub(model, "link", name=spec.name)

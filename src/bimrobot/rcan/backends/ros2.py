@@ -137,7 +137,9 @@ class Ros2Backend(ExecutorBackend):
         goal.target_pose.position.x, goal.target_pose.position.y, goal.target_pose.position.z = t.x, t.y, t.z
         (goal.target_pose.orientation.x, goal.target_pose.orientation.y,
          goal.target_pose.orientation.z, goal.target_pose.orientation.w) = _quaternion_yaw(t.yaw)
-        goal.weight_kg, goal.ready_at_s = float(node.activity.weight_kg), float(ready_at_s)
+        weight = node.activity.weight_kg
+        goal.weight_kg = math.nan if weight is None else float(weight)  # NaN: unknown (a float field)
+        goal.ready_at_s = float(ready_at_s)
         goal.release_after = bool(node.activity.releases_robot)
         on_feedback = (lambda message: feedback(float(message.feedback.progress), message.feedback.phase)) if feedback else None
         goal_handle = self._wait(client.send_goal_async(goal, feedback_callback=on_feedback), self.server_timeout_s)
@@ -201,7 +203,8 @@ def serve_robot_node(capabilities: CapabilityTable, time_scale: float = 0.0, fai
             q = g.target_pose.orientation
             yaw = math.atan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y**2 + q.z**2))
             p = g.target_pose.position
-            activity = RcanActivity(g.activity_id, g.component_id, kind, Pose(p.x, p.y, p.z, yaw), g.weight_kg,
+            activity = RcanActivity(g.activity_id, g.component_id, kind, Pose(p.x, p.y, p.z, yaw),
+                                    None if math.isnan(g.weight_kg) else g.weight_kg,
                                     frees_robot=bool(g.release_after))
             rcan_node = RcanNode(f"rcan/{g.activity_id}", activity, robot, "ros2")
 

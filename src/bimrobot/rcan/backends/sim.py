@@ -20,7 +20,6 @@ same transaction as their effect, keyed by (activity id, attempt): a goal sent t
 from __future__ import annotations
 
 import json
-import sqlite3
 import threading
 import time
 import zlib
@@ -32,6 +31,7 @@ from bimrobot.rcan.activities import ActivityKind, Pose
 from bimrobot.rcan.backends.interfaces import ActivityResult, ExecutorBackend
 from bimrobot.rcan.generation import CapabilityTable, RobotSpec
 from bimrobot.rcan.node import RcanNode
+from bimrobot.rcan.state_manager import connect_state_db
 
 GRASP_TOLERANCE_M = 0.05
 ARM_STOW_HEIGHT_M = 0.5
@@ -63,9 +63,7 @@ class KinematicSite:
         self.failure_probability = float(failure_probability)
         self.seed = int(seed)
         self._lock = threading.Lock()
-        self._db = sqlite3.connect(str(db_path), check_same_thread=False, isolation_level=None)
-        self._db.execute("PRAGMA journal_mode=WAL")
-        self._db.execute("PRAGMA synchronous=FULL")
+        self._db = connect_state_db(db_path)  # the run's state database, or its own; never a foreign file
         self._db.executescript(SCHEMA)
         for robot in capabilities.robots.values():
             h = robot.home
@@ -174,7 +172,7 @@ class KinematicSite:
             if not spec.can_grip(node.activity.section_m):
                 w, d = node.activity.section_m
                 return 0.0, f"the {w:.3f} x {d:.3f} m section of {node.component_id} does not fit the gripper of {spec.name}", {}
-            if node.activity.weight_kg > spec.payload_kg:
+            if node.activity.weight_kg is not None and node.activity.weight_kg > spec.payload_kg:
                 return 0.0, f"{node.component_id} weighs {node.activity.weight_kg:.1f} kg, over the {spec.payload_kg:.1f} kg payload of {spec.name}", {}
             return handling, None, {"holding": node.component_id, "component": (target, spec.name)}
         # install: place the held component, or fix a component already in place (a further connection)

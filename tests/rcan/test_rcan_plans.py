@@ -1,0 +1,89 @@
+"""Plans from schedules: weights are the model's (or unknown, never 0 kg), an assembly is lifted as one
+unit, and a robot that works on a component in place is not limited by that component's weight."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from bimrobot.errors import InputError
+from bimrobot.lbd.schedule import Activity, Schedule
+from bimrobot.rcan.activities import ActivityKind as K
+from bimrobot.rcan.generation import TaskAllocator, parse_capabilities
+from bimrobot.rcan.plans import plan_from_schedule, unknown_weight_components
+
+
+def light_table(table_5_2):
+    """One mobile manipulator that carries 500 kg."""
+    return parse_capabilities({"robot_types": table_5_2, "robots": {"arm": {
+        "types": ["mobile_base", "manipulator", "gripper"], "payload_kg": 500, "reach_m": 3}}}, "light table")
+
+
+def test_without_a_model_weights_are_unknown_not_zero(table_5_2):
+    rows = [Activity("A1", "Transport C", "transport", "COL", None, 0, 10, target=(0.0, 0.0, 0.0))]
+    plan = plan_from_schedule(Schedule(rows))
+    assert {a.weight_kg for a in plan} == {None}
+    assert unknown_weight_components(plan) == ["COL"]
+    assert TaskAllocator(light_table(table_5_2)).choose(plan[0]) == "arm"  # unknown: not checked, and reported
+
+
+def test_work_on_a_component_in_place_needs_no_payload_for_it(table_5_2):
+    """A joint fixed on a heavy prebuilt slab: the robot lifts the light beam, not the slab."""
+
+    class Model:  # the two members of a BuildingModel the plan reads
+        source = Path("test.ifc")
+        assemblies: dict = {}
+
+        class _Element:
+            def __init__(self, kg, gid):
+                import numpy as np
+
+                self.weight_kg, self.global_id = kg, gid
+                self.vertices = np.array([[0, 0, 0], [0.3, 0.3, 6.0]], dtype=float)
+                self.placement = np.eye(4)
+
+            @property
+            def local_bounds(self):
+                return self.vertices
+
+            @property
+            def position(self):
+                return self.placement[:3, 3]
+
+        elements = {"BEAM": _Element(300.0, "BEAM"), "SLAB": _Element(60000.0, "SLAB")}
+
+    rows = [
+        Activity("A1", "Transport BEAM", "transport", "BEAM", None, 0, 10, target=(1.0, 0.0, 3.0)),
+        Activity("A2", "Assemble BEAM", "assemble", "BEAM", None, 10, 20, ("A1",), target=(1.0, 0.0, 3.0)),
+        Activity("A3", "Assemble SLAB:BEAM", "assemble", "SLAB", None, 20, 30, ("A2",), target=(0.0, 0.0, 0.0)),
+    ]
+    plan = plan_from_schedule(Schedule(rows), Model())
+    slab = [a for a in plan if a.component_id == "SLAB"]
+    assert [a.kind for a in slab] == [K.MOVE_TO_COMPONENT, K.POSITION_FOR_INSTALLING, K.INSTALL]
+    assert all(not a.lifts and a.weight_kg == 60000.0 for a in slab)  # its weight stays known, but nobody lifts it
+    assert all(a.lifts for a in plan if a.component_id == "BEAM")
+    allocator = TaskAllocator(light_table(table_5_2))
+    assert allocator.choose(slab[0]) == "arm"
+    heavy_lift = next(a for a in plan if a.kind is K.PICK_UP).__class__(
+        "X.1", "SLAB", K.PICK_UP, slab[0].target, 60000.0)
+    with pytest.raises(InputError, match=r"no robot can take 'Pick up' of component SLAB \(activity X.1, 60000.0 kg\)"):
+        allocator.choose(heavy_lift)
+
+
+def test_an_assembly_is_planned_as_one_unit_with_the_weight_of_its_parts(shared_ifc):
+    from bimrobot.bim import load_model
+    from bimrobot.bim.unknown_weight import UnknownWeightRule, apply_unknown_weight_rule
+
+    model = load_model(shared_ifc("MULTICOM-trappen_bordessen.ifc"))
+    apply_unknown_weight_rule(model.elements.values(), UnknownWeightRule(), "trappen")
+    unit, assembly = max(model.assemblies.items(), key=lambda item: len(item[1].part_ids))
+    rows = [Activity("A1", "Transport unit", "transport", unit, None, 0, 10),  # no target: from the model
+            Activity("A2", "Position unit", "position", unit, None, 10, 20, ("A1",))]
+    plan = plan_from_schedule(Schedule(rows), model)
+    parts = [model.elements[p] for p in assembly.part_ids]
+    assert plan[0].weight_kg == pytest.approx(sum(e.weight_kg for e in parts))
+    lowest = min(e.world_bounds[0][2] for e in parts)
+    assert plan[-1].kind is K.POSITION_FOR_INSTALLING
+    assert plan[-1].target.z == pytest.approx(lowest)  # an assembly goes where its parts' bottom is
+    assert min(plan[0].section_m) > 0
