@@ -59,6 +59,10 @@ def _construct_mapping(loader: _LineLoader, node: yaml.MappingNode) -> LineDict:
     for key_node, _ in node.value:
         key = loader.construct_object(key_node, deep=True)
         try:
+            if key in mapping.lines:  # YAML would silently keep the last value: refuse instead
+                raise yaml.constructor.ConstructorError(
+                    None, None, f"key '{key}' appears twice (first on line {mapping.lines[key]})", key_node.start_mark
+                )
             mapping.lines[key] = key_node.start_mark.line + 1
         except TypeError:  # an unhashable key: yaml itself refuses it elsewhere
             pass

@@ -125,7 +125,8 @@ def check_output(
     cwd = Path.cwd().resolve()
     if _is_within(cwd, path):
         what = "the current directory" if path == cwd else "a folder that contains the current directory"
-        raise InputError(f"{option} {shown} is {what}; give a new folder, e.g. {option} out/")
+        example = "out/" if folder else "out/result" + (Path(shown).suffix or ".json")
+        raise InputError(f"{option} {shown} is {what}; give a new {'folder' if folder else 'file'}, e.g. {option} {example}")
     for source in _resolved_inputs(inputs):
         if path == source:
             raise InputError(f"{option} {shown} is an input of this command ({_display(source)}); give another path")

@@ -35,3 +35,8 @@ def test_mappings_know_their_lines_and_number_checks_ranges():
 def test_syntax_errors_name_the_line():
     with pytest.raises(InputError, match=r"bad.yaml line 2: not valid YAML"):
         parse_yaml("a: [1, 2\nb: 3\n", "bad.yaml")
+
+
+def test_a_key_given_twice_is_refused_not_silently_overwritten():
+    with pytest.raises(InputError, match=r"fleet.yaml line 3: not valid YAML \(key 'speed' appears twice \(first on line 2\)\)"):
+        parse_yaml("robot:\n  speed: 1\n  speed: 2\n", "fleet.yaml")
