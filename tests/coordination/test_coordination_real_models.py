@@ -93,6 +93,11 @@ def test_precast_units_are_simulated_as_units_and_by_element_on_request(tmp_path
     assert printed.startswith("118 components, 118 of them assembly units")
     rows = load_schedule_csv(tmp_path / "units" / "schedule.csv")
     assert len({r["GlobalId"] for r in rows if r["Activity"] == "transport"}) == 118  # one lift per unit
+    lbd_schedule = pytest.importorskip("bimrobot.lbd.schedule")
+    from bimrobot.bim import load_model
+
+    # the rcan/graph side takes the assemblies' GlobalIds as the model's own
+    assert len(lbd_schedule.load_schedule_csv(tmp_path / "units" / "schedule.csv", load_model(model)).activities) == len(rows)
     code, printed, err = _simulate(capsys, model, "--fleet", "site-crane", "--by-element", "-o", str(tmp_path / "parts"))
     assert code == 0, err
     parts = json.loads((tmp_path / "parts" / "summary.json").read_text())["smart_components"]
