@@ -85,21 +85,26 @@ def test_technician_fixes_the_cause_and_retries_the_escalated_activity(tmp_path,
 
 def test_ifc_work_schedule_runs_through_rcan(shared_ifc, tmp_path, capsys):
     """construction-scheduling-task.ifc: a slab and four walls in an IfcWorkSchedule; targets are the
-    elements' placements; the 13 t slab needs a robot that carries it (the built-in site crane)."""
+    elements' placements. Its tasks build the elements where they stand (no transport task): a robot
+    goes to each, positions and installs it, and the 13 t slab's weight limits no robot."""
     ifc = shared_ifc("construction-scheduling-task.ifc")
     assert main(["rcan", "run", "--schedule", str(ifc), "-q"]) == 0
     assert "components: 5 Assembled" in capsys.readouterr().out
+    table = ("robot_types:\n"
+             "  mobile_base: {activities: [move_to_component, transport]}\n"
+             "  manipulator: {activities: [position_for_picking_up, position_for_installing]}\n"
+             "  gripper: {activities: [pick_up, install]}\n"
+             "robots:\n"
+             "  small_crane: {types: [mobile_base, manipulator, TYPES], payload_kg: 2000, reach_m: 30,\n"
+             "                speed_m_s: 0.5, handling_s: {install: 600}}\n")
     light = tmp_path / "light.yaml"
-    light.write_text(
-        "robot_types:\n"
-        "  mobile_base: {activities: [move_to_component, transport]}\n"
-        "  manipulator: {activities: [position_for_picking_up, position_for_installing]}\n"
-        "  gripper: {activities: [pick_up, install]}\n"
-        "robots:\n"
-        "  small_crane: {types: [mobile_base, manipulator, gripper], payload_kg: 2000, reach_m: 30,\n"
-        "                speed_m_s: 0.5, handling_s: {install: 600}}\n")
-    assert main(["rcan", "run", "--schedule", str(ifc), "--capabilities", str(light), "-q"]) == 2
+    light.write_text(table.replace(", TYPES", ", gripper"))
+    assert main(["rcan", "run", "--schedule", str(ifc), "--capabilities", str(light), "-q"]) == 0
+    assert "components: 5 Assembled" in capsys.readouterr().out
+    no_gripper = tmp_path / "no_gripper.yaml"
+    no_gripper.write_text(table.replace(", TYPES", ""))
+    assert main(["rcan", "run", "--schedule", str(ifc), "--capabilities", str(no_gripper), "-q"]) == 2
     err = capsys.readouterr().err
     # every component no robot can take, in one sentence: the slab and the four walls
-    assert "no robot can take 'Move to component' of component 20WrgxqpbDtferON_k1P2X" in err
+    assert "no robot can take 'Install' of component 20WrgxqpbDtferON_k1P2X" in err
     assert "4 more component(s) cannot be taken either; the heaviest weighs" in err and err.count("\n") == 1
