@@ -355,3 +355,20 @@ def test_duplicate_keys_are_distinct_models(tmp_path):
     report = build_package(model, tmp_path / "p", ConvertOptions(maps=False))
     assert report["counts"]["converted"] == 8 == len(list((tmp_path / "p" / "models").iterdir()))
     assert report["duplicate_global_ids"] == {first.global_id: [first.global_id, twin.global_id]}
+
+
+def test_render_draws_a_png_it_can_replace_and_refuses_a_foreign_file(package, tmp_path):
+    from PIL import Image
+
+    from bimrobot import io
+    from bimrobot.world.render import render_package
+
+    out, _ = package
+    picture = render_package(out, tmp_path / "frame.png", size=(3, 2))
+    assert io.has_signature(picture) and Image.open(picture).size[0] > 100
+    render_package(out, picture, size=(3, 2))  # bimrobot's own picture: replaced
+    photo = tmp_path / "photo.png"
+    photo.write_bytes(b"\x89PNG\r\n\x1a\n not bimrobot's")
+    with pytest.raises(InputError, match="existing file that bimrobot did not write"):
+        render_package(out, photo)
+    assert photo.read_bytes() == b"\x89PNG\r\n\x1a\n not bimrobot's"

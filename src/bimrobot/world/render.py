@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
+from bimrobot import io
 from bimrobot.world.check import read_models
 
 
@@ -54,7 +55,11 @@ def world_triangles(package: Path, world_file: str | None = None) -> tuple[np.nd
 
 def render_package(package: Path, png: Path, world_file: str | None = None, elevation: float = 22,
                    azimuth: float = -58, size: tuple[float, float] = (8, 6), title: str | None = None) -> Path:
-    """Render the package's world to ``png`` (shaded by a fixed light; metres on the axes)."""
+    """Render the package's world to ``png`` (shaded by a fixed light; metres on the axes).
+
+    ``png`` follows :mod:`bimrobot.io`'s policy: a picture bimrobot drew is replaced, any other
+    existing file is refused (checked before drawing)."""
+    io.check_output(png, folder=False, inputs=[package])
     import matplotlib
 
     matplotlib.use("Agg")
@@ -84,7 +89,11 @@ def render_package(package: Path, png: Path, world_file: str | None = None, elev
         axes.set_title(title)
     figure.tight_layout()
     png = Path(png)
-    png.parent.mkdir(parents=True, exist_ok=True)
-    figure.savefig(png)
-    plt.close(figure)
+    try:
+        # Through the output policy: a PNG bimrobot drew (its signature in a text chunk) is replaced,
+        # any other existing file is refused.
+        with io.atomic_output_file(png, inputs=[package]) as tmp:
+            figure.savefig(tmp, format="png", metadata={"Software": io.signature("world render")})
+    finally:
+        plt.close(figure)
     return png
