@@ -17,4 +17,5 @@ test: setup
 	$(BIN)/python -m pytest -q
 
 clean:
-	rm -rf $(DEMO_OUT) build dist src/*.egg-info
+	[ ! -f $(DEMO_OUT)/.bimrobot-demo ] || rm -rf $(DEMO_OUT)
+	rm -rf build dist src/*.egg-info

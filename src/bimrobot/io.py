@@ -174,13 +174,23 @@ def _apply_umask(path: Path, mode: int) -> None:
 
 
 def _make_parents(folder: Path) -> list[Path]:
-    """Create ``folder`` and its missing parents; return the ones created, deepest first."""
-    created = []
+    """Create ``folder`` and its missing parents; return the ones created, deepest first.
+
+    On an OSError the ones already made are removed before it is raised.
+    """
+    missing = []
     node = folder
     while not node.exists():
-        created.append(node)
+        missing.append(node)
         node = node.parent
-    folder.mkdir(parents=True, exist_ok=True)
+    created: list[Path] = []
+    try:
+        for node in reversed(missing):
+            node.mkdir()
+            created.insert(0, node)
+    except OSError:
+        _remove_empty(created)
+        raise
     return created
 
 
@@ -217,8 +227,9 @@ def atomic_output_dir(
     inputs = _resolved_inputs(inputs)
     check_output(target, folder=True, inputs=inputs, option=option)
     path = Path(target).resolve()
-    created = _make_parents(path.parent)
+    created: list[Path] = []
     try:
+        created = _make_parents(path.parent)
         tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent))
     except OSError as exc:
         _remove_empty(created)
@@ -268,8 +279,9 @@ def atomic_output_file(
     inputs = _resolved_inputs(inputs)
     check_output(target, folder=False, inputs=inputs, option=option, recognise=recognise)
     path = Path(target).resolve()
-    created = _make_parents(path.parent)
+    created: list[Path] = []
     try:
+        created = _make_parents(path.parent)
         fd, name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     except OSError as exc:
         _remove_empty(created)
