@@ -74,7 +74,11 @@ def test_the_building_is_built_and_converted(pipeline):
     summary = json.loads(runs["inspect"].stdout)
     assert runs["convert"].returncode == 0, runs["convert"].stderr
     report = json.loads((work / "pkg" / "report.json").read_text())
-    assert report["models"] + len(report.get("skipped", [])) >= summary["elements"] - len(summary.get("duplicate_global_ids", []))
+    counts = report["counts"]
+    assert counts["converted"] + counts["skipped"] == summary["elements"] + len(summary["skipped"])
+    assert len([p for p in (work / "pkg" / "models").iterdir() if p.is_dir()]) == counts["converted"]
+    if report.get("unknown_weight", {}).get("count"):
+        assert report["unknown_weight"]["rule"].startswith("assume volume x 2400")
     simulated = runs.get("simulate prebuilt", runs["simulate"])
     if simulated.returncode == 2:  # the pre-flight check: one message listing what no robot can handle
         assert "cannot build" in simulated.stderr, simulated.stderr

@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Iterable, Iterator
 
+from bimrobot.coordination.schedule import COLUMNS, PREDEFINED_TYPE, is_schedule_csv
 from bimrobot.errors import InputError
 from bimrobot.io import atomic_output_file
 from bimrobot.lbd import components
@@ -27,27 +28,12 @@ if TYPE_CHECKING:  # pragma: no cover
 
 log = logging.getLogger(__name__)
 
-#: Column order of the schedule CSV (``docs/conventions.md``).
-CSV_COLUMNS = (
-    "Identification",
-    "Name",
-    "PredefinedType",
-    "Activity",
-    "GlobalId",
-    "Robot",
-    "Start",
-    "Finish",
-    "Duration",
-    "Predecessors",
-    "TargetX",
-    "TargetY",
-    "TargetZ",
-    "Storey",
-)
+#: Column order of the schedule CSV (``docs/conventions.md``), defined where it is written.
+CSV_COLUMNS = COLUMNS
 REQUIRED_COLUMNS = ("Identification", "Activity", "GlobalId", "Start", "Finish")
 
 #: The thesis' chapter-4 task decomposition, and the IfcTaskTypeEnum value each one is written with.
-ACTIVITY_TASK_TYPES = {"transport": "LOGISTIC", "position": "INSTALLATION", "assemble": "CONSTRUCTION"}
+ACTIVITY_TASK_TYPES = PREDEFINED_TYPE
 TASK_TYPE_ACTIVITIES = {task_type: activity for activity, task_type in ACTIVITY_TASK_TYPES.items()}
 IFC_TASK_TYPES = frozenset(
     {
@@ -401,18 +387,6 @@ def _check_sequence(schedule: Schedule, lines: dict[str, int]) -> None:
         raise InputError(
             f"{schedule.source}, line {lines[cycle[0]]}: the predecessors form a cycle {' -> '.join(cycle)}"
         )
-
-
-def is_schedule_csv(path: str | os.PathLike) -> bool:
-    """Whether ``path`` is a schedule CSV bimrobot wrote: its first line is exactly the header of
-    :data:`CSV_COLUMNS` (a CSV cannot carry a signature comment for every reader). The output
-    policy's recogniser for :func:`write_schedule_csv`."""
-    try:
-        with open(path, encoding="utf-8-sig", newline="") as handle:
-            first = handle.readline(4096)
-    except (OSError, UnicodeDecodeError):
-        return False
-    return first.rstrip("\r\n") == ",".join(CSV_COLUMNS)
 
 
 def write_schedule_csv(
