@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.conftest import SHARED_IFC
+from conftest import SHARED_IFC
 
 SIMULATE = ("--no-progress", "--no-gantt")
 PREBUILT = "IfcFooting,IfcSlab,IfcWall"

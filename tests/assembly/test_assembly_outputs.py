@@ -11,6 +11,7 @@ import pytest
 from bimrobot.assembly.scenario import SETTINGS_DIR
 from bimrobot.cli import main
 from bimrobot.io import has_signature
+from output_checks import snapshot
 
 
 @pytest.fixture
@@ -24,10 +25,6 @@ def workspace(tmp_path, monkeypatch):
     (tmp_path / "photo.gif").write_bytes(b"GIF89a not bimrobot's")
     (tmp_path / "link").symlink_to(tmp_path / "mine", target_is_directory=True)
     return tmp_path
-
-
-def _snapshot(folder: Path) -> dict[str, bytes]:
-    return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
 
 
 PLAY = ["assembly", "play", "--scenario", "site.yaml", "--policy", "planner", "--gif"]
@@ -49,13 +46,13 @@ CASES = [
 def test_bad_output_paths_are_refused_before_the_work_and_touch_nothing(workspace, capsys, command, target, message):
     if command is OPTIMUM and target == "site.yaml":
         target = str(SETTINGS_DIR / "E1S2.yaml")  # optimum reads the shipped setting, not the user's copy
-    before = _snapshot(workspace)
+    before = snapshot(workspace)
     assert main(command + [target]) == 2
     captured = capsys.readouterr()
     assert message in captured.err and captured.err.count("\n") == 1
     assert f"{command[-1]} {target}" in captured.err  # names the option and the path as given
     assert captured.out == ""  # refused before the episode / the table was computed
-    assert _snapshot(workspace) == before  # byte for byte, nothing added
+    assert snapshot(workspace) == before  # byte for byte, nothing added
     assert (SETTINGS_DIR / "E1S2.yaml").read_text().startswith("# Benchmark setting E1S2")
 
 

@@ -16,6 +16,7 @@ from bimrobot.bim import load_model
 from bimrobot.bim.split import split_model
 from bimrobot.errors import InputError
 from bimrobot.world.names import safe_name
+from output_checks import snapshot
 
 
 def _same_element(split_model_, original_element):
@@ -240,10 +241,6 @@ def test_split_duplicate_global_ids_write_every_element(tmp_path, capsys):
     assert [e.name for e in second.elements.values()] == ["Wall 1"]
 
 
-def _snapshot(folder: Path) -> dict[str, bytes]:
-    return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
-
-
 @pytest.mark.parametrize(
     "output, message",
     [
@@ -265,21 +262,21 @@ def test_split_refuses_outputs_that_would_destroy_data(tmp_path, monkeypatch, ca
     (project / "notes" / "thesis.txt").write_text("precious")
     (project / "linked").symlink_to(project / "notes")
     monkeypatch.chdir(project)
-    before = _snapshot(tmp_path)
+    before = snapshot(tmp_path)
     assert main(["split", "model.ifc", "-o", output]) == 2
     err = capsys.readouterr().err
     assert message in err and len(err.strip().splitlines()) == 1
-    assert _snapshot(tmp_path) == before
+    assert snapshot(tmp_path) == before
 
 
 def test_split_refuses_the_folder_holding_its_input(tmp_path, capsys, greenhouse_ifc):
     from bimrobot.cli import main
 
     (tmp_path / "model.ifc").write_bytes(greenhouse_ifc.read_bytes())
-    before = _snapshot(tmp_path)
+    before = snapshot(tmp_path)
     assert main(["split", str(tmp_path / "model.ifc"), "-o", str(tmp_path)]) == 2
     assert "contains an input of this command" in capsys.readouterr().err
-    assert _snapshot(tmp_path) == before
+    assert snapshot(tmp_path) == before
 
 
 def test_split_replaces_its_own_output_and_says_so(tmp_path, capsys, greenhouse_ifc):

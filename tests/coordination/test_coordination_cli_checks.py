@@ -1,6 +1,5 @@
 """simulate / allocators refuse what would destroy a user's files or make no physical sense, before working."""
 
-import hashlib
 import json
 import os
 from pathlib import Path
@@ -9,14 +8,7 @@ import pytest
 
 from bimrobot.cli import main
 from bimrobot.coordination.schedule import load_schedule_csv
-
-
-def _snapshot(folder: Path) -> dict[str, str]:
-    """Every file under ``folder`` (relative path -> sha256), to check "byte for byte"."""
-    return {
-        str(p.relative_to(folder)): hashlib.sha256(p.read_bytes()).hexdigest()
-        for p in sorted(folder.rglob("*")) if p.is_file()
-    }
+from output_checks import snapshot
 
 
 @pytest.fixture(scope="module")
@@ -43,13 +35,13 @@ def project(tmp_path, frame_ifc) -> Path:
 def test_refused_output_paths_leave_every_file_byte_for_byte(project, monkeypatch, capsys, command, target):
     monkeypatch.chdir(project)
     os.symlink(project / "results", project / "link-to-results")
-    before = _snapshot(project.parent)
+    before = snapshot(project.parent)
     extra = ["--no-optimal", "--seeds", "1"] if command == "allocators" else ["--no-gantt", "--no-progress"]
     output = "../" + project.name if target == ".." else target  # ..: the folder that holds the model
     assert main([command, "frame.ifc", "--fleet", "fleet.yaml", "-o", output, *extra]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and err.startswith(f"bimrobot {command}: error: -o ")
-    assert _snapshot(project.parent) == before
+    assert snapshot(project.parent) == before
     assert not [p for p in project.parent.rglob("*.tmp")]
 
 

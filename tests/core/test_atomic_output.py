@@ -9,11 +9,7 @@ import pytest
 
 from bimrobot.errors import InputError
 from bimrobot.io import MARKER, atomic_output_dir, atomic_output_file, check_output, signature
-
-
-def _snapshot(folder: Path) -> dict:
-    """Every file under ``folder`` with its bytes (the 'byte for byte' check)."""
-    return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
+from output_checks import snapshot
 
 
 def _write_ours(target: Path, text: str = "new") -> None:
@@ -60,12 +56,12 @@ def test_refused_targets_are_left_byte_for_byte(tmp_path, monkeypatch, case):
         "dot": ".", "input": "model.ifc", "parent_of_input": str(project), "foreign_folder": str(foreign),
         "symlink_to_foreign": str(tmp_path / "link"), "under_a_file": "notes.txt/out",
     }[case]
-    before = _snapshot(tmp_path)
+    before = snapshot(tmp_path)
     with pytest.raises(InputError) as error:
         with atomic_output_dir(target, kind="test", inputs=[model]) as tmp:
             (tmp / "x").write_text("x")
     assert "\n" not in str(error.value)
-    assert _snapshot(tmp_path) == before
+    assert snapshot(tmp_path) == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["foreign", "link", "project"]
 
 

@@ -14,6 +14,7 @@ from pathlib import Path
 import pytest
 
 from bimrobot.cli import main
+from output_checks import snapshot
 
 CASES = ("dot", "input", "parent_of_input", "foreign_folder", "symlink_to_foreign", "under_a_file", "read_only_fs")
 
@@ -60,13 +61,6 @@ def inputs(tmp_path_factory) -> dict:
     return {"model": model, "schedule": root / "sim" / "schedule.csv", "scenario": scenario, "grid": grid}
 
 
-def _snapshot(folder: Path) -> dict:
-    return {
-        str(p.relative_to(folder)): (p.read_bytes() if p.is_file() and not p.is_symlink() else str(p.readlink()) if p.is_symlink() else "dir")
-        for p in sorted(folder.rglob("*"))
-    }
-
-
 @pytest.mark.parametrize("case", CASES)
 @pytest.mark.parametrize("name, argv, applies", OPTIONS, ids=[o[0] for o in OPTIONS])
 def test_a_destructive_path_is_refused_and_nothing_changes(name, argv, applies, case, inputs, tmp_path, monkeypatch, capsys):
@@ -92,10 +86,10 @@ def test_a_destructive_path_is_refused_and_nothing_changes(name, argv, applies, 
     }[case]
     values = {"out": target, **{key: str(path) for key, path in copied.items()}}
     monkeypatch.chdir(work)
-    before = _snapshot(project)
+    before = snapshot(project)
     code = main([arg.format(**values) for arg in argv])
     err = capsys.readouterr().err
     assert code == 2, f"{name} {case}: exit {code}\n{err}"
     errors = [line for line in err.splitlines() if "error:" in line]
     assert len(errors) == 1 and "Traceback" not in err, err
-    assert _snapshot(project) == before, f"{name} {case} changed files"
+    assert snapshot(project) == before, f"{name} {case} changed files"

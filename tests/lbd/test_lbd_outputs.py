@@ -5,24 +5,13 @@ gives one sentence with exit 2; bimrobot's own outputs are replaced, and the com
 from __future__ import annotations
 
 import json
-import os
 from pathlib import Path
 
 import pytest
 
 from bimrobot.bim.examples import steel_frame
 from bimrobot.cli import main
-
-
-def snapshot(root: Path) -> dict[str, bytes]:
-    """Every file under ``root`` (symbolic links as their target text) -> its bytes."""
-    files = {}
-    for path in sorted(root.rglob("*")):
-        if path.is_symlink():
-            files[str(path.relative_to(root))] = os.readlink(path).encode()
-        elif path.is_file():
-            files[str(path.relative_to(root))] = path.read_bytes()
-    return files
+from output_checks import snapshot
 
 
 @pytest.fixture(scope="module")

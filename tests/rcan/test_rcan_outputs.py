@@ -6,7 +6,6 @@ report, the graph) or resumed (the state database); a user's SQLite database nev
 from __future__ import annotations
 
 import json
-import os
 import sqlite3
 from pathlib import Path
 
@@ -15,17 +14,7 @@ import pytest
 from bimrobot.cli import main
 from bimrobot.rcan.state_manager import APPLICATION_ID, is_state_db
 from rcan_helpers import frame_schedule, write_capabilities
-
-
-def snapshot(root: Path) -> dict[str, bytes]:
-    """Every file under ``root`` (symbolic links as their target text) -> its bytes."""
-    files = {}
-    for path in sorted(root.rglob("*")):
-        if path.is_symlink():
-            files[str(path.relative_to(root))] = os.readlink(path).encode()
-        elif path.is_file():
-            files[str(path.relative_to(root))] = path.read_bytes()
-    return files
+from output_checks import snapshot
 
 
 @pytest.fixture(scope="module")

@@ -13,6 +13,7 @@ from bimrobot.cli import main
 from bimrobot.errors import InputError
 from bimrobot.io import MARKER, has_signature
 from bimrobot.rl.benchmark import BenchmarkSpec, benchmark_folder, write_summary
+from output_checks import snapshot
 
 TINY_PPO = ["--set", "n_envs=8", "--set", "n_steps=32", "--set", "n_epochs=1"]
 TRAIN = ["rl", "train", "--setting", "E1S1", "--algo", "ppo", "--timesteps", "256", "--eval-episodes", "1",
@@ -31,17 +32,13 @@ def workspace(tmp_path, monkeypatch):
     return tmp_path
 
 
-def _snapshot(folder: Path) -> dict[str, bytes]:
-    return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
-
-
 def _refused(capsys, argv: list[str], message: str, folder: Path) -> None:
-    before = _snapshot(folder)
+    before = snapshot(folder)
     assert main(argv) == 2
     captured = capsys.readouterr()
     assert message in captured.err and captured.err.count("\n") == 1, captured.err
     assert "Traceback" not in captured.err and captured.out == ""
-    assert _snapshot(folder) == before
+    assert snapshot(folder) == before
 
 
 # ------------------------------------------------------------------------------------------ rl train -o
@@ -87,7 +84,7 @@ def test_bad_training_options_are_one_sentence_and_write_nothing(workspace, caps
 
 @pytest.mark.slow
 def test_train_into_the_current_directory_writes_only_its_run_dir_and_replaces_it_saying_so(workspace, capsys):
-    before = _snapshot(workspace)
+    before = snapshot(workspace)
     assert main(TRAIN + ["-o", "."]) == 0
     run = workspace / "E1S1-ppo-s0"
     assert json.loads((run / MARKER).read_text())["kind"] == "rl train run"
@@ -97,7 +94,7 @@ def test_train_into_the_current_directory_writes_only_its_run_dir_and_replaces_i
     assert main(TRAIN + ["-o", "."]) == 0
     assert "bimrobot: replacing E1S1-ppo-s0 (rl train run output of no input file, written " in capsys.readouterr().err
     assert (run / "model.zip").stat().st_mtime_ns != stamp
-    assert {k: v for k, v in _snapshot(workspace).items() if not k.startswith("E1S1-ppo-s0")} == before
+    assert {k: v for k, v in snapshot(workspace).items() if not k.startswith("E1S1-ppo-s0")} == before
 
 
 def test_an_interrupted_run_leaves_no_run_dir_and_no_parent_it_created(tmp_path, monkeypatch):
@@ -175,12 +172,12 @@ def test_another_bimrobot_output_is_replaced_saying_so_and_put_back_if_nothing_f
     old.mkdir()
     (old / MARKER).write_text(json.dumps({"kind": "simulate", "inputs": ["/x/frame.ifc"], "written": "yesterday"}))
     (old / "report.json").write_text("{}")
-    before = _snapshot(old)
+    before = snapshot(old)
     with pytest.raises(RuntimeError):
         with benchmark_folder(old):
             raise RuntimeError("no run finished")
     assert "bimrobot: replacing " in capsys.readouterr().err
-    assert _snapshot(old) == before and sorted(p.name for p in tmp_path.iterdir()) == ["out"]
+    assert snapshot(old) == before and sorted(p.name for p in tmp_path.iterdir()) == ["out"]
     with pytest.raises(RuntimeError):
         with benchmark_folder(old) as folder:
             _finish_a_run(folder)

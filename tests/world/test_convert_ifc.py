@@ -13,6 +13,7 @@ from bimrobot.bim import examples
 from bimrobot.cli import main
 from bimrobot.world.check import problems, read_models, sdf_validator, validate_sdf
 from bimrobot.world.package import GENERIC_SITE_NAMES, ConvertOptions, convert
+from output_checks import snapshot
 
 SHARED_IFC = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "ifc"
 
@@ -187,10 +188,6 @@ def test_cli_refuses_an_impossible_density(tmp_path, cli, option):
     assert not (tmp_path / "out_pkg").exists()
 
 
-def _snapshot(folder: Path) -> dict[str, bytes]:
-    return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
-
-
 @pytest.mark.parametrize(
     "output, message",
     [
@@ -210,11 +207,11 @@ def test_cli_refuses_outputs_that_would_destroy_data_and_leaves_them_byte_for_by
     (project / "notes").mkdir()
     (project / "notes" / "thesis.txt").write_text("precious")
     (project / "linked").symlink_to(project / "notes")
-    before = _snapshot(tmp_path)
+    before = snapshot(tmp_path)
     status, out, err = cli("convert", "frame.ifc", "-o", output, cwd=project)
     assert status == 2, out
     assert message in err and len(err.strip().splitlines()) == 1
-    assert _snapshot(tmp_path) == before
+    assert snapshot(tmp_path) == before
     assert sorted(p.name for p in project.iterdir()) == ["frame.ifc", "linked", "notes"]
 
 

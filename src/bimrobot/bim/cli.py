@@ -8,7 +8,6 @@ import sys
 from collections import Counter
 from pathlib import Path
 
-from bimrobot.errors import InputError
 
 EXAMPLE_NAMES = ("steel-frame", "greenhouse")
 
