@@ -14,8 +14,9 @@ from pathlib import Path
 
 import pytest
 
-from conftest import SHARED_IFC
 
+#: ../shared/data/ifc beside the repository (as in tests/conftest.py, whose name other conftest files shadow).
+SHARED_IFC = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "ifc"
 SIMULATE = ("--no-progress", "--no-gantt")
 PREBUILT = "IfcFooting,IfcSlab,IfcWall"
 MODELS = sorted(p.name for p in SHARED_IFC.glob("*.ifc*")) if SHARED_IFC.is_dir() else []
