@@ -131,3 +131,30 @@ def test_example_and_its_split_parts_pass_schema_and_express_rules(tmp_path, gre
         logger.addHandler(Collect())
         ifcopenshell.validate.validate(ifcopenshell.open(str(path)), logger, express_rules=True)
         assert messages == [], path.name
+
+
+def test_steel_frame_with_bolts_per_node_has_them_at_columns_and_beams_only(tmp_path, capsys):
+    """Table 4.2's frame: N bolts at each column foot, column top and beam end; no relation at the footings."""
+    from bimrobot.bim import load_model
+    from bimrobot.cli import main
+
+    path = tmp_path / "frame6.ifc"
+    assert main(["example", "steel-frame", "--bolts-per-node", "6", "-o", str(path)]) == 0
+    model = load_model(path)
+    assert model.class_counts()["IfcMechanicalFastener"] == 6 * (4 + 8 + 8)
+    footings = {f.global_id for f in model.by_class("IfcFooting")}
+    assert not any(c.relating_id in footings or c.related_id in footings for c in model.connections)
+    assert all(len(c.realizing_ids) == 6 for c in model.connections)
+
+
+@pytest.mark.parametrize("args, message", [
+    (["steel-frame", "--bolts-per-node", "0"], "--bolts-per-node must be from 1 to 12"),
+    (["greenhouse", "--bolts-per-node", "6"], "applies to the steel-frame example only"),
+])
+def test_bad_bolts_per_node_is_refused_in_one_sentence(tmp_path, capsys, args, message):
+    from bimrobot.cli import main
+
+    assert main(["example", *args, "-o", str(tmp_path / "x.ifc")]) == 2
+    err = capsys.readouterr().err
+    assert message in err and err.count("\n") == 1
+    assert not (tmp_path / "x.ifc").exists()

@@ -22,11 +22,17 @@ def register(subparsers) -> None:
         description="Write one of the thesis' example buildings, authored with IfcOpenShell: "
         "steel-frame (chapter 4: 4 footings, 4 W250x73 columns, 4 W310x38.7 beams, base plates, clip "
         "angles, bolted joints) or greenhouse (chapter 3: 9 foundations, 9 columns, 10 beams).",
-        epilog="examples:\n  bimrobot example steel-frame -o frame.ifc\n  bimrobot example greenhouse -o greenhouse.ifc\n",
+        epilog="examples:\n  bimrobot example steel-frame -o frame.ifc\n  bimrobot example greenhouse -o greenhouse.ifc\n"
+        "  bimrobot example steel-frame --bolts-per-node 6 -o frame6.ifc   # Table 4.2's frame: 20 nodes, 120 bolts\n",
         formatter_class=raw,
     )
     example.add_argument("name", choices=EXAMPLE_NAMES, help="which building")
     example.add_argument("-o", "--output", type=Path, help="IFC file to write (default: <name>.ifc)")
+    example.add_argument(
+        "--bolts-per-node", type=int, metavar="N",
+        help="steel-frame only: N bolts (1 to 12) at every column and beam node and none at the footings "
+        "(the thesis' Table 4.2 frame has 6)",
+    )
     example.set_defaults(func=_example)
 
     inspect = subparsers.add_parser(
@@ -91,9 +97,20 @@ def _example(args) -> int:
     from bimrobot.bim.examples import EXAMPLES
     from bimrobot.world.names import printable
 
+    from bimrobot.bim.examples import MAX_BOLTS_PER_NODE
+    from bimrobot.errors import InputError
+
     output = args.output or Path(f"{args.name}.ifc")
+    bolts = getattr(args, "bolts_per_node", None)
+    if bolts is not None and args.name != "steel-frame":
+        raise InputError(f"--bolts-per-node applies to the steel-frame example only, not to {args.name}")
+    if bolts is not None and not 1 <= bolts <= MAX_BOLTS_PER_NODE:
+        raise InputError(f"--bolts-per-node must be from 1 to {MAX_BOLTS_PER_NODE}, got {bolts}")
     io.check_output(output, folder=False)
-    EXAMPLES[args.name](output)
+    if bolts is None:
+        EXAMPLES[args.name](output)
+    else:
+        EXAMPLES[args.name](output, bolts_per_node=bolts)
     print(f"wrote {printable(str(output))} ({args.name}, IFC4, metres); see what it holds with: bimrobot inspect {printable(str(output))}")
     return 0
 

@@ -276,8 +276,28 @@ def _beam(author: _Author, name: str, storey, start, direction, section: ISectio
     return beam
 
 
-def steel_frame(path: str | Path) -> Path:
-    """Write the thesis' chapter-4 steel frame to ``path`` (IFC4, metres) and return the path."""
+#: Most bolts per connection node ``steel_frame(bolts_per_node=...)`` accepts (they must fit a clip angle).
+MAX_BOLTS_PER_NODE = 12
+
+
+def steel_frame(path: str | Path, bolts_per_node: int | None = None) -> Path:
+    """Write the thesis' chapter-4 steel frame to ``path`` (IFC4, metres) and return the path.
+
+    ``bolts_per_node``: None (default) gives the frame as detailed above (4 anchor bolts per footing, 4
+    per column foot, 2 per clip angle side). A number N (1 to 12) gives the thesis' Table 4.2 variant
+    (l.3870-3876: six bolts at every node of a column or beam): N bolts at each column foot (base plate
+    -> column), N at each column top (column -> clip angle) and N at each beam end (clip angle -> beam),
+    none at the footings: the base plates stand on anchors cast into the footings, work of others, so
+    no relation joins a footing (footings carry no robot work, thesis l.4709). With N = 6 the frame has
+    the 20 nodes and 120 assembly points of Table 4.2.
+    """
+    from bimrobot.errors import InputError
+
+    if bolts_per_node is not None and (
+        isinstance(bolts_per_node, bool) or not isinstance(bolts_per_node, int)
+        or not 1 <= bolts_per_node <= MAX_BOLTS_PER_NODE
+    ):
+        raise InputError(f"bolts per node must be a whole number from 1 to {MAX_BOLTS_PER_NODE}, got {bolts_per_node!r}")
     author = _Author("Chapter 4 steel frame", "Construction site")
     level_1 = author.storey("Level 1", 0.0)
     plate_thickness = BASE_PLATE_SIZE[2]
@@ -298,17 +318,21 @@ def steel_frame(path: str | Path) -> Path:
         column = _column(author, f"Column C{index}", level_1, x, y, column_base, W250X73, COLUMN_LENGTH, COLUMN_WEIGHT)
         columns.append(column)
 
-        # Anchor bolts through the plate corners into the footing.
-        anchors = [
-            _bolt(author, f"Anchor bolt P{index}-{k}", level_1, _translation(x + dx, y + dy, -0.32), 0.40)
-            for k, (dx, dy) in enumerate([(-0.15, -0.15), (0.15, -0.15), (0.15, 0.15), (-0.15, 0.15)], start=1)
-        ]
-        author.connect(f"F{index}-P{index}", footing, plate, anchors)
-        # Column bolts through the plate, just inside the column flanges.
         inner = W250X73.depth / 2 - W250X73.flange - BOLT_DIAMETER / 2 - 0.0003
+        if bolts_per_node is None:
+            # Anchor bolts through the plate corners into the footing.
+            anchors = [
+                _bolt(author, f"Anchor bolt P{index}-{k}", level_1, _translation(x + dx, y + dy, -0.32), 0.40)
+                for k, (dx, dy) in enumerate([(-0.15, -0.15), (0.15, -0.15), (0.15, 0.15), (-0.15, 0.15)], start=1)
+            ]
+            author.connect(f"F{index}-P{index}", footing, plate, anchors)
+            # Column bolts through the plate, just inside the column flanges.
+            offsets = [(-0.06, -inner), (0.06, -inner), (0.06, inner), (-0.06, inner)]
+        else:
+            offsets = [(dx, dy) for dx, dy in _two_rows(bolts_per_node, -0.09, 0.09, -inner, inner)]
         column_bolts = [
             _bolt(author, f"Column bolt C{index}-{k}", level_1, _translation(x + dx, y + dy, -0.005), 0.10)
-            for k, (dx, dy) in enumerate([(-0.06, -inner), (0.06, -inner), (0.06, inner), (-0.06, inner)], start=1)
+            for k, (dx, dy) in enumerate(offsets, start=1)
         ]
         author.connect(f"P{index}-C{index}", plate, column, column_bolts)
 
@@ -329,15 +353,25 @@ def steel_frame(path: str | Path) -> Path:
         for end, column_index, into_beam in [("a", start_index, direction), ("b", end_index, -direction)]:
             joint_origin = np.r_[corners[column_index], 0.0] + into_beam * face
             _clip_angle_joint(author, f"{label}{end}", level_2, columns[column_index], beam,
-                              _frame(joint_origin, into_beam), beam_axis_z)
-    return author.write(path, "steel-frame")
+                              _frame(joint_origin, into_beam), beam_axis_z, bolts_per_node)
+    return author.write(path, "steel-frame" if bolts_per_node is None else f"steel-frame, {bolts_per_node} bolts per node")
 
 
-def _clip_angle_joint(author: _Author, label: str, storey, column, beam, joint: np.ndarray, beam_axis_z: float) -> None:
+def _two_rows(count: int, low: float, high: float, row_a: float, row_b: float) -> list[tuple[float, float]]:
+    """``count`` bolt positions (metres) in two rows (``row_a``, ``row_b``), spread from ``low`` to ``high``."""
+    per_row = (count + 1) // 2
+    along = np.linspace(low, high, per_row) if per_row > 1 else np.array([(low + high) / 2])
+    positions = [(float(a), row_a) for a in along] + [(float(a), row_b) for a in along]
+    return positions[:count]
+
+
+def _clip_angle_joint(author: _Author, label: str, storey, column, beam, joint: np.ndarray, beam_axis_z: float,
+                      bolts_per_node: int | None = None) -> None:
     """One clip angle bolting a beam end to a column face.
 
     ``joint``: frame on the column face at z = 0, x pointing into the beam, y horizontal, z up. The angle's
     heel sits on the face beside the beam web; one leg lies on the column face, the other on the web.
+    ``bolts_per_node``: bolts through each leg (default 2, in one row).
     """
     leg_y, leg_x, thickness, length = CLIP_ANGLE
     half_web = W310X38_7.web / 2
@@ -352,12 +386,17 @@ def _clip_angle_joint(author: _Author, label: str, storey, column, beam, joint: 
 
     column_bolts = []
     beam_bolts = []
-    for k, dz in enumerate((-0.05, 0.05), start=1):
+    if bolts_per_node is None:
+        layout = [(dz, 0.055, 0.06) for dz in (-0.05, 0.05)]  # (height, offset on the column leg, on the web leg)
+    else:
+        layout = [(dz, 0.035 if row < 0 else 0.070, 0.040 if row < 0 else 0.070)
+                  for dz, row in _two_rows(bolts_per_node, -0.08, 0.08, -1.0, 1.0)]
+    for k, (dz, on_column_leg, on_web_leg) in enumerate(layout, start=1):
         # Through the angle leg and the column web/flange, along joint x.
-        to_column = _frame((-0.02, half_web + 0.055, beam_axis_z + dz), (0, 1, 0), (1, 0, 0))
+        to_column = _frame((-0.02, half_web + on_column_leg, beam_axis_z + dz), (0, 1, 0), (1, 0, 0))
         column_bolts.append(_bolt(author, f"Clip bolt {label}-C{k}", storey, joint @ to_column, 0.05))
         # Through the beam web and the other angle leg, along joint y.
-        to_beam = _frame((0.06, -0.01, beam_axis_z + dz), (1, 0, 0), (0, 1, 0))
+        to_beam = _frame((on_web_leg, -0.01, beam_axis_z + dz), (1, 0, 0), (0, 1, 0))
         beam_bolts.append(_bolt(author, f"Clip bolt {label}-B{k}", storey, joint @ to_beam, 0.04))
     author.connect(f"{label}-column", column, angle, column_bolts)
     author.connect(f"{label}-beam", angle, beam, beam_bolts)

@@ -12,6 +12,10 @@ from bimrobot.errors import InputError
 SIMULATE_EXAMPLES = """examples:
   bimrobot example steel-frame -o frame.ifc
   bimrobot simulate frame.ifc --fleet fleet2 -o sim/
+  bimrobot simulate frame.ifc --fleet fleet2 --per-node -o sim_nodes/   # positioning and assembly per node
+  bimrobot example steel-frame --bolts-per-node 6 -o frame6.ifc
+  bimrobot simulate frame6.ifc --fleet fleet1 --mode thesis -o table42/  # the thesis' step loop (Table 4.2)
+  bimrobot simulate frame6.ifc --fleet fleet2 --mode thesis --step-time phase -o table42_phase/
   bimrobot simulate frame.ifc --fleet my_fleet.yaml --site site.yaml --evaluator quickest-finish -o sim/
   bimrobot simulate frame.ifc --fleet fleet2 --breakdown AssemblyRobot32@600 -o sim_fault/
   bimrobot simulate frame.ifc --fleet fleet1 --breakdown AssemblyRobot31@600+900 -o sim_repair/
@@ -19,6 +23,9 @@ SIMULATE_EXAMPLES = """examples:
   bimrobot simulate house.ifc --fleet site-crane --prebuilt IfcFooting,IfcSlab,IfcWall -o house_sim/
   bimrobot simulate precast.ifc --fleet site-crane -o units/                 # one component per IfcElementAssembly
   bimrobot simulate precast.ifc --fleet site-crane --by-element -o parts/   # every element on its own
+
+--mode thesis writes events.log (Listing 4.2), robots.txt / robots.csv (Table 4.2, with the thesis'
+figures on the chapter-4 frame), requests.csv (every request and its ACC / RCC rule) and summary.json.
 
 output (in the -o folder): events.log (Listing 4.2 style), events.jsonl, robots.csv / robots.txt
 (per robot: steps, busy time, utilisation), summary.json (makespan, steps, utilisation), states.json
@@ -133,6 +140,22 @@ def register(subparsers) -> None:
     simulate.add_argument("--breakdown", type=_breakdown, action="append", default=[], metavar="ROBOT@SECONDS[+REPAIR]", help="the robot breaks down at that time, for good or for REPAIR seconds (repeatable)")
     simulate.add_argument("--no-gantt", action="store_true", help="skip the Gantt chart (faster on big buildings)")
     simulate.add_argument("--no-progress", action="store_true", help="no progress bar")
+    simulate.add_argument(
+        "--mode", choices=("event", "thesis"), default="event",
+        help="event (default): SimPy discrete-event simulation, how fast the fleet can build; thesis: the "
+        "thesis' step-synchronous loop (Listing 4.1), per-node tasks, to compare with its Table 4.2",
+    )
+    simulate.add_argument(
+        "--per-node", action="store_true",
+        help="event mode: position and assemble each connection node as its own task, released as in the "
+        "thesis (a node once its joint's components have arrived); --mode thesis always works per node",
+    )
+    simulate.add_argument(
+        "--step-time", choices=("awarded", "finished", "phase", "per-kind"), default=None,
+        help="--mode thesis only: how one step's time is formed: the longest task awarded in the step "
+        "(default, Listing 4.2's 'total work time'), finished in it, the longest phase, or the longest "
+        "task awarded per kind summed over kinds; every rule's total is printed",
+    )
     simulate.set_defaults(func=run_simulate)
 
     allocators = subparsers.add_parser(
@@ -226,11 +249,16 @@ def run_simulate(args) -> int:
 
     from tqdm import tqdm
 
+    if args.mode == "thesis":
+        return run_thesis(args)
+    if args.step_time is not None:
+        raise InputError("--step-time applies to --mode thesis only (the event mode times every task as it happens)")
     model, elevations, fleet, site, weights, smart_model = _prepare(args)
     smart = smart_model()
     to_build = sum(1 for c in smart.components.values() if not c.prebuilt)
     with tqdm(total=to_build, desc="components assembled", unit="", disable=True if args.no_progress else None, leave=False) as bar:
-        result = simulate(smart, fleet, site, args.evaluator, args.seed, args.breakdown, elevations, on_assembled=lambda _: bar.update(1))
+        result = simulate(smart, fleet, site, args.evaluator, args.seed, args.breakdown, elevations,
+                          on_assembled=lambda _: bar.update(1), per_node=args.per_node)
     with atomic_output_dir(args.output, kind="simulate", inputs=_inputs(args)) as tmp:
         write_outputs(result, tmp, gantt=not args.no_gantt, unknown_weight=weights.as_dict())
     info = smart.summary()
@@ -257,6 +285,35 @@ def run_simulate(args) -> int:
     print(format_robot_table(result))
     print(f"output: {Path(args.output).resolve()}/ (events.log, events.jsonl, robots.csv, summary.json, states.json, schedule.csv"
           f"{'' if args.no_gantt else ', gantt.png'})")
+    return 0
+
+
+def run_thesis(args) -> int:
+    """``simulate --mode thesis``: the thesis' step loop, Table 4.2 and Listing 4.2 outputs."""
+    from bimrobot.coordination.thesis import DEFAULT_STEP_TIME, format_thesis_table, simulate_thesis, write_thesis_outputs
+    from bimrobot.io import atomic_output_dir
+
+    if args.breakdown:
+        raise InputError("--breakdown is not available with --mode thesis (the thesis' loop has no faults); use --mode event")
+    if args.evaluator != "least-cost":
+        raise InputError(f"--mode thesis awards to the lowest bid (least-cost) only, got --evaluator {args.evaluator}")
+    step_time = args.step_time or DEFAULT_STEP_TIME
+    model, elevations, fleet, site, weights, smart_model = _prepare(args)
+    smart = smart_model()
+    result = simulate_thesis(smart, fleet, site, step_time, elevations)
+    with atomic_output_dir(args.output, kind="simulate", inputs=_inputs(args)) as tmp:
+        write_thesis_outputs(result, tmp, unknown_weight=weights.as_dict(), smart_summary=smart.summary())
+    message = weights.message()
+    if message:
+        print(message)
+    info = smart.summary()
+    print(f"{len(smart.components)} components ({len(info['prebuilt'])} prebuilt), {info['connection_nodes']} connection "
+          f"nodes, {info['assembly_points']} assembly points")
+    default = " (default)" if args.step_time is None else ""
+    print(f"fleet {fleet.name}, thesis step loop: {result.steps} steps, construction time {result.construction_time:.1f} s "
+          f"(step time rule: {step_time}{default})")
+    print(format_thesis_table(result))
+    print(f"output: {Path(args.output).resolve()}/ (events.log, robots.txt, robots.csv, requests.csv, summary.json)")
     return 0
 
 

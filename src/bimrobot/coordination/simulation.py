@@ -124,6 +124,11 @@ class SimulationResult:
         return robot.busy_time / self.makespan if self.makespan > 0 else 0.0
 
 
+def gid_on_site(component: Component, later: set[str]) -> bool:
+    """A prebuilt component on site from the start (not one made once what it rests on is placed)."""
+    return component.prebuilt and component.id not in later
+
+
 def _storey_base(z: float, elevations: list[float]) -> float:
     """Elevation of the floor a robot stands on to work at height z (highest storey at or below z)."""
     below = [e for e in elevations if e <= z + 1e-6]
@@ -138,6 +143,11 @@ class ConstructionSimulation:
     is back in the market after the repair. ``storey_elevations``: metres, to compute the
     reach a node needs (height above the floor the robot stands on); defaults to ground level 0.
     ``on_assembled``: called with the component id whenever a component becomes Assembled (progress).
+    ``per_node``: positioning and assembly are tasks per connection node (thesis l.4214-4218), as in the
+    thesis' loop: a node asks to be positioned once its component and its joint partners have arrived
+    (ACC), to be assembled once its position is fixed; a component carries others once one of its nodes
+    is fixed; nodes of prebuilt components are work of others. Default False: positioning per
+    component, assembly per joint.
     Raises InputError before simulating when a component cannot be handled by any robot of the fleet.
     """
 
@@ -151,8 +161,10 @@ class ConstructionSimulation:
         breakdowns: list[tuple] | tuple = (),
         storey_elevations: list[float] | None = None,
         on_assembled=None,
+        per_node: bool = False,
     ):
         self.smart = smart
+        self.per_node = per_node
         self.on_assembled = on_assembled
         self.fleet = fleet
         self.site = site or default_site()
@@ -209,7 +221,21 @@ class ConstructionSimulation:
         z = float(joint.position[2])
         return z - _storey_base(z, self.elevations)
 
-    def _request(self, activity: str, component: Component, joint: Joint | None = None) -> TaskRequest:
+    def _request(self, activity: str, component: Component, joint: Joint | None = None, node=None) -> TaskRequest:
+        """The task request for ``activity``; with ``node`` a per-node positioning or assembly task."""
+        if node is not None:
+            request = self._request(activity, component, self.smart.joints[node.joint_id] if activity == "assemble" else None)
+            request.start = request.end = self.site_xy(node.position)
+            request.node_ids = (node.id,)
+            request.floor = node.level
+            z = float(node.position[2])
+            request.reach_needed = z - _storey_base(z, self.elevations)
+            if activity == "position":
+                request.nodes = 1
+            else:
+                request.points = node.assembly_point_number
+                request.methods = frozenset({node.assembly_method})
+            return request
         if activity == "transport":
             start, end = self.yard_of[component.id], self.site_xy(component.target_position)
         elif activity == "position":
@@ -386,8 +412,19 @@ class ConstructionSimulation:
             for s in supporters:
                 self.dependants.setdefault(s, []).append(gid)
         self.open_on_floor = [0] * len(self.smart.floors)
-        for joint in self._joints_to_build():
-            self.open_on_floor[joint.floor] += 1
+        self.node_position_activity: dict[str, str] = {}
+        self.transport_activity: dict[str, str] = {}
+        self.node_position_published: set[str] = set()
+        if self.per_node:
+            for component in components.values():
+                if component.prebuilt and gid_on_site(component, later):
+                    self._prebuilt_nodes_done(component)
+            for node in self.smart.nodes.values():
+                if not components[node.component_id].prebuilt and node.state != State.ASSEMBLED:
+                    self.open_on_floor[node.level] += 1
+        else:
+            for joint in self._joints_to_build():
+                self.open_on_floor[joint.floor] += 1
         for component in components.values():
             if not component.connection_nodes and not component.prebuilt:
                 self.open_on_floor[component.floor] += 1
@@ -396,7 +433,7 @@ class ConstructionSimulation:
         for gid, missing in self.missing_supporters.items():
             if missing == 0 and gid not in later:
                 self.ready_by_floor.setdefault(components[gid].floor, []).append(gid)
-        for joint in self._joints_to_build():  # e.g. a footing joint made of prebuilt parts only
+        for joint in self._joints_to_build() if not self.per_node else ():  # e.g. a footing joint of prebuilt parts only
             self._maybe_publish_assembly(joint)
         self._open_floor(0)
         for robot, when, repair in self.breakdowns:
@@ -464,8 +501,8 @@ class ConstructionSimulation:
             if component.state == State.ASSEMBLED and self.on_assembled is not None:
                 self.on_assembled(component.id)
 
-    def _publish(self, activity: str, component: Component, joint: Joint | None = None, predecessors=()) -> None:
-        request = self._request(activity, component, joint)
+    def _publish(self, activity: str, component: Component, joint: Joint | None = None, predecessors=(), node=None) -> None:
+        request = self._request(activity, component, joint, node)
         self.sequence += 1
         request.priority = (request.floor, ACTIVITY_RANK[activity], round(component.bottom_z, 3), self.sequence)
         request.id = f"R{self.sequence:05d}"
@@ -478,6 +515,7 @@ class ConstructionSimulation:
             activity=activity,
             component=component.id,
             joint=joint.id if joint else None,
+            node=node.id if node is not None else None,
             requirement=str({"transport": "NeedToTransfer", "position": "NeedToPosition", "assemble": "NeedToAssemble"}[activity]),
         )
         self._request_dispatch()
@@ -701,7 +739,10 @@ class ConstructionSimulation:
                 component.position = np.array([*request.end, component.target_position[2]])
                 robot.stats.handling_time += spec.load_time + spec.unload_time
             elif request.activity == "position":
-                component.start_positioning()
+                if request.node_ids:  # per node
+                    self._node_step(self.smart.nodes[request.node_ids[0]], Event.START_POSITIONING)
+                else:
+                    component.start_positioning()
                 self._note_state(component)
                 duration = max(1, request.nodes) * spec.time_per_node
                 yield self.env.timeout(duration)
@@ -709,9 +750,7 @@ class ConstructionSimulation:
             else:
                 nodes = [self.smart.nodes[n] for n in request.node_ids]
                 for node in nodes:
-                    owner = self.smart.components[node.component_id]
-                    owner.node_event(node, Event.START_ASSEMBLY)
-                    self._note_state(owner)
+                    self._node_step(node, Event.START_ASSEMBLY)
                 node_windows = []
                 for node in nodes:
                     begin = self.env.now
@@ -750,10 +789,19 @@ class ConstructionSimulation:
         activity = self._record("transport", component, f"Transport {component.id}", name, started, request.predecessors)
         component.publish_positioning()
         self._note_state(component)
+        if self.per_node and component.connection_nodes:
+            self.transport_activity[component.id] = activity.id
+            for joint in self.smart.joints_of(component.id):
+                for node_id in joint.node_ids:
+                    self._maybe_publish_node_positioning(self.smart.nodes[node_id])
+            return
         self._publish("position", component, predecessors=[activity.id])
 
     def _finish_positioning(self, robot: _Robot, request: TaskRequest, started: float) -> None:
         component, name = self.smart.components[request.component_id], robot.spec.name
+        if request.node_ids:
+            self._finish_node_positioning(robot, request, started)
+            return
         component.finish_positioning()
         self._note_state(component)
         self._say(f"Component: {component.id} position is fixed, {name} is free for next work")
@@ -763,8 +811,8 @@ class ConstructionSimulation:
             self.open_on_floor[component.floor] -= 1
         self._position_fixed(component)
 
-    def _position_fixed(self, component: Component) -> None:
-        """``component`` stands in place: release what it carries and the joints it completes."""
+    def _position_fixed(self, component: Component, joints: bool = True) -> None:
+        """``component`` stands in place: release what it carries and (``joints``) the joints it completes."""
         for dependant in self.dependants.get(component.id, []):  # components it carries
             if dependant not in self.missing_supporters:
                 continue  # prebuilt and on site from the start
@@ -778,7 +826,7 @@ class ConstructionSimulation:
                     self._publish_transport(dependant)
                 else:
                     self.ready_by_floor.setdefault(carried.floor, []).append(dependant)
-        for node in component.connection_nodes:
+        for node in component.connection_nodes if joints and not self.per_node else ():
             self._maybe_publish_assembly(self.smart.joints[node.joint_id])
 
     def _prebuilt_in_place(self, component: Component) -> None:
@@ -786,7 +834,7 @@ class ConstructionSimulation:
         component.state = State.POSITION_FIXED
         for node in component.connection_nodes:
             if node.state != State.ASSEMBLED:
-                node.state = State.POSITION_FIXED
+                node.state = State.ASSEMBLED if self.per_node else State.POSITION_FIXED
         if all(node.state == State.ASSEMBLED for node in component.connection_nodes):
             component.state = State.ASSEMBLED
         self._note_state(component)
@@ -807,14 +855,64 @@ class ConstructionSimulation:
         previous = None
         for node, begin, end in node_windows:
             owner = self.smart.components[node.component_id]
-            owner.node_event(node, Event.FINISH_ASSEMBLY)
-            self._note_state(owner)
+            self._node_step(node, Event.FINISH_ASSEMBLY)
+            if self.per_node:
+                self.open_on_floor[node.level] -= 1
             row_start = started if previous is None else begin
             predecessors = tuple(request.predecessors) + ((previous,) if previous else ())
             activity = self._record("assemble", owner, f"Assemble {node.id}", name, row_start, predecessors, finish=end)
             previous = activity.id
-        self._say(f"Nodes: {' and '.join(joint.node_ids)} are assembled, {name} is free for next work")
-        self.open_on_floor[joint.floor] -= 1
+        self._say(f"Nodes: {' and '.join(request.node_ids)} are assembled, {name} is free for next work")
+        if not self.per_node:
+            self.open_on_floor[joint.floor] -= 1
+
+    # ---------------------------------------------------------------- per-node work
+    def _node_step(self, node, event: Event) -> None:
+        """Apply ``event`` to one node and update its component (per node: the component follows its nodes)."""
+        owner = self.smart.components[node.component_id]
+        if self.per_node:
+            node.update_state(event)
+            owner.sync_from_nodes()
+        else:
+            owner.node_event(node, event)
+        self._note_state(owner)
+
+    def _prebuilt_nodes_done(self, component: Component) -> None:
+        """Per node: the nodes of a prebuilt component are work of others (as the footings in Table 4.2)."""
+        for node in component.connection_nodes:
+            node.state = State.ASSEMBLED
+        component.state = State.ASSEMBLED
+        self.history[component.id].append((0.0, str(State.ASSEMBLED)))
+
+    def _maybe_publish_node_positioning(self, node) -> None:
+        """Per node: position ``node`` once its component and every partner of its joint have arrived (ACC)."""
+        component = self.smart.components[node.component_id]
+        if node.id in self.node_position_published or component.prebuilt or not at_least(component.state, State.ARRIVED):
+            return
+        partners = [self.smart.components[p] for p in self.smart.joints[node.joint_id].component_ids if p != component.id]
+        if not all(p.prebuilt or at_least(p.state, State.ARRIVED) for p in partners):
+            return
+        self.node_position_published.add(node.id)
+        names = ", ".join(p.id for p in partners)
+        self._say(f"Node: {node.id} asks to be positioned: its connection components have arrived (ACC){': ' + names if names else ''}")
+        predecessors = [self.transport_activity.get(c.id) for c in (component, *partners)]
+        self._publish("position", component, predecessors=predecessors, node=node)
+
+    def _finish_node_positioning(self, robot: _Robot, request: TaskRequest, started: float) -> None:
+        """Per node: the node's position is fixed; it asks to be assembled; the first fixed node lets the
+        component carry what rests on it."""
+        component, name = self.smart.components[request.component_id], robot.spec.name
+        node = self.smart.nodes[request.node_ids[0]]
+        self._node_step(node, Event.FINISH_POSITIONING)
+        self._say(f"Node: {node.id} position is fixed, {name} is free for next work")
+        activity = self._record("position", component, f"Position {node.id}", name, started, request.predecessors)
+        self.node_position_activity[node.id] = activity.id
+        first = component.id not in self.position_activity
+        self.position_activity[component.id] = self.position_activity.get(component.id, ()) + (activity.id,)
+        self._node_step(node, Event.PUBLISH_ASSEMBLY)
+        self._publish("assemble", component, self.smart.joints[node.joint_id], predecessors=[activity.id], node=node)
+        if first:
+            self._position_fixed(component, joints=False)
 
     def _record(self, activity, component, name, robot, start, predecessors, finish=None, aborted=False) -> Activity:
         self.activity_counter += 1
@@ -876,15 +974,17 @@ class ConstructionSimulation:
             component.update_state(Event.ABORT)
             component.position = np.array([robot.position[0], robot.position[1], 0.0])
             self.yard_of[component.id] = robot.position.copy()  # picked up again where it was dropped
+        elif request.activity == "position" and request.node_ids:
+            node = self.smart.nodes[request.node_ids[0]]
+            if node.state == State.WORKING_IN_POSITIONING:
+                self._node_step(node, Event.ABORT)
         elif request.activity == "position" and component.state == State.WORKING_IN_POSITIONING:
             component.abort_positioning()
         elif request.activity == "assemble":
             for node_id in request.node_ids:
                 node = self.smart.nodes[node_id]
                 if node.state == State.WORKING_IN_ASSEMBLY:
-                    owner = self.smart.components[node.component_id]
-                    owner.node_event(node, Event.ABORT)
-                    self._note_state(owner)
+                    self._node_step(node, Event.ABORT)
                 elif node.state == State.ASSEMBLED:
                     continue
         self._note_state(component)
@@ -919,6 +1019,7 @@ def simulate(
     breakdowns=(),
     storey_elevations: list[float] | None = None,
     on_assembled=None,
+    per_node: bool = False,
 ) -> SimulationResult:
     """Run one build; see :class:`ConstructionSimulation`."""
-    return ConstructionSimulation(smart, fleet, site, evaluator, seed, breakdowns, storey_elevations, on_assembled).run()
+    return ConstructionSimulation(smart, fleet, site, evaluator, seed, breakdowns, storey_elevations, on_assembled, per_node).run()

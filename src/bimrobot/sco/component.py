@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from bimrobot.sco.states import Event, Requirement, REQUIREMENT_OF, State, at_least, next_state
+from bimrobot.sco.states import STATE_ORDER, Event, Requirement, REQUIREMENT_OF, State, at_least, next_state
 
 
 @dataclass(eq=False)
@@ -163,6 +163,17 @@ class Component(ConstructionObject):
             self.state = State.WORKING_IN_ASSEMBLY
         elif any(s in (State.WAIT_FOR_ASSEMBLY, State.ASSEMBLED) for s in states):
             self.state = State.WAIT_FOR_ASSEMBLY
+
+    def sync_from_nodes(self) -> None:
+        """Per-node work (thesis l.4214-4218): once arrived, the component is as far as its least advanced node.
+
+        Used when its nodes are positioned and assembled as independent tasks: a column whose foot is
+        bolted while its top nodes wait for the beams is InLocation until they are positioned, and it is
+        Assembled only when every node is. Before arrival (OnYard, InTransit) nothing changes.
+        """
+        if self.prebuilt or not self.connection_nodes or not at_least(self.state, State.ARRIVED):
+            return
+        self.state = min((n.state for n in self.connection_nodes), key=STATE_ORDER.__getitem__)
 
     def node_event(self, node: ConnectionNode, event: Event) -> None:
         """Apply an assembly-phase event to one of this component's nodes and update the component.
