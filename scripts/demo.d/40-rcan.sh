@@ -30,7 +30,6 @@ tail -n 2 "$out/frame.log"
 
 echo
 echo "-- the same schedule in (scaled) real time, killed with SIGKILL once 40 activities are done, then resumed:"
-rm -f "$out/killed.sqlite"*
 "$BIMROBOT" rcan run --schedule "$schedule" --model "$frame" --state-db "$out/killed.sqlite" \
   --time-scale 0.003 -q > /dev/null & pid=$!
 "$VENV/bin/python" - "$out/killed.sqlite" "$pid" <<'PY'
@@ -39,14 +38,19 @@ path, pid = sys.argv[1], int(sys.argv[2])
 deadline = time.monotonic() + 60
 while time.monotonic() < deadline:
     try:
-        done = sqlite3.connect(path).execute("SELECT COUNT(*) FROM activity WHERE status='done'").fetchone()[0]
+        # read-only: a plain connect would create an empty file, which the run then refuses as not its own
+        done = sqlite3.connect(f"file:{path}?mode=ro", uri=True).execute(
+            "SELECT COUNT(*) FROM activity WHERE status='done'").fetchone()[0]
     except sqlite3.OperationalError:
         done = 0
     if done >= 40:
         break
     time.sleep(0.02)
-os.kill(pid, signal.SIGKILL)
-print(f"   killed the run with SIGKILL after {done} activities")
+try:
+    os.kill(pid, signal.SIGKILL)
+    print(f"   killed the run with SIGKILL after {done} activities")
+except ProcessLookupError:
+    sys.exit("   the run ended before it could be killed")
 PY
 wait "$pid" 2>/dev/null || true
 "$BIMROBOT" rcan run --schedule "$schedule" --model "$frame" --state-db "$out/killed.sqlite" -q | tail -n 1
