@@ -69,11 +69,17 @@ def test_simulate_cli_writes_every_output(tmp_path, capsys):
     assert "makespan" in printed and "AssemblyRobot31" in printed
     assert {p.name for p in out.iterdir()} == {
         "events.log", "events.jsonl", "robots.csv", "robots.txt", "summary.json", "states.json", "schedule.csv", "gantt.png",
-        ".bimrobot-output.json",  # the marker that lets a later run replace the folder
+        "requests.csv", ".bimrobot-output.json",  # the marker that lets a later run replace the folder
     }
     summary = json.loads((out / "summary.json").read_text())
     assert summary["fleet"] == "fleet1" and summary["evaluator"] == "least-cost"
     assert summary["smart_components"]["connection_nodes"] == 24
+    # per joint (the default): 8 transports (RCC), 8 positionings once arrived, 12 joints once both sides are fixed
+    assert summary["work"] == "per-joint"
+    assert summary["requests_by_release"] == {"RCC": 8, "Arrived": 8, "PositionFixed": 12}
+    with open(out / "requests.csv") as handle:
+        requests = list(csv.DictReader(handle))
+    assert len(requests) == 28 and all(r["robot"] and r["finished_s"] for r in requests)
     assert (out / "gantt.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     log = (out / "events.log").read_text()
     assert "Start a new construction step, NO.1, in floor 1" in log
@@ -118,7 +124,8 @@ def test_optimal_schedule_bounds_the_market_and_matches_it_on_one_robot_chain(tm
     optimum = solve_optimal(build_smart_model(model), load_fleet("fleet2"), storey_elevations=elevations, time_limit_s=60)
     assert optimum.status == "OPTIMAL" and optimum.tasks == 10
     for evaluator in ("least-cost", "quickest-finish", "greedy-nearest", "random"):
-        market = simulate(build_smart_model(model), load_fleet("fleet2"), evaluator=evaluator, storey_elevations=elevations)
+        # the optimum's task graph is per component / per joint: compare the market on the same tasks
+        market = simulate(build_smart_model(model), load_fleet("fleet2"), evaluator=evaluator, storey_elevations=elevations, per_node=False)
         assert optimum.makespan <= market.makespan + 0.05
     # assembly alone needs 72 bolts between a 60 s and a 30 s robot: at least 72 x 20 s
     assert optimum.makespan >= 72 * 20

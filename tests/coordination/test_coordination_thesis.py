@@ -144,6 +144,7 @@ def test_cli_thesis_mode_writes_table_4_2_and_listing_4_2(frame6_ifc, tmp_path, 
     (["--step-time", "phase"], "--step-time applies to --mode thesis only"),
     (["--mode", "thesis", "--breakdown", "AssemblyRobot31@10"], "--breakdown is not available with --mode thesis"),
     (["--mode", "thesis", "--evaluator", "random"], "least-cost"),
+    (["--mode", "thesis", "--per-joint"], "--per-joint is not available with --mode thesis"),
 ])
 def test_cli_refuses_options_that_do_not_fit_the_mode(frame6_ifc, tmp_path, capsys, args, message):
     assert main(["simulate", str(frame6_ifc), "--fleet", "fleet1", "-o", str(tmp_path / "sim"), "--no-gantt", *args]) == 2
@@ -158,9 +159,13 @@ def _check_per_node_schedule(smart, result):
     assert all(c.state == State.ASSEMBLED for c in smart.components.values())
     done = [a for a in result.activities if not a.aborted]
     work_nodes = {n.id for n in smart.nodes.values() if not smart.components[n.component_id].prebuilt}
-    for activity in ("position", "assemble"):
-        names = sorted(a.name.split(" ", 1)[1] for a in done if a.activity == activity and ":" in a.name)
-        assert names == sorted(work_nodes), activity
+    # a prebuilt node joined to a robot-built one (a footing's anchor bolts) is assembled with it
+    anchors = {n for j in smart.joints.values() if any(m in work_nodes for m in j.node_ids) for n in j.node_ids} - work_nodes
+    names = sorted(a.name.split(" ", 1)[1] for a in done if a.activity == "position" and ":" in a.name)
+    assert names == sorted(work_nodes), "position"
+    names = sorted(a.name.split(" ", 1)[1] for a in done if a.activity == "assemble" and ":" in a.name)
+    assert names == sorted(work_nodes | anchors), "assemble"
+    assert sum(smart.nodes[n].assembly_point_number for n in names) == smart.summary()["assembly_points"]
     by_id = {a.id: a for a in result.activities}
     for a in result.activities:
         assert all(a.start >= by_id[p].finish - 1e-6 for p in a.predecessors)
@@ -241,3 +246,33 @@ def test_event_mode_per_node_builds_any_frame_consistently(nx, ny, floors, per_k
     result = simulate(smart, fleet, evaluator=evaluator, seed=seed, breakdowns=breakdowns,
                       storey_elevations=[s.elevation for s in model.storeys], per_node=True)
     _check_per_node_schedule(smart, result)
+
+
+# ---------------------------------------------------------------- per node (--per-node) and per joint (the default)
+@pytest.mark.parametrize("bolts, fleet, per_node, makespan, steps", [
+    (None, "fleet1", True, 4207.2, 44), (None, "fleet2", True, 1642.4, 38),
+    (6, "fleet1", True, 7567.2, 44), (6, "fleet2", True, 2740.4, 38),
+    (None, "fleet1", False, 4544.0, 24), (None, "fleet2", False, 1812.7, 18),  # per joint, the default
+    (6, "fleet1", False, 7904.0, 24), (6, "fleet2", False, 3077.2, 18),
+])
+def test_default_event_mode_assembles_every_point_of_the_model(tmp_path, bolts, fleet, per_node, makespan, steps):
+    """Every bolt of the chapter-4 frame is some robot's work, the footings' anchor bolts included."""
+    from bimrobot.coordination.simulation import simulate
+
+    model = load_model(steel_frame(tmp_path / "frame.ifc", **({} if bolts is None else {"bolts_per_node": bolts})))
+    smart = build_smart_model(model)
+    kwargs = {"per_node": True} if per_node else {}  # per joint is the default
+    result = simulate(smart, load_fleet(fleet), storey_elevations=[s.elevation for s in model.storeys], **kwargs)
+    assembled = [a.name.split(" ", 1)[1] for a in result.activities if a.activity == "assemble" and not a.aborted]
+    assert sorted(assembled) == sorted(smart.nodes)  # every node once, footing nodes included
+    assert sum(smart.nodes[n].assembly_point_number for n in assembled) == (64 if bolts is None else 120)
+    assert all(n.state == State.ASSEMBLED for n in smart.nodes.values())
+    assert (round(result.makespan, 1), result.steps) == (makespan, steps)
+
+
+def test_cli_per_joint_keeps_the_former_tasks(frame6_ifc, tmp_path, capsys):
+    out = tmp_path / "sim"
+    assert main(["simulate", str(frame6_ifc), "--fleet", "fleet2", "--per-joint", "--no-gantt", "--no-progress", "-o", str(out)]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["work"] == "per-joint" and summary["steps"] == 18
+    assert summary["requests_by_release"] == {"RCC": 8, "Arrived": 8, "PositionFixed": 12}

@@ -12,7 +12,7 @@ from bimrobot.errors import InputError
 SIMULATE_EXAMPLES = """examples:
   bimrobot example steel-frame -o frame.ifc
   bimrobot simulate frame.ifc --fleet fleet2 -o sim/
-  bimrobot simulate frame.ifc --fleet fleet2 --per-node -o sim_nodes/   # positioning and assembly per node
+  bimrobot simulate frame.ifc --fleet fleet2 --per-node -o sim_nodes/   # positioning and assembly per connection node
   bimrobot example steel-frame --bolts-per-node 6 -o frame6.ifc
   bimrobot simulate frame6.ifc --fleet fleet1 --mode thesis -o table42/  # the thesis' step loop (Table 4.2)
   bimrobot simulate frame6.ifc --fleet fleet2 --mode thesis --step-time phase -o table42_phase/
@@ -145,10 +145,17 @@ def register(subparsers) -> None:
         help="event (default): SimPy discrete-event simulation, how fast the fleet can build; thesis: the "
         "thesis' step-synchronous loop (Listing 4.1), per-node tasks, to compare with its Table 4.2",
     )
-    simulate.add_argument(
-        "--per-node", action="store_true",
-        help="event mode: position and assemble each connection node as its own task, released as in the "
-        "thesis (a node once its joint's components have arrived); --mode thesis always works per node",
+    work = simulate.add_mutually_exclusive_group()
+    work.add_argument(
+        "--per-node", dest="per_joint", action="store_const", const=False,
+        help="event mode: position and assemble each connection node as its own task, released "
+        "as in the thesis (a node once its joint's components have arrived; a footing's anchor bolts with the "
+        "column's foot node); --mode thesis always works per node",
+    )
+    work.add_argument(
+        "--per-joint", dest="per_joint", action="store_const", const=True,
+        help="event mode (the default): position each component as one task (all its nodes) and "
+        "assemble each joint as one task (both sides of a connection); RCAN runs these schedules",
     )
     simulate.add_argument(
         "--step-time", choices=("awarded", "finished", "phase", "per-kind"), default=None,
@@ -156,7 +163,7 @@ def register(subparsers) -> None:
         "(default, Listing 4.2's 'total work time'), finished in it, the longest phase, or the longest "
         "task awarded per kind summed over kinds; every rule's total is printed",
     )
-    simulate.set_defaults(func=run_simulate)
+    simulate.set_defaults(func=run_simulate, per_joint=None)  # None: per joint
 
     allocators = subparsers.add_parser(
         "allocators",
@@ -258,7 +265,7 @@ def run_simulate(args) -> int:
     to_build = sum(1 for c in smart.components.values() if not c.prebuilt)
     with tqdm(total=to_build, desc="components assembled", unit="", disable=True if args.no_progress else None, leave=False) as bar:
         result = simulate(smart, fleet, site, args.evaluator, args.seed, args.breakdown, elevations,
-                          on_assembled=lambda _: bar.update(1), per_node=args.per_node)
+                          on_assembled=lambda _: bar.update(1), per_node=args.per_joint is False)
     with atomic_output_dir(args.output, kind="simulate", inputs=_inputs(args)) as tmp:
         write_outputs(result, tmp, gantt=not args.no_gantt, unknown_weight=weights.as_dict())
     info = smart.summary()
@@ -293,6 +300,8 @@ def run_thesis(args) -> int:
     from bimrobot.coordination.thesis import DEFAULT_STEP_TIME, format_thesis_table, simulate_thesis, write_thesis_outputs
     from bimrobot.io import atomic_output_dir
 
+    if args.per_joint:  # None unless given
+        raise InputError("--per-joint is not available with --mode thesis (the thesis' loop works per connection node); use --mode event")
     if args.breakdown:
         raise InputError("--breakdown is not available with --mode thesis (the thesis' loop has no faults); use --mode event")
     if args.evaluator != "least-cost":

@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import csv
+from collections import Counter
 import json
 from pathlib import Path
 
@@ -30,6 +31,22 @@ def robot_table_rows(result: SimulationResult) -> list[dict]:
     return rows
 
 
+def request_rows(result: SimulationResult) -> list[dict]:
+    """One row per task request: what it asks, why it was released (RCC / ACC / Arrived / PositionFixed),
+    when it was published and which robot finished it when (times in s; re-auctioned requests keep their row)."""
+    rows, by_id = [], {}
+    for event in result.events:
+        if event["event"] == "task_request":
+            row = {"request": event["request"], "activity": event["activity"], "component": event["component"],
+                   "node": event.get("node") or "", "joint": event.get("joint") or "", "release": event.get("release", ""),
+                   "published_s": event["time"], "robot": "", "finished_s": ""}
+            rows.append(row)
+            by_id[row["request"]] = row
+        elif event["event"] == "finish" and event.get("request") in by_id:
+            by_id[event["request"]].update(robot=event["robot"], finished_s=event["time"])
+    return rows
+
+
 def summary(result: SimulationResult, unknown_weight: dict | None = None) -> dict:
     """Makespan, steps, utilisation and provenance (JSON-serialisable).
 
@@ -45,6 +62,8 @@ def summary(result: SimulationResult, unknown_weight: dict | None = None) -> dic
         "evaluator": result.evaluator,
         "makespan_s": round(result.makespan, 3),
         "steps": result.steps,
+        "work": "per-node" if result.per_node else "per-joint",
+        "requests_by_release": dict(Counter(r["release"] for r in request_rows(result))),
         "activities": sum(1 for a in result.activities if not a.aborted),
         "aborted_activities": sum(1 for a in result.activities if a.aborted),
         "fleet_utilisation": round(result.utilisation, 4),
@@ -130,7 +149,13 @@ def write_outputs(result: SimulationResult, out_dir: Path, gantt: bool = True, u
         encoding="utf-8",
     )
     write_schedule_csv(result.activities, out_dir / "schedule.csv")
-    paths = [out_dir / n for n in ("events.log", "events.jsonl", "robots.csv", "robots.txt", "summary.json", "states.json", "schedule.csv")]
+    fields = ["request", "activity", "component", "node", "joint", "release", "published_s", "robot", "finished_s"]
+    with open(out_dir / "requests.csv", "w", newline="", encoding="utf-8") as handle:
+        writer = csv.DictWriter(handle, fieldnames=fields)
+        writer.writeheader()
+        writer.writerows(request_rows(result))
+    paths = [out_dir / n for n in ("events.log", "events.jsonl", "robots.csv", "robots.txt", "summary.json", "states.json",
+                                   "schedule.csv", "requests.csv")]
     if gantt:
         plot_gantt(result, out_dir / "gantt.png")
         paths.append(out_dir / "gantt.png")

@@ -111,6 +111,7 @@ class SimulationResult:
     floor_finish: list[float]
     smart_summary: dict
     breakdowns: list[tuple] = field(default_factory=list)
+    per_node: bool = False  # tasks per connection node (--per-node); False: per component / per joint
 
     @property
     def utilisation(self) -> float:
@@ -146,8 +147,10 @@ class ConstructionSimulation:
     ``per_node``: positioning and assembly are tasks per connection node (thesis l.4214-4218), as in the
     thesis' loop: a node asks to be positioned once its component and its joint partners have arrived
     (ACC), to be assembled once its position is fixed; a component carries others once one of its nodes
-    is fixed; nodes of prebuilt components are work of others. Default False: positioning per
-    component, assembly per joint.
+    is fixed. A node of a prebuilt component (a footing's anchor bolts) is assembled with the robot-built
+    node of its joint (the column's foot): that node's assembly task carries both nodes' points and is
+    published once the prebuilt node is in place, so every assembly point is some robot's work. Default
+    True; False (``--per-joint``): positioning per component, assembly per joint.
     Raises InputError before simulating when a component cannot be handled by any robot of the fleet.
     """
 
@@ -227,14 +230,17 @@ class ConstructionSimulation:
             request = self._request(activity, component, self.smart.joints[node.joint_id] if activity == "assemble" else None)
             request.start = request.end = self.site_xy(node.position)
             request.node_ids = (node.id,)
+            if activity == "assemble":  # with the prebuilt nodes of its joint (e.g. a footing's anchor bolts)
+                request.node_ids += tuple(self.attached_nodes.get(node.id, ()))
             request.floor = node.level
             z = float(node.position[2])
             request.reach_needed = z - _storey_base(z, self.elevations)
             if activity == "position":
                 request.nodes = 1
             else:
-                request.points = node.assembly_point_number
-                request.methods = frozenset({node.assembly_method})
+                nodes = [self.smart.nodes[n] for n in request.node_ids]
+                request.points = sum(n.assembly_point_number for n in nodes)
+                request.methods = frozenset(n.assembly_method for n in nodes)
             return request
         if activity == "transport":
             start, end = self.yard_of[component.id], self.site_xy(component.target_position)
@@ -415,12 +421,24 @@ class ConstructionSimulation:
         self.node_position_activity: dict[str, str] = {}
         self.transport_activity: dict[str, str] = {}
         self.node_position_published: set[str] = set()
+        self.node_assembly_published: set[str] = set()
+        self._rests_memo: dict[tuple[str, str], bool] = {}
+        self._anchor_memo: dict[str, bool] = {}
+        # per node: robot-built node -> the prebuilt nodes of its joint assembled with it; and back
+        self.attached_nodes: dict[str, list[str]] = {}
+        self.attached_to: dict[str, str] = {}
         if self.per_node:
+            for joint in self.smart.joints.values():
+                robot_nodes = [n for n in joint.node_ids if not components[self.smart.nodes[n].component_id].prebuilt]
+                for node_id in joint.node_ids:
+                    if robot_nodes and node_id not in robot_nodes and self.smart.nodes[node_id].state != State.ASSEMBLED:
+                        self.attached_nodes.setdefault(robot_nodes[0], []).append(node_id)
+                        self.attached_to[node_id] = robot_nodes[0]
             for component in components.values():
                 if component.prebuilt and gid_on_site(component, later):
                     self._prebuilt_nodes_done(component)
             for node in self.smart.nodes.values():
-                if not components[node.component_id].prebuilt and node.state != State.ASSEMBLED:
+                if (not components[node.component_id].prebuilt or node.id in self.attached_to) and node.state != State.ASSEMBLED:
                     self.open_on_floor[node.level] += 1
         else:
             for joint in self._joints_to_build():
@@ -462,6 +480,7 @@ class ConstructionSimulation:
             floor_finish=self.floor_finish,
             smart_summary=self.smart.summary(),
             breakdowns=self.breakdowns,
+            per_node=self.per_node,
         )
 
     def _number_by_start(self) -> None:
@@ -516,9 +535,21 @@ class ConstructionSimulation:
             component=component.id,
             joint=joint.id if joint else None,
             node=node.id if node is not None else None,
+            release=self._release_rule(activity, node),
             requirement=str({"transport": "NeedToTransfer", "position": "NeedToPosition", "assemble": "NeedToAssemble"}[activity]),
         )
         self._request_dispatch()
+
+    def _release_rule(self, activity: str, node) -> str:
+        """Why a request is released (thesis l.4240-4262): transport of a required connection component
+        (RCC) once what carries it stands; a node's positioning once its arrived connection components
+        (ACC) are all there; per joint, a component's positioning once it has arrived (Arrived); assembly
+        once the position is fixed (PositionFixed)."""
+        if activity == "transport":
+            return "RCC"
+        if activity == "position":
+            return "ACC" if node is not None else "Arrived"
+        return "PositionFixed"
 
     def _open_floor(self, floor: int) -> None:
         """Make ``floor`` current and request the components whose supporters are in place."""
@@ -834,10 +865,14 @@ class ConstructionSimulation:
         component.state = State.POSITION_FIXED
         for node in component.connection_nodes:
             if node.state != State.ASSEMBLED:
-                node.state = State.ASSEMBLED if self.per_node else State.POSITION_FIXED
+                done = self.per_node and node.id not in self.attached_to  # per node: no robot node assembles it
+                node.state = State.ASSEMBLED if done else State.POSITION_FIXED
         if all(node.state == State.ASSEMBLED for node in component.connection_nodes):
             component.state = State.ASSEMBLED
         self._note_state(component)
+        for node in component.connection_nodes:  # per node: the robot-built node it waited for
+            if node.id in self.attached_to:
+                self._maybe_publish_node_assembly(self.smart.nodes[self.attached_to[node.id]])
         supporters = self.smart.supporters[component.id]
         self.position_activity[component.id] = tuple(
             dict.fromkeys(a for s in supporters for a in self.position_activity.get(s, ()))
@@ -870,19 +905,22 @@ class ConstructionSimulation:
     def _node_step(self, node, event: Event) -> None:
         """Apply ``event`` to one node and update its component (per node: the component follows its nodes)."""
         owner = self.smart.components[node.component_id]
-        if self.per_node:
+        if self.per_node and not owner.prebuilt:
             node.update_state(event)
             owner.sync_from_nodes()
-        else:
+        else:  # a prebuilt component's node (per node: assembled with its joint's robot-built node)
             owner.node_event(node, event)
         self._note_state(owner)
 
     def _prebuilt_nodes_done(self, component: Component) -> None:
-        """Per node: the nodes of a prebuilt component are work of others (as the footings in Table 4.2)."""
+        """Per node: a prebuilt component on site has nothing of its own to do (as the footings in Table 4.2);
+        its nodes joined to robot-built ones (anchor bolts) are assembled with those nodes."""
         for node in component.connection_nodes:
-            node.state = State.ASSEMBLED
-        component.state = State.ASSEMBLED
-        self.history[component.id].append((0.0, str(State.ASSEMBLED)))
+            if node.id not in self.attached_to:
+                node.state = State.ASSEMBLED
+        if all(node.state == State.ASSEMBLED for node in component.connection_nodes):
+            component.state = State.ASSEMBLED
+            self.history[component.id].append((0.0, str(State.ASSEMBLED)))
 
     def _maybe_publish_node_positioning(self, node) -> None:
         """Per node: position ``node`` once its component and every partner of its joint have arrived (ACC)."""
@@ -890,6 +928,10 @@ class ConstructionSimulation:
         if node.id in self.node_position_published or component.prebuilt or not at_least(component.state, State.ARRIVED):
             return
         partners = [self.smart.components[p] for p in self.smart.joints[node.joint_id].component_ids if p != component.id]
+        if not self._has_anchor(component):
+            # every node of it waits for something that rests on it: waiting would deadlock, so its nodes
+            # wait only for the partners that can come before it is fixed
+            partners = [p for p in partners if not self._rests_on(p.id, component.id)]
         if not all(p.prebuilt or at_least(p.state, State.ARRIVED) for p in partners):
             return
         self.node_position_published.add(node.id)
@@ -897,6 +939,24 @@ class ConstructionSimulation:
         self._say(f"Node: {node.id} asks to be positioned: its connection components have arrived (ACC){': ' + names if names else ''}")
         predecessors = [self.transport_activity.get(c.id) for c in (component, *partners)]
         self._publish("position", component, predecessors=predecessors, node=node)
+
+    def _rests_on(self, upper: str, lower: str) -> bool:
+        """Does ``upper`` rest on ``lower``, directly or through what it rests on (so it cannot arrive first)?"""
+        key = (upper, lower)
+        if key not in self._rests_memo:
+            supporters = self.smart.supporters.get(upper, ())
+            self._rests_memo[key] = lower in supporters or any(self._rests_on(s, lower) for s in supporters)
+        return self._rests_memo[key]
+
+    def _has_anchor(self, component: Component) -> bool:
+        """Per node: has ``component`` a node whose joint partners do not rest on it (a column's foot)? Once
+        that node is fixed the component carries what rests on it, so its other nodes can wait for those."""
+        if component.id not in self._anchor_memo:
+            self._anchor_memo[component.id] = any(
+                not any(self._rests_on(p, component.id) for p in self.smart.joints[n.joint_id].component_ids if p != component.id)
+                for n in component.connection_nodes
+            )
+        return self._anchor_memo[component.id]
 
     def _finish_node_positioning(self, robot: _Robot, request: TaskRequest, started: float) -> None:
         """Per node: the node's position is fixed; it asks to be assembled; the first fixed node lets the
@@ -909,10 +969,26 @@ class ConstructionSimulation:
         self.node_position_activity[node.id] = activity.id
         first = component.id not in self.position_activity
         self.position_activity[component.id] = self.position_activity.get(component.id, ()) + (activity.id,)
-        self._node_step(node, Event.PUBLISH_ASSEMBLY)
-        self._publish("assemble", component, self.smart.joints[node.joint_id], predecessors=[activity.id], node=node)
         if first:
             self._position_fixed(component, joints=False)
+        self._maybe_publish_node_assembly(node)
+
+    def _maybe_publish_node_assembly(self, node) -> None:
+        """Per node: assemble ``node`` once its position is fixed and the prebuilt nodes assembled with it
+        (a footing's anchors) are in place; the task carries their points too."""
+        if node.id in self.node_assembly_published or node.id not in self.node_position_activity:
+            return
+        attached = [self.smart.nodes[n] for n in self.attached_nodes.get(node.id, ())]
+        if not all(at_least(n.state, State.POSITION_FIXED) for n in attached):
+            return  # a prebuilt component made later is not in place yet
+        self.node_assembly_published.add(node.id)
+        component = self.smart.components[node.component_id]
+        predecessors = [self.node_position_activity[node.id]]
+        for other in attached:
+            self._node_step(other, Event.PUBLISH_ASSEMBLY)
+            predecessors += self.position_activity.get(other.component_id, ())
+        self._node_step(node, Event.PUBLISH_ASSEMBLY)
+        self._publish("assemble", component, self.smart.joints[node.joint_id], predecessors=list(dict.fromkeys(predecessors)), node=node)
 
     def _record(self, activity, component, name, robot, start, predecessors, finish=None, aborted=False) -> Activity:
         self.activity_counter += 1
