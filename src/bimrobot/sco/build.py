@@ -33,6 +33,7 @@ from __future__ import annotations
 import contextlib
 import gc
 import logging
+import dataclasses
 from dataclasses import dataclass, field
 from typing import Callable, Iterable
 
@@ -433,17 +434,8 @@ def assembly_units(model: BuildingModel) -> tuple[BuildingModel, dict[str, str],
             ordered[gid] = element
         elif unit not in ordered:
             ordered[unit] = elements[unit]
-    units = BuildingModel(
-        source=model.source,
-        schema=model.schema,
-        project_name=model.project_name,
-        site_name=model.site_name,
-        units=model.units,
-        storeys=model.storeys,
-        elements=ordered,
-        connections=[],
-        skipped=model.skipped,
-    )
+    # the same model with units in place of their parts; connections are mapped to units by the caller
+    units = dataclasses.replace(model, elements=ordered, connections=[], assemblies={})
     return units, unit_of, parts_of, partial
 
 
