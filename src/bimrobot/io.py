@@ -58,10 +58,19 @@ def has_signature(path: Path) -> bool:
         return False
 
 
+def printable(text: str) -> str:
+    """``text`` with every non-printable character (control characters, line breaks, odd spaces) written
+    as a Python escape (``\\x01``, ``\\n``, ``\\u2028``): safe for a terminal line, a log, an XML text
+    node or attribute (XML 1.0 cannot hold most control characters even escaped). Letters of any
+    script are kept."""
+    if text.isprintable():
+        return text
+    return "".join(c if c.isprintable() else c.encode("unicode_escape", "backslashreplace").decode("ascii") for c in text)
+
+
 def _display(path: str | os.PathLike) -> str:
     """A path as the user gave it, with control characters escaped (they never reach the terminal raw)."""
-    text = os.fspath(path)
-    return text.encode("unicode_escape").decode("ascii") if not text.isprintable() else text
+    return printable(os.fspath(path))
 
 
 def _is_within(path: Path, folder: Path) -> bool:

@@ -8,11 +8,11 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+from bimrobot.io import printable
 from bimrobot.world.names import (
     MAX_NAME_LENGTH,
     global_id_from_safe_name,
     is_shortened,
-    printable,
     ros_package_name,
     safe_name,
 )

@@ -95,7 +95,7 @@ def _progress(args) -> bool:
 def _example(args) -> int:
     from bimrobot import io
     from bimrobot.bim.examples import EXAMPLES
-    from bimrobot.world.names import printable
+    from bimrobot.io import printable
 
     from bimrobot.bim.examples import MAX_BOLTS_PER_NODE
     from bimrobot.errors import InputError
@@ -154,7 +154,7 @@ def _inspect(args) -> int:
 def _split(args) -> int:
     from bimrobot import io
     from bimrobot.bim.split import split_model
-    from bimrobot.world.names import printable
+    from bimrobot.io import printable
 
     io.check_output(args.output, folder=True, inputs=[args.model])  # before reading a large model
     written = split_model(
@@ -247,7 +247,7 @@ def summarize(model) -> dict:
 
 def format_summary(summary: dict) -> str:
     """The human-readable table that ``bimrobot inspect`` prints (names made printable)."""
-    from bimrobot.world.names import printable
+    from bimrobot.io import printable
 
     units = summary["units"]
     lines = [

@@ -170,7 +170,7 @@ def open_ifc(path: str | os.PathLike) -> ifcopenshell.file:
 
 
 def _shown(path) -> str:
-    from bimrobot.world.names import printable
+    from bimrobot.io import printable
 
     return printable(str(path))
 
@@ -498,7 +498,7 @@ def duplicate_global_ids(ifc: ifcopenshell.file) -> dict[str, list]:
 
 def duplicates_message(source, duplicates: dict[str, list], keys: dict[int, str], shown: int = 3) -> str:
     """One line naming the duplicated GlobalIds and their entities, and what bimrobot does about them."""
-    from bimrobot.world.names import printable
+    from bimrobot.io import printable
 
     def entities(found: list) -> str:
         return " and ".join(f"#{e.id()} {e.is_a()}" for e in found)

@@ -54,7 +54,8 @@ from bimrobot.bim.reader import (
 )
 from bimrobot.bim.selection import describe, select_products
 from bimrobot.errors import InputError
-from bimrobot.world.names import printable, safe_name
+from bimrobot.io import printable
+from bimrobot.world.names import safe_name
 
 log = logging.getLogger(__name__)
 

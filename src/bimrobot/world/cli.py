@@ -114,7 +114,7 @@ def convert_command(args: argparse.Namespace) -> int:
 def validate_package(output: Path, report: dict) -> int:
     """Print the package checks; 0 when everything passes, 1 otherwise."""
     from bimrobot.world.check import problems, sdf_validator, validate_sdf
-    from bimrobot.world.names import printable
+    from bimrobot.io import printable
 
     found = problems(output)
     models = len(list((output / "models").iterdir()))
@@ -138,7 +138,7 @@ def validate_package(output: Path, report: dict) -> int:
 
 def summary(report: dict, output: Path) -> str:
     """A few lines saying where the package is and what it holds."""
-    from bimrobot.world.names import printable
+    from bimrobot.io import printable
 
     counts = report["counts"]
     shown = printable(str(output))

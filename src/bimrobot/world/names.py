@@ -102,16 +102,6 @@ def global_id_from_safe_name(name: str) -> str:
     return text
 
 
-def printable(text: str) -> str:
-    """``text`` with every non-printable character (control characters, line breaks, odd spaces) written
-    as a Python escape (``\\x01``, ``\\n``, ``\\u2028``): safe for a terminal line, a log, an XML text
-    node or attribute (XML 1.0 cannot hold most control characters even escaped). Letters of any
-    script are kept."""
-    if text.isprintable():
-        return text
-    return "".join(c if c.isprintable() else c.encode("unicode_escape", "backslashreplace").decode("ascii") for c in text)
-
-
 def slug(text: str, fallback: str = "site") -> str:
     """A short lowercase file name for a human label (site, storey): ``"Level 1"`` -> ``"level_1"``.
 

@@ -35,8 +35,9 @@ from bimrobot import io
 from bimrobot.bim.model import BuildingModel, Element, WeightSource
 from bimrobot.bim.unknown_weight import UnknownWeightRule, UnknownWeights, apply_unknown_weight_rule
 from bimrobot.errors import InputError
+from bimrobot.io import printable
 from bimrobot.world import launch, layout, meshes, navmap, physics, sdf
-from bimrobot.world.names import printable, ros_package_name, safe_name, slug
+from bimrobot.world.names import ros_package_name, safe_name, slug
 
 log = logging.getLogger(__name__)
 

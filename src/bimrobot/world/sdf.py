@@ -19,8 +19,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from bimrobot.io import printable
 from bimrobot.world.layout import format_pose
-from bimrobot.world.names import printable
 
 SIM_VERSION = "1.9"
 CLASSIC_VERSION = "1.6"
