@@ -149,7 +149,7 @@ def _lazy_volume(cache: dict[str, float], key: str, vertices: np.ndarray, faces:
 def open_ifc(path: str | os.PathLike) -> ifcopenshell.file:
     """Open an IFC-SPF file or an ``.ifczip`` holding one; InputError with one sentence when it cannot.
 
-    Messages name the file with control characters escaped (:func:`bimrobot.world.names.printable`).
+    Messages name the file with control characters escaped (:func:`bimrobot.io.printable`).
     """
     path = Path(path)
     shown = _shown(path)

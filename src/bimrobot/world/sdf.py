@@ -43,7 +43,7 @@ class ModelSpec:
 
 def _sub(parent: ET.Element, tag: str, text: str | None = None, **attributes: str) -> ET.Element:
     # XML 1.0 cannot hold most control characters, not even as character references: names and
-    # descriptions from the model are written with them escaped (names.printable).
+    # descriptions from the model are written with them escaped (bimrobot.io.printable).
     child = ET.SubElement(parent, tag, {key: printable(value) for key, value in attributes.items()})
     if text is not None:
         child.text = printable(text)
