@@ -23,10 +23,12 @@ PART_CLIS = [
     "bimrobot.rcan.cli",
     "bimrobot.assembly.cli",
     "bimrobot.rl.cli",
+    "bimrobot.pipeline",
 ]
 
 EPILOG = """examples:
   bimrobot example steel-frame -o frame.ifc      # the thesis' chapter-4 frame, authored with IfcOpenShell
+  bimrobot build frame.ifc -o out/               # the whole pipeline: package, simulation, graph, RCAN run
   bimrobot inspect frame.ifc                     # what the model holds
   bimrobot convert frame.ifc -o frame_pkg/       # a Gazebo package (world, models, launch, maps)
   bimrobot simulate frame.ifc --fleet fleet2 -o sim/

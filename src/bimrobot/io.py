@@ -310,3 +310,72 @@ def atomic_output_file(
         tmp.unlink(missing_ok=True)
         _remove_empty(created)
         raise
+
+
+#: The file that marks an unfinished, resumable output folder (JSON: kind, fingerprint, inputs).
+PARTIAL_MARKER = ".bimrobot-partial.json"
+
+
+def partial_folder(target: str | os.PathLike) -> Path:
+    """Where the unfinished output of a resumable command for ``target`` lives: ``.NAME.partial`` beside it."""
+    path = Path(target).resolve()
+    return path.with_name(f".{path.name}.partial")
+
+
+@contextlib.contextmanager
+def resumable_output_dir(
+    target: str | os.PathLike, *, kind: str, fingerprint: dict, inputs: Iterable = (), option: str = "-o"
+) -> Iterator[tuple[Path, bool]]:
+    """Like :func:`atomic_output_dir`, for long commands that can be resumed after a kill.
+
+    Yields ``(folder, resumed)``. The work goes into :func:`partial_folder`, which survives a SIGKILL or
+    Ctrl-C; the same command run again (same ``fingerprint``: inputs and options) resumes it
+    (``resumed`` True), a different one starts afresh and says so. On success the folder becomes
+    ``target`` as in :func:`atomic_output_dir`; on any other failure it is removed with the parents this
+    call created, so a failed run leaves nothing behind.
+    """
+    inputs = _resolved_inputs(inputs)
+    check_output(target, folder=True, inputs=inputs, option=option)
+    path = Path(target).resolve()
+    staging = partial_folder(target)
+    shown = _display(staging)
+    resumed = False
+    if staging.exists() or staging.is_symlink():
+        if staging.is_symlink() or not staging.is_dir() or not (staging / PARTIAL_MARKER).is_file():
+            raise InputError(f"{option} {_display(target)}: {shown} exists and bimrobot did not write it; move it away (nothing was changed)")
+        try:
+            earlier = json.loads((staging / PARTIAL_MARKER).read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            earlier = {}
+        if earlier.get("fingerprint") == fingerprint:
+            resumed = True
+            print(f"bimrobot: resuming the unfinished {kind} in {shown}", file=sys.stderr)
+        else:
+            print(f"bimrobot: discarding the unfinished {kind} in {shown} (it had other inputs or options)", file=sys.stderr)
+            shutil.rmtree(staging)
+    created: list[Path] = []
+    try:
+        created = _make_parents(path.parent)
+        if not resumed:
+            staging.mkdir()
+            _apply_umask(staging, 0o777)
+            (staging / PARTIAL_MARKER).write_text(json.dumps(
+                {"kind": kind, "fingerprint": fingerprint, "inputs": [str(p) for p in inputs]}, indent=2), encoding="utf-8")
+    except OSError as exc:
+        _remove_empty(created)
+        raise InputError(f"{option} {_display(target)}: cannot write there ({exc.strerror})") from None
+    try:
+        yield staging, resumed
+        (staging / MARKER).write_text(_marker(kind, inputs), encoding="utf-8")
+        replaced = check_output(target, folder=True, inputs=inputs, option=option)
+        if replaced is not None:
+            _announce(target, replaced, True, inputs)
+        _put_folder_in_place(staging, path)
+        (path / PARTIAL_MARKER).unlink()
+    except KeyboardInterrupt:
+        print(f"bimrobot: interrupted; the same command resumes from {shown}", file=sys.stderr)
+        raise
+    except BaseException:
+        shutil.rmtree(staging, ignore_errors=True)
+        _remove_empty(created)
+        raise

@@ -1,4 +1,4 @@
-"""Robot fleets (thesis Table 4.1) and the construction site (fig. 4.11), read from YAML and validated.
+"""Robot fleets (thesis Table 4.1), read from YAML and validated (the site is :mod:`bimrobot.site`).
 
 Units: speed m/s, carry_load and payload kg, platform_size and reach m, times s, positions m (site
 frame, z up). A robot's kind says which construction tasks it can bid for:
@@ -20,15 +20,15 @@ refused before anything is simulated, naming the file, the robot, the key and it
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
 
-import numpy as np
 
 from bimrobot.config import line_of, number, parse_yaml
 from bimrobot.errors import InputError
+from bimrobot.site import Site, default_site, load_site  # noqa: F401 (re-exported: the site once lived here)
+from bimrobot.site import number_in as _number_in, point as _point
 
 ACTIVITIES = ("transport", "position", "assemble")
 KIND_ACTIVITIES = {
@@ -62,10 +62,6 @@ RANGES = {
 }
 #: Platform length and width (m).
 PLATFORM_RANGE_M = (0.0, 100.0)
-#: Site positions (yard, homes, construction area) within this many metres of the site origin; the
-#: model offset may be as large as projected map coordinates (UTM northings reach 1e7 m).
-SITE_COORDINATE_LIMIT_M = 1e6
-OFFSET_LIMIT_M = 2e7
 
 
 @dataclass(frozen=True)
@@ -102,28 +98,6 @@ class Fleet:
 
     def by_activity(self, activity: str) -> list[RobotSpec]:
         return [r for r in self.robots if r.can(activity)]
-
-
-def _number_in(value, label: str, low: float, high: float, unit: str, low_inclusive: bool = False) -> float:
-    """``value`` as a finite float in (low, high] (or [low, high]); ``label`` names file, key and line."""
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise InputError(f"{label} must be a number in {unit}, got {value!r}")
-    if not math.isfinite(value):
-        raise InputError(f"{label} must be a finite number in {unit}, got {value!r}")
-    if (value < low if low_inclusive else value <= low) or value > high:
-        raise InputError(f"{label} must be {'>=' if low_inclusive else '>'} {low:g} and <= {high:g} {unit}, got {value:g}")
-    return float(value)
-
-
-def _point(mapping, key, source: str, where: str = "", limit: float = SITE_COORDINATE_LIMIT_M, item: int | None = None) -> tuple[float, float]:
-    """``mapping[key]`` (or its item ``item``) as [x, y] metres, each within +-``limit``."""
-    shown = key if item is None else f"{key}[{item}]"
-    label = f"{source}{line_of(mapping, key)}: {where + ': ' if where else ''}key '{shown}'"
-    value = mapping[key] if item is None else mapping[key][item]
-    if not isinstance(value, (list, tuple)) or len(value) != 2:
-        raise InputError(f"{label} must be a pair of numbers [x, y] in metres, got {value!r}")
-    x, y = (_number_in(v, label, -limit, limit, "m", low_inclusive=True) for v in value)
-    return (x, y)
 
 
 def _robot(entry, source: str, index: int) -> RobotSpec:
@@ -196,85 +170,3 @@ def load_fleet(spec: str | Path) -> Fleet:
         text = path.read_text()
         source = str(path)
     return fleet_from_dict(parse_yaml(text, source), source)
-
-
-@dataclass(frozen=True)
-class Site:
-    """Where things are on the site (metres, site frame).
-
-    ``yard``: component pick-up positions, used in turn; ``robot_home``: robot start positions, used in
-    turn (a robot's own ``home`` wins); ``construction_area``: [[xmin, ymin], [xmax, ymax]], the building
-    is centred in it unless ``model_offset`` [dx, dy] (model frame -> site frame) is given.
-    ``idle_robots``: "stay" (a robot with nothing to do waits where it finished; default) or "yard" (it
-    drives back to the nearest yard position, as in the thesis, and can be called away on the way).
-    """
-
-    yard: tuple[tuple[float, float], ...]
-    robot_home: tuple[tuple[float, float], ...]
-    construction_area: tuple[tuple[float, float], tuple[float, float]]
-    model_offset: tuple[float, float] | None = None
-    idle_robots: str = "stay"
-    source: str = "default site (thesis fig. 4.11)"
-
-    def offset_for(self, model_min_xy: np.ndarray, model_max_xy: np.ndarray) -> np.ndarray:
-        """Translation (x, y) from the model frame to the site frame, metres."""
-        if self.model_offset is not None:
-            return np.array(self.model_offset, dtype=float)
-        (x0, y0), (x1, y1) = self.construction_area
-        area_centre = np.array([(x0 + x1) / 2, (y0 + y1) / 2])
-        return area_centre - (np.asarray(model_min_xy) + np.asarray(model_max_xy)) / 2
-
-
-def site_from_dict(data, source: str) -> Site:
-    if not isinstance(data, dict):
-        raise InputError(f"{source}: expected a mapping with yard, robot_home and construction_area")
-    allowed = {"yard", "robot_home", "construction_area", "model_offset", "idle_robots"}
-    extra = set(data) - allowed
-    if extra:
-        raise InputError(f"{source}: unknown key '{sorted(extra)[0]}' (allowed: {', '.join(sorted(allowed))})")
-    default = default_site()
-    values = {}
-    for key in ("yard", "robot_home"):
-        if key in data:
-            points = data[key]
-            if not isinstance(points, list) or not points:
-                raise InputError(f"{source}{line_of(data, key)}: key '{key}' must be a non-empty list of [x, y] positions in metres")
-            values[key] = tuple(_point(data, key, source, item=i) for i in range(len(points)))
-        else:
-            values[key] = getattr(default, key)
-    if "construction_area" in data:
-        area = data["construction_area"]
-        if not isinstance(area, list) or len(area) != 2:
-            raise InputError(f"{source}{line_of(data, 'construction_area')}: key 'construction_area' must be [[xmin, ymin], [xmax, ymax]] in metres")
-        low, high = (_point(data, "construction_area", source, item=i) for i in range(2))
-        if not (low[0] < high[0] and low[1] < high[1]):
-            raise InputError(f"{source}{line_of(data, 'construction_area')}: key 'construction_area' must have xmin < xmax and ymin < ymax, got {area!r}")
-        values["construction_area"] = (low, high)
-    else:
-        values["construction_area"] = default.construction_area
-    if "model_offset" in data:
-        values["model_offset"] = _point(data, "model_offset", source, limit=OFFSET_LIMIT_M)
-    if "idle_robots" in data:
-        if data["idle_robots"] not in ("stay", "yard"):
-            raise InputError(f"{source}{line_of(data, 'idle_robots')}: key 'idle_robots' must be 'stay' or 'yard', got {data['idle_robots']!r}")
-        values["idle_robots"] = data["idle_robots"]
-    return Site(**values, source=source)
-
-
-def default_site() -> Site:
-    """The site of fig. 4.11: yard at x = 12.5 m, robot homes at x = 18.5 m, y = 4, 6, 8, 11 m."""
-    return Site(
-        yard=((12.5, 4.0), (12.5, 6.0), (12.5, 8.0), (12.5, 11.0)),
-        robot_home=((18.5, 4.0), (18.5, 6.0), (18.5, 8.0), (18.5, 11.0)),
-        construction_area=((3.0, 1.5), (10.5, 8.0)),
-    )
-
-
-def load_site(path: str | Path | None) -> Site:
-    """The site YAML at ``path`` (missing keys take fig. 4.11's values), or the default site."""
-    if path is None:
-        return default_site()
-    path = Path(path)
-    if not path.is_file():
-        raise InputError(f"site file {str(path)!r} does not exist")
-    return site_from_dict(parse_yaml(path.read_text(), str(path)), str(path))

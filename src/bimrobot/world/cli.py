@@ -8,6 +8,7 @@ from pathlib import Path
 
 from bimrobot.bim.selection import add_selection_options
 from bimrobot.bim.unknown_weight import UnknownWeightRule, add_unknown_weight_option
+from bimrobot.errors import InputError
 
 CONVERT_EXAMPLES = """examples:
   bimrobot convert frame.ifc -o frame_pkg/                       # Gazebo Sim package, installed, static
@@ -48,7 +49,10 @@ def register(subparsers) -> None:
     add_selection_options(parser, built=False)
     parser.add_argument("--layout", choices=["installed", "yard"], default="installed",
                         help="installed: every element at its IFC placement (default); yard: laid out at "
-                        "pick-up positions on a yard beside the building")
+                        "pick-up positions on the site's yard (--site)")
+    parser.add_argument("--site", type=Path,
+                        help="site YAML (yard, construction_area, model_offset; docs/conventions.md) for --layout yard; "
+                        "default: the thesis' fig. 4.11, as `simulate` and `rcan` use")
     parser.add_argument("--collision", choices=["convex", "decimated"], default="convex",
                         help="collision mesh: convex hull (default) or the body decimated to --max-triangles")
     parser.add_argument("--max-triangles", type=int, default=500, metavar="N",
@@ -84,7 +88,12 @@ def convert_command(args: argparse.Namespace) -> int:
     from bimrobot import io
     from bimrobot.world.package import ConvertOptions, convert
 
-    io.check_output(args.output, folder=True, inputs=[args.ifc])  # before the long read and conversion
+    from bimrobot.site import load_site
+
+    io.check_output(args.output, folder=True, inputs=[args.ifc, args.site])  # before the long read and conversion
+    if args.site and args.layout != "yard":
+        raise InputError("--site places the yard, so it needs --layout yard")
+    site = load_site(args.site)
     options = ConvertOptions(
         target=args.target,
         static=args.static,
@@ -97,6 +106,7 @@ def convert_command(args: argparse.Namespace) -> int:
         package_name=args.package_name,
         unknown_weight=args.unknown_weight,
         maps=not args.no_maps,
+        site=site,
     )
     options.validate()
     report = convert(

@@ -1,11 +1,12 @@
 """Where each model stands in the world: installed (its IFC placement) or on a yard (pick-up pose).
 
 Poses are 4x4 matrices from the element's local frame (the SDF link frame) to the world frame,
-metres, z up. The yard is a rectangle on the ground beside the building (on its +x side): components
-lie there in rows, each turned by right angles so that its longest side runs along x and its thinnest
-side is vertical (a column lies down, a wall panel lies flat), with their lowest point on the ground.
-This is the thesis' "yard area to place unconstructed components" (fig. 3.10), where transport
-robots pick them up.
+metres, z up. The yard is where the site file (:mod:`bimrobot.site`, default the thesis' fig. 4.11) puts
+its pick-up positions, taken into the model frame: components lie there in rows starting at the yard's
+first corner, each turned by right angles so that its longest side runs along x and its thinnest side
+is vertical (a column lies down, a wall panel lies flat), with their lowest point on the ground. This
+is the thesis' "yard area to place unconstructed components" (fig. 3.10), where transport robots pick
+them up; `simulate` and `rcan` use the same site.
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from bimrobot.bim.model import Element
+from bimrobot.site import Site, default_site
 
 
 @dataclass(frozen=True)
@@ -79,40 +81,49 @@ def installed_poses(elements: list[Element]) -> dict[str, np.ndarray]:
     return {element.global_id: rigid(element.placement) for element in elements}
 
 
+def site_offset(elements: list[Element], site: Site) -> np.ndarray:
+    """Model frame -> site frame translation (x, y) in metres: the site's ``model_offset``, or the one
+    that centres the elements' bounding-box centres in the construction area (as `simulate` does)."""
+    centres = [(e.world_bounds[0][:2] + e.world_bounds[1][:2]) / 2 for e in elements]
+    return site.offset_for_points(centres)
+
+
 def yard_poses(
     elements: list[Element],
     ground_z: float,
-    gap: float = 3.0,
     spacing: float = 0.5,
     centers_of_mass: dict[str, np.ndarray] | None = None,
+    site: Site | None = None,
 ) -> tuple[dict[str, np.ndarray], Yard]:
-    """Pick-up poses on a yard beside the building (see the module docstring) and the yard itself.
+    """Pick-up poses on the site's yard (see the module docstring) and the yard itself (model frame).
 
-    ``gap``: distance (m) between the building's bounding box and the yard; ``spacing``: clear
-    distance (m) between neighbouring components. Rows run along y; a new row starts when a row is
-    as deep as the building (at least 10 m). Components are sorted longest first, so similar parts
-    (all columns, all beams) lie together. ``centers_of_mass`` (local frame, m; default: the mean
-    vertex) decide which face a part rests on: of the flat orientations, the one with the lowest
-    centre of mass, so an angle lies on a leg rather than balancing on its edges.
+    ``spacing``: clear distance (m) between neighbouring components. Rows run along y from the yard's
+    corner nearest the site origin (lowest x, then y, of the site's yard positions) and away from the
+    building along x; a row is as deep as the yard positions span in y (at least 10 m). Components are
+    sorted longest first, so similar parts (all columns, all beams) lie together. ``centers_of_mass``
+    (local frame, m; default: the mean vertex) decide which face a part rests on: of the flat
+    orientations, the one with the lowest centre of mass, so an angle lies on a leg rather than
+    balancing on its edges. ``site``: default the thesis' fig. 4.11.
     """
     if not elements:
         return {}, Yard(np.zeros((2, 2)), ground_z)
-    building_min = np.min([e.world_bounds[0] for e in elements], axis=0)
-    building_max = np.max([e.world_bounds[1] for e in elements], axis=0)
-    row_depth = max(building_max[1] - building_min[1], 10.0)
+    site = site or default_site()
+    yard_points = site.to_model(np.array(site.yard, dtype=float), site_offset(elements, site))
+    yard_min, yard_max = yard_points.min(axis=0), yard_points.max(axis=0)
+    row_depth = max(yard_max[1] - yard_min[1], 10.0)
     centers = centers_of_mass or {}
     laid = {e.global_id: _lay_flat(e, centers.get(e.global_id)) for e in elements}
     order = sorted(elements, key=lambda e: (-_extents(laid[e.global_id], e)[0], e.ifc_class, e.global_id))
     poses: dict[str, np.ndarray] = {}
-    row_x, cursor_y, row_length = building_max[0] + gap, building_min[1], 0.0
+    row_x, cursor_y, row_length = yard_min[0], yard_min[1], 0.0
     far_corner = np.array([row_x, cursor_y])
     for element in order:
         rotation = laid[element.global_id]
         rotated = element.vertices @ rotation.T
         lower, upper = rotated.min(axis=0), rotated.max(axis=0)
         size = upper - lower
-        if cursor_y > building_min[1] and cursor_y + size[1] > building_min[1] + row_depth:
-            row_x, cursor_y, row_length = row_x + row_length + spacing, building_min[1], 0.0
+        if cursor_y > yard_min[1] and cursor_y + size[1] > yard_min[1] + row_depth:
+            row_x, cursor_y, row_length = row_x + row_length + spacing, yard_min[1], 0.0
         pose = np.eye(4)
         pose[:3, :3] = rotation
         pose[:3, 3] = np.array([row_x, cursor_y, ground_z]) - lower
@@ -120,8 +131,7 @@ def yard_poses(
         cursor_y += size[1] + spacing
         row_length = max(row_length, size[0])
         far_corner = np.maximum(far_corner, [row_x + size[0], cursor_y - spacing])
-    start = np.array([building_max[0] + gap, building_min[1]])
-    return poses, Yard(np.array([start, far_corner]), ground_z)
+    return poses, Yard(np.array([yard_min, far_corner]), ground_z)
 
 
 def _lay_flat(element: Element, center_of_mass: np.ndarray | None = None) -> np.ndarray:

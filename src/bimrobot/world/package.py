@@ -36,6 +36,7 @@ from bimrobot.bim.model import BuildingModel, Element, WeightSource
 from bimrobot.bim.unknown_weight import UnknownWeightRule, UnknownWeights, apply_unknown_weight_rule
 from bimrobot.errors import InputError
 from bimrobot.io import printable
+from bimrobot.site import Site
 from bimrobot.world import launch, layout, meshes, navmap, physics, sdf
 from bimrobot.world.names import ros_package_name, safe_name, slug
 
@@ -67,6 +68,7 @@ class ConvertOptions:
     package_name: str | None = None
     unknown_weight: UnknownWeightRule = field(default_factory=UnknownWeightRule)
     maps: bool = True
+    site: Site | None = None  # where the yard is (--layout yard); None: the thesis' fig. 4.11
 
     def validate(self) -> None:
         """Raise InputError naming the first option that is out of range."""
@@ -314,7 +316,7 @@ def _place(converted: list[_Converted], ground_z: float, options: ConvertOptions
     elements = [item.element for item in converted]
     if options.layout == "yard":
         centers = {item.element.global_id: item.mass.center_of_mass for item in converted}
-        poses, yard = layout.yard_poses(elements, ground_z, centers_of_mass=centers)
+        poses, yard = layout.yard_poses(elements, ground_z, centers_of_mass=centers, site=options.site)
     else:
         poses, yard = layout.installed_poses(elements), None
     for item in converted:

@@ -1,0 +1,272 @@
+"""``bimrobot build``: the main job in one command, from an IFC model to a robot-built structure.
+
+Stages, each one existing sub-command run in this process on the output of the stage before, into one
+output folder (written atomically and resumable, :func:`bimrobot.io.resumable_output_dir`):
+
+========== ============================================================== ===========================
+stage      what                                                           sub-command
+========== ============================================================== ===========================
+package    Gazebo package of the model, components on the site's yard     ``convert --layout yard``
+simulation market-based build by the fleet: schedule, log, Gantt, states   ``simulate``
+graph      BOT + DiCon knowledge graph of the model and the schedule      ``graph --schedule``
+rcan       the schedule executed through RCAN nodes (sim robots)          ``rcan run --state-db``
+========== ============================================================== ===========================
+
+A stage that finished is recorded in ``.stages.json``; a build killed (SIGKILL, Ctrl-C) and run again
+with the same inputs and options skips the finished stages and resumes RCAN from its state database,
+so its result equals an uninterrupted build's.
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import shlex
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable
+
+from bimrobot.errors import InputError
+
+BUILD_EXAMPLES = """examples:
+  bimrobot build frame.ifc -o out/                                  # fleet2 on the thesis' site (fig. 4.11)
+  bimrobot build model.ifc --fleet site-crane --prebuilt IfcFooting,IfcSlab,IfcWall -o out/
+  bimrobot build model.ifc --fleet my-fleet.yaml --site my-site.yaml --unknown-weight 7850 -o out/
+
+Killed or interrupted? Run the same command again: finished stages are kept and RCAN resumes.
+Open the result: out/README.md says what each file is.
+"""
+
+STAGES_FILE = ".stages.json"
+
+
+@dataclass(frozen=True)
+class Stage:
+    """One step of the build: ``name`` (its output in the folder), ``title``, the sub-command line."""
+
+    name: str
+    title: str
+    argv: Callable[[argparse.Namespace, Path], list[str]]
+    #: exit codes of the sub-command that still finish the stage (rcan: 1 = something escalated)
+    accepted: tuple[int, ...] = (0,)
+
+
+def _selection(args) -> list[str]:
+    out = []
+    if args.include:
+        out += ["--include", args.include]
+    if args.exclude is not None:
+        out += ["--exclude", args.exclude]
+    return out
+
+
+def _weights(args) -> list[str]:
+    return ["--unknown-weight", args.unknown_weight_text]
+
+
+def _package_name(args) -> str:
+    """The ROS package name of the world: from the output folder's name, as `convert` would."""
+    from bimrobot.world.names import ros_package_name
+
+    return ros_package_name(args.output.resolve().name)
+
+
+def _site(args) -> list[str]:
+    return ["--site", str(args.site)] if args.site else []
+
+
+STAGES = (
+    Stage("package", "Gazebo package (components on the yard)",
+          lambda a, d: ["convert", str(a.model), "-o", str(d / "package"), "--layout", "yard", "--no-progress",
+                        "--package-name", _package_name(a), *_site(a), *_selection(a), *_weights(a)]),
+    Stage("simulation", "build simulation (market, SimPy)",
+          lambda a, d: ["simulate", str(a.model), "--fleet", str(a.fleet), "-o", str(d / "simulation"), "--no-progress",
+                        "--prebuilt", a.prebuilt, *(["--by-element"] if a.by_element else []),
+                        *_site(a), *_selection(a), *_weights(a)]),
+    Stage("graph", "knowledge graph (BOT + DiCon + schedule)",
+          lambda a, d: ["graph", str(a.model), "--schedule", str(d / "simulation" / "schedule.csv"),
+                        "-o", str(d / "graph.ttl"), *(["--by-element"] if a.by_element else []), *_selection(a)]),
+    Stage("rcan", "RCAN run of the schedule (sim robots)",
+          lambda a, d: ["rcan", "run", "--schedule", str(d / "simulation" / "schedule.csv"), "--model", str(a.model),
+                        "--backend", "sim", "--state-db", str(d / "rcan" / "state.db"), "-q",
+                        "--report", str(d / "rcan" / "report.json"), "--graph", str(d / "rcan" / "graph-after-rcan.ttl"),
+                        "--time-scale", repr(a.time_scale), *_selection(a), *_weights(a)],
+          accepted=(0, 1)),
+)
+
+
+def register(subparsers) -> None:
+    """Add ``bimrobot build`` to the bimrobot parser."""
+    from bimrobot.bim.selection import add_selection_options
+    from bimrobot.bim.unknown_weight import add_unknown_weight_option
+
+    parser = subparsers.add_parser(
+        "build",
+        help="the whole pipeline in one command: package, simulation, graph and RCAN run of an IFC model",
+        description="Take an IFC model to a robot-built structure in one run: convert it into a Gazebo package "
+        "with the components on the yard, simulate the build by the fleet, build the knowledge graph of the "
+        "model and its schedule, and execute the schedule through RCAN. Everything goes into one output folder "
+        "(with a README.md saying what each file is); a killed build resumes when run again.",
+        epilog=BUILD_EXAMPLES,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument("model", type=Path, help="the IFC file (.ifc or .ifczip)")
+    parser.add_argument("-o", "--output", type=Path, required=True,
+                        help="output folder: a new or empty folder, or one bimrobot wrote (replaced at the end)")
+    parser.add_argument("--fleet", default="fleet2",
+                        help="fleet1, fleet2 (thesis Table 4.1), site-crane, or a fleet YAML file (default fleet2)")
+    parser.add_argument("--site", type=Path,
+                        help="site YAML: yard, robot_home, construction_area, model_offset, idle_robots "
+                        "(default: thesis fig. 4.11)")
+    parser.add_argument("--prebuilt", default="IfcFooting,IfcPile", metavar="CLASSES",
+                        help="IFC classes that are work of others (default IfcFooting,IfcPile); see `simulate --help`")
+    parser.add_argument("--by-element", action="store_true",
+                        help="build element by element even when the model groups them into assemblies")
+    parser.add_argument("--time-scale", type=_non_negative, default=0.0, metavar="S",
+                        help="RCAN's sim robots: real seconds slept per simulated second (default 0, as fast as possible)")
+    add_selection_options(parser, built=True)
+    add_unknown_weight_option(parser)
+    parser.set_defaults(func=build_command)
+
+
+def _non_negative(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not 0.0 <= value <= 1000.0:
+        raise argparse.ArgumentTypeError(f"expected seconds per simulated second between 0 and 1000, got {text!r}")
+    return value
+
+
+def _inputs(args) -> list[Path]:
+    from bimrobot.coordination.fleet import BUILTIN_FLEETS
+
+    files = [args.model]
+    if str(args.fleet) not in BUILTIN_FLEETS:
+        files.append(Path(args.fleet))
+    if args.site:
+        files.append(args.site)
+    return files
+
+
+def _fingerprint(args) -> dict:
+    """What makes two builds the same: the options and the inputs' contents (SHA-256)."""
+    def digest(path: Path) -> str:
+        hasher = hashlib.sha256()
+        with open(path, "rb") as stream:
+            for block in iter(lambda: stream.read(1 << 20), b""):
+                hasher.update(block)
+        return hasher.hexdigest()
+
+    options = {key: str(getattr(args, key)) for key in
+               ("fleet", "site", "prebuilt", "by_element", "include", "exclude", "unknown_weight_text")}
+    return {"options": options, "inputs": {str(p.resolve()): digest(p) for p in _inputs(args)}}
+
+
+def _check_inputs(args) -> None:
+    """Refuse what the stages would refuse, before anything is written (a missing model, fleet or site)."""
+    from bimrobot.coordination.fleet import load_fleet, load_site
+
+    if not args.model.is_file():
+        raise InputError(f"model file {str(args.model)!r} does not exist")
+    load_fleet(args.fleet)
+    load_site(args.site)
+
+
+def _run_stage(stage: Stage, args, folder: Path) -> int:
+    """Run one stage's sub-command in this process; its exit code (InputError propagates)."""
+    from bimrobot import io
+    from bimrobot.cli import build_parser
+
+    argv = stage.argv(args, folder)
+    sub_args = build_parser().parse_args(argv)
+    shown = shlex.join(argv).replace(str(folder), str(args.output).rstrip("/"))
+    print(f"$ bimrobot {io.printable(shown)}", flush=True)
+    code = int(sub_args.func(sub_args) or 0)
+    if code not in stage.accepted:
+        raise InputError(f"stage {stage.name} ({stage.title}) failed with exit code {code}; see its output above")
+    return code
+
+
+def build_command(args: argparse.Namespace) -> int:
+    """``bimrobot build``: run the stages into one resumable output folder; 1 when RCAN escalated work."""
+    from bimrobot import io
+
+    args.unknown_weight_text = _unknown_weight_text(args)
+    _check_inputs(args)
+    started = time.monotonic()
+    codes: dict[str, int] = {}
+    with io.resumable_output_dir(args.output, kind="build", fingerprint=_fingerprint(args),
+                                 inputs=_inputs(args)) as (folder, resumed):
+        done = _read_stages(folder) if resumed else {}
+        for number, stage in enumerate(STAGES, start=1):
+            print(f"\n== {number}/{len(STAGES)} {stage.name}: {stage.title}", flush=True)
+            if stage.name in done:
+                print(f"   done in an earlier run (exit {done[stage.name]['exit']}), kept", flush=True)
+                codes[stage.name] = done[stage.name]["exit"]
+                continue
+            stage_started = time.monotonic()
+            codes[stage.name] = _run_stage(stage, args, folder)
+            done[stage.name] = {"exit": codes[stage.name], "seconds": round(time.monotonic() - stage_started, 2)}
+            _write_stages(folder, done)
+        (folder / "README.md").write_text(readme(args, folder, done), encoding="utf-8")
+        (folder / STAGES_FILE).unlink()
+        (folder / "build.json").write_text(json.dumps({
+            "generator": io.signature("build"), "model": str(args.model.resolve()), "fleet": str(args.fleet),
+            "site": str(args.site) if args.site else "thesis fig. 4.11", "stages": done,
+            "resumed": resumed}, indent=2), encoding="utf-8")
+    print(f"\nbuild: {io.printable(str(args.output))}/ in {time.monotonic() - started:.1f} s"
+          f"{' (resumed)' if resumed else ''}; README.md says what each file is")
+    if codes.get("rcan", 0) != 0:
+        print("build: RCAN escalated activities; see rcan/report.json", file=sys.stderr)
+        return 1
+    return 0
+
+
+def _unknown_weight_text(args) -> str:
+    """The --unknown-weight rule as command-line text for the stages (which parse it again)."""
+    density = args.unknown_weight.density_kg_m3
+    return "refuse" if density is None else repr(density)
+
+
+def _read_stages(folder: Path) -> dict:
+    try:
+        return json.loads((folder / STAGES_FILE).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return {}
+
+
+def _write_stages(folder: Path, done: dict) -> None:
+    tmp = folder / (STAGES_FILE + ".tmp")
+    tmp.write_text(json.dumps(done, indent=2), encoding="utf-8")
+    tmp.replace(folder / STAGES_FILE)
+
+
+def readme(args, folder: Path, done: dict) -> str:
+    """out/README.md: what each file is and how to open it."""
+    from bimrobot import io
+
+    seconds = ", ".join(f"{name} {info['seconds']:.1f} s" for name, info in done.items() if "seconds" in info)
+    return f"""<!-- {io.signature("build README")} -->
+# Build of {args.model.name}
+
+`bimrobot build {args.model.name} --fleet {args.fleet}{' --site ' + str(args.site) if args.site else ''}` ({seconds}).
+Fleet: `{args.fleet}`; site: {args.site or "the thesis' fig. 4.11"}. Units: metres, z up, kg, seconds.
+
+| path | what | open it with |
+|---|---|---|
+| `package/` | Gazebo Sim package: `worlds/`, one model per element (`models/<GlobalId>/`), the components on the yard, `launch/`, `maps/` (Nav2 occupancy maps), `report.json` | `ros2 launch package/launch/gz_sim.launch.py`; `package/README.md` |
+| `simulation/schedule.csv` | the simulated schedule: one row per activity (transport, position, assemble), robot, start, finish, predecessors (docs/conventions.md) | a spreadsheet; `bimrobot rcan run --schedule` |
+| `simulation/events.log` | the build step by step, in the thesis' Listing 4.2 words | a text editor |
+| `simulation/gantt.png` | Gantt chart of the robots' work | an image viewer |
+| `simulation/summary.json`, `robots.csv`, `states.json` | makespan, utilisation, per-robot steps and busy time (Table 4.2 layout), state history per component | `jq`, a spreadsheet |
+| `graph.ttl` | knowledge graph: BOT topology, DiCon activities of the schedule, component states | `bimrobot query graph.ttl ready_activities`; any RDF tool |
+| `rcan/report.json` | the RCAN run: each activity with its robot, result and times; escalated and blocked work | `jq` |
+| `rcan/state.db` | RCAN's state database (journal, component states); the build resumes from it | `sqlite3` |
+| `rcan/graph-after-rcan.ttl` | the graph with the states after the RCAN run | `bimrobot query` |
+| `build.json` | the inputs, options and the time of each stage | `jq` |
+"""

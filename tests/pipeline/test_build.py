@@ -1,0 +1,114 @@
+"""`bimrobot build`: the whole pipeline in one command, atomic and resumable after a kill."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import sqlite3
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from bimrobot.cli import main
+
+BIMROBOT = [sys.executable, "-m", "bimrobot"]
+
+
+@pytest.fixture(scope="module")
+def frame(tmp_path_factory) -> Path:
+    path = tmp_path_factory.mktemp("model") / "frame.ifc"
+    assert main(["example", "steel-frame", "-o", str(path)]) == 0
+    return path
+
+
+@pytest.fixture(scope="module")
+def built(frame, tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("build") / "out"
+    assert main(["build", str(frame), "-o", str(out)]) == 0
+    return out
+
+
+def _outcome(out: Path) -> tuple[dict, dict]:
+    """(activity id -> status, component -> final state) from a build's RCAN state database."""
+    with sqlite3.connect(f"file:{out / 'rcan' / 'state.db'}?mode=ro", uri=True) as db:
+        activities = dict(db.execute("SELECT activity_id, status FROM activity"))
+        components = dict(db.execute("SELECT global_id, state FROM component"))
+    return activities, components
+
+
+def test_build_writes_every_stage_and_says_what_each_file_is(built):
+    for path in ("package/worlds/construction_site.sdf", "simulation/schedule.csv", "simulation/events.log",
+                 "graph.ttl", "rcan/report.json", "rcan/state.db", "README.md", "build.json"):
+        assert (built / path).is_file(), path
+    readme = (built / "README.md").read_text()
+    for path in ("package/", "simulation/schedule.csv", "graph.ttl", "rcan/report.json"):
+        assert f"`{path}`" in readme
+    assert not list(built.parent.glob(".out.*")), "no staging folder is left behind"
+    assert not (built / ".stages.json").exists()
+
+
+def test_build_executes_the_simulated_schedule_through_rcan(built):
+    report = json.loads((built / "rcan" / "report.json").read_text())
+    rows = (built / "simulation" / "schedule.csv").read_text().splitlines()[1:]
+    activities, components = _outcome(built)
+    assert len(activities) >= len(rows)  # each schedule row becomes one or more RCAN activities
+    assert set(activities.values()) == {"done"}
+    assert set(components.values()) == {"Assembled"}
+    assert report["status"] == "completed" and report["done"] == len(activities) and not report["escalations"]
+
+
+def test_killed_build_resumes_to_the_result_of_an_uninterrupted_one(frame, built, tmp_path):
+    out = tmp_path / "out"
+    partial = tmp_path / ".out.partial"
+    env = dict(os.environ, PYTHONUNBUFFERED="1")
+    process = subprocess.Popen([*BIMROBOT, "build", str(frame), "-o", str(out), "--time-scale", "0.003"],
+                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env)
+    state_db = partial / "rcan" / "state.db"
+    done, deadline = 0, time.monotonic() + 120
+    try:
+        while time.monotonic() < deadline and process.poll() is None:
+            if state_db.exists():
+                try:
+                    with sqlite3.connect(f"file:{state_db}?mode=ro", uri=True) as db:
+                        done = db.execute("SELECT COUNT(*) FROM activity WHERE status='done'").fetchone()[0]
+                except sqlite3.OperationalError:
+                    done = 0
+            if done >= 30:
+                break
+            time.sleep(0.02)
+    finally:
+        process.send_signal(signal.SIGKILL)
+        process.wait()
+    assert done >= 30, "the build reached its RCAN stage and executed work before the kill"
+    assert not out.exists() and partial.is_dir(), "a killed build leaves only its resumable partial folder"
+
+    rerun = subprocess.run([*BIMROBOT, "build", str(frame), "-o", str(out)], capture_output=True, text=True, env=env)
+    assert rerun.returncode == 0, rerun.stderr
+    assert "resuming" in rerun.stderr
+    assert rerun.stdout.count("done in an earlier run") == 3  # package, simulation, graph kept
+    assert not partial.exists()
+    assert _outcome(out) == _outcome(built)
+    assert json.loads((out / "build.json").read_text())["resumed"] is True
+
+
+def test_a_failed_build_leaves_nothing_behind(frame, tmp_path, capsys):
+    fleet = tmp_path / "fleet.yaml"
+    fleet.write_text("robots:\n  - name: R\n    kind: transport\n    speed: 0.5\n    carry_load: 1\n    platform_size: [1, 1]\n")
+    out = tmp_path / "out"
+    # every component outweighs the 1 kg carrier: the simulation stage refuses the fleet
+    assert main(["build", str(frame), "--fleet", str(fleet), "-o", str(out)]) == 2
+    assert "fleet" in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["fleet.yaml"]
+
+
+def test_build_refuses_a_foreign_output_folder(frame, tmp_path, capsys):
+    out = tmp_path / "mine"
+    out.mkdir()
+    (out / "notes.txt").write_text("keep me")
+    assert main(["build", str(frame), "-o", str(out)]) == 2
+    assert "did not write" in capsys.readouterr().err
+    assert (out / "notes.txt").read_text() == "keep me"
