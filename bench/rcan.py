@@ -11,6 +11,10 @@ robot, on the sim robots with no sleeping) through:
 and prints activities per second and the p50/p99 latency from sending an RCAN node to receiving its
 result (best of ``--repeats`` runs each). Redis is started on a free loopback port and stopped afterwards; ROS 2 runs with shared-memory
 transport on a random domain. Usage: ``python bench/rcan.py [--activities 400] [--no-redis] [--no-ros]``.
+
+``python bench/rcan.py --scaling [1000 3000 10000]`` measures instead how the time of a whole in-process
+run grows with the number of activities (min/median/max over ``--repeats``, growth ratios against the
+smallest size).
 """
 
 from __future__ import annotations
@@ -106,6 +110,43 @@ def redis_server():
         process.wait(timeout=10)
 
 
+def independent_plan(n: int) -> list[RcanActivity]:
+    """``n`` move-to-component activities of ``n`` components, all ready at once (each frees its robot):
+    the longest waiting list, the case where a dispatcher that rescans it becomes quadratic."""
+    return [RcanActivity(f"D{i}", f"C{i}", ActivityKind.MOVE_TO_COMPONENT, Pose(float(i % 7), 0.0, 0.0),
+                         frees_robot=True) for i in range(n)]
+
+
+def dispatch_scaling(sizes: list[int], repeats: int) -> list[dict]:
+    """Wall time of a whole in-process sim run (planning + dispatch + execution) against the number of
+    activities, min/median/max over ``repeats`` runs; growth ratios against the smallest size (a
+    linear dispatcher grows like the activities: 3k/1k about 3, 10k/1k about 10)."""
+    caps = parse_capabilities(TABLE, "bench table")
+    rows = []
+    for n in sizes:
+        times = []
+        for _ in range(repeats):
+            for plan in (independent_plan(n), bench_plan(n)):
+                started = time.perf_counter()
+                report = run_plan(plan, caps, timeout_s=600)
+                assert report.status == "completed"
+                times.append((plan[0].activity_id[0], time.perf_counter() - started))
+        for kind, label in (("D", "independent"), ("B", "two chains")):
+            runs = sorted(t for k, t in times if k == kind)
+            rows.append({"plan": label, "activities": n, "min_s": runs[0], "median_s": float(np.median(runs)),
+                         "max_s": runs[-1]})
+    print(f"RCAN dispatch time vs activities (in-process broker, sim robots without sleeping, 2 robots), "
+          f"{repeats} repeats; growth = median / median of {sizes[0]}, against activities / {sizes[0]}")
+    print(f"{'plan':12s} {'activities':>10s} {'min s':>8s} {'median s':>9s} {'max s':>8s} {'act/s':>8s} "
+          f"{'growth':>7s} {'linear':>7s}")
+    for row in rows:
+        base = next(r for r in rows if r["plan"] == row["plan"] and r["activities"] == sizes[0])
+        print(f"{row['plan']:12s} {row['activities']:10d} {row['min_s']:8.2f} {row['median_s']:9.2f} "
+              f"{row['max_s']:8.2f} {row['activities'] / row['median_s']:8.0f} "
+              f"{row['median_s'] / base['median_s']:7.2f} {row['activities'] / sizes[0]:7.2f}")
+    return rows
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--activities", type=int, default=400)
@@ -113,9 +154,17 @@ def main() -> int:
     parser.add_argument("--no-ros", action="store_true")
     parser.add_argument("--repeats", type=int, default=3, help="runs per transport; the best is reported")
     parser.add_argument("--json", help="also write the results to this JSON file")
+    parser.add_argument("--scaling", type=int, nargs="*", metavar="N",
+                        help="measure only dispatch time against activities (default sizes 1000 3000 10000)")
     args = parser.parse_args()
     global REPEATS
     REPEATS = args.repeats
+    if args.scaling is not None:
+        rows = dispatch_scaling(args.scaling or [1000, 3000, 10000], args.repeats)
+        if args.json:
+            with open(args.json, "w") as handle:
+                json.dump(rows, handle, indent=2)
+        return 0
     n = args.activities
     rows = [measure("in-process", n)]
     if not args.no_redis:

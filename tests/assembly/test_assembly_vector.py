@@ -8,6 +8,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import bimrobot.assembly as assembly
+import bimrobot.assembly.vector as vector
+from bimrobot.assembly.env import AssemblyEnv
 from bimrobot.assembly.planner import plan
 from bimrobot.assembly.vector import AssemblySB3VecEnv, AssemblyVectorEnv, BatchedAssemblySim
 from bimrobot.errors import InputError
@@ -79,10 +81,37 @@ def test_batched_equals_single_envs_on_random_actions(setting):
     assert_same_as_single_envs(setting, num_envs=3, steps=220, seed=7, explore=1.0)
 
 
-@pytest.mark.parametrize("setting", ["E1S2", "E1S3", "E2S4", "E3S1", "E4S3"])
+@pytest.mark.parametrize("setting", ["E1S1", "E1S2", "E1S3", "E2S4", "E3S1", "E3S3", "E4S3", "E4S4"])
 def test_batched_equals_single_envs_through_placements_and_episode_ends(setting):
     episodes, placements = assert_same_as_single_envs(setting, num_envs=3, steps=400, seed=3, explore=0.3)
     assert episodes >= 3 and placements >= 9  # every env places components and ends episodes
+
+
+@pytest.mark.parametrize("setting", ["E1S3", "E3S1", "E4S3"])
+def test_batched_random_layouts_draw_exactly_what_the_single_env_draws(setting, monkeypatch):
+    """Each env's layout, and its generator's state after the reset, equal the single env's: also where a
+    layout attempt runs into a second block of uniforms (status 1) or starts over because a component
+    fits nowhere (status 2), both frequent in Env4's crowded yard."""
+    statuses: list[int] = []
+    kernel = vector._k_layouts
+
+    def spy(block, rows, status, *rest):
+        kernel(block, rows, status, *rest)
+        statuses.extend(status.tolist())
+
+    monkeypatch.setattr(vector, "_k_layouts", spy)
+    n = 60
+    sim = BatchedAssemblySim(setting, n, seed=100)
+    sim.reset()
+    sim.reset()  # the second episodes: each generator carries on
+    env = AssemblyEnv(setting)
+    for i in range(n):
+        env.reset(seed=100 + i)
+        env.reset()
+        assert sim.starts[i].tolist() == [[list(node) for node in start] for start in env.snapshot().starts]
+        assert sim.rngs[i].random() == env.np_random.random()  # the same number of uniforms consumed
+    if setting == "E4S3":
+        assert {1, 2} <= set(statuses)
 
 
 def test_batched_reward_accounting_matches_the_spec():
@@ -95,6 +124,22 @@ def test_batched_reward_accounting_matches_the_spec():
     # always up: never placed, truncated at 300 steps: 15 x -1 + 285 x -2
     assert truncated.all() and not terminated.any()
     np.testing.assert_allclose(totals, -585.0)
+
+
+def test_final_observation_holds_the_ended_envs_only():
+    """An episode's last observation is in its row of info["final_observation"]; the rows of the envs
+    that go on are zeros (their observation is the returned one)."""
+    sim = BatchedAssemblySim("E2S2", 2, seed=0)
+    sim.reset()
+    single = assembly.AssemblyEnv("E2S2")
+    single.reset(seed=0)
+    actions = plan(single).actions
+    for t, action in enumerate(actions):
+        obs, _, terminated, _, info = sim.step(np.array([action, 4 if t % 2 == 0 else 5]))
+        assert terminated.tolist() == [t == len(actions) - 1, False]
+    assert info["_final_observation"].tolist() == [True, False]
+    assert info["final_observation"][0, :, :, 5].max() == 3  # the finished structure: 3 components standing
+    assert not info["final_observation"][1].any() and obs[1, :, :, 2].any()  # env 1 still moves its column
 
 
 def test_gymnasium_vector_env():

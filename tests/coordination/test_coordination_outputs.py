@@ -58,7 +58,7 @@ def test_bad_schedule_csv_names_line_and_column(tmp_path):
     lines = path.read_text().splitlines()
     lines[3] = lines[3].replace(",LOGISTIC,transport,", ",LOGISTIC,fly,").replace(",INSTALLATION,position,", ",INSTALLATION,fly,")
     path.write_text("\n".join(lines) + "\n")
-    with pytest.raises(InputError, match=r"schedule.csv line 4: column Activity must be transport, position or assemble, got 'fly'"):
+    with pytest.raises(InputError, match=r"schedule.csv, line 4: column Activity must be transport, position or assemble, got 'fly'"):
         load_schedule_csv(path)
 
 
@@ -74,12 +74,13 @@ def test_simulate_cli_writes_every_output(tmp_path, capsys):
     summary = json.loads((out / "summary.json").read_text())
     assert summary["fleet"] == "fleet1" and summary["evaluator"] == "least-cost"
     assert summary["smart_components"]["connection_nodes"] == 24
-    # per joint (the default): 8 transports (RCC), 8 positionings once arrived, 12 joints once both sides are fixed
-    assert summary["work"] == "per-joint"
-    assert summary["requests_by_release"] == {"RCC": 8, "Arrived": 8, "PositionFixed": 12}
+    # per node (the default): 8 transports (RCC), 20 node positionings released once their joint's partners
+    # have arrived (ACC), 20 node assemblies once the node's position is fixed
+    assert summary["work"] == "per-node"
+    assert summary["requests_by_release"] == {"RCC": 8, "ACC": 20, "PositionFixed": 20}
     with open(out / "requests.csv") as handle:
         requests = list(csv.DictReader(handle))
-    assert len(requests) == 28 and all(r["robot"] and r["finished_s"] for r in requests)
+    assert len(requests) == 48 and all(r["robot"] and r["finished_s"] for r in requests)
     assert (out / "gantt.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     log = (out / "events.log").read_text()
     assert "Start a new construction step, NO.1, in floor 1" in log

@@ -19,7 +19,7 @@ def frame_ifc(tmp_path_factory):
 def test_graph_with_schedule_then_query(frame_ifc, frame_schedule_csv, tmp_path, capsys):
     out = tmp_path / "frame.ttl"
     assert main(["graph", str(frame_ifc), "--schedule", str(frame_schedule_csv), "-o", str(out)]) == 0
-    assert "88 elements, 2 storeys, 24 connections, 28 activities" in capsys.readouterr().out
+    assert "88 elements, 2 storeys, 24 connections, 12 joints (0 inferred from geometry) with 24 nodes, 28 activities" in capsys.readouterr().out
     graph = rdflib.Graph().parse(out)
     assert len(set(graph.subjects(rdflib.RDF.type, rdflib.URIRef("https://w3id.org/digitalconstruction/0.5/Processes#Activity")))) == 28
 
@@ -32,7 +32,8 @@ def test_graph_with_schedule_then_query(frame_ifc, frame_schedule_csv, tmp_path,
 
     assert main(["query", str(out), "progress"]) == 0
     table = capsys.readouterr().out
-    assert "OnYard" in table and "88" in table and "(1 rows)" in table
+    # the 4 footings are prebuilt (work of others): on site with their position fixed, not on the yard
+    assert "OnYard         84" in table and "PositionFixed  4" in table and "(2 rows)" in table
 
 
 def test_graph_json_ld_and_oxigraph_store(frame_ifc, tmp_path, capsys):
@@ -43,7 +44,7 @@ def test_graph_json_ld_and_oxigraph_store(frame_ifc, tmp_path, capsys):
     capsys.readouterr()
     # the store directory answers queries after the command ended
     assert main(["query", str(store), "progress", "--format", "csv"]) == 0
-    assert capsys.readouterr().out.splitlines() == ["state,components", "OnYard,88"]
+    assert capsys.readouterr().out.splitlines() == ["state,components", "OnYard,84", "PositionFixed,4"]
 
 
 def test_ifc_schedule_option(shared_ifc, tmp_path, capsys):

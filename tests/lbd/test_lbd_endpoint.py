@@ -80,7 +80,7 @@ def test_cli_builds_on_and_queries_an_endpoint(endpoint, frame_model, frame_sche
     assert main([*args, "--store", "sparql", "--store-path", endpoint]) == 0
     capsys.readouterr()
     assert main(["query", endpoint, "progress", "--format", "csv"]) == 0
-    assert capsys.readouterr().out.splitlines() == ["state,components", "OnYard,88"]
+    assert capsys.readouterr().out.splitlines() == ["state,components", "OnYard,84", "PositionFixed,4"]
 
 
 def test_unreachable_endpoint_is_one_sentence():

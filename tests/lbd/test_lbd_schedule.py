@@ -57,7 +57,7 @@ def test_csv_round_trip_keeps_every_field(frame_schedule_csv, frame_model, tmp_p
         (1, "A1,x,INSTALLATION,position,COL,P,100,220,,,,,,", "line 3: Identification 'A1' is already used on line 2"),
         (1, "A2,x,INSTALLATION,position,COL,P,100,220,,A9,,,,", "line 3: predecessor 'A9' of A2 is not an activity"),
         (1, "A2,x,INSTALLATION,position,COL,P,50,220,,A1,,,,", "line 3: A2 starts at 50.0 s, before its predecessor A1 finishes at 100.0 s"),
-        (1, "A2,x,INSTALLATION,fly,COL,P,100,220,,A1,,,,", "line 3: Activity 'fly' is not one of transport, position, assemble"),
+        (1, "A2,x,INSTALLATION,fly,COL,P,100,220,,A1,,,,", "line 3: column Activity must be transport, position or assemble, got 'fly'"),
         (1, "A2,x,BOGUS,position,COL,P,100,220,,A1,,,,", "line 3: PredefinedType 'BOGUS' is not an IfcTaskTypeEnum"),
         (1, "A2,x,INSTALLATION,position,,P,100,220,,A1,,,,", "line 3: GlobalId is empty"),
         (1, "A2,x,INSTALLATION,position,COL,P,100,220,,A1,1,two,3,", "line 3: TargetY 'two' is not a number of metres"),

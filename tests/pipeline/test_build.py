@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import csv
 import json
 import os
 import signal
@@ -58,7 +59,16 @@ def test_build_executes_the_simulated_schedule_through_rcan(built):
     assert len(activities) >= len(rows)  # each schedule row becomes one or more RCAN activities
     assert set(activities.values()) == {"done"}
     assert set(components.values()) == {"Assembled"}
-    assert report["status"] == "completed" and report["done"] == len(activities) and not report["escalations"]
+    assert report["status"] == "completed" and len(report["done"]) == len(activities) and not report["escalations"]
+
+
+def test_rcan_executes_each_activity_on_the_robot_the_schedule_assigned(built):
+    assigned = {row["Identification"]: row["Robot"]
+                for row in csv.DictReader((built / "simulation" / "schedule.csv").open())}
+    with sqlite3.connect(f"file:{built / 'rcan' / 'state.db'}?mode=ro", uri=True) as db:
+        executed = dict(db.execute("SELECT activity_id, robot FROM activity"))
+    assert executed and all(robot == assigned[activity.split(".")[0]] for activity, robot in executed.items())
+    assert set(executed.values()) == set(assigned.values())  # the fleet's robots, not the built-in table's
 
 
 def test_killed_build_resumes_to_the_result_of_an_uninterrupted_one(frame, built, tmp_path):

@@ -7,6 +7,10 @@ import pytest
 from rcan_helpers import TABLE_5_2, frame_schedule, two_crane_capabilities
 
 
+def pytest_configure(config):
+    config.addinivalue_line("markers", "chaos: fault injection against a whole RCAN deployment (bounded, about 3 minutes)")
+
+
 @pytest.fixture
 def cranes():
     """Capability table with two 1000 kg mobile manipulators (crane_a, crane_b)."""

@@ -27,11 +27,11 @@ def test_schedule_run_writes_report_and_resumes_as_done(tmp_path, schedule_csv, 
             "--state-db", str(tmp_path / "s.sqlite"), "--report", str(tmp_path / "report.json")]
     assert main(args) == 0
     report = json.loads((tmp_path / "report.json").read_text())
-    assert report["status"] == "completed" and len(report["done"]) == 32
+    assert report["status"] == "completed" and len(report["done"]) == 44
     assert set(report["component_states"].values()) == {"Assembled"}
     capsys.readouterr()
     assert main(args) == 0  # a finished run resumed: nothing is executed again
-    assert "32/32 activities done" in capsys.readouterr().out
+    assert "44/44 activities done" in capsys.readouterr().out
 
 
 def test_escalation_exits_1_with_the_report(capsys):
@@ -40,6 +40,24 @@ def test_escalation_exits_1_with_the_report(capsys):
     out = capsys.readouterr().out
     assert ("ESCALATED: Move to component of component 267VPu8ab9991QBA3MI3UN (activity E1.1) failed 2 time(s) "
             "on robot husky_ur5") in out
+
+
+def test_escalation_with_independent_work_lists_escalated_blocked_and_done(tmp_path, capsys):
+    from rcan_helpers import frame_schedule, write_capabilities
+
+    schedule = frame_schedule(tmp_path / "s.csv", components=6)
+    args = ["rcan", "run", "--schedule", str(schedule), "--capabilities", str(write_capabilities(tmp_path / "c.yaml")),
+            "--failure-probability", "0.1", "--seed", "1", "--max-attempts", "1", "-q",
+            "--report", str(tmp_path / "r.json")]
+    assert main(args) == 1
+    out = capsys.readouterr().out
+    report = json.loads((tmp_path / "r.json").read_text())
+    assert report["status"] == "escalated" and report["done"] and report["blocked_by"]
+    for escalation in report["escalations"]:
+        assert f"(activity {escalation['activity_id']})" in out
+    for cause in set(report["blocked_by"].values()):
+        assert f"blocked by escalated {cause}: " in out
+    assert f"done: {len(report['done'])} activities ({report['done'][0]}, " in out
 
 
 def test_bad_input_exits_2_with_one_sentence_and_no_report(tmp_path, capsys):

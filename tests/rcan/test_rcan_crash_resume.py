@@ -41,7 +41,7 @@ def test_sigkill_at_random_points_then_resume_matches_uninterrupted_run(tmp_path
     subprocess.run([sys.executable, "-m", "bimrobot", "rcan", "run", *common, "--state-db", str(reference_db)],
                    check=True, capture_output=True, timeout=120)
     reference = outcome(reference_db)
-    assert len(reference["done_once"]) == 32 and all(n == 1 for _, n in reference["done_once"])
+    assert len(reference["done_once"]) == 44 and all(n == 1 for _, n in reference["done_once"])
     assert any(attempt > 1 for _, attempt, _ in reference["executions"]), "seed 3 gives some retries"
 
     db = tmp_path / "killed.sqlite"
@@ -51,7 +51,7 @@ def test_sigkill_at_random_points_then_resume_matches_uninterrupted_run(tmp_path
     # kill points spread over the run: once k activities are done, plus a random fraction of a second
     # (mid-activity, mid-transaction or between messages)
     done_after_kill = []
-    for k in sorted(rng.choice(np.arange(1, 25), size=6, replace=False)):
+    for k in sorted(rng.choice(np.arange(1, 35), size=6, replace=False)):
         process = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         deadline = time.monotonic() + 60
         while done_count(db) < k and process.poll() is None and time.monotonic() < deadline:
@@ -60,8 +60,8 @@ def test_sigkill_at_random_points_then_resume_matches_uninterrupted_run(tmp_path
         os.kill(process.pid, signal.SIGKILL)
         process.wait(timeout=30)
         done_after_kill.append(done_count(db))
-    assert all(0 < n < 32 for n in done_after_kill), f"done activities after each kill: {done_after_kill}"
+    assert all(0 < n < 44 for n in done_after_kill), f"done activities after each kill: {done_after_kill}"
     final = subprocess.run(command, capture_output=True, text=True, timeout=120)
     assert final.returncode == 0, final.stdout + final.stderr
-    assert "32/32 activities done" in final.stdout
+    assert "44/44 activities done" in final.stdout
     assert outcome(db) == reference

@@ -84,3 +84,47 @@ def test_frame_schedule_from_the_cli_with_graph_output(frame, tmp_path, capsys):
     graph = ConstructionGraph.open(ttl)
     first = next(iter(schedule)).global_id
     assert graph.component_state(first) == "Assembled"
+
+
+def test_per_node_frame_schedule_runs_to_completion_with_robots_released_after_transport(tmp_path):
+    """Per connection node, a beam's positioning waits for the columns it joins; fleet 1 has one
+    transport robot: the robot sets each component down at its drop-off and brings the next."""
+    from bimrobot.bim import load_model
+    from bimrobot.bim.examples import steel_frame
+    from bimrobot.coordination.fleet import load_fleet
+    from bimrobot.coordination.schedule import write_schedule_csv
+    from bimrobot.coordination.simulation import simulate
+    from bimrobot.lbd.schedule import load_schedule_csv
+    from bimrobot.sco import build_smart_model
+
+    model = load_model(steel_frame(tmp_path / "frame.ifc"))
+    result = simulate(build_smart_model(model), load_fleet("fleet1"),
+                      storey_elevations=[s.elevation for s in model.storeys], per_node=True)
+    schedule = load_schedule_csv(write_schedule_csv(result.activities, tmp_path / "schedule.csv"), model)
+    plan = plan_from_schedule(schedule, model)
+    report = run_plan(plan, load_capabilities())
+    assert report.status == "completed" and len(report.done) == len(plan)
+    assert set(report.component_states.values()) == {"Assembled"}
+    transports = [a for a in plan if a.kind is K.TRANSPORT]
+    assert transports and all(a.releases_robot for a in transports)
+
+
+def test_prefab_per_node_schedule_does_not_stall_on_one_capable_robot(shared_ifc, tmp_path):
+    """MULTICOM-Prefab per node with the site crane: only one robot of the table carries its units."""
+    from bimrobot.bim import load_model
+    from bimrobot.bim.unknown_weight import UnknownWeightRule, apply_unknown_weight_rule
+    from bimrobot.coordination.fleet import load_fleet
+    from bimrobot.coordination.schedule import write_schedule_csv
+    from bimrobot.coordination.simulation import simulate
+    from bimrobot.lbd.schedule import load_schedule_csv
+    from bimrobot.sco import build_smart_model
+
+    model = load_model(shared_ifc("MULTICOM-Prefab.ifc"))
+    apply_unknown_weight_rule(model.elements.values(), UnknownWeightRule(), "prefab")
+    result = simulate(build_smart_model(model), load_fleet("site-crane"),
+                      storey_elevations=[s.elevation for s in model.storeys], per_node=True)
+    schedule = load_schedule_csv(write_schedule_csv(result.activities, tmp_path / "schedule.csv"), model)
+    plan = plan_from_schedule(schedule, model)
+    report = run_plan(plan, load_capabilities())
+    assert report.status == "completed", report.blocked[:5]
+    assert len(report.done) == len(plan)

@@ -115,7 +115,7 @@ def test_coordinator_killed_on_redis_resumes_without_repeating(redis_url, tmp_pa
     try:
         executor.stdout.readline()  # serving
         rng = np.random.default_rng(7)
-        for k in sorted(rng.choice(np.arange(2, 28), size=3, replace=False)):
+        for k in sorted(rng.choice(np.arange(2, 38), size=3, replace=False)):
             coordinator = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
             while done_count(journal) < k and coordinator.poll() is None:
                 time.sleep(0.02)
@@ -126,14 +126,62 @@ def test_coordinator_killed_on_redis_resumes_without_repeating(redis_url, tmp_pa
         executor.terminate()
         executor.communicate(timeout=10)
     assert final.returncode == 0, final.stdout + final.stderr
-    assert "32/32 activities done" in final.stdout
+    assert "44/44 activities done" in final.stdout
     executed = sqlite3.connect(site).execute(
         "SELECT activity_id, attempt, COUNT(*) FROM sim_execution GROUP BY activity_id, attempt").fetchall()
     assert all(n == 1 for _, _, n in executed)  # no goal executed twice
     con = sqlite3.connect(journal)
     done = con.execute("SELECT activity_id, COUNT(*) FROM journal WHERE event='done' GROUP BY activity_id").fetchall()
-    assert len(done) == 32 and all(n == 1 for _, n in done)
+    assert len(done) == 44 and all(n == 1 for _, n in done)
     final_attempts = dict(con.execute("SELECT activity_id, attempts FROM activity"))
     # the journal's last attempt of each activity is the last attempt a robot executed
     assert {a: max(n for b, n, _ in executed if b == a) for a in final_attempts} == final_attempts
     assert set(con.execute("SELECT state FROM component").fetchall()) == {("Assembled",)}
+
+
+def test_work_of_a_dead_consumer_is_claimed_and_a_poison_message_goes_to_the_dead_letter_stream(redis_url):
+    sender = RedisBroker(redis_url, group="executor", consumer="sender")
+    sender.send("rcan.robot.husky_ur5", {"activity_id": "E1.1"})
+    dead = RedisBroker(redis_url, group="executor", consumer="executor-dead", claim_idle_s=None)
+    (taken,) = dead.receive(["rcan.robot.husky_ur5"], timeout_s=1.0)
+    dead.close()  # died without acknowledging; it never comes back under that name
+    alive = RedisBroker(redis_url, group="executor", consumer="executor-alive", claim_idle_s=0.2, max_deliveries=3)
+    time.sleep(0.3)
+    (claimed,) = alive.receive(["rcan.robot.husky_ur5"], timeout_s=0.5)
+    assert claimed.message_id == taken.message_id and claimed.payload == {"activity_id": "E1.1"}
+    # the message keeps killing whoever takes it: after 3 deliveries it is dead-lettered, not handed out again
+    for n in range(3):
+        time.sleep(0.3)
+        alive._last_claim = 0.0
+        messages = RedisBroker(redis_url, group="executor", consumer=f"executor-{n}", claim_idle_s=0.2,
+                               max_deliveries=3).receive(["rcan.robot.husky_ur5"], timeout_s=0.3)
+        if not messages:
+            break
+    coordinator = RedisBroker(redis_url, group="rcan", consumer="coordinator")
+    (dead_letter,) = coordinator.receive(["rcan.dead"], timeout_s=1.0)
+    assert dead_letter.payload["topic"] == "rcan.robot.husky_ur5"
+    assert dead_letter.payload["payload"] == {"activity_id": "E1.1"} and dead_letter.payload["deliveries"] > 3
+    for broker in (sender, alive, coordinator):
+        broker.close()
+
+
+def test_a_node_nobody_can_execute_is_escalated_through_the_dead_letter_stream(redis_url, monkeypatch):
+    """The executor dies on the transport every time it takes it (the worker ends without a result or an
+    acknowledgement): after 2 deliveries the node is dead-lettered and its activity escalated."""
+    from bimrobot.rcan.backends.sim import SimBackend
+
+    original = SimBackend._run
+
+    def dying(self, node, attempt, ready_at_s, feedback):
+        if node.activity_id == "E2.4":
+            raise SystemExit  # what a crashing robot driver does to its worker
+        return original(self, node, attempt, ready_at_s, feedback)
+
+    for feature in ("move_to_component", "position_for_picking_up", "pick_up", "transport",
+                    "position_for_installing", "install"):
+        monkeypatch.setattr(SimBackend, feature, dying)
+    report = run_plan(experiment(2).activities, load_capabilities(), redis_url=redis_url,
+                      redis_options={"claim_idle_s": 0.2, "max_deliveries": 2}, timeout_s=60)
+    assert report.status == "escalated" and report.escalated == ["E2.4"]
+    assert "dead-letter stream" in report.escalations[0].message
+    assert report.done == ["E2.1", "E2.2", "E2.3"] and set(report.blocked_by) == {"E2.5", "E2.6"}

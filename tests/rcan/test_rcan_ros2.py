@@ -98,3 +98,97 @@ def test_cli_experiment_on_ros2_spawns_and_stops_its_robot_node(ros2_robots, tmp
     assert "[rcan/E3.4] robot husky_ur5 executes 'Transport' of 1kTvXnbbzCWw8lcMd1dR4o" in run.stdout
     assert "== completed: 6/6 activities done; components: 1 Assembled" in run.stdout
     assert ros2_robots._fastdds_files() - before == set()  # the run cleaned up after its robot node
+
+
+def ros_env(**extra):
+    import os
+
+    return {**os.environ, "ROS_DOMAIN_ID": str(random.randint(1, 200)), "FASTDDS_BUILTIN_TRANSPORTS": "SHM", **extra}
+
+
+def test_a_dead_robot_node_is_detected_and_its_activity_retried_on_another_robot(ros2_robots, tmp_path, monkeypatch):
+    """crane_a and crane_b are served by two robot node processes; crane_a's is killed (SIGKILL) while it
+    drives: RCAN notices within seconds (no heartbeat) and crane_b does the move."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import threading
+
+    from rcan_helpers import two_crane_capabilities, write_capabilities
+
+    env = ros_env()
+    for key in ("ROS_DOMAIN_ID", "FASTDDS_BUILTIN_TRANSPORTS"):
+        monkeypatch.setenv(key, env[key])
+    caps_file = write_capabilities(tmp_path / "caps.yaml")
+    before = ros2_robots._fastdds_files()
+    nodes = {}
+    for robot in ("crane_a", "crane_b"):
+        nodes[robot] = subprocess.Popen([sys.executable, "-m", "bimrobot", "rcan", "robot-node", "--capabilities",
+                                         str(caps_file), "--robot", robot, "--time-scale", "1"],
+                                        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env)
+    try:
+        for process in nodes.values():
+            assert "action servers" in process.stdout.readline()
+        lines, killed = [], threading.Event()
+        kill_time = []
+
+        def log(line):
+            lines.append((time.monotonic(), line))
+            if "robot crane_a executes" in line and not killed.is_set():
+                killed.set()
+
+                def kill():
+                    time.sleep(1.0)  # mid-drive: 12 m at 1 m/s takes 12 s
+                    os.kill(nodes["crane_a"].pid, signal.SIGKILL)
+                    kill_time.append(time.monotonic())
+
+                threading.Thread(target=kill, daemon=True).start()
+
+        move = RcanActivity("M.1", "C", K.MOVE_TO_COMPONENT, Pose(12.0, 0.0, 0.0), robot="crane_a", frees_robot=True)
+        report = run_plan([move], two_crane_capabilities(), backend="ros2", log=log, timeout_s=120,
+                          backend_options={"liveness_s": 2.0, "time_scale": 1.0, "server_timeout_s": 5.0})
+    finally:
+        for process in nodes.values():
+            if process.poll() is None:
+                process.terminate()
+            process.wait(timeout=20)
+            process.stdout.close()
+        ros2_robots.cleanup_fastdds(before)
+    assert report.status == "completed" and report.done == ["M.1"]
+    out_of_service = [t for t, line in lines if "robot crane_a is out of service" in line]
+    retried = [t for t, line in lines if "robot crane_b executes 'Move to component'" in line]
+    assert out_of_service and retried
+    assert retried[0] - kill_time[0] < 10.0  # detected and retried within 10 s of the kill
+    print(f"\ndead robot node: detected {out_of_service[0] - kill_time[0]:.1f} s after the kill, "
+          f"retried on crane_b after {retried[0] - kill_time[0]:.1f} s")
+    assert any("stopped answering" in line for _, line in lines)
+
+
+def test_ctrl_c_stops_a_ros2_run_cleanly(ros2_robots, tmp_path):
+    import signal
+    import subprocess
+    import sys
+
+    before = ros2_robots._fastdds_files()
+    db = tmp_path / "run.sqlite"
+    run = subprocess.Popen([sys.executable, "-m", "bimrobot", "rcan", "run", "--experiment", "2", "--backend", "ros2",
+                            "--time-scale", "1", "--state-db", str(db)],
+                           stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=ros_env())
+    try:
+        for line in run.stdout:
+            if "executes 'Position for picking up'" in line:
+                break
+        run.send_signal(signal.SIGINT)  # what Ctrl-C sends
+        rest = run.communicate(timeout=30)[0]
+    finally:
+        if run.poll() is None:
+            run.kill()
+            run.wait()
+    assert run.returncode == 130, rest
+    assert "Traceback" not in rest
+    assert ros2_robots._fastdds_files() - before == set()  # robot node stopped, its shared memory removed
+    # the journal is intact: the same command resumes (here without ROS: the sim robots finish the build)
+    from bimrobot.cli import main
+
+    assert main(["rcan", "run", "--experiment", "2", "-q", "--state-db", str(db)]) == 0

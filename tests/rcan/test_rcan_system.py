@@ -80,17 +80,20 @@ def test_failures_are_retried_then_succeed(tmp_path):
 def test_schedule_plan_runs_two_robots_in_parallel(schedule_csv, cranes):
     schedule = load_schedule_csv(schedule_csv)
     plan = plan_from_schedule(schedule, yard=(-10.0, -10.0, 0.0))
-    # transport: 4 activities; position: 1 (frees the robot, PositionFixed); assemble: a robot goes to
-    # the fixed component, positions its tool and installs (3)
-    assert len(plan) == 4 * 8
-    assert [a.kind for a in plan[:8]] == [K.MOVE_TO_COMPONENT, K.POSITION_FOR_PICKING_UP, K.PICK_UP, K.TRANSPORT,
-                                          K.POSITION_FOR_INSTALLING, K.MOVE_TO_COMPONENT, K.POSITION_FOR_INSTALLING,
-                                          K.INSTALL]
-    assert [a.releases_robot for a in plan[:8]] == [False] * 4 + [True, False, False, True]
+    # transport: 4 activities, the component is set down at the drop-off and the robot is free;
+    # position: a robot picks it up there again and positions it (4, frees the robot, PositionFixed);
+    # assemble: a robot goes to the fixed component, positions its tool and installs (3)
+    assert len(plan) == 4 * 11
+    assert [a.kind for a in plan[:11]] == [
+        K.MOVE_TO_COMPONENT, K.POSITION_FOR_PICKING_UP, K.PICK_UP, K.TRANSPORT,
+        K.MOVE_TO_COMPONENT, K.POSITION_FOR_PICKING_UP, K.PICK_UP, K.POSITION_FOR_INSTALLING,
+        K.MOVE_TO_COMPONENT, K.POSITION_FOR_INSTALLING, K.INSTALL]
+    assert [a.releases_robot for a in plan[:11]] == [False, False, False, True] * 2 + [False, False, True]
     assert plan[3].target == Pose(0.0, 3.4, 0.0)  # 0.6 m stand-off before the installed position (0, 4, 0)
-    assert [a.activity_id for a in plan[:8]] == ["A0001.1", "A0001.2", "A0001.3", "A0001.4", "A0002.1",
-                                                 "A0003.1", "A0003.2", "A0003.3"]
-    assert plan[4].predecessors == ("A0001.4",) and plan[5].predecessors == ("A0002.1",)
+    assert plan[6].target == plan[3].target  # picked up again where the transport set it down
+    assert [a.activity_id for a in plan[:11]] == ["A0001.1", "A0001.2", "A0001.3", "A0001.4", "A0002.1", "A0002.2",
+                                                  "A0002.3", "A0002.4", "A0003.1", "A0003.2", "A0003.3"]
+    assert plan[4].predecessors == ("A0001.4",) and plan[8].predecessors == ("A0002.4",)
     report = run_plan(plan, cranes)
     assert report.status == "completed"
     assert set(report.component_states.values()) == {"Assembled"}
@@ -114,3 +117,32 @@ def test_state_db_of_another_plan_is_refused(tmp_path):
     run_plan(experiment(1).activities, load_capabilities(), state_db=db)
     with pytest.raises(InputError, match="belongs to a different plan"):
         run_plan(experiment(2).activities, load_capabilities(), state_db=db)
+
+
+def test_escalation_isolates_the_component_and_independent_work_runs_to_completion(tmp_path, cranes):
+    """One capable robot, random faults, no retries: an escalated component does not keep the robot;
+    every activity that does not depend on an escalated one is done, the others are reported blocked
+    because of it."""
+    from rcan_helpers import frame_schedule
+
+    plan = plan_from_schedule(load_schedule_csv(frame_schedule(tmp_path / "s.csv", components=10)))
+    one = cranes.__class__(cranes.robot_types, {"crane_a": cranes.robots["crane_a"]}, "one crane")
+    report = run_plan(plan, one, max_attempts=1, backend_options={"failure_probability": 0.1, "seed": 1})
+    assert report.status == "escalated"
+    # seed 1: a transport fails while the robot holds the column; the robot sets it down and goes on
+    assert "Transport" in [e.activity for e in report.escalations]
+    successors = {}
+    for a in plan:
+        for p in a.predecessors:
+            successors.setdefault(p, []).append(a.activity_id)
+    depends, stack = set(), list(report.escalated)
+    while stack:
+        for s in successors.get(stack.pop(), ()):
+            if s not in depends:
+                depends.add(s)
+                stack.append(s)
+    independent = [a.activity_id for a in plan if a.activity_id not in depends and a.activity_id not in report.escalated]
+    assert report.done == independent  # nothing independent is left waiting for the robot
+    assert set(report.blocked) == depends == set(report.blocked_by)
+    assert set(report.blocked_by.values()) <= set(report.escalated)
+    assert len(report.done) > len(plan) / 3

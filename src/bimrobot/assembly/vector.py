@@ -1,4 +1,4 @@
-"""N assembly environments stepped at once with numpy, with the single env's exact semantics.
+"""N assembly environments stepped at once (numba kernels over numpy arrays), with the single env's exact semantics.
 
 :class:`BatchedAssemblySim` is the engine (arrays over environments, automatic resets, the time limit of
 the registered ids); :class:`AssemblyVectorEnv` wraps it as a ``gymnasium.vector.VectorEnv``
@@ -7,6 +7,9 @@ the registered ids); :class:`AssemblyVectorEnv` wraps it as a ``gymnasium.vector
 Environment ``i`` behaves exactly like ``gym.make("bimrobot/Assembly-<setting>-v0")`` reset first with
 ``seed + i`` and then, after every episode end, with no seed (its generator carries on); the property
 tests check observations, rewards, flags and masks against that. Only ``obs_mode="thesis"`` is batched.
+
+The per-environment work is done by numba kernels (compiled on first use and cached next to this file),
+one pass over the environments per step; see "Speed" in docs/assembly.md.
 """
 
 from __future__ import annotations
@@ -16,13 +19,16 @@ from typing import Any, Sequence
 import gymnasium as gym
 import numpy as np
 from gymnasium.utils import seeding
+from numba import njit
 
 from bimrobot.assembly.env import ACTION_HELP, MOVES, N_CHANNELS, ActionError, AssemblyEnv, _shown, reward_constants
 from bimrobot.assembly.scenario import (
+    MAX_LAYOUT_ATTEMPTS,
     Scenario,
+    _lying_candidates,
+    _lying_table,
     benchmark_scenario,
     compile_scenario,
-    sample_layout,
     sample_prebuilt_slots,
 )
 from bimrobot.errors import InputError
@@ -42,9 +48,9 @@ def check_actions(actions, num_envs: int) -> np.ndarray:
         raise ActionError(
             f"actions {_shown(actions)} are not {num_envs} integer moves 0..5, one per environment ({ACTION_HELP})"
         )
-    a = a.reshape(num_envs).astype(np.int64)
-    bad = np.flatnonzero((a < 0) | (a >= len(MOVES)))
-    if bad.size:
+    a = np.ascontiguousarray(a.reshape(num_envs), dtype=np.int64)
+    if a.min() < 0 or a.max() >= len(MOVES):
+        bad = np.flatnonzero((a < 0) | (a >= len(MOVES)))
         raise ActionError(
             f"action {a[bad[0]]} of environment {bad[0]} is outside the action space Discrete(6): "
             f"give integers 0..5 ({ACTION_HELP})"
@@ -65,8 +71,9 @@ class BatchedAssemblySim:
 
     ``step(actions)`` returns ``obs (N, W, L, 7) int8, reward (N,) float64, terminated (N,), truncated (N,),
     info`` with ``info["action_mask"] (N, 6) bool``, ``info["blocked"]``, ``info["placed"]`` (N,) bool,
-    and, where an episode ended, ``info["final_observation"]`` (the last observation before the automatic
-    reset; the returned observation is already the next episode's first).
+    and, where an episode ended, ``info["final_observation"]`` (N, W, L, 7): for the environments flagged
+    in ``info["_final_observation"]`` the last observation before the automatic reset (the returned
+    observation is already the next episode's first), zeros for the others.
     """
 
     render_mode = None
@@ -98,23 +105,21 @@ class BatchedAssemblySim:
         self.single_action_space = gym.spaces.Discrete(6)
         self._build_tables()
         W, L, C, T = cs.W, cs.L, cs.n_comp, cs.n_target
-        self.occ = np.zeros((N, self.P), np.uint8)
-        self._occ_flat = self.occ.reshape(-1)
-        self._env_base = np.arange(N, dtype=np.int64) * self.P
+        self.occ = np.zeros((N, self.P), np.uint8)  # padded occupancy: 1 blocked
         self.pos = np.zeros((N, 3), np.int64)  # min corner of the current component, grid cells
         self.pflat = np.zeros(N, np.int64)  # the same as a padded flat index
-        self.cur = np.zeros(N, np.int64)
-        self.steps = np.zeros(N, np.int64)
-        self.elapsed = np.zeros(N, np.int64)
-        self.k = np.zeros(N, np.int64)
+        self.cur = np.zeros(N, np.int64)  # current component (C once all are placed)
+        self.steps = np.zeros(N, np.int64)  # steps spent on the current component
+        self.elapsed = np.zeros(N, np.int64)  # steps in the episode
+        self.k = np.zeros(N, np.int64)  # components standing
         self.filled = np.zeros((N, T + 1), bool)  # the last column is "always filled" (no support needed)
-        self.starts = np.zeros((N, C, 2, 3), np.int64)
-        self.wait_cells = np.zeros((N, C, 4), np.int64)
-        self.wait_top = np.zeros((N, C, W * L), np.int8)
+        self.starts = np.zeros((N, C, 2, 3), np.int64)  # lying poses (node1, node2)
+        self.wait_cells = np.zeros((N, C, 4), np.int64)  # padded flat cells of the lying poses (repeated)
+        self.wait_xy = np.zeros((N, C, 4), np.int64)  # their x * L + y
+        self.wait_z = np.zeros((N, C, 4), np.int64)  # and z
         self.obs = np.zeros((N, W * L * N_CHANNELS), np.int8)
         self.mask = np.zeros((N, 6), bool)
         self.fp = np.zeros((N, 4), np.int64)  # obs indices of the current component's drawn footprint
-        self.env_move_cells = np.zeros((N, 6, 4), np.int64)  # move_cells of each env's current component
         self.done = np.ones(N, bool)
         self.rngs: list[np.random.Generator] = [None] * N  # type: ignore[list-item]
         self._seed(seed)
@@ -125,9 +130,6 @@ class BatchedAssemblySim:
     def _build_tables(self) -> None:
         cs = self.cs
         W, L, H, C, T = cs.W, cs.L, cs.H, cs.n_comp, cs.n_target
-        # occupancy is kept on a grid padded by one blocked cell all round (flat index over (W+2, L+2, H+2)):
-        # a move shifts a valid pose by one cell, so its cells never leave the padded grid and the
-        # blocked test is a single gather
         self.padded = (W + 2, L + 2, H + 2)
         self.P = int(np.prod(self.padded))
         self.stride = np.array([(L + 2) * (H + 2), H + 2, 1], np.int64)
@@ -149,25 +151,59 @@ class BatchedAssemblySim:
                 self.top_offset[c] = n - 1
             else:
                 self.fp_offsets[c] = ks * (L * N_CHANNELS if axis == 0 else N_CHANNELS)
-        # per component and move: padded flat offsets of the cells the moved pose occupies
-        self.move_cells = self.delta[None, :, None] + self.offsets[:, None, :]  # (C + 1, 6, 4)
-        self.arrival = np.full((C + 1, self.P), -1, np.int64)
+        self.arrival = np.full((C + 1, self.P), -1, np.int64)  # target filled by arriving at a padded corner
         for c, table in enumerate(cs.comp_arrival):
             for corner, t in table.items():
                 self.arrival[c, self._pad(corner)] = t
         self.supports = np.full((T, 2), T, np.int64)
         for t, sup in enumerate(cs.target_supports):
             self.supports[t, : len(sup)] = sup
-        self.target_cells = np.array(
-            [[self._pad(f) for f in (cells + [cells[-1]] * 4)[:4]] for cells in cs.target_cells], np.int64
-        )
-        self.target_fp = cs.target_fp.reshape(T, W * L).astype(np.float32)
-        self.target_top = cs.target_top.reshape(T, W * L)
-        self.obstacle_top = cs.obstacle_top.reshape(-1)
+        cells = np.array([(cells + [cells[-1]] * 4)[:4] for cells in cs.target_cells], np.int64).reshape(T, 4)
+        self.target_cells = self._pad(cells)
         static = np.ones(self.padded, np.uint8)
         static[1:-1, 1:-1, 1:-1] = cs.static_blocked.reshape(W, L, H)
         self.static = static.reshape(-1)
         self.n_prebuilt = len(cs.prebuilt_slots)
+        self._random_prebuilt = any(len(options) > 1 for options in cs.prebuilt_slots)
+        self._fixed_prebuilt = np.array([[options[0] for options in cs.prebuilt_slots]], np.int64).reshape(1, -1)
+        if cs.fixed_starts is not None:
+            self._fixed_layout = np.array([cs.fixed_starts], np.int64).reshape(1, C, 2, 3)
+        dims = np.array([W, L, H, C, T], np.int64)
+        obstacle_top = np.ascontiguousarray(cs.obstacle_top.reshape(-1), dtype=np.int8)
+        self._blank_obs = np.zeros((W * L, N_CHANNELS), np.int8)  # an episode's first obs before the kernel
+        self._blank_obs[:, 6] = obstacle_top
+        self._blank_obs = self._blank_obs.reshape(-1)
+        target_xy, target_z = cells // H, cells % H  # (x * L + y, z) of each target's cells
+        # the kernels' scenario tables, indexed by position there (G[0] .. G[16])
+        self._G = (
+            dims, self.stride, self.delta, _MOVES, self.comp_len, self.comp_axis, self.comp_is_column,
+            self.comp_target_z, self.ext, self.offsets, self.fp_offsets, self.top_offset, self.arrival,
+            self.supports, self.target_cells, target_xy, target_z,
+        )  # fmt: skip
+        if cs.fixed_starts is None:
+            self._layout_tables()
+
+    def _layout_tables(self) -> None:
+        """scenario.sample_layout's tables as arrays, for the layout kernel."""
+        cs = self.cs
+        W, L, C = cs.W, cs.L, cs.n_comp
+        self._yard_x = np.array(cs.yard_x, np.int64)
+        self._yard_y = np.array([(cs.yard_y[x][0], cs.yard_y[x][1] - cs.yard_y[x][0] + 1) for x in cs.yard_x], np.int64)
+        self._lying = np.full((C, 2 * W * L, 4), -1, np.int64)  # node1 index -> (x, y) cells, or -1
+        counts = [len(_lying_candidates(cs, n)[0]) for n in cs.comp_len]
+        self._candidates = np.zeros((C, max(counts + [1]), 4), np.int64)
+        self._n_candidates = np.array(counts, np.int64)
+        for c, n in enumerate(cs.comp_len):
+            for index, run in enumerate(_lying_table(cs, n)):
+                if run is not None:
+                    self._lying[c, index, :n] = run
+            self._candidates[c, : counts[c], :n] = _lying_candidates(cs, n)[0]
+
+    def _state(self) -> tuple:
+        return (
+            self.occ, self.pos, self.pflat, self.cur, self.steps, self.elapsed, self.k, self.filled, self.starts,
+            self.wait_cells, self.wait_xy, self.wait_z, self.obs, self.mask, self.fp, self.done,
+        )  # fmt: skip
 
     # ------------------------------------------------------------------------------------- seeding
 
@@ -188,8 +224,6 @@ class BatchedAssemblySim:
         if seed is not None or seeds is not None:
             self._seed(seeds if seeds is not None else seed)
         self._reset_envs(self._arange)
-        self._draw_current(self._arange)
-        self._compute_masks(self._arange)
         return self.observations(), {"action_mask": self.mask.copy()}
 
     def observations(self) -> np.ndarray:
@@ -199,212 +233,92 @@ class BatchedAssemblySim:
     def step(self, actions: np.ndarray, autoreset: bool = True):
         """Advance every environment by one action; ended episodes restart at once when ``autoreset``
         (without it, ended environments ignore their actions and pay 0 until :meth:`reset`)."""
+        a = check_actions(actions, self.num_envs)
         N = self.num_envs
-        a = check_actions(actions, N)
-        active = ~self.done
-        idx = np.flatnonzero(active)
-        self._clear_current(idx)
-        moving = active & self.mask[self._arange, a]
-        self.pos += _MOVES[a] * moving[:, None]
-        self.pflat += self.delta[a] * moving
-        self.steps += active
-        self.elapsed += active
-        target = np.where(moving, self.arrival[self.cur, self.pflat], -1)
-        tgt = np.maximum(target, 0)
-        arrive = (
-            (target >= 0)
-            & ~self.filled[self._arange, tgt]
-            & self.filled[self._arange, self.supports[tgt, 0]]
-            & self.filled[self._arange, self.supports[tgt, 1]]
-        )
-        step_cost = self.r0 / (self.cur + 1) * np.where(self.steps > self.epsilon, 2.0, 1.0)
-        last = self.cur == self.cs.n_comp - 1
-        reward = np.where(arrive, self.k + 1 + np.where(last, self.completion_bonus, 0.0), step_cost)
-        reward = np.where(active, reward, 0.0)
-        placed = np.flatnonzero(arrive)
-        if placed.size:
-            self._place(placed, target[placed])
-        terminated = active & self.done
-        truncated = active & (self.elapsed >= self.time_limit)
-        info: dict[str, Any] = {"blocked": active & ~moving, "placed": arrive}
-        ended = np.flatnonzero(terminated | truncated)
+        reward = np.empty(N)
+        terminated, truncated, blocked, placed = (np.empty(N, bool) for _ in range(4))
+        error = _k_step(
+            self._state(), self._G, a, self.r0, self.epsilon, self.completion_bonus, self.time_limit,
+            reward, terminated, truncated, blocked, placed,
+        )  # fmt: skip
+        self._raise_if_stuck(error)
+        info: dict[str, Any] = {"blocked": blocked, "placed": placed}
+        ended_mask = terminated | truncated
+        ended = np.flatnonzero(ended_mask)
         if ended.size:
-            self.done[ended] = True
-            still = ended[self.cur[ended] < self.cs.n_comp]
-            self._draw_current(still)
-            final = self.observations()
+            cs = self.cs
+            final = np.zeros((N, cs.W, cs.L, N_CHANNELS), np.int8)
+            final.reshape(N, -1)[ended] = self.obs[ended]
             info["final_observation"] = final
-            info["_final_observation"] = terminated | truncated
+            info["_final_observation"] = ended_mask
             if autoreset:
-                self._clear_current(still)
                 self._reset_envs(ended)
-        self._draw_current(np.flatnonzero(~self.done))
-        self._compute_masks(self._arange)
         info["action_mask"] = self.mask.copy()
         return self.observations(), reward, terminated, truncated, info
 
     # ---------------------------------------------------------------------------------- dynamics
 
     def _reset_envs(self, envs: np.ndarray) -> None:
+        """New episodes in ``envs``: each env's draws in the single env's order (prebuilt slots, layout)."""
         cs = self.cs
         R = len(envs)
         if R == 0:
             return
-        # the per-env draws, in the single env's order (prebuilt slots, then the layout)
-        random_slots = any(len(options) > 1 for options in cs.prebuilt_slots)
-        if random_slots or cs.fixed_starts is None:
-            slots, layouts = [], []
-            for e in envs.tolist():
-                rng = self.rngs[e]
-                slots.append(sample_prebuilt_slots(cs, rng))
-                if cs.fixed_starts is None:
-                    layouts.append(sample_layout(cs, rng))
-            prebuilt = np.array(slots, np.int64).reshape(R, self.n_prebuilt)
-            self.starts[envs] = np.array(layouts if layouts else [cs.fixed_starts] * R, np.int64)
+        if self._random_prebuilt:
+            prebuilt = np.array([sample_prebuilt_slots(cs, self.rngs[e]) for e in envs.tolist()], np.int64)
+            prebuilt = prebuilt.reshape(R, self.n_prebuilt)
         else:
-            prebuilt = np.array([[options[0] for options in cs.prebuilt_slots]] * R, np.int64).reshape(R, -1)
-            self.starts[envs] = np.array(cs.fixed_starts, np.int64)
+            prebuilt = self._fixed_prebuilt  # one row for all
+        layouts = self._sample_layouts(envs) if cs.fixed_starts is None else self._fixed_layout  # (1, C, 2, 3)
+        envs = np.ascontiguousarray(envs, np.int64)
+        # the bulk of a reset as numpy row copies (memcpy), faster than element loops in the kernel
         self.occ[envs] = self.static
-        self.filled[envs] = False
-        self.filled[envs, -1] = True
-        if self.n_prebuilt:
-            rows = envs[:, None]
-            self.filled[rows, prebuilt] = True
-            self.occ[rows, self.target_cells[prebuilt].reshape(R, -1)] = 1
-        # waiting cells: min corner + k * stride along the lying axis
-        starts = self.starts[envs]  # (R, C, 2, 3)
-        lo = starts.min(axis=2)
-        span = starts.max(axis=2) - lo  # (R, C, 3)
-        length = span.max(axis=2) + 1
-        axis = np.argmax(span, axis=2)
-        axis = np.where(span.max(axis=2) == 0, 2, axis)
-        ks = np.minimum(np.arange(4)[None, None, :], (length - 1)[..., None])
-        corner = lo @ np.array([cs.L * cs.H, cs.H, 1])
-        cells = corner[..., None] + ks * np.array([cs.L * cs.H, cs.H, 1])[axis][..., None]  # unpadded flat
-        z = cells % cs.H
-        xy = cells // cs.H
-        cells = self._pad(cells)
-        self.wait_cells[envs] = cells
-        self.occ[envs[:, None], cells.reshape(R, -1)] = 1
-        self.wait_top[envs] = 0
-        C = cs.n_comp
-        r_idx = np.broadcast_to(envs[:, None, None], cells.shape)
-        c_idx = np.broadcast_to(np.arange(C)[None, :, None], cells.shape)
-        np.maximum.at(self.wait_top, (r_idx, c_idx, xy), z.astype(np.int8))
-        self.k[envs] = self.n_prebuilt
-        self.elapsed[envs] = 0
-        self.done[envs] = False
-        self.obs[envs] = 0
-        self._become_current(envs, np.zeros(R, np.int64))
-        self._refresh_static(envs)
+        self.obs[envs] = self._blank_obs
+        error = _k_reset(self._state(), self._G, envs, layouts, prebuilt, self.epsilon)
+        self._raise_if_stuck(error)
 
-    def _place(self, envs: np.ndarray, targets: np.ndarray) -> None:
-        self.occ[envs[:, None], self.target_cells[targets]] = 1
-        self.filled[envs, targets] = True
-        self.k[envs] += 1
-        nxt = self.cur[envs] + 1
-        finished = nxt >= self.cs.n_comp
-        self.cur[envs[finished]] = nxt[finished]
-        self.done[envs[finished]] = True
-        going = ~finished
-        self._become_current(envs[going], nxt[going])
-        self._refresh_static(envs)
-
-    def _become_current(self, envs: np.ndarray, comps: np.ndarray) -> None:
-        """Pick up component ``comps[r]`` in env ``envs[r]``: the lifted pose of the spec."""
-        if len(envs) == 0:
-            return
+    def _sample_layouts(self, envs: np.ndarray) -> np.ndarray:
+        """``scenario.sample_layout(cs, rngs[e])`` for each env e, drawing the same uniforms from each
+        generator: blocks of 192, one at a time, a fresh block for each new attempt. The kernel goes on
+        with an attempt where the previous block ended; only the drawing of blocks is per env in Python."""
         cs = self.cs
-        W, L, H = cs.W, cs.L, cs.H
-        self.occ[envs[:, None], self.wait_cells[envs, comps]] = 0
-        starts = self.starts[envs, comps]  # (R, 2, 3)
-        node1 = starts[:, 0]
-        lo = starts.min(axis=1)
-        hi = starts.max(axis=1)
-        n = self.comp_len[comps]
-        axis = self.comp_axis[comps]
-        column = self.comp_is_column[comps]
-        # beam centre cell: the ((len-1)//2)-th cell from the low end of its lying run
-        span = hi - lo
-        lying_axis = np.where(span.max(axis=1) == 0, 2, np.argmax(span, axis=1))
-        centre = lo.copy()
-        centre[np.arange(len(envs)), lying_axis] += (span.max(axis=1)) // 2
-        corner = np.where(column[:, None], np.stack([node1[:, 0], node1[:, 1], lo[:, 2] + 1], 1), 0)
-        beam_corner = np.stack([centre[:, 0], centre[:, 1], self.comp_target_z[comps]], 1)
-        beam_corner[np.arange(len(envs)), axis] -= np.where(column, 0, (n - 1) // 2)
-        corner = np.where(column[:, None], corner, beam_corner)
-        ext = self.ext[comps]
-        corner[:, 0] = np.clip(corner[:, 0], 0, W - ext[:, 0])
-        corner[:, 1] = np.clip(corner[:, 1], 0, L - ext[:, 1])
-        top = H - ext[:, 2]
-        offsets = self.offsets[comps]
-        lifted = np.full(len(envs), -1, np.int64)
-        for dz in range(H):
-            z = corner[:, 2] + dz
-            ok = (z <= top) & (lifted < 0)
-            if not ok.any():
-                continue
-            flat = (corner[:, 0] + 1) * self.stride[0] + (corner[:, 1] + 1) * self.stride[1] + np.minimum(z, H - 1) + 1
-            cells = flat[:, None] + offsets
-            free = ~self.occ[envs[:, None], cells].any(axis=1)
-            lifted = np.where(ok & free, z, lifted)
-        if (lifted < 0).any():
-            bad = self.cs.scenario.handled[int(comps[np.argmax(lifted < 0)])].id
-            raise InputError(f"{self.cs.scenario.source}: components.{bad}: the crane cannot lift it free of other objects")
-        corner[:, 2] = lifted
-        self.pos[envs] = corner
-        self.pflat[envs] = (corner + 1) @ self.stride
-        self.cur[envs] = comps
-        self.env_move_cells[envs] = self.move_cells[comps]
-        self.steps[envs] = 0
+        R = len(envs)
+        rngs = [self.rngs[e] for e in envs.tolist()]
+        block = np.empty((R, 192))
+        for j, rng in enumerate(rngs):
+            rng.random(out=block[j])
+        progress = np.zeros((R, 2), np.int64)  # component being drawn, its failed draws so far
+        occupied = np.zeros((R, cs.W * cs.L), np.uint8)  # (x, y) cells taken in the current attempt
+        attempts = np.ones(R, np.int64)
+        out = np.zeros((R, cs.n_comp, 2, 3), np.int64)
+        pending = np.arange(R)
+        while True:
+            status = np.zeros(len(pending), np.int64)
+            _k_layouts(
+                block, pending, status, progress, occupied, out, self.comp_len, self._yard_x, self._yard_y,
+                self._lying, self._candidates, self._n_candidates, cs.L,
+            )  # fmt: skip
+            again = status != 0
+            if not again.any():
+                return out
+            pending, status = pending[again], status[again]
+            block = np.empty((len(pending), 192))
+            for j, r in enumerate(pending.tolist()):
+                if status[j] == 2:  # a component fits nowhere: a new attempt (the kernel has cleared it)
+                    attempts[r] += 1
+                    if attempts[r] > MAX_LAYOUT_ATTEMPTS:
+                        raise InputError(
+                            f"{cs.scenario.source}: impossible random layout: the yard cannot hold all "
+                            f"{cs.n_comp} components without overlaps in {MAX_LAYOUT_ATTEMPTS} attempts"
+                        )
+                rngs[r].random(out=block[j])
 
-    def _refresh_static(self, envs: np.ndarray) -> None:
-        """Channels 0, 1, 3, 5, 6 of the given environments (after a reset or a placement)."""
-        if len(envs) == 0:
-            return
-        cs = self.cs
-        WL = cs.W * cs.L
-        obs = self.obs[envs].reshape(len(envs), WL, N_CHANNELS)
-        filled = self.filled[envs, :-1]
-        free = ~filled
-        obs[:, :, 0] = (free.astype(np.float32) @ self.target_fp) > 0
-        obs[:, :, 3] = np.max(np.where(free[:, :, None], self.target_top[None], 0), axis=1)
-        waiting = np.arange(cs.n_comp)[None, :] > self.cur[envs][:, None]
-        obs[:, :, 1] = np.max(np.where(waiting[:, :, None], self.wait_top[envs], 0), axis=1)
-        placed_fp = (filled.astype(np.float32) @ self.target_fp) > 0
-        obs[:, :, 5] = placed_fp * self.k[envs][:, None]
-        obs[:, :, 6] = self.obstacle_top
-        self.obs[envs] = obs.reshape(len(envs), -1)
-
-    def _footprint(self, envs: np.ndarray) -> np.ndarray:
-        cs = self.cs
-        base = (self.pos[envs, 0] * cs.L + self.pos[envs, 1]) * N_CHANNELS
-        return base[:, None] + self.fp_offsets[self.cur[envs]]
-
-    def _clear_current(self, envs: np.ndarray) -> None:
-        if len(envs) == 0:
-            return
-        fp = self.fp[envs]
-        rows = envs[:, None]
-        self.obs[rows, fp + 2] = 0
-        self.obs[rows, fp + 4] = 0
-
-    def _draw_current(self, envs: np.ndarray) -> None:
-        if len(envs) == 0:
-            return
-        fp = self._footprint(envs)
-        self.fp[envs] = fp
-        rows = envs[:, None]
-        top = self.pos[envs, 2] + self.top_offset[self.cur[envs]]
-        self.obs[rows, fp + 2] = top[:, None]
-        self.obs[rows, fp + 4] = (self.steps[envs] > self.epsilon)[:, None]
-
-    def _compute_masks(self, envs: np.ndarray) -> None:
-        """``mask[e, a]``: action a would move env e's current component (not blocked)."""
-        cells = (self.pflat[envs] + self._env_base[envs])[:, None, None] + self.env_move_cells[envs]
-        # the 4 occupancy bytes of a move's cells read as one uint32: nonzero means blocked
-        hit = self._occ_flat[cells].view(np.uint32)[..., 0]  # (R, 6)
-        self.mask[envs] = (hit == 0) & ~self.done[envs][:, None]
+    def _raise_if_stuck(self, component: int) -> None:
+        if component != _NO_ERROR:
+            bad = self.cs.scenario.handled[component].id
+            raise InputError(
+                f"{self.cs.scenario.source}: components.{bad}: the crane cannot lift it free of other objects"
+            )
 
     def _pad(self, flat):
         """Unpadded flat cell index(es) of the scenario -> padded flat index(es)."""
@@ -414,6 +328,309 @@ class BatchedAssemblySim:
         xy = flat // cs.H
         x, y = xy // cs.L, xy % cs.L
         return (x + 1) * self.stride[0] + (y + 1) * self.stride[1] + z + 1
+
+
+# ------------------------------------------------------------------------------------------ kernels
+#
+# The simulator's state lives in the arrays of BatchedAssemblySim (one row per environment); the numba
+# kernels below loop over environments and do for each what AssemblyEnv does for itself, in the same
+# order and with the same float operations (no fastmath), so that rewards and observations are equal bit
+# for bit. ``S`` is the tuple of state arrays and ``G`` the tuple of scenario tables built by
+# BatchedAssemblySim._state() / _build_tables(); the kernels unpack them once per call and hand the
+# small helpers only the arrays they use, inlined (with the branch-free mask below, about 20 % faster
+# per step than helpers that unpack the tuples themselves).
+#
+# Occupancy is a grid padded by one blocked cell all round (flat index over (W+2, L+2, H+2)): a move
+# shifts a valid pose by one cell, so its cells never leave the padded grid and a move is free when the
+# bytes at its 4 (repeated) cell offsets are all 0, without bounds tests.
+
+_NO_ERROR = -1
+
+
+@njit(cache=True, inline="always")
+def _k_clear(obs, fp, i):
+    """Erase channels 2 and 4 of env i's current component (drawn at obs indices fp[i])."""
+    for j in range(4):
+        obs[i, fp[i, j] + 2] = 0
+        obs[i, fp[i, j] + 4] = 0
+
+
+@njit(cache=True, inline="always")
+def _k_draw(obs, fp, pos, cur, steps, fp_offsets, top_offset, L, i, epsilon):
+    """Channels 2 (top z) and 4 (past epsilon) of env i's current component at its pose; fp[i] = its cells."""
+    c = cur[i]
+    base = (pos[i, 0] * L + pos[i, 1]) * 7
+    top = np.int8(pos[i, 2] + top_offset[c])
+    late = np.int8(1 if steps[i] > epsilon else 0)
+    for j in range(4):
+        f = base + fp_offsets[c, j]
+        fp[i, j] = f
+        obs[i, f + 2] = top
+        obs[i, f + 4] = late
+
+
+@njit(cache=True, inline="always")
+def _k_mask(occ, pflat, cur, mask, delta, offsets, i):
+    """mask[i, a]: move a of env i's current component would not be blocked."""
+    o0, o1, o2, o3 = offsets[cur[i], 0], offsets[cur[i], 1], offsets[cur[i], 2], offsets[cur[i], 3]
+    for a in range(6):
+        q = pflat[i] + delta[a]
+        # no early exit: a branch per cell costs more than the 4 loads (blocked or not is unpredictable)
+        mask[i, a] = (occ[i, q + o0] | occ[i, q + o1] | occ[i, q + o2] | occ[i, q + o3]) == 0
+
+
+@njit(cache=True)
+def _k_become_current(S, G, i, comp):
+    """Pick up component ``comp`` of env i (the spec's lifted pose); False when it cannot be lifted free."""
+    occ, pos, pflat, cur, steps, starts, wait_cells = S[0], S[1], S[2], S[3], S[4], S[8], S[9]
+    dims, stride = G[0], G[1]
+    comp_len, comp_axis, comp_is_column, comp_target_z, ext, offsets = G[4], G[5], G[6], G[7], G[8], G[9]
+    W, L, H = dims[0], dims[1], dims[2]
+    for j in range(4):
+        occ[i, wait_cells[i, comp, j]] = 0
+    n1 = starts[i, comp, 0]
+    n2 = starts[i, comp, 1]
+    lo0, lo1, lo2 = min(n1[0], n2[0]), min(n1[1], n2[1]), min(n1[2], n2[2])
+    if comp_is_column[comp]:  # stands up on node1 (x, y), its bottom one cell above where it lay
+        cx, cy, cz = n1[0], n1[1], lo2 + 1
+    else:  # rises to its slot's height and turns about its centre cell onto its slot's axis
+        s0, s1, s2 = abs(n1[0] - n2[0]), abs(n1[1] - n2[1]), abs(n1[2] - n2[2])
+        n = max(s0, s1, s2)
+        # the centre cell of the lying run (along its first longest axis)
+        cx = lo0 + (n // 2 if s0 == n else 0)
+        cy = lo1 + (n // 2 if s1 == n and s0 != n else 0)
+        cz = comp_target_z[comp]
+        half = (comp_len[comp] - 1) // 2
+        if comp_axis[comp] == 0:
+            cx -= half
+        elif comp_axis[comp] == 1:
+            cy -= half
+        else:
+            cz -= half
+    cx = min(max(cx, 0), W - ext[comp, 0])
+    cy = min(max(cy, 0), L - ext[comp, 1])
+    lifted = -1
+    for z in range(cz, H - ext[comp, 2] + 1):
+        p = (cx + 1) * stride[0] + (cy + 1) * stride[1] + z + 1
+        free = True
+        for j in range(4):
+            if occ[i, p + offsets[comp, j]] != 0:
+                free = False
+                break
+        if free:
+            lifted = z
+            pflat[i] = p
+            break
+    if lifted < 0:
+        return False
+    pos[i, 0], pos[i, 1], pos[i, 2] = cx, cy, lifted
+    cur[i] = comp
+    steps[i] = 0
+    return True
+
+
+@njit(cache=True)
+def _k_refresh_static(S, G, i):
+    """Channels 0, 1, 3 and 5 of env i (after a reset or a placement); 2, 4 and 6 are left alone."""
+    cur, k, filled, wait_xy, wait_z, obs = S[3], S[6], S[7], S[10], S[11], S[12]
+    dims, target_xy, target_z = G[0], G[15], G[16]
+    WL, n_comp, n_target = dims[0] * dims[1], dims[3], dims[4]
+    for xy in range(WL):
+        b = xy * 7
+        obs[i, b] = 0
+        obs[i, b + 1] = 0
+        obs[i, b + 3] = 0
+        obs[i, b + 5] = 0
+    standing = np.int8(k[i])
+    for t in range(n_target):
+        if filled[i, t]:
+            for j in range(4):
+                obs[i, target_xy[t, j] * 7 + 5] = standing
+        else:
+            for j in range(4):
+                b = target_xy[t, j] * 7
+                obs[i, b] = 1
+                z = np.int8(target_z[t, j])
+                if z > obs[i, b + 3]:
+                    obs[i, b + 3] = z
+    for c in range(cur[i] + 1, n_comp):
+        for j in range(4):
+            b = wait_xy[i, c, j] * 7 + 1
+            z = np.int8(wait_z[i, c, j])
+            if z > obs[i, b]:
+                obs[i, b] = z
+
+
+@njit(cache=True)
+def _k_step(S, G, actions, r0, epsilon, bonus, time_limit, reward, terminated, truncated, blocked, placed):
+    """One step of every environment (ended ones stay done: the caller resets them). Returns the first
+    component that could not be lifted free, or _NO_ERROR."""
+    occ, pos, pflat, cur, steps, elapsed, k, filled, starts, wait_cells, wait_xy, wait_z, obs, mask, fp, done = S
+    dims, delta, moves = G[0], G[2], G[3]
+    offsets, fp_offsets, top_offset, arrival, supports, target_cells = G[9], G[10], G[11], G[12], G[13], G[14]
+    L, n_comp = dims[1], dims[3]
+    error = _NO_ERROR
+    for i in range(actions.shape[0]):
+        if done[i]:
+            reward[i] = 0.0
+            terminated[i] = False
+            truncated[i] = False
+            blocked[i] = False
+            placed[i] = False
+            continue
+        a = actions[i]
+        _k_clear(obs, fp, i)
+        moving = mask[i, a]
+        if moving:
+            pos[i, 0] += moves[a, 0]
+            pos[i, 1] += moves[a, 1]
+            pos[i, 2] += moves[a, 2]
+            pflat[i] += delta[a]
+        steps[i] += 1
+        elapsed[i] += 1
+        c = cur[i]
+        arrive = False
+        if moving:
+            t = arrival[c, pflat[i]]
+            arrive = t >= 0 and not filled[i, t] and filled[i, supports[t, 0]] and filled[i, supports[t, 1]]
+        if arrive:
+            reward[i] = float(k[i] + 1) + (bonus if c == n_comp - 1 else 0.0)
+            # placed: target t is filled for good and the next component is picked up
+            for j in range(4):
+                occ[i, target_cells[t, j]] = 1
+            filled[i, t] = True
+            k[i] += 1
+            if c + 1 >= n_comp:
+                cur[i] = c + 1
+                done[i] = True
+            elif not _k_become_current(S, G, i, c + 1) and error == _NO_ERROR:
+                error = c + 1
+            _k_refresh_static(S, G, i)
+        else:
+            reward[i] = r0 / (c + 1) * (2.0 if steps[i] > epsilon else 1.0)
+        blocked[i] = not moving
+        placed[i] = arrive
+        terminated[i] = done[i]
+        truncated[i] = elapsed[i] >= time_limit
+        if not done[i]:
+            _k_draw(obs, fp, pos, cur, steps, fp_offsets, top_offset, L, i, epsilon)
+            _k_mask(occ, pflat, cur, mask, delta, offsets, i)
+        if terminated[i] or truncated[i]:
+            done[i] = True
+            for b in range(6):
+                mask[i, b] = False
+    return error
+
+
+@njit(cache=True)
+def _k_reset(S, G, envs, layouts, prebuilt, epsilon):
+    """Start a new episode in each env ``envs[r]`` from lying poses ``layouts[r]`` (C, 2, 3) and prebuilt
+    slots ``prebuilt[r]`` (a single row of either serves every env), their occupancy rows already set to
+    the static cells and their observation rows to the blank one. Returns the first component that could
+    not be lifted free, or _NO_ERROR."""
+    occ, pos, pflat, cur, steps, elapsed, k, filled, starts, wait_cells, wait_xy, wait_z, obs, mask, fp, done = S
+    dims, stride, delta, offsets, fp_offsets, top_offset = G[0], G[1], G[2], G[9], G[10], G[11]
+    target_cells = G[14]
+    L, n_comp, n_target = dims[1], dims[3], dims[4]
+    error = _NO_ERROR
+    for r in range(envs.shape[0]):
+        i = envs[r]
+        lay = layouts[min(r, layouts.shape[0] - 1)]
+        pre = prebuilt[min(r, prebuilt.shape[0] - 1)]
+        starts[i] = lay  # occ[i] and obs[i] (static cells, obstacle channel) are set by the caller
+        filled[i] = False
+        filled[i, n_target] = True  # the "always filled" support of targets that need none
+        for s in pre:
+            filled[i, s] = True
+            for j in range(4):
+                occ[i, target_cells[s, j]] = 1
+        for c in range(n_comp):  # waiting cells: the lying run from its low corner
+            lo0 = min(lay[c, 0, 0], lay[c, 1, 0])
+            lo1 = min(lay[c, 0, 1], lay[c, 1, 1])
+            lo2 = min(lay[c, 0, 2], lay[c, 1, 2])
+            s0 = abs(lay[c, 0, 0] - lay[c, 1, 0])
+            s1 = abs(lay[c, 0, 1] - lay[c, 1, 1])
+            s2 = abs(lay[c, 0, 2] - lay[c, 1, 2])
+            n = max(s0, s1, s2)
+            axis = 0 if s0 == n else (1 if s1 == n else 2)
+            for j in range(4):
+                kk = min(j, n)
+                x = lo0 + (kk if axis == 0 else 0)
+                y = lo1 + (kk if axis == 1 else 0)
+                z = lo2 + (kk if axis == 2 else 0)
+                f = (x + 1) * stride[0] + (y + 1) * stride[1] + z + 1
+                wait_cells[i, c, j] = f
+                wait_xy[i, c, j] = x * L + y
+                wait_z[i, c, j] = z
+                occ[i, f] = 1
+        k[i] = len(pre)
+        elapsed[i] = 0
+        done[i] = False
+        if not _k_become_current(S, G, i, 0) and error == _NO_ERROR:
+            error = 0
+        _k_refresh_static(S, G, i)
+        _k_draw(obs, fp, pos, cur, steps, fp_offsets, top_offset, L, i, epsilon)
+        _k_mask(occ, pflat, cur, mask, delta, offsets, i)
+    return error
+
+
+@njit(cache=True)
+def _k_layouts(
+    block, rows, status, progress, occupied, out, comp_len, yard_x, yard_y, lying, candidates, n_candidates, L
+):
+    """scenario.sample_layout for the envs ``rows[j]`` of a reset, going on from ``progress[rows[j]]``
+    (component, failed draws) and ``occupied[rows[j]]`` with the next block of 192 uniforms ``block[j]``.
+    status[j]: 0 done (the layout is in out[rows[j]]), 1 the block is used up (call again with the next
+    block), 2 a component fits nowhere: the attempt is cleared (call again with a fresh block)."""
+    WL = occupied.shape[1]
+    n_comp = comp_len.shape[0]
+    n_x = yard_x.shape[0]
+    for j in range(rows.shape[0]):
+        r = rows[j]
+        ci, failures = progress[r, 0], progress[r, 1]
+        used = 0
+        status[j] = 0
+        while ci < n_comp and status[j] == 0:
+            if used == 192:
+                status[j] = 1
+                break
+            n = comp_len[ci]
+            axis_u, x_u, y_u = block[j, used], block[j, used + 1], block[j, used + 2]
+            used += 3
+            xi = int(x_u * n_x)
+            index = (WL if axis_u >= 0.5 else 0) + yard_x[xi] * L + yard_y[xi, 0] + int(y_u * yard_y[xi, 1])
+            if lying[ci, index, 0] >= 0:
+                free = True
+                for m in range(n):
+                    if occupied[r, lying[ci, index, m]]:
+                        free = False
+                        break
+                if free:
+                    for m in range(n):
+                        occupied[r, lying[ci, index, m]] = 1
+                    first, last = lying[ci, index, 0], lying[ci, index, n - 1]
+                    out[r, ci, 0, 0], out[r, ci, 0, 1], out[r, ci, 0, 2] = first // L, first % L, 1
+                    out[r, ci, 1, 0], out[r, ci, 1, 1], out[r, ci, 1, 2] = last // L, last % L, 1
+                    ci += 1
+                    failures = 0
+                    continue
+            failures += 1
+            if failures % 32 == 0:  # the exact check: does it fit anywhere at all?
+                fits = False
+                for q in range(n_candidates[ci]):
+                    clear = True
+                    for m in range(n):
+                        if occupied[r, candidates[ci, q, m]]:
+                            clear = False
+                            break
+                    if clear:
+                        fits = True
+                        break
+                if not fits:
+                    status[j] = 2
+                    ci, failures = 0, 0
+                    occupied[r] = 0
+        progress[r, 0], progress[r, 1] = ci, failures
 
 
 class AssemblyVectorEnv(gym.vector.VectorEnv):

@@ -247,11 +247,16 @@ def geometry_settings() -> ifcopenshell.geom.settings:
     return settings
 
 
+def default_threads() -> int:
+    """Geometry threads: every core, at most 8 (the iterator's gain flattens beyond)."""
+    return max(1, min(8, os.cpu_count() or 1))
+
+
 def iterate_shapes(
     ifc: ifcopenshell.file, products: list, progress: bool = False, threads: int | None = None
 ) -> Iterator:
     """Yield the iterator's shapes for ``products`` (one pass, local coordinates)."""
-    threads = threads or max(1, min(2, os.cpu_count() or 1))
+    threads = threads or default_threads()
     iterator = ifcopenshell.geom.iterator(
         geometry_settings(), ifc, threads, include=products, geometry_library=GEOMETRY_LIBRARY
     )
@@ -272,6 +277,21 @@ def iterate_shapes(
     finally:
         if bar is not None:
             bar.close()
+
+
+def class_lineage(schema: str, ifc_class: str) -> tuple[str, ...] | None:
+    """``ifc_class`` and its supertypes in ``schema`` (e.g. IfcBeamStandardCase, IfcBeam, IfcBuiltElement,
+    ..., IfcRoot), or None when the schema has no such class. Lets other parts match class names with
+    subclasses, as selectors do, without importing ifcopenshell."""
+    try:
+        declaration = ifcopenshell.ifcopenshell_wrapper.schema_by_name(schema).declaration_by_name(ifc_class)
+    except Exception:  # unknown schema or class
+        return None
+    names = []
+    while declaration is not None:
+        names.append(declaration.name())
+        declaration = declaration.supertype() if hasattr(declaration, "supertype") else None
+    return tuple(names)
 
 
 def as_selector(value: Iterable[str] | str | None) -> str | None:

@@ -148,14 +148,14 @@ def register(subparsers) -> None:
     work = simulate.add_mutually_exclusive_group()
     work.add_argument(
         "--per-node", dest="per_joint", action="store_const", const=False,
-        help="event mode: position and assemble each connection node as its own task, released "
+        help="event mode (the default): position and assemble each connection node as its own task, released "
         "as in the thesis (a node once its joint's components have arrived; a footing's anchor bolts with the "
         "column's foot node); --mode thesis always works per node",
     )
     work.add_argument(
         "--per-joint", dest="per_joint", action="store_const", const=True,
-        help="event mode (the default): position each component as one task (all its nodes) and "
-        "assemble each joint as one task (both sides of a connection); RCAN runs these schedules",
+        help="event mode: position each component as one task (all its nodes) and assemble each joint "
+        "as one task (both sides of a connection), as `bimrobot allocators` and its CP-SAT optimum do",
     )
     simulate.add_argument(
         "--step-time", choices=("awarded", "finished", "phase", "per-kind"), default=None,
@@ -163,7 +163,7 @@ def register(subparsers) -> None:
         "(default, Listing 4.2's 'total work time'), finished in it, the longest phase, or the longest "
         "task awarded per kind summed over kinds; every rule's total is printed",
     )
-    simulate.set_defaults(func=run_simulate, per_joint=None)  # None: per joint
+    simulate.set_defaults(func=run_simulate, per_joint=None)  # None: per node
 
     allocators = subparsers.add_parser(
         "allocators",
@@ -265,7 +265,7 @@ def run_simulate(args) -> int:
     to_build = sum(1 for c in smart.components.values() if not c.prebuilt)
     with tqdm(total=to_build, desc="components assembled", unit="", disable=True if args.no_progress else None, leave=False) as bar:
         result = simulate(smart, fleet, site, args.evaluator, args.seed, args.breakdown, elevations,
-                          on_assembled=lambda _: bar.update(1), per_node=args.per_joint is False)
+                          on_assembled=lambda _: bar.update(1), per_node=not args.per_joint)
     with atomic_output_dir(args.output, kind="simulate", inputs=_inputs(args)) as tmp:
         write_outputs(result, tmp, gantt=not args.no_gantt, unknown_weight=weights.as_dict())
     info = smart.summary()

@@ -14,6 +14,8 @@ from bimrobot.errors import InputError
 GRAPH_EXAMPLES = """examples:
   bimrobot graph frame.ifc -o frame.ttl
   bimrobot graph frame.ifc --schedule sim/schedule.csv -o frame.jsonld --format json-ld
+  bimrobot graph frame.ifc --schedule sim/schedule.csv -o frame.ttl --ifc-out frame-4d.ifc   # + IfcWorkSchedule
+  bimrobot graph prefab.ifc --schedule planning.xml -o prefab.ttl          # a Microsoft Project XML schedule
   bimrobot graph house.ifc --ifc-schedule -o house.ttl            # tasks from the IfcWorkSchedule
   bimrobot graph frame.ifc --schedule schedule.csv --store oxigraph --store-path frame.oxigraph
   bimrobot graph frame.ifc --schedule schedule.csv --store sparql --store-path http://127.0.0.1:7878 -o frame.ttl
@@ -44,7 +46,10 @@ def register(subparsers) -> None:
     )
     graph.add_argument("model", type=Path, help="IFC file (.ifc or .ifczip)")
     source = graph.add_mutually_exclusive_group()
-    source.add_argument("--schedule", type=Path, help="schedule CSV (docs/conventions.md), e.g. from `bimrobot simulate`")
+    source.add_argument(
+        "--schedule", type=Path,
+        help="schedule: CSV (docs/conventions.md, e.g. from `bimrobot simulate`) or Microsoft Project XML (.xml)",
+    )
     source.add_argument("--ifc-schedule", action="store_true", help="take the activities from the model's IfcWorkSchedule")
     graph.add_argument("-o", "--output", type=Path, required=True, help="graph file to write (.ttl, .jsonld, .nt)")
     graph.add_argument("--format", choices=["turtle", "json-ld", "ntriples"], help="default: from the output suffix")
@@ -60,6 +65,17 @@ def register(subparsers) -> None:
         help="every element on its own: leave the model's IfcElementAssemblies out (by default each is an element "
         "with its parts as bot:hasSubElement, the unit that is lifted)",
     )
+    graph.add_argument(
+        "--prebuilt", default="IfcFooting,IfcPile", metavar="CLASSES",
+        help="IFC classes built by others, as for `bimrobot simulate` (default: IfcFooting,IfcPile): they start "
+        "in their own state (PositionFixed / Assembled) instead of OnYard",
+    )
+    graph.add_argument(
+        "--ifc-out", type=Path, metavar="FILE.ifc",
+        help="also write a copy of the model with the schedule as an IfcWorkSchedule (IfcTask, IfcTaskTime, "
+        "IfcRelSequence, IfcRelAssignsToProduct), for 4D viewers such as Bonsai",
+    )
+    graph.add_argument("--start", metavar="ISO", help="date-time of t = 0 s for --ifc-out (default: the schedule's own, else today 08:00)")
     add_selection_options(graph, built=True)
     graph.set_defaults(func=graph_command)
 
@@ -94,7 +110,7 @@ def graph_command(args) -> int:
     from bimrobot import io
     from bimrobot.bim import load_model
     from bimrobot.lbd.graph import DEFAULT_BASE, build_graph, checked_base
-    from bimrobot.lbd.schedule import load_schedule_csv, load_schedule_ifc
+    from bimrobot.lbd.schedule import load_schedule, load_schedule_ifc
     from bimrobot.lbd.store import format_for
 
     if args.store != "memory" and args.store_path is None:
@@ -103,16 +119,21 @@ def graph_command(args) -> int:
         raise InputError("--store-path is only used with --store oxigraph (a folder) or --store sparql (a URL)")
     inputs = [args.model, args.schedule]
     _check_outputs(args, inputs)
+    if args.ifc_out is not None:
+        if args.schedule is None and not args.ifc_schedule:
+            raise InputError("--ifc-out writes the schedule into the model: give --schedule FILE (or --ifc-schedule)")
+        io.check_output(args.ifc_out, folder=False, inputs=inputs, option="--ifc-out")
     format_for(args.output, args.format)  # fail on a bad suffix before the slow work
     base = checked_base(args.base or DEFAULT_BASE)
     started = time.perf_counter()
     model = load_model(args.model, include=args.include, exclude=args.exclude)
     schedule = None
     if args.schedule is not None:
-        schedule = load_schedule_csv(args.schedule, model=model)
+        schedule = load_schedule(args.schedule, model=model)
     elif args.ifc_schedule:
         schedule = load_schedule_ifc(args.model, model=model)
-    options = {"base": base, "properties": not args.no_properties, "assemblies": not args.by_element}
+    smart = _smart_model(model, args)
+    options = {"base": base, "properties": not args.no_properties, "assemblies": not args.by_element, "smart": smart}
 
     def build_and_write(store: str, path) -> int:
         graph = build_graph(model, schedule, store=store, path=path, **options)
@@ -127,18 +148,54 @@ def graph_command(args) -> int:
         with io.atomic_output_dir(args.store_path, kind="graph (Oxigraph store)", inputs=inputs, option="--store-path") as tmp:
             triples = build_and_write("oxigraph", tmp)
     else:
-        triples = build_and_write(args.store, args.store_path if args.store == "sparql" else None)
+        # The memory store is only a way to the file here: an in-memory Oxigraph store builds and writes
+        # large graphs several times faster than rdflib (same triples), when the oxigraph extra is installed.
+        fast = args.store == "memory" and _oxigraph_installed()
+        triples = build_and_write("oxigraph-memory" if fast else args.store, args.store_path if args.store == "sparql" else None)
     activities = len(schedule.activities) + len(schedule.phases) if schedule else 0
     assemblies = 0 if args.by_element else len(model.assemblies)
+    joints = ""
+    if smart is not None:
+        inferred = sum(1 for j in smart.joints.values() if j.inferred)
+        joints = f", {len(smart.joints)} joints ({inferred} inferred from geometry) with {len(smart.nodes)} nodes"
     print(
         f"{args.output}: {triples} triples, {len(model.elements)} elements"
         + (f" ({assemblies} assemblies)" if assemblies else "")
-        + f", {len(model.storeys)} storeys, {len(model.connections)} connections, {activities} activities "
+        + f", {len(model.storeys)} storeys, {len(model.connections)} connections{joints}, {activities} activities "
         f"({time.perf_counter() - started:.1f} s)"
     )
+    if schedule is not None and schedule.unmatched:
+        first = schedule[schedule.unmatched[0]]
+        print(f"{args.schedule}: {len(schedule.unmatched)} of {len(schedule.activities)} tasks name no element or storey of "
+              f"the model (e.g. {first.id} {first.name!r}); they are in the graph as activities without a component")
     if args.store != "memory":
         print(f"{'Oxigraph store' if args.store == 'oxigraph' else 'SPARQL endpoint'}: {args.store_path}")
+    if args.ifc_out is not None:
+        from bimrobot.bim.work_schedule import write_work_schedule
+
+        write_work_schedule(args.model, schedule, args.ifc_out, epoch=args.start)
+        print(f"{args.ifc_out}: {args.model.name} with an IfcWorkSchedule of {len(schedule.activities)} IfcTasks")
     return 0
+
+
+def _oxigraph_installed() -> bool:
+    import importlib.util
+
+    return importlib.util.find_spec("pyoxigraph") is not None
+
+
+def _smart_model(model, args):
+    """The joints and connection nodes the simulation would use (same options as `bimrobot simulate`), or
+    None with a note when the model has nothing robots build."""
+    from bimrobot.sco.build import build_smart_model, prebuilt_rule
+
+    prebuilt = tuple(c.strip() for c in args.prebuilt.split(",") if c.strip())
+    prebuilt_rule(model, prebuilt)  # an unknown class name is refused with the model's classes
+    try:
+        return build_smart_model(model, prebuilt_classes=prebuilt, by_element=args.by_element)
+    except InputError as exc:
+        print(f"bimrobot graph: no joints in the graph: {exc}", file=sys.stderr)
+        return None
 
 
 def _bindings(pairs: list[str]) -> dict[str, object]:

@@ -40,6 +40,8 @@ IRIs are ``<base>element/<GlobalId>``, ``<base>activity/<id>`` etc., with the id
 
 from __future__ import annotations
 
+import functools
+import itertools
 import logging
 import os
 import re
@@ -54,19 +56,37 @@ from rdflib import RDF, RDFS, XSD, Literal, Namespace, URIRef
 from bimrobot import io
 from bimrobot.errors import InputError
 from bimrobot.lbd import components
+from bimrobot.lbd.progress import progress_bar
 from bimrobot.lbd.schedule import Activity, Schedule
 from bimrobot.lbd.store import TripleStore, format_for, load_store, open_store, write_atomically
 
 if TYPE_CHECKING:  # pragma: no cover
     from bimrobot.bim.model import BuildingModel
+    from bimrobot.sco.build import SmartModel
 
 log = logging.getLogger(__name__)
 
-BOT = Namespace("https://w3id.org/bot#")
-DICE = Namespace("https://w3id.org/digitalconstruction/0.5/Entities#")
-DICP = Namespace("https://w3id.org/digitalconstruction/0.5/Processes#")
-BRC = Namespace("https://bimrobot.example/ns#")
-PROPS = Namespace("https://bimrobot.example/props#")
+
+@functools.lru_cache(maxsize=None)
+def _term(namespace: str, name: str) -> URIRef:
+    return URIRef(namespace + name)
+
+
+class _Namespace(Namespace):
+    """An rdflib Namespace that makes each term once: ``BOT.Element`` is looked up half a million times
+    while a large graph is built, and rdflib validates a new URIRef on every attribute access."""
+
+    def term(self, name: str) -> URIRef:
+        return _term(str(self), name)
+
+
+BOT = _Namespace("https://w3id.org/bot#")
+DICE = _Namespace("https://w3id.org/digitalconstruction/0.5/Entities#")
+DICP = _Namespace("https://w3id.org/digitalconstruction/0.5/Processes#")
+BRC = _Namespace("https://bimrobot.example/ns#")
+PROPS = _Namespace("https://bimrobot.example/props#")
+#: Provenance of a joint and of its connection nodes (``brc:provenance``).
+FROM_IFC_RELATION, FROM_GEOMETRY = "ifc-relation", "inferred-geometry"
 DEFAULT_BASE = "https://bimrobot.example/data/"
 
 PREFIXES = {
@@ -301,6 +321,7 @@ def build_graph(
     base: str = DEFAULT_BASE,
     properties: bool = True,
     assemblies: bool = True,
+    smart: SmartModel | None = None,
 ) -> ConstructionGraph:
     """The construction graph of ``model`` and, when given, its ``schedule``.
 
@@ -310,25 +331,66 @@ def build_graph(
     row whose GlobalId is not an element (or assembly) of the model raises :class:`InputError`.
     ``properties``: also write every property-set value (``props:<Pset>.<Name>``). ``assemblies``:
     write the model's assemblies with their parts as sub-elements (default).
+    ``smart``: the smart construction objects the simulation uses (:func:`bimrobot.sco.build_smart_model`
+    of the same model, with ``by_element=not assemblies``): its joints and connection nodes (from IFC
+    relations or inferred from geometry, with provenance, assembly points and method) go into the graph,
+    and its prebuilt components start in their own state (PositionFixed, Assembled) instead of OnYard.
+
+    The triples go to the store in one stream (one bulk load on Oxigraph); a progress bar on stderr
+    counts the elements, joints and activities written when the work is long (see :mod:`.progress`).
     """
     graph = ConstructionGraph(open_store(store, path), base)
-    writer = _GraphWriter(graph, model, properties, assemblies)
-    graph.store.add_all(vocabulary_triples())
-    graph.store.add_all(writer.topology())
-    if schedule is not None:
-        graph.store.add_all(writer.processes(schedule))
+    writer = _GraphWriter(graph, model, properties, assemblies, smart)
+    with progress_bar(writer.items(schedule), "graph", unit=" items") as bar:
+        writer.bar = bar
+        graph.store.add_all(itertools.chain(
+            vocabulary_triples(), writer.topology(), writer.processes(schedule) if schedule is not None else ()))
     return graph
+
+
+def _provenance(joint) -> str:
+    return FROM_GEOMETRY if joint.inferred else FROM_IFC_RELATION
 
 
 class _GraphWriter:
     """Yields the triples of one model (and schedule), in the order of fig. 5.5."""
 
-    def __init__(self, graph: ConstructionGraph, model: BuildingModel, properties: bool = True, assemblies: bool = True):
-        self.graph, self.model, self.properties = graph, model, properties
+    def __init__(self, graph: ConstructionGraph, model: BuildingModel, properties: bool = True, assemblies: bool = True,
+                 smart: SmartModel | None = None):
+        self.graph, self.model, self.properties, self.smart = graph, model, properties, smart
         self.assemblies = dict(getattr(model, "assemblies", {})) if assemblies else {}
         self.site = graph.iri("site", "site")
         self.storeys = {s.global_id for s in model.storeys}
         self.building = graph.iri("building", "building")
+        self.start_states = self._start_states()
+        self.interfaces = {f"{c.relating_id}:{c.related_id}" for c in model.connections}
+        if smart is not None:
+            self.interfaces.update(smart.nodes)
+        self.bar = None  # a progress bar, advanced by one per element, assembly, connection, joint, activity
+
+    def items(self, schedule: Schedule | None) -> int:
+        """How many items (elements, assemblies, connections, joints, activities) the graph describes."""
+        count = len(self.model.elements) + len(self.assemblies) + len(self.model.connections)
+        if self.smart is not None:
+            count += len(self.smart.joints)
+        if schedule is not None:
+            count += len(schedule.activities) + len(schedule.phases)
+        return count
+
+    def _tick(self) -> None:
+        if self.bar is not None:
+            self.bar.update(1)
+
+    def _start_states(self) -> dict[str, str]:
+        """GlobalId -> the state a prebuilt component (and each part of a prebuilt assembly) starts in."""
+        states: dict[str, str] = {}
+        if self.smart is None:
+            return states
+        for component in self.smart.components.values():
+            if component.prebuilt:
+                for gid in (component.id, *component.part_ids):
+                    states[gid] = str(component.state)
+        return states
 
     def topology(self) -> Iterator[Triple]:
         g, model = self.graph, self.model
@@ -347,10 +409,17 @@ class _GraphWriter:
         storeys = {s.global_id for s in model.storeys}
         for element in model.elements.values():
             yield from self.element(element, storeys)
+            self._tick()
         for assembly in self.assemblies.values():
             yield from self.assembly(assembly, storeys)
+            self._tick()
         for connection in model.connections:
             yield from self.interface(connection)
+            self._tick()
+        if self.smart is not None:
+            for joint in self.smart.joints.values():
+                yield from self.joint(joint)
+                self._tick()
 
     def element(self, element, storeys: set[str]) -> Iterator[Triple]:
         iri = self.graph.element_iri(element.global_id)
@@ -376,7 +445,7 @@ class _GraphWriter:
                 yield size, prop, _literal(float(length))
         if self.properties:
             yield from _property_values(iri, element.properties)
-        yield iri, DICE.hasEntityState, BRC.OnYard
+        yield iri, DICE.hasEntityState, BRC[self.start_states.get(element.global_id, "OnYard")]
 
     def assembly(self, assembly, storeys: set[str]) -> Iterator[Triple]:
         """An assembly as a bot:Element with its parts as bot:hasSubElement (see the module docstring)."""
@@ -404,7 +473,7 @@ class _GraphWriter:
             yield volume, RDF.type, DICE.CartesianVolume
             for prop, length in zip((DICE.hasXLength, DICE.hasYLength, DICE.hasZLength), size):
                 yield volume, prop, _literal(float(length))
-        yield iri, DICE.hasEntityState, BRC.OnYard
+        yield iri, DICE.hasEntityState, BRC[self.start_states.get(gid, "OnYard")]
 
     def interface(self, connection) -> Iterator[Triple]:
         g = self.graph
@@ -425,13 +494,54 @@ class _GraphWriter:
         for realizing in connection.realizing_ids:
             yield iri, BRC.realizingElement, g.element_iri(realizing)
 
+    def joint(self, joint) -> Iterator[Triple]:
+        """A joint of the simulation (:class:`bimrobot.sco.component.Joint`) and its connection nodes.
+
+        The joint is a ``bot:Interface`` (and ``brc:Joint``) of its components and connectors, with its
+        provenance, realizing elements, total assembly points and where the robot works (m, world).
+        Each node is a ``bot:Interface`` (and ``brc:ConnectionNode``) of its component and its
+        connector, with its own points and method; a prebuilt component's nodes carry their state.
+        """
+        g, smart = self.graph, self.smart
+        iri = g.iri("joint", joint.id)
+        provenance = Literal(_provenance(joint))
+        nodes = [smart.nodes[n] for n in joint.node_ids]
+        yield iri, RDF.type, BOT.Interface
+        yield iri, RDF.type, BRC.Joint
+        yield iri, BRC.jointId, Literal(joint.id)
+        yield iri, BRC.provenance, provenance
+        for gid in (*joint.component_ids, *joint.connector_ids):
+            yield iri, BOT.interfaceOf, g.element_iri(gid)
+        for realizing in joint.realizing_ids:
+            yield iri, BRC.realizingElement, g.element_iri(realizing)
+        yield iri, BRC.assemblyPoints, Literal(sum(n.assembly_point_number for n in nodes))
+        yield iri, BRC.assemblyMethod, Literal(",".join(sorted({n.assembly_method for n in nodes})))
+        yield from _position(URIRef(f"{iri}/position"), iri, BRC.assemblyPosition, joint.position)
+        for node in nodes:
+            node_iri = g.interface_iri(node.id)
+            yield iri, BRC.hasNode, node_iri
+            yield node_iri, RDF.type, BOT.Interface
+            yield node_iri, RDF.type, BRC.ConnectionNode
+            yield node_iri, BRC.nodeId, Literal(node.id)
+            yield node_iri, BRC.partOfJoint, iri
+            yield node_iri, BRC.provenance, provenance
+            yield node_iri, BOT.interfaceOf, g.element_iri(node.component_id)
+            for connector in node.connector_ids:
+                yield node_iri, BOT.interfaceOf, g.element_iri(connector)
+            yield node_iri, BRC.assemblyPoints, Literal(int(node.assembly_point_number))
+            yield node_iri, BRC.assemblyMethod, Literal(node.assembly_method)
+            if smart.components[node.component_id].prebuilt:
+                yield node_iri, DICE.hasEntityState, BRC[str(node.state)]
+
     def processes(self, schedule: Schedule) -> Iterator[Triple]:
-        interfaces = {f"{c.relating_id}:{c.related_id}" for c in self.model.connections}
+        interfaces = self.interfaces
         robots: set[str] = set()
         for phase in schedule.phases:
             yield from self.activity(phase, interfaces)
+            self._tick()
         for activity in schedule.activities:
             yield from self.activity(activity, interfaces)
+            self._tick()
             if activity.robot and activity.robot not in robots:
                 robots.add(activity.robot)
                 robot = self.graph.iri("robot", activity.robot)

@@ -19,16 +19,22 @@ from __future__ import annotations
 import abc
 import itertools
 import json
+import logging
 import threading
+import time
 from collections import defaultdict, deque
 from dataclasses import dataclass
 from typing import Callable, Iterable
 
 from bimrobot.errors import InputError, require_extra
 
+log = logging.getLogger(__name__)
+
 ACTIVITY_TOPIC = "rcan.activity"
 RESULT_TOPIC = "rcan.result"
 STATE_TOPIC = "rcan.state"
+#: Messages delivered too often without being acknowledged (see :class:`RedisBroker`).
+DEAD_LETTER_TOPIC = "rcan.dead"
 
 
 def robot_topic(robot: str) -> str:
@@ -95,27 +101,55 @@ class InProcessBroker(Broker):
 
     def __init__(self, max_length: int = 100_000) -> None:
         self._queues: dict[str, deque] = defaultdict(lambda: deque(maxlen=max_length))
-        self._ready = threading.Condition()
+        self._filled: set[str] = set()  # topics with messages: a receiver of 20,000 robot topics scans these
+        self._lock = threading.Lock()
+        # receivers waiting, each with the topics it waits on: a message wakes only those that want it
+        # (waking every thread on every message costs a GIL hand-over per message and receiver)
+        self._waiters: list[tuple[object, threading.Event]] = []
         self._ids = itertools.count(1)
 
     def send(self, topic: str, payload: dict) -> str:
         data = json.dumps(payload)
-        with self._ready:
+        with self._lock:
             message_id = str(next(self._ids))
             self._queues[topic].append((message_id, data))
-            self._ready.notify_all()
+            self._filled.add(topic)
+            for wanted, event in self._waiters:
+                if topic in wanted:
+                    event.set()
         return message_id
 
     def receive(self, topics: Iterable[str], timeout_s: float = 1.0, count: int = 16) -> list[Message]:
-        topics = list(topics)
+        """As :meth:`Receiver.receive`; ``topics`` in priority order, or a (frozen)set of topics taken in
+        any order (an executor of many robots: only the topics holding messages are looked at)."""
+        if isinstance(topics, (set, frozenset)):
+            wanted, rank = topics, None
+        else:
+            rank = {t: n for n, t in enumerate(topics)}
+            wanted = rank
+        with self._lock:
+            ready = [t for t in self._filled if t in wanted]
+            if not ready and timeout_s > 0:
+                waiter = (wanted, threading.Event())
+                self._waiters.append(waiter)
+        if not ready and timeout_s > 0:
+            waiter[1].wait(timeout_s)
+            with self._lock:
+                self._waiters.remove(waiter)
+                ready = [t for t in self._filled if t in wanted]
         out: list[Message] = []
-        with self._ready:
-            self._ready.wait_for(lambda: any(self._queues[t] for t in topics), timeout=timeout_s)
-            for topic in topics:
+        if not ready:
+            return out
+        with self._lock:
+            for topic in sorted(ready, key=rank.__getitem__) if rank else ready:
                 queue = self._queues[topic]
                 while queue and len(out) < count:
                     message_id, data = queue.popleft()
-                    out.append(Message(topic, json.loads(data), message_id))
+                    out.append(Message(topic, message_id=message_id, payload=data))
+                if not queue:
+                    self._filled.discard(topic)
+        for n, message in enumerate(out):  # decoded outside the lock
+            out[n] = Message(message.topic, json.loads(message.payload), message.message_id)
         return out
 
     def ack(self, message: Message) -> None:
@@ -126,51 +160,151 @@ class RedisBroker(Broker):
     """Redis streams with consumer groups: ``group`` names the role (e.g. ``executor``), ``consumer`` this
     process. Each topic is the stream ``<prefix><topic>``. On start the consumer first re-reads the
     messages it received but never acknowledged (a crash between receive and ack), then new ones.
+
+    Reliability (at-least-once delivery; the robot side makes the effects exactly-once):
+
+    - a lost connection (Redis restarting, with or without persistence) is retried with exponential
+      back-off (0.05 s doubling to 2 s) for up to ``reconnect_s`` seconds, then an InputError; every
+      reconnection is counted in :attr:`reconnections`, so the coordinator re-publishes what its state
+      database says is not done (a Redis without persistence comes back empty);
+    - a consumer group that is gone (NOGROUP) is created again, not cached as existing;
+    - messages another consumer of the group received but has not acknowledged for ``claim_idle_s``
+      seconds (a dead executor) are claimed with XAUTOCLAIM;
+    - a message delivered more than ``max_deliveries`` times is not handed out again: it goes to the
+      dead-letter stream (topic :data:`DEAD_LETTER_TOPIC`, with its topic and delivery count), where
+      the coordinator escalates its activity.
     """
 
     def __init__(self, url: str = "redis://127.0.0.1:6379/0", group: str = "rcan", consumer: str = "rcan-1",
-                 prefix: str = "bimrobot:", max_length: int = 100_000):
+                 prefix: str = "bimrobot:", max_length: int = 100_000, reconnect_s: float = 120.0,
+                 claim_idle_s: float | None = 60.0, max_deliveries: int = 5):
         redis = require_extra("redis", "redis")
+        self._errors = (redis.ConnectionError, redis.TimeoutError, redis.BusyLoadingError)
+        self._ResponseError = redis.ResponseError
+        self.url = url
         try:
-            self._redis = redis.Redis.from_url(url, decode_responses=True)
+            self._redis = redis.Redis.from_url(url, decode_responses=True, socket_connect_timeout=2.0,
+                                               health_check_interval=10)
             self._redis.ping()
         except (ValueError, redis.RedisError) as exc:
             raise InputError(f"cannot reach Redis at {url}: {exc}") from None
         self.group, self.consumer, self.prefix = group, consumer, prefix
         self.max_length = max_length  # streams are trimmed (approximately) to this many messages
+        self.reconnect_s, self.claim_idle_s, self.max_deliveries = reconnect_s, claim_idle_s, max_deliveries
+        self.reconnections = 0
         self._known_groups: set[str] = set()
         self._pending_checked: set[str] = set()
+        self._last_claim = 0.0
+        self._lock = threading.Lock()  # the caches above are shared by an executor's worker threads
 
     def _key(self, topic: str) -> str:
         return self.prefix + topic
+
+    def _call(self, operation: Callable):
+        """``operation()`` with reconnection: connection errors are retried with back-off; after a
+        reconnection the group caches are dropped (Redis may have come back empty)."""
+        delay, deadline, failed = 0.05, time.monotonic() + self.reconnect_s, False
+        while True:
+            try:
+                result = operation()
+            except self._errors as exc:
+                if time.monotonic() > deadline:
+                    raise InputError(f"lost Redis at {self.url} and it was not back within {self.reconnect_s:g} s "
+                                     f"({exc}); rerun the same command to resume") from None
+                if not failed:
+                    log.warning("Redis at %s unreachable (%s): reconnecting", self.url, exc)
+                failed = True
+                time.sleep(delay)
+                delay = min(2.0, delay * 2)
+                continue
+            if failed:
+                with self._lock:
+                    self.reconnections += 1
+                    self._known_groups.clear()
+                    self._pending_checked.clear()
+                log.warning("Redis at %s is back", self.url)
+            return result
 
     def _ensure_group(self, key: str) -> None:
         if key in self._known_groups:
             return
         try:
             self._redis.xgroup_create(key, self.group, id="0", mkstream=True)
-        except Exception as exc:  # BUSYGROUP: the group exists already
+        except self._ResponseError as exc:  # BUSYGROUP: the group exists already
             if "BUSYGROUP" not in str(exc):
                 raise
-        self._known_groups.add(key)
+        with self._lock:
+            self._known_groups.add(key)
 
     def send(self, topic: str, payload: dict) -> str:
-        return self._redis.xadd(self._key(topic), {"data": json.dumps(payload)}, maxlen=self.max_length, approximate=True)
+        data = json.dumps(payload)
+        return self._call(lambda: self._redis.xadd(self._key(topic), {"data": data}, maxlen=self.max_length,
+                                                   approximate=True))
 
     def receive(self, topics: Iterable[str], timeout_s: float = 1.0, count: int = 16) -> list[Message]:
         keys = [self._key(t) for t in topics]
+        while True:
+            try:
+                return self._call(lambda: self._receive(keys, timeout_s, count))
+            except self._ResponseError as exc:
+                if "NOGROUP" not in str(exc):
+                    raise
+                log.warning("Redis consumer group %s is gone (Redis restarted empty?): creating it again", self.group)
+                with self._lock:
+                    self._known_groups.clear()
+                    self._pending_checked.clear()
+
+    def _receive(self, keys: list[str], timeout_s: float, count: int) -> list[Message]:
         for key in keys:
             self._ensure_group(key)
         unchecked = [k for k in keys if k not in self._pending_checked]
         if unchecked:  # our own unacknowledged messages from before a restart come first
-            self._pending_checked.update(unchecked)
             replies = self._redis.xreadgroup(self.group, self.consumer, {k: "0" for k in unchecked}, count=count)
-            messages = self._decode(replies)
+            with self._lock:
+                self._pending_checked.update(unchecked)
+            messages = self._screen(self._decode(replies))
             if messages:
                 return messages
+        if self.claim_idle_s is not None and time.monotonic() - self._last_claim >= min(self.claim_idle_s, 5.0):
+            self._last_claim = time.monotonic()
+            claimed = self._screen(self._claim(keys, count))
+            if claimed:
+                return claimed
         block_ms = max(1, int(timeout_s * 1000))
         replies = self._redis.xreadgroup(self.group, self.consumer, {k: ">" for k in keys}, count=count, block=block_ms)
         return self._decode(replies)
+
+    def _claim(self, keys: list[str], count: int) -> list[Message]:
+        """Messages other consumers of the group left unacknowledged for ``claim_idle_s`` (XAUTOCLAIM)."""
+        out = []
+        idle_ms = int(self.claim_idle_s * 1000)
+        for key in keys:
+            reply = self._redis.xautoclaim(key, self.group, self.consumer, idle_ms, "0-0", count=count)
+            entries = reply[1] if reply and len(reply) > 1 else []
+            if entries:
+                log.warning("claimed %d message(s) of %s left unacknowledged for %g s by a dead consumer",
+                            len(entries), key, self.claim_idle_s)
+            out += self._decode([(key, entries)])
+        return out
+
+    def _screen(self, messages: list[Message]) -> list[Message]:
+        """Messages handed out again (re-read or claimed): one delivered more than ``max_deliveries``
+        times goes to the dead-letter stream instead (acknowledged here)."""
+        out = []
+        for message in messages:
+            key = self._key(message.topic)
+            pending = self._redis.xpending_range(key, self.group, message.message_id, message.message_id, 1)
+            deliveries = pending[0]["times_delivered"] if pending else 1
+            if deliveries > self.max_deliveries:
+                log.warning("message %s of %s delivered %d times: moved to the dead-letter stream",
+                            message.message_id, message.topic, deliveries)
+                self._redis.xadd(self._key(DEAD_LETTER_TOPIC), {"data": json.dumps(
+                    {"topic": message.topic, "payload": message.payload, "deliveries": deliveries,
+                     "group": self.group})}, maxlen=self.max_length, approximate=True)
+                self._redis.xack(key, self.group, message.message_id)
+            else:
+                out.append(message)
+        return out
 
     def _decode(self, replies) -> list[Message]:
         out = []
@@ -182,7 +316,11 @@ class RedisBroker(Broker):
         return out
 
     def ack(self, message: Message) -> None:
-        self._redis.xack(self._key(message.topic), self.group, message.message_id)
+        try:
+            self._call(lambda: self._redis.xack(self._key(message.topic), self.group, message.message_id))
+        except self._ResponseError as exc:  # the group is gone (Redis restarted empty): nothing to acknowledge
+            if "NOGROUP" not in str(exc):
+                raise
 
     def close(self) -> None:
         self._redis.close()

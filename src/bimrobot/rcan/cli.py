@@ -74,6 +74,9 @@ def register(subparsers) -> None:
                                    formatter_class=argparse.RawDescriptionHelpFormatter)
     _common(executor)
     executor.add_argument("--robot", action="append", help="robot to serve (repeatable; default: all)")
+    executor.add_argument("--consumer", help="Redis consumer name (default executor-<host>-<pid>)")
+    executor.add_argument("--workers", type=int, default=None,
+                          help="worker threads: robots executed at the same time (default min(16, robots))")
     executor.set_defaults(func=_executor)
 
     caps = commands.add_parser("capabilities", help="print the capability table (Table 5.2) and robots",
@@ -93,6 +96,7 @@ def register(subparsers) -> None:
     node.add_argument("--seed", type=int, default=0, help="seed of the failure draws (default 0)")
     node.add_argument("--state-db", default=":memory:",
                       help="SQLite file for the robots' world, new or bimrobot's (default in memory)")
+    node.add_argument("--robot", action="append", help="serve only this robot (repeatable; default: all)")
     node.set_defaults(func=_robot_node)
 
 
@@ -103,10 +107,26 @@ def _common(parser: argparse.ArgumentParser) -> None:
                         help="SQLite file for the journal and the simulated site, new or from an earlier run, "
                              "which is resumed (default in memory); another program's file is refused")
     parser.add_argument("--redis", help="Redis URL for the broker (default: in-process)")
+    parser.add_argument("--redis-reconnect", type=float, default=120.0, metavar="S",
+                        help="Redis: keep reconnecting (with back-off) for this long before giving up (default 120 s)")
+    parser.add_argument("--claim-idle", type=float, default=60.0, metavar="S",
+                        help="Redis: claim work another consumer left unacknowledged this long (a dead executor; "
+                             "default 60 s, longer than any activity takes)")
+    parser.add_argument("--max-deliveries", type=int, default=5, metavar="N",
+                        help="Redis: a message delivered more often goes to the dead-letter stream and its "
+                             "activity is escalated (default 5)")
     parser.add_argument("--time-scale", type=float, default=0.0,
                         help="sim: real seconds slept per simulated second (default 0, as fast as possible)")
     parser.add_argument("--failure-probability", type=float, default=0.0, help="sim: chance an activity fails (default 0)")
     parser.add_argument("--seed", type=int, default=0, help="sim: seed of the failure draws (default 0)")
+    parser.add_argument("--deadline-factor", type=float, default=3.0, metavar="F",
+                        help="ros2: a goal is cancelled after --deadline-min + F x its expected duration "
+                             "(robot seconds x the robots' time scale; default 3)")
+    parser.add_argument("--deadline-min", type=float, default=30.0, metavar="S",
+                        help="ros2: the least time a goal gets, seconds (default 30)")
+    parser.add_argument("--liveness", type=float, default=4.0, metavar="S",
+                        help="ros2: a robot whose server sends no feedback for this long while it works is taken "
+                             "for dead; its activity goes to another capable robot (default 4 s)")
 
 
 def _check_sim_options(args) -> None:
@@ -116,11 +136,27 @@ def _check_sim_options(args) -> None:
         raise InputError(f"--time-scale must be between 0 and 1000 real seconds per simulated second, got {args.time_scale}")
 
 
+def _redis_options(args) -> dict:
+    for option, value, low in (("--redis-reconnect", args.redis_reconnect, 0.0), ("--claim-idle", args.claim_idle, 0.01)):
+        if not (math.isfinite(value) and low <= value <= 86400):
+            raise InputError(f"{option} must be between {low:g} and 86400 seconds, got {value}")
+    if not 1 <= args.max_deliveries <= 1000:
+        raise InputError(f"--max-deliveries must be between 1 and 1000, got {args.max_deliveries}")
+    return {"reconnect_s": args.redis_reconnect, "claim_idle_s": args.claim_idle, "max_deliveries": args.max_deliveries}
+
+
 def _backend_options(args) -> dict:
     _check_sim_options(args)
     if args.backend == "sim":
         return {"time_scale": args.time_scale, "failure_probability": args.failure_probability, "seed": args.seed}
-    return {}
+    for option, value, low in (("--deadline-factor", args.deadline_factor, 0.0), ("--deadline-min", args.deadline_min, 0.1),
+                               ("--liveness", args.liveness, 0.1)):
+        if not (math.isfinite(value) and low <= value <= 86400):
+            raise InputError(f"{option} must be between {low:g} and 86400, got {value}")
+    # the shipped robot node runs at --time-scale; robots of your own run in real time
+    spawned = getattr(args, "robot_node", "external") == "spawn" and not getattr(args, "no_local_executors", False)
+    return {"deadline_factor": args.deadline_factor, "deadline_min_s": args.deadline_min, "liveness_s": args.liveness,
+            "time_scale": args.time_scale if spawned else 1.0}
 
 
 def _is_ifc(path: str | None) -> bool:
@@ -189,8 +225,10 @@ def _robot_notice(activities, capabilities) -> None:
     unknown = sorted({a.robot for a in activities if a.robot and a.robot not in capabilities.robots})
     if unknown:
         shown = ", ".join(unknown[:5]) + (f" and {len(unknown) - 5} more" if len(unknown) > 5 else "")
+        robots = list(capabilities.robots)
+        table = ", ".join(robots[:5]) + (f" and {len(robots) - 5} more" if len(robots) > 5 else "")
         print(f"the schedule names robot(s) {shown}, which are not in {capabilities.source}: their activities go "
-              f"to capable robots of the table ({', '.join(capabilities.robots)})", flush=True)
+              f"to capable robots of the table ({table})", flush=True)
 
 
 def _unknown_weight_notice(activities, model_given: bool) -> list[str]:
@@ -223,6 +261,7 @@ def _run(args) -> int:
     if not (math.isfinite(args.standoff) and 0 <= args.standoff <= 100):
         raise InputError(f"--standoff must be between 0 and 100 m, got {args.standoff}")
     options = _backend_options(args)
+    redis_options = _redis_options(args)
     inputs = _inputs(args)
     _check_outputs(args, inputs)
     capabilities = load_capabilities(args.capabilities)
@@ -239,7 +278,7 @@ def _run(args) -> int:
         report = run_plan(activities, capabilities, backend=args.backend, state_db=args.state_db,
                           redis_url=args.redis, spawn_executors=not args.no_local_executors,
                           max_attempts=args.max_attempts, log=log, backend_options=options,
-                          observers=observers, retry_escalated=args.retry_escalated)
+                          observers=observers, retry_escalated=args.retry_escalated, redis_options=redis_options)
     states = {}
     for state in report.component_states.values():
         states[state] = states.get(state, 0) + 1
@@ -247,10 +286,7 @@ def _run(args) -> int:
           + (f" ({report.resumed} re-sent after a resume)" if report.resumed else "")
           + f"; components: {', '.join(f'{n} {s}' for s, n in sorted(states.items()))}; "
           f"makespan {report.makespan_s:.1f} s (robot time), wall {report.wall_s:.2f} s", flush=True)
-    for escalation in report.escalations:
-        print(escalation, flush=True)
-    if report.blocked and not report.escalations:
-        print(f"blocked: {', '.join(report.blocked[:10])} wait for a robot that never becomes free", flush=True)
+    _print_outcome(report)
     if args.report:
         data = {"generator": signature("rcan run report"), **asdict(report)}
         data["unknown_weight"] = {**(weights.as_dict() if weights else {"rule": str(args.unknown_weight)}),
@@ -266,6 +302,33 @@ def _run(args) -> int:
     return 0 if report.status == "completed" else 1
 
 
+def _listed(ids: list[str], limit: int = 10) -> str:
+    """``ids`` comma-separated, the first ``limit`` of them (the --report file has all)."""
+    more = f" and {len(ids) - limit} more" if len(ids) > limit else ""
+    return ", ".join(ids[:limit]) + more
+
+
+def _print_outcome(report) -> None:
+    """Escalated activities, what each one blocks, what waits for a robot, and what was done: all of
+    them whenever the run did not complete."""
+    if report.status == "completed":
+        return
+    for escalation in report.escalations:
+        print(escalation, flush=True)
+    by_cause: dict[str, list[str]] = {}
+    for activity_id, cause in report.blocked_by.items():
+        by_cause.setdefault(cause, []).append(activity_id)
+    for cause, ids in by_cause.items():
+        print(f"blocked by escalated {cause}: {len(ids)} activit{'y' if len(ids) == 1 else 'ies'} ({_listed(ids)})",
+              flush=True)
+    waiting = [a for a in report.blocked if a not in report.blocked_by]
+    if waiting:
+        print(f"blocked: {len(waiting)} activit{'y' if len(waiting) == 1 else 'ies'} ({_listed(waiting)}) wait for "
+              "a robot that never becomes free", flush=True)
+    print(f"done: {len(report.done)} activit{'y' if len(report.done) == 1 else 'ies'}"
+          + (f" ({_listed(report.done)})" if report.done else ""), flush=True)
+
+
 def _robots(args):
     """For ``--backend ros2 --robot-node spawn``: the shipped ROS 2 robot node, started and stopped here."""
     import contextlib
@@ -278,7 +341,7 @@ def _robots(args):
     load_ros2()  # fails early with the setup hint when ROS 2 is absent
     os.environ.setdefault("FASTDDS_BUILTIN_TRANSPORTS", "SHM")  # both processes are on this machine
     return robot_node_process(args.capabilities, args.time_scale, args.failure_probability, args.seed,
-                              state_db=args.state_db)
+                              state_db=args.state_db, participants_closed=True)  # run_plan closes its backend first
 
 
 def _executor(args) -> int:
@@ -304,8 +367,12 @@ def _executor(args) -> int:
     if args.backend == "sim":
         options["db_path"] = args.state_db
     backend = create_backend(args.backend, capabilities, **options)
-    broker = RedisBroker(args.redis, group="executor", consumer=f"executor-{'-'.join(robots)}")
-    executor = RobotExecutor(broker, backend, robots)
+    import socket
+
+    # one consumer name per process: what a killed executor left unacknowledged is claimed by the others
+    consumer = args.consumer or f"executor-{socket.gethostname()}-{os.getpid()}"
+    broker = RedisBroker(args.redis, group="executor", consumer=consumer, **_redis_options(args))
+    executor = RobotExecutor(broker, backend, robots, workers=args.workers)
     print(f"rcan executor serving {', '.join(robots)} on {args.redis} with the {args.backend} backend", flush=True)
     try:
         executor.serve()
@@ -339,8 +406,13 @@ def _robot_node(args) -> int:
         from bimrobot.rcan.state_manager import is_state_db
 
         check_output(args.state_db, folder=False, inputs=_inputs(args), option="--state-db", recognise=is_state_db)
-    return serve_robot_node(load_capabilities(args.capabilities), time_scale=args.time_scale,
-                            failure_probability=args.failure_probability, seed=args.seed, db_path=args.state_db)
+    capabilities = load_capabilities(args.capabilities)
+    unknown = [r for r in args.robot or () if r not in capabilities.robots]
+    if unknown:
+        raise InputError(f"--robot {unknown[0]!r} is not a robot of {capabilities.source} "
+                         f"(its robots: {', '.join(list(capabilities.robots)[:10])})")
+    return serve_robot_node(capabilities, time_scale=args.time_scale, failure_probability=args.failure_probability,
+                            seed=args.seed, db_path=args.state_db, robots=args.robot)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -1,6 +1,10 @@
 """The robot executor service: takes RCAN nodes for its robots off the broker, drives them through an
 executor backend and sends each result back (thesis 5.2.1, "Robot executor").
 
+One executor serves any number of robots with a bounded pool of worker threads (``workers``, default
+up to 16): robots work in parallel, but 20,000 robots in a capability table do not make 20,000
+threads. Each robot executes one node at a time (a per-robot lock), in the order they arrive.
+
 Run it in a thread next to the rest of RCAN (in-process broker) or in its own process against Redis
 (``bimrobot rcan executor --redis URL --robot NAME``).
 """
@@ -9,6 +13,7 @@ from __future__ import annotations
 
 import logging
 import threading
+from concurrent.futures import ThreadPoolExecutor
 from typing import Iterable
 
 from bimrobot.rcan.backends.interfaces import ActivityResult, ExecutorBackend
@@ -17,42 +22,75 @@ from bimrobot.rcan.node import RcanNode
 
 log = logging.getLogger(__name__)
 
+#: Worker threads of one executor when not given: enough for the robots of a site to work in parallel
+#: on a backend that waits (ROS 2 actions, ``--time-scale``), bounded whatever the number of robots.
+DEFAULT_WORKERS = 16
+
 
 class RobotExecutor:
-    """Executes the RCAN nodes sent to ``robots`` with ``backend`` until ``stop`` is set."""
+    """Executes the RCAN nodes sent to ``robots`` with ``backend`` until ``stop`` is set, on at most
+    ``workers`` threads."""
 
-    def __init__(self, broker: Broker, backend: ExecutorBackend, robots: Iterable[str]):
+    def __init__(self, broker: Broker, backend: ExecutorBackend, robots: Iterable[str], workers: int | None = None):
         self.broker = broker
         self.backend = backend
-        self.topics = [robot_topic(r) for r in robots]
+        self.robots = list(robots)
+        self.topics = frozenset(robot_topic(r) for r in self.robots)
+        self.workers = max(1, min(workers or DEFAULT_WORKERS, len(self.robots) or 1))
         self.stop = threading.Event()
+        self._robot_locks: dict[str, threading.Lock] = {}
+        self._locks_guard = threading.Lock()
+
+    def _robot_lock(self, robot: str) -> threading.Lock:
+        with self._locks_guard:
+            return self._robot_locks.setdefault(robot, threading.Lock())
 
     def handle(self, message: Message) -> ActivityResult:
         """Execute one node message and send its result; the message is acknowledged after sending."""
         payload = message.payload
         node = RcanNode.from_message(payload["node"])
-        try:
-            result = self.backend.execute(node, int(payload["attempt"]), float(payload.get("ready_at_s", 0.0)))
-        except Exception as exc:  # a backend fault is a failed attempt, not a dead executor
-            log.exception("backend %s failed on %s", self.backend.name, node.node_id)
-            result = ActivityResult(node.activity_id, int(payload["attempt"]), node.robot, False,
-                                    f"{self.backend.name} backend error: {exc}")
+        with self._robot_lock(node.robot):  # a robot does one thing at a time
+            try:
+                result = self.backend.execute(node, int(payload["attempt"]), float(payload.get("ready_at_s", 0.0)))
+            except Exception as exc:  # a backend fault is a failed attempt, not a dead executor
+                log.exception("backend %s failed on %s", self.backend.name, node.node_id)
+                result = ActivityResult(node.activity_id, int(payload["attempt"]), node.robot, False,
+                                        f"{self.backend.name} backend error: {exc}")
         self.broker.send(RESULT_TOPIC, {"node": payload["node"], "result": result.to_message()})
         self.broker.ack(message)
         return result
 
+    def _handle_safely(self, message: Message, slots: threading.Semaphore) -> None:
+        try:
+            self.handle(message)
+        except Exception:  # noqa: BLE001 - the broker failed sending the result: unacknowledged, so redelivered
+            log.exception("robot executor: could not send the result of message %s", message.message_id)
+        finally:
+            slots.release()
+
     def serve(self, poll_s: float = 0.2) -> None:
         """Loop until :attr:`stop` is set. A broker error (e.g. Redis restarting) is logged and retried:
         unacknowledged messages are delivered again once the broker is back."""
-        while not self.stop.is_set():
-            try:
-                for message in self.broker.receive(self.topics, timeout_s=poll_s, count=1):
-                    self.handle(message)
-            except Exception:  # noqa: BLE001 - keep serving; the coordinator is waiting for results
-                log.exception("robot executor for %s: broker error, retrying in 1 s", ", ".join(self.topics))
-                self.stop.wait(1.0)
+        slots = threading.Semaphore(self.workers)
+        with ThreadPoolExecutor(self.workers, thread_name_prefix="rcan-executor") as pool:
+            while not self.stop.is_set():
+                if not slots.acquire(timeout=poll_s):
+                    continue  # every worker is busy
+                free = 1
+                while free < self.workers and slots.acquire(blocking=False):
+                    free += 1
+                try:
+                    messages = self.broker.receive(self.topics, timeout_s=poll_s, count=free)
+                except Exception:  # noqa: BLE001 - keep serving; the coordinator is waiting for results
+                    log.warning("robot executor: broker error, retrying in 1 s", exc_info=True)
+                    messages = []
+                    self.stop.wait(1.0)
+                for message in messages:
+                    pool.submit(self._handle_safely, message, slots)
+                for _ in range(free - len(messages)):
+                    slots.release()
 
     def start_thread(self) -> threading.Thread:
-        thread = threading.Thread(target=self.serve, name=f"rcan-executor-{self.topics}", daemon=True)
+        thread = threading.Thread(target=self.serve, name="rcan-executor", daemon=True)
         thread.start()
         return thread

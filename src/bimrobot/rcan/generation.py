@@ -97,11 +97,17 @@ HOME_RANGE_M = 1.0e7
 
 
 def load_capabilities(path: str | Path | None = None) -> CapabilityTable:
-    """Read and validate a capability table; ``None`` reads the built-in one.
+    """Read and validate a capability table; ``None`` reads the built-in one. A fleet (a built-in name such as
+    ``fleet2`` or a fleet YAML file, as `simulate` reads) gives one RCAN robot per fleet robot
+    (:mod:`bimrobot.rcan.fleet`).
 
     Raises :class:`InputError` naming the file, key and line on any malformed entry or number out of
     its physical range (:data:`ROBOT_RANGES`).
     """
+    from bimrobot.rcan import fleet  # a fleet file (or built-in fleet) describes the robots once, for simulate too
+
+    if path is not None and str(path) in fleet.BUILTIN_FLEETS:
+        return fleet.load_fleet_capabilities(str(path))
     if path is None:
         text = resources.files("bimrobot.rcan").joinpath(DEFAULT_CAPABILITIES).read_text()
         source = f"built-in {DEFAULT_CAPABILITIES}"
@@ -114,7 +120,10 @@ def load_capabilities(path: str | Path | None = None) -> CapabilityTable:
         except (OSError, UnicodeDecodeError) as exc:
             raise InputError(f"cannot read the capability table {path}: {getattr(exc, 'strerror', None) or exc}") from None
         source = str(path)
-    return parse_capabilities(parse_yaml(text, source), source)
+    data = parse_yaml(text, source)
+    if fleet.is_fleet(data):
+        return fleet.load_fleet_capabilities(str(path), data, source)
+    return parse_capabilities(data, source)
 
 
 def parse_capabilities(data: object, source: str = "capability table") -> CapabilityTable:
@@ -208,25 +217,40 @@ class TaskAllocator:
     A robot is capable when it integrates a robot type that performs the activity (Table 5.2) and its
     payload carries the component's weight (Table 5.1). A robot that started on a component is
     *committed* to it (it may be holding it) until its last install; every activity of that component
-    goes to that robot. Otherwise the preference is: the robot the schedule names, then the
-    least-loaded capable robot (ties: file order).
+    goes to that robot. Otherwise an activity goes to the robot the schedule names when the table has
+    it (with ``reallocate``: preferably), else to the least-loaded capable robot (ties: file order).
     """
 
-    def __init__(self, capabilities: CapabilityTable):
+    def __init__(self, capabilities: CapabilityTable, reallocate: bool = False):
         self.capabilities = capabilities
+        self.reallocate = reallocate  # give a schedule's assigned activities to any capable robot
         self._holder: dict[str, str] = {}  # component -> committed robot
         self._last: dict[str, str] = {}  # component -> the last activity its committed robot took
         self._load: dict[str, int] = {name: 0 for name in capabilities.robots}
+        self._commitments: dict[str, int] = {}  # robot -> how many components it is committed to
+        self._capable: dict[tuple, list[RobotSpec]] = {}  # (kind, weight, section) -> capable robots
 
     def holder(self, component_id: str) -> str | None:
         """The robot committed to ``component_id``, if any."""
         return self._holder.get(component_id)
 
     def committed_robots(self) -> set[str]:
-        return set(self._holder.values())
+        return {robot for robot, n in self._commitments.items() if n}
+
+    def is_committed(self, robot: str) -> bool:
+        return self._commitments.get(robot, 0) > 0
+
+    def load(self, robot: str) -> int:
+        """How many activities ``robot`` has taken."""
+        return self._load.get(robot, 0)
 
     def commit(self, component_id: str, robot: str, activity_id: str | None = None) -> None:
         """Bind ``robot`` to the component; ``activity_id`` is the activity it takes now."""
+        previous = self._holder.get(component_id)
+        if previous != robot:
+            if previous is not None:
+                self._commitments[previous] -= 1
+            self._commitments[robot] = self._commitments.get(robot, 0) + 1
         self._holder[component_id] = robot
         if activity_id is not None:
             self._last[component_id] = activity_id
@@ -238,16 +262,34 @@ class TaskAllocator:
         last = self._last.get(activity.component_id)
         return last is None or last == activity.activity_id or last in activity.predecessors
 
-    def release(self, component_id: str) -> None:
-        self._holder.pop(component_id, None)
+    def release(self, component_id: str) -> str | None:
+        """Free the robot committed to ``component_id``; returns that robot (None when there was none)."""
+        robot = self._holder.pop(component_id, None)
         self._last.pop(component_id, None)
+        if robot is not None:
+            self._commitments[robot] -= 1
+        return robot
+
+    def assigned(self, activity: RcanActivity) -> str | None:
+        """The robot the schedule assigned ``activity`` to, when it must take it (a robot of the table and
+        no ``reallocate``); None when any capable robot may."""
+        if self.reallocate or activity.robot not in self.capabilities.robots:
+            return None
+        return activity.robot
 
     def choose(self, activity: RcanActivity, exclude: set[str] = frozenset()) -> str | None:
-        """A capable robot not in ``exclude`` (None when all capable robots are excluded)."""
+        """A capable robot not in ``exclude`` (None when all capable robots are excluded).
+
+        A robot the schedule assigned (``activity.robot``, a robot of the table) is the only choice
+        unless the allocator was made with ``reallocate=True``: RCAN executes the plan it was given.
+        """
         capable = self.capable(activity)
         holder = self._holder.get(activity.component_id)
         if holder is not None:
             return holder if holder not in exclude else None
+        if not self.reallocate and activity.robot in self.capabilities.robots:
+            assigned = activity.robot in {r.name for r in capable} and activity.robot not in exclude
+            return activity.robot if assigned else None
         free = [r for r in capable if r.name not in exclude]
         if not free:
             return None
@@ -263,10 +305,20 @@ class TaskAllocator:
         self.commit(activity.component_id, name, activity.activity_id)
         return robot
 
+    @staticmethod
+    def requirement(activity: RcanActivity) -> tuple:
+        """What limits the robots that can take ``activity``: (kind, weight kg, section m); a component
+        in place limits no robot by its weight or section."""
+        lifted = activity.lifts
+        return (activity.kind, activity.weight_kg if lifted else None, activity.section_m if lifted else None)
+
     def capable(self, activity: RcanActivity) -> list[RobotSpec]:
-        lifted = activity.lifts  # a component in place limits no robot by its weight or section
-        capable = self.capabilities.capable_robots(activity.kind, activity.weight_kg if lifted else None,
-                                                   activity.section_m if lifted else None)
+        """Robots able to take ``activity`` (file order); InputError naming it when there is none.
+        Cached per :meth:`requirement`, so a plan of many activities scans the robots once per kind."""
+        key = self.requirement(activity)
+        capable = self._capable.get(key)
+        if capable is None:
+            capable = self._capable[key] = self.capabilities.capable_robots(*key)
         if not capable:
             types = " or ".join(self.capabilities.types_for(activity.kind)) or "no robot type"
             section = (f", section {activity.section_m[0]:.3f} x {activity.section_m[1]:.3f} m"

@@ -33,13 +33,17 @@ def plan_from_schedule(schedule, model=None, yard: tuple[float, float, float] = 
     waits for the last one of each predecessor row. A ``position`` or ``assemble`` row of a component no
     robot holds (in place already, e.g. a footing, or a further connection node after the first
     install) starts by moving a robot to it: move to component, position for installing, install. A
-    ``position`` row leaves the component PositionFixed and frees its robot (chapter 4: assembly robots
-    fix the connection nodes afterwards).
+    ``transport`` row ends with the component set down at its drop-off point (the transport's stand
+    pose) and the robot free: the component's positioning may have to wait for other components, and
+    the robot may be needed to bring them. The ``position`` (or ``assemble``) row that follows picks it
+    up again there (move to component, position for picking up, pick up, position for installing),
+    possibly with another robot. A ``position`` row leaves the component PositionFixed and frees its
+    robot (chapter 4: assembly robots fix the connection nodes afterwards).
     """
     activities: list[RcanActivity] = []
     last_of_row: dict[str, str] = {}
     slots: dict[str, Pose] = {}
-    held: set[str] = set()  # components a robot carries after their transport, until installed
+    dropped: set[str] = set()  # components transported and set down at their drop-off, not yet positioned
     for row in schedule.topological_order():
         if row.activity not in SCHEDULE_DECOMPOSITION:
             raise InputError(f"schedule activity {row.id} has activity {row.activity!r}; RCAN knows "
@@ -53,41 +57,53 @@ def plan_from_schedule(schedule, model=None, yard: tuple[float, float, float] = 
                              f"(TargetX/Y/Z, or the element's placement in --model) for RCAN")
         if gid not in slots:
             slots[gid] = Pose(yard[0] + yard_spacing_m * len(slots), yard[1], yard[2])
-        slot, installed = slots[gid], Pose(*target)
-        goals = {
-            K.MOVE_TO_COMPONENT: Pose(slot.x, slot.y - standoff_m, 0.0),
-            K.POSITION_FOR_PICKING_UP: slot,
-            K.PICK_UP: slot,
-            K.TRANSPORT: Pose(installed.x, installed.y - standoff_m, 0.0),
-            K.POSITION_FOR_INSTALLING: installed,
-            K.INSTALL: installed,
-        }
-        kinds = SCHEDULE_DECOMPOSITION[row.activity]
-        lifts = row.activity == "transport" or gid in held  # else the robot works on it where it stands
+        kinds, goals, lifts = _row_activities(row.activity, slots[gid], Pose(*target), standoff_m, gid in dropped)
         if row.activity == "transport":
-            held.add(gid)
+            dropped.add(gid)
         else:
-            if gid not in held:  # nobody carries it: a robot goes to it first
-                goals[K.MOVE_TO_COMPONENT] = goals[K.TRANSPORT]
-                kinds = (K.MOVE_TO_COMPONENT, K.POSITION_FOR_INSTALLING) + (
-                    (K.INSTALL,) if row.activity == "assemble" else ())
-            elif row.activity == "assemble":  # carried straight from transport to assembly
-                kinds = (K.POSITION_FOR_INSTALLING, K.INSTALL)
-            held.discard(gid)  # positioned (PositionFixed) or installed: the robot lets go
+            dropped.discard(gid)  # positioned (PositionFixed) or installed
         weight, section = _weight(model, gid), _section(model, gid)
         previous = tuple(last_of_row[p] for p in row.predecessors)
         for n, kind in enumerate(kinds, start=1):
             activity_id = f"{row.id}.{n}"
+            frees = kind is K.TRANSPORT or (row.activity == "position" and kind is K.POSITION_FOR_INSTALLING)
             activities.append(RcanActivity(
                 activity_id=activity_id, component_id=gid, kind=kind, target=goals[kind],
                 weight_kg=weight, section_m=section, robot=row.robot, predecessors=previous,
                 start=row.start, finish=row.finish, name=f"{kind.label} {gid}",
-                frees_robot=True if (row.activity == "position" and kind is K.POSITION_FOR_INSTALLING) else None,
-                lifts=lifts,
+                frees_robot=True if frees else None, lifts=lifts,
             ))
             previous = (activity_id,)
         last_of_row[row.id] = previous[0]
     return activities
+
+
+def _row_activities(activity: str, slot: Pose, installed: Pose, standoff_m: float,
+                    at_drop_off: bool) -> tuple[tuple[ActivityKind, ...], dict[ActivityKind, Pose], bool]:
+    """(RCAN activity kinds, goal pose of each kind, whether a robot lifts the component) of one row.
+
+    ``slot`` is the component's yard slot, ``installed`` its installed position (world frame, m);
+    ``at_drop_off``: the component was transported and rests at its drop-off point (the transport's
+    stand pose, ``standoff_m`` short in -y of the installed position, on the ground).
+    """
+    stand = Pose(installed.x, installed.y - standoff_m, 0.0)
+    goals = {
+        K.MOVE_TO_COMPONENT: Pose(slot.x, slot.y - standoff_m, 0.0),
+        K.POSITION_FOR_PICKING_UP: slot,
+        K.PICK_UP: slot,
+        K.TRANSPORT: stand,  # the robot sets the component down here and is free again
+        K.POSITION_FOR_INSTALLING: installed,
+        K.INSTALL: installed,
+    }
+    if activity == "transport":
+        return SCHEDULE_DECOMPOSITION["transport"], goals, True
+    install = (K.INSTALL,) if activity == "assemble" else ()
+    goals[K.MOVE_TO_COMPONENT] = stand
+    if at_drop_off:  # a robot picks it up again at the drop-off point and positions it
+        goals[K.POSITION_FOR_PICKING_UP] = goals[K.PICK_UP] = stand
+        return (K.MOVE_TO_COMPONENT, K.POSITION_FOR_PICKING_UP, K.PICK_UP, K.POSITION_FOR_INSTALLING) + install, goals, True
+    # in place already (a footing, a prebuilt slab, a further connection node): a robot works on it there
+    return (K.MOVE_TO_COMPONENT, K.POSITION_FOR_INSTALLING) + install, goals, False
 
 
 def _weight(model, gid: str) -> float | None:

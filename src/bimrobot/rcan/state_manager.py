@@ -121,12 +121,42 @@ def is_state_db(path: str | os.PathLike) -> bool:
     return header.startswith(_SQLITE_MAGIC) and int.from_bytes(header[68:72], "big") == APPLICATION_ID
 
 
-def connect_state_db(path: str | os.PathLike, option: str = "--state-db") -> sqlite3.Connection:
-    """Open (or create) a bimrobot state database, marked with :data:`APPLICATION_ID`, in WAL mode.
+#: Every table an RCAN state database may hold (the journal's, and the sim backend's world).
+RCAN_TABLES = frozenset({"journal", "activity", "component", "meta", "sqlite_sequence",
+                         "sim_robot", "sim_component", "sim_execution"})
+
+
+def _check_tables(db: sqlite3.Connection, name: str, schema: str | None, option: str) -> None:
+    """Refuse (InputError, nothing written) a database holding tables RCAN does not write, or one of
+    RCAN's tables with other columns than ``schema`` gives it."""
+    tables = [r[0] for r in db.execute("SELECT name FROM sqlite_master WHERE type='table'")]
+    foreign = [t for t in tables if t not in RCAN_TABLES]
+    if foreign:
+        raise InputError(f"{option} {name} is not an RCAN state database (it has a table {foreign[0]!r} RCAN does "
+                         "not write); give a new file name (nothing was changed)")
+    if not schema:
+        return
+    expected = sqlite3.connect(":memory:")
+    try:
+        expected.executescript(schema)
+        for table in tables:
+            want = [r[1] for r in expected.execute(f"PRAGMA table_info({table})")]
+            have = [r[1] for r in db.execute(f"PRAGMA table_info({table})")]
+            if want and have != want:
+                raise InputError(f"{option} {name} is not an RCAN state database: its table {table!r} has the "
+                                 f"columns {', '.join(have)}, not RCAN's; give a new file name (nothing was changed)")
+    finally:
+        expected.close()
+
+
+def connect_state_db(path: str | os.PathLike, option: str = "--state-db", schema: str | None = None) -> sqlite3.Connection:
+    """Open (or create) a bimrobot state database, marked with :data:`APPLICATION_ID`, in WAL mode,
+    with the tables of ``schema`` (SQL, ``CREATE TABLE IF NOT EXISTS``).
 
     An existing file that is not a bimrobot state database (another program's SQLite file, any other
-    file) is refused with an InputError and left untouched: no table is ever added to a user's
-    database. An empty file counts as new (another process of the same run may have just created it).
+    file, or one marked as bimrobot's whose tables clash with RCAN's) is refused with an InputError and
+    left untouched: no table is ever added to a user's database. An empty file counts as new (another
+    process of the same run may have just created it).
     """
     name = str(path)
     if name != ":memory:":
@@ -143,15 +173,43 @@ def connect_state_db(path: str | os.PathLike, option: str = "--state-db") -> sql
         except OSError as exc:
             raise InputError(f"{option} {name}: cannot create its folder ({exc.strerror})") from None
     try:
-        db = sqlite3.connect(name, isolation_level=None, check_same_thread=False)
+        # a generous busy timeout: executor processes sharing a simulated site wait for each other
+        db = sqlite3.connect(name, isolation_level=None, check_same_thread=False, timeout=60.0)
+        try:
+            _check_tables(db, name, schema, option)  # before anything is written
+        except InputError:
+            db.close()
+            raise
         if db.execute("PRAGMA application_id").fetchone()[0] == 0:
             # set before WAL mode, so the mark is in the main file's header at once, not in the WAL
             db.execute(f"PRAGMA application_id={APPLICATION_ID}")
         db.execute("PRAGMA journal_mode=WAL")
         db.execute("PRAGMA synchronous=FULL")
+        if schema:
+            db.executescript(schema)
     except sqlite3.Error as exc:
         raise InputError(f"{option} {name}: cannot open it as an SQLite database ({exc})") from None
     return db
+
+
+def _process_start(pid: int) -> str:
+    """The start time of process ``pid`` (clock ticks since boot, from /proc), "" when unknown: with
+    the pid it names one process, so a recycled pid is not taken for a lock's dead owner."""
+    try:
+        with open(f"/proc/{pid}/stat", encoding="ascii") as stream:
+            return stream.read().rsplit(")", 1)[1].split()[19]
+    except (OSError, IndexError):
+        return ""
+
+
+def _alive(pid: int, started: str) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # another user's process
+        return True
+    return not started or not _process_start(pid) or _process_start(pid) == started
 
 
 def _journal_is_empty(path: str) -> bool:
@@ -208,8 +266,32 @@ class StateStore:
 
     def __init__(self, path: str | Path = ":memory:"):
         self.path = str(path)
-        self.db = connect_state_db(self.path)
-        self.db.executescript(SCHEMA)
+        self.db = connect_state_db(self.path, schema=SCHEMA)
+        self._owner: str | None = None
+
+    def lock(self, option: str = "--state-db") -> None:
+        """Make this run the only one on the database: the owner (pid and process start time) is
+        recorded in the database, in a transaction, so two runs cannot both take it. A lock whose
+        process has died (a killed run) is taken over; a live owner gets an InputError naming its pid."""
+        if self.path == ":memory:" or self._owner:
+            return
+        me = f"{os.getpid()} {_process_start(os.getpid())} {id(self)}"
+        with self.transaction() as db:
+            row = db.execute("SELECT value FROM meta WHERE key='owner'").fetchone()
+            if row:
+                pid, started = (row[0].split() + ["", ""])[:2]
+                if pid.isdigit() and _alive(int(pid), started):
+                    raise InputError(f"{option} {self.path} is in use by another RCAN run (process {pid}); "
+                                     "wait for it to end or give another --state-db")
+                log.info("%s: taking over the lock of process %s, which has ended", self.path, pid)
+            db.execute("INSERT OR REPLACE INTO meta VALUES ('owner', ?)", (me,))
+        self._owner = me
+
+    def unlock(self) -> None:
+        """Give the database up (the next run takes it without a word)."""
+        if self._owner:
+            self.db.execute("DELETE FROM meta WHERE key='owner' AND value=?", (self._owner,))
+            self._owner = None
 
     def transaction(self):
         return _Transaction(self.db)
@@ -257,6 +339,8 @@ class StateStore:
         return list(self.db.execute("SELECT activity_id, event, attempt, robot FROM journal ORDER BY seq"))
 
     def close(self) -> None:
+        with contextlib.suppress(sqlite3.Error):
+            self.unlock()
         self.db.close()
 
 
@@ -317,13 +401,14 @@ class StateManager:
             return _walk(state, State.WORKING_IN_ASSEMBLY) + [Event.FINISH_ASSEMBLY]
         return []
 
-    def _advance(self, db, node: RcanNode, events: list[Event]) -> State:
-        state = self._component_state(db, node.component_id)
+    def _advance(self, db, node: RcanNode, events: list[Event], state: State) -> State:
+        """Apply ``events`` to the component, now in ``state``; written only when something happens."""
         for event in events:
             state = next_state("component", node.component_id, state, event)
         if Event.FINISH_ASSEMBLY in events and self._all_installed(db, node):
             state = State.ASSEMBLED  # guarded transition: the component's last connection is fixed
-        db.execute("INSERT OR REPLACE INTO component VALUES (?, ?)", (node.component_id, state.value))
+        if events:
+            db.execute("INSERT OR REPLACE INTO component VALUES (?, ?)", (node.component_id, state.value))
         return state
 
     def _all_installed(self, db, node: RcanNode) -> bool:
@@ -335,48 +420,61 @@ class StateManager:
                           tuple(others)).fetchone()[0]
         return done == len(others)
 
+    #: the activity's status, attempts and retry base, and its component's state, in one query
+    _ROW = ("SELECT a.status, a.attempts, a.attempt_base, c.state FROM activity a "
+            "LEFT JOIN component c ON c.global_id = a.component_id WHERE a.activity_id=?")
+
+    def _row(self, db, node: RcanNode) -> tuple[str | None, int, int, State]:
+        row = db.execute(self._ROW, (node.activity_id,)).fetchone()
+        if row is None:  # an activity the store does not know (a node run outside a plan)
+            return None, 0, 0, self._component_state(db, node.component_id)
+        return row[0], row[1], row[2], State(row[3]) if row[3] else State.ON_YARD
+
     # --- journal -----------------------------------------------------------------------------------
     def started(self, node: RcanNode, attempt: int) -> State:
         """Record that ``node`` is being sent to its robot (attempt ``attempt``); returns the component state."""
+        return self.start(node, attempt)[1]
+
+    def start(self, node: RcanNode, attempt: int) -> tuple[State, State]:
+        """As :meth:`started`; returns the component's state before and after."""
         with self.store.transaction() as db:
-            row = db.execute("SELECT status, attempts FROM activity WHERE activity_id=?", (node.activity_id,)).fetchone()
-            if row and row[0] == STARTED and row[1] == attempt:
-                return self._component_state(db, node.component_id)  # re-sent after a resume
-            state = self._advance(db, node, self._events_on_start(node.kind, self._component_state(db, node.component_id)))
+            status, attempts, _, before = self._row(db, node)
+            if status == STARTED and attempts == attempt:
+                return before, before  # re-sent after a resume
+            state = self._advance(db, node, self._events_on_start(node.kind, before), before)
             db.execute("INSERT INTO journal (activity_id, event, attempt, robot, wall_time) VALUES (?, 'started', ?, ?, ?)",
                        (node.activity_id, attempt, node.robot, time.time()))
             db.execute("UPDATE activity SET status='started', attempts=?, robot=? WHERE activity_id=?",
                        (attempt, node.robot, node.activity_id))
         self._notify(node, state, STARTED)
-        return state
+        return before, state
 
-    def result(self, node: RcanNode, result: ActivityResult) -> Decision:
-        """Handle a robot's result: advance on success, retry or escalate on failure."""
+    def result(self, node: RcanNode, result: ActivityResult, escalate: bool = False) -> Decision:
+        """Handle a robot's result: advance on success, retry or escalate on failure (``escalate``: a
+        failure that no retry can mend, e.g. a node the broker gave up delivering)."""
         with self.store.transaction() as db:
-            row = db.execute("SELECT status, attempts, attempt_base FROM activity WHERE activity_id=?",
-                             (node.activity_id,)).fetchone()
-            if row and (row[0] != STARTED or row[1] != result.attempt):
-                return Decision("duplicate", self._component_state(db, node.component_id).value)
+            status, attempts, base, state = self._row(db, node)
+            if status is not None and (status != STARTED or attempts != result.attempt):
+                return Decision("duplicate", state.value)
             if result.success:
-                state = self._advance(db, node, self._events_on_done(node.kind, self._component_state(db, node.component_id)))
+                state = self._advance(db, node, self._events_on_done(node.kind, state), state)
                 self._journal(db, node, result, "done")
                 db.execute("UPDATE activity SET status='done', finished_s=?, message=? WHERE activity_id=?",
                            (result.finished_s, result.message, node.activity_id))
                 decision = Decision(DONE, state.value)
-            elif result.attempt - (row[2] if row else 0) < self.policy.max_attempts:
+            elif not escalate and result.attempt - base < self.policy.max_attempts:
                 self._journal(db, node, result, "failed")
                 db.execute("UPDATE activity SET status='pending', message=? WHERE activity_id=?",
                            (result.message, node.activity_id))
-                decision = Decision("retry", self._component_state(db, node.component_id).value, result.attempt + 1)
+                decision = Decision("retry", state.value, result.attempt + 1)
             else:
-                state = self._component_state(db, node.component_id)
                 if state is State.WORKING_IN_POSITIONING:
-                    state = self._advance(db, node, [Event.ABORT])
+                    state = self._advance(db, node, [Event.ABORT], state)
                 self._journal(db, node, result, "escalated")
                 db.execute("UPDATE activity SET status='escalated', message=? WHERE activity_id=?",
                            (result.message, node.activity_id))
                 report = EscalationReport(node.component_id, node.activity_id, node.kind.label, node.robot,
-                                          result.attempt - (row[2] if row else 0), result.message)
+                                          result.attempt - base, result.message)
                 log.warning("%s", report)
                 decision = Decision(ESCALATED, state.value, report=report)
         self._notify(node, State(decision.component_state), decision.verdict)

@@ -10,6 +10,7 @@ and resumes from the state database when a previous run of the same plan was int
 from __future__ import annotations
 
 import hashlib
+import heapq
 import json
 import time
 import uuid
@@ -19,7 +20,8 @@ from typing import Callable, Iterable
 from bimrobot.errors import InputError
 from bimrobot.rcan.activities import ActivityKind, RcanActivity
 from bimrobot.rcan.backends.interfaces import ActivityResult
-from bimrobot.rcan.broker import ACTIVITY_TOPIC, RESULT_TOPIC, STATE_TOPIC, Broker, Message, Router, robot_topic
+from bimrobot.rcan.broker import (ACTIVITY_TOPIC, DEAD_LETTER_TOPIC, RESULT_TOPIC, STATE_TOPIC, Broker, Message, Router,
+                                  robot_topic)
 from bimrobot.rcan.generation import CapabilityTable, NodeGenerator, TaskAllocator
 from bimrobot.rcan.node import RcanNode
 from bimrobot.rcan.state_manager import DONE, ESCALATED, STARTED, EscalationReport, StateManager
@@ -41,6 +43,13 @@ class RunReport:
     latencies_s: list[float] = field(default_factory=list)
     resumed: int = 0
     blocked: list[str] = field(default_factory=list)
+    #: blocked activity -> the escalated activity it waits for (directly or through its predecessors);
+    #: a blocked activity not in here waits for a robot that never became free
+    blocked_by: dict[str, str] = field(default_factory=dict)
+
+    @property
+    def escalated(self) -> list[str]:
+        return [r.activity_id for r in self.escalations]
 
 
 def plan_signature(activities: list[RcanActivity]) -> str:
@@ -68,6 +77,7 @@ class RcanSystem:
         self.router = Router()
         self.router.route(ACTIVITY_TOPIC, self._on_activity)
         self.router.route(RESULT_TOPIC, self._on_result)
+        self.router.route(DEAD_LETTER_TOPIC, self._on_dead_letter)
 
     # --- smart component API -----------------------------------------------------------------------
     def publish(self, activity: RcanActivity, attempt: int = 1) -> None:
@@ -75,51 +85,141 @@ class RcanSystem:
         t = activity.target
         self.log(f"[component {activity.component_id}] publishes {activity.activity_id} '{activity.kind.label}' "
                  f"target ({t.x:.2f}, {t.y:.2f}, {t.z:.2f})" + (f" attempt {attempt}" if attempt > 1 else ""))
-        self._unreceived += 1
-        self.broker.send(ACTIVITY_TOPIC, {"activity_id": activity.activity_id, "attempt": attempt, "run": self._run_token})
+        self._unreceived.add((activity.activity_id, attempt))
+        self._send_activity(activity.activity_id, attempt)
+
+    def _send_activity(self, activity_id: str, attempt: int) -> None:
+        self.broker.send(ACTIVITY_TOPIC, {"activity_id": activity_id, "attempt": attempt, "run": self._run_token})
+
+    def _republish(self) -> None:
+        """After the broker reconnected (Redis restarted, maybe empty): publish again every activity not
+        yet received and send again every node whose result has not come. Duplicates are harmless: an
+        activity is taken once, the robot refuses a goal id it completed, a late result is ignored."""
+        self.log(f"[state manager] broker reconnected: re-publishing {len(self._unreceived)} activities and "
+                 f"re-sending {len(self._in_flight)} RCAN nodes")
+        for activity_id, attempt in sorted(self._unreceived):
+            self._send_activity(activity_id, attempt)
+        for node, attempt in list(self._in_flight.values()):
+            self._send(node, attempt)
 
     # --- message handlers --------------------------------------------------------------------------
     def _on_activity(self, message: Message) -> None:
         if message.payload.get("run") != self._run_token:  # left on a shared Redis by an earlier, killed run
             self.broker.ack(message)
             return
-        self._unreceived -= 1
-        self._waiting.append((message.payload["activity_id"], int(message.payload["attempt"])))
+        key = (message.payload["activity_id"], int(message.payload["attempt"]))
+        if key in self._unreceived:  # else a copy re-published after a reconnection: taken already
+            self._unreceived.discard(key)
+            self._enqueue(*key)
         self.broker.ack(message)
+
+    # --- waiting activities --------------------------------------------------------------------------
+    # An activity waits either for the robot committed to its component (``_held``, by component) or,
+    # when no robot is committed, for any idle capable robot (``_open``: one heap per set of capable
+    # robots, in plan order). A robot is idle when it neither works nor is committed to a component.
+    # Each dispatch looks only at what can have changed, so dispatching is linear in the activities.
+
+    def _enqueue(self, activity_id: str, attempt: int) -> None:
+        activity = self._plan[activity_id]
+        entry = (self._order[activity_id], activity_id, attempt)
+        if self.allocator.holder(activity.component_id) is not None:
+            self._held.setdefault(activity.component_id, []).append(entry)
+            self._recheck.add(activity.component_id)
+        else:
+            heapq.heappush(self._open_heap(activity), entry)
+
+    def _open_heap(self, activity: RcanActivity) -> list:
+        key = self.allocator.requirement(activity)
+        assigned = self.allocator.assigned(activity)
+        if assigned is not None:  # the schedule's robot only: the activity waits for it
+            key = (key, assigned)
+        if key not in self._groups:
+            capable = frozenset(r.name for r in self.allocator.capable(activity))
+            if assigned is not None:
+                if assigned not in capable:
+                    raise InputError(f"the schedule assigns '{activity.kind.label}' of component {activity.component_id} "
+                                     f"(activity {activity.activity_id}) to robot {assigned}, which cannot take it in "
+                                     f"{self.allocator.capabilities.source} (type, payload or gripper)")
+                capable = frozenset({assigned})
+            self._groups[key] = (capable, [])
+        return self._groups[key][1]
+
+    def _released(self, component_id: str) -> None:
+        """The robot committed to ``component_id`` lets go: it is idle again unless it works or holds
+        another component, and the component's waiting activities may go to any capable robot."""
+        robot = self.allocator.release(component_id)
+        if robot is not None and robot not in self._in_flight and not self.allocator.is_committed(robot):
+            self._set_idle(robot)
+        for entry in self._held.pop(component_id, ()):
+            heapq.heappush(self._open_heap(self._plan[entry[1]]), entry)
 
     def _dispatch_waiting(self) -> None:
         """Instantiate RCAN nodes for waiting activities whose robot is free, and send them."""
-        still_waiting = []
-        for activity_id, attempt in self._waiting:
-            activity = self._plan[activity_id]
-            robot = self._free_robot_for(activity)
-            if robot is None:
-                still_waiting.append((activity_id, attempt))
+        for component in self._recheck:  # activities waiting for their component's committed robot
+            holder = self.allocator.holder(component)
+            entries = self._held.get(component)
+            if not entries or holder is None or holder in self._in_flight:
                 continue
-            node = self.generator.instantiate(activity, robot)
-            self.log(f"[generation] RCAN node {node.node_id} instantiated: component {activity.component_id}, "
-                     f"activity '{activity.kind.label}', robot {robot}, backend {node.backend}")
-            before = self.state.store.component_state(activity.component_id)
-            state = self.state.started(node, attempt)
-            if state.value != before:
-                self.log(f"[component {activity.component_id}] state: {state.value}")
-            self._send(node, attempt)
-        self._waiting = still_waiting
+            for n, (_, activity_id, attempt) in enumerate(entries):
+                if self.allocator.continues(self._plan[activity_id]):
+                    del entries[n]
+                    self._instantiate(self._plan[activity_id], attempt, holder)
+                    break
+        self._recheck.clear()
+        everyone = len(self._robot_order)
+        while self._idle:  # activities no robot is committed to, oldest first, to idle capable robots
+            best = None
+            for capable, heap in self._groups.values():
+                if heap and (best is None or heap[0] < best[1][0]) and (
+                        len(capable) == everyone or not self._idle.isdisjoint(capable)):
+                    best = (capable, heap)
+            if best is None:
+                return
+            capable, heap = best
+            entry = heapq.heappop(heap)
+            activity = self._plan[entry[1]]
+            if self.allocator.holder(activity.component_id) is not None:  # a robot took its component meanwhile
+                self._held.setdefault(activity.component_id, []).append(entry)
+                continue
+            named = activity.robot
+            robot = named if named in self._idle and named in capable else self._least_loaded_idle(capable)
+            self._instantiate(activity, entry[2], robot)
 
-    def _free_robot_for(self, activity: RcanActivity) -> str | None:
-        holder = self.allocator.holder(activity.component_id)
-        if holder is not None:
-            if holder in self._in_flight or not self.allocator.continues(activity):
-                return None
-            return holder
-        busy = set(self._in_flight) | self.allocator.committed_robots()
-        if len(busy) >= len(self.capabilities.robots):
-            return None  # every robot works or holds a component: no need to ask the allocator
-        return self.allocator.choose(activity, exclude=busy)
+    def _set_idle(self, robot: str) -> None:
+        if robot not in self._idle and robot not in self._down:
+            self._idle.add(robot)
+            heapq.heappush(self._idle_heap, (self.allocator.load(robot), self._robot_order[robot], robot))
+
+    def _least_loaded_idle(self, capable: frozenset) -> str:
+        """The idle robot of ``capable`` that took the fewest activities (ties: file order), from a heap
+        of idle robots, so choosing among 20,000 robots does not scan them all."""
+        aside, robot = [], None
+        while robot is None:
+            entry = heapq.heappop(self._idle_heap)
+            load, _, name = entry
+            if name not in self._idle or load != self.allocator.load(name):
+                continue  # stale: the robot took work since
+            if name in capable:
+                robot = name
+            aside.append(entry)
+        for entry in aside:
+            heapq.heappush(self._idle_heap, entry)
+        return robot
+
+    def _instantiate(self, activity: RcanActivity, attempt: int, robot: str) -> None:
+        node = self.generator.instantiate(activity, robot)
+        self._idle.discard(robot)
+        self.log(f"[generation] RCAN node {node.node_id} instantiated: component {activity.component_id}, "
+                 f"activity '{activity.kind.label}', robot {robot}, backend {node.backend}")
+        before, state = self.state.start(node, attempt)
+        if state is not before:
+            self.log(f"[component {activity.component_id}] state: {state.value}")
+        self._send(node, attempt)
 
     def _send(self, node: RcanNode, attempt: int) -> None:
         ready_at = max((self._finished_s.get(p, 0.0) for p in node.activity.predecessors), default=0.0)
         self._in_flight[node.robot] = (node, attempt)
+        self._idle.discard(node.robot)
         self._sent_at[(node.activity_id, attempt)] = time.perf_counter()
         self.log(f"[{node.node_id}] robot {node.robot} executes '{node.kind.label}' of {node.component_id}"
                  + (f" (attempt {attempt})" if attempt > 1 else ""))
@@ -134,26 +234,64 @@ class RcanSystem:
             return
         node = flight[0]
         del self._in_flight[result.robot]
+        self._recheck.add(node.component_id)
         sent = self._sent_at.pop((result.activity_id, result.attempt), None)
         if sent is not None:
             self._latencies.append(time.perf_counter() - sent)
         verdict = "success" if result.success else "failure"
         self.log(f"[{node.node_id}] result: {verdict}: {result.message} (t {result.started_s:.1f}-{result.finished_s:.1f} s)")
-        decision = self.state.result(node, result)
+        escalate = False
+        if result.robot_lost and not result.success:
+            escalate = not self._out_of_service(node, result.message)
+        self._decide(node, self.state.result(node, result, escalate=escalate), result)
+        self.broker.ack(message)
+
+    def _out_of_service(self, node: RcanNode, why: str) -> bool:
+        """Take ``node``'s robot out of this run (its node died) and free its component, so the retry goes
+        to another capable robot. Returns whether one is left for the activity."""
+        self._down.add(node.robot)
+        self._idle.discard(node.robot)
+        self.log(f"[state manager] robot {node.robot} is out of service for this run: {why}")
+        self._released(node.component_id)
+        return any(r.name not in self._down for r in self.allocator.capable(node.activity))
+
+    def _on_dead_letter(self, message: Message) -> None:
+        """A message the broker delivered too often without an acknowledgement: when it is the RCAN node
+        of an activity in flight, that activity is escalated (its robot never answers for it)."""
+        payload = message.payload
+        node_message = payload.get("payload", {}).get("node") if str(payload.get("topic", "")).startswith("rcan.robot.") else None
+        flight = self._in_flight.get(node_message["robot"]) if node_message else None
+        attempt = int(payload["payload"].get("attempt", 0)) if node_message else 0
+        if flight and flight[0].activity_id == node_message["activity_id"] and flight[1] == attempt:
+            node = flight[0]
+            del self._in_flight[node.robot]
+            self._recheck.add(node.component_id)
+            result = ActivityResult(node.activity_id, attempt, node.robot, False,
+                                    f"its RCAN node was delivered {payload.get('deliveries')} times without a result "
+                                    "(dead-letter stream)")
+            self._decide(node, self.state.result(node, result, escalate=True), result)
+        self.broker.ack(message)
+
+    def _decide(self, node: RcanNode, decision, result: ActivityResult) -> None:
+        """Act on the state manager's decision about ``node``'s result."""
         if decision.verdict == DONE:
             self._done.add(node.activity_id)
+            self._newly_done.append(node.activity_id)
             self._finished_s[node.activity_id] = result.finished_s
             if node.activity.releases_robot:  # the component is placed: its robot is free again
-                self.allocator.release(node.component_id)
+                self._released(node.component_id)
         elif decision.verdict == "retry":
             self.publish(node.activity, decision.next_attempt)
         elif decision.verdict == ESCALATED:
             self._escalations.append(decision.report)
             self.log(f"[state manager] {decision.report}")
+            # isolate, never block: the robot is released for work that does not depend on this one
+            self._released(node.component_id)
+        if not self.allocator.is_committed(node.robot):
+            self._set_idle(node.robot)
         self.log(f"[component {node.component_id}] state: {decision.component_state}")
         self.broker.send(STATE_TOPIC, {"component_id": node.component_id, "state": decision.component_state,
                                        "activity_id": node.activity_id, "verdict": decision.verdict})
-        self.broker.ack(message)
 
     # --- the run -----------------------------------------------------------------------------------
     def run(self, activities: Iterable[RcanActivity], timeout_s: float | None = None,
@@ -178,21 +316,26 @@ class RcanSystem:
             for activity_id in store.reopen_escalated():
                 self.log(f"[state manager] {activity_id} was escalated: retrying it")
         self._run_token = uuid.uuid4().hex
-        self._waiting, self._in_flight, self._sent_at, self._latencies = [], {}, {}, []
-        self._done, self._escalations, self._finished_s, self._unreceived = set(), [], {}, 0
-        resumed = self._restore(activities)
-        published = set(self._done) | {a for a, _ in self._waiting} | {n.activity_id for n, _ in self._in_flight.values()}
+        self._in_flight, self._sent_at, self._latencies = {}, {}, []
+        self._done, self._escalations, self._finished_s, self._unreceived = set(), [], {}, set()
+        reconnections = getattr(self.broker, "reconnections", 0)
+        self._held, self._groups, self._recheck, self._newly_done, self._down = {}, {}, set(), [], set()
+        self._order = order = {a.activity_id: n for n, a in enumerate(activities)}
+        self._robot_order = {name: n for n, name in enumerate(self.capabilities.robots)}
+        self._idle = set(self.capabilities.robots)
+        self._idle_heap = [(0, n, name) for n, name in enumerate(self.capabilities.robots)]  # (load, order, robot)
+        resumed, queued = self._restore(activities)
+        published = set(self._done) | queued | {n.activity_id for n, _ in self._in_flight.values()}
         published |= {r.activity_id for r in self._escalations}
         # Which activities wait for which (done activities count as met), to publish in plan order,
         # without rescanning the whole plan on every turn of the loop.
-        order = {a.activity_id: n for n, a in enumerate(activities)}
         unmet = {a.activity_id: len({p for p in a.predecessors if p not in self._done}) for a in activities}
         successors: dict[str, list[str]] = {}
         for a in activities:
             for p in set(a.predecessors):
                 successors.setdefault(p, []).append(a.activity_id)
         ready = {i for i, n in unmet.items() if n == 0 and i not in published}
-        counted = set(self._done)
+        self._newly_done.clear()  # done before this run: already counted in ``unmet``
         started = time.perf_counter()
         while True:
             for activity_id in sorted(ready, key=order.__getitem__):  # components publish what became ready
@@ -202,12 +345,15 @@ class RcanSystem:
             waiting_messages = self._unreceived or self._in_flight
             for message in self.broker.receive(self.router.topics, timeout_s=0.05 if waiting_messages else 0.0):
                 self.router.dispatch(message)
-            for finished in self._done - counted:
-                counted.add(finished)
+            if getattr(self.broker, "reconnections", 0) != reconnections:
+                reconnections = self.broker.reconnections
+                self._republish()
+            for finished in self._newly_done:
                 for successor in successors.get(finished, ()):
                     unmet[successor] -= 1
                     if unmet[successor] == 0 and successor not in published:
                         ready.add(successor)
+            self._newly_done.clear()
             self._dispatch_waiting()
             if not self._unreceived and not self._in_flight and not ready:
                 break  # finished, or blocked: waiting activities that no free robot will ever take
@@ -241,13 +387,15 @@ class RcanSystem:
                 if a.kind is ActivityKind.INSTALL:
                     self.state.installs.setdefault(a.component_id, set()).add(a.activity_id)
 
-    def _restore(self, activities: list[RcanActivity]) -> int:
-        """Rebuild in-memory state from the journal; re-send started activities. Returns how many."""
+    def _restore(self, activities: list[RcanActivity]) -> tuple[int, set[str]]:
+        """Rebuild in-memory state from the journal; re-send started activities. Returns how many,
+        and the failed activities queued for their next attempt."""
         rows = self.state.store.activity_rows()
-        resent = 0
+        resent, retries = 0, []
+        escalated_components = set()
         for activity in activities:
             row = rows[activity.activity_id]
-            if row["robot"] and row["status"] in (DONE, STARTED) or (row["status"] == ESCALATED and row["robot"]):
+            if row["robot"] and row["status"] in (DONE, STARTED):
                 self.allocator.commit(activity.component_id, row["robot"], activity.activity_id)
             if row["status"] == DONE:
                 self._done.add(activity.activity_id)
@@ -263,13 +411,23 @@ class RcanSystem:
                 self._escalations.append(EscalationReport(activity.component_id, activity.activity_id,
                                                           activity.kind.label, row["robot"] or "?",
                                                           row["attempts"], row["message"] or ""))
+                escalated_components.add(activity.component_id)
             elif row["attempts"]:  # failed, retry not yet sent
-                self._waiting.append((activity.activity_id, row["attempts"] + 1))
-        return resent
+                retries.append((activity.activity_id, row["attempts"] + 1))
+        in_flight = {node.component_id for node, _ in self._in_flight.values()}
+        for component in escalated_components - in_flight:  # escalation released their robots
+            self.allocator.release(component)
+        self._idle -= self.allocator.committed_robots()
+        self._idle_heap = [(self.allocator.load(r), self._robot_order[r], r) for r in self._idle]
+        heapq.heapify(self._idle_heap)
+        for activity_id, attempt in retries:
+            self._enqueue(activity_id, attempt)
+        return resent, {a for a, _ in retries}
 
     def _report(self, activities, started: float, resumed: int) -> RunReport:
         escalated = {r.activity_id for r in self._escalations}
         blocked = [a.activity_id for a in activities if a.activity_id not in self._done and a.activity_id not in escalated]
+        blocked_by = _dependents(activities, [r.activity_id for r in self._escalations])
         status = "completed" if not blocked and not escalated else ("escalated" if escalated else "blocked")
         return RunReport(
             status=status,
@@ -281,7 +439,25 @@ class RcanSystem:
             latencies_s=list(self._latencies),
             resumed=resumed,
             blocked=blocked,
+            blocked_by={a: blocked_by[a] for a in blocked if a in blocked_by},
         )
+
+
+def _dependents(activities: list[RcanActivity], roots: list[str]) -> dict[str, str]:
+    """Activity -> the first of ``roots`` it depends on, directly or through predecessors (linear time)."""
+    successors: dict[str, list[str]] = {}
+    for a in activities:
+        for p in a.predecessors:
+            successors.setdefault(p, []).append(a.activity_id)
+    cause: dict[str, str] = {}
+    for root in roots:
+        stack = [root]
+        while stack:
+            for successor in successors.get(stack.pop(), ()):
+                if successor not in cause:
+                    cause[successor] = root
+                    stack.append(successor)
+    return cause
 
 
 def run_plan(
@@ -297,6 +473,7 @@ def run_plan(
     backend_options: dict | None = None,
     timeout_s: float | None = None,
     retry_escalated: bool = False,
+    redis_options: dict | None = None,
 ) -> RunReport:
     """Run a plan end to end: broker (in-process, or Redis at ``redis_url``), executors, state manager.
 
@@ -304,16 +481,18 @@ def run_plan(
     finds the robots where they were). ``spawn_executors=False`` expects executors in other processes
     (``bimrobot rcan executor``) on the same Redis. ``backend_options`` go to the backend (``sim``:
     ``time_scale``, ``failure_probability``, ``seed``). ``retry_escalated``: see :meth:`RcanSystem.run`.
+    ``redis_options`` go to every :class:`~bimrobot.rcan.broker.RedisBroker` (``reconnect_s``,
+    ``claim_idle_s``, ``max_deliveries``).
     """
     from bimrobot.rcan.state_manager import removed_unless_used
 
     with removed_unless_used(state_db):  # a run that fails before its first activity leaves no state file
         return _run_plan(activities, capabilities, backend, state_db, redis_url, spawn_executors, max_attempts,
-                         observers, log, backend_options, timeout_s, retry_escalated)
+                         observers, log, backend_options, timeout_s, retry_escalated, redis_options or {})
 
 
 def _run_plan(activities, capabilities, backend, state_db, redis_url, spawn_executors, max_attempts, observers,
-              log, backend_options, timeout_s, retry_escalated) -> RunReport:
+              log, backend_options, timeout_s, retry_escalated, redis_options) -> RunReport:
     from bimrobot.rcan.backends import create_backend
     from bimrobot.rcan.broker import InProcessBroker, RedisBroker
     from bimrobot.rcan.executor import RobotExecutor
@@ -323,23 +502,35 @@ def _run_plan(activities, capabilities, backend, state_db, redis_url, spawn_exec
     if backend == "sim":
         options.setdefault("db_path", state_db)
     store = StateStore(state_db)
+    try:
+        store.lock()  # one run per state database
+    except BaseException:
+        store.db.close()
+        raise
     manager = StateManager(store, RetryPolicy(max_attempts), observers)
-    broker = RedisBroker(redis_url, group="rcan", consumer="coordinator") if redis_url else InProcessBroker()
+    try:
+        broker = (RedisBroker(redis_url, group="rcan", consumer="coordinator", **redis_options) if redis_url
+                  else InProcessBroker())
+    except BaseException:
+        store.close()
+        raise
     executors, threads, backend_instance = [], [], None
     try:
         if spawn_executors:
             backend_instance = create_backend(backend, capabilities, **options)
-            for robot in capabilities.robots:  # one executor per robot: robots work in parallel
-                executor_broker = (RedisBroker(redis_url, group="executor", consumer=f"executor-{robot}")
-                                   if redis_url else broker)
-                executor = RobotExecutor(executor_broker, backend_instance, [robot])
-                executors.append(executor)
-                threads.append(executor.start_thread())
+            # one executor for every robot, on a bounded pool of threads: robots work in parallel
+            executor_broker = (RedisBroker(redis_url, group="executor", consumer="executor-local", **redis_options)
+                               if redis_url else broker)
+            executor = RobotExecutor(executor_broker, backend_instance, capabilities.robots)
+            executors.append(executor)
+            threads.append(executor.start_thread())
         system = RcanSystem(broker, capabilities, manager, backend, log)
         return system.run(activities, timeout_s=timeout_s, retry_escalated=retry_escalated)
     finally:
         for executor in executors:
             executor.stop.set()
+        if backend_instance is not None:
+            backend_instance.stop()
         for thread in threads:
             thread.join(timeout=5)
         for executor in executors:

@@ -4,6 +4,17 @@
 (missing or empty meshes, non-positive masses, inertia tensors that are not physical);
 :func:`validate_sdf` runs the sdformat validator (``ign sdf -k``, Debian ``ignition-tools`` +
 ``libsdformat-dev``) with ``SDF_PATH`` pointing at the package's models, so ``model://`` includes resolve.
+
+:func:`validate_world` scales to thousands of models. libsdformat 12 (Debian 12) spends about 0.1 s
+and 5 MB on every ``<include>`` (it builds the SDF specification anew for each included file) and
+30-40 ms and 5 MB on every ``<model>`` element (each copies the specification's element tree), all in
+one process: ``ign sdf -k`` on a world of 300 includes took 20 s and 1.7 GB here, and grows linearly.
+So the world is checked as what its includes expand to, in pieces: every include is resolved as
+``SDF_PATH`` would resolve it (``model://<name>`` -> ``models/<name>/model.config`` -> the model file
+of the world's SDF version), include names must be unique, and the world's own elements plus every
+DISTINCT included model (the same model file but for its name and pose counts once: bolts, repeated
+precast parts) go through ``ign sdf -k`` in documents of :data:`BATCH_MODELS` models, the documents
+checked in parallel, one process per core.
 """
 
 from __future__ import annotations
@@ -11,6 +22,8 @@ from __future__ import annotations
 import os
 import shutil
 import subprocess
+import tempfile
+from concurrent.futures import ThreadPoolExecutor
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
@@ -124,3 +137,109 @@ def validate_sdf(sdf_file: Path, models_dir: Path | None = None, timeout: float 
         line for line in (result.stdout + result.stderr).splitlines() if "libignition-tools-backward" not in line
     )
     return result.returncode == 0 and "Valid." in result.stdout, output.strip()
+
+
+BATCH_MODELS = 100
+"""Models per document given to the validator: about 0.5 GB of libsdformat memory each."""
+
+FULL_CHECK_INCLUDES = 100
+"""Worlds with at most this many includes are also checked whole by ``ign sdf -k`` (libsdformat's own
+include resolution; about 0.1 s per include)."""
+
+
+@dataclass
+class WorldCheck:
+    """What :func:`validate_world` found: ``valid``; ``includes`` and ``distinct`` (models checked by
+    the validator); ``errors``: one line each."""
+
+    world: Path
+    valid: bool
+    includes: int
+    distinct: int
+    batches: int
+    errors: list[str]
+
+
+def _model_file(models_dir: Path, name: str, version: str) -> Path | None:
+    """The model file an ``<include><uri>model://name`` resolves to for an SDF version: model.config's
+    ``<sdf>`` entry of that version (else its first entry), as SDF_PATH resolution picks it."""
+    config = models_dir / name / "model.config"
+    if not config.is_file():
+        return None
+    entries = [(e.get("version"), e.text or "") for e in ET.parse(config).getroot().iter("sdf")]
+    chosen = next((text for v, text in entries if v == version), entries[0][1] if entries else None)
+    path = models_dir / name / chosen.strip() if chosen else None
+    return path if path is not None and path.is_file() else None
+
+
+def _expanded_models(world_root: ET.Element, models_dir: Path, version: str, errors: list[str]) -> tuple[int, list[ET.Element]]:
+    """(number of includes, one expanded ``<model>`` per distinct included model); unresolved includes
+    and duplicate names go to ``errors``."""
+    world = world_root.find("world")
+    includes = world.findall("include")
+    seen_names: set[str] = set()
+    distinct: dict[str, ET.Element] = {}
+    for include in includes:
+        uri = (include.findtext("uri") or "").strip()
+        name = (include.findtext("name") or uri.removeprefix("model://")).strip()
+        if name in seen_names:
+            errors.append(f"two models in the world are named {name!r}")
+        seen_names.add(name)
+        target = _model_file(models_dir, uri.removeprefix("model://"), version) if uri.startswith("model://") else None
+        if target is None:
+            errors.append(f"<include> {uri!r} does not resolve to a model file of SDF {version} under {models_dir}")
+            continue
+        text = target.read_text(encoding="utf-8")
+        model = ET.fromstring(text).find("model")
+        if model is None:
+            errors.append(f"{target} holds no <model>")
+            continue
+        own_name = model.get("name") or ""
+        pose = model.find("pose")
+        if pose is not None:
+            model.remove(pose)
+        key = ET.tostring(model, encoding="unicode").replace(own_name, "\x00") if own_name else text
+        if key in distinct:
+            continue
+        model.set("name", name)  # as <include> does: its name and pose replace the model's
+        if include.find("pose") is not None:
+            new_pose = ET.Element("pose")
+            new_pose.text = include.findtext("pose")
+            model.insert(0, new_pose)
+        distinct[key] = model
+    return len(includes), list(distinct.values())
+
+
+def validate_world(world_file: Path, models_dir: Path, workers: int | None = None,
+                   batch: int = BATCH_MODELS) -> WorldCheck:
+    """Check a package's world and every distinct model it includes with ``ign sdf -k``, in parallel
+    batches (see the module docstring); memory stays near ``batch`` x 5 MB per process."""
+    if sdf_validator() is None:
+        raise FileNotFoundError("the SDF validator `ign` is not installed (apt-get install ignition-tools libsdformat-dev)")
+    world_file, models_dir = Path(world_file), Path(models_dir)
+    root = ET.parse(world_file).getroot()
+    version = root.get("version") or ""
+    errors: list[str] = []
+    count, models = _expanded_models(root, models_dir, version, errors)
+    skeleton = ET.fromstring(ET.tostring(root))  # the world's own elements (physics, light, ground)
+    for include in skeleton.find("world").findall("include"):
+        skeleton.find("world").remove(include)
+    pieces = [models[start:start + batch] for start in range(0, len(models), batch)] or [[]]
+    with tempfile.TemporaryDirectory(prefix="bimrobot-sdf-check-") as folder:
+        files = []
+        for number, piece in enumerate(pieces):
+            document = ET.fromstring(ET.tostring(skeleton))
+            document.find("world").extend(piece)
+            path = Path(folder) / f"batch_{number}.sdf"
+            path.write_text(ET.tostring(document, encoding="unicode"), encoding="utf-8")
+            files.append(path)
+        jobs = [(path, None) for path in files]
+        if count <= FULL_CHECK_INCLUDES:
+            jobs.append((world_file, models_dir))  # small worlds: libsdformat's own include resolution too
+        with ThreadPoolExecutor(max_workers=workers or os.cpu_count() or 1) as threads:
+            outcomes = list(threads.map(lambda job: validate_sdf(job[0], job[1], timeout=600), jobs))
+    for (path, _), (valid, output) in zip(jobs, outcomes):
+        if not valid:
+            shown = world_file.name if path == world_file else f"{world_file.name} (models batch {path.stem})"
+            errors.append(f"ign sdf -k {shown}: " + " | ".join(output.splitlines()[:5]))
+    return WorldCheck(world_file, not errors, count, len(models), len(pieces), errors)

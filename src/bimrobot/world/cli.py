@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import re
 import sys
 from pathlib import Path
 
@@ -16,6 +17,7 @@ CONVERT_EXAMPLES = """examples:
   bimrobot convert model.ifc -o pkg/ --include "IfcColumn, IfcBeam" --target both
   bimrobot convert model.ifczip -o pkg/ --exclude "IfcFurnishingElement, IfcCovering" --unknown-weight 7850
   bimrobot convert model.ifc -o pkg/ --collision decimated --max-triangles 200 --map-band 0.2 1.8
+  bimrobot convert big.ifc -o pkg/ --merge-static --keep-separate "IfcBeam, IfcColumn" --validate
 
 The package holds worlds/, models/<GlobalId>/ (model.sdf, model.config, meshes/), launch/ (ROS 2
 gz_sim.launch.py, ROS 1 gazebo_classic.launch), maps/<storey>.pgm+.yaml (Nav2), report.json and a
@@ -67,12 +69,29 @@ def register(subparsers) -> None:
     parser.add_argument("--default-density", action=_DeprecatedDensity, type=UnknownWeightRule.parse,
                         dest="unknown_weight", help=argparse.SUPPRESS)  # the old name, kept working
     parser.add_argument("--no-maps", action="store_true", help="do not write occupancy maps")
+    parser.add_argument("--merge-static", action="store_true",
+                        help="for large buildings: merge the static elements into one model per storey and IFC "
+                        "class (merged_<storey>_<class>; visual, collision and exact combined inertia), except the "
+                        "components robots handle, named by --keep-separate, which keep one model per element")
+    parser.add_argument("--keep-separate", metavar="CLASSES", type=_class_list, default=(),
+                        help="with --merge-static: the components robots handle, as IFC classes (subclasses count), "
+                        "e.g. 'IfcBeam, IfcColumn'; they keep one model each (default: none, every element is merged)")
     parser.add_argument("--package-name", help="ROS package name (default: from the output folder name)")
     parser.add_argument("--no-progress", action="store_true", help="no progress bars")
     parser.add_argument("--validate", action="store_true",
-                        help="check the written package: meshes present, masses and inertia physical, and every "
-                        "world through the SDF validator (`ign sdf -k`, when installed); exit 1 if anything fails")
+                        help="check the written package: every model's meshes, mass and inertia, and each world with "
+                        "every distinct model it includes through the SDF validator (`ign sdf -k`, when installed; "
+                        "in parallel batches, so thousands of models take seconds to a minute); exit 1 if anything fails")
     parser.set_defaults(func=convert_command)
+
+
+def _class_list(text: str) -> tuple[str, ...]:
+    """'IfcBeam, IfcColumn' -> ('IfcBeam', 'IfcColumn'); anything else than IFC class names is refused."""
+    names = tuple(part.strip() for part in text.replace(";", ",").split(",") if part.strip())
+    bad = [name for name in names if not re.fullmatch(r"Ifc[A-Za-z0-9]+", name)]
+    if bad or not names:
+        raise argparse.ArgumentTypeError(f"expected IFC class names such as 'IfcBeam, IfcColumn', not {text!r}")
+    return names
 
 
 class _DeprecatedDensity(argparse.Action):
@@ -107,6 +126,8 @@ def convert_command(args: argparse.Namespace) -> int:
         unknown_weight=args.unknown_weight,
         maps=not args.no_maps,
         site=site,
+        merge_static=args.merge_static,
+        keep_separate=args.keep_separate,
     )
     options.validate()
     report = convert(
@@ -122,26 +143,35 @@ def convert_command(args: argparse.Namespace) -> int:
 
 
 def validate_package(output: Path, report: dict) -> int:
-    """Print the package checks; 0 when everything passes, 1 otherwise."""
-    from bimrobot.world.check import problems, sdf_validator, validate_sdf
+    """Print the package checks; 0 when everything passes, 1 otherwise.
+
+    Every model's meshes, mass and inertia are checked here; the worlds and every distinct model they
+    include go through the SDF validator in parallel batches (:func:`bimrobot.world.check.validate_world`).
+    """
+    import time
+
     from bimrobot.io import printable
+    from bimrobot.world.check import problems, sdf_validator, validate_world
 
     found = problems(output)
     models = len(list((output / "models").iterdir()))
-    if models != report["counts"]["converted"]:
-        found.append(f"{models} model folders for {report['counts']['converted']} converted elements")
+    expected = report["counts"].get("models", report["counts"]["converted"])
+    if models != expected:
+        found.append(f"{models} model folders for {expected} models in the world")
     print(f"  check:    {models} models: meshes present, masses and inertia physical" if not found
           else "  check:    FAILED\n" + "\n".join(f"    {printable(problem)}" for problem in found))
     failed = bool(found)
     if sdf_validator() is None:
         print("  check:    `ign sdf` not installed (apt-get install ignition-tools libsdformat-dev): SDF not validated")
+        return 1 if failed else 0
     for world in report["world_files"].values():
-        if sdf_validator() is None:
-            break
-        valid, text = validate_sdf(output / world, output / "models")
-        print(f"  check:    ign sdf -k {world}: {'Valid' if valid else 'INVALID'}")
-        if not valid:
-            print("\n".join(f"    {printable(line)}" for line in text.splitlines()))
+        started = time.perf_counter()
+        result = validate_world(output / world, output / "models")
+        seconds = time.perf_counter() - started
+        print(f"  check:    ign sdf -k {world}: {'Valid' if result.valid else 'INVALID'} ({result.includes} includes, "
+              f"{result.distinct} distinct models in {result.batches} batches, {seconds:.1f} s)")
+        if not result.valid:
+            print("\n".join(f"    {printable(line)}" for line in result.errors[:20]))
             failed = True
     return 1 if failed else 0
 
@@ -160,6 +190,11 @@ def summary(report: dict, output: Path) -> str:
         f"{'static' if report['options']['static'] else 'dynamic'}, {report['options']['layout']} layout",
         f"  weights:  {sources}",
     ]
+    merged = report.get("merged_models") or []
+    if merged:
+        held = sum(m["elements"] for m in merged)
+        lines.insert(2, f"  merged:   {held} static elements into {len(merged)} models (one per storey and class); "
+                        f"{counts['models']} models in the world")
     unknown = report.get("unknown_weight") or {}
     if unknown.get("message"):
         lines.append(f"  unknown:  {unknown['message']}")

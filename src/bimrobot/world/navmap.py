@@ -100,6 +100,12 @@ def occupancy(
         zmin, zmax = vertices[:, 2].min(), vertices[:, 2].max()
         if zmax < low or zmin > high:
             continue
+        # Only faces that reach into the band can leave anything on the map (the cuts below treat
+        # each face on its own), so the others are dropped first: a tall or detailed body has many.
+        face_z = vertices[:, 2][faces]
+        faces = faces[(face_z.max(axis=1) >= low) & (face_z.min(axis=1) <= high)]
+        if len(faces) == 0:
+            continue
         triangles = _clipped_projected_triangles(vertices, faces, low, high)
         if len(triangles):
             pixels = to_pixels(triangles.reshape(-1, 2))
@@ -169,6 +175,10 @@ def _clipped_projected_triangles(vertices: np.ndarray, faces: np.ndarray, low: f
 
 def _section_polygons(vertices: np.ndarray, faces: np.ndarray, z: float) -> list[Polygon]:
     """The solid regions of the cross-section at height z (even-odd over the cut loops)."""
+    face_z = vertices[:, 2][faces]
+    faces = faces[(face_z.min(axis=1) <= z) & (face_z.max(axis=1) >= z)]  # the faces the plane meets
+    if len(faces) == 0:
+        return []
     mesh = trimesh.Trimesh(vertices, faces, process=False)
     segments = trimesh.intersections.mesh_plane(mesh, [0.0, 0, 1], [0.0, 0, z])
     if len(segments) == 0:

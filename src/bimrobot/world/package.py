@@ -26,6 +26,7 @@ import re
 import time
 from collections import Counter
 from dataclasses import asdict, dataclass, field
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
@@ -37,7 +38,7 @@ from bimrobot.bim.unknown_weight import UnknownWeightRule, UnknownWeights, apply
 from bimrobot.errors import InputError
 from bimrobot.io import printable
 from bimrobot.site import Site
-from bimrobot.world import launch, layout, meshes, navmap, physics, sdf
+from bimrobot.world import launch, layout, merge, meshes, navmap, physics, pool, sdf
 from bimrobot.world.names import ros_package_name, safe_name, slug
 
 log = logging.getLogger(__name__)
@@ -52,7 +53,10 @@ class ConvertOptions:
     """How to convert. Lengths in metres, densities in kg/m^3.
 
     ``static``: None means static models for the installed layout and dynamic ones on the yard (where
-    robots pick them up). ``map_band``: (low, high) above each storey's elevation. ``max_triangles``:
+    robots pick them up). ``merge_static``: merge the static elements into one model per storey and
+    IFC class, except the components robots handle: the classes in ``keep_separate`` (IFC class names,
+    subclasses count), which keep one model per element. ``workers``: processes for the per-model
+    work (default: every core). ``map_band``: (low, high) above each storey's elevation. ``max_triangles``:
     triangle budget of each collision mesh. ``unknown_weight``: the rule for elements without a weight
     in the model (:mod:`bimrobot.bim.unknown_weight`; default: volume x 2400 kg/m3).
     """
@@ -68,6 +72,9 @@ class ConvertOptions:
     package_name: str | None = None
     unknown_weight: UnknownWeightRule = field(default_factory=UnknownWeightRule)
     maps: bool = True
+    merge_static: bool = False
+    keep_separate: tuple[str, ...] = ()
+    workers: int | None = None
     site: Site | None = None  # where the yard is (--layout yard); None: the thesis' fig. 4.11
 
     def validate(self) -> None:
@@ -82,6 +89,11 @@ class ConvertOptions:
             (self.map_margin >= 0, f"--map-margin must not be negative, not {self.map_margin}"),
             (isinstance(self.unknown_weight, UnknownWeightRule),
              f"--unknown-weight must be a density in kg/m3 or 'refuse', not {self.unknown_weight!r}"),
+            (not self.merge_static or self.is_static,
+             "--merge-static merges static models, but these models are dynamic (--dynamic or --layout yard): "
+             "leave out --merge-static or use --static"),
+            (not self.keep_separate or self.merge_static, "--keep-separate only applies with --merge-static"),
+            (self.workers is None or self.workers >= 1, f"workers must be at least 1, not {self.workers}"),
         ]
         for ok, message in checks:
             if not ok:
@@ -95,12 +107,19 @@ class ConvertOptions:
 
 @dataclass
 class _Geometry:
-    """One distinct IFC geometry (shared by every element that uses it) and its mesh files' content."""
+    """One distinct IFC geometry (shared by every element that uses it) and its mesh files' content
+    (made by :meth:`finish` in the process that writes the models)."""
 
     body: physics.Body
-    collision: tuple[np.ndarray, np.ndarray]
-    stl: bytes
+    collision: tuple[np.ndarray, np.ndarray] | None = None
+    stl: bytes = b""
     dae: dict[str, str] = field(default_factory=dict)  # IFC class -> DAE text (colour per class)
+
+    def finish(self, options: "ConvertOptions") -> None:
+        """Collision mesh and its STL, once per geometry."""
+        if self.collision is None:
+            self.collision = meshes.collision_mesh(self.body, options.collision, options.max_triangles)
+            self.stl = meshes.stl_bytes(*self.collision)
 
     def dae_for(self, ifc_class: str) -> str:
         if ifc_class not in self.dae:
@@ -116,12 +135,26 @@ class _Converted:
     element: Element
     name: str
     geometry: _Geometry
-    mass: physics.MassProperties
+    mass: physics.MassProperties | None = None
     pose: np.ndarray = field(default_factory=lambda: np.eye(4))
+    model: str = ""  # the model that holds it: its own (``name``) or a merged one
+    collision_triangles: int = 0
 
     @property
     def body(self) -> physics.Body:
         return self.geometry.body
+
+    def finish(self, options: "ConvertOptions") -> None:
+        """Collision mesh and mass properties (the latter may already be known, for the yard)."""
+        self.geometry.finish(options)
+        if self.mass is None:
+            self.mass = self.body.mass_properties(self.element.weight_kg, options.unknown_weight.density_kg_m3)
+        self.collision_triangles = len(self.geometry.collision[1])
+
+    @cached_property
+    def world_vertices(self) -> np.ndarray:
+        """The body's vertices at the model's pose (world frame, m)."""
+        return self.body.vertices @ self.pose[:3, :3].T + self.pose[:3, 3]
 
 
 def convert(
@@ -177,22 +210,43 @@ def build_package(
         converted, skipped = _prepare_elements(model, options, progress)
         if not converted:
             raise InputError(f"{source}: none of the {len(model.elements)} elements has a usable solid mesh")
+        if options.layout == "yard":  # the yard lays parts on their centre of mass: needed before placing
+            for item in converted:
+                item.finish(options)
         ground_z = ground_height(model, [item.element for item in converted])
         yard = _place(converted, ground_z, options)
-        timings["meshes_and_mass"] = time.perf_counter() - tick
+        merged = _merged_models(model, converted, options) if options.merge_static else []
+        timings["prepare"] = time.perf_counter() - tick
 
+        # Models and maps are written by every core (bimrobot.world.pool) while this process writes the
+        # worlds and launch files; results come back as the tasks finish.
         tick = time.perf_counter()
-        _write_models(tmp / "models", converted, options, source, progress)
-        world_files = _write_worlds(tmp / "worlds", world_name, converted, options, ground_z)
-        _write_launch_and_ros(tmp, package, world_name, world_files, source, options)
-        timings["sdf_and_files"] = time.perf_counter() - tick
-
-        tick = time.perf_counter()
-        maps = _write_maps(tmp / "maps", model, converted, options, ground_z) if options.maps else []
-        timings["maps"] = time.perf_counter() - tick
+        plan = _plan_maps(model, converted, options, ground_z) if options.maps else _MapPlan([], (0.0, 0.0), (1, 1))
+        if plan.levels:
+            (tmp / "maps").mkdir()
+        pool.shared.update(converted=converted, merged=merged, models_dir=tmp / "models", options=options,
+                           source=source, maps_dir=tmp / "maps", map_plan=plan)
+        tasks = [("map", level) for level in range(len(plan.levels))] + _model_tasks(converted, merged, options)
+        drawn: dict[int, dict] = {}
+        try:
+            with pool.Tasks(_model_task, tasks, options.workers) as running:
+                world_files = _write_worlds(tmp / "worlds", world_name, converted, merged, options, ground_z)
+                _write_launch_and_ros(tmp, package, world_name, world_files, source, options)
+                bar = tqdm(total=len(converted), desc="models", unit="element", disable=not progress, leave=False)
+                for results in running.results():
+                    _apply_results(converted, merged, drawn, results)
+                    bar.update(len(results[0]))
+                bar.close()
+        finally:
+            pool.shared.clear()
+        maps = [drawn[level] for level in sorted(drawn)]
+        timings["models_and_maps"] = time.perf_counter() - tick
         timings["total"] = time.perf_counter() - started + (load_seconds or 0.0)
 
         report = _report(model, package, world_name, world_files, converted, skipped, maps, yard, options, timings)
+        if merged:
+            report["merged_models"] = [m.as_report() for m in merged]
+        report["counts"]["models"] = len(converted) - sum(len(m.members) for m in merged) + len(merged)
         report["unknown_weight"] = _unknown_weight_report(unknown, converted, options)
         duplicates = _duplicate_keys(converted)
         if duplicates:
@@ -277,6 +331,8 @@ def _duplicate_keys(converted: list) -> dict[str, list[str]]:
 
 
 def _prepare_elements(model: BuildingModel, options: ConvertOptions, progress: bool):
+    """Each element with its body (duplicate vertices merged, once per distinct IFC geometry); the
+    collision meshes and mass properties follow in the processes that write the models."""
     converted: list[_Converted] = []
     skipped = [
         {"global_id": s.global_id, "ifc_class": s.ifc_class, "name": s.name, "reason": s.reason} for s in model.skipped
@@ -289,16 +345,122 @@ def _prepare_elements(model: BuildingModel, options: ConvertOptions, progress: b
             continue
         key = (id(element.vertices), id(element.faces))
         if key not in geometries:
-            body = physics.Body(element.vertices, element.faces)
-            collision = meshes.collision_mesh(body, options.collision, options.max_triangles) if len(body.faces) else None
-            geometries[key] = _Geometry(body, collision, meshes.stl_bytes(*collision) if collision else b"")
+            geometries[key] = _Geometry(physics.Body(element.vertices, element.faces))
         geometry = geometries[key]
         if len(geometry.body.faces) == 0:
             skipped.append(_skip(element, "its body has only degenerate triangles"))
             continue
-        mass = geometry.body.mass_properties(element.weight_kg, options.unknown_weight.density_kg_m3)
-        converted.append(_Converted(element, safe_name(element.global_id), geometry, mass))
+        name = safe_name(element.global_id)
+        converted.append(_Converted(element, name, geometry, model=name))
     return converted, skipped
+
+
+def _merged_models(model: BuildingModel, converted: list[_Converted], options: ConvertOptions) -> list[merge.MergedModel]:
+    """Group the elements that are not of a ``keep_separate`` class by (storey, IFC class) into merged
+    models (bimrobot.world.merge); set each member's ``model``. Raises InputError for a class name the
+    schema does not have."""
+    from bimrobot.bim.reader import class_lineage  # bim/ owns the IFC schema
+
+    keep = set()
+    for name in options.keep_separate:
+        if class_lineage(model.schema or "IFC4", name) is None:
+            present = ", ".join(sorted({item.element.ifc_class for item in converted}))
+            raise InputError(f"--keep-separate names '{printable(name)}', which is not an {model.schema} class "
+                             f"(this model's element classes: {present})")
+        keep.add(name.lower())
+    lineage: dict[str, set[str]] = {}
+    groups: dict[tuple[str | None, str], list[int]] = {}
+    for index, item in enumerate(converted):
+        cls = item.element.ifc_class
+        if cls not in lineage:
+            lineage[cls] = {n.lower() for n in (class_lineage(model.schema or "IFC4", cls) or (cls,))}
+        if not lineage[cls] & keep:
+            groups.setdefault((item.element.storey_id, cls), []).append(index)
+    storeys = {s.global_id: s.name for s in model.storeys}
+    ordered = sorted(model.storeys, key=lambda s: s.elevation)
+    storey_slugs = {s.global_id: _map_name(s.name, index) for index, s in enumerate(ordered, start=1)}  # as the maps
+    taken = {item.name for item in converted}
+    merged = []
+    for (storey_id, cls), members in groups.items():
+        storey_name = storeys.get(storey_id, "") if storey_id else ""
+        name = _unique(f"merged_{storey_slugs.get(storey_id, 'no_storey')}_{slug(cls, 'element')}", taken)
+        lower = np.min([converted[i].world_vertices.min(axis=0) for i in members], axis=0)
+        pose = np.eye(4)
+        pose[:3, 3] = np.round(lower, 3)  # a round origin near the group: small mesh coordinates
+        for i in members:
+            converted[i].model = name
+        merged.append(merge.MergedModel(name, storey_id, storey_name, cls, members, pose))
+    return merged
+
+
+def _unique(name: str, taken: set[str]) -> str:
+    candidate, number = name, 2
+    while candidate in taken:
+        candidate, number = f"{name}_{number}", number + 1
+    taken.add(candidate)
+    return candidate
+
+
+# ---- per-model work (runs in the pool's processes; see bimrobot.world.pool) --------------------------
+
+PER_MODEL_COST = 400
+"""Cost of one model's files in triangle-equivalents, for balancing the tasks (measured: writing a model's
+four files and two folders takes about as long as the hull and mass integrals of a 400-triangle body)."""
+
+
+def _model_tasks(converted: list[_Converted], merged: list[merge.MergedModel], options: ConvertOptions) -> list:
+    """Tasks for :func:`_model_task`: ("models", indices) chunks that keep the elements of one geometry
+    together (its DAE and STL are made once), and one ("merged", index) task per merged model."""
+    in_merged = {i for m in merged for i in m.members}
+    groups: dict[int, list[int]] = {}
+    for index, item in enumerate(converted):
+        if index not in in_merged:
+            groups.setdefault(id(item.geometry), []).append(index)
+    chunks = list(groups.values())
+    costs = [len(converted[g[0]].body.faces) + PER_MODEL_COST * len(g) for g in chunks]
+    count = 4 * (options.workers or pool.cores())  # small enough to balance, large enough to share the work
+    tasks: list = [("models", chunk) for chunk in pool.balanced_chunks(chunks, costs, count)]
+    tasks += [("merged", index) for index in range(len(merged))]
+    return tasks
+
+
+def _model_task(task) -> tuple[list, dict | None]:
+    """Do one task: ("map", level) draws a storey's map, ("models", indices) writes elements' models,
+    ("merged", index) a merged model. Returns ([(element index, mass properties, collision triangles)],
+    the map's report entry, the merged model's figures, or None)."""
+    kind, payload = task
+    converted, options = pool.shared["converted"], pool.shared["options"]
+    models_dir, source = pool.shared["models_dir"], pool.shared["source"]
+    if kind == "map":
+        entry = _write_map(pool.shared["maps_dir"], converted, pool.shared["map_plan"], payload, options)
+        return [], {"map": payload, "entry": entry}
+    if kind == "merged":
+        merged = pool.shared["merged"][payload]
+        items = [converted[i] for i in merged.members]
+        for item in items:
+            item.finish(options)
+        figures = merge.write_merged_model(models_dir, merged, items, _sdf_versions(options), source)
+        return [(i, converted[i].mass, converted[i].collision_triangles) for i in merged.members], figures
+    results = []
+    for index in payload:
+        item = converted[index]
+        item.finish(options)
+        _write_model(models_dir, item, options, source)
+        results.append((index, item.mass, item.collision_triangles))
+    return results, None
+
+
+def _apply_results(converted: list[_Converted], merged: list[merge.MergedModel], maps: dict[int, dict],
+                   results: tuple) -> None:
+    """Copy what a task computed (possibly in another process) onto this process's elements and maps."""
+    rows, figures = results
+    for index, mass, triangles in rows:
+        converted[index].mass = mass
+        converted[index].collision_triangles = triangles
+    if figures is not None and "map" in figures:
+        maps[figures["map"]] = figures["entry"]
+    elif figures is not None:
+        next(m for m in merged if m.name == figures["name"]).figures = figures
 
 
 def _skip(element: Element, reason: str) -> dict:
@@ -333,50 +495,55 @@ def _sdf_versions(options: ConvertOptions) -> dict[str, str]:
     return {sdf.SIM_VERSION: "model.sdf", sdf.CLASSIC_VERSION: "model-1_6.sdf"}
 
 
-def _write_models(models_dir: Path, converted: list[_Converted], options: ConvertOptions, source: str, progress: bool):
+def _write_model(models_dir: Path, item: _Converted, options: ConvertOptions, source: str) -> None:
+    """models/<name>/: model.config, model.sdf (and model-1_6.sdf), meshes/<name>.dae and _collision.stl."""
     versions = _sdf_versions(options)
-    for item in tqdm(converted, desc="models", unit="model", disable=not progress, leave=False):
-        folder = models_dir / item.name
-        (folder / "meshes").mkdir(parents=True)
-        visual_file = f"{item.name}.dae"
-        collision_file = f"{item.name}_collision.stl"
-        element = item.element
-        (folder / "meshes" / visual_file).write_text(item.geometry.dae_for(element.ifc_class), encoding="utf-8")
-        (folder / "meshes" / collision_file).write_bytes(item.geometry.stl)
-        spec = sdf.ModelSpec(
-            name=item.name,
-            pose=item.pose,
-            static=options.is_static,
-            mass=item.mass.mass,
-            center_of_mass=item.mass.center_of_mass,
-            inertia=item.mass.inertia,
-            visual_uri=f"model://{item.name}/meshes/{visual_file}",
-            collision_uri=f"model://{item.name}/meshes/{collision_file}",
-        )
-        for version, file_name in versions.items():
-            (folder / file_name).write_text(sdf.model_sdf(spec, version), encoding="utf-8")
-        description = f'{element.ifc_class} "{printable(element.name)}" (IFC GlobalId {printable(element.global_id)}) from {source}'
-        (folder / "model.config").write_text(sdf.model_config(item.name, versions, description), encoding="utf-8")
+    folder = models_dir / item.name
+    (folder / "meshes").mkdir(parents=True)
+    visual_file = f"{item.name}.dae"
+    collision_file = f"{item.name}_collision.stl"
+    element = item.element
+    (folder / "meshes" / visual_file).write_text(item.geometry.dae_for(element.ifc_class), encoding="utf-8")
+    (folder / "meshes" / collision_file).write_bytes(item.geometry.stl)
+    spec = sdf.ModelSpec(
+        name=item.name,
+        pose=item.pose,
+        static=options.is_static,
+        mass=item.mass.mass,
+        center_of_mass=item.mass.center_of_mass,
+        inertia=item.mass.inertia,
+        visual_uri=f"model://{item.name}/meshes/{visual_file}",
+        collision_uri=f"model://{item.name}/meshes/{collision_file}",
+    )
+    for version, file_name in versions.items():
+        (folder / file_name).write_text(sdf.model_sdf(spec, version), encoding="utf-8")
+    description = f'{element.ifc_class} "{printable(element.name)}" (IFC GlobalId {printable(element.global_id)}) from {source}'
+    (folder / "model.config").write_text(sdf.model_config(item.name, versions, description), encoding="utf-8")
 
 
 def _world_extent(converted: list[_Converted]) -> np.ndarray:
-    """[[xmin, ymin, zmin], [xmax, ymax, zmax]] of all models at their world poses (m)."""
-    corners = []
-    for item in converted:
-        lower, upper = item.body.vertices.min(axis=0), item.body.vertices.max(axis=0)
-        box = np.array([[x, y, z, 1.0] for x in (lower[0], upper[0]) for y in (lower[1], upper[1]) for z in (lower[2], upper[2])])
-        corners.append((box @ item.pose.T)[:, :3])
-    stacked = np.vstack(corners)
+    """[[xmin, ymin, zmin], [xmax, ymax, zmax]] of the corners of every model's local bounding box at
+    its world pose (m)."""
+    lower = np.array([item.body.vertices.min(axis=0) for item in converted])
+    upper = np.array([item.body.vertices.max(axis=0) for item in converted])
+    pick = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], dtype=bool)  # 8 corners
+    corners = np.where(pick[None], upper[:, None, :], lower[:, None, :])  # (n, 8, 3)
+    poses = np.array([item.pose for item in converted])
+    world = np.einsum("nij,nkj->nki", poses[:, :3, :3], corners) + poses[:, None, :3, 3]
+    stacked = world.reshape(-1, 3)
     return np.array([stacked.min(axis=0), stacked.max(axis=0)])
 
 
 def _write_worlds(
-    worlds_dir: Path, world_name: str, converted: list[_Converted], options: ConvertOptions, ground_z: float
+    worlds_dir: Path, world_name: str, converted: list[_Converted], merged: list[merge.MergedModel],
+    options: ConvertOptions, ground_z: float,
 ) -> dict[str, str]:
-    """Write the world file(s); return {"sim"|"classic": file name}."""
+    """Write the world file(s); return {"sim"|"classic": file name}. Includes: the elements' own models
+    in element order, then the merged models."""
     worlds_dir.mkdir(parents=True)
     extent = _world_extent(converted)
-    includes = [sdf.Include(item.name, item.pose) for item in converted]
+    includes = [sdf.Include(item.name, item.pose) for item in converted if item.model == item.name]
+    includes += [sdf.Include(m.name, m.pose) for m in merged]
     center = tuple(((extent[0, :2] + extent[1, :2]) / 2).tolist())
     size = tuple((extent[1, :2] - extent[0, :2] + 40.0).tolist())
     files = {}
@@ -406,42 +573,51 @@ def _write_launch_and_ros(tmp: Path, package: str, world_name: str, world_files:
     (tmp / "CMakeLists.txt").write_text(launch.cmakelists(package), encoding="utf-8")
 
 
-def _write_maps(
-    maps_dir: Path, model: BuildingModel, converted: list[_Converted], options: ConvertOptions, ground_z: float
-) -> list[dict]:
-    maps_dir.mkdir(parents=True)
-    bodies = []
-    for item in converted:
-        world = item.body.vertices @ item.pose[:3, :3].T + item.pose[:3, 3]
-        bodies.append((world, item.body.faces))
+@dataclass
+class _MapPlan:
+    """The maps to draw: one level per storey (name, storey id and name, elevation, band) in one grid frame."""
+
+    levels: list[tuple[str, str | None, str, float, tuple[float, float]]]
+    origin: tuple[float, float]
+    shape: tuple[int, int]
+
+
+def _plan_maps(model: BuildingModel, converted: list[_Converted], options: ConvertOptions, ground_z: float) -> _MapPlan:
     extent = _world_extent(converted)
     origin, shape = navmap.grid_frame(extent[:, :2], options.map_margin, options.map_resolution)
     storeys = sorted(model.storeys, key=lambda s: s.elevation)
     levels = [(s.global_id, s.name, s.elevation) for s in storeys] or [(None, "site", ground_z)]
     used: set[str] = set()
-    written = []
+    planned = []
     for index, (storey_id, storey_name, elevation) in enumerate(levels, start=1):
         name = _map_name(storey_name, index) if storey_id else "site"
         if name in used:
             name = f"{name}_{safe_name(storey_id) if storey_id else len(used)}"
         used.add(name)
         band = (elevation + options.map_band[0], elevation + options.map_band[1])
-        occupied = navmap.occupancy(bodies, band, origin, shape, options.map_resolution)
-        grid = navmap.OccupancyGrid(name, storey_id, storey_name, elevation, band, options.map_resolution, origin, occupied)
-        pgm, yaml_file = navmap.write_map(grid, maps_dir)
-        written.append({
-            "image": f"maps/{pgm.name}",
-            "yaml": f"maps/{yaml_file.name}",
-            "storey_id": storey_id,
-            "storey_name": storey_name,
-            "elevation_m": elevation,
-            "band_z_m": list(band),
-            "resolution_m": options.map_resolution,
-            "origin_m": list(origin),
-            "size_px": [shape[1], shape[0]],
-            "occupied_cells": int(occupied.sum()),
-        })
-    return written
+        planned.append((name, storey_id, storey_name, elevation, band))
+    return _MapPlan(planned, origin, shape)
+
+
+def _write_map(maps_dir: Path, converted: list[_Converted], plan: _MapPlan, level: int, options: ConvertOptions) -> dict:
+    """Draw and write one storey's map; return its report entry."""
+    name, storey_id, storey_name, elevation, band = plan.levels[level]
+    bodies = [(item.world_vertices, item.body.faces) for item in converted]
+    occupied = navmap.occupancy(bodies, band, plan.origin, plan.shape, options.map_resolution)
+    grid = navmap.OccupancyGrid(name, storey_id, storey_name, elevation, band, options.map_resolution, plan.origin, occupied)
+    pgm, yaml_file = navmap.write_map(grid, maps_dir)
+    return {
+        "image": f"maps/{pgm.name}",
+        "yaml": f"maps/{yaml_file.name}",
+        "storey_id": storey_id,
+        "storey_name": storey_name,
+        "elevation_m": elevation,
+        "band_z_m": list(band),
+        "resolution_m": options.map_resolution,
+        "origin_m": list(plan.origin),
+        "size_px": [plan.shape[1], plan.shape[0]],
+        "occupied_cells": int(occupied.sum()),
+    }
 
 
 FAR_FROM_ORIGIN_M = 1000.0
@@ -453,8 +629,7 @@ def _warnings(converted: list[_Converted], options: ConvertOptions, ground_z: fl
     warnings = []
     extent = _world_extent(converted)
     if not options.is_static:
-        below = [item.name for item in converted
-                 if (item.body.vertices @ item.pose[:3, :3].T + item.pose[:3, 3])[:, 2].min() < ground_z - 1e-6]
+        below = [item.name for item in converted if item.world_vertices[:, 2].min() < ground_z - 1e-6]
         if below:
             warnings.append(
                 f"{len(below)} dynamic model(s) reach below the ground plane at z = {ground_z:g} m (e.g. {below[0]}); "
@@ -476,7 +651,7 @@ def _report(model, package, world_name, world_files, converted, skipped, maps, y
         x, y, z, roll, pitch, yaw = layout.pose_xyz_rpy(item.pose)
         entries.append({
             "global_id": element.global_id,
-            "model": item.name,
+            "model": item.model,
             "ifc_class": element.ifc_class,
             "name": element.name,
             "storey_id": element.storey_id,
@@ -488,7 +663,7 @@ def _report(model, package, world_name, world_files, converted, skipped, maps, y
             "inertia_from": mass.inertia_method,
             "center_of_mass_m": [round(float(v), 6) for v in mass.center_of_mass],
             "visual_triangles": int(len(item.body.faces)),
-            "collision_triangles": int(len(item.geometry.collision[1])),
+            "collision_triangles": int(item.collision_triangles),
             "pose_xyz_rpy": [round(v, 9) for v in (x, y, z, roll, pitch, yaw)],
         })
     counts_by_source: dict[str, int] = {}
@@ -551,6 +726,9 @@ def _readme(report: dict) -> str:
         "visual `meshes/<id>.dae` (metres, Z up), collision `meshes/<id>_collision.stl` "
         f"({report['options']['collision']}, <= {report['options']['max_triangles']} triangles), "
         f"{'static' if report['options']['static'] else 'dynamic'}",
+        *([f"- `models/merged_<storey>_<class>/`: {sum(m['elements'] for m in report['merged_models'])} static "
+           f"elements merged into {len(report['merged_models'])} models, one per storey and IFC class "
+           "(`--merge-static`; report.json names each element's model)"] if report.get("merged_models") else []),
         "- `maps/<storey>.pgm/.yaml`: occupancy grids per storey for Nav2 map_server "
         f"(band {report['options']['map_band'][0]}..{report['options']['map_band'][1]} m above the storey)",
         "- `report.json`: every element's mass and weight source, the skipped products and why, timings",

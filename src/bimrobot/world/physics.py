@@ -172,6 +172,9 @@ def _symmetric_positive(tensor: np.ndarray) -> np.ndarray:
     return tensor
 
 
+symmetric_positive = _symmetric_positive
+
+
 def principal_moments(inertia: np.ndarray) -> np.ndarray:
     """Principal moments of inertia (ascending, kg m^2)."""
     return np.linalg.eigvalsh((inertia + inertia.T) / 2)

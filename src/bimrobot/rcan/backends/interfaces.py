@@ -34,6 +34,9 @@ class ActivityResult:
     message: str
     started_s: float = 0.0
     finished_s: float = 0.0
+    #: the robot stopped answering during the activity (its node died): RCAN takes it out of service and
+    #: gives the activity to another capable robot, or escalates it when there is none
+    robot_lost: bool = False
 
     @property
     def duration_s(self) -> float:
@@ -53,6 +56,7 @@ class ActivityResult:
             message=str(message["message"]),
             started_s=float(message.get("started_s", 0.0)),
             finished_s=float(message.get("finished_s", 0.0)),
+            robot_lost=bool(message.get("robot_lost", False)),
         )
 
 
@@ -91,6 +95,10 @@ class ExecutorBackend(abc.ABC):
     @abc.abstractmethod
     def install(self, node: RcanNode, attempt: int, ready_at_s: float, feedback) -> ActivityResult:
         """Fix the component in place, open the gripper and return the arm to its initial pose."""
+
+    def stop(self) -> None:
+        """The run is ending (finished or interrupted): give up waiting for robots, so that no thread
+        outlives the run. The default waits for nothing."""
 
     def close(self) -> None:
         """Release connections; the default has none."""

@@ -40,6 +40,9 @@ SETUP_HINT = "run scripts/setup-ros2.sh .venv (ROS 2 Jazzy wheels + the bimrobot
 _LIBRARY_ORDER = ("generator_c", "typesupport_c", "typesupport_introspection_c", "typesupport_fastrtps_c",
                   "typesupport_cpp", "typesupport_introspection_cpp", "typesupport_fastrtps_cpp", "generator_py")
 _loaded = False
+#: The feedback phase of the robot node's heartbeat (sent every 0.5 s while a goal runs).
+HEARTBEAT = "alive"
+HEARTBEAT_S = 0.5
 
 
 def interfaces_install() -> Path:
@@ -90,25 +93,46 @@ def _quaternion_yaw(yaw: float) -> tuple[float, float, float, float]:
 
 
 class Ros2Backend(ExecutorBackend):
-    """Executor backend over ROS 2 actions (see the module docstring). Thread-safe: RCAN's executors
-    call :meth:`execute` from one thread per robot while a background thread spins the node.
+    """Executor backend over ROS 2 actions (see the module docstring). Thread-safe: RCAN's executor
+    calls :meth:`execute` from its worker threads while a background thread spins the node.
+
+    ROS 2 gives no callback when an action server dies, so each goal is watched:
+
+    - a *deadline* from the activity's expected duration: ``deadline_min_s + deadline_factor x expected
+      robot seconds x time_scale`` (``time_scale``: real seconds per robot second of the robots;
+      expected: travel at the robot's speeds from where this backend last sent it, or its gripper's
+      handling time, from the capability table); a goal past it is cancelled and fails;
+      ``result_timeout_s`` replaces the rule by one fixed deadline;
+    - *liveness*: the robot's server must be visible in the ROS graph and send feedback at least every
+      ``liveness_s`` seconds while it works (the shipped robot node sends a heartbeat every 0.5 s; a
+      real robot's server does the same, as Nav2's bond does with 4 s). A silent server is taken for
+      dead: the result says ``robot_lost`` and RCAN gives the activity to another capable robot.
     """
 
     name = "ros2"
 
-    def __init__(self, capabilities: CapabilityTable, server_timeout_s: float = 30.0, result_timeout_s: float = 600.0):
+    def __init__(self, capabilities: CapabilityTable, server_timeout_s: float = 10.0,
+                 result_timeout_s: float | None = None, deadline_factor: float = 3.0, deadline_min_s: float = 30.0,
+                 time_scale: float = 1.0, liveness_s: float = 4.0):
         rclpy, self._action = load_ros2()
         from rclpy.action import ActionClient
         from rclpy.executors import MultiThreadedExecutor
+        from rclpy.signals import SignalHandlerOptions
 
         self._rclpy = rclpy
         self._context = rclpy.Context()
-        rclpy.init(context=self._context)
+        # no rclpy signal handlers: Ctrl-C stays Python's KeyboardInterrupt and stops the run cleanly
+        rclpy.init(context=self._context, signal_handler_options=SignalHandlerOptions.NO)
         self._node = rclpy.create_node(f"rcan_executor_{os.getpid()}", context=self._context)
         self._clients = {}
         self._lock = threading.Lock()
+        self._closed = threading.Event()
         self._ActionClient = ActionClient
+        self.capabilities = capabilities
         self.server_timeout_s, self.result_timeout_s = server_timeout_s, result_timeout_s
+        self.deadline_factor, self.deadline_min_s = deadline_factor, deadline_min_s
+        self.time_scale, self.liveness_s = time_scale, liveness_s
+        self._base = {name: robot.home for name, robot in capabilities.robots.items()}  # last base goal sent
         self._executor = MultiThreadedExecutor(num_threads=2, context=self._context)
         self._executor.add_node(self._node)
         self._spinner = threading.Thread(target=self._spin, name="rcan-ros2-spin", daemon=True)
@@ -125,11 +149,30 @@ class Ros2Backend(ExecutorBackend):
                 self._clients[key] = self._ActionClient(self._node, self._action, action_name(robot, kind))
             return self._clients[key]
 
+    def expected_s(self, node: RcanNode) -> float:
+        """The robot seconds ``node``'s activity should take (0 for a robot not in the table)."""
+        spec = self.capabilities.robots.get(node.robot)
+        if spec is None:
+            return 0.0
+        if node.kind in (ActivityKind.MOVE_TO_COMPONENT, ActivityKind.TRANSPORT):
+            return self._base.get(node.robot, spec.home).distance_xy(node.target) / spec.speed_m_s
+        if node.kind in (ActivityKind.POSITION_FOR_PICKING_UP, ActivityKind.POSITION_FOR_INSTALLING):
+            return (2 * spec.reach_m + 1.0) / spec.arm_speed_m_s  # at most across the reach and up from stowed
+        return spec.handling_s.get(node.kind.value, 0.0)
+
+    def deadline_s(self, node: RcanNode) -> float:
+        """Real seconds ``node``'s goal may take before it is cancelled (see the class docstring)."""
+        if self.result_timeout_s is not None:
+            return self.result_timeout_s
+        return self.deadline_min_s + self.deadline_factor * self.expected_s(node) * self.time_scale
+
     def _run(self, node: RcanNode, attempt: int, ready_at_s: float, feedback) -> ActivityResult:
         client = self._client(node.robot, node.kind)
-        failed = lambda message: ActivityResult(node.activity_id, attempt, node.robot, False, message)  # noqa: E731
+        failed = lambda message, lost=False: ActivityResult(  # noqa: E731
+            node.activity_id, attempt, node.robot, False, message, robot_lost=lost)
         if not client.wait_for_server(timeout_sec=self.server_timeout_s):
-            return failed(f"no ROS 2 action server {action_name(node.robot, node.kind)} within {self.server_timeout_s:g} s")
+            return failed(f"no ROS 2 action server {action_name(node.robot, node.kind)} within "
+                          f"{self.server_timeout_s:g} s", lost=True)
         goal = self._action.Goal()
         goal.activity_id, goal.attempt, goal.component_id = node.activity_id, attempt, node.component_id
         goal.activity, goal.robot = node.kind.value, node.robot
@@ -141,22 +184,47 @@ class Ros2Backend(ExecutorBackend):
         goal.weight_kg = math.nan if weight is None else float(weight)  # NaN: unknown (a float field)
         goal.ready_at_s = float(ready_at_s)
         goal.release_after = bool(node.activity.releases_robot)
-        on_feedback = (lambda message: feedback(float(message.feedback.progress), message.feedback.phase)) if feedback else None
-        goal_handle = self._wait(client.send_goal_async(goal, feedback_callback=on_feedback), self.server_timeout_s)
-        if goal_handle is None or not goal_handle.accepted:
-            return failed(f"robot {node.robot} rejected the {node.kind.label.lower()} goal")
-        response = self._wait(goal_handle.get_result_async(), self.result_timeout_s)
-        if response is None:
-            return failed(f"no result from robot {node.robot} within {self.result_timeout_s:g} s")
-        r = response.result
-        return ActivityResult(node.activity_id, attempt, node.robot, bool(r.success), r.message, r.started_s, r.finished_s)
+        heard = [time.monotonic()]
 
-    @staticmethod
-    def _wait(future, timeout_s: float):
+        def on_feedback(message) -> None:
+            heard[0] = time.monotonic()
+            if feedback and message.feedback.phase != HEARTBEAT:
+                feedback(float(message.feedback.progress), message.feedback.phase)
+
+        goal_handle = self._wait(client.send_goal_async(goal, feedback_callback=on_feedback), self.server_timeout_s)
+        if goal_handle is None:
+            return failed(f"robot {node.robot} did not answer the {node.kind.label.lower()} goal within "
+                          f"{self.server_timeout_s:g} s", lost=True)
+        if not goal_handle.accepted:
+            return failed(f"robot {node.robot} rejected the {node.kind.label.lower()} goal")
+        future, deadline = goal_handle.get_result_async(), self.deadline_s(node)
+        started = heard[0] = time.monotonic()
         done = threading.Event()
         future.add_done_callback(lambda _: done.set())
-        if not done.wait(timeout_s):
-            return None
+        while not done.wait(0.2):
+            now = time.monotonic()
+            if self._closed.is_set():
+                return failed("the run stopped before the robot's result came")
+            if now - heard[0] > self.liveness_s or not client.server_is_ready():
+                return failed(f"robot {node.robot} stopped answering: no feedback for {now - heard[0]:.1f} s "
+                              f"(liveness {self.liveness_s:g} s) during {node.kind.label.lower()}", lost=True)
+            if now - started > deadline:
+                with contextlib.suppress(Exception):
+                    goal_handle.cancel_goal_async()
+                return failed(f"no result from robot {node.robot} within its {deadline:.0f} s deadline "
+                              f"(expected {self.expected_s(node):.0f} robot s); the goal was cancelled")
+        r = future.result().result
+        if r.success and node.kind in (ActivityKind.MOVE_TO_COMPONENT, ActivityKind.TRANSPORT):
+            self._base[node.robot] = node.target
+        return ActivityResult(node.activity_id, attempt, node.robot, bool(r.success), r.message, r.started_s, r.finished_s)
+
+    def _wait(self, future, timeout_s: float):
+        done = threading.Event()
+        future.add_done_callback(lambda _: done.set())
+        deadline = time.monotonic() + timeout_s
+        while not done.wait(0.2):
+            if self._closed.is_set() or time.monotonic() > deadline:
+                return None
         return future.result()
 
     move_to_component = _run
@@ -166,7 +234,11 @@ class Ros2Backend(ExecutorBackend):
     position_for_installing = _run
     install = _run
 
+    def stop(self) -> None:
+        self._closed.set()  # goals still waited for end now, so no thread outlives the run
+
     def close(self) -> None:
+        self._closed.set()
         with contextlib.suppress(Exception):
             self._executor.shutdown(timeout_sec=2)
             self._node.destroy_node()
@@ -179,9 +251,11 @@ class Ros2Backend(ExecutorBackend):
 
 def serve_robot_node(capabilities: CapabilityTable, time_scale: float = 0.0, failure_probability: float = 0.0,
                      seed: int = 0, db_path: str = ":memory:", ready: threading.Event | None = None,
-                     stop: threading.Event | None = None) -> int:
-    """Serve ``/bimrobot/<robot>/<activity>`` for every robot of ``capabilities`` until SIGINT/SIGTERM
-    (or ``stop``); activities execute on kinematic robots with feedback (progress, phase).
+                     stop: threading.Event | None = None, robots: list[str] | None = None) -> int:
+    """Serve ``/bimrobot/<robot>/<activity>`` for every robot of ``capabilities`` (or only ``robots``)
+    until SIGINT/SIGTERM (or ``stop``); activities execute on kinematic robots with feedback (progress,
+    phase, and a heartbeat every 0.5 s while working). A goal whose activity id the robots already
+    completed is not executed again: its earlier result is returned.
     """
     rclpy, action = load_ros2()
     from rclpy.action import ActionServer
@@ -193,7 +267,9 @@ def serve_robot_node(capabilities: CapabilityTable, time_scale: float = 0.0, fai
 
     site = KinematicSite(capabilities, db_path, time_scale, failure_probability, seed)
     context = rclpy.Context()
-    rclpy.init(context=context)
+    from rclpy.signals import SignalHandlerOptions
+
+    rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)  # SIGINT/SIGTERM: handled below
     node = rclpy.create_node("bimrobot_robots", context=context)
     group = ReentrantCallbackGroup()
 
@@ -211,9 +287,22 @@ def serve_robot_node(capabilities: CapabilityTable, time_scale: float = 0.0, fai
             def publish_feedback(progress: float, phase: str) -> None:
                 message = action.Feedback()
                 message.progress, message.phase = float(progress), phase
-                goal_handle.publish_feedback(message)
+                with contextlib.suppress(Exception):  # the goal may be gone (cancelled, client closed)
+                    goal_handle.publish_feedback(message)
 
-            outcome = site.execute(rcan_node, int(g.attempt), float(g.ready_at_s), publish_feedback)
+            working = threading.Event()
+
+            def heartbeat() -> None:  # liveness for the client while the robot works
+                while not working.wait(HEARTBEAT_S):
+                    publish_feedback(0.5, HEARTBEAT)
+
+            beat = threading.Thread(target=heartbeat, daemon=True)
+            beat.start()
+            try:
+                outcome = site.execute(rcan_node, int(g.attempt), float(g.ready_at_s), publish_feedback)
+            finally:
+                working.set()
+                beat.join()
             goal_handle.succeed()  # the action completed; success/failure of the activity is in the result
             result = action.Result()
             result.success, result.message = outcome.success, outcome.message
@@ -224,7 +313,8 @@ def serve_robot_node(capabilities: CapabilityTable, time_scale: float = 0.0, fai
 
     servers = [
         ActionServer(node, action, action_name(robot, kind), make_callback(robot, kind), callback_group=group)
-        for robot, spec in capabilities.robots.items() for kind in ActivityKind if spec.can(kind)
+        for robot, spec in capabilities.robots.items() for kind in ActivityKind
+        if spec.can(kind) and (robots is None or robot in robots)
     ]
     executor = MultiThreadedExecutor(num_threads=4, context=context)
     executor.add_node(node)
@@ -233,7 +323,7 @@ def serve_robot_node(capabilities: CapabilityTable, time_scale: float = 0.0, fai
         for sig in (signal.SIGINT, signal.SIGTERM):
             signal.signal(sig, lambda *_: stop.set())
     print(f"bimrobot robot node: {len(servers)} ConstructionActivity action servers for "
-          f"{', '.join(capabilities.robots)}", flush=True)
+          f"{', '.join(robots or capabilities.robots)}", flush=True)
     if ready:
         ready.set()
     try:
@@ -249,15 +339,40 @@ def serve_robot_node(capabilities: CapabilityTable, time_scale: float = 0.0, fai
     return 0
 
 
+#: Shared-memory files of Fast DDS in /dev/shm: Fast DDS 2.x (Jazzy's wheels) names its segments,
+#: ports and their semaphores ``fastrtps_*`` / ``sem.fastrtps_*``; Fast DDS 3 uses ``fastdds_*``.
+SHM_PATTERNS = ("fastrtps_*", "sem.fastrtps_*", "fastdds_*", "sem.fastdds_*")
+
+
 def _fastdds_files() -> set[str]:
-    return set(glob.glob("/dev/shm/fastdds_*")) | set(glob.glob("/dev/shm/sem.fastdds_*"))
+    return {path for pattern in SHM_PATTERNS for path in glob.glob(f"/dev/shm/{pattern}")}
+
+
+def _shm_in_use(ignore_pid: int | None = None) -> set[str]:
+    """/dev/shm files a live process (other than ``ignore_pid``) has mapped or open."""
+    used = set()
+    for proc in glob.glob("/proc/[0-9]*"):
+        if ignore_pid is not None and proc == f"/proc/{ignore_pid}":
+            continue
+        with contextlib.suppress(OSError):
+            with open(f"{proc}/maps", encoding="utf-8", errors="replace") as maps:
+                used.update(line.split(None, 5)[5].strip() for line in maps if "/dev/shm/" in line)
+        with contextlib.suppress(OSError):
+            for fd in os.listdir(f"{proc}/fd"):
+                with contextlib.suppress(OSError):
+                    target = os.readlink(f"{proc}/fd/{fd}")
+                    if target.startswith("/dev/shm/"):
+                        used.add(target)
+    return {path.removesuffix(" (deleted)") for path in used}
 
 
 @contextlib.contextmanager
 def robot_node_process(capabilities_path: str | None = None, time_scale: float = 0.0, failure_probability: float = 0.0,
-                       seed: int = 0, state_db: str = ":memory:", startup_timeout_s: float = 60.0):
+                       seed: int = 0, state_db: str = ":memory:", startup_timeout_s: float = 60.0,
+                       participants_closed: bool = False):
     """Start the shipped robot node in a subprocess (same ROS_DOMAIN_ID and transports as this process),
-    yield it, then stop it by PID and delete the /dev/shm/fastdds_* files created meanwhile.
+    yield it, then stop it by PID and delete the Fast DDS shared-memory files (``SHM_PATTERNS``)
+    created meanwhile that no live process uses (``participants_closed``: not counting this one).
     """
     before = _fastdds_files()
     command = [sys.executable, "-m", "bimrobot", "rcan", "robot-node", "--time-scale", str(time_scale),
@@ -283,13 +398,23 @@ def robot_node_process(capabilities_path: str | None = None, time_scale: float =
                 process.wait()
         if process.stdout:
             process.stdout.close()
-        cleanup_fastdds(before)
+        # participants_closed: this process has no ROS 2 participant left (the run closed its backend)
+        cleanup_fastdds(before, os.getpid() if participants_closed else None)
 
 
-def cleanup_fastdds(before: set[str]) -> list[str]:
-    """Delete the Fast DDS shared-memory files created since ``before`` (a killed process leaves them)."""
+def cleanup_fastdds(before: set[str], ignore_pid: int | None = None) -> list[str]:
+    """Delete the Fast DDS shared-memory files created since ``before`` that no live process uses (a
+    killed process leaves them, and Fast DDS leaves its port segments): a file another ROS 2 program
+    maps stays, with its port's semaphore. ``ignore_pid``: a process whose participants are all closed
+    (this one, at the end of a run) and whose mappings go with it."""
     removed = []
-    for path in sorted(_fastdds_files() - before):
+    candidates = _fastdds_files() - before
+    if candidates:
+        used = _shm_in_use(ignore_pid)
+        candidates = {path for path in candidates if path not in used and not (
+            path.startswith("/dev/shm/sem.") and path[len("/dev/shm/sem."):].removesuffix("_mutex")
+            in {u[len("/dev/shm/"):] for u in used})}
+    for path in sorted(candidates):
         with contextlib.suppress(OSError):
             os.unlink(path)
             removed.append(path)

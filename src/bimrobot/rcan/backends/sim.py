@@ -4,7 +4,9 @@ Each robot has a mobile base (moves at ``speed_m_s`` in the xy plane), a manipul
 ``reach_m`` horizontally from the base, moves the gripper at ``arm_speed_m_s``) and a gripper (takes
 ``handling_s[activity]`` to pick up or install). Robots check what a real robot would refuse: a target
 out of the arm's reach, a pick-up without the gripper at the grasp pose, a component heavier than the
-payload, transporting a component it does not hold, touching a component another robot holds. Any activity can also fail at random with
+payload, transporting a component it does not hold, touching a component another robot holds. A
+transport whose node releases the robot sets the component down at the drop-off point (the transport's
+goal) and lets go; a later pick-up there takes it again. Any activity can also fail at random with
 ``failure_probability``; the draw is seeded by ``(seed, activity id, attempt)`` so a resumed run sees
 the same failures as an uninterrupted one.
 
@@ -14,7 +16,8 @@ sleeping, the default; 1: real time).
 
 The world (robot poses, components, executed goals) lives in SQLite, in memory by default or in the
 run's state database, so it survives a crash like a real site does. Executed goals are recorded in the
-same transaction as their effect, keyed by (activity id, attempt): a goal sent twice runs once.
+same transaction as their effect, keyed by activity id: a goal sent twice runs once, and a goal
+whose activity already succeeded (any attempt) is refused with the earlier result.
 """
 
 from __future__ import annotations
@@ -63,8 +66,7 @@ class KinematicSite:
         self.failure_probability = float(failure_probability)
         self.seed = int(seed)
         self._lock = threading.Lock()
-        self._db = connect_state_db(db_path)  # the run's state database, or its own; never a foreign file
-        self._db.executescript(SCHEMA)
+        self._db = connect_state_db(db_path, schema=SCHEMA)  # the run's state database, or its own; never a foreign file
         for robot in capabilities.robots.values():
             h = robot.home
             self._db.execute(
@@ -116,12 +118,14 @@ class KinematicSite:
             node.activity_id, attempt, node.robot, error is None,
             error or f"{node.kind.label} of {node.component_id} done", start, start + duration,
         )
-        self._commit(node, result, effect if error is None else {})
-        return result
+        return self._commit(node, result, effect if error is None else {})
 
     def _recorded(self, activity_id: str, attempt: int) -> ActivityResult | None:
+        """The result of a goal already executed: the same (activity id, attempt), or any successful
+        attempt of the activity (a goal id is completed once; its result is reported as this attempt's)."""
         row = self._db.execute(
-            "SELECT robot, success, message, started_s, finished_s FROM sim_execution WHERE activity_id=? AND attempt=?",
+            "SELECT robot, success, message, started_s, finished_s FROM sim_execution "
+            "WHERE activity_id=? AND (attempt=? OR success=1) ORDER BY success DESC LIMIT 1",
             (activity_id, attempt),
         ).fetchone()
         if row is None:
@@ -139,10 +143,19 @@ class KinematicSite:
         kind, target, base = node.kind, node.target, state["base"]
         if not spec.can(kind):
             return 0.0, f"robot {spec.name} cannot {kind.label.lower()} (capability table)", {}
+        if state["holding"] and state["holding"] != node.component_id:
+            # RCAN released this robot from a component it still holds (its activity was escalated):
+            # the robot sets that component down where its gripper is; it waits there for a technician
+            duration, error, effect = self._plan(spec, {**state, "holding": None}, node)
+            effect = {**effect, "set_down": (state["holding"], state["arm"] or base)}
+            return duration, error, effect
         if kind in (ActivityKind.MOVE_TO_COMPONENT, ActivityKind.TRANSPORT):
             if kind is ActivityKind.TRANSPORT and state["holding"] != node.component_id:
                 return 0.0, f"robot {spec.name} does not hold {node.component_id} to transport it", {}
             effect = {"base": Pose(target.x, target.y, base.z), "arm": None}
+            if kind is ActivityKind.TRANSPORT and node.activity.releases_robot:
+                # sets the component down at the drop-off point (the stand pose) and lets go of it
+                effect.update(holding=None, component=(target, None))
             return base.distance_xy(target) / spec.speed_m_s, None, effect
         if kind in (ActivityKind.POSITION_FOR_PICKING_UP, ActivityKind.POSITION_FOR_INSTALLING):
             reach = base.distance_xy(target)
@@ -169,6 +182,8 @@ class KinematicSite:
         if kind is ActivityKind.PICK_UP:
             if state["holding"]:
                 return 0.0, f"robot {spec.name} already holds {state['holding']}", {}
+            if self._held_by_other(node.component_id, spec.name):
+                return 0.0, f"{node.component_id} is held by another robot", {}
             if not spec.can_grip(node.activity.section_m):
                 w, d = node.activity.section_m
                 return 0.0, f"the {w:.3f} x {d:.3f} m section of {node.component_id} does not fit the gripper of {spec.name}", {}
@@ -188,27 +203,39 @@ class KinematicSite:
             row = self._db.execute("SELECT holder FROM sim_component WHERE global_id=?", (component_id,)).fetchone()
         return bool(row and row[0] and row[0] != robot)
 
-    def _commit(self, node: RcanNode, result: ActivityResult, effect: dict) -> None:
-        """Record the goal and apply its effect in one transaction (a crash keeps both or neither)."""
+    def _commit(self, node: RcanNode, result: ActivityResult, effect: dict) -> ActivityResult:
+        """Record the goal and apply its effect in one transaction (a crash keeps both or neither).
+        When another executor (a process sharing this site) recorded the same goal meanwhile, nothing
+        is applied and its result is returned: the goal is executed once."""
         with self._lock:
             db = self._db
             db.execute("BEGIN IMMEDIATE")
             try:
+                recorded = self._recorded(result.activity_id, result.attempt)
+                if recorded:
+                    db.execute("ROLLBACK")
+                    return recorded
                 db.execute(
                     "INSERT INTO sim_execution VALUES (?, ?, ?, ?, ?, ?, ?)",
                     (result.activity_id, result.attempt, result.robot, int(result.success), result.message,
                      result.started_s, result.finished_s),
                 )
-                db.execute("UPDATE sim_robot SET clock_s=? WHERE name=?", (result.finished_s, node.robot))
+                columns = {"clock_s": result.finished_s}  # the robot's new state, in one statement
                 if "base" in effect:
                     b = effect["base"]
-                    db.execute("UPDATE sim_robot SET x=?, y=?, z=? WHERE name=?", (b.x, b.y, b.z, node.robot))
+                    columns.update(x=b.x, y=b.y, z=b.z)
                 if "arm" in effect:
                     arm = effect["arm"]
-                    value = json.dumps([arm.x, arm.y, arm.z, arm.yaw]) if arm else None
-                    db.execute("UPDATE sim_robot SET arm=? WHERE name=?", (value, node.robot))
+                    columns["arm"] = json.dumps([arm.x, arm.y, arm.z, arm.yaw]) if arm else None
+                if "set_down" in effect:
+                    held, pose = effect["set_down"]
+                    db.execute("INSERT OR REPLACE INTO sim_component VALUES (?, ?, ?, ?, NULL)",
+                               (held, pose.x, pose.y, pose.z))
+                    columns["holding"] = None
                 if "holding" in effect:
-                    db.execute("UPDATE sim_robot SET holding=? WHERE name=?", (effect["holding"], node.robot))
+                    columns["holding"] = effect["holding"]
+                db.execute(f"UPDATE sim_robot SET {', '.join(f'{c}=?' for c in columns)} WHERE name=?",
+                           (*columns.values(), node.robot))
                 if "component" in effect:
                     pose, holder = effect["component"]
                     db.execute(
@@ -219,6 +246,7 @@ class KinematicSite:
             except BaseException:
                 db.execute("ROLLBACK")
                 raise
+        return result
 
     def close(self) -> None:
         self._db.close()

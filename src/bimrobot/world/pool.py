@@ -1,0 +1,86 @@
+"""Per-model work on every core: a forked process pool that shares the caller's data without pickling it.
+
+Writing a package is per-model work (convex hulls, mass integrals, COLLADA/STL/SDF text, a few files
+per model) in pure Python and numpy, so threads would serialise on the GIL. The pool is forked
+(Linux), so the workers inherit the element meshes and bodies the parent already holds: a task is a
+list of indices into :data:`shared` and only the small results (mass properties, triangle counts)
+travel back. Where ``fork`` is not available, or the job is small, the same function runs in-process.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+import sys
+from collections.abc import Callable, Iterable, Iterator
+
+shared: dict = {}
+"""What the tasks read: set by the parent before :func:`run` forks; workers see a copy-on-write view."""
+
+MIN_TASKS_FOR_POOL = 2
+"""Fewer tasks than this run in-process (a fork and its result channel cost a few milliseconds)."""
+
+
+def cores() -> int:
+    """CPUs this process may run on."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not Linux
+        return os.cpu_count() or 1
+
+
+def can_fork() -> bool:
+    """Whether a forked pool is safe here (Linux; macOS's fork is unsafe with its system libraries)."""
+    return sys.platform.startswith("linux") and "fork" in multiprocessing.get_all_start_methods()
+
+
+class Tasks:
+    """Run ``function`` over ``tasks`` on ``workers`` forked processes, started at once in the background;
+    :meth:`results` yields each task's result in completion order. With one worker, or fewer than
+    :data:`MIN_TASKS_FOR_POOL` tasks, the tasks run in-process when :meth:`results` is iterated.
+    Use as a context manager: leaving it stops the workers (also when an error leaves it)."""
+
+    def __init__(self, function: Callable, tasks: Iterable, workers: int | None = None):
+        self._function = function
+        self._tasks = list(tasks)
+        workers = min(workers or cores(), len(self._tasks))
+        self._pool = None
+        self._pending: Iterator | None = None
+        if workers > 1 and len(self._tasks) >= MIN_TASKS_FOR_POOL and can_fork():
+            self._pool = multiprocessing.get_context("fork").Pool(workers)
+            self._pending = self._pool.imap_unordered(function, self._tasks)
+
+    @property
+    def parallel(self) -> bool:
+        return self._pool is not None
+
+    def results(self) -> Iterator:
+        if self._pending is not None:
+            yield from self._pending
+        else:
+            yield from map(self._function, self._tasks)
+
+    def __enter__(self) -> "Tasks":
+        return self
+
+    def __exit__(self, kind, error, trace) -> None:
+        if self._pool is None:
+            return
+        if error is None:
+            self._pool.close()
+        else:
+            self._pool.terminate()
+        self._pool.join()
+
+
+def balanced_chunks(groups: list[list[int]], costs: list[float], count: int) -> list[list[int]]:
+    """Split ``groups`` of indices (kept whole) into about ``count`` chunks of similar total cost,
+    largest groups first (so the last chunks to finish are small)."""
+    order = sorted(range(len(groups)), key=lambda g: -costs[g])
+    chunks: list[list[int]] = [[] for _ in range(max(1, min(count, len(groups))))]
+    loads = [0.0] * len(chunks)
+    for g in order:
+        target = loads.index(min(loads))
+        chunks[target].extend(groups[g])
+        loads[target] += costs[g]
+    return [chunk for chunk in chunks if chunk]
