@@ -57,7 +57,7 @@ class Deployment:
         faults = ["--failure-probability", "0.05", "--seed", "11"]
         self.executor_cmd = [sys.executable, "-m", "bimrobot", "rcan", "executor", "--redis", self.url,
                              "--capabilities", str(caps), "--state-db", str(tmp / "site.sqlite"),
-                             "--time-scale", "0.002", "--claim-idle", "1", "--workers", "2", *faults]
+                             "--time-scale", "0.008", "--claim-idle", "1", "--workers", "2", *faults]
         self.coordinator_cmd = [sys.executable, "-m", "bimrobot", "rcan", "run", "--schedule", str(schedule),
                                 "--capabilities", str(caps), "--redis", self.url, "--no-local-executors",
                                 "--state-db", str(tmp / "journal.sqlite"), "--max-attempts", "8", "-q",

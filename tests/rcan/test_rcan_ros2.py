@@ -97,7 +97,8 @@ def test_cli_experiment_on_ros2_spawns_and_stops_its_robot_node(ros2_robots, tmp
     assert run.returncode == 0, run.stdout + run.stderr
     assert "[rcan/E3.4] robot husky_ur5 executes 'Transport' of 1kTvXnbbzCWw8lcMd1dR4o" in run.stdout
     assert "== completed: 6/6 activities done; components: 1 Assembled" in run.stdout
-    assert ros2_robots._fastdds_files() - before == set()  # the run cleaned up after its robot node
+    # the run cleaned up after its robot node: what is left is in use by a live process (this one)
+    assert ros2_robots._fastdds_files() - before - ros2_robots._shm_in_use() == set()
 
 
 def ros_env(**extra):
@@ -155,7 +156,7 @@ def test_a_dead_robot_node_is_detected_and_its_activity_retried_on_another_robot
             process.wait(timeout=20)
             process.stdout.close()
         ros2_robots.cleanup_fastdds(before)
-    assert report.status == "completed" and report.done == ["M.1"]
+    assert report.status == "completed" and report.done == ["M.1"], [line for _, line in lines]
     out_of_service = [t for t, line in lines if "robot crane_a is out of service" in line]
     retried = [t for t, line in lines if "robot crane_b executes 'Move to component'" in line]
     assert out_of_service and retried
@@ -187,7 +188,8 @@ def test_ctrl_c_stops_a_ros2_run_cleanly(ros2_robots, tmp_path):
             run.wait()
     assert run.returncode == 130, rest
     assert "Traceback" not in rest
-    assert ros2_robots._fastdds_files() - before == set()  # robot node stopped, its shared memory removed
+    # robot node stopped, its shared memory removed (what is left is in use by a live process: this one)
+    assert ros2_robots._fastdds_files() - before - ros2_robots._shm_in_use() == set()
     # the journal is intact: the same command resumes (here without ROS: the sim robots finish the build)
     from bimrobot.cli import main
 

@@ -6,6 +6,9 @@
   DiCon activities and live states, SPARQL queries from ``lbd/queries/*.rq``, Turtle / JSON-LD out.
 * :mod:`bimrobot.lbd.store`: the triple stores behind it (rdflib in memory, Oxigraph on disk, a remote
   SPARQL endpoint).
+* :mod:`bimrobot.lbd.msproject`: Microsoft Project XML (MSPDI) schedules, matched to the model.
+* :mod:`bimrobot.lbd.generation`: the questions RCAN's generation system asks the graph (ready activities).
+* :mod:`bimrobot.lbd.progress`: progress bars on stderr for long work.
 * :mod:`bimrobot.lbd.components`: what robots build, an element or a precast ``IfcElementAssembly``
   lifted as one unit (weight, position, section of either).
 

@@ -131,6 +131,8 @@ class RcanSystem:
     def _open_heap(self, activity: RcanActivity) -> list:
         key = self.allocator.requirement(activity)
         assigned = self.allocator.assigned(activity)
+        if assigned in self._down:  # the schedule's robot died in this run: any capable robot takes it
+            assigned = None
         if assigned is not None:  # the schedule's robot only: the activity waits for it
             key = (key, assigned)
         if key not in self._groups:
@@ -253,6 +255,11 @@ class RcanSystem:
         self._idle.discard(node.robot)
         self.log(f"[state manager] robot {node.robot} is out of service for this run: {why}")
         self._released(node.component_id)
+        for key, (capable, heap) in list(self._groups.items()):  # what waited for this robot alone
+            if capable == {node.robot} and heap:
+                del self._groups[key]
+                for entry in heap:
+                    heapq.heappush(self._open_heap(self._plan[entry[1]]), entry)
         return any(r.name not in self._down for r in self.allocator.capable(node.activity))
 
     def _on_dead_letter(self, message: Message) -> None:

@@ -9,6 +9,7 @@ travel back. Where ``fork`` is not available, or the job is small, the same func
 
 from __future__ import annotations
 
+import gc
 import multiprocessing
 import os
 import sys
@@ -47,7 +48,13 @@ class Tasks:
         self._pool = None
         self._pending: Iterator | None = None
         if workers > 1 and len(self._tasks) >= MIN_TASKS_FOR_POOL and can_fork():
-            self._pool = multiprocessing.get_context("fork").Pool(workers)
+            # Objects that exist now are frozen out of the cyclic garbage collector, so that the workers'
+            # collections do not touch (and so copy) every page they inherited.
+            gc.freeze()
+            try:
+                self._pool = multiprocessing.get_context("fork").Pool(workers)
+            finally:
+                gc.unfreeze()
             self._pending = self._pool.imap_unordered(function, self._tasks)
 
     @property
