@@ -72,6 +72,12 @@ def _term(namespace: str, name: str) -> URIRef:
     return URIRef(namespace + name)
 
 
+@functools.lru_cache(maxsize=1 << 16)
+def _quoted(identifier: str) -> str:
+    """``identifier`` percent-encoded for an IRI (cached: an element's IRI is made for each of its triples)."""
+    return quote(identifier, safe="")
+
+
 class _Namespace(Namespace):
     """An rdflib Namespace that makes each term once: ``BOT.Element`` is looked up half a million times
     while a large graph is built, and rdflib validates a new URIRef on every attribute access."""
@@ -144,7 +150,7 @@ class ConstructionGraph:
     # ------------------------------------------------------------------------------------ IRIs
     def iri(self, kind: str, identifier: str) -> URIRef:
         """IRI of a thing of ``kind`` (element, storey, activity, robot, interface, ...) from its id."""
-        return URIRef(f"{self.base}{kind}/{quote(identifier, safe='')}")
+        return URIRef(f"{self.base}{kind}/{_quoted(identifier)}")
 
     def element_iri(self, global_id: str) -> URIRef:
         return self.iri("element", global_id)

@@ -187,6 +187,11 @@ class OxigraphStore:
         return node
 
     def _term(self, term: Node):
+        if type(term) is rdflib.URIRef:  # the common case first: most terms are IRIs, many repeated
+            node = self._named.get(term)
+            if node is None:
+                node = self._named[term] = self.ox.NamedNode(term)
+            return node
         if isinstance(term, rdflib.URIRef):
             return self._named_node(str(term))
         if isinstance(term, rdflib.Literal):
