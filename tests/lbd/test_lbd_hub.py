@@ -88,3 +88,19 @@ def test_prefab_inferred_joints_answer_connected_elements(tmp_path, capsys):
     rows = json.loads(capsys.readouterr().out)
     assert rows and all(r["provenance"] == "inferred-geometry" and r["assemblyPoints"] == 8 for r in rows)
     assert {r["ifcClass"] for r in rows} == {"IfcElementAssembly"}  # precast units joined to precast units
+
+
+def test_progress_bar_only_on_a_terminal(monkeypatch):
+    import io as stdio
+
+    from bimrobot.lbd import progress
+
+    class Terminal(stdio.StringIO):
+        def isatty(self):
+            return True
+
+    monkeypatch.setattr(progress.sys, "stderr", stdio.StringIO())
+    assert progress.progress_bar(10, "graph").disable  # a pipe or a log file: silent
+    monkeypatch.setattr(progress.sys, "stderr", Terminal())
+    with progress.progress_bar(10, "graph") as bar:
+        assert not bar.disable and bar.total == 10

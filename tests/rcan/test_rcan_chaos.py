@@ -19,7 +19,7 @@ import pytest
 
 from rcan_helpers import frame_schedule
 
-pytestmark = [pytest.mark.chaos, pytest.mark.redis]
+pytestmark = [pytest.mark.chaos, pytest.mark.redis, pytest.mark.slow]
 
 COMPONENTS = 46  # x 11 RCAN activities = 506
 ROBOTS = {f"crane_{c}": [4.0 * i, 0.0, 0.0] for i, c in enumerate("abcd")}

@@ -185,3 +185,66 @@ def test_a_node_nobody_can_execute_is_escalated_through_the_dead_letter_stream(r
     assert report.status == "escalated" and report.escalated == ["E2.4"]
     assert "dead-letter stream" in report.escalations[0].message
     assert report.done == ["E2.1", "E2.2", "E2.3"] and set(report.blocked_by) == {"E2.5", "E2.6"}
+
+
+@pytest.mark.parametrize("persistence", [["--appendonly", "yes", "--appendfsync", "always"], ["--appendonly", "no"]],
+                         ids=["with persistence", "without persistence"])
+def test_a_redis_restart_mid_run_is_survived(tmp_path, persistence, schedule_csv, cranes):
+    """redis-server is killed (SIGKILL) mid-run and started again on the same port: coordinator and
+    executors reconnect, groups are recreated, unfinished work is re-sent, every goal runs once."""
+    import os
+    import signal
+    import sqlite3
+    import threading
+
+    from bimrobot.lbd.schedule import load_schedule_csv
+    from bimrobot.rcan.plans import plan_from_schedule
+
+    from rcan_helpers import done_count
+
+    server = shutil.which("redis-server")
+    if server is None:
+        pytest.skip("redis-server is not installed (Debian package redis-server)")
+    pytest.importorskip("redis")
+    import redis
+
+    port = free_port()
+    command = [server, "--bind", "127.0.0.1", "--port", str(port), "--save", "", "--dir", str(tmp_path), *persistence]
+
+    def start():
+        process = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        client = redis.Redis(port=port)
+        for _ in range(250):
+            try:
+                client.ping()
+                break
+            except (redis.ConnectionError, redis.ResponseError):  # not up, or still loading its file
+                time.sleep(0.02)
+        client.close()
+        return process
+
+    process = start()
+    db = tmp_path / "run.sqlite"
+    plan = plan_from_schedule(load_schedule_csv(schedule_csv))
+    outcome, lines = {}, []
+    run = threading.Thread(target=lambda: outcome.update(report=run_plan(
+        plan, cranes, redis_url=f"redis://127.0.0.1:{port}/0", state_db=str(db), timeout_s=120,
+        backend_options={"time_scale": 0.01}, log=lines.append)))
+    run.start()
+    try:
+        deadline = time.monotonic() + 60
+        while done_count(db) < 10 and time.monotonic() < deadline:
+            time.sleep(0.02)
+        os.kill(process.pid, signal.SIGKILL)
+        process.wait(timeout=10)
+        time.sleep(0.5)
+        process = start()
+        run.join(timeout=120)
+    finally:
+        process.terminate()
+        process.wait(timeout=10)
+    report = outcome["report"]
+    assert report.status == "completed" and len(report.done) == len(plan)
+    assert any("broker reconnected: re-publishing" in line for line in lines)  # it did go through the restart
+    goals = sqlite3.connect(db).execute("SELECT activity_id, COUNT(*) FROM sim_execution GROUP BY 1").fetchall()
+    assert len(goals) == len(plan) and all(n == 1 for _, n in goals)  # the robots worked once per activity

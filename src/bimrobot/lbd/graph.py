@@ -127,6 +127,7 @@ def _state_name(state: Any, allowed: tuple[str, ...], what: str) -> str:
     return name
 
 
+@functools.lru_cache(maxsize=1 << 16, typed=True)  # typed: True and 1 are different literals
 def _literal(value: Any) -> Literal:
     if isinstance(value, bool):
         return Literal(value)

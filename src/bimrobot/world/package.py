@@ -229,7 +229,8 @@ def build_package(
         tasks = [("map", level) for level in range(len(plan.levels))] + _model_tasks(converted, merged, options)
         drawn: dict[int, dict] = {}
         try:
-            with pool.Tasks(_model_task, tasks, options.workers) as running:
+            parallel = len(converted) >= POOL_MIN_ELEMENTS or options.workers is not None
+            with pool.Tasks(_model_task, tasks, options.workers, parallel) as running:
                 world_files = _write_worlds(tmp / "worlds", world_name, converted, merged, options, ground_z)
                 _write_launch_and_ros(tmp, package, world_name, world_files, source, options)
                 bar = tqdm(total=len(converted), desc="models", unit="element", disable=not progress, leave=False)
@@ -402,6 +403,10 @@ def _unique(name: str, taken: set[str]) -> str:
 
 
 # ---- per-model work (runs in the pool's processes; see bimrobot.world.pool) --------------------------
+
+POOL_MIN_ELEMENTS = 32
+"""Below this many elements the models are written in-process: starting the worker processes (about
+40 ms) would cost more than it saves (about 1 ms per element and core)."""
 
 PER_MODEL_COST = 400
 """Cost of one model's files in triangle-equivalents, for balancing the tasks (measured: writing a model's

@@ -19,7 +19,7 @@ shared: dict = {}
 """What the tasks read: set by the parent before :func:`run` forks; workers see a copy-on-write view."""
 
 MIN_TASKS_FOR_POOL = 2
-"""Fewer tasks than this run in-process (a fork and its result channel cost a few milliseconds)."""
+"""Fewer tasks than this run in-process."""
 
 
 def cores() -> int:
@@ -38,16 +38,17 @@ def can_fork() -> bool:
 class Tasks:
     """Run ``function`` over ``tasks`` on ``workers`` forked processes, started at once in the background;
     :meth:`results` yields each task's result in completion order. With one worker, or fewer than
-    :data:`MIN_TASKS_FOR_POOL` tasks, the tasks run in-process when :meth:`results` is iterated.
+    :data:`MIN_TASKS_FOR_POOL` tasks, or ``parallel=False``, the tasks run in-process when
+    :meth:`results` is iterated.
     Use as a context manager: leaving it stops the workers (also when an error leaves it)."""
 
-    def __init__(self, function: Callable, tasks: Iterable, workers: int | None = None):
+    def __init__(self, function: Callable, tasks: Iterable, workers: int | None = None, parallel: bool = True):
         self._function = function
         self._tasks = list(tasks)
         workers = min(workers or cores(), len(self._tasks))
         self._pool = None
         self._pending: Iterator | None = None
-        if workers > 1 and len(self._tasks) >= MIN_TASKS_FOR_POOL and can_fork():
+        if parallel and workers > 1 and len(self._tasks) >= MIN_TASKS_FOR_POOL and can_fork():
             # Objects that exist now are frozen out of the cyclic garbage collector, so that the workers'
             # collections do not touch (and so copy) every page they inherited.
             gc.freeze()
@@ -73,10 +74,9 @@ class Tasks:
     def __exit__(self, kind, error, trace) -> None:
         if self._pool is None:
             return
-        if error is None:
-            self._pool.close()
-        else:
-            self._pool.terminate()
+        # Every result has been read (or an error ends the job): stop the workers at once (close()
+        # would wait for the pool's housekeeping thread, which wakes only every 0.1 s).
+        self._pool.terminate()
         self._pool.join()
 
 
