@@ -255,7 +255,7 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     with tempfile.TemporaryDirectory(prefix="bimrobot-bench-") as tmp:
         workdir = Path(tmp)
-        files = args.files or (sorted(SHARED_IFC.glob("*.ifc")) if SHARED_IFC.exists() else []) + example_files(workdir)
+        files = args.files or (sorted(SHARED_IFC.glob("*.ifc*")) if SHARED_IFC.exists() else []) + example_files(workdir)
         rows = []
         for path in files:
             print(f"benchmarking {path.name} ...", file=sys.stderr, flush=True)

@@ -156,7 +156,15 @@ class Schedule:
     def topological_order(self) -> list[Activity]:
         """Activities so that each comes after its predecessors: at every step the earliest-starting
         ready one (ties by id). Kahn's algorithm over precomputed successor lists with a heap of the
-        ready activities: O(n log n + links), 14.5k rows in well under a second (``bench/schedule.py``)."""
+        ready activities: O(n log n + links), 14.5k rows in well under a second (``bench/schedule.py``).
+        Python's cyclic garbage collector is paused meanwhile: its full passes over every live object
+        made the time grow faster than the schedule (as in :func:`bimrobot.sco.build.gc_paused`)."""
+        from bimrobot.sco.build import gc_paused
+
+        with gc_paused():
+            return self._topological_order()
+
+    def _topological_order(self) -> list[Activity]:
         unmet = {a.id: len(set(a.predecessors)) for a in self.activities}  # a predecessor that is no activity: never met
         self.successors("")  # fills the successor lists
         successors = self._successors or {}
@@ -324,7 +332,13 @@ def load_schedule_csv(path: str | os.PathLike, model: BuildingModel | None = Non
     before Start, a Duration that is not Finish - Start, an unknown GlobalId/Storey/predecessor, an
     activity that starts before a predecessor finishes, and a cycle in the predecessors.
     """
-    path = Path(path)
+    from bimrobot.sco.build import gc_paused
+
+    with gc_paused():  # tens of thousands of long-lived rows: see Schedule.topological_order
+        return _load_schedule_csv(Path(path), model)
+
+
+def _load_schedule_csv(path: Path, model: BuildingModel | None) -> Schedule:
     text_lines, skipped = _schedule_lines(path)
     try:
         reader = csv.DictReader(text_lines)

@@ -182,9 +182,14 @@ class RedisBroker(Broker):
         self._errors = (redis.ConnectionError, redis.TimeoutError, redis.BusyLoadingError)
         self._ResponseError = redis.ResponseError
         self.url = url
+        from redis.backoff import NoBackoff
+        from redis.retry import Retry
+
         try:
+            # no silent retries inside the client: every lost connection reaches _call, which counts it,
+            # so the coordinator knows to re-publish what a restarted Redis may have lost
             self._redis = redis.Redis.from_url(url, decode_responses=True, socket_connect_timeout=2.0,
-                                               health_check_interval=10)
+                                               health_check_interval=10, retry=Retry(NoBackoff(), 0))
             self._redis.ping()
         except (ValueError, redis.RedisError) as exc:
             raise InputError(f"cannot reach Redis at {url}: {exc}") from None
@@ -251,6 +256,7 @@ class RedisBroker(Broker):
                     raise
                 log.warning("Redis consumer group %s is gone (Redis restarted empty?): creating it again", self.group)
                 with self._lock:
+                    self.reconnections += 1  # whatever was in the streams is gone: counts as a restart
                     self._known_groups.clear()
                     self._pending_checked.clear()
 
