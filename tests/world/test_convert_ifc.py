@@ -11,7 +11,7 @@ import pytest
 
 from bimrobot.bim import examples
 from bimrobot.cli import main
-from bimrobot.world.check import problems, read_models, sdf_validator, validate_sdf
+from bimrobot.world.check import problems, read_models, sdf_validator, validate_sdf, validate_world
 from bimrobot.world.package import GENERIC_SITE_NAMES, ConvertOptions, convert
 from output_checks import snapshot
 
@@ -119,9 +119,9 @@ def test_every_shared_ifc_file_converts_to_a_valid_package(tmp_path, shared_ifc,
     if name == "MULTICOM-trappen_bordessen.ifc":  # Tekla: site and storey "Undefined"
         assert report["world_files"] == {"sim": "worlds/multicom_trappen_bordessen.sdf"}
         assert [(m["yaml"], m["storey_name"]) for m in report["maps"]] == [("maps/storey_1.yaml", "Undefined")]
-    for world in report["world_files"].values():
-        valid, output = validate_sdf(out / world, out / "models")
-        assert valid, f"{name} {world}: {output}"
+    for world in report["world_files"].values():  # the world and every distinct model through ign sdf -k
+        result = validate_world(out / world, out / "models")
+        assert result.valid, f"{name} {world}: {result.errors}"
     for entry in report["maps"]:
         assert (out / entry["image"]).stat().st_size > 0
 

@@ -102,7 +102,7 @@ def test_validate_world_checks_each_distinct_model_once_and_names_what_fails(tmp
     sdf_file.write_text(sdf_file.read_text().replace("<static>true</static>", "<static>maybe</static>"))
     broken = validate_world(world, out / "models")
     assert not broken.valid and broken.distinct == 4  # the edited beam is no longer its twin's copy
-    assert any("ign sdf -k" in line for line in broken.errors)
+    assert [line for line in broken.errors if "ign sdf -k" in line and repr(beam) in line]  # named
 
     shutil.rmtree(out / "models" / beam)
     missing = validate_world(world, out / "models")

@@ -346,9 +346,13 @@ def build_graph(
     The triples go to the store in one stream (one bulk load on Oxigraph); a progress bar on stderr
     counts the elements, joints and activities written when the work is long (see :mod:`.progress`).
     """
+    from bimrobot.sco.build import gc_paused
+
     graph = ConstructionGraph(open_store(store, path), base)
     writer = _GraphWriter(graph, model, properties, assemblies, smart)
-    with progress_bar(writer.items(schedule), "graph", unit=" items") as bar:
+    # The cyclic garbage collector's full passes over every live term made the time grow faster than
+    # the graph (bench/graph.py); millions of short-lived terms, no cycles: pause it meanwhile.
+    with progress_bar(writer.items(schedule), "graph", unit=" items") as bar, gc_paused():
         writer.bar = bar
         graph.store.add_all(itertools.chain(
             vocabulary_triples(), writer.topology(), writer.processes(schedule) if schedule is not None else ()))

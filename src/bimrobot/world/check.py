@@ -225,21 +225,44 @@ def validate_world(world_file: Path, models_dir: Path, workers: int | None = Non
     for include in skeleton.find("world").findall("include"):
         skeleton.find("world").remove(include)
     pieces = [models[start:start + batch] for start in range(0, len(models), batch)] or [[]]
-    with tempfile.TemporaryDirectory(prefix="bimrobot-sdf-check-") as folder:
-        files = []
-        for number, piece in enumerate(pieces):
+    jobs: list[tuple[Path, Path | None]] = []
+    futures = []
+    with tempfile.TemporaryDirectory(prefix="bimrobot-sdf-check-") as folder, \
+            ThreadPoolExecutor(max_workers=workers or os.cpu_count() or 1) as threads:
+        if count <= FULL_CHECK_INCLUDES:  # small worlds: libsdformat's own include resolution too
+            jobs.append((world_file, models_dir))
+            futures.append(threads.submit(validate_sdf, world_file, models_dir, 600))
+        for number, piece in enumerate(pieces):  # each document is checked as soon as it is written
             document = ET.fromstring(ET.tostring(skeleton))
             document.find("world").extend(piece)
             path = Path(folder) / f"batch_{number}.sdf"
             path.write_text(ET.tostring(document, encoding="unicode"), encoding="utf-8")
-            files.append(path)
-        jobs = [(path, None) for path in files]
-        if count <= FULL_CHECK_INCLUDES:
-            jobs.append((world_file, models_dir))  # small worlds: libsdformat's own include resolution too
-        with ThreadPoolExecutor(max_workers=workers or os.cpu_count() or 1) as threads:
-            outcomes = list(threads.map(lambda job: validate_sdf(job[0], job[1], timeout=600), jobs))
-    for (path, _), (valid, output) in zip(jobs, outcomes):
-        if not valid:
-            shown = world_file.name if path == world_file else f"{world_file.name} (models batch {path.stem})"
-            errors.append(f"ign sdf -k {shown}: " + " | ".join(output.splitlines()[:5]))
+            jobs.append((path, None))
+            futures.append(threads.submit(validate_sdf, path, None, 600))
+        outcomes = [future.result() for future in futures]
+        for (path, _), (valid, output) in zip(jobs, outcomes):
+            if valid:
+                continue
+            if path == world_file:
+                errors.append(f"ign sdf -k {world_file.name}: " + " | ".join(output.splitlines()[:5]))
+            else:  # name the models that fail: check the batch's models one by one
+                piece = pieces[int(path.stem.removeprefix("batch_"))]
+                errors += _failing_models(skeleton, piece, Path(folder)) or [
+                    f"ign sdf -k {world_file.name} (models batch {path.stem}): " + " | ".join(output.splitlines()[:5])]
     return WorldCheck(world_file, not errors, count, len(models), len(pieces), errors)
+
+
+def _failing_models(skeleton: ET.Element, models: list[ET.Element], folder: Path, most: int = 3) -> list[str]:
+    """One line for each of the first ``most`` models that ``ign sdf -k`` refuses on their own."""
+    found = []
+    for model in models:
+        document = ET.fromstring(ET.tostring(skeleton))
+        document.find("world").append(model)
+        path = folder / "single.sdf"
+        path.write_text(ET.tostring(document, encoding="unicode"), encoding="utf-8")
+        valid, output = validate_sdf(path, None, 600)
+        if not valid:
+            found.append(f"ign sdf -k: model {model.get('name')!r}: " + " | ".join(output.splitlines()[:3]))
+            if len(found) >= most:
+                break
+    return found

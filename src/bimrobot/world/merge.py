@@ -84,7 +84,8 @@ def write_merged_model(models_dir: Path, merged: MergedModel, items: list, versi
     mass, centre, inertia = combined_mass([(item.mass, f) for item, f in zip(items, frames)])
 
     folder = models_dir / merged.name
-    (folder / "meshes").mkdir(parents=True)
+    folder.mkdir()
+    (folder / "meshes").mkdir()
     visual_file, collision_file = f"{merged.name}.dae", f"{merged.name}_collision.stl"
     dae = meshes.dae_text(*visual, merged.name, meshes.colour_of(merged.ifc_class))
     (folder / "meshes" / visual_file).write_text(dae, encoding="utf-8")

@@ -222,6 +222,7 @@ def build_package(
         # worlds and launch files; results come back as the tasks finish.
         tick = time.perf_counter()
         plan = _plan_maps(model, converted, options, ground_z) if options.maps else _MapPlan([], (0.0, 0.0), (1, 1))
+        (tmp / "models").mkdir()
         if plan.levels:
             (tmp / "maps").mkdir()
         pool.shared.update(converted=converted, merged=merged, models_dir=tmp / "models", options=options,
@@ -504,7 +505,8 @@ def _write_model(models_dir: Path, item: _Converted, options: ConvertOptions, so
     """models/<name>/: model.config, model.sdf (and model-1_6.sdf), meshes/<name>.dae and _collision.stl."""
     versions = _sdf_versions(options)
     folder = models_dir / item.name
-    (folder / "meshes").mkdir(parents=True)
+    folder.mkdir()  # models_dir exists; two calls, not mkdir(parents=True)'s three (a failed one first)
+    (folder / "meshes").mkdir()
     visual_file = f"{item.name}.dae"
     collision_file = f"{item.name}_collision.stl"
     element = item.element
