@@ -246,15 +246,21 @@ def atomic_output_dir(
     _apply_umask(tmp, 0o777)
     try:
         yield tmp
-        (tmp / MARKER).write_text(_marker(kind, inputs), encoding="utf-8")
-        replaced = check_output(target, folder=True, inputs=inputs, option=option)
-        if replaced is not None:
-            _announce(target, replaced, True, inputs)
-        _put_folder_in_place(tmp, path)
+        _finish_folder(tmp, target, kind=kind, inputs=inputs, option=option)
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         _remove_empty(created)
         raise
+
+
+def _finish_folder(tmp: Path, target: str | os.PathLike, *, kind: str, inputs: list[Path], option: str) -> None:
+    """Mark the finished folder ``tmp`` as bimrobot's, check ``target`` again (it may have changed during
+    the work) and put ``tmp`` in its place, announcing what it replaces."""
+    (tmp / MARKER).write_text(_marker(kind, inputs), encoding="utf-8")
+    replaced = check_output(target, folder=True, inputs=inputs, option=option)
+    if replaced is not None:
+        _announce(target, replaced, True, inputs)
+    _put_folder_in_place(tmp, Path(target).resolve())
 
 
 def _put_folder_in_place(tmp: Path, path: Path) -> None:
@@ -366,11 +372,7 @@ def resumable_output_dir(
         raise InputError(f"{option} {_display(target)}: cannot write there ({exc.strerror})") from None
     try:
         yield staging, resumed
-        (staging / MARKER).write_text(_marker(kind, inputs), encoding="utf-8")
-        replaced = check_output(target, folder=True, inputs=inputs, option=option)
-        if replaced is not None:
-            _announce(target, replaced, True, inputs)
-        _put_folder_in_place(staging, path)
+        _finish_folder(staging, target, kind=kind, inputs=inputs, option=option)
         (path / PARTIAL_MARKER).unlink()
     except KeyboardInterrupt:
         print(f"bimrobot: interrupted; the same command resumes from {shown}", file=sys.stderr)
