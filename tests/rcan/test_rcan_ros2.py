@@ -98,7 +98,7 @@ def test_cli_experiment_on_ros2_spawns_and_stops_its_robot_node(ros2_robots, tmp
     assert "[rcan/E3.4] robot husky_ur5 executes 'Transport' of 1kTvXnbbzCWw8lcMd1dR4o" in run.stdout
     assert "== completed: 6/6 activities done; components: 1 Assembled" in run.stdout
     # the run cleaned up after its robot node: what is left is in use by a live process (this one)
-    assert ros2_robots._fastdds_files() - before - ros2_robots._shm_in_use() == set()
+    assert ros2_robots.stale_fastdds_files(before) == set()
 
 
 def ros_env(**extra):
@@ -189,7 +189,7 @@ def test_ctrl_c_stops_a_ros2_run_cleanly(ros2_robots, tmp_path):
     assert run.returncode == 130, rest
     assert "Traceback" not in rest
     # robot node stopped, its shared memory removed (what is left is in use by a live process: this one)
-    assert ros2_robots._fastdds_files() - before - ros2_robots._shm_in_use() == set()
+    assert ros2_robots.stale_fastdds_files(before) == set()
     # the journal is intact: the same command resumes (here without ROS: the sim robots finish the build)
     from bimrobot.cli import main
 

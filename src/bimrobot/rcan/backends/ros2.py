@@ -402,19 +402,24 @@ def robot_node_process(capabilities_path: str | None = None, time_scale: float =
         cleanup_fastdds(before, os.getpid() if participants_closed else None)
 
 
+def stale_fastdds_files(before: set[str], ignore_pid: int | None = None) -> set[str]:
+    """The Fast DDS shared-memory files created since ``before`` that no live process uses: a file another
+    ROS 2 program maps is in use, and so is the semaphore (``sem.<name>_mutex``) of a port it maps.
+    ``ignore_pid``: a process whose participants are all closed and whose mappings go with it."""
+    candidates = _fastdds_files() - before
+    if not candidates:
+        return set()
+    used = {path[len("/dev/shm/"):] for path in _shm_in_use(ignore_pid)}
+    return {path for path in candidates
+            if path[len("/dev/shm/"):] not in used
+            and not (path.startswith("/dev/shm/sem.") and path[len("/dev/shm/sem."):].removesuffix("_mutex") in used)}
+
+
 def cleanup_fastdds(before: set[str], ignore_pid: int | None = None) -> list[str]:
     """Delete the Fast DDS shared-memory files created since ``before`` that no live process uses (a
-    killed process leaves them, and Fast DDS leaves its port segments): a file another ROS 2 program
-    maps stays, with its port's semaphore. ``ignore_pid``: a process whose participants are all closed
-    (this one, at the end of a run) and whose mappings go with it."""
+    killed process leaves them, and Fast DDS leaves its port segments); see ``stale_fastdds_files``."""
     removed = []
-    candidates = _fastdds_files() - before
-    if candidates:
-        used = _shm_in_use(ignore_pid)
-        candidates = {path for path in candidates if path not in used and not (
-            path.startswith("/dev/shm/sem.") and path[len("/dev/shm/sem."):].removesuffix("_mutex")
-            in {u[len("/dev/shm/"):] for u in used})}
-    for path in sorted(candidates):
+    for path in sorted(stale_fastdds_files(before, ignore_pid)):
         with contextlib.suppress(OSError):
             os.unlink(path)
             removed.append(path)
