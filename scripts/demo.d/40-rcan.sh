@@ -25,12 +25,12 @@ done
 echo
 echo "-- the steel frame's schedule ($schedule) through RCAN on the sim robots:"
 "$BIMROBOT" rcan run --schedule "$schedule" --model "$frame" --backend sim --state-db "$out/frame.sqlite" \
-  --graph "$out/frame-after-rcan.ttl" --report "$out/frame-report.json" > "$out/frame.log"
+  --capabilities fleet2 --graph-out "$out/frame-after-rcan.ttl" --report "$out/frame-report.json" > "$out/frame.log"
 tail -n 2 "$out/frame.log"
 
 echo
 echo "-- the same schedule in (scaled) real time, killed with SIGKILL once 40 activities are done, then resumed:"
-"$BIMROBOT" rcan run --schedule "$schedule" --model "$frame" --state-db "$out/killed.sqlite" \
+"$BIMROBOT" rcan run --schedule "$schedule" --model "$frame" --capabilities fleet2 --state-db "$out/killed.sqlite" \
   --time-scale 0.003 -q > /dev/null & pid=$!
 "$VENV/bin/python" - "$out/killed.sqlite" "$pid" <<'PY'
 import os, signal, sqlite3, sys, time
@@ -53,7 +53,7 @@ except ProcessLookupError:
     sys.exit("   the run ended before it could be killed")
 PY
 wait "$pid" 2>/dev/null || true
-"$BIMROBOT" rcan run --schedule "$schedule" --model "$frame" --state-db "$out/killed.sqlite" -q | tail -n 1
+"$BIMROBOT" rcan run --schedule "$schedule" --model "$frame" --capabilities fleet2 --state-db "$out/killed.sqlite" -q | tail -n 1
 "$VENV/bin/python" - "$out/frame.sqlite" "$out/killed.sqlite" <<'PY'
 import sqlite3, sys
 def outcome(path):

@@ -41,6 +41,7 @@ Open the result: out/README.md says what each file is.
 """
 
 STAGES_FILE = ".stages.json"
+WORK_SCHEDULE_IFC = "model-with-schedule.ifc"
 
 
 @dataclass(frozen=True)
@@ -86,16 +87,27 @@ STAGES = (
           lambda a, d: ["simulate", str(a.model), "--fleet", str(a.fleet), "-o", str(d / "simulation"), "--no-progress",
                         "--prebuilt", a.prebuilt, *(["--by-element"] if a.by_element else []),
                         *_site(a), *_selection(a), *_weights(a)]),
-    Stage("graph", "knowledge graph (BOT + DiCon + schedule)",
+    Stage("graph", "knowledge graph (BOT + DiCon + schedule, joints, pick-up positions) and the IFC work schedule",
           lambda a, d: ["graph", str(a.model), "--schedule", str(d / "simulation" / "schedule.csv"),
-                        "-o", str(d / "graph.ttl"), *(["--by-element"] if a.by_element else []), *_selection(a)]),
-    Stage("rcan", "RCAN run of the schedule (the fleet's robots, simulated)",
-          lambda a, d: ["rcan", "run", "--schedule", str(d / "simulation" / "schedule.csv"), "--model", str(a.model),
-                        "--backend", "sim", "--capabilities", str(a.fleet), "--state-db", str(d / "rcan" / "state.db"), "-q",
-                        "--report", str(d / "rcan" / "report.json"), "--graph", str(d / "rcan" / "graph-after-rcan.ttl"),
-                        "--time-scale", repr(a.time_scale), *_selection(a), *_weights(a)],
+                        "-o", str(d / "graph.ttl"), "--package", str(d / "package"), "--prebuilt", a.prebuilt,
+                        *(["--by-element"] if a.by_element else []), *_work_schedule(a, d), *_selection(a), *_weights(a)]),
+    Stage("rcan", "RCAN run generated from the graph (the fleet's robots, simulated)",
+          lambda a, d: ["rcan", "run", "--graph", str(d / "graph.ttl"), "--backend", "sim",
+                        "--capabilities", str(a.fleet), "--state-db", str(d / "rcan" / "state.db"), "-q",
+                        "--report", str(d / "rcan" / "report.json"), "--graph-out", str(d / "rcan" / "graph-after-rcan.ttl"),
+                        "--time-scale", repr(a.time_scale)],
           accepted=(0, 1)),
 )
+
+
+def _work_schedule(args, folder: Path) -> list[str]:
+    """``--ifc-out`` for the model with its simulated schedule as an IfcWorkSchedule; IFC2X3 has no
+    IfcTaskTime to hold the times, so its build has none (README.md says so)."""
+    from bimrobot.bim.reader import header_schema
+
+    if header_schema(args.model) == "IFC2X3":
+        return []
+    return ["--ifc-out", str(folder / WORK_SCHEDULE_IFC), *(["--start", args.start] if args.start else [])]
 
 
 def register(subparsers) -> None:
@@ -125,6 +137,9 @@ def register(subparsers) -> None:
                         help="IFC classes that are work of others (default IfcFooting,IfcPile); see `simulate --help`")
     parser.add_argument("--by-element", action="store_true",
                         help="build element by element even when the model groups them into assemblies")
+    parser.add_argument("--start", metavar="ISO",
+                        help="date-time of t = 0 s of the build for the IFC work schedule, e.g. 2027-03-01T07:00 "
+                        "(default: today 08:00)")
     parser.add_argument("--time-scale", type=_non_negative, default=0.0, metavar="S",
                         help="RCAN's sim robots: real seconds slept per simulated second (default 0, as fast as possible)")
     add_selection_options(parser, built=True)
@@ -163,7 +178,7 @@ def _fingerprint(args) -> dict:
         return hasher.hexdigest()
 
     options = {key: str(getattr(args, key)) for key in
-               ("fleet", "site", "prebuilt", "by_element", "include", "exclude", "unknown_weight_text")}
+               ("fleet", "site", "prebuilt", "by_element", "include", "exclude", "unknown_weight_text", "start")}
     return {"options": options, "inputs": {str(p.resolve()): digest(p) for p in _inputs(args)}}
 
 
@@ -246,6 +261,14 @@ def _write_stages(folder: Path, done: dict) -> None:
     tmp.replace(folder / STAGES_FILE)
 
 
+def _work_schedule_row(folder: Path) -> str:
+    if (folder / WORK_SCHEDULE_IFC).is_file():
+        return (f"| `{WORK_SCHEDULE_IFC}` | the model with the simulated schedule as an IfcWorkSchedule (one IfcTask per "
+                "activity, IfcTaskTime, IfcRelSequence, IfcRelAssignsToProduct) | Bonsai's 4D sequencing; ifcopenshell |\n")
+    return ("| (no IFC work schedule) | the model is IFC2X3, which has no IfcTaskTime: no copy with the schedule is "
+            "written | `bimrobot graph --ifc-out` on an IFC4 export |\n")
+
+
 def readme(args, folder: Path, done: dict) -> str:
     """out/README.md: what each file is and how to open it."""
     from bimrobot import io
@@ -264,9 +287,9 @@ Fleet: `{args.fleet}`; site: {args.site or "the thesis' fig. 4.11"}. Units: metr
 | `simulation/events.log` | the build step by step, in the thesis' Listing 4.2 words | a text editor |
 | `simulation/gantt.png` | Gantt chart of the robots' work | an image viewer |
 | `simulation/summary.json`, `robots.csv`, `states.json` | makespan, utilisation, per-robot steps and busy time (Table 4.2 layout), state history per component | `jq`, a spreadsheet |
-| `graph.ttl` | knowledge graph: BOT topology, DiCon activities of the schedule, component states | `bimrobot query graph.ttl ready_activities`; any RDF tool |
+| `graph.ttl` | knowledge graph: BOT topology, joints and connection nodes with provenance, DiCon activities of the schedule with their robots, component states and pick-up positions; RCAN is generated from it | `bimrobot query graph.ttl rcan_ready_activities`; any RDF tool |
 | `rcan/report.json` | the RCAN run: each activity with its robot, result and times; escalated and blocked work | `jq` |
 | `rcan/state.db` | RCAN's state database (journal, component states); the build resumes from it | `sqlite3` |
 | `rcan/graph-after-rcan.ttl` | the graph with the states after the RCAN run | `bimrobot query` |
-| `build.json` | the inputs, options and the time of each stage | `jq` |
+{_work_schedule_row(folder)}| `build.json` | the inputs, options and the time of each stage | `jq` |
 """

@@ -213,6 +213,7 @@ QUERY_BINDINGS = {
     "component_state": {"globalId": None},
     "connected_elements": {"globalId": None},
     "progress": {},
+    "rcan_plan": {},
     "rcan_ready_activities": {},
     "ready_activities": {},
     "storey_components": {"storeyId": "storey"},

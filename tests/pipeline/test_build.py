@@ -71,6 +71,33 @@ def test_rcan_executes_each_activity_on_the_robot_the_schedule_assigned(built):
     assert set(executed.values()) == set(assigned.values())  # the fleet's robots, not the built-in table's
 
 
+def test_build_graph_is_the_hub_rcan_runs_from_and_the_ifc_carries_the_work_schedule(built):
+    """RCAN is generated from graph.ttl (no CSV, no IFC); the graph has the joints the simulation used and
+    the components' pick-up positions on the package's yard; the IFC copy re-opens with one IfcTask per
+    activity of the simulated schedule."""
+    import ifcopenshell
+
+    from bimrobot.lbd.graph import ConstructionGraph
+
+    log = json.loads((built / "build.json").read_text())
+    assert set(log["stages"]) == {"package", "simulation", "graph", "rcan"}
+    rows = list(csv.DictReader((built / "simulation" / "schedule.csv").open()))
+    graph = ConstructionGraph.open(built / "graph.ttl")
+    column = next(r["GlobalId"] for r in rows if r["Activity"] == "assemble")
+    joints = graph.query("connected_elements", globalId=column)
+    assert joints and {j["provenance"] for j in joints} == {"ifc-relation"}
+    picks = graph.query("SELECT (COUNT(?p) AS ?n) WHERE { ?e <https://bimrobot.example/ns#pickUpPosition> ?p }")
+    transported = {r["GlobalId"] for r in rows if r["Activity"] == "transport"}
+    assert int(picks[0]["n"]) >= len(transported) > 0
+    after = ConstructionGraph.open(built / "rcan" / "graph-after-rcan.ttl")
+    assert {after.activity_state(r["Identification"]) for r in rows} == {"Completed"}
+    ifc = ifcopenshell.open(str(built / "model-with-schedule.ifc"))
+    tasks = [t for t in ifc.by_type("IfcTask") if not t.IsNestedBy]  # leaves: one per activity
+    assert len(tasks) == len(rows)
+    assert len(ifc.by_type("IfcWorkSchedule")) == 1 and all(t.TaskTime for t in tasks)
+    assert "`model-with-schedule.ifc`" in (built / "README.md").read_text()
+
+
 def test_killed_build_resumes_to_the_result_of_an_uninterrupted_one(frame, built, tmp_path):
     out = tmp_path / "out"
     partial = tmp_path / ".out.partial"

@@ -78,7 +78,8 @@ def test_frame_schedule_from_the_cli_with_graph_output(frame, tmp_path, capsys):
 
     model, schedule, path = frame
     ttl = tmp_path / "after.ttl"
-    code = main(["rcan", "run", "--schedule", str(path), "--model", str(model.source), "--graph", str(ttl), "-q"])
+    code = main(["rcan", "run", "--schedule", str(path), "--model", str(model.source), "--capabilities", "fleet2",
+                 "--graph-out", str(ttl), "-q"])
     assert code == 0
     assert f"components: {len(schedule.global_ids())} Assembled" in capsys.readouterr().out
     graph = ConstructionGraph.open(ttl)

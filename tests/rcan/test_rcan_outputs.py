@@ -5,6 +5,7 @@ report, the graph) or resumed (the state database); a user's SQLite database nev
 
 from __future__ import annotations
 
+import csv
 import json
 import sqlite3
 from pathlib import Path
@@ -84,7 +85,7 @@ CASES = ["the current directory", "the input file", "the model", "a parent of th
          "a symlink to a foreign folder", "a path under a regular file", "a foreign file", "a foreign SQLite database"]
 
 
-@pytest.mark.parametrize("option", ["--report", "--graph", "--state-db"])
+@pytest.mark.parametrize("option", ["--report", "--graph-out", "--state-db"])
 @pytest.mark.parametrize("case", CASES)
 def test_run_outputs_are_refused_before_the_run(site, option, case, capsys):
     target, words = cases(site)[case]
@@ -155,7 +156,7 @@ def test_report_and_graph_are_signed_and_replaced(site, capsys):
     frame_model_schedule = Path("sim")
     assert main(["simulate", str(site["model"]), "--fleet", "fleet2", "-o", str(frame_model_schedule)]) == 0
     args = ["rcan", "run", "--schedule", "sim/schedule.csv", "--model", str(site["model"]), "-q",
-            "--report", "report.json", "--graph", "after.ttl"]
+            "--capabilities", "fleet2", "--report", "report.json", "--graph-out", "after.ttl"]
     assert main(args) == 0
     report = json.loads(Path("report.json").read_text())
     assert report["generator"].startswith("written by bimrobot ") and report["status"] == "completed"
@@ -194,15 +195,27 @@ def test_unknown_weights_follow_the_one_rule(tmp_path, shared_ifc, monkeypatch, 
 
 
 def test_simulated_schedule_robots_and_selection(site, capsys):
-    """The schedule `simulate` writes names fleet robots the capability table does not have (one line
-    says so), and --include/--exclude choose the model's elements as everywhere else."""
+    """The schedule `simulate` writes names fleet robots the built-in capability table does not have: the
+    run is refused in one sentence unless --reallocate gives the work to the table's robots (one line says
+    so); with the schedule's own fleet it runs on the robots the schedule assigned. --include/--exclude
+    choose the model's elements as everywhere else."""
     assert main(["simulate", str(site["model"]), "--fleet", "fleet2", "-o", "sim"]) == 0
     capsys.readouterr()
     args = ["rcan", "run", "--schedule", "sim/schedule.csv", "--model", str(site["model"]), "-q"]
-    assert main(args) == 0
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert "which built-in capabilities.yaml does not have" in err and "--capabilities fleet2" in err
+    assert err.count("\n") == 1
+    assert main([*args, "--reallocate"]) == 0
     out = capsys.readouterr().out
     notice = [line for line in out.splitlines() if line.startswith("the schedule names robot(s)")]
     assert len(notice) == 1 and "which are not in built-in capabilities.yaml" in notice[0]
+    args += ["--capabilities", "fleet2"]
+    assert main([*args, "--state-db", "fleet.db"]) == 0
+    assigned = {row["Identification"]: row["Robot"] for row in csv.DictReader(open("sim/schedule.csv", encoding="utf-8"))}
+    with sqlite3.connect("fleet.db") as db:
+        executed = dict(db.execute("SELECT activity_id, robot FROM activity"))
+    assert executed and all(robot == assigned[activity.rsplit(".", 1)[0]] for activity, robot in executed.items())
     assert main([*args, "--include", "IfcNoSuchClass"]) == 2
     assert "names 'IfcNoSuchClass', which is not an IFC4 class" in capsys.readouterr().err
     assert main([*args, "--include", "IfcBeam"]) == 2  # the schedule's columns are not chosen

@@ -169,6 +169,28 @@ def open_ifc(path: str | os.PathLike) -> ifcopenshell.file:
     return _open_spf(path, shown, head, tail)
 
 
+def header_schema(path: str | Path) -> str | None:
+    """The schema an IFC-SPF file (or the one model in an ``.ifczip``) names in its header (``IFC2X3``,
+    ``IFC4``, ...), read from its first 4 KB without parsing the model; None when it names none or
+    cannot be read (opening it says why)."""
+    import zipfile
+
+    try:
+        with open(path, "rb") as stream:
+            head = stream.read(4096)
+        if head.startswith(b"PK"):
+            with zipfile.ZipFile(path) as archive:
+                members = [m for m in archive.namelist() if m.lower().endswith(".ifc") and not m.startswith("__MACOSX/")]
+                if len(members) != 1:
+                    return None
+                with archive.open(members[0]) as stream:
+                    head = stream.read(4096)
+    except (OSError, zipfile.BadZipFile, NotImplementedError, EOFError, zlib.error):
+        return None
+    match = re.search(rb"FILE_SCHEMA\s*\(\s*\(\s*'([^']*)'", head)
+    return match.group(1).decode("ascii", "replace").upper() if match else None
+
+
 def _shown(path) -> str:
     from bimrobot.io import printable
 

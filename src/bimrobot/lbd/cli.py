@@ -33,6 +33,7 @@ QUERY_EXAMPLES = """examples:
 def register(subparsers) -> None:
     """Add this part's sub-commands to the ``bimrobot`` parser."""
     from bimrobot.bim.selection import add_selection_options
+    from bimrobot.bim.unknown_weight import add_unknown_weight_option
     from bimrobot.lbd.graph import query_names
 
     graph = subparsers.add_parser(
@@ -75,8 +76,14 @@ def register(subparsers) -> None:
         help="also write a copy of the model with the schedule as an IfcWorkSchedule (IfcTask, IfcTaskTime, "
         "IfcRelSequence, IfcRelAssignsToProduct), for 4D viewers such as Bonsai",
     )
+    graph.add_argument(
+        "--package", type=Path, metavar="DIR",
+        help="world package of the same model written by `bimrobot convert --layout yard`: each component waiting "
+        "on the yard gets its pick-up position there (brc:pickUpPosition), which `rcan run --graph` drives to",
+    )
     graph.add_argument("--start", metavar="ISO", help="date-time of t = 0 s for --ifc-out (default: the schedule's own, else today 08:00)")
     add_selection_options(graph, built=True)
+    add_unknown_weight_option(graph)
     graph.set_defaults(func=graph_command)
 
     query = subparsers.add_parser(
@@ -109,6 +116,7 @@ def _check_outputs(args, inputs: list) -> None:
 def graph_command(args) -> int:
     from bimrobot import io
     from bimrobot.bim import load_model
+    from bimrobot.bim.unknown_weight import apply_unknown_weight_rule
     from bimrobot.lbd.graph import DEFAULT_BASE, build_graph, checked_base
     from bimrobot.lbd.schedule import load_schedule, load_schedule_ifc
     from bimrobot.lbd.store import format_for
@@ -117,7 +125,7 @@ def graph_command(args) -> int:
         raise InputError(f"--store {args.store} needs --store-path ({'DIR' if args.store == 'oxigraph' else 'URL'})")
     if args.store == "memory" and args.store_path is not None:
         raise InputError("--store-path is only used with --store oxigraph (a folder) or --store sparql (a URL)")
-    inputs = [args.model, args.schedule]
+    inputs = [args.model, args.schedule, *([args.package / "report.json"] if args.package else [])]
     _check_outputs(args, inputs)
     if args.ifc_out is not None:
         if args.schedule is None and not args.ifc_schedule:
@@ -127,6 +135,9 @@ def graph_command(args) -> int:
     base = checked_base(args.base or DEFAULT_BASE)
     started = time.perf_counter()
     model = load_model(args.model, include=args.include, exclude=args.exclude)
+    weights = apply_unknown_weight_rule(model.elements.values(), args.unknown_weight, str(args.model))
+    if weights.message():
+        print(weights.message(), flush=True)
     schedule = None
     if args.schedule is not None:
         schedule = load_schedule(args.schedule, model=model)
@@ -134,6 +145,10 @@ def graph_command(args) -> int:
         schedule = load_schedule_ifc(args.model, model=model)
     smart = _smart_model(model, args)
     options = {"base": base, "properties": not args.no_properties, "assemblies": not args.by_element, "smart": smart}
+    if args.package is not None:
+        from bimrobot.lbd.package import pick_up_positions
+
+        options["pick_up"] = pick_up_positions(args.package, model, args.model)
 
     def build_and_write(store: str, path) -> int:
         graph = build_graph(model, schedule, store=store, path=path, **options)

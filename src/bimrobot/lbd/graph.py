@@ -329,6 +329,7 @@ def build_graph(
     properties: bool = True,
     assemblies: bool = True,
     smart: SmartModel | None = None,
+    pick_up: dict[str, tuple[float, float, float]] | None = None,
 ) -> ConstructionGraph:
     """The construction graph of ``model`` and, when given, its ``schedule``.
 
@@ -342,6 +343,9 @@ def build_graph(
     of the same model, with ``by_element=not assemblies``): its joints and connection nodes (from IFC
     relations or inferred from geometry, with provenance, assembly points and method) go into the graph,
     and its prebuilt components start in their own state (PositionFixed, Assembled) instead of OnYard.
+    ``pick_up``: GlobalId -> where the component waits on the yard (m, world; see
+    :func:`bimrobot.lbd.components.pick_up_positions`), written as ``brc:pickUpPosition`` of the
+    components that start OnYard.
 
     The triples go to the store in one stream (one bulk load on Oxigraph); a progress bar on stderr
     counts the elements, joints and activities written when the work is long (see :mod:`.progress`).
@@ -349,7 +353,7 @@ def build_graph(
     from bimrobot.sco.build import gc_paused
 
     graph = ConstructionGraph(open_store(store, path), base)
-    writer = _GraphWriter(graph, model, properties, assemblies, smart)
+    writer = _GraphWriter(graph, model, properties, assemblies, smart, pick_up)
     # The cyclic garbage collector's full passes over every live term made the time grow faster than
     # the graph (bench/graph.py); millions of short-lived terms, no cycles: pause it meanwhile.
     with progress_bar(writer.items(schedule), "graph", unit=" items") as bar, gc_paused():
@@ -367,8 +371,9 @@ class _GraphWriter:
     """Yields the triples of one model (and schedule), in the order of fig. 5.5."""
 
     def __init__(self, graph: ConstructionGraph, model: BuildingModel, properties: bool = True, assemblies: bool = True,
-                 smart: SmartModel | None = None):
+                 smart: SmartModel | None = None, pick_up: dict[str, tuple[float, float, float]] | None = None):
         self.graph, self.model, self.properties, self.smart = graph, model, properties, smart
+        self.pick_up = pick_up or {}
         self.assemblies = dict(getattr(model, "assemblies", {})) if assemblies else {}
         self.site = graph.iri("site", "site")
         self.storeys = {s.global_id for s in model.storeys}
@@ -456,7 +461,7 @@ class _GraphWriter:
                 yield size, prop, _literal(float(length))
         if self.properties:
             yield from _property_values(iri, element.properties)
-        yield iri, DICE.hasEntityState, BRC[self.start_states.get(element.global_id, "OnYard")]
+        yield from self.state(iri, element.global_id)
 
     def assembly(self, assembly, storeys: set[str]) -> Iterator[Triple]:
         """An assembly as a bot:Element with its parts as bot:hasSubElement (see the module docstring)."""
@@ -484,7 +489,14 @@ class _GraphWriter:
             yield volume, RDF.type, DICE.CartesianVolume
             for prop, length in zip((DICE.hasXLength, DICE.hasYLength, DICE.hasZLength), size):
                 yield volume, prop, _literal(float(length))
-        yield iri, DICE.hasEntityState, BRC[self.start_states.get(gid, "OnYard")]
+        yield from self.state(iri, gid)
+
+    def state(self, iri: URIRef, gid: str) -> Iterator[Triple]:
+        """The component's starting state and, when it waits on the yard, its pick-up position."""
+        state = self.start_states.get(gid, "OnYard")
+        yield iri, DICE.hasEntityState, BRC[state]
+        if state == "OnYard" and gid in self.pick_up:
+            yield from _position(URIRef(f"{iri}/pick-up"), iri, BRC.pickUpPosition, self.pick_up[gid])
 
     def interface(self, connection) -> Iterator[Triple]:
         g = self.graph

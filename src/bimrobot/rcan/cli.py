@@ -11,6 +11,7 @@ import sys
 from dataclasses import asdict
 
 from bimrobot.errors import InputError
+from bimrobot.rcan.backends import BACKENDS
 
 RUN_EXAMPLES = """examples:
   bimrobot rcan run --experiment 1 --backend sim          # thesis experiment 1, prints the interaction log
@@ -41,8 +42,11 @@ def register(subparsers) -> None:
     what = run.add_mutually_exclusive_group(required=True)
     what.add_argument("--experiment", type=int, choices=(1, 2, 3),
                       help="1: column within reach; 2: column that needs transport; 3: footing")
-    what.add_argument("--schedule", help="schedule CSV (docs/conventions.md), or an IFC file with an "
-                                         "IfcWorkSchedule (its tasks' output elements are the components)")
+    what.add_argument("--schedule", help="schedule CSV (docs/conventions.md), Microsoft Project XML (.xml), or an IFC "
+                                         "file with an IfcWorkSchedule (its tasks' output elements are the components)")
+    what.add_argument("--graph", help="construction graph of `bimrobot graph --schedule` (Turtle, JSON-LD, an Oxigraph "
+                                      "folder or a SPARQL endpoint URL): the activities, robots, components, weights "
+                                      "and positions are selected from it with SPARQL, and the live states go back to it")
     run.add_argument("--model", help="IFC model of the schedule (component weights and sections, GlobalId check)")
     add_selection_options(run, built=True)
     add_unknown_weight_option(run)
@@ -60,9 +64,11 @@ def register(subparsers) -> None:
                      help="ros2: start the shipped robot node for the run (spawn, default) or use robots that "
                           "already serve /bimrobot/<robot>/<activity> (external)")
     run.add_argument("--report", help="also write the run report (JSON) to this new file (or one bimrobot wrote)")
-    run.add_argument("--graph", help="with --schedule and --model: write the construction graph (BOT + DiCon + "
-                                     "live states; Turtle, or JSON-LD for .jsonld) as it stands after the run "
-                                     "to this new file (or one bimrobot wrote)")
+    run.add_argument("--graph-out", help="with --graph, or --schedule and --model: write the construction graph (BOT + "
+                                         "DiCon + live states; Turtle, or JSON-LD for .jsonld) as it stands after the "
+                                         "run to this new file (or one bimrobot wrote)")
+    run.add_argument("--reallocate", action="store_true",
+                     help="give each activity to any capable robot (least loaded) instead of the robot the schedule assigned")
     run.add_argument("-q", "--quiet", action="store_true", help="no interaction log, only the summary")
     run.set_defaults(func=_run)
 
@@ -101,7 +107,7 @@ def register(subparsers) -> None:
 
 
 def _common(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--backend", choices=("sim", "ros2"), default="sim", help="executor backend (default sim)")
+    parser.add_argument("--backend", choices=tuple(BACKENDS), default="sim", help="executor backend (default sim)")
     parser.add_argument("--capabilities", help="capability YAML (default: the built-in Table 5.2 and robots)")
     parser.add_argument("--state-db", default=":memory:",
                         help="SQLite file for the journal and the simulated site, new or from an earlier run, "
@@ -164,17 +170,18 @@ def _is_ifc(path: str | None) -> bool:
 
 
 def _inputs(args) -> list:
-    """Every file ``rcan run`` reads: the schedule, the model, the capability table."""
-    return [p for p in (getattr(args, "schedule", None), getattr(args, "model", None), args.capabilities) if p]
+    """Every file ``rcan run`` reads: the schedule or graph, the model, the capability table."""
+    return [p for p in (getattr(args, "schedule", None), getattr(args, "graph", None), getattr(args, "model", None),
+                        args.capabilities) if p]
 
 
 def _check_outputs(args, inputs: list) -> None:
-    """The output policy for --report, --graph and --state-db, before anything is read or run."""
+    """The output policy for --report, --graph-out and --state-db, before anything is read or run."""
     from bimrobot.io import check_output
     from bimrobot.rcan.state_manager import is_state_db
 
     outputs = {}
-    for option, path in (("--report", getattr(args, "report", None)), ("--graph", getattr(args, "graph", None))):
+    for option, path in (("--report", getattr(args, "report", None)), ("--graph-out", getattr(args, "graph_out", None))):
         if path is not None:
             check_output(path, folder=False, inputs=inputs, option=option)
             outputs[option] = path
@@ -191,13 +198,18 @@ def _check_outputs(args, inputs: list) -> None:
 
 def _load_plan(args):
     """(RCAN activities, construction graph or None, unknown-weight report or None) for the run."""
-    from bimrobot.rcan.plans import experiment, plan_from_schedule
+    from bimrobot.rcan.plans import experiment, plan_from_graph, plan_from_schedule
 
     if args.experiment:
         exp = experiment(args.experiment)
         print(f"== RCAN experiment {exp.number}: {exp.title}", flush=True)
         return list(exp.activities), None, None
-    from bimrobot.lbd.schedule import load_schedule_csv, load_schedule_ifc
+    if args.graph:
+        from bimrobot.lbd.graph import ConstructionGraph
+
+        graph = ConstructionGraph.open(args.graph)
+        return plan_from_graph(graph, tuple(args.yard), standoff_m=args.standoff), graph, None
+    from bimrobot.lbd.schedule import load_schedule
 
     model, weights = None, None
     from_ifc = _is_ifc(args.schedule)
@@ -210,25 +222,29 @@ def _load_plan(args):
         weights = apply_unknown_weight_rule(model.elements.values(), args.unknown_weight, str(source))
         if weights.message():
             print(weights.message(), flush=True)
-    schedule = load_schedule_ifc(args.schedule, model) if from_ifc else load_schedule_csv(args.schedule, model)
+    schedule = load_schedule(args.schedule, model)
     graph = None
-    if args.graph:
+    if args.graph_out:
         from bimrobot.lbd.graph import build_graph
 
         graph = build_graph(model, schedule)
     return plan_from_schedule(schedule, model, tuple(args.yard), standoff_m=args.standoff), graph, weights
 
 
-def _robot_notice(activities, capabilities) -> None:
-    """One line when the schedule names robots the capability table does not have (e.g. the fleet of
-    `bimrobot simulate`): their rows go to capable robots of the table instead."""
+def _check_robots(activities, capabilities, reallocate: bool) -> None:
+    """A schedule that assigns robots the capability table does not have is refused (its fleet is another
+    one), unless --reallocate gives every activity to capable robots of the table."""
     unknown = sorted({a.robot for a in activities if a.robot and a.robot not in capabilities.robots})
-    if unknown:
-        shown = ", ".join(unknown[:5]) + (f" and {len(unknown) - 5} more" if len(unknown) > 5 else "")
-        robots = list(capabilities.robots)
-        table = ", ".join(robots[:5]) + (f" and {len(robots) - 5} more" if len(robots) > 5 else "")
-        print(f"the schedule names robot(s) {shown}, which are not in {capabilities.source}: their activities go "
-              f"to capable robots of the table ({table})", flush=True)
+    if not unknown:
+        return
+    shown = ", ".join(unknown[:5]) + (f" and {len(unknown) - 5} more" if len(unknown) > 5 else "")
+    robots = list(capabilities.robots)
+    table = ", ".join(robots[:5]) + (f" and {len(robots) - 5} more" if len(robots) > 5 else "")
+    if not reallocate:
+        raise InputError(f"the schedule assigns robot(s) {shown}, which {capabilities.source} does not have ({table}): "
+                         "give the schedule's fleet with --capabilities (e.g. --capabilities fleet2), or --reallocate")
+    print(f"the schedule names robot(s) {shown}, which are not in {capabilities.source}: with --reallocate their "
+          f"activities go to capable robots of the table ({table})", flush=True)
 
 
 def _unknown_weight_notice(activities, model_given: bool) -> list[str]:
@@ -252,10 +268,11 @@ def _run(args) -> int:
         raise InputError("--no-local-executors needs --redis: executors in other processes talk through Redis")
     if args.max_attempts < 1:
         raise InputError(f"--max-attempts must be at least 1, got {args.max_attempts}")
-    if args.graph and not (args.schedule and (args.model or _is_ifc(args.schedule))):
-        raise InputError("--graph needs --schedule and --model: the graph links the model's elements and the schedule")
+    if args.graph_out and not (args.graph or (args.schedule and (args.model or _is_ifc(args.schedule)))):
+        raise InputError("--graph-out needs --graph, or --schedule and --model: the graph links the model's elements "
+                         "and the schedule")
     if args.model and not args.schedule:
-        raise InputError("--model is read with --schedule; the experiments bring their own components")
+        raise InputError("--model is read with --schedule; the experiments and the graph bring their own components")
     if not all(math.isfinite(v) and abs(v) <= 1e7 for v in args.yard):
         raise InputError(f"--yard must be three finite coordinates within +-1e7 m, got {' '.join(map(str, args.yard))}")
     if not (math.isfinite(args.standoff) and 0 <= args.standoff <= 100):
@@ -266,8 +283,9 @@ def _run(args) -> int:
     _check_outputs(args, inputs)
     capabilities = load_capabilities(args.capabilities)
     activities, graph, weights = _load_plan(args)
-    _robot_notice(activities, capabilities)
-    unknown = _unknown_weight_notice(activities, args.model is not None or _is_ifc(args.schedule)) if args.schedule else []
+    _check_robots(activities, capabilities, args.reallocate)
+    unknown = _unknown_weight_notice(activities, args.model is not None or _is_ifc(args.schedule) or bool(args.graph)) \
+        if args.schedule or args.graph else []
     observers = []
     if graph is not None:
         from bimrobot.rcan.observers import GraphStateObserver
@@ -278,7 +296,8 @@ def _run(args) -> int:
         report = run_plan(activities, capabilities, backend=args.backend, state_db=args.state_db,
                           redis_url=args.redis, spawn_executors=not args.no_local_executors,
                           max_attempts=args.max_attempts, log=log, backend_options=options,
-                          observers=observers, retry_escalated=args.retry_escalated, redis_options=redis_options)
+                          observers=observers, retry_escalated=args.retry_escalated, redis_options=redis_options,
+                          reallocate=args.reallocate)
     states = {}
     for state in report.component_states.values():
         states[state] = states.get(state, 0) + 1
@@ -293,12 +312,12 @@ def _run(args) -> int:
                                   "components_with_unknown_weight": unknown}
         with atomic_output_file(args.report, inputs=inputs, option="--report") as tmp:
             tmp.write_text(json.dumps(data, indent=2, default=str), encoding="utf-8")
-    if graph is not None:
+    if graph is not None and args.graph_out:
         from bimrobot.lbd.store import SUFFIX_FORMATS
 
-        fmt = SUFFIX_FORMATS.get(os.path.splitext(args.graph)[1].lower(), "turtle")
-        graph.serialize(args.graph, format=fmt, inputs=inputs, option="--graph")
-        print(f"construction graph with live states: {args.graph}", flush=True)
+        fmt = SUFFIX_FORMATS.get(os.path.splitext(args.graph_out)[1].lower(), "turtle")
+        graph.serialize(args.graph_out, format=fmt, inputs=inputs, option="--graph-out")
+        print(f"construction graph with live states: {args.graph_out}", flush=True)
     return 0 if report.status == "completed" else 1
 
 

@@ -9,6 +9,7 @@ position, and the gripper goes to the slot and to the installed position (``Targ
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Callable
 
 from bimrobot.errors import InputError
 from bimrobot.lbd import components
@@ -17,8 +18,41 @@ from bimrobot.rcan.activities import SCHEDULE_DECOMPOSITION, ActivityKind, Pose,
 K = ActivityKind
 
 
+@dataclass(frozen=True)
+class ComponentFacts:
+    """What a plan needs to know of one component, from a model or from the construction graph.
+
+    ``weight_kg`` (None: unknown, no payload is checked); ``section_m`` (the two smaller extents, m);
+    ``position`` its installed position (m, world) when the schedule row gives none; ``pick_up`` where
+    it waits on the yard (m, world; None: the next of RCAN's own yard slots); ``start_state`` the state
+    it starts in (``OnYard`` for a component robots fetch; None: not known, as with a schedule CSV).
+    """
+
+    weight_kg: float | None = None
+    section_m: tuple[float, float] | None = None
+    position: tuple[float, float, float] | None = None
+    pick_up: tuple[float, float, float] | None = None
+    start_state: str | None = None
+
+
+def model_facts(model) -> Callable[[str], ComponentFacts]:
+    """Facts of a model's components (GlobalId of an element or an assembly); without a model,
+    nothing is known. A GlobalId that is not a component of the model raises InputError."""
+    if model is None:
+        return lambda gid: ComponentFacts()
+
+    def facts(gid: str) -> ComponentFacts:
+        if not components.is_component(model, gid):
+            raise InputError(f"schedule names component {gid}, which is not in {model.source or 'the model'}")
+        return ComponentFacts(components.weight_kg(model, gid), components.section_m(model, gid),
+                              tuple(float(v) for v in components.position(model, gid)))
+
+    return facts
+
+
 def plan_from_schedule(schedule, model=None, yard: tuple[float, float, float] = (-10.0, -10.0, 0.0),
-                       yard_spacing_m: float = 2.0, standoff_m: float = 0.6) -> list[RcanActivity]:
+                       yard_spacing_m: float = 2.0, standoff_m: float = 0.6,
+                       facts: Callable[[str], ComponentFacts] | None = None) -> list[RcanActivity]:
     """RCAN activities for every row of ``schedule`` (a :class:`bimrobot.lbd.schedule.Schedule`).
 
     A row without a target position (an IFC work schedule's task) goes to its component's position
@@ -29,62 +63,83 @@ def plan_from_schedule(schedule, model=None, yard: tuple[float, float, float] = 
     whose payload carries it) and sections; a component whose weight stays unknown, and every
     component without ``model``, has ``weight_kg`` None: no payload is checked for it, and the run
     reports it. A GlobalId may name an element or an assembly (lifted as one unit: the sum of its
-    parts' weights). Ids are ``<Identification>.<n>``; the first activity of a row
-    waits for the last one of each predecessor row. A ``position`` or ``assemble`` row of a component no
-    robot holds (in place already, e.g. a footing, or a further connection node after the first
-    install) starts by moving a robot to it: move to component, position for installing, install. A
-    ``transport`` row ends with the component set down at its drop-off point (the transport's stand
-    pose) and the robot free: the component's positioning may have to wait for other components, and
-    the robot may be needed to bring them. The ``position`` (or ``assemble``) row that follows picks it
-    up again there (move to component, position for picking up, pick up, position for installing),
-    possibly with another robot. A ``position`` row leaves the component PositionFixed and frees its
-    robot (chapter 4: assembly robots fix the connection nodes afterwards).
+    parts' weights). ``facts`` replaces ``model`` as the source of these (e.g. the construction graph:
+    :func:`plan_from_graph`). Ids are ``<Identification>.<n>``; the first activity of a row
+    waits for the last one of each predecessor row.
+
+    Components wait at their pick-up position (``facts``), else in RCAN's own yard slots,
+    ``yard_spacing_m`` apart along x from ``yard``. A ``transport`` row ends with the component set
+    down at its drop-off point (the transport's stand pose) and the robot free: the component's
+    positioning may have to wait for other components, and the robot may be needed to bring them. The
+    ``position`` (or ``assemble``) row that follows picks it up again there (move to component,
+    position for picking up, pick up, position for installing), possibly with another robot. A
+    ``position`` or ``assemble`` row of a component still on the yard (its start state is ``OnYard``
+    and no row transported it: within the manipulator's reach, as in the thesis' experiment 1) picks
+    it up from the yard. A ``position`` or ``assemble`` row of a component in place already (a
+    footing, a further connection node after the first install; a CSV does not say where a
+    component starts, so one no row transported is taken to be in place) starts by moving a robot to
+    it: move to component, position for installing, install. A ``position`` row leaves the component
+    PositionFixed and frees its robot (chapter 4: assembly robots fix the connection nodes afterwards);
+    a component that no ``assemble`` row fixes is installed by its ``position`` row (nothing is left
+    to fix: the simulation counts it Assembled once positioned).
     """
+    facts = facts or model_facts(model)
+    rows = schedule.topological_order()
+    assembled_later = {row.global_id for row in rows if row.activity == "assemble"}
+    known: dict[str, ComponentFacts] = {}
     activities: list[RcanActivity] = []
     last_of_row: dict[str, str] = {}
     slots: dict[str, Pose] = {}
     dropped: set[str] = set()  # components transported and set down at their drop-off, not yet positioned
-    for row in schedule.topological_order():
+    on_yard: set[str] = set()  # components known to wait on the yard that no row has touched yet
+    for row in rows:
         if row.activity not in SCHEDULE_DECOMPOSITION:
             raise InputError(f"schedule activity {row.id} has activity {row.activity!r}; RCAN knows "
                              f"{', '.join(SCHEDULE_DECOMPOSITION)}")
         gid = row.global_id
-        target = row.target
-        if target is None and model is not None and gid and components.is_component(model, gid):
-            target = tuple(float(v) for v in components.position(model, gid))  # e.g. an IfcTask's output element
+        if gid and gid not in known:
+            known[gid] = facts(gid)
+            if known[gid].start_state == "OnYard":
+                on_yard.add(gid)
+        fact = known.get(gid, ComponentFacts())
+        target = row.target if row.target is not None else fact.position
         if not gid or target is None:
             raise InputError(f"schedule activity {row.id} needs a GlobalId and a target position "
                              f"(TargetX/Y/Z, or the element's placement in --model) for RCAN")
         if gid not in slots:
-            slots[gid] = Pose(yard[0] + yard_spacing_m * len(slots), yard[1], yard[2])
-        kinds, goals, lifts = _row_activities(row.activity, slots[gid], Pose(*target), standoff_m, gid in dropped)
+            slots[gid] = Pose(*fact.pick_up) if fact.pick_up is not None else \
+                Pose(yard[0] + yard_spacing_m * len(slots), yard[1], yard[2])
+        where = "drop-off" if gid in dropped else "yard" if gid in on_yard else "in place"
+        installs = row.activity == "assemble" or (row.activity == "position" and gid not in assembled_later)
+        kinds, goals, lifts = _row_activities(row.activity, slots[gid], Pose(*target), standoff_m, where, installs)
+        on_yard.discard(gid)
         if row.activity == "transport":
             dropped.add(gid)
         else:
             dropped.discard(gid)  # positioned (PositionFixed) or installed
-        weight, section = _weight(model, gid), _section(model, gid)
         previous = tuple(last_of_row[p] for p in row.predecessors)
         for n, kind in enumerate(kinds, start=1):
             activity_id = f"{row.id}.{n}"
             frees = kind is K.TRANSPORT or (row.activity == "position" and kind is K.POSITION_FOR_INSTALLING)
             activities.append(RcanActivity(
                 activity_id=activity_id, component_id=gid, kind=kind, target=goals[kind],
-                weight_kg=weight, section_m=section, robot=row.robot, predecessors=previous,
+                weight_kg=fact.weight_kg, section_m=fact.section_m, robot=row.robot, predecessors=previous,
                 start=row.start, finish=row.finish, name=f"{kind.label} {gid}",
-                frees_robot=True if frees else None, lifts=lifts,
+                frees_robot=True if frees and not installs else None, lifts=lifts,
             ))
             previous = (activity_id,)
         last_of_row[row.id] = previous[0]
     return activities
 
 
-def _row_activities(activity: str, slot: Pose, installed: Pose, standoff_m: float,
-                    at_drop_off: bool) -> tuple[tuple[ActivityKind, ...], dict[ActivityKind, Pose], bool]:
+def _row_activities(activity: str, slot: Pose, installed: Pose, standoff_m: float, where: str,
+                    installs: bool) -> tuple[tuple[ActivityKind, ...], dict[ActivityKind, Pose], bool]:
     """(RCAN activity kinds, goal pose of each kind, whether a robot lifts the component) of one row.
 
-    ``slot`` is the component's yard slot, ``installed`` its installed position (world frame, m);
-    ``at_drop_off``: the component was transported and rests at its drop-off point (the transport's
-    stand pose, ``standoff_m`` short in -y of the installed position, on the ground).
+    ``slot`` is the component's pick-up position on the yard, ``installed`` its installed position
+    (world frame, m); ``where`` the component is: ``yard``, ``drop-off`` (it was transported and rests
+    at its drop-off point: the transport's stand pose, ``standoff_m`` short in -y of the installed
+    position, on the ground) or ``in place``; ``installs``: the row ends with an install.
     """
     stand = Pose(installed.x, installed.y - standoff_m, 0.0)
     goals = {
@@ -97,29 +152,60 @@ def _row_activities(activity: str, slot: Pose, installed: Pose, standoff_m: floa
     }
     if activity == "transport":
         return SCHEDULE_DECOMPOSITION["transport"], goals, True
-    install = (K.INSTALL,) if activity == "assemble" else ()
+    install = (K.INSTALL,) if installs else ()
+    pick = (K.MOVE_TO_COMPONENT, K.POSITION_FOR_PICKING_UP, K.PICK_UP, K.POSITION_FOR_INSTALLING)
+    if where == "yard":  # within reach of its installed position: picked up on the yard, no transport
+        return pick + install, goals, True
     goals[K.MOVE_TO_COMPONENT] = stand
-    if at_drop_off:  # a robot picks it up again at the drop-off point and positions it
+    if where == "drop-off":  # a robot picks it up again at the drop-off point and positions it
         goals[K.POSITION_FOR_PICKING_UP] = goals[K.PICK_UP] = stand
-        return (K.MOVE_TO_COMPONENT, K.POSITION_FOR_PICKING_UP, K.PICK_UP, K.POSITION_FOR_INSTALLING) + install, goals, True
+        return pick + install, goals, True
     # in place already (a footing, a prebuilt slab, a further connection node): a robot works on it there
     return (K.MOVE_TO_COMPONENT, K.POSITION_FOR_INSTALLING) + install, goals, False
 
 
-def _weight(model, gid: str) -> float | None:
-    """The component's weight in kg, or None when unknown (no model, or the model does not give it)."""
-    if model is None:
-        return None
-    if not components.is_component(model, gid):
-        raise InputError(f"schedule names component {gid}, which is not in {model.source or 'the model'}")
-    return components.weight_kg(model, gid)
+def plan_from_graph(graph, yard: tuple[float, float, float] = (-10.0, -10.0, 0.0), yard_spacing_m: float = 2.0,
+                    standoff_m: float = 0.6) -> list[RcanActivity]:
+    """RCAN activities generated from the construction graph alone (thesis l.5779-5790): the schedule's
+    activities and every property the plan needs (the robot assigned, the component, its starting
+    state, weight, size, goal and pick-up position) are selected with SPARQL (``lbd/queries/rcan_plan.rq``)
+    and broken down as :func:`plan_from_schedule` does. ``graph``: a
+    :class:`bimrobot.lbd.graph.ConstructionGraph` with a schedule (``bimrobot graph --schedule``)."""
+    from bimrobot.lbd.schedule import Activity, Schedule
+
+    rows = graph.query("rcan_plan")
+    if not rows:
+        raise InputError("the construction graph has no scheduled activities (brc:activityType): build it with "
+                         "`bimrobot graph model.ifc --schedule schedule.csv`")
+    activities, facts = [], {}
+    for row in rows:
+        gid = row["globalId"]
+        if gid and gid not in facts:
+            facts[gid] = _graph_facts(row)
+        target = _xyz(row, "target")
+        activities.append(Activity(
+            id=str(row["activityId"]), name=str(row["name"] or ""), activity=str(row["activityType"]), global_id=gid,
+            robot=row["robot"], start=float(row["start"]), finish=float(row["finish"]),
+            predecessors=tuple(sorted(str(row["predecessors"] or "").split())), target=target, node_id=row["nodeId"]))
+    missing = sorted({p for a in activities for p in a.predecessors} - {a.id for a in activities})
+    if missing:
+        raise InputError(f"the construction graph's activities name predecessor(s) it does not schedule: {', '.join(missing[:5])}")
+    return plan_from_schedule(Schedule(activities), None, yard, yard_spacing_m, standoff_m,
+                              facts=lambda gid: facts.get(gid, ComponentFacts()))
 
 
-def _section(model, gid: str) -> tuple[float, float] | None:
-    """The two smaller extents of the component (m): what a gripper closes on; None without a model."""
-    if model is None:
-        return None
-    return components.section_m(model, gid)
+def _xyz(row: dict, prefix: str) -> tuple[float, float, float] | None:
+    values = [row.get(f"{prefix}{axis}") for axis in "XYZ"]
+    return None if any(v is None for v in values) else tuple(float(v) for v in values)
+
+
+def _graph_facts(row: dict) -> ComponentFacts:
+    """A component's facts from one ``rcan_plan`` row (its weight, size, pick-up position, state)."""
+    size = _xyz(row, "size")
+    section = None if size is None else tuple(round(v, 4) for v in sorted(size)[:2])
+    weight = row.get("weightKg")
+    return ComponentFacts(None if weight is None else float(weight), section, None, _xyz(row, "pickUp"),
+                          row.get("componentState"))
 
 
 def unknown_weight_components(activities: list[RcanActivity]) -> list[str]:

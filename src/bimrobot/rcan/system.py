@@ -481,6 +481,7 @@ def run_plan(
     timeout_s: float | None = None,
     retry_escalated: bool = False,
     redis_options: dict | None = None,
+    reallocate: bool = False,
 ) -> RunReport:
     """Run a plan end to end: broker (in-process, or Redis at ``redis_url``), executors, state manager.
 
@@ -489,17 +490,18 @@ def run_plan(
     (``bimrobot rcan executor``) on the same Redis. ``backend_options`` go to the backend (``sim``:
     ``time_scale``, ``failure_probability``, ``seed``). ``retry_escalated``: see :meth:`RcanSystem.run`.
     ``redis_options`` go to every :class:`~bimrobot.rcan.broker.RedisBroker` (``reconnect_s``,
-    ``claim_idle_s``, ``max_deliveries``).
+    ``claim_idle_s``, ``max_deliveries``). ``reallocate``: give each activity to any capable robot
+    instead of the robot the schedule assigned (:class:`~bimrobot.rcan.generation.TaskAllocator`).
     """
     from bimrobot.rcan.state_manager import removed_unless_used
 
     with removed_unless_used(state_db):  # a run that fails before its first activity leaves no state file
         return _run_plan(activities, capabilities, backend, state_db, redis_url, spawn_executors, max_attempts,
-                         observers, log, backend_options, timeout_s, retry_escalated, redis_options or {})
+                         observers, log, backend_options, timeout_s, retry_escalated, redis_options or {}, reallocate)
 
 
 def _run_plan(activities, capabilities, backend, state_db, redis_url, spawn_executors, max_attempts, observers,
-              log, backend_options, timeout_s, retry_escalated, redis_options) -> RunReport:
+              log, backend_options, timeout_s, retry_escalated, redis_options, reallocate=False) -> RunReport:
     from bimrobot.rcan.backends import create_backend
     from bimrobot.rcan.broker import InProcessBroker, RedisBroker
     from bimrobot.rcan.executor import RobotExecutor
@@ -532,6 +534,7 @@ def _run_plan(activities, capabilities, backend, state_db, redis_url, spawn_exec
             executors.append(executor)
             threads.append(executor.start_thread())
         system = RcanSystem(broker, capabilities, manager, backend, log)
+        system.allocator.reallocate = reallocate
         return system.run(activities, timeout_s=timeout_s, retry_escalated=retry_escalated)
     finally:
         for executor in executors:

@@ -1,24 +1,31 @@
 """Executor backends behind one interface (:class:`~bimrobot.rcan.backends.interfaces.ExecutorBackend`).
 
-``sim`` (built-in kinematic robots, the default) and ``ros2`` (an rclpy action client per activity on
-the project's ``ConstructionActivity`` action). Only ``ros2`` imports ROS, and only when it is chosen.
+The registry :data:`BACKENDS` names each backend's class as ``module:Class``; a backend's module is
+imported only when it is chosen (``ros2`` needs ROS 2, ``mujoco`` needs MuJoCo). Adding a backend is one
+module with one class and one line here.
 """
 
 from __future__ import annotations
 
+import importlib
+
 from bimrobot.errors import InputError
 
-BACKENDS = ("sim", "ros2")
+#: backend name -> "module:Class" of its :class:`ExecutorBackend` subclass
+BACKENDS: dict[str, str] = {
+    "sim": "bimrobot.rcan.backends.sim:SimBackend",  # built-in kinematic robots (the default)
+    "ros2": "bimrobot.rcan.backends.ros2:Ros2Backend",  # an rclpy action client on ConstructionActivity
+}
+
+
+def backend_class(name: str):
+    """The backend class registered as ``name``; an unknown name is an InputError naming the choices."""
+    if name not in BACKENDS:
+        raise InputError(f"unknown RCAN backend {name!r} (expected one of: {', '.join(BACKENDS)})")
+    module, _, cls = BACKENDS[name].partition(":")
+    return getattr(importlib.import_module(module), cls)
 
 
 def create_backend(name: str, capabilities, **options):
-    """Instantiate backend ``name`` (``sim`` or ``ros2``) with its options."""
-    if name == "sim":
-        from bimrobot.rcan.backends.sim import SimBackend
-
-        return SimBackend(capabilities, **options)
-    if name == "ros2":
-        from bimrobot.rcan.backends.ros2 import Ros2Backend
-
-        return Ros2Backend(capabilities, **options)
-    raise InputError(f"unknown RCAN backend {name!r} (expected one of: {', '.join(BACKENDS)})")
+    """Instantiate backend ``name`` (a key of :data:`BACKENDS`) with its options."""
+    return backend_class(name)(capabilities, **options)
