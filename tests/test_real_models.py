@@ -56,9 +56,10 @@ def pipeline(request, tmp_path_factory) -> dict:
         runs["simulate prebuilt"] = bimrobot("simulate", str(model), "--fleet", "site-crane", "-o", "sim",
                                              "--prebuilt", PREBUILT, *SIMULATE, cwd=work)
     schedule = work / "sim" / "schedule.csv"
-    if schedule.exists():
-        runs["graph"] = bimrobot("graph", str(model), "--schedule", str(schedule), "-o", "graph.ttl", cwd=work)
-        runs["rcan"] = bimrobot("rcan", "run", "--schedule", str(schedule), "--model", str(model), "--backend", "sim",
+    if schedule.exists():  # RCAN generated from the graph, on the fleet's robots (what `bimrobot build` runs)
+        prebuilt = ["--prebuilt", PREBUILT] if "simulate prebuilt" in runs else []
+        runs["graph"] = bimrobot("graph", str(model), "--schedule", str(schedule), "-o", "graph.ttl", *prebuilt, cwd=work)
+        runs["rcan"] = bimrobot("rcan", "run", "--graph", "graph.ttl", "--capabilities", "site-crane", "--backend", "sim",
                                 "--quiet", "--report", "rcan.json", cwd=work)
     return {"model": model, "work": work, "runs": runs}
 
@@ -86,6 +87,11 @@ def test_the_building_is_built_and_converted(pipeline):
         return
     assert "graph" in runs and runs["graph"].returncode == 0, runs.get("graph", runs["simulate"]).stderr
     assert runs["rcan"].returncode == 0, runs["rcan"].stderr
+    # RCAN ends every component the way the simulation does
+    simulated_states = json.loads((work / "sim" / "states.json").read_text())
+    rcan_states = json.loads((work / "rcan.json").read_text())["component_states"]
+    final = {gid: history[-1][1] for gid, history in simulated_states.items()}
+    assert rcan_states and {gid: final[gid] for gid in rcan_states} == rcan_states, runs["rcan"].stdout
 
 
 def test_no_output_lands_outside_the_named_folders(pipeline):
