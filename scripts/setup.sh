@@ -4,7 +4,8 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 VENV=${VENV:-.venv}
-APT_PACKAGES="ignition-tools libsdformat-dev redis-server"
+# libosmesa6: MuJoCo's offscreen pictures (MUJOCO_GL=osmesa); chromium + chromium-driver: the replay's browser test
+APT_PACKAGES="ignition-tools libsdformat-dev redis-server libosmesa6 chromium chromium-driver"
 
 missing=""
 for pkg in $APT_PACKAGES; do

@@ -101,12 +101,8 @@ STAGES = (
 
 
 def _work_schedule(args, folder: Path) -> list[str]:
-    """``--ifc-out`` for the model with its simulated schedule as an IfcWorkSchedule; IFC2X3 has no
-    IfcTaskTime to hold the times, so its build has none (README.md says so)."""
-    from bimrobot.bim.reader import header_schema
-
-    if header_schema(args.model) == "IFC2X3":
-        return []
+    """``--ifc-out`` for the model with its simulated schedule as an IfcWorkSchedule (an IFC2X3 model's
+    copy is migrated to IFC4, which has IfcTaskTime)."""
     return ["--ifc-out", str(folder / WORK_SCHEDULE_IFC), *(["--start", args.start] if args.start else [])]
 
 
@@ -261,12 +257,12 @@ def _write_stages(folder: Path, done: dict) -> None:
     tmp.replace(folder / STAGES_FILE)
 
 
-def _work_schedule_row(folder: Path) -> str:
-    if (folder / WORK_SCHEDULE_IFC).is_file():
-        return (f"| `{WORK_SCHEDULE_IFC}` | the model with the simulated schedule as an IfcWorkSchedule (one IfcTask per "
-                "activity, IfcTaskTime, IfcRelSequence, IfcRelAssignsToProduct) | Bonsai's 4D sequencing; ifcopenshell |\n")
-    return ("| (no IFC work schedule) | the model is IFC2X3, which has no IfcTaskTime: no copy with the schedule is "
-            "written | `bimrobot graph --ifc-out` on an IFC4 export |\n")
+def _work_schedule_row(args) -> str:
+    from bimrobot.bim.reader import header_schema
+
+    migrated = " (migrated from IFC2X3 to IFC4, which has IfcTaskTime)" if header_schema(args.model) == "IFC2X3" else ""
+    return (f"| `{WORK_SCHEDULE_IFC}` | the model with the simulated schedule as an IfcWorkSchedule{migrated}: one IfcTask "
+            "per activity, IfcTaskTime, IfcRelSequence, IfcRelAssignsToProduct | Bonsai's 4D sequencing; ifcopenshell |\n")
 
 
 def readme(args, folder: Path, done: dict) -> str:
@@ -291,5 +287,5 @@ Fleet: `{args.fleet}`; site: {args.site or "the thesis' fig. 4.11"}. Units: metr
 | `rcan/report.json` | the RCAN run: each activity with its robot, result and times; escalated and blocked work | `jq` |
 | `rcan/state.db` | RCAN's state database (journal, component states); the build resumes from it | `sqlite3` |
 | `rcan/graph-after-rcan.ttl` | the graph with the states after the RCAN run | `bimrobot query` |
-{_work_schedule_row(folder)}| `build.json` | the inputs, options and the time of each stage | `jq` |
+{_work_schedule_row(args)}| `build.json` | the inputs, options and the time of each stage | `jq` |
 """

@@ -23,13 +23,15 @@ from pathlib import Path
 
 import numpy as np
 
-from bimrobot.config import line_of, parse_yaml
+from bimrobot.config import check_keys, line_of, read_yaml_file
 from bimrobot.errors import InputError
 
 #: Site positions (yard, homes, construction area) within this many metres of the site origin; the
 #: model offset may be as large as projected map coordinates (UTM northings reach 1e7 m).
 SITE_COORDINATE_LIMIT_M = 1e6
 OFFSET_LIMIT_M = 2e7
+#: The keys of a site file (module docstring).
+SITE_KEYS = ("yard", "robot_home", "construction_area", "model_offset", "idle_robots")
 
 
 def number_in(value, label: str, low: float, high: float, unit: str, low_inclusive: bool = False) -> float:
@@ -97,10 +99,7 @@ class Site:
 def site_from_dict(data, source: str) -> Site:
     if not isinstance(data, dict):
         raise InputError(f"{source}: expected a mapping with yard, robot_home and construction_area")
-    allowed = {"yard", "robot_home", "construction_area", "model_offset", "idle_robots"}
-    extra = set(data) - allowed
-    if extra:
-        raise InputError(f"{source}: unknown key '{sorted(extra)[0]}' (allowed: {', '.join(sorted(allowed))})")
+    check_keys(data, SITE_KEYS, source)
     default = default_site()
     values = {}
     for key in ("yard", "robot_home"):
@@ -143,7 +142,4 @@ def load_site(path: str | Path | None) -> Site:
     """The site YAML at ``path`` (missing keys take fig. 4.11's values), or the default site."""
     if path is None:
         return default_site()
-    path = Path(path)
-    if not path.is_file():
-        raise InputError(f"site file {str(path)!r} does not exist")
-    return site_from_dict(parse_yaml(path.read_text(), str(path)), str(path))
+    return site_from_dict(read_yaml_file(path, "site file"), str(path))

@@ -60,7 +60,7 @@ def test_steel_frame_smart_components(steel_frame_model):
 def test_steel_frame_is_built_by_both_thesis_fleets(steel_frame_model, fleet):
     smart = build_smart_model(steel_frame_model)
     result = simulate(smart, load_fleet(fleet), storey_elevations=[s.elevation for s in steel_frame_model.storeys])
-    assert all(c.state == State.ASSEMBLED for c in smart.components.values())
+    assert all(c.state == State.ASSEMBLED for c in result.built.components.values())
     assert len(result.floor_finish) == 2
     points = sum(n.assembly_point_number for n in smart.nodes.values())
     slowest_share = points * 60 if fleet == "fleet1" else points * 20  # 60 s/point, or 60 and 30 s/point together
@@ -86,7 +86,7 @@ def test_ifc_unit_needs_longer_platforms_than_table_4_1(ifc_unit_model, tmp_path
     fleet.write_text(LONG_PLATFORM_FLEET)
     smart = build_smart_model(ifc_unit_model)
     result = simulate(smart, load_fleet(fleet), storey_elevations=[s.elevation for s in ifc_unit_model.storeys])
-    assert all(c.state == State.ASSEMBLED for c in smart.components.values())
+    assert all(c.state == State.ASSEMBLED for c in result.built.components.values())
     assert sum(1 for a in result.activities if a.activity == "transport") == 8
 
 

@@ -57,8 +57,8 @@ def test_one_column_build_takes_the_hand_computed_time():
 def test_frame_is_built_floor_by_floor_columns_before_beams(fleet):
     smart, elevations = _frame(2, 2, 2)
     result = simulate(smart, load_fleet(fleet), storey_elevations=elevations, per_node=False)  # whole-component positioning
-    assert all(c.state == State.ASSEMBLED for c in smart.components.values())
-    assert all(n.state == State.ASSEMBLED for n in smart.nodes.values())
+    assert all(c.state == State.ASSEMBLED for c in result.built.components.values())
+    assert all(n.state == State.ASSEMBLED for n in result.built.nodes.values())
     finish = {(a.activity, a.global_id): a.finish for a in result.activities if a.activity != "assemble"}
     start = {(a.activity, a.global_id): a.start for a in result.activities if a.activity == "transport"}
     for gid, supporters in smart.supporters.items():
@@ -101,7 +101,7 @@ def test_two_robots_of_each_kind_build_faster_than_one():
 def test_breakdown_mid_task_reauctions_and_loses_nothing():
     smart, elevations = _frame()
     result = simulate(smart, load_fleet("fleet2"), breakdowns=[("AssemblyRobot32", 400.0)], storey_elevations=elevations)
-    assert all(c.state == State.ASSEMBLED for c in smart.components.values())
+    assert all(c.state == State.ASSEMBLED for c in result.built.components.values())
     aborted = [a for a in result.activities if a.aborted]
     assert len(aborted) == 1 and aborted[0].robot == "AssemblyRobot32" and aborted[0].finish == pytest.approx(400.0)
     assert not [a for a in result.activities if a.robot == "AssemblyRobot32" and a.start >= 400.0]
@@ -213,7 +213,7 @@ def test_any_frame_and_fleet_builds_completely_and_consistently(nx, ny, floors, 
     model = generated_frame(nx, ny, floors)
     smart = build_smart_model(model)
     result = simulate(smart, fleet, evaluator=evaluator, seed=seed, storey_elevations=[s.elevation for s in model.storeys])
-    assert all(c.state == State.ASSEMBLED for c in smart.components.values())
+    assert all(c.state == State.ASSEMBLED for c in result.built.components.values())
     by_id = {a.id: a for a in result.activities}
     for a in result.activities:
         assert all(a.start >= by_id[p].finish - 1e-6 for p in a.predecessors)
@@ -233,7 +233,7 @@ def test_joints_among_prebuilt_components_are_already_made():
     result = simulate(smart, load_fleet("fleet1"), storey_elevations=[s.elevation for s in model.storeys])
     assembled = {a.name.split()[1] for a in result.activities if a.activity == "assemble"}
     assert assembled == {n.id for n in smart.nodes.values() if "clip" in n.id}
-    assert all(c.state == State.ASSEMBLED for c in smart.components.values())
+    assert all(c.state == State.ASSEMBLED for c in result.built.components.values())
 
 
 def test_idle_robots_can_return_to_the_nearest_yard():
@@ -262,7 +262,7 @@ def test_a_returning_robot_is_called_away_from_where_it_is(tmp_path):
         "  - {name: A1, kind: assembly, speed: 1.0, reach: 4, time_per_point: 5}\n"
     )
     result = simulate(smart, load_fleet(fleet), site, storey_elevations=elevations)
-    assert all(c.state == State.ASSEMBLED for c in smart.components.values())
+    assert all(c.state == State.ASSEMBLED for c in result.built.components.values())
     stopped = [e for e in result.events if e["event"] == "return_stopped"]
     assert stopped  # some robot was given a task on its way back
     for event in stopped:  # ... and set off from where it was, between the site and the yard
@@ -279,8 +279,25 @@ def test_a_repaired_robot_comes_back_and_finishes_the_build():
     base = simulate(smart, load_fleet("fleet1"), storey_elevations=elevations).makespan
     smart, _ = _frame()
     result = simulate(smart, load_fleet("fleet1"), breakdowns=[("AssemblyRobot31", 600.0, 900.0)], storey_elevations=elevations)
-    assert all(c.state == State.ASSEMBLED for c in smart.components.values())
+    assert all(c.state == State.ASSEMBLED for c in result.built.components.values())
     assert any("AssemblyRobot31 is repaired after 900 s" in line for line in result.log_lines)
     restart = min(a.start for a in result.activities if a.robot == "AssemblyRobot31" and a.start > 600.0 and not a.aborted)
     assert restart == pytest.approx(1500.0)
     assert base < result.makespan <= base + 900.0 + 600.0  # at worst the repair plus the lost work
+
+
+def _snapshot(smart):
+    """What a run could change in a SmartModel: every component's and node's state and position."""
+    objects = [*smart.components.values(), *smart.nodes.values()]
+    return [(o.id, str(o.state), tuple(float(v) for v in o.position)) for o in objects]
+
+
+@pytest.mark.parametrize("per_node", [False, True])
+def test_a_model_simulated_twice_gives_the_same_build_and_stays_as_built(per_node):
+    smart, elevations = _frame(2, 2, 2)
+    before = _snapshot(smart)
+    runs = [simulate(smart, load_fleet("fleet2"), storey_elevations=elevations, per_node=per_node) for _ in range(2)]
+    assert _snapshot(smart) == before  # still on the yard, as built: nothing moved, nothing assembled
+    rows = [[(a.id, a.activity, a.global_id, a.robot, a.start, a.finish, a.predecessors) for a in r.activities] for r in runs]
+    assert rows[0] == rows[1] and runs[0].log_lines == runs[1].log_lines and runs[0].makespan == runs[1].makespan
+    assert all(c.state == State.ASSEMBLED for c in runs[1].built.components.values())

@@ -65,7 +65,7 @@ def test_fleet1_reproduces_table_4_2(frame6):
     # The irreducible difference the spec names: the table shows 2 more steps for these two robots.
     assert (_robot(result, "TransportRobot11").steps, _robot(result, "AssemblyRobot31").steps) == (24, 40)
     assert result.thesis_table is table
-    assert all(c.state == State.ASSEMBLED for c in smart.components.values() if not c.prebuilt)
+    assert all(c.state == State.ASSEMBLED for c in result.built.components.values() if not c.prebuilt)
 
 
 def test_fleet2_reproduces_table_4_2(frame6):
@@ -113,7 +113,7 @@ def test_requests_are_released_per_node_by_acc_and_rcc(frame6):
 def test_multi_floor_generated_frame_is_built_floor_by_floor():
     model = generated_frame(2, 2, 2)
     smart, result = _run(model, "fleet2")
-    assert all(n.state == State.ASSEMBLED for n in smart.nodes.values() if not smart.components[n.component_id].prebuilt)
+    assert all(n.state == State.ASSEMBLED for n in result.built.nodes.values() if not smart.components[n.component_id].prebuilt)
     assert result.floor_steps == sorted(result.floor_steps) and result.floor_steps[-1] == result.steps
     for task in result.tasks:
         if task.kind != "transport":
@@ -156,7 +156,7 @@ def test_cli_refuses_options_that_do_not_fit_the_mode(frame6_ifc, tmp_path, caps
 # ---------------------------------------------------------------- per-node work in the event mode
 def _check_per_node_schedule(smart, result):
     """Every robot-built node positioned and assembled once, after its predecessors, robots never double-booked."""
-    assert all(c.state == State.ASSEMBLED for c in smart.components.values())
+    assert all(c.state == State.ASSEMBLED for c in result.built.components.values())
     done = [a for a in result.activities if not a.aborted]
     work_nodes = {n.id for n in smart.nodes.values() if not smart.components[n.component_id].prebuilt}
     # a prebuilt node joined to a robot-built one (a footing's anchor bolts) is assembled with it
@@ -266,7 +266,7 @@ def test_default_event_mode_assembles_every_point_of_the_model(tmp_path, bolts, 
     assembled = [a.name.split(" ", 1)[1] for a in result.activities if a.activity == "assemble" and not a.aborted]
     assert sorted(assembled) == sorted(smart.nodes)  # every node once, footing nodes included
     assert sum(smart.nodes[n].assembly_point_number for n in assembled) == (64 if bolts is None else 120)
-    assert all(n.state == State.ASSEMBLED for n in smart.nodes.values())
+    assert all(n.state == State.ASSEMBLED for n in result.built.nodes.values())
     assert (round(result.makespan, 1), result.steps) == (makespan, steps)
 
 

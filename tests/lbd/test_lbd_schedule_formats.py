@@ -136,11 +136,23 @@ def test_work_schedule_output_policy_and_ifc2x3(frame_ifc, schedule, tmp_path, c
     assert foreign.read_text() == "not bimrobot's"
     with pytest.raises(InputError):
         write_work_schedule(frame_ifc, schedule, frame_ifc)  # never over its input
-    prefab = SHARED / "ifc" / "MULTICOM-Prefab.ifc"
-    if prefab.is_file():
-        one = Schedule([Activity("A1", "x", "transport", None, None, 0.0, 1.0)])
-        with pytest.raises(InputError, match="is IFC2X3, which has no IfcTaskTime"):
-            write_work_schedule(prefab, one, tmp_path / "p.ifc")
+    trappen = SHARED / "ifc" / "MULTICOM-trappen_bordessen.ifc"
+    if trappen.is_file():  # IFC2X3 has no IfcTaskTime: the scheduled copy is migrated to IFC4
+        import ifcopenshell
+
+        original = ifcopenshell.open(str(trappen))
+        column = original.by_type("IfcElementAssembly")[0].GlobalId  # a precast unit
+        one = Schedule([Activity("A1", "Transport", "transport", column, "R1", 0.0, 60.0),
+                        Activity("A2", "Position", "position", column, "R1", 60.0, 90.0, ("A1",))])
+        write_work_schedule(trappen, one, tmp_path / "t.ifc", epoch="2027-03-01T07:00")
+        copy = ifcopenshell.open(str(tmp_path / "t.ifc"))
+        assert copy.schema == "IFC4"
+        assert len(copy.by_type("IfcProduct")) == len(original.by_type("IfcProduct"))  # every element kept
+        tasks = {t.Identification: t for t in copy.by_type("IfcTask")}
+        assert set(tasks) == {"A1", "A2"} and tasks["A2"].TaskTime.ScheduleStart == "2027-03-01T07:01:00"
+        products = [r.RelatingProduct.GlobalId for r in tasks["A1"].HasAssignments if r.is_a("IfcRelAssignsToProduct")]
+        assert products == [column]
+        assert tasks["A2"].IsSuccessorFrom[0].RelatingProcess == tasks["A1"]
 
 
 def test_graph_cli_writes_the_scheduled_ifc(frame_ifc, frame_schedule_csv, tmp_path, capsys):

@@ -69,6 +69,8 @@ def test_rcan_executes_each_activity_on_the_robot_the_schedule_assigned(built):
         executed = dict(db.execute("SELECT activity_id, robot FROM activity"))
     assert executed and all(robot == assigned[activity.split(".")[0]] for activity, robot in executed.items())
     assert set(executed.values()) == set(assigned.values())  # the fleet's robots, not the built-in table's
+    report = json.loads((built / "rcan" / "report.json").read_text())
+    assert report["robots"] == executed  # the report lists each activity with its robot
 
 
 def test_build_graph_is_the_hub_rcan_runs_from_and_the_ifc_carries_the_work_schedule(built):

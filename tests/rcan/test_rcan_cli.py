@@ -11,7 +11,7 @@ def test_experiment_prints_the_interaction_log(capsys):
     assert main(["rcan", "run", "--experiment", "2", "--backend", "sim"]) == 0
     out = capsys.readouterr().out
     assert "== RCAN experiment 2: column that needs transport" in out
-    assert "[component 267VPu8ab9991QBA3MI3UN] publishes E2.4 'Transport' target (4.00, 2.60, 0.00)" in out
+    assert "[component 267VPu8ab9991QBA3MI3UN] publishes E2.4 'Transport' target (4.00, 1.40, 0.00)" in out
     assert "[generation] RCAN node rcan/E2.4 instantiated: component 267VPu8ab9991QBA3MI3UN, activity 'Transport', robot husky_ur5, backend sim" in out
     assert "[rcan/E2.4] robot husky_ur5 executes 'Transport'" in out
     assert "[component 267VPu8ab9991QBA3MI3UN] state: Arrived" in out

@@ -140,12 +140,65 @@ def test_a_component_no_assembly_fixes_is_installed_by_its_positioning():
 def test_a_component_waiting_on_the_yard_within_reach_is_picked_up_there():
     """The thesis' experiment 1: one assemble row and no transport; the component starts OnYard (as the
     graph says), so the row picks it up from its pick-up position and installs it."""
-    rows = [_row("A1", "assemble", "C1", 0)]
+    near = Activity("A1", "Assemble C1", "assemble", "C1", "R1", 0, 10, (), (0.55, -0.35, 0.30))
     on_yard = ComponentFacts(2.0, (0.04, 0.04), None, (0.0, -0.75, 0.45), "OnYard")
-    plan = plan_from_schedule(Schedule(rows), facts=lambda gid: on_yard)
+    plan = plan_from_schedule(Schedule([near]), facts=lambda gid: on_yard)
     assert [a.kind for a in plan] == [K.MOVE_TO_COMPONENT, K.POSITION_FOR_PICKING_UP, K.PICK_UP,
                                       K.POSITION_FOR_INSTALLING, K.INSTALL]
     assert plan[2].target.as_tuple() == (0.0, -0.75, 0.45) and all(a.lifts for a in plan[:4])
+    stand = plan[0].target  # midway: both the pick-up and the install within the UR5's 0.85 m
+    assert stand.distance_xy(plan[2].target) <= 0.43 and stand.distance_xy(plan[4].target) <= 0.43
+    # 5 m away: the robot carries it over itself and does not let go in between
+    rows = [_row("A1", "assemble", "C1", 0)]
+    far = plan_from_schedule(Schedule(rows), facts=lambda gid: on_yard)
+    assert [a.kind for a in far] == [K.MOVE_TO_COMPONENT, K.POSITION_FOR_PICKING_UP, K.PICK_UP, K.TRANSPORT,
+                                     K.POSITION_FOR_INSTALLING, K.INSTALL]
+    assert [a.releases_robot for a in far] == [False] * 5 + [True]
     # a component whose start the CSV does not give is taken to be in place (a footing): no pick-up
     in_place = plan_from_schedule(Schedule(rows))
     assert [a.kind for a in in_place] == [K.MOVE_TO_COMPONENT, K.POSITION_FOR_INSTALLING, K.INSTALL]
+
+
+@pytest.mark.parametrize("number", [1, 2, 3])
+def test_the_experiments_are_generated_from_an_ifc_file_and_a_schedule_through_the_graph(number, tmp_path, capsys):
+    """`bimrobot example rcan-experiment-N` + a one-row schedule -> `bimrobot graph` -> `rcan run --graph`
+    executes exactly the experiment's activities; whether the robot transports the component follows
+    from the positions (experiment 1's column is within reach, 2's and 3's are not)."""
+    import csv
+
+    from bimrobot.bim import load_model
+    from bimrobot.bim.examples import RCAN_EXPERIMENTS
+    from bimrobot.rcan.plans import experiment
+
+    _, gid, ifc_class, section, _, kg, pick_up, installed = RCAN_EXPERIMENTS[number]
+    model = tmp_path / "experiment.ifc"
+    assert main(["example", f"rcan-experiment-{number}", "-o", str(model)]) == 0
+    loaded = load_model(model)
+    assert loaded.elements[gid].ifc_class == ifc_class and loaded.elements[gid].weight_kg == pytest.approx(kg)
+    schedule = tmp_path / "schedule.csv"
+    with schedule.open("w", newline="", encoding="utf-8") as stream:
+        writer = csv.writer(stream)
+        writer.writerow(["Identification", "Name", "Activity", "GlobalId", "Robot", "Start", "Finish", "Predecessors",
+                         "TargetX", "TargetY", "TargetZ"])
+        writer.writerow([f"E{number}", f"Assemble {gid}", "assemble", gid, "husky_ur5", 0, 0, "", *installed])
+    graph = ConstructionGraph.open(_graph_with_pick_up(model, schedule, gid, pick_up, tmp_path))
+    plan = plan_from_graph(graph)
+    assert plan == list(experiment(number).activities)
+    kinds = [a.kind for a in plan]
+    assert (K.TRANSPORT in kinds) == (number != 1)
+    assert plan[0].section_m == pytest.approx(section)
+    capsys.readouterr()
+
+
+def _graph_with_pick_up(model, schedule, gid, pick_up, folder):
+    """The graph of ``model`` and ``schedule`` with ``gid`` waiting at ``pick_up`` (what `graph --package`
+    writes from a yard layout; the experiments' yard is the thesis' pick-up pose)."""
+    from bimrobot.bim import load_model
+    from bimrobot.lbd.graph import build_graph
+    from bimrobot.lbd.schedule import load_schedule_csv
+
+    loaded = load_model(model)
+    graph = build_graph(loaded, load_schedule_csv(schedule, loaded), pick_up={gid: pick_up})
+    path = folder / "experiment.ttl"
+    graph.serialize(path)
+    return path

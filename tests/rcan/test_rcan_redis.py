@@ -85,10 +85,11 @@ def test_unacknowledged_message_is_delivered_again_after_a_crash(redis_url):
     restarted = RedisBroker(redis_url, group="executor", consumer="executor-husky")
     (again,) = restarted.receive(["rcan.robot.husky_ur5"], timeout_s=1.0)
     assert again.message_id == first.message_id
-    restarted.ack(again)
+    restarted.ack(again)  # sent with its next command, or when it closes
+    restarted.close()
     later = RedisBroker(redis_url, group="executor", consumer="executor-husky")
     assert later.receive(["rcan.robot.husky_ur5"], timeout_s=0.2) == []
-    for broker in (sender, restarted, later):
+    for broker in (sender, later):
         broker.close()
 
 

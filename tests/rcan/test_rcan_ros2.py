@@ -28,7 +28,7 @@ def ros2_robots():
     patch = pytest.MonkeyPatch()
     patch.setenv("ROS_DOMAIN_ID", str(random.randint(1, 200)))
     patch.setenv("FASTDDS_BUILTIN_TRANSPORTS", "SHM")
-    before = ros2._fastdds_files()
+    before = ros2.fastdds_files()
     try:
         with ros2.robot_node_process():
             yield ros2
@@ -90,7 +90,7 @@ def test_cli_experiment_on_ros2_spawns_and_stops_its_robot_node(ros2_robots, tmp
     import subprocess
     import sys
 
-    before = ros2_robots._fastdds_files()
+    before = ros2_robots.fastdds_files()
     env = {**os.environ, "ROS_DOMAIN_ID": str(random.randint(1, 200)), "FASTDDS_BUILTIN_TRANSPORTS": "SHM"}
     run = subprocess.run([sys.executable, "-m", "bimrobot", "rcan", "run", "--experiment", "3", "--backend", "ros2"],
                          capture_output=True, text=True, env=env, timeout=120)
@@ -122,7 +122,7 @@ def test_a_dead_robot_node_is_detected_and_its_activity_retried_on_another_robot
     for key in ("ROS_DOMAIN_ID", "FASTDDS_BUILTIN_TRANSPORTS"):
         monkeypatch.setenv(key, env[key])
     caps_file = write_capabilities(tmp_path / "caps.yaml")
-    before = ros2_robots._fastdds_files()
+    before = ros2_robots.fastdds_files()
     nodes = {}
     for robot in ("crane_a", "crane_b"):
         nodes[robot] = subprocess.Popen([sys.executable, "-m", "bimrobot", "rcan", "robot-node", "--capabilities",
@@ -171,7 +171,7 @@ def test_ctrl_c_stops_a_ros2_run_cleanly(ros2_robots, tmp_path):
     import subprocess
     import sys
 
-    before = ros2_robots._fastdds_files()
+    before = ros2_robots.fastdds_files()
     db = tmp_path / "run.sqlite"
     run = subprocess.Popen([sys.executable, "-m", "bimrobot", "rcan", "run", "--experiment", "2", "--backend", "ros2",
                             "--time-scale", "1", "--state-db", str(db)],

@@ -120,7 +120,7 @@ def test_a_prebuilt_slab_on_a_robot_built_beam_is_made_once_the_beam_is_placed(t
     fleet = tmp_path / "heavy.yaml"
     fleet.write_text(HEAVY_FLEET)
     result = simulate(smart, load_fleet(fleet), storey_elevations=[0.0, 3.0])
-    assert all(c.state == State.ASSEMBLED for c in smart.components.values())
+    assert all(c.state == State.ASSEMBLED for c in result.built.components.values())
     rows = {(a.activity, a.global_id): a for a in result.activities}
     assert ("transport", "SLAB") not in rows and ("position", "SLAB") not in rows  # no robot time for it
     slab_made = dict(result.state_history["SLAB"])

@@ -1,7 +1,10 @@
 """The thesis' state chart (fig. 4.2) for components and connection nodes."""
 
+import pickle
+
 import numpy as np
 import pytest
+import simpy
 
 from bimrobot.sco import Component, ConnectionNode, Event, InvalidTransitionError, Requirement, State
 
@@ -77,6 +80,47 @@ def test_invalid_transition_names_component_state_and_event():
     message = str(error.value)
     assert "component COL" in message and "OnYard" in message and "finish_transport" in message
     assert "start_transport" in message  # what is allowed instead
+
+
+def _refused_transition() -> InvalidTransitionError:
+    try:
+        _column_with_nodes(1).update_state(Event.FINISH_TRANSPORT)
+    except InvalidTransitionError as exc:
+        return exc
+    raise AssertionError("finish_transport on the yard was allowed")
+
+
+def _facts(error: InvalidTransitionError) -> tuple:
+    return (str(error), error.kind, error.object_id, error.state, error.event)
+
+
+def test_invalid_transition_survives_pickling():
+    # A process pool sends a worker's error back pickled: the user must still read what went wrong.
+    original = _refused_transition()
+    copy = pickle.loads(pickle.dumps(original))
+    assert type(copy) is InvalidTransitionError
+    assert _facts(copy) == _facts(original) == (
+        str(original), "component", "COL", State.ON_YARD, Event.FINISH_TRANSPORT)
+    assert str(copy).startswith("component COL in state OnYard cannot take event finish_transport")
+
+
+def test_invalid_transition_survives_simpys_reraise():
+    # SimPy re-raises a failed process's error as type(error)(*error.args) from env.run().
+    column = _column_with_nodes(1)
+    env = simpy.Environment()
+
+    def arrive():
+        yield env.timeout(5.0)
+        column.update_state(Event.FINISH_TRANSPORT)  # never left the yard
+
+    env.process(arrive())
+    with pytest.raises(InvalidTransitionError) as error:
+        env.run()
+    original = error.value.__cause__
+    assert isinstance(original, InvalidTransitionError) and error.value is not original
+    assert _facts(error.value) == _facts(original)
+    assert (error.value.object_id, error.value.state, error.value.event) == ("COL", State.ON_YARD, Event.FINISH_TRANSPORT)
+    assert "allowed: start_transport" in str(error.value)
 
 
 def test_node_event_is_refused_while_the_component_is_on_the_yard():

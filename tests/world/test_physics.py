@@ -59,3 +59,17 @@ def test_flat_body_gets_a_positive_definite_tensor():
     assert props.inertia_method == "bounding box"
     assert props.mass == 5.0
     assert inertia_problem(props.inertia) is None
+
+
+def test_beam_dropped_in_mujoco_rests_on_its_flange_at_half_its_depth():
+    pytest.importorskip("mujoco")
+    from bimrobot.world.physics import Body, drop_on_ground
+
+    beam = box_element("1Beam$0000000000000000", "IfcBeam", (3.5, 0.15, 0.31), np.eye(4), 109.28, base_at_origin=False)
+    body = Body(beam.vertices, beam.faces)
+    start = np.eye(4)
+    start[:3, 3] = (0.0, 0.0, 0.5)
+    rest = drop_on_ground([body.hull], mass_properties(beam, body), start, seconds=2.0)
+    assert rest.center_of_mass[2] == pytest.approx(0.155, abs=2e-3)  # half its depth above the ground
+    assert rest.speed < 1e-3 and rest.angular_speed < 1e-2
+    np.testing.assert_allclose(rest.pose[:3, :3], np.eye(3), atol=1e-3)  # it fell flat, did not tip

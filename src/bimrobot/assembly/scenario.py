@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from bimrobot.config import line_of, parse_yaml
+from bimrobot.config import check_keys, line_of, read_yaml_file
 from bimrobot.errors import InputError
 
 SETTINGS_DIR = Path(__file__).with_name("settings")
@@ -38,6 +38,10 @@ MAX_COMPONENT_LENGTH = 4
 MAX_TIME_LIMIT = 100_000
 #: Largest magnitude of a reward constant (the benchmark's are -1 and 10).
 MAX_REWARD = 1e6
+
+#: The keys of a target entry and of a component entry (docs/assembly.md).
+TARGET_KEYS = ("type", "cells")
+COMPONENT_KEYS = ("id", "type", "length", "start", "target", "prebuilt")
 
 Cell = tuple[int, int, int]
 
@@ -194,7 +198,7 @@ def load_scenario(path: str | Path) -> Scenario:
 
 
 def _read_yaml(path: Path) -> Any:
-    return parse_yaml(path.read_text(encoding="utf-8"), str(path))
+    return read_yaml_file(path, "scenario file")
 
 
 def parse_scenario(data: dict[str, Any], source: str = "<memory>") -> Scenario:
@@ -214,16 +218,10 @@ def parse_scenario(data: dict[str, Any], source: str = "<memory>") -> Scenario:
         "name", "description", "grid", "time_limit", "reward", "foundations", "obstacles", "layout", "yard",
         "construction_area", "targets", "components", "interchangeable",
     }
-    for key in data:
-        if key not in known:
-            raise InputError(f"{source}{line_of(data, key)}: unknown key '{key}' (expected one of {', '.join(sorted(known))})")
+    check_keys(data, known, source)
     p.read_grid(data.get("grid", [15, 15, 9]), line_of(data, "grid"))
     reward_data = p.mapping(data.get("reward") or {}, "reward", line_of(data, "reward"))
-    for key in reward_data:
-        if key not in ("r0", "epsilon", "completion_bonus"):
-            raise InputError(
-                f"{source}{line_of(reward_data, key)}: reward: unknown key '{key}' (expected r0, epsilon, completion_bonus)"
-            )
+    check_keys(reward_data, ("r0", "epsilon", "completion_bonus"), source, "reward")
 
     def reward_line(key: str) -> str:
         return line_of(reward_data, key) or line_of(data, "reward")
@@ -245,6 +243,7 @@ def parse_scenario(data: dict[str, Any], source: str = "<memory>") -> Scenario:
         where = f"targets.{tid}"
         line = line_of(targets_data, tid)
         tdata = p.mapping(tdata, where, line)
+        check_keys(tdata, TARGET_KEYS, source, where)
         ttype = p.component_type(tdata.get("type"), where, line_of(tdata, "type") or line)
         node1, node2 = p.run(tdata.get("cells"), f"{where}.cells", line_of(tdata, "cells") or line)
         targets.append(Target(str(tid), ttype, node1, node2))
@@ -256,6 +255,7 @@ def parse_scenario(data: dict[str, Any], source: str = "<memory>") -> Scenario:
         cid = str(cdata.get("id", f"#{i}"))
         where = f"components.{cid}"
         line = f" line {cdata.line}" if getattr(cdata, "line", None) else line_of(data, "components")
+        check_keys(cdata, COMPONENT_KEYS, source, where)
         ctype = p.component_type(cdata.get("type"), where, line_of(cdata, "type") or line)
         length = p.integer(
             cdata.get("length", COMPONENT_LENGTHS[ctype]), f"{where}.length", line_of(cdata, "length") or line,
@@ -415,9 +415,7 @@ class _Parser:
     def box(self, value: Any, where: str, line: str) -> Box:
         if not isinstance(value, dict):
             raise self.fail(where, f"expected a box {{x: [lo, hi], y: [lo, hi], z: [lo, hi]}}, got {value!r}", line)
-        for key in value:
-            if key not in ("x", "y", "z"):
-                raise self.fail(where, f"unknown key '{key}' (expected x, y, z)", line_of(value, key) or line)
+        check_keys(value, ("x", "y", "z"), self.source, where)
         ranges = {}
         for axis, size in zip(("x", "y", "z"), self.grid):
             rng = value.get(axis, [0, 0])

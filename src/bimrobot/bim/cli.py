@@ -9,7 +9,7 @@ from collections import Counter
 from pathlib import Path
 
 
-EXAMPLE_NAMES = ("steel-frame", "greenhouse")
+EXAMPLE_NAMES = ("steel-frame", "greenhouse", "rcan-experiment-1", "rcan-experiment-2", "rcan-experiment-3")
 
 
 def register(subparsers) -> None:
@@ -21,7 +21,8 @@ def register(subparsers) -> None:
         help="write a built-in example building (IFC4, metres)",
         description="Write one of the thesis' example buildings, authored with IfcOpenShell: "
         "steel-frame (chapter 4: 4 footings, 4 W250x73 columns, 4 W310x38.7 beams, base plates, clip "
-        "angles, bolted joints) or greenhouse (chapter 3: 9 foundations, 9 columns, 10 beams).",
+        "angles, bolted joints), greenhouse (chapter 3: 9 foundations, 9 columns, 10 beams), or the component "
+        "of one of chapter 5's RCAN experiments (rcan-experiment-1/2: a 2 kg scale column; 3: a 3.6 kg footing).",
         epilog="examples:\n  bimrobot example steel-frame -o frame.ifc\n  bimrobot example greenhouse -o greenhouse.ifc\n"
         "  bimrobot example steel-frame --bolts-per-node 6 -o frame6.ifc   # Table 4.2's frame: 20 nodes, 120 bolts\n",
         formatter_class=raw,

@@ -24,6 +24,7 @@ connections (the thesis' Revit model had none); use
 
 from __future__ import annotations
 
+import functools
 import math
 import uuid
 from dataclasses import dataclass
@@ -357,6 +358,41 @@ def steel_frame(path: str | Path, bolts_per_node: int | None = None) -> Path:
     return author.write(path, "steel-frame" if bolts_per_node is None else f"steel-frame, {bolts_per_node} bolts per node")
 
 
+#: The thesis' RCAN experiments (section 5.3.3): the component's GlobalId (the column's is the one the
+#: thesis prints), IFC class, section (m), length (m), mass (kg), where it waits on the yard and where it
+#: is installed (the gripper's goal at its centre; m, world frame). The column is a light-weight scale
+#: member (aluminium, 2700 kg/m3: 40 x 40 mm x 0.46 m = 2.0 kg, within the UR5's 5 kg payload); the
+#: footing a small concrete pad (100 x 100 x 150 mm x 2400 kg/m3 = 3.6 kg).
+RCAN_EXPERIMENTS = {
+    1: ("column within the manipulator's reach", "267VPu8ab9991QBA3MI3UN", "IfcColumn", (0.04, 0.04), 0.46, 2.0,
+        (0.0, -0.75, 0.45), (0.55, -0.35, 0.30)),
+    2: ("column that needs transport", "267VPu8ab9991QBA3MI3UN", "IfcColumn", (0.04, 0.04), 0.46, 2.0,
+        (0.0, -0.75, 0.45), (4.0, 2.0, 0.30)),
+    3: ("footing that needs transport", "1kTvXnbbzCWw8lcMd1dR4o", "IfcFooting", (0.10, 0.10), 0.15, 3.6,
+        (0.0, -0.75, 0.10), (4.0, -2.0, 0.0)),
+}
+
+
+def rcan_experiment(number: int, path: str | Path) -> Path:
+    """Write the model of the thesis' RCAN experiment ``number`` (1, 2 or 3; :data:`RCAN_EXPERIMENTS`) to
+    ``path``: one storey with the experiment's component installed, its centre at the gripper's goal
+    (the placement origin is the centre of its bottom face), with its weight as an IfcQuantityWeight."""
+    _, global_id, ifc_class, section, length, kg, _, installed = RCAN_EXPERIMENTS[number]
+    author = _Author(f"RCAN experiment {number}", "Test site")
+    storey = author.storey("Ground floor", 0.0)
+    name = "Scale column" if ifc_class == "IfcColumn" else "Scale footing"
+    product = author.entity(ifc_class, name, predefined_type="COLUMN" if ifc_class == "IfcColumn" else "PAD_FOOTING")
+    product.GlobalId = global_id
+    material = author.steel if ifc_class == "IfcColumn" else author.concrete
+    if ifc_class == "IfcColumn":
+        material = ifcopenshell.api.material.add_material(author.file, name="Aluminium 6061", category="aluminium")
+    author.place(product, storey, _translation(installed[0], installed[1], installed[2] - length / 2), material)
+    author.extrusion(product, author.rectangle(*section), length)
+    qto = "Qto_ColumnBaseQuantities" if ifc_class == "IfcColumn" else "Qto_FootingBaseQuantities"
+    author.weight(product, qto, kg, NetVolume=section[0] * section[1] * length)
+    return author.write(path, f"rcan-experiment-{number}")
+
+
 def _two_rows(count: int, low: float, high: float, row_a: float, row_b: float) -> list[tuple[float, float]]:
     """``count`` bolt positions (metres) in two rows (``row_a``, ``row_b``), spread from ``low`` to ``high``."""
     per_row = (count + 1) // 2
@@ -429,4 +465,5 @@ def greenhouse(path: str | Path) -> Path:
     return author.write(path, "greenhouse")
 
 
-EXAMPLES = {"steel-frame": steel_frame, "greenhouse": greenhouse}
+EXAMPLES = {"steel-frame": steel_frame, "greenhouse": greenhouse,
+            **{f"rcan-experiment-{n}": functools.partial(rcan_experiment, n) for n in RCAN_EXPERIMENTS}}

@@ -132,6 +132,29 @@ def read_work_schedule(path: str | os.PathLike) -> list[TaskRow]:
 DURATION_TYPE = "ELAPSEDTIME"
 
 
+def migrated_to_ifc4(ifc, source: Path):
+    """An IFC4 copy of an IFC2X3 model (IfcOpenShell's schema Migrator, entity by entity; GlobalIds kept).
+
+    The Migrator prints each IFC2X3 attribute that has no IFC4 equivalent (e.g. a quantity's Formula);
+    they are counted into one log line instead."""
+    import contextlib
+    import io as text_io
+
+    import ifcopenshell
+    import ifcopenshell.util.schema
+
+    migrated = ifcopenshell.file(schema="IFC4")
+    migrator = ifcopenshell.util.schema.Migrator()
+    printed = text_io.StringIO()
+    with contextlib.redirect_stdout(printed):
+        for entity in ifc:
+            migrator.migrate(entity, migrated)
+    dropped = printed.getvalue().count("Unable to find equivalent attribute")
+    log.warning("%s is IFC2X3, which has no IfcTaskTime: the copy with the work schedule is migrated to IFC4"
+                "%s", source, f" ({dropped} attribute values without an IFC4 equivalent left out)" if dropped else "")
+    return migrated
+
+
 def write_work_schedule(ifc_in: str | os.PathLike, schedule, ifc_out: str | os.PathLike, *, epoch: str | None = None,
                         name: str = "bimrobot simulated build", option: str = "--ifc-out") -> Path:
     """Write a COPY of ``ifc_in`` with ``schedule`` as an IfcWorkSchedule (a Bonsai user sees the build in 4D).
@@ -172,9 +195,8 @@ def write_work_schedule(ifc_in: str | os.PathLike, schedule, ifc_out: str | os.P
     except ValueError:
         raise InputError(f"the schedule start {origin_text!r} is not an ISO date-time such as 2026-03-02T08:00") from None
     ifc = _open(ifc_in)
-    if ifc.schema == "IFC2X3":
-        raise InputError(f"{ifc_in} is IFC2X3, which has no IfcTaskTime: a work schedule is written into IFC4 "
-                         "or IFC4X3 models (convert the model first, e.g. with IfcOpenShell's ifcpatch Migrate)")
+    if ifc.schema == "IFC2X3":  # no IfcTaskTime in IFC2X3: the copy is migrated to IFC4 first
+        ifc = migrated_to_ifc4(ifc, ifc_in)
     work_schedule = sequence.add_work_schedule(ifc, name=name, predefined_type="PLANNED", start_time=origin)
     tasks, robots, unassigned = {}, {}, 0
     for a in activities:

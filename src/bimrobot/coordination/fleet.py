@@ -25,22 +25,20 @@ from importlib import resources
 from pathlib import Path
 
 
-from bimrobot.config import line_of, number, parse_yaml
+from bimrobot.config import check_keys, line_of, number, parse_yaml, read_yaml_file
 from bimrobot.errors import InputError
 from bimrobot.site import Site, default_site, load_site  # noqa: F401 (re-exported: the site once lived here)
 from bimrobot.site import number_in as _number_in, point as _point
+from bimrobot.tasks import KIND_TASKS, TASKS, Task
 
-ACTIVITIES = ("transport", "position", "assemble")
-KIND_ACTIVITIES = {
-    "transport": ("transport",),
-    "positioning": ("position",),
-    "assembly": ("assemble",),
-    "mobile_manipulator": ACTIVITIES,
-}
+#: The tasks (:class:`bimrobot.tasks.Task`) and, per robot kind, the tasks its robots bid for.
+ACTIVITIES = TASKS
+KIND_ACTIVITIES = KIND_TASKS
+#: The keys a robot needs for each task it does.
 ACTIVITY_KEYS = {
-    "transport": ("speed", "carry_load", "platform_size"),
-    "position": ("speed", "payload", "reach", "time_per_node"),
-    "assemble": ("speed", "reach", "time_per_point"),
+    Task.TRANSPORT: ("speed", "carry_load", "platform_size"),
+    Task.POSITION: ("speed", "payload", "reach", "time_per_node"),
+    Task.ASSEMBLE: ("speed", "reach", "time_per_point"),
 }
 OPTIONAL_KEYS = ("load_time", "unload_time", "methods", "home")
 BUILTIN_FLEETS = ("fleet1", "fleet2", "site-crane")
@@ -83,11 +81,11 @@ class RobotSpec:
     home: tuple[float, float] | None = None
 
     @property
-    def activities(self) -> tuple[str, ...]:
-        return KIND_ACTIVITIES[self.kind]
+    def activities(self) -> tuple[Task, ...]:
+        return KIND_TASKS[self.kind]
 
-    def can(self, activity: str) -> bool:
-        return activity in KIND_ACTIVITIES[self.kind]
+    def can(self, activity: Task | str) -> bool:
+        return activity in KIND_TASKS[self.kind]
 
 
 @dataclass(frozen=True)
@@ -96,7 +94,7 @@ class Fleet:
     robots: tuple[RobotSpec, ...]
     source: str
 
-    def by_activity(self, activity: str) -> list[RobotSpec]:
+    def by_activity(self, activity: Task | str) -> list[RobotSpec]:
         return [r for r in self.robots if r.can(activity)]
 
 
@@ -113,9 +111,7 @@ def _robot(entry, source: str, index: int) -> RobotSpec:
         raise InputError(f"{source}{line_of(entry, 'kind')}: {where}: key 'kind' must be one of {', '.join(KIND_ACTIVITIES)}, got {kind!r}")
     needed = {key for activity in KIND_ACTIVITIES[kind] for key in ACTIVITY_KEYS[activity]}
     allowed = needed | set(OPTIONAL_KEYS) | {"name", "kind"}
-    for key in entry:
-        if key not in allowed:
-            raise InputError(f"{source}{line_of(entry, key)}: {where}: unknown key '{key}' for a {kind} robot (allowed: {', '.join(sorted(allowed))})")
+    check_keys(entry, allowed, source, where, detail=f" for a {kind} robot")
     for key in sorted(needed):
         if key not in entry:
             raise InputError(f"{source}: {where}: missing key '{key}' (a {kind} robot needs {', '.join(sorted(needed))})")
@@ -147,14 +143,15 @@ def fleet_from_dict(data, source: str) -> Fleet:
     robots = data["robots"]
     if not isinstance(robots, list) or not robots:
         raise InputError(f"{source}: key 'robots' must be a non-empty list")
-    extra = set(data) - {"name", "robots"}
-    if extra:
-        raise InputError(f"{source}: unknown top-level key '{sorted(extra)[0]}' (allowed: name, robots)")
+    check_keys(data, ("name", "robots"), source)
     specs = tuple(_robot(entry, source, i) for i, entry in enumerate(robots))
-    names = [r.name for r in specs]
-    duplicate = next((n for n in names if names.count(n) > 1), None)
-    if duplicate:
-        raise InputError(f"{source}: robot name '{duplicate}' is used twice")
+    first: dict[str, int] = {}
+    for index, spec in enumerate(specs):
+        if spec.name in first:
+            line = getattr(robots[index], "line", None)
+            raise InputError(f"{source}{f' line {line}' if line else ''}: robot name '{spec.name}' is used twice "
+                             f"(robots[{first[spec.name]}] and robots[{index}])")
+        first[spec.name] = index
     return Fleet(name=str(data.get("name") or Path(source).stem), robots=specs, source=source)
 
 
@@ -163,10 +160,7 @@ def load_fleet(spec: str | Path) -> Fleet:
     if str(spec) in BUILTIN_FLEETS:
         text = resources.files("bimrobot.coordination").joinpath("fleets", f"{spec}.yaml").read_text()
         source = f"built-in fleet {spec}"
-    else:
-        path = Path(spec)
-        if not path.is_file():
-            raise InputError(f"fleet {spec!r} is neither a built-in fleet ({', '.join(BUILTIN_FLEETS)}) nor a file")
-        text = path.read_text()
-        source = str(path)
-    return fleet_from_dict(parse_yaml(text, source), source)
+        return fleet_from_dict(parse_yaml(text, source), source)
+    if not Path(spec).is_file():
+        raise InputError(f"fleet {spec!r} is neither a built-in fleet ({', '.join(BUILTIN_FLEETS)}) nor a file")
+    return fleet_from_dict(read_yaml_file(spec, "fleet file"), str(spec))

@@ -17,14 +17,15 @@ Positions are (x, y) in metres in the site frame; times in seconds.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 
 from bimrobot.coordination.fleet import RobotSpec
 from bimrobot.errors import InputError
+from bimrobot.tasks import Task
 
-EVALUATORS = ("least-cost", "quickest-finish", "greedy-nearest", "random")
 TOLERANCE_M = 1e-6
 
 
@@ -39,7 +40,7 @@ class TaskRequest:
     """
 
     id: str
-    activity: str
+    activity: Task
     component_id: str
     start: np.ndarray
     end: np.ndarray
@@ -90,7 +91,7 @@ def incapability(spec: RobotSpec, request: TaskRequest) -> str | None:
     """Why ``spec`` cannot do ``request`` (one phrase), or None when it can."""
     if not spec.can(request.activity):
         return f"a {spec.kind} robot does not {request.activity}"
-    if request.activity == "transport":
+    if request.activity == Task.TRANSPORT:
         if request.weight_kg > spec.carry_load + TOLERANCE_M:
             return f"carry load {spec.carry_load:g} kg < {request.weight_kg:.1f} kg"
         if request.size[0] > spec.platform_size[0] + TOLERANCE_M or request.size[1] > spec.platform_size[1] + TOLERANCE_M:
@@ -98,12 +99,12 @@ def incapability(spec: RobotSpec, request: TaskRequest) -> str | None:
                 f"platform {spec.platform_size[0]:g} x {spec.platform_size[1]:g} m < "
                 f"component {request.size[0]:.2f} x {request.size[1]:.2f} m"
             )
-    elif request.activity == "position":
+    elif request.activity == Task.POSITION:
         if request.weight_kg > spec.payload + TOLERANCE_M:
             return f"payload {spec.payload:g} kg < {request.weight_kg:.1f} kg"
         if request.reach_needed > spec.reach + TOLERANCE_M:
             return f"reach {spec.reach:g} m < {request.reach_needed:.2f} m"
-    elif request.activity == "assemble":
+    elif request.activity == Task.ASSEMBLE:
         if request.reach_needed > spec.reach + TOLERANCE_M:
             return f"reach {spec.reach:g} m < {request.reach_needed:.2f} m"
         missing = request.methods - set(spec.methods)
@@ -114,10 +115,10 @@ def incapability(spec: RobotSpec, request: TaskRequest) -> str | None:
 
 def handling_time(spec: RobotSpec, request: TaskRequest) -> float:
     """Seconds of work once the robot is at ``request.start`` (for transport: load, drive, unload)."""
-    if request.activity == "transport":
+    if request.activity == Task.TRANSPORT:
         distance = float(np.hypot(*(request.end - request.start)))
         return spec.load_time + distance / spec.speed + spec.unload_time
-    if request.activity == "position":
+    if request.activity == Task.POSITION:
         return max(1, request.nodes) * spec.time_per_node
     return max(1, request.points) * spec.time_per_point
 
@@ -130,27 +131,66 @@ def propose(spec: RobotSpec, position: np.ndarray, available_at: float, idle: bo
     return BidProposal(spec.name, request.id, distance, travel, handling, available_at + travel + handling, idle)
 
 
-@dataclass
 class Evaluator:
-    """Chooses one proposal. ``idle_only``: whether busy robots are asked to bid at all."""
+    """Chooses one proposal; one subclass per policy. ``idle_only``: whether busy robots bid at all."""
 
-    name: str
-    idle_only: bool = True
-    rng: np.random.Generator = field(default_factory=lambda: np.random.default_rng(0))
+    name: ClassVar[str]
+    idle_only: ClassVar[bool] = True
 
     def choose(self, proposals: list[BidProposal]) -> BidProposal:
-        if self.name == "least-cost":
-            return min(proposals, key=lambda p: (p.cost, p.robot))
-        if self.name == "quickest-finish":
-            return min(proposals, key=lambda p: (p.finish_time, not p.idle, p.robot))
-        if self.name == "greedy-nearest":
-            return min(proposals, key=lambda p: (p.distance, p.robot))
+        raise NotImplementedError
+
+
+class LeastCost(Evaluator):
+    """The thesis' lowest bidding price: among the idle robots, the lowest cost (ties: robot name)."""
+
+    name = "least-cost"
+
+    def choose(self, proposals: list[BidProposal]) -> BidProposal:
+        return min(proposals, key=lambda p: (p.cost, p.robot))
+
+
+class QuickestFinish(Evaluator):
+    """Among all capable robots, busy ones included, the earliest finish (ties: an idle robot, then name)."""
+
+    name = "quickest-finish"
+    idle_only = False
+
+    def choose(self, proposals: list[BidProposal]) -> BidProposal:
+        return min(proposals, key=lambda p: (p.finish_time, not p.idle, p.robot))
+
+
+class GreedyNearest(Evaluator):
+    """Baseline: the nearest idle robot, whatever its handling speed (ties: robot name)."""
+
+    name = "greedy-nearest"
+
+    def choose(self, proposals: list[BidProposal]) -> BidProposal:
+        return min(proposals, key=lambda p: (p.distance, p.robot))
+
+
+class RandomChoice(Evaluator):
+    """Baseline: a uniformly random idle robot, reproducible with its ``seed``."""
+
+    name = "random"
+
+    def __init__(self, seed: int = 0):
+        self.rng = np.random.default_rng(seed)
+
+    def choose(self, proposals: list[BidProposal]) -> BidProposal:
         ordered = sorted(proposals, key=lambda p: p.robot)
         return ordered[int(self.rng.integers(len(ordered)))]
 
 
+#: Policy name -> its evaluator class, in the order the CLI lists them.
+EVALUATOR_CLASSES: dict[str, type[Evaluator]] = {
+    cls.name: cls for cls in (LeastCost, QuickestFinish, GreedyNearest, RandomChoice)
+}
+EVALUATORS = tuple(EVALUATOR_CLASSES)
+
+
 def make_evaluator(name: str, seed: int = 0) -> Evaluator:
-    """The evaluator called ``name`` (one of :data:`EVALUATORS`)."""
-    if name not in EVALUATORS:
+    """The evaluator called ``name`` (one of :data:`EVALUATORS`); ``seed`` drives the random baseline."""
+    if name not in EVALUATOR_CLASSES:
         raise InputError(f"unknown evaluator {name!r}: choose one of {', '.join(EVALUATORS)}")
-    return Evaluator(name=name, idle_only=name != "quickest-finish", rng=np.random.default_rng(seed))
+    return RandomChoice(seed) if name == RandomChoice.name else EVALUATOR_CLASSES[name]()

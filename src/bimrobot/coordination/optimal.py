@@ -20,6 +20,7 @@ import numpy as np
 from bimrobot.coordination.fleet import Fleet, Site
 from bimrobot.coordination.market import handling_time, incapability
 from bimrobot.coordination.simulation import ConstructionSimulation
+from bimrobot.tasks import Task
 from bimrobot.errors import InputError, require_extra
 from bimrobot.sco.build import SmartModel
 
@@ -29,7 +30,7 @@ SCALE = 100  # solver time unit: 0.01 s
 @dataclass
 class _Task:
     key: str
-    activity: str
+    activity: Task
     request: object
     predecessors: list[str]
 
@@ -57,8 +58,8 @@ def task_graph(smart: SmartModel, sim: ConstructionSimulation) -> list[_Task]:
         # a prebuilt supporter made later stands once its own robot-built supporters do
         preds = [f"position:{s}" for s in smart.robot_supporters(component.id)]
         preds += [key for floor, keys in joints_by_floor.items() if floor < component.floor for key in keys]
-        tasks.append(_Task(f"transport:{component.id}", "transport", sim._request("transport", component), preds))
-        tasks.append(_Task(f"position:{component.id}", "position", sim._request("position", component), [f"transport:{component.id}"]))
+        tasks.append(_Task(f"transport:{component.id}", Task.TRANSPORT, sim._request(Task.TRANSPORT, component), preds))
+        tasks.append(_Task(f"position:{component.id}", Task.POSITION, sim._request(Task.POSITION, component), [f"transport:{component.id}"]))
     for joint in smart.joints.values():
         members = [components[g] for g in joint.component_ids]
         preds = [f"position:{m.id}" for m in members if not m.prebuilt]
@@ -66,7 +67,7 @@ def task_graph(smart: SmartModel, sim: ConstructionSimulation) -> list[_Task]:
         preds = list(dict.fromkeys(preds))
         if not preds:
             continue  # foundations only: nothing for robots to wait for, but still assembled
-        tasks.append(_Task(f"assemble:{joint.id}", "assemble", sim._request("assemble", members[0], joint), preds))
+        tasks.append(_Task(f"assemble:{joint.id}", Task.ASSEMBLE, sim._request(Task.ASSEMBLE, members[0], joint), preds))
     return tasks
 
 

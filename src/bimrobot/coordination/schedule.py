@@ -18,6 +18,7 @@ from bimrobot.lbd.schedule import (
 )
 from bimrobot.lbd.schedule import load_schedule_csv as _load_schedule
 from bimrobot.lbd.schedule import write_schedule_csv as _write_schedule
+from bimrobot.tasks import Task
 
 __all__ = ["COLUMNS", "PREDEFINED_TYPE", "is_schedule_csv", "load_schedule_csv", "schedule_activities",
            "schedule_rows", "write_schedule_csv"]
@@ -31,7 +32,7 @@ def schedule_activities(activities) -> list[Activity]:
             id=a.id, name=a.name, activity=a.activity, global_id=a.global_id, robot=a.robot,
             start=round(a.start, 3), finish=round(a.finish, 3), predecessors=tuple(a.predecessors),
             target=tuple(round(float(v), 4) for v in a.target), storey=a.storey,
-            predefined_type=PREDEFINED_TYPE[a.activity],
+            predefined_type=Task(a.activity).ifc_task_type,
         ))  # fmt: skip
     return rows
 

@@ -39,10 +39,11 @@ from bimrobot.errors import BimrobotError, InputError
 from bimrobot.sco.build import SmartModel, gc_paused
 from bimrobot.sco.component import Component, Joint
 from bimrobot.sco.states import Event, State, at_least
+from bimrobot.tasks import TASKS, Task
 
 log = logging.getLogger(__name__)
 
-ACTIVITY_RANK = {"assemble": 0, "position": 1, "transport": 2}
+ACTIVITY_RANK = {task: task.rank for task in TASKS}  # assemble first: the work nearest to done
 #: A yard or robot home farther than this from the building (metres) is a mistake in the site file
 #: (e.g. a georeferenced model_offset), not a site: robots would drive for days.
 MAX_SITE_DISTANCE_M = 10_000.0
@@ -53,7 +54,7 @@ class Activity:
     """One row of the schedule: an activity done by one robot (times s, target in the model frame, m)."""
 
     id: str
-    activity: str
+    activity: Task
     global_id: str
     name: str
     robot: str
@@ -112,6 +113,7 @@ class SimulationResult:
     smart_summary: dict
     breakdowns: list[tuple] = field(default_factory=list)
     per_node: bool = False  # tasks per connection node (--per-node); False: per component / per joint
+    built: SmartModel | None = None  # the run's copy of the model, in its final states (the input is unchanged)
 
     @property
     def utilisation(self) -> float:
@@ -166,7 +168,9 @@ class ConstructionSimulation:
         on_assembled=None,
         per_node: bool = False,
     ):
-        self.smart = smart
+        # A run moves and advances its components: it works on a copy, so the caller's model stays as
+        # built and can be simulated again (another fleet, evaluator or seed).
+        self.smart = smart.copy_for_run()
         self.per_node = per_node
         self.on_assembled = on_assembled
         self.fleet = fleet
@@ -224,27 +228,27 @@ class ConstructionSimulation:
         z = float(joint.position[2])
         return z - _storey_base(z, self.elevations)
 
-    def _request(self, activity: str, component: Component, joint: Joint | None = None, node=None) -> TaskRequest:
+    def _request(self, activity: Task, component: Component, joint: Joint | None = None, node=None) -> TaskRequest:
         """The task request for ``activity``; with ``node`` a per-node positioning or assembly task."""
         if node is not None:
-            request = self._request(activity, component, self.smart.joints[node.joint_id] if activity == "assemble" else None)
+            request = self._request(activity, component, self.smart.joints[node.joint_id] if activity == Task.ASSEMBLE else None)
             request.start = request.end = self.site_xy(node.position)
             request.node_ids = (node.id,)
-            if activity == "assemble":  # with the prebuilt nodes of its joint (e.g. a footing's anchor bolts)
+            if activity == Task.ASSEMBLE:  # with the prebuilt nodes of its joint (e.g. a footing's anchor bolts)
                 request.node_ids += tuple(self.attached_nodes.get(node.id, ()))
             request.floor = node.level
             z = float(node.position[2])
             request.reach_needed = z - _storey_base(z, self.elevations)
-            if activity == "position":
+            if activity == Task.POSITION:
                 request.nodes = 1
             else:
                 nodes = [self.smart.nodes[n] for n in request.node_ids]
                 request.points = sum(n.assembly_point_number for n in nodes)
                 request.methods = frozenset(n.assembly_method for n in nodes)
             return request
-        if activity == "transport":
+        if activity == Task.TRANSPORT:
             start, end = self.yard_of[component.id], self.site_xy(component.target_position)
-        elif activity == "position":
+        elif activity == Task.POSITION:
             start = end = self.site_xy(component.target_position)
         else:
             start = end = self.site_xy(joint.position)
@@ -259,10 +263,10 @@ class ConstructionSimulation:
             weight_kg=component.weight_kg or 0.0,
             size=(component.size[0], component.size[1]),
         )
-        if activity == "position":
+        if activity == Task.POSITION:
             request.nodes = component.node_number
             request.reach_needed = self._reach_for_component(component)
-        elif activity == "assemble":
+        elif activity == Task.ASSEMBLE:
             nodes = [self.smart.nodes[n] for n in joint.node_ids]
             request.joint_id = joint.id
             request.node_ids = joint.node_ids
@@ -298,11 +302,11 @@ class ConstructionSimulation:
         by_class: dict[str, dict] = {}
         to_build = [c for c in self.smart.components.values() if not c.prebuilt]
         for component in to_build:
-            for activity in ("transport", "position"):
+            for activity in (Task.TRANSPORT, Task.POSITION):
                 request = self._request(activity, component)
                 if not impossible(request):
                     continue
-                need = by_class.setdefault(component.ifc_class, {"ids": set(), "transport": None, "position": None})
+                need = by_class.setdefault(component.ifc_class, {"ids": set(), Task.TRANSPORT: None, Task.POSITION: None})
                 need["ids"].add(component.id)
                 worst = need[activity] or {"kg": 0.0, "length": 0.0, "width": 0.0, "reach": 0.0, "example": component.id}
                 if request.weight_kg > worst["kg"]:
@@ -316,7 +320,7 @@ class ConstructionSimulation:
         failing_joints, joint_reach, joint_methods = [], 0.0, set()
         for joint in joints:
             owner = self.smart.components[joint.component_ids[0]]
-            request = self._request("assemble", owner, joint)
+            request = self._request(Task.ASSEMBLE, owner, joint)
             if impossible(request):
                 failing_joints.append(joint.id)
                 joint_reach = max(joint_reach, request.reach_needed)
@@ -326,13 +330,13 @@ class ConstructionSimulation:
         parts = []
         for ifc_class, need in sorted(by_class.items(), key=lambda item: (-len(item[1]["ids"]), item[0])):
             wants = []
-            if need["transport"]:
-                t = need["transport"]
+            if need[Task.TRANSPORT]:
+                t = need[Task.TRANSPORT]
                 wants.append(f"a carrier for up to {t['kg']:,.0f} kg and {t['length']:.2f} x {t['width']:.2f} m")
-            if need["position"]:
-                q = need["position"]
+            if need[Task.POSITION]:
+                q = need[Task.POSITION]
                 wants.append(f"a positioner for up to {q['kg']:,.0f} kg at {q['reach']:.2f} m reach")
-            example = (need["transport"] or need["position"])["example"]
+            example = (need[Task.TRANSPORT] or need[Task.POSITION])["example"]
             count = len(need["ids"])
             parts.append(f"{count} {ifc_class} need{'s' if count == 1 else ''} {' and '.join(wants)} (e.g. {example})")
         if failing_joints:
@@ -356,7 +360,7 @@ class ConstructionSimulation:
     def _capacity_text(distinct: dict[str, list[RobotSpec]]) -> str:
         """What the fleet can do at most, per activity, in words."""
         words = []
-        carriers, positioners, assemblers = distinct["transport"], distinct["position"], distinct["assemble"]
+        carriers, positioners, assemblers = distinct[Task.TRANSPORT], distinct[Task.POSITION], distinct[Task.ASSEMBLE]
         if carriers:
             length = max(r.platform_size[0] for r in carriers)
             width = max(r.platform_size[1] for r in carriers)
@@ -481,6 +485,7 @@ class ConstructionSimulation:
             smart_summary=self.smart.summary(),
             breakdowns=self.breakdowns,
             per_node=self.per_node,
+            built=self.smart,
         )
 
     def _number_by_start(self) -> None:
@@ -498,7 +503,7 @@ class ConstructionSimulation:
         for task in waiting:
             if all(incapability(spec, task) for spec in alive):
                 broken = ", ".join(r.spec.name for r in self.robots.values() if r.broken) or "none"
-                what = f"joint {task.joint_id}" if task.activity == "assemble" else f"component {task.component_id}"
+                what = f"joint {task.joint_id}" if task.activity == Task.ASSEMBLE else f"component {task.component_id}"
                 return (
                     f"the build stalled at t = {self.env.now:.1f} s: no working robot can {task.activity} "
                     f"{what} (broken down: {broken}); {len(unfinished)} components unfinished"
@@ -520,7 +525,7 @@ class ConstructionSimulation:
             if component.state == State.ASSEMBLED and self.on_assembled is not None:
                 self.on_assembled(component.id)
 
-    def _publish(self, activity: str, component: Component, joint: Joint | None = None, predecessors=(), node=None) -> None:
+    def _publish(self, activity: Task, component: Component, joint: Joint | None = None, predecessors=(), node=None) -> None:
         request = self._request(activity, component, joint, node)
         self.sequence += 1
         request.priority = (request.floor, ACTIVITY_RANK[activity], round(component.bottom_z, 3), self.sequence)
@@ -536,18 +541,18 @@ class ConstructionSimulation:
             joint=joint.id if joint else None,
             node=node.id if node is not None else None,
             release=self._release_rule(activity, node),
-            requirement=str({"transport": "NeedToTransfer", "position": "NeedToPosition", "assemble": "NeedToAssemble"}[activity]),
+            requirement=str(Task(activity).requirement),
         )
         self._request_dispatch()
 
-    def _release_rule(self, activity: str, node) -> str:
+    def _release_rule(self, activity: Task, node) -> str:
         """Why a request is released (thesis l.4240-4262): transport of a required connection component
         (RCC) once what carries it stands; a node's positioning once its arrived connection components
         (ACC) are all there; per joint, a component's positioning once it has arrived (Arrived); assembly
         once the position is fixed (PositionFixed)."""
-        if activity == "transport":
+        if activity == Task.TRANSPORT:
             return "RCC"
-        if activity == "position":
+        if activity == Task.POSITION:
             return "ACC" if node is not None else "Arrived"
         return "PositionFixed"
 
@@ -570,7 +575,7 @@ class ConstructionSimulation:
             )
         predecessors = [a for s in supporters for a in self.position_activity.get(s, ())]
         predecessors.append(self.floor_gate.get(component.floor))
-        self._publish("transport", component, predecessors=list(dict.fromkeys(predecessors)))
+        self._publish(Task.TRANSPORT, component, predecessors=list(dict.fromkeys(predecessors)))
 
     def _maybe_close_floor(self) -> None:
         while self.open_on_floor[self.current_floor] == 0:
@@ -579,7 +584,7 @@ class ConstructionSimulation:
             self._event("floor_complete", floor=self.current_floor + 1)
             if self.current_floor + 1 >= len(self.smart.floors):
                 return
-            last = next((a.id for a in reversed(self.activities) if a.activity == "assemble" and not a.aborted), None)
+            last = next((a.id for a in reversed(self.activities) if a.activity == Task.ASSEMBLE and not a.aborted), None)
             self.floor_gate[self.current_floor + 1] = last
             self.current_floor += 1
             self._say(f"Floor {self.current_floor + 1} ({self.smart.floor_names[self.current_floor]}) starts")
@@ -602,7 +607,7 @@ class ConstructionSimulation:
             component.node_event(node, Event.PUBLISH_ASSEMBLY)
             self._note_state(component)
         predecessors = [a for m in members for a in self.position_activity.get(m.id, ())]
-        self._publish("assemble", members[0], joint, list(dict.fromkeys(predecessors)))
+        self._publish(Task.ASSEMBLE, members[0], joint, list(dict.fromkeys(predecessors)))
 
     # ---------------------------------------------------------------- market
     def _request_dispatch(self) -> None:
@@ -653,7 +658,7 @@ class ConstructionSimulation:
         awarded_any = False
         # quickest finish: tasks left waiting for a busy robot queue up behind each other in this round
         promised: dict[str, tuple[float, np.ndarray]] = {}
-        for activity in ("assemble", "position", "transport"):
+        for activity in (Task.ASSEMBLE, Task.POSITION, Task.TRANSPORT):
             pool = self.pending[activity]
             if not pool or not self.idle[activity]:
                 continue
@@ -711,12 +716,11 @@ class ConstructionSimulation:
         robot.task = request
         robot.free_at = proposal.finish_time
         robot.end_position = request.end
-        words = {"transport": "transport", "position": "positioning", "assemble": "assembly"}[request.activity]
-        self.lines.append(f"Publish {words} requirements to robot")
+        self.lines.append(f"Publish {Task(request.activity).word} requirements to robot")
         cost = proposal.cost
-        if request.activity == "transport":
+        if request.activity == Task.TRANSPORT:
             self.lines.append(f"{robot.spec.name} is working for component: {request.component_id}, total work time is {cost:.2f}s")
-        elif request.activity == "position":
+        elif request.activity == Task.POSITION:
             nodes = [n.id for n in self.smart.components[request.component_id].connection_nodes]
             self.lines.append(
                 f"{robot.spec.name} is positioning component: {request.component_id} with nodes: {', '.join(nodes) or '(none)'}, total work time is {cost:.2f}s"
@@ -760,7 +764,7 @@ class ConstructionSimulation:
         node_windows = None
         try:
             yield from self._drive(robot, request.start)
-            if request.activity == "transport":
+            if request.activity == Task.TRANSPORT:
                 component.update_state(Event.START_TRANSPORT)
                 self._note_state(component)
                 self.lines.append(f"[{self.env.now:9.2f} s] Current progress: {spec.name} is loading {component.id}")
@@ -769,7 +773,7 @@ class ConstructionSimulation:
                 yield self.env.timeout(spec.unload_time)
                 component.position = np.array([*request.end, component.target_position[2]])
                 robot.stats.handling_time += spec.load_time + spec.unload_time
-            elif request.activity == "position":
+            elif request.activity == Task.POSITION:
                 if request.node_ids:  # per node
                     self._node_step(self.smart.nodes[request.node_ids[0]], Event.START_POSITIONING)
                 else:
@@ -798,9 +802,9 @@ class ConstructionSimulation:
 
     def _finish(self, robot: _Robot, request: TaskRequest, started: float, node_windows) -> None:
         """The task is done: update the smart objects, record the activity, free the robot."""
-        if request.activity == "transport":
+        if request.activity == Task.TRANSPORT:
             self._finish_transport(robot, request, started)
-        elif request.activity == "position":
+        elif request.activity == Task.POSITION:
             self._finish_positioning(robot, request, started)
         else:
             self._finish_assembly(robot, request, started, node_windows)
@@ -817,7 +821,7 @@ class ConstructionSimulation:
         component.update_state(Event.FINISH_TRANSPORT)
         self._note_state(component)
         self._say(f"Component: {component.id} is arrived, {name} is free for next work")
-        activity = self._record("transport", component, f"Transport {component.id}", name, started, request.predecessors)
+        activity = self._record(Task.TRANSPORT, component, f"{Task.TRANSPORT.title} {component.id}", name, started, request.predecessors)
         component.publish_positioning()
         self._note_state(component)
         if self.per_node and component.connection_nodes:
@@ -826,7 +830,7 @@ class ConstructionSimulation:
                 for node_id in joint.node_ids:
                     self._maybe_publish_node_positioning(self.smart.nodes[node_id])
             return
-        self._publish("position", component, predecessors=[activity.id])
+        self._publish(Task.POSITION, component, predecessors=[activity.id])
 
     def _finish_positioning(self, robot: _Robot, request: TaskRequest, started: float) -> None:
         component, name = self.smart.components[request.component_id], robot.spec.name
@@ -836,7 +840,7 @@ class ConstructionSimulation:
         component.finish_positioning()
         self._note_state(component)
         self._say(f"Component: {component.id} position is fixed, {name} is free for next work")
-        activity = self._record("position", component, f"Position {component.id}", name, started, request.predecessors)
+        activity = self._record(Task.POSITION, component, f"{Task.POSITION.title} {component.id}", name, started, request.predecessors)
         self.position_activity[component.id] = (activity.id,)
         if component.state == State.ASSEMBLED:  # no nodes to fasten
             self.open_on_floor[component.floor] -= 1
@@ -895,7 +899,7 @@ class ConstructionSimulation:
                 self.open_on_floor[node.level] -= 1
             row_start = started if previous is None else begin
             predecessors = tuple(request.predecessors) + ((previous,) if previous else ())
-            activity = self._record("assemble", owner, f"Assemble {node.id}", name, row_start, predecessors, finish=end)
+            activity = self._record(Task.ASSEMBLE, owner, f"{Task.ASSEMBLE.title} {node.id}", name, row_start, predecessors, finish=end)
             previous = activity.id
         self._say(f"Nodes: {' and '.join(request.node_ids)} are assembled, {name} is free for next work")
         if not self.per_node:
@@ -938,7 +942,7 @@ class ConstructionSimulation:
         names = ", ".join(p.id for p in partners)
         self._say(f"Node: {node.id} asks to be positioned: its connection components have arrived (ACC){': ' + names if names else ''}")
         predecessors = [self.transport_activity.get(c.id) for c in (component, *partners)]
-        self._publish("position", component, predecessors=predecessors, node=node)
+        self._publish(Task.POSITION, component, predecessors=predecessors, node=node)
 
     def _rests_on(self, upper: str, lower: str) -> bool:
         """Does ``upper`` rest on ``lower``, directly or through what it rests on (so it cannot arrive first)?"""
@@ -965,7 +969,7 @@ class ConstructionSimulation:
         node = self.smart.nodes[request.node_ids[0]]
         self._node_step(node, Event.FINISH_POSITIONING)
         self._say(f"Node: {node.id} position is fixed, {name} is free for next work")
-        activity = self._record("position", component, f"Position {node.id}", name, started, request.predecessors)
+        activity = self._record(Task.POSITION, component, f"{Task.POSITION.title} {node.id}", name, started, request.predecessors)
         self.node_position_activity[node.id] = activity.id
         first = component.id not in self.position_activity
         self.position_activity[component.id] = self.position_activity.get(component.id, ()) + (activity.id,)
@@ -988,7 +992,7 @@ class ConstructionSimulation:
             self._node_step(other, Event.PUBLISH_ASSEMBLY)
             predecessors += self.position_activity.get(other.component_id, ())
         self._node_step(node, Event.PUBLISH_ASSEMBLY)
-        self._publish("assemble", component, self.smart.joints[node.joint_id], predecessors=list(dict.fromkeys(predecessors)), node=node)
+        self._publish(Task.ASSEMBLE, component, self.smart.joints[node.joint_id], predecessors=list(dict.fromkeys(predecessors)), node=node)
 
     def _record(self, activity, component, name, robot, start, predecessors, finish=None, aborted=False) -> Activity:
         self.activity_counter += 1
@@ -1046,17 +1050,17 @@ class ConstructionSimulation:
         robot.leg = None
         robot.stats.busy_time += self.env.now - started
         robot.task = None
-        if request.activity == "transport" and component.state == State.IN_TRANSIT:
+        if request.activity == Task.TRANSPORT and component.state == State.IN_TRANSIT:
             component.update_state(Event.ABORT)
             component.position = np.array([robot.position[0], robot.position[1], 0.0])
             self.yard_of[component.id] = robot.position.copy()  # picked up again where it was dropped
-        elif request.activity == "position" and request.node_ids:
+        elif request.activity == Task.POSITION and request.node_ids:
             node = self.smart.nodes[request.node_ids[0]]
             if node.state == State.WORKING_IN_POSITIONING:
                 self._node_step(node, Event.ABORT)
-        elif request.activity == "position" and component.state == State.WORKING_IN_POSITIONING:
+        elif request.activity == Task.POSITION and component.state == State.WORKING_IN_POSITIONING:
             component.abort_positioning()
-        elif request.activity == "assemble":
+        elif request.activity == Task.ASSEMBLE:
             for node_id in request.node_ids:
                 node = self.smart.nodes[node_id]
                 if node.state == State.WORKING_IN_ASSEMBLY:
@@ -1066,20 +1070,20 @@ class ConstructionSimulation:
         self._note_state(component)
         self._record(request.activity, component, f"{request.activity.capitalize()} {component.id} (aborted)", robot.spec.name, started, (), aborted=True)
         # Only the nodes not yet assembled remain to be done.
-        if request.activity == "assemble":
+        if request.activity == Task.ASSEMBLE:
             remaining = tuple(n for n in request.node_ids if self.smart.nodes[n].state != State.ASSEMBLED)
             request.node_ids = remaining
             request.points = sum(self.smart.nodes[n].assembly_point_number for n in remaining)
         else:
-            request.start = self.yard_of[component.id] if request.activity == "transport" else request.start
+            request.start = self.yard_of[component.id] if request.activity == Task.TRANSPORT else request.start
         request.attempts += 1
         heapq.heappush(self.pending[request.activity], request)
         where = f"({robot.position[0]:.2f}, {robot.position[1]:.2f})"
-        if request.activity == "assemble":
+        if request.activity == Task.ASSEMBLE:
             what = f"assembly of nodes {' and '.join(request.node_ids)}: nodes are {State.WAIT_FOR_ASSEMBLY}"
         else:
             what = f"{request.activity} of {component.id}: {component.id} is {component.state}"
-            if request.activity == "transport":
+            if request.activity == Task.TRANSPORT:
                 what += f" at {where}"
         self._say(f"{robot.spec.name} broke down at {where} during {what}; task {request.id} auctioned again")
         self._event("reauction", request=request.id, activity=request.activity, component=component.id, robot=robot.spec.name, state=str(component.state))
@@ -1097,5 +1101,6 @@ def simulate(
     on_assembled=None,
     per_node: bool = False,
 ) -> SimulationResult:
-    """Run one build; see :class:`ConstructionSimulation`."""
+    """Run one build; see :class:`ConstructionSimulation`. ``smart`` is left as it was (the run works on
+    a copy, returned in its final states as ``result.built``), so it can be simulated again."""
     return ConstructionSimulation(smart, fleet, site, evaluator, seed, breakdowns, storey_elevations, on_assembled, per_node).run()

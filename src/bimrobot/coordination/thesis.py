@@ -38,9 +38,10 @@ from bimrobot.coordination.simulation import ConstructionSimulation
 from bimrobot.errors import BimrobotError, InputError
 from bimrobot.sco.build import SmartModel
 from bimrobot.sco.states import Event, State, at_least
+from bimrobot.tasks import TASKS, Task
 
-KINDS = ("transport", "position", "assemble")
-KIND_WORDS = {"transport": "transport", "position": "positioning", "assemble": "assembly"}
+KINDS = TASKS
+KIND_WORDS = {task: task.word for task in TASKS}  # "Node: ... requests positioning"
 
 #: How one step's time is formed (the thesis does not say): the longest task awarded in the step
 #: (Listing 4.2's "total work time"; default), the longest task finished in it, the longest phase
@@ -73,7 +74,7 @@ class ThesisTask:
     """
 
     id: str
-    kind: str
+    kind: Task
     component_id: str
     node_id: str | None
     floor: int
@@ -117,6 +118,7 @@ class ThesisResult:
     floor_steps: list[int]
     log_lines: list[str]
     thesis_table: dict | None = None
+    built: SmartModel | None = None  # the run's copy of the model, in its final states
 
     @property
     def totals(self) -> dict[str, float]:
@@ -149,7 +151,8 @@ class ThesisSimulation:
             raise InputError(f"step time rule must be one of {', '.join(STEP_TIME_RULES)}, got {step_time!r}")
         # Placement on the site (model -> site offset, yard slots) and the pre-flight check are shared.
         self.base = ConstructionSimulation(smart, fleet, site, storey_elevations=storey_elevations)
-        self.smart, self.fleet, self.site = smart, fleet, self.base.site
+        # The run's own copy of the model (ConstructionSimulation made it): the caller's stays as built.
+        self.smart, self.fleet, self.site = self.base.smart, fleet, self.base.site
         self.step_time = step_time
         self.max_steps = max_steps
 
@@ -175,19 +178,19 @@ class ThesisSimulation:
         yard = np.asarray(self.site.yard, dtype=float)
         return yard[int(np.argmin(np.hypot(*(yard - point).T)))].copy()
 
-    def _publish(self, kind: str, component, node, release: str, released_by, step: int) -> None:
+    def _publish(self, kind: Task, component, node, release: str, released_by, step: int) -> None:
         """Add a request to the pending list of its kind and log it (with its ACC / RCC rule)."""
         base = self.base
-        if kind == "transport":
-            request = base._request("transport", component)
+        if kind == Task.TRANSPORT:
+            request = base._request(Task.TRANSPORT, component)
             floor = component.floor
         elif node is None:  # a component without nodes is positioned as a whole
-            request = base._request("position", component)
+            request = base._request(Task.POSITION, component)
             request.nodes = 1
             floor = component.floor
         else:
             joint = self.smart.joints[node.joint_id]
-            request = base._request("assemble", component, joint)
+            request = base._request(Task.ASSEMBLE, component, joint)
             request.activity = kind
             request.start = request.end = base.site_xy(node.position)
             request.node_ids = (node.id,)
@@ -216,10 +219,10 @@ class ThesisSimulation:
         """The task's phases for this robot: [(name, seconds)]; their sum is its bid."""
         spec, request = robot.spec, task.request
         come = float(np.hypot(*(request.start - robot.position))) / spec.speed
-        if task.kind == "transport":
+        if task.kind == Task.TRANSPORT:
             carry = float(np.hypot(*(request.end - request.start))) / spec.speed
             return [("coming", come), ("carrying", spec.load_time + carry), ("unloading", spec.unload_time)]
-        if task.kind == "position":
+        if task.kind == Task.POSITION:
             return [("coming", come), ("positioning", max(1, request.nodes) * spec.time_per_node)]
         return [("coming", come), ("assembling", request.points * spec.time_per_point)]
 
@@ -266,12 +269,12 @@ class ThesisSimulation:
                 supporters = smart.robot_supporters(c.id)
                 if all(self._stands(s) for s in supporters):
                     transport_published.add(c.id)
-                    self._publish("transport", c, None, "RCC", smart.supporters[c.id], step)
+                    self._publish(Task.TRANSPORT, c, None, "RCC", smart.supporters[c.id], step)
             awarded = {k: [] for k in KINDS}
             finished: list[float] = []
             phases: list[float] = []
             for kind in KINDS:
-                if kind == "position":
+                if kind == Task.POSITION:
                     self._release_positioning(to_build, node_published, body_published, step)
                 self.lines.append(f"Publish {KIND_WORDS[kind]} requirements to robot")
                 self._award(kind, step, awarded)
@@ -300,7 +303,7 @@ class ThesisSimulation:
         if self.fleet.name in THESIS_TABLE_4_2 and is_chapter4_frame(smart):
             table = THESIS_TABLE_4_2[self.fleet.name]
         return ThesisResult(smart.source, self.fleet.name, self.step_time, step, list(self.robots.values()),
-                            self.tasks, self.step_times, floor_steps, self.lines, table)
+                            self.tasks, self.step_times, floor_steps, self.lines, table, built=smart)
 
     def _release_positioning(self, to_build, node_published: set, body_published: set, step: int) -> None:
         """Nodes whose component and joint partners have arrived ask to be positioned (ACC)."""
@@ -309,16 +312,16 @@ class ThesisSimulation:
                 continue
             if not c.connection_nodes and c.id not in body_published and c.floor <= self.floor:
                 body_published.add(c.id)
-                self._publish("position", c, None, "ACC", [], step)
+                self._publish(Task.POSITION, c, None, "ACC", [], step)
             for node in c.connection_nodes:
                 if node.id in node_published or node.level > self.floor:
                     continue
                 partners = [p for p in self.smart.joints[node.joint_id].component_ids if p != c.id]
                 if all(self._arrived(p) for p in partners):
                     node_published.add(node.id)
-                    self._publish("position", c, node, "ACC", partners, step)
+                    self._publish(Task.POSITION, c, node, "ACC", partners, step)
 
-    def _award(self, kind: str, step: int, awarded: dict) -> None:
+    def _award(self, kind: Task, step: int, awarded: dict) -> None:
         """Award the visible requests of ``kind`` in publication order to idle robots, lowest bid first."""
         for task in [t for t in self.pending[kind] if t.floor <= self.floor]:
             idle = [r for r in self.robots.values()
@@ -332,9 +335,9 @@ class ThesisSimulation:
             self.pending[kind].remove(task)
             awarded[kind].append(cost)
             component = self.smart.components[task.component_id]
-            if kind == "transport":
+            if kind == Task.TRANSPORT:
                 component.update_state(Event.START_TRANSPORT)
-            elif kind == "position":
+            elif kind == Task.POSITION:
                 if task.node_id:
                     self.smart.nodes[task.node_id].update_state(Event.START_POSITIONING)
             else:
@@ -347,9 +350,9 @@ class ThesisSimulation:
         name, seconds = robot.phases[robot.phase]
         robot.steps += 1
         who, cost = robot.spec.name, task.time_s
-        if task.kind == "transport":  # Listing 4.2's words, every step the robot works
+        if task.kind == Task.TRANSPORT:  # Listing 4.2's words, every step the robot works
             self.lines.append(f"{who} is working for component: {task.component_id}, total work time is {cost:.2f}s")
-        elif task.kind == "position":
+        elif task.kind == Task.POSITION:
             self.lines.append(f"{who} is positioning for nodes: {task.node_id or task.component_id}, total work time is {cost:.2f}s")
         else:
             self.lines.append(f"{who} is finding nodes: {task.node_id}, total work time is {cost:.2f}s")
@@ -360,7 +363,7 @@ class ThesisSimulation:
         # The task is done.
         robot.tasks += 1
         robot.time_s += task.time_s
-        travel = robot.phases[0][1] + (robot.phases[1][1] - robot.spec.load_time if task.kind == "transport" else 0.0)
+        travel = robot.phases[0][1] + (robot.phases[1][1] - robot.spec.load_time if task.kind == Task.TRANSPORT else 0.0)
         robot.travel_s += travel
         robot.handling_s += task.time_s - travel
         robot.task, robot.phases, robot.phase = None, [], 0
@@ -368,13 +371,13 @@ class ThesisSimulation:
         finished.append(task.time_s)
         robot.position = self._nearest_yard(task.request.end)  # back to the nearest yard point, untimed
         component = self.smart.components[task.component_id]
-        if task.kind == "transport":
+        if task.kind == Task.TRANSPORT:
             component.update_state(Event.FINISH_TRANSPORT)
             component.update_state(Event.PUBLISH_POSITIONING)
             for node in component.connection_nodes:
                 node.state = State.IN_LOCATION
             self.lines.append(f"Component: {component.id} is arrived, {robot.spec.name} is free for next work")
-        elif task.kind == "position":
+        elif task.kind == Task.POSITION:
             if task.node_id is None:
                 component.update_state(Event.START_POSITIONING)
                 component.update_state(Event.FINISH_POSITIONING)
@@ -387,7 +390,7 @@ class ThesisSimulation:
             self.lines.append(f"Node: {task.node_id or component.id} position is fixed, {robot.spec.name} is free for next work")
             if task.node_id is not None:
                 node.update_state(Event.PUBLISH_ASSEMBLY)
-                self._publish("assemble", component, node, "PositionFixed", [], step)
+                self._publish(Task.ASSEMBLE, component, node, "PositionFixed", [], step)
         else:
             node = self.smart.nodes[task.node_id]
             node.update_state(Event.FINISH_ASSEMBLY)

@@ -8,17 +8,14 @@ plain dicts. Units: seconds, metres (world frame), kg.
 from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
+from bimrobot.tasks import TASKS
 
 if TYPE_CHECKING:  # pragma: no cover
     from bimrobot.lbd.graph import ConstructionGraph
 
 #: The component states in which each kind of activity may start (the rule ``rcan_ready_activities.rq``
 #: encodes in its VALUES block; kept here for callers and tests).
-ALLOWED_STATES = {
-    "transport": ("OnYard",),
-    "position": ("Arrived", "InLocation"),
-    "assemble": ("PositionFixed", "WaitForAssembly", "WorkingInAssembly"),
-}
+ALLOWED_STATES = {task: tuple(str(state) for state in task.ready_states) for task in TASKS}
 
 
 def ready_activities(graph: ConstructionGraph) -> list[dict[str, Any]]:

@@ -59,6 +59,7 @@ from bimrobot.lbd import components
 from bimrobot.lbd.progress import progress_bar
 from bimrobot.lbd.schedule import Activity, Schedule
 from bimrobot.lbd.store import TripleStore, format_for, load_store, open_store, write_atomically
+from bimrobot.tasks import Task
 
 if TYPE_CHECKING:  # pragma: no cover
     from bimrobot.bim.model import BuildingModel
@@ -626,7 +627,7 @@ class _GraphWriter:
             where = f" of {activity.id}" if activity.id else ""
             raise InputError(f"schedule activity{where}: GlobalId {gid!r} is not an element of {self.model.source or 'the model'}")
         yield iri, DICP.hasObject, element
-        if activity.activity == "assemble":
+        if activity.activity == Task.ASSEMBLE:
             yield iri, DICP.hasOutputObject, element
         if activity.node_id and activity.node_id in interfaces:
             yield iri, DICP.hasObject, self.graph.interface_iri(activity.node_id)

@@ -21,6 +21,7 @@ from bimrobot.errors import InputError
 from bimrobot.io import atomic_output_file
 from bimrobot.lbd import components
 from bimrobot.lbd.components import is_component
+from bimrobot.tasks import TASKS, Task
 
 if TYPE_CHECKING:  # pragma: no cover
     from bimrobot.bim.model import BuildingModel
@@ -36,10 +37,11 @@ COLUMNS = (
 CSV_COLUMNS = COLUMNS
 REQUIRED_COLUMNS = ("Identification", "Activity", "GlobalId", "Start", "Finish")
 
-#: The thesis' chapter-4 task decomposition, and the IfcTaskTypeEnum value each one is written with.
-PREDEFINED_TYPE = {"transport": "LOGISTIC", "position": "INSTALLATION", "assemble": "CONSTRUCTION"}
+#: The thesis' chapter-4 task decomposition (:class:`bimrobot.tasks.Task`), and the IfcTaskTypeEnum value
+#: each one is written with (both ways), for callers that look them up by name.
+PREDEFINED_TYPE = {task: task.ifc_task_type for task in TASKS}
 ACTIVITY_TASK_TYPES = PREDEFINED_TYPE
-TASK_TYPE_ACTIVITIES = {task_type: activity for activity, task_type in ACTIVITY_TASK_TYPES.items()}
+TASK_TYPE_ACTIVITIES = {task.ifc_task_type: task for task in TASKS}
 IFC_TASK_TYPES = frozenset(
     {
         "ATTENDANCE", "CONSTRUCTION", "DEMOLITION", "DISMANTLE", "DISPOSAL", "ELECTRICAL", "INSTALLATION",
@@ -62,8 +64,9 @@ MAX_COORDINATE_M = 1e7
 class Activity:
     """One construction activity.
 
-    ``id``: unique id (the CSV's Identification, or the IfcTask's GlobalId). ``activity``: ``transport``,
-    ``position`` or ``assemble``. ``global_id``: the component it acts on (None for a task without
+    ``id``: unique id (the CSV's Identification, or the IfcTask's GlobalId). ``activity``: a
+    :class:`~bimrobot.tasks.Task` (transport, position, assemble), or ``""`` for an IfcTask of another
+    type that outputs nothing. ``global_id``: the component it acts on (None for a task without
     one). ``robot``: the robot (fleet name) that performs it, or None. ``start``/``finish``: seconds from
     the start of the build. ``predecessors``: ids that must finish first (FINISH_START). ``target``:
     installed position (x, y, z) of the component's origin, metres, world frame, or None. ``storey``:
@@ -74,7 +77,7 @@ class Activity:
 
     id: str
     name: str
-    activity: str
+    activity: Task | str
     global_id: str | None
     robot: str | None
     start: float
@@ -268,12 +271,13 @@ def _activity_from_row(row: _Row) -> Activity:
     activity_id = row.text("Identification")
     if not activity_id:
         raise InputError(f"{row.where()}: Identification is empty")
-    kind = row.text("Activity").lower()
-    if kind not in ACTIVITY_TASK_TYPES:
+    try:
+        kind = Task(row.text("Activity").lower())
+    except ValueError:
         raise InputError(
             f"{row.where()}: column Activity must be transport, position or assemble, got {row.text('Activity')!r}"
-        )
-    predefined = row.text("PredefinedType").upper() or ACTIVITY_TASK_TYPES[kind]
+        ) from None
+    predefined = row.text("PredefinedType").upper() or kind.ifc_task_type
     if predefined not in IFC_TASK_TYPES:
         raise InputError(f"{row.where()}: PredefinedType {predefined!r} is not an IfcTaskTypeEnum value")
     global_id = row.text("GlobalId")
@@ -299,7 +303,7 @@ def _activity_from_row(row: _Row) -> Activity:
         target=row.target(),
         storey=row.text("Storey") or None,
         predefined_type=predefined,
-        node_id=_node_id_in(name, global_id) if kind == "assemble" else None,
+        node_id=_node_id_in(name, global_id) if kind == Task.ASSEMBLE else None,
     )
 
 
@@ -519,7 +523,7 @@ def schedule_from_task_rows(rows: list, source: Path | None, model: BuildingMode
         if model is not None and output and not is_component(model, output) and output not in known_storeys:
             log.warning("IfcTask %s outputs %s, which is not an element of the model: left unlinked", row.global_id, output)
             output = None
-        kind = TASK_TYPE_ACTIVITIES.get(row.predefined_type, "assemble" if output else "")
+        kind = Task.from_ifc_task_type(row.predefined_type) or (Task.ASSEMBLE if output else "")
         target = None
         storey = row.storey
         if model is not None and is_component(model, output):

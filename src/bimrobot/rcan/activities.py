@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import enum
 from dataclasses import dataclass, field
+from bimrobot.tasks import Task
 
 
 class ActivityKind(str, enum.Enum):
@@ -44,15 +45,15 @@ class ActivityKind(str, enum.Enum):
 
 
 #: Chapter-4 schedule activity -> the RCAN activities it is broken into, in order.
-SCHEDULE_DECOMPOSITION: dict[str, tuple[ActivityKind, ...]] = {
-    "transport": (
+SCHEDULE_DECOMPOSITION: dict[Task, tuple[ActivityKind, ...]] = {
+    Task.TRANSPORT: (
         ActivityKind.MOVE_TO_COMPONENT,
         ActivityKind.POSITION_FOR_PICKING_UP,
         ActivityKind.PICK_UP,
         ActivityKind.TRANSPORT,
     ),
-    "position": (ActivityKind.POSITION_FOR_INSTALLING,),
-    "assemble": (ActivityKind.INSTALL,),
+    Task.POSITION: (ActivityKind.POSITION_FOR_INSTALLING,),
+    Task.ASSEMBLE: (ActivityKind.INSTALL,),
 }
 
 
@@ -85,6 +86,7 @@ class RcanActivity:
     frame, metres); ``weight_kg`` the component's weight in kg (for matching a robot's payload), None
     when unknown (the model does not give it: no payload can be checked, and reports say so);
     ``section_m`` its section size (width, depth) in metres for matching a gripper, if known;
+    ``size_m`` its three extents (m, smallest first: the section, then the length), if known;
     ``robot`` a robot requested by the schedule (None lets the allocator choose); ``predecessors``
     the activity ids that must be done first; ``start``/``finish`` the planned times in seconds.
     ``frees_robot``: after this activity the robot lets go of the component and may take other work
@@ -100,6 +102,7 @@ class RcanActivity:
     target: Pose
     weight_kg: float | None = None
     section_m: tuple[float, float] | None = None
+    size_m: tuple[float, float, float] | None = None
     robot: str | None = None
     predecessors: tuple[str, ...] = field(default_factory=tuple)
     start: float = 0.0

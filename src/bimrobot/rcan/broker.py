@@ -17,6 +17,7 @@ crashed consumer's unacknowledged messages are delivered again when it comes bac
 from __future__ import annotations
 
 import abc
+import contextlib
 import itertools
 import json
 import logging
@@ -55,6 +56,11 @@ class Sender(abc.ABC):
     @abc.abstractmethod
     def send(self, topic: str, payload: dict) -> str:
         """Put ``payload`` on ``topic``; returns the message id."""
+
+    def post(self, topic: str, payload: dict) -> None:
+        """Put ``payload`` on ``topic`` with this sender's next command (a broker on a network sends it
+        in the same round trip as the next receive or send; messages keep their order)."""
+        self.send(topic, payload)
 
 
 class Receiver(abc.ABC):
@@ -103,9 +109,12 @@ class InProcessBroker(Broker):
         self._queues: dict[str, deque] = defaultdict(lambda: deque(maxlen=max_length))
         self._filled: set[str] = set()  # topics with messages: a receiver of 20,000 robot topics scans these
         self._lock = threading.Lock()
-        # receivers waiting, each with the topics it waits on: a message wakes only those that want it
-        # (waking every thread on every message costs a GIL hand-over per message and receiver)
-        self._waiters: list[tuple[object, threading.Event]] = []
+        # receivers waiting, each with the topics it waits on: a message wakes one receiver that wants
+        # it (waking every thread on every message costs a GIL hand-over per message and receiver; the
+        # executor's workers all wait on the same topics, and one of them takes the message)
+        # Each waiter holds a plain lock, acquired: the sender releases it to wake the waiter (cheaper
+        # than a threading.Event, whose set() goes through a Condition in Python).
+        self._waiters: list[tuple[object, threading.Lock]] = []
         self._ids = itertools.count(1)
 
     def send(self, topic: str, payload: dict) -> str:
@@ -114,9 +123,11 @@ class InProcessBroker(Broker):
             message_id = str(next(self._ids))
             self._queues[topic].append((message_id, data))
             self._filled.add(topic)
-            for wanted, event in self._waiters:
+            for n, (wanted, wake) in enumerate(self._waiters):
                 if topic in wanted:
-                    event.set()
+                    del self._waiters[n]  # woken: the next message wakes another waiter
+                    wake.release()
+                    break
         return message_id
 
     def receive(self, topics: Iterable[str], timeout_s: float = 1.0, count: int = 16) -> list[Message]:
@@ -130,27 +141,31 @@ class InProcessBroker(Broker):
         with self._lock:
             ready = [t for t in self._filled if t in wanted]
             if not ready and timeout_s > 0:
-                waiter = (wanted, threading.Event())
+                wake = threading.Lock()
+                wake.acquire()
+                waiter = (wanted, wake)
                 self._waiters.append(waiter)
         if not ready and timeout_s > 0:
-            waiter[1].wait(timeout_s)
+            woken = wake.acquire(timeout=timeout_s)
             with self._lock:
-                self._waiters.remove(waiter)
+                if not woken:  # timed out: leave the list, unless a sender took it out meanwhile
+                    for n, other in enumerate(self._waiters):
+                        if other is waiter:
+                            del self._waiters[n]
+                            break
                 ready = [t for t in self._filled if t in wanted]
-        out: list[Message] = []
         if not ready:
-            return out
+            return []
+        taken = []
         with self._lock:
             for topic in sorted(ready, key=rank.__getitem__) if rank else ready:
                 queue = self._queues[topic]
-                while queue and len(out) < count:
-                    message_id, data = queue.popleft()
-                    out.append(Message(topic, message_id=message_id, payload=data))
+                while queue and len(taken) < count:
+                    taken.append((topic, queue.popleft()))
                 if not queue:
                     self._filled.discard(topic)
-        for n, message in enumerate(out):  # decoded outside the lock
-            out[n] = Message(message.topic, json.loads(message.payload), message.message_id)
-        return out
+        # decoded outside the lock
+        return [Message(topic, json.loads(data), message_id) for topic, (message_id, data) in taken]
 
     def ack(self, message: Message) -> None:
         """Nothing to do: in-process messages are gone once received (a crash loses the process anyway)."""
@@ -201,6 +216,10 @@ class RedisBroker(Broker):
         self._pending_checked: set[str] = set()
         self._last_claim = 0.0
         self._lock = threading.Lock()  # the caches above are shared by an executor's worker threads
+        # posted messages and acknowledgements not yet sent, in order: they go with the next command in
+        # one pipeline (a round trip less each); a crash before that is a crash before sending or
+        # acknowledging, which the protocol survives (re-publishing, redelivery)
+        self._pending: list[tuple[str, str, str]] = []  # ("xadd", key, data) or ("xack", key, message id)
 
     def _key(self, topic: str) -> str:
         return self.prefix + topic
@@ -241,10 +260,48 @@ class RedisBroker(Broker):
         with self._lock:
             self._known_groups.add(key)
 
+    def _take_pending(self) -> list[tuple[str, str, str]]:
+        """The posted messages and acknowledgements waiting to be sent (and forget them)."""
+        with self._lock:
+            pending, self._pending = self._pending, []
+        return pending
+
+    def _with_pending(self, pending: list[tuple[str, str, str]], command: Callable):
+        """``command(client)`` preceded by the ``pending`` operations in one pipeline (one round trip).
+        An acknowledgement Redis refuses (NOGROUP: it restarted empty) is dropped: nothing to acknowledge."""
+        if not pending:
+            return command(self._redis)
+        pipe = self._redis.pipeline(transaction=False)
+        for operation, key, value in pending:
+            if operation == "xadd":
+                pipe.xadd(key, {"data": value}, maxlen=self.max_length, approximate=True)
+            else:
+                pipe.xack(key, self.group, value)
+        command(pipe)
+        replies = pipe.execute(raise_on_error=False)
+        for (operation, _, _), reply in zip(pending, replies):
+            if isinstance(reply, Exception) and (operation == "xadd" or isinstance(reply, self._errors)):
+                raise reply
+        if isinstance(replies[-1], Exception):
+            raise replies[-1]
+        return replies[-1]
+
+    def _flushing(self, command: Callable):
+        """``command(client)`` with the pending operations, reconnecting as :meth:`_call` does (a lost
+        connection sends them again with the command: sending or acknowledging twice is harmless)."""
+        pending = self._take_pending()
+        return self._call(lambda: self._with_pending(pending, command))
+
     def send(self, topic: str, payload: dict) -> str:
         data = json.dumps(payload)
-        return self._call(lambda: self._redis.xadd(self._key(topic), {"data": data}, maxlen=self.max_length,
-                                                   approximate=True))
+        return self._flushing(lambda client: client.xadd(self._key(topic), {"data": data}, maxlen=self.max_length,
+                                                          approximate=True))
+
+    def post(self, topic: str, payload: dict) -> None:
+        """As :meth:`Sender.post`: the message goes to Redis with this broker's next command."""
+        data = json.dumps(payload)
+        with self._lock:
+            self._pending.append(("xadd", self._key(topic), data))
 
     def receive(self, topics: Iterable[str], timeout_s: float = 1.0, count: int = 16) -> list[Message]:
         keys = [self._key(t) for t in topics]
@@ -277,7 +334,14 @@ class RedisBroker(Broker):
             if claimed:
                 return claimed
         block_ms = max(1, int(timeout_s * 1000))
-        replies = self._redis.xreadgroup(self.group, self.consumer, {k: ">" for k in keys}, count=count, block=block_ms)
+        pending = self._take_pending()
+        try:
+            replies = self._with_pending(pending, lambda client: client.xreadgroup(
+                self.group, self.consumer, {k: ">" for k in keys}, count=count, block=block_ms))
+        except self._errors:
+            with self._lock:  # the connection was lost: kept for the retry (_call retries this receive)
+                self._pending[:0] = pending
+            raise
         return self._decode(replies)
 
     def _claim(self, keys: list[str], count: int) -> list[Message]:
@@ -322,11 +386,16 @@ class RedisBroker(Broker):
         return out
 
     def ack(self, message: Message) -> None:
-        try:
-            self._call(lambda: self._redis.xack(self._key(message.topic), self.group, message.message_id))
-        except self._ResponseError as exc:  # the group is gone (Redis restarted empty): nothing to acknowledge
-            if "NOGROUP" not in str(exc):
-                raise
+        """Acknowledge ``message`` with this broker's next command (see ``_pending``)."""
+        with self._lock:
+            self._pending.append(("xack", self._key(message.topic), message.message_id))
+
+    def flush(self) -> None:
+        """Send the posted messages and acknowledgements now."""
+        if self._pending:
+            self._flushing(lambda client: client.ping())
 
     def close(self) -> None:
+        with contextlib.suppress(Exception):  # best effort: what is not acknowledged is delivered again
+            self.flush()
         self._redis.close()

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import logging
 import threading
-from concurrent.futures import ThreadPoolExecutor
 from typing import Iterable
 
 from bimrobot.rcan.backends.interfaces import ActivityResult, ExecutorBackend
@@ -56,39 +55,38 @@ class RobotExecutor:
                 log.exception("backend %s failed on %s", self.backend.name, node.node_id)
                 result = ActivityResult(node.activity_id, int(payload["attempt"]), node.robot, False,
                                         f"{self.backend.name} backend error: {exc}")
-        self.broker.send(RESULT_TOPIC, {"node": payload["node"], "result": result.to_message()})
+        # posted: on Redis the result and the acknowledgement go with this worker's next receive, in
+        # one round trip
+        self.broker.post(RESULT_TOPIC, {"node": payload["node"], "result": result.to_message()})
         self.broker.ack(message)
         return result
 
-    def _handle_safely(self, message: Message, slots: threading.Semaphore) -> None:
-        try:
-            self.handle(message)
-        except Exception:  # noqa: BLE001 - the broker failed sending the result: unacknowledged, so redelivered
-            log.exception("robot executor: could not send the result of message %s", message.message_id)
-        finally:
-            slots.release()
+    def _work(self, poll_s: float) -> None:
+        """One worker: receive one node, execute it, send its result, until :attr:`stop` is set. Each
+        worker receives for itself: a node goes from the broker to the thread that executes it with no
+        hand-over between threads (one thread wake-up less per activity). A broker error (e.g. Redis
+        restarting) is logged and retried: unacknowledged messages are delivered again once it is back."""
+        while not self.stop.is_set():
+            try:
+                messages = self.broker.receive(self.topics, timeout_s=poll_s, count=1)
+            except Exception:  # noqa: BLE001 - keep serving; the coordinator is waiting for results
+                log.warning("robot executor: broker error, retrying in 1 s", exc_info=True)
+                self.stop.wait(1.0)
+                continue
+            for message in messages:
+                try:
+                    self.handle(message)
+                except Exception:  # noqa: BLE001 - the result could not be sent: unacknowledged, so redelivered
+                    log.exception("robot executor: could not send the result of message %s", message.message_id)
 
     def serve(self, poll_s: float = 0.2) -> None:
-        """Loop until :attr:`stop` is set. A broker error (e.g. Redis restarting) is logged and retried:
-        unacknowledged messages are delivered again once the broker is back."""
-        slots = threading.Semaphore(self.workers)
-        with ThreadPoolExecutor(self.workers, thread_name_prefix="rcan-executor") as pool:
-            while not self.stop.is_set():
-                if not slots.acquire(timeout=poll_s):
-                    continue  # every worker is busy
-                free = 1
-                while free < self.workers and slots.acquire(blocking=False):
-                    free += 1
-                try:
-                    messages = self.broker.receive(self.topics, timeout_s=poll_s, count=free)
-                except Exception:  # noqa: BLE001 - keep serving; the coordinator is waiting for results
-                    log.warning("robot executor: broker error, retrying in 1 s", exc_info=True)
-                    messages = []
-                    self.stop.wait(1.0)
-                for message in messages:
-                    pool.submit(self._handle_safely, message, slots)
-                for _ in range(free - len(messages)):
-                    slots.release()
+        """Serve on :attr:`workers` threads until :attr:`stop` is set (``poll_s``: how often each checks)."""
+        threads = [threading.Thread(target=self._work, args=(poll_s,), name=f"rcan-executor_{n}", daemon=True)
+                   for n in range(self.workers)]
+        for thread in threads:
+            thread.start()
+        for thread in threads:
+            thread.join()
 
     def start_thread(self) -> threading.Thread:
         thread = threading.Thread(target=self.serve, name="rcan-executor", daemon=True)

@@ -28,6 +28,7 @@ from bimrobot.coordination.fleet import Fleet, RobotSpec as FleetRobot, fleet_fr
 from bimrobot.rcan.activities import ActivityKind, Pose
 from bimrobot.rcan.generation import DEFAULT_CAPABILITIES, CapabilityTable, RobotSpec, parse_capabilities
 from bimrobot.site import Site, default_site
+from bimrobot.tasks import Task
 
 #: RCAN's default end-effector speed for fleet robots, m/s (as the built-in capability table's robots).
 ARM_SPEED_M_S = 0.5
@@ -58,10 +59,10 @@ def capabilities_from_fleet(fleet: Fleet, site: Site | None = None) -> Capabilit
 
 def _rcan_robot(robot: FleetRobot, types: dict[str, frozenset[ActivityKind]], home: Pose) -> RobotSpec:
     names = tuple(types)
-    payload = {"transport": robot.carry_load, "positioning": robot.payload, "assembly": 0.0,
-               "mobile_manipulator": max(robot.carry_load, robot.payload)}[robot.kind]
-    reach = robot.reach if robot.kind != "transport" else robot.platform_size[0] / 2
-    install = robot.time_per_point if robot.kind == "assembly" else robot.time_per_node
+    payload = {Task.TRANSPORT.robot_kind: robot.carry_load, Task.POSITION.robot_kind: robot.payload,
+               Task.ASSEMBLE.robot_kind: 0.0, "mobile_manipulator": max(robot.carry_load, robot.payload)}[robot.kind]
+    reach = robot.reach if robot.kind != Task.TRANSPORT.robot_kind else robot.platform_size[0] / 2
+    install = robot.time_per_point if robot.kind == Task.ASSEMBLE.robot_kind else robot.time_per_node
     return RobotSpec(
         name=robot.name, types=names, activities=frozenset().union(*types.values()),
         payload_kg=payload, reach_m=reach, speed_m_s=robot.speed, arm_speed_m_s=ARM_SPEED_M_S,

@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
 
-from bimrobot.config import line_of, parse_yaml
+from bimrobot.config import check_keys, line_of, parse_yaml, read_yaml_file
 from bimrobot.config import number as config_number
 from bimrobot.errors import InputError
 from bimrobot.rcan.activities import ActivityKind, Pose, RcanActivity
@@ -90,6 +90,8 @@ ROBOT_RANGES = {
     "speed_m_s": (0.0, 20.0, False, "m/s"),
     "arm_speed_m_s": (0.0, 10.0, False, "m/s"),
 }
+#: The keys of a robot entry (capabilities.yaml).
+ROBOT_KEYS = ("types", *ROBOT_RANGES, "handling_s", "gripper_opening_m", "home")
 HANDLING_RANGE_S = (0.0, 86400.0)
 GRIPPER_RANGE_M = (0.0, 20.0)
 #: A robot's home may be anywhere a site is (georeferenced coordinates included), within 1e7 m.
@@ -111,16 +113,9 @@ def load_capabilities(path: str | Path | None = None) -> CapabilityTable:
     if path is None:
         text = resources.files("bimrobot.rcan").joinpath(DEFAULT_CAPABILITIES).read_text()
         source = f"built-in {DEFAULT_CAPABILITIES}"
+        data = parse_yaml(text, source)
     else:
-        path = Path(path)
-        if not path.is_file():
-            raise InputError(f"capability table {path} does not exist")
-        try:
-            text = path.read_text(encoding="utf-8")
-        except (OSError, UnicodeDecodeError) as exc:
-            raise InputError(f"cannot read the capability table {path}: {getattr(exc, 'strerror', None) or exc}") from None
-        source = str(path)
-    data = parse_yaml(text, source)
+        data, source = read_yaml_file(path, "capability table"), str(path)
     if fleet.is_fleet(data):
         return fleet.load_fleet_capabilities(str(path), data, source)
     return parse_capabilities(data, source)
@@ -132,10 +127,13 @@ def parse_capabilities(data: object, source: str = "capability table") -> Capabi
         raise InputError(f"{source}: expected a mapping with 'robot_types' and 'robots'")
     if not isinstance(data.get("robots"), dict) or not data["robots"]:
         raise InputError(f"{source}{line_of(data, 'robots')}: 'robots' must map at least one robot name to its specification")
+    check_keys(data, ("robot_types", "robots"), source)
     robot_types: dict[str, frozenset[ActivityKind]] = {}
     for type_name, entry in data["robot_types"].items():
         activities = (entry or {}).get("activities") if isinstance(entry, dict) else None
         where = f"{source}{line_of(data['robot_types'], type_name)}: robot_types.{type_name}"
+        if isinstance(entry, dict):
+            check_keys(entry, ("activities",), source, f"robot_types.{type_name}")
         if not isinstance(activities, list):
             raise InputError(f"{where}.activities must be a list of activity names")
         try:
@@ -174,6 +172,7 @@ def _parse_robot(name: str, entry: object, robot_types: dict, source: str, line:
     if unknown:
         raise InputError(f"{where}.types names unknown robot type {unknown[0]!r} (known: {', '.join(robot_types)})")
     robot = f"robot '{name}'"
+    check_keys(entry, ROBOT_KEYS, source, robot)
 
     def number(key: str, default: float) -> float:
         low, high, inclusive, unit = ROBOT_RANGES[key]

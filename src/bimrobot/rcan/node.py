@@ -47,6 +47,7 @@ class RcanNode:
             "target": [a.target.x, a.target.y, a.target.z, a.target.yaw],
             "weight_kg": a.weight_kg,
             "section_m": list(a.section_m) if a.section_m else None,
+            "size_m": list(a.size_m) if a.size_m else None,
             "releases_robot": a.releases_robot,
             "lifts": a.lifts,
             "robot": self.robot,
@@ -64,6 +65,7 @@ class RcanNode:
             target=Pose(*message["target"]),
             weight_kg=None if message.get("weight_kg") is None else float(message["weight_kg"]),
             section_m=tuple(message["section_m"]) if message.get("section_m") else None,
+            size_m=tuple(message["size_m"]) if message.get("size_m") else None,
             frees_robot=None if frees is None or bool(frees) == (kind is ActivityKind.INSTALL) else bool(frees),
             lifts=bool(message.get("lifts", True)),
         )

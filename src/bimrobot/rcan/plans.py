@@ -8,14 +8,21 @@ position, and the gripper goes to the slot and to the installed position (``Targ
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from typing import Callable
 
+from bimrobot.bim.examples import RCAN_EXPERIMENTS
 from bimrobot.errors import InputError
 from bimrobot.lbd import components
 from bimrobot.rcan.activities import SCHEDULE_DECOMPOSITION, ActivityKind, Pose, RcanActivity
+from bimrobot.tasks import Task
 
 K = ActivityKind
+
+#: How far apart (m, horizontally) a component's pick-up and installed positions may be for a robot to do
+#: both from one stand midway: the reach of the thesis' UR5 (0.85 m), so each is at most 0.43 m away.
+WITHIN_REACH_M = 0.85
 
 
 @dataclass(frozen=True)
@@ -25,7 +32,8 @@ class ComponentFacts:
     ``weight_kg`` (None: unknown, no payload is checked); ``section_m`` (the two smaller extents, m);
     ``position`` its installed position (m, world) when the schedule row gives none; ``pick_up`` where
     it waits on the yard (m, world; None: the next of RCAN's own yard slots); ``start_state`` the state
-    it starts in (``OnYard`` for a component robots fetch; None: not known, as with a schedule CSV).
+    it starts in (``OnYard`` for a component robots fetch; None: not known, as with a schedule CSV);
+    ``size_m`` its three extents, smallest first (m).
     """
 
     weight_kg: float | None = None
@@ -33,6 +41,7 @@ class ComponentFacts:
     position: tuple[float, float, float] | None = None
     pick_up: tuple[float, float, float] | None = None
     start_state: str | None = None
+    size_m: tuple[float, float, float] | None = None
 
 
 def model_facts(model) -> Callable[[str], ComponentFacts]:
@@ -44,15 +53,18 @@ def model_facts(model) -> Callable[[str], ComponentFacts]:
     def facts(gid: str) -> ComponentFacts:
         if not components.is_component(model, gid):
             raise InputError(f"schedule names component {gid}, which is not in {model.source or 'the model'}")
+        extents = components.extents(model, gid)
         return ComponentFacts(components.weight_kg(model, gid), components.section_m(model, gid),
-                              tuple(float(v) for v in components.position(model, gid)))
+                              tuple(float(v) for v in components.position(model, gid)),
+                              size_m=None if extents is None else tuple(round(float(v), 4) for v in sorted(extents)))
 
     return facts
 
 
 def plan_from_schedule(schedule, model=None, yard: tuple[float, float, float] = (-10.0, -10.0, 0.0),
                        yard_spacing_m: float = 2.0, standoff_m: float = 0.6,
-                       facts: Callable[[str], ComponentFacts] | None = None) -> list[RcanActivity]:
+                       facts: Callable[[str], ComponentFacts] | None = None,
+                       reach_m: float = WITHIN_REACH_M) -> list[RcanActivity]:
     """RCAN activities for every row of ``schedule`` (a :class:`bimrobot.lbd.schedule.Schedule`).
 
     A row without a target position (an IFC work schedule's task) goes to its component's position
@@ -74,8 +86,9 @@ def plan_from_schedule(schedule, model=None, yard: tuple[float, float, float] = 
     ``position`` (or ``assemble``) row that follows picks it up again there (move to component,
     position for picking up, pick up, position for installing), possibly with another robot. A
     ``position`` or ``assemble`` row of a component still on the yard (its start state is ``OnYard``
-    and no row transported it: within the manipulator's reach, as in the thesis' experiment 1) picks
-    it up from the yard. A ``position`` or ``assemble`` row of a component in place already (a
+    and no row transported it) picks it up there: when the pick-up and installed positions are at most
+    ``reach_m`` apart (horizontally) the robot stands midway and does both from there (the thesis'
+    experiment 1), else it transports the component itself and keeps holding it (experiments 2, 3). A ``position`` or ``assemble`` row of a component in place already (a
     footing, a further connection node after the first install; a CSV does not say where a
     component starts, so one no row transported is taken to be in place) starts by moving a robot to
     it: move to component, position for installing, install. A ``position`` row leaves the component
@@ -85,7 +98,7 @@ def plan_from_schedule(schedule, model=None, yard: tuple[float, float, float] = 
     """
     facts = facts or model_facts(model)
     rows = schedule.topological_order()
-    assembled_later = {row.global_id for row in rows if row.activity == "assemble"}
+    assembled_later = {row.global_id for row in rows if row.activity == Task.ASSEMBLE}
     known: dict[str, ComponentFacts] = {}
     activities: list[RcanActivity] = []
     last_of_row: dict[str, str] = {}
@@ -110,20 +123,23 @@ def plan_from_schedule(schedule, model=None, yard: tuple[float, float, float] = 
             slots[gid] = Pose(*fact.pick_up) if fact.pick_up is not None else \
                 Pose(yard[0] + yard_spacing_m * len(slots), yard[1], yard[2])
         where = "drop-off" if gid in dropped else "yard" if gid in on_yard else "in place"
-        installs = row.activity == "assemble" or (row.activity == "position" and gid not in assembled_later)
-        kinds, goals, lifts = _row_activities(row.activity, slots[gid], Pose(*target), standoff_m, where, installs)
+        installs = row.activity == Task.ASSEMBLE or (row.activity == Task.POSITION and gid not in assembled_later)
+        kinds, goals, lifts = _row_activities(row.activity, slots[gid], Pose(*target), standoff_m, where, installs,
+                                              reach_m)
         on_yard.discard(gid)
-        if row.activity == "transport":
+        if row.activity == Task.TRANSPORT:
             dropped.add(gid)
         else:
             dropped.discard(gid)  # positioned (PositionFixed) or installed
         previous = tuple(last_of_row[p] for p in row.predecessors)
         for n, kind in enumerate(kinds, start=1):
             activity_id = f"{row.id}.{n}"
-            frees = kind is K.TRANSPORT or (row.activity == "position" and kind is K.POSITION_FOR_INSTALLING)
+            frees = (kind is K.TRANSPORT and row.activity == Task.TRANSPORT) or \
+                (row.activity == Task.POSITION and kind is K.POSITION_FOR_INSTALLING)
             activities.append(RcanActivity(
                 activity_id=activity_id, component_id=gid, kind=kind, target=goals[kind],
-                weight_kg=fact.weight_kg, section_m=fact.section_m, robot=row.robot, predecessors=previous,
+                weight_kg=fact.weight_kg, section_m=fact.section_m, size_m=fact.size_m, robot=row.robot,
+                predecessors=previous,
                 start=row.start, finish=row.finish, name=f"{kind.label} {gid}",
                 frees_robot=True if frees and not installs else None, lifts=lifts,
             ))
@@ -133,13 +149,14 @@ def plan_from_schedule(schedule, model=None, yard: tuple[float, float, float] = 
 
 
 def _row_activities(activity: str, slot: Pose, installed: Pose, standoff_m: float, where: str,
-                    installs: bool) -> tuple[tuple[ActivityKind, ...], dict[ActivityKind, Pose], bool]:
+                    installs: bool, reach_m: float = WITHIN_REACH_M) -> tuple[tuple[ActivityKind, ...], dict[ActivityKind, Pose], bool]:
     """(RCAN activity kinds, goal pose of each kind, whether a robot lifts the component) of one row.
 
     ``slot`` is the component's pick-up position on the yard, ``installed`` its installed position
     (world frame, m); ``where`` the component is: ``yard``, ``drop-off`` (it was transported and rests
     at its drop-off point: the transport's stand pose, ``standoff_m`` short in -y of the installed
-    position, on the ground) or ``in place``; ``installs``: the row ends with an install.
+    position, on the ground) or ``in place``; ``installs``: the row ends with an install; ``reach_m``:
+    how far apart (horizontally) a yard pick-up and its installed position may be for one stand midway.
     """
     stand = Pose(installed.x, installed.y - standoff_m, 0.0)
     goals = {
@@ -150,12 +167,15 @@ def _row_activities(activity: str, slot: Pose, installed: Pose, standoff_m: floa
         K.POSITION_FOR_INSTALLING: installed,
         K.INSTALL: installed,
     }
-    if activity == "transport":
-        return SCHEDULE_DECOMPOSITION["transport"], goals, True
+    if activity == Task.TRANSPORT:
+        return SCHEDULE_DECOMPOSITION[Task.TRANSPORT], goals, True
     install = (K.INSTALL,) if installs else ()
     pick = (K.MOVE_TO_COMPONENT, K.POSITION_FOR_PICKING_UP, K.PICK_UP, K.POSITION_FOR_INSTALLING)
-    if where == "yard":  # within reach of its installed position: picked up on the yard, no transport
+    if where == "yard" and slot.distance_xy(installed) <= reach_m:  # one stand midway reaches both
+        goals[K.MOVE_TO_COMPONENT] = Pose((slot.x + installed.x) / 2, (slot.y + installed.y) / 2, 0.0)
         return pick + install, goals, True
+    if where == "yard":  # the robot fetches it, carries it over and installs it without letting go
+        return pick[:3] + (K.TRANSPORT, K.POSITION_FOR_INSTALLING) + install, goals, True
     goals[K.MOVE_TO_COMPONENT] = stand
     if where == "drop-off":  # a robot picks it up again at the drop-off point and positions it
         goals[K.POSITION_FOR_PICKING_UP] = goals[K.PICK_UP] = stand
@@ -205,7 +225,7 @@ def _graph_facts(row: dict) -> ComponentFacts:
     section = None if size is None else tuple(round(v, 4) for v in sorted(size)[:2])
     weight = row.get("weightKg")
     return ComponentFacts(None if weight is None else float(weight), section, None, _xyz(row, "pickUp"),
-                          row.get("componentState"))
+                          row.get("componentState"), None if size is None else tuple(round(v, 4) for v in sorted(size)))
 
 
 def unknown_weight_components(activities: list[RcanActivity]) -> list[str]:
@@ -222,47 +242,32 @@ class Experiment:
     activities: tuple[RcanActivity, ...]
 
 
-#: The thesis' column (its GlobalId is the one printed in section 5.3.3) and an illustrative footing.
-COLUMN_ID = "267VPu8ab9991QBA3MI3UN"
-FOOTING_ID = "1kTvXnbbzCWw8lcMd1dR4o"
-COLUMN_KG = 2.0  # light-weight scale column, within the UR5's 5 kg payload
-FOOTING_KG = 3.5
-COLUMN_SECTION_M = (0.04, 0.04)  # the thesis' prototype gripper is sized to the components' sections
-FOOTING_SECTION_M = (0.10, 0.10)
+#: The experiments' components (the column's GlobalId is the one the thesis prints).
+COLUMN_ID, FOOTING_ID = RCAN_EXPERIMENTS[1][1], RCAN_EXPERIMENTS[3][1]
 
 
-def _chain(prefix: str, component: str, weight: float, section: tuple[float, float],
-           steps: list[tuple[ActivityKind, Pose]]) -> tuple[RcanActivity, ...]:
-    out, previous = [], ()
-    for n, (kind, pose) in enumerate(steps, start=1):
-        activity_id = f"{prefix}.{n}"
-        out.append(RcanActivity(activity_id, component, kind, pose, weight, section_m=section, robot="husky_ur5",
-                                predecessors=previous, name=f"{kind.label} {component}"))
-        previous = (activity_id,)
-    return tuple(out)
-
-
+@functools.lru_cache(maxsize=3)
 def experiment(number: int) -> Experiment:
     """Experiment 1 (column within the manipulator's reach), 2 (column that needs transport) or 3
-    (footing that needs transport). The robot is the thesis' Husky + UR5 (``husky_ur5``), home at
-    (-3, 0, 0); poses in metres, world frame.
-    """
-    pick_column = Pose(0.0, -0.75, 0.45)  # the pick-up target printed in the thesis
-    stand = Pose(0.0, 0.0, 0.0)
-    if number == 1:
-        install = Pose(0.55, -0.35, 0.30)  # 0.65 m from the base: within the UR5's reach
-        steps = [(K.MOVE_TO_COMPONENT, stand), (K.POSITION_FOR_PICKING_UP, pick_column), (K.PICK_UP, pick_column),
-                 (K.POSITION_FOR_INSTALLING, install), (K.INSTALL, install)]
-        return Experiment(1, "column within the manipulator's reach", _chain("E1", COLUMN_ID, COLUMN_KG, COLUMN_SECTION_M, steps))
-    if number == 2:
-        install = Pose(4.0, 2.0, 0.30)  # 4.5 m away: the base has to transport the column
-        steps = [(K.MOVE_TO_COMPONENT, stand), (K.POSITION_FOR_PICKING_UP, pick_column), (K.PICK_UP, pick_column),
-                 (K.TRANSPORT, Pose(4.0, 2.6, 0.0)), (K.POSITION_FOR_INSTALLING, install), (K.INSTALL, install)]
-        return Experiment(2, "column that needs transport", _chain("E2", COLUMN_ID, COLUMN_KG, COLUMN_SECTION_M, steps))
-    if number == 3:
-        pick_footing = Pose(0.0, -0.75, 0.10)
-        install = Pose(4.0, -2.0, 0.0)
-        steps = [(K.MOVE_TO_COMPONENT, stand), (K.POSITION_FOR_PICKING_UP, pick_footing), (K.PICK_UP, pick_footing),
-                 (K.TRANSPORT, Pose(4.0, -1.4, 0.0)), (K.POSITION_FOR_INSTALLING, install), (K.INSTALL, install)]
-        return Experiment(3, "footing that needs transport", _chain("E3", FOOTING_ID, FOOTING_KG, FOOTING_SECTION_M, steps))
-    raise InputError(f"there is no experiment {number}: the thesis has experiments 1, 2 and 3")
+    (footing that needs transport), generated as any build is: the experiment's IFC model
+    (:func:`bimrobot.bim.examples.rcan_experiment`) and a one-row schedule (assemble the component, by the
+    thesis' Husky + UR5, ``husky_ur5``) make a construction graph with the component's pick-up position
+    on the yard, and RCAN's activities are selected from the graph (:func:`plan_from_graph`). Whether the
+    robot has to transport the component follows from the positions, not from the experiment's number.
+    Poses in metres, world frame; the robot's home is (-3, 0, 0) (the capability table)."""
+    import tempfile
+    from pathlib import Path
+
+    from bimrobot.bim import load_model
+    from bimrobot.bim.examples import rcan_experiment
+    from bimrobot.lbd.graph import build_graph
+    from bimrobot.lbd.schedule import Activity, Schedule
+
+    if number not in RCAN_EXPERIMENTS:
+        raise InputError(f"there is no experiment {number}: the thesis has experiments 1, 2 and 3")
+    title, global_id, _, _, _, _, pick_up, installed = RCAN_EXPERIMENTS[number]
+    with tempfile.TemporaryDirectory(prefix="bimrobot-experiment-") as folder:
+        model = load_model(rcan_experiment(number, Path(folder) / f"experiment{number}.ifc"))
+    row = Activity(f"E{number}", f"{Task.ASSEMBLE.title} {global_id}", Task.ASSEMBLE, global_id, "husky_ur5", 0.0, 0.0, (), installed)
+    graph = build_graph(model, Schedule([row]), pick_up={global_id: pick_up})
+    return Experiment(number, title, tuple(plan_from_graph(graph)))

@@ -46,6 +46,8 @@ class RunReport:
     #: blocked activity -> the escalated activity it waits for (directly or through its predecessors);
     #: a blocked activity not in here waits for a robot that never became free
     blocked_by: dict[str, str] = field(default_factory=dict)
+    #: activity -> the robot it was given to (the one the schedule assigned, unless re-allocated)
+    robots: dict[str, str] = field(default_factory=dict)
 
     @property
     def escalated(self) -> list[str]:
@@ -89,7 +91,7 @@ class RcanSystem:
         self._send_activity(activity.activity_id, attempt)
 
     def _send_activity(self, activity_id: str, attempt: int) -> None:
-        self.broker.send(ACTIVITY_TOPIC, {"activity_id": activity_id, "attempt": attempt, "run": self._run_token})
+        self.broker.post(ACTIVITY_TOPIC, {"activity_id": activity_id, "attempt": attempt, "run": self._run_token})
 
     def _republish(self) -> None:
         """After the broker reconnected (Redis restarted, maybe empty): publish again every activity not
@@ -225,7 +227,7 @@ class RcanSystem:
         self._sent_at[(node.activity_id, attempt)] = time.perf_counter()
         self.log(f"[{node.node_id}] robot {node.robot} executes '{node.kind.label}' of {node.component_id}"
                  + (f" (attempt {attempt})" if attempt > 1 else ""))
-        self.broker.send(robot_topic(node.robot),
+        self.broker.post(robot_topic(node.robot),
                          {"node": node.to_message(), "attempt": attempt, "ready_at_s": ready_at})
 
     def _on_result(self, message: Message) -> None:
@@ -297,7 +299,7 @@ class RcanSystem:
         if not self.allocator.is_committed(node.robot):
             self._set_idle(node.robot)
         self.log(f"[component {node.component_id}] state: {decision.component_state}")
-        self.broker.send(STATE_TOPIC, {"component_id": node.component_id, "state": decision.component_state,
+        self.broker.post(STATE_TOPIC, {"component_id": node.component_id, "state": decision.component_state,
                                        "activity_id": node.activity_id, "verdict": decision.verdict})
 
     # --- the run -----------------------------------------------------------------------------------
@@ -447,6 +449,7 @@ class RcanSystem:
             resumed=resumed,
             blocked=blocked,
             blocked_by={a: blocked_by[a] for a in blocked if a in blocked_by},
+            robots={a: row["robot"] for a, row in self.state.store.activity_rows().items() if row["robot"]},
         )
 
 
@@ -508,7 +511,7 @@ def _run_plan(activities, capabilities, backend, state_db, redis_url, spawn_exec
     from bimrobot.rcan.state_manager import RetryPolicy, StateStore
 
     options = dict(backend_options or {})
-    if backend == "sim":
+    if backend in ("sim", "mujoco"):  # mujoco: its trajectory file goes beside the state database
         options.setdefault("db_path", state_db)
     store = StateStore(state_db)
     try:

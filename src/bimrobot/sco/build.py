@@ -31,6 +31,7 @@ in no robot time, the moment everything it rests on has its position fixed (:att
 from __future__ import annotations
 
 import contextlib
+import copy
 import gc
 import logging
 import dataclasses
@@ -92,6 +93,26 @@ class SmartModel:
     prebuilt_later: list[str] = field(default_factory=list)
     assemblies: int = 0
     internal_connections: int = 0
+
+    def copy_for_run(self) -> SmartModel:
+        """A copy whose components and nodes change state and position independently of this model's.
+
+        A simulation moves and advances the objects it is given; it works on such a copy, so the same
+        SmartModel can be simulated again (another fleet, evaluator or seed) and stays as built. Joints
+        and everything else that a run only reads are shared.
+        """
+        nodes = {}
+        for node_id, node in self.nodes.items():
+            twin = copy.copy(node)
+            twin.position = node.position.copy()
+            nodes[node_id] = twin
+        components = {}
+        for gid, component in self.components.items():
+            twin = copy.copy(component)
+            twin.position = component.position.copy()
+            twin.connection_nodes = [nodes.get(n.id, n) for n in component.connection_nodes]
+            components[gid] = twin
+        return dataclasses.replace(self, components=components, nodes=nodes)
 
     @property
     def inferred(self) -> list[Joint]:

@@ -121,21 +121,26 @@ NODE_TRANSITIONS: dict[tuple[State, Event], State] = {
 
 
 class InvalidTransitionError(BimrobotError):
-    """An event that the state machine does not allow in the object's current state."""
+    """An event that the state machine does not allow in the object's current state.
 
-    def __init__(self, kind: str, object_id: str | None = None, state: State | None = None, event: Event | None = None):
-        if object_id is None:  # re-created from its message (SimPy re-raises a process's error this way)
-            super().__init__(kind)
-            self.object_id = self.state = self.event = None
-            return
-        allowed = sorted(str(e) for (s, e) in _table(kind) if s == state)
-        super().__init__(
-            f"{kind} {object_id} in state {state} cannot take event {event} "
-            f"(allowed: {', '.join(allowed) or 'none'})"
-        )
+    Its arguments are the facts (kind, object id, state, event) and the message is made from them, so
+    the error is rebuilt whole wherever it is re-created from ``args``: by :mod:`pickle` (a process
+    pool) and by SimPy, which re-raises a failed process's error as ``type(error)(*error.args)``.
+    """
+
+    def __init__(self, kind: str, object_id: str, state: State, event: Event):
+        super().__init__(kind, object_id, state, event)
+        self.kind = kind
         self.object_id = object_id
         self.state = state
         self.event = event
+
+    def __str__(self) -> str:
+        allowed = sorted(str(e) for (s, e) in _table(self.kind) if s == self.state)
+        return (
+            f"{self.kind} {self.object_id} in state {self.state} cannot take event {self.event} "
+            f"(allowed: {', '.join(allowed) or 'none'})"
+        )
 
 
 def _table(kind: str) -> dict[tuple[State, Event], State]:

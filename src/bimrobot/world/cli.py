@@ -18,6 +18,7 @@ CONVERT_EXAMPLES = """examples:
   bimrobot convert model.ifczip -o pkg/ --exclude "IfcFurnishingElement, IfcCovering" --unknown-weight 7850
   bimrobot convert model.ifc -o pkg/ --collision decimated --max-triangles 200 --map-band 0.2 1.8
   bimrobot convert big.ifc -o pkg/ --merge-static --keep-separate "IfcBeam, IfcColumn" --validate
+  bimrobot convert frame.ifc -o scene/ --target mujoco --layout yard   # + MJCF scene for MuJoCo
 
 The package holds worlds/, models/<GlobalId>/ (model.sdf, model.config, meshes/), launch/ (ROS 2
 gz_sim.launch.py, ROS 1 gazebo_classic.launch), maps/<storey>.pgm+.yaml (Nav2), report.json and a
@@ -40,9 +41,10 @@ def register(subparsers) -> None:
     parser.add_argument("ifc", type=Path, help="the IFC file (IFC2X3, IFC4, IFC4X3_ADD2; .ifc or .ifczip)")
     parser.add_argument("-o", "--output", type=Path, required=True,
                         help="package folder to write (a new one, or one bimrobot wrote, which is replaced)")
-    parser.add_argument("--target", choices=["sim", "classic", "both"], default="sim",
+    parser.add_argument("--target", choices=["sim", "classic", "both", "mujoco"], default="sim",
                         help="sim: SDF 1.9 world for Gazebo Sim + ROS 2 launch (default); classic: SDF 1.6 world "
-                        "for Gazebo Classic + ROS 1 launch; both")
+                        "for Gazebo Classic + ROS 1 launch; both; mujoco: the sim package plus an MJCF scene "
+                        "(mujoco/scene.xml: one body per element, convex or CoACD collision pieces)")
     static = parser.add_mutually_exclusive_group()
     static.add_argument("--static", dest="static", action="store_const", const=True, default=None,
                         help="models are fixed in the world (default for --layout installed)")
@@ -215,4 +217,8 @@ def summary(report: dict, output: Path) -> str:
         lines.append(f"  run:      ros2 launch {shown}/launch/gz_sim.launch.py")
     if "classic" in report["world_files"]:
         lines.append(f"  run:      roslaunch {shown}/launch/gazebo_classic.launch")
+    if "mujoco" in report:
+        methods = ", ".join(f"{n} {m}" for m, n in report["mujoco"]["collision_methods"].items())
+        lines.append(f"  mujoco:   {shown}/{report['mujoco']['scene']} (collision: {methods}); "
+                     f"view: python -m mujoco.viewer --mjcf={shown}/{report['mujoco']['scene']}")
     return "\n".join(lines)

@@ -7,7 +7,7 @@ through Assimp in Gazebo Sim only (not Classic), so one DAE serves both simulato
 ``<up_axis>Z_UP</up_axis>`` and ``<unit meter="1"/>`` so that tools that honour them (Blender, Assimp)
 agree with Gazebo. Vertices stay in the element's local frame (the SDF link frame), metres.
 
-STL for collision: every physics engine loads it (pybullet too), and it carries no material noise.
+STL for collision: every physics engine loads it (MuJoCo too), and it carries no material noise.
 Colours are opaque on purpose: COLLADA ``<transparency>`` is read inverted by some loaders, which
 makes whole models invisible.
 """
@@ -85,7 +85,7 @@ STL_RECORD = np.dtype([("normal", "<f4", 3), ("corners", "<f4", (3, 3)), ("attri
 
 
 def write_stl(path: Path, vertices: np.ndarray, faces: np.ndarray) -> None:
-    """Write a binary STL (metres; STL has no unit, Gazebo and pybullet read it as metres)."""
+    """Write a binary STL (metres; STL has no unit, Gazebo and MuJoCo read it as metres)."""
     Path(path).write_bytes(stl_bytes(vertices, faces))
 
 

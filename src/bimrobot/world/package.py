@@ -43,7 +43,7 @@ from bimrobot.world.names import ros_package_name, safe_name, slug
 
 log = logging.getLogger(__name__)
 
-TARGETS = ("sim", "classic", "both")
+TARGETS = ("sim", "classic", "both", "mujoco")  # mujoco: the sim package + mujoco/scene.xml
 LAYOUTS = ("installed", "yard")
 COLLISIONS = ("convex", "decimated")
 
@@ -255,6 +255,10 @@ def build_package(
             report["duplicate_global_ids"] = duplicates
         report["ground_z_m"] = ground_z
         report["warnings"] = _warnings(converted, options, ground_z)
+        if options.target == "mujoco":  # the MJCF scene beside the package (bimrobot.physics.scene)
+            from bimrobot.physics.scene import write_scene
+
+            report["mujoco"] = write_scene(tmp, converted, options, ground_z, yard)
         for warning in report["warnings"]:
             log.info("%s", warning)  # the CLI prints them in its summary
         (tmp / "report.json").write_text(json.dumps(report, indent=2), encoding="utf-8")
@@ -494,7 +498,7 @@ def _place(converted: list[_Converted], ground_z: float, options: ConvertOptions
 
 def _sdf_versions(options: ConvertOptions) -> dict[str, str]:
     """SDF version -> model file name for the target."""
-    if options.target == "sim":
+    if options.target in ("sim", "mujoco"):
         return {sdf.SIM_VERSION: "model.sdf"}
     if options.target == "classic":
         return {sdf.CLASSIC_VERSION: "model.sdf"}
@@ -554,7 +558,7 @@ def _write_worlds(
     center = tuple(((extent[0, :2] + extent[1, :2]) / 2).tolist())
     size = tuple((extent[1, :2] - extent[0, :2] + 40.0).tolist())
     files = {}
-    if options.target in ("sim", "both"):
+    if options.target in ("sim", "both", "mujoco"):
         files["sim"] = f"{world_name}.sdf"
         text = sdf.world_sdf(world_name, includes, sdf.SIM_VERSION, ground_z, size, center)
         (worlds_dir / files["sim"]).write_text(text, encoding="utf-8")

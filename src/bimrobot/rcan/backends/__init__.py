@@ -14,7 +14,8 @@ from bimrobot.errors import InputError
 #: backend name -> "module:Class" of its :class:`ExecutorBackend` subclass
 BACKENDS: dict[str, str] = {
     "sim": "bimrobot.rcan.backends.sim:SimBackend",  # built-in kinematic robots (the default)
-    "ros2": "bimrobot.rcan.backends.ros2:Ros2Backend",  # an rclpy action client on ConstructionActivity
+    "ros2": "bimrobot.rcan.backends.ros2.client:Ros2Backend",  # an rclpy action client on ConstructionActivity
+    "mujoco": "bimrobot.rcan.backends.mujoco:MujocoBackend",  # physical robots in MuJoCo (bimrobot.physics)
 }
 
 

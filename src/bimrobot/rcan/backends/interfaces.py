@@ -13,7 +13,7 @@ re-send a goal whose result it never received without the robot doing the work t
 from __future__ import annotations
 
 import abc
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 from typing import Callable
 
 from bimrobot.rcan.activities import ActivityKind
@@ -43,7 +43,10 @@ class ActivityResult:
         return self.finished_s - self.started_s
 
     def to_message(self) -> dict:
-        return asdict(self)
+        # the fields one by one: dataclasses.asdict deep-copies recursively, a cost on every result
+        return {"activity_id": self.activity_id, "attempt": self.attempt, "robot": self.robot, "success": self.success,
+                "message": self.message, "started_s": self.started_s, "finished_s": self.finished_s,
+                "robot_lost": self.robot_lost}
 
     @classmethod
     def from_message(cls, message: dict) -> "ActivityResult":

@@ -1,0 +1,549 @@
+"""A construction site in MuJoCo where robots of the family act: drive, reach, grasp, place.
+
+:class:`MujocoSite` holds one MuJoCo model: ground, the robots at their homes, and the components and
+supports added as they become known (``MjSpec.recompile`` keeps the state). Each robot's arm is
+torque controlled by a joint-space PD law plus gravity compensation of its links and of the
+component it holds (the robot knows the component's BIM weight), every torque clipped to the joint's
+limit: an arm asked to lift more than its limits allow sags, and the motion fails.
+
+Grasp: a weld constraint between the gripper and the component, switched on only when the tool
+centre point is within :data:`GRASP_POSITION_TOLERANCE_M` and :data:`GRASP_ANGLE_TOLERANCE_DEG` of the
+grasp pose. Trajectories: the pose of every body at :data:`RECORD_HZ`, simulated time.
+"""
+
+from __future__ import annotations
+
+import math
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from bimrobot.physics import motion
+from bimrobot.physics.robot import JOINT_NAMES, RobotModel, add_robot
+from bimrobot.physics.scene import scene_root
+
+GRASP_POSITION_TOLERANCE_M = 0.005
+GRASP_ANGLE_TOLERANCE_DEG = 2.0
+FINGER_DEPTH_M = 0.03  # the tool centre point is this far below the top of the component when grasping
+TRACKING_TOLERANCE_M = 0.01  # the tcp must end within this of its goal, else the arm could not follow
+RECORD_HZ = 20.0
+TURN_RATE_RAD_S = 1.0
+JOINT_SPEED_RAD_S = 1.0
+CLEARANCE_M = 0.05  # the base keeps this from obstacles on its path
+GRID_M = 0.05
+PIT_DEPTH_M = 1.0  # thickness of the ground slab: the deepest pit
+SITE_HALF_M = 200.0  # the ground slab spans +-200 m
+
+
+class MotionFailed(Exception):
+    """An activity cannot be executed: the message says why (one sentence)."""
+
+
+@dataclass
+class Component:
+    """A box-shaped component: size (w, d, h) m, mass kg; its origin is its bottom face's centre."""
+
+    global_id: str
+    size: tuple[float, float, float]
+    mass: float
+
+
+@dataclass
+class Robot:
+    model: RobotModel
+    speed_m_s: float
+    arm_speed_m_s: float
+    ik: motion.ArmIK
+    q_ref: np.ndarray
+    base_velocity: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    holding: str | None = None
+    grip: np.ndarray | None = None  # the held component's pose in the gripper frame
+    gains: tuple[np.ndarray, np.ndarray] | None = None
+
+
+class MujocoSite:
+    """Robots, components and supports in one MuJoCo model (see the module docstring)."""
+
+    def __init__(self, robots: dict[str, tuple[RobotModel, float, float, tuple[float, float]]], ground_z: float = 0.0):
+        """``robots``: name -> (family model, base speed m/s, arm speed m/s, home (x, y) m)."""
+        import mujoco
+
+        self.mj = mujoco
+        # the ground is a slab (top at ground_z, PIT_DEPTH_M thick, on a plane) so that pits can be cut
+        # into it where a component is installed below the surface (a footing)
+        root, _, world = scene_root("rcan_site", ground_z - PIT_DEPTH_M)
+        actuators = ET.SubElement(root, "actuator")
+        for model, _, _, home in robots.values():
+            add_robot(world, actuators, model, home, ground_z)
+        self.ground_z = ground_z
+        self.spec = mujoco.MjSpec.from_string(ET.tostring(root, encoding="unicode"))
+        self.model = self.spec.compile()
+        self.data = mujoco.MjData(self.model)
+        self.robots: dict[str, Robot] = {}
+        for name, (model, speed, arm_speed, home) in robots.items():
+            ready = self._ready_posture(model)
+            self.data.joint(f"{name}/x").qpos[0], self.data.joint(f"{name}/y").qpos[0] = home
+            self.robots[name] = Robot(model, speed, arm_speed, motion.ArmIK(model), ready)
+            for joint, angle in zip(JOINT_NAMES, ready):
+                self.data.joint(f"{name}/{joint}").qpos[0] = angle
+        self.pits: list[tuple[np.ndarray, np.ndarray]] = []  # (lower xy, upper xy)
+        self._slabs: list = []
+        self._cut_slabs()
+        self.components: dict[str, Component] = {}
+        self.supports: list[tuple[np.ndarray, np.ndarray]] = []  # static boxes (centre, half size)
+        self.time_s = 0.0
+        self.frames: list[tuple[float, np.ndarray]] = []
+        self._next_frame = 0.0
+        self._reindex()
+        mujoco.mj_forward(self.model, self.data)
+
+    # --- building the model ------------------------------------------------------------------------
+    def _ready_posture(self, model: RobotModel) -> np.ndarray:
+        """Joint angles with the tool down above the base's front (the arm's rest and carry pose)."""
+        ik = motion.ArmIK(model)
+        s = model.scale
+        q, _, _ = ik.solve(motion.pose(motion.tool_down(0.0), (0.35 * s, 0.0, 0.45 * s)),
+                           np.array([0.0, -1.5, -1.3, -1.9, 1.57, 0.0]))
+        return q
+
+    def _reindex(self) -> None:
+        m = self.model
+        self._names = tuple(m.body(b).name for b in range(1, m.nbody))  # recorded with every frame
+        self.idx = {}
+        for name in self.robots:
+            joints = [m.joint(f"{name}/{j}") for j in JOINT_NAMES]
+            base = [m.joint(f"{name}/{j}") for j in ("x", "y", "yaw")]
+            self.idx[name] = {
+                "q": np.array([j.qposadr[0] for j in joints]),
+                "v": np.array([j.dofadr[0] for j in joints]),
+                "base_q": np.array([j.qposadr[0] for j in base]),
+                "base_v": np.array([j.dofadr[0] for j in base]),
+                "arm_act": np.array([m.actuator(f"{name}/{j}").id for j in JOINT_NAMES]),
+                "base_act": np.array([m.actuator(f"{name}/{j}").id for j in ("x", "y", "yaw")]),
+                "fingers": np.array([m.actuator(f"{name}/finger_{s}").id for s in ("left", "right")]),
+                "limits": np.array([m.actuator(f"{name}/{j}").ctrlrange[1] for j in JOINT_NAMES]),
+                "gripper": m.body(f"{name}/gripper").id,
+                "robot_bodies": {b for b in range(m.nbody) if m.body(b).name.startswith(f"{name}/")},
+            }
+        for name, robot in self.robots.items():
+            if robot.gains is None:
+                self.mj.mj_forward(self.model, self.data)
+                full = np.zeros((m.nv, m.nv))
+                self.mj.mj_fullM(m, self.data, full)
+                dofs = self.idx[name]["v"]
+                inertia = np.maximum(np.diag(full)[dofs], 1e-3)
+                kp = 40.0 * self.idx[name]["limits"]
+                robot.gains = (kp, 2.0 * np.sqrt(kp * inertia))
+
+    def _recompile(self) -> None:
+        self.model, self.data = self.spec.recompile(self.model, self.data)
+        self._reindex()
+        for name, robot in self.robots.items():  # a recompiled model forgets the grasps' relative poses
+            if robot.holding:
+                self._weld(name, robot.holding, robot.grip)
+        self.mj.mj_forward(self.model, self.data)
+
+    def add_component(self, component: Component, placement: np.ndarray) -> None:
+        """Put a component (free body) with its origin at ``placement`` (4x4, world), with a weld to
+        each robot's gripper, off until a grasp."""
+        mj = self.mj
+        w, d, h = component.size
+        quat = np.zeros(4)
+        mj.mju_mat2Quat(quat, np.ascontiguousarray(placement[:3, :3]).ravel())
+        body = self.spec.worldbody.add_body(name=component.global_id, pos=placement[:3, 3], quat=quat)
+        body.add_freejoint(name=f"{component.global_id}/free")
+        body.explicitinertial = True
+        body.mass = component.mass
+        body.ipos = [0, 0, h / 2]
+        body.inertia = [component.mass / 12 * (d * d + h * h), component.mass / 12 * (w * w + h * h),
+                        component.mass / 12 * (w * w + d * d)]
+        body.add_geom(name=f"{component.global_id}/box", type=mj.mjtGeom.mjGEOM_BOX, size=[w / 2, d / 2, h / 2],
+                      pos=[0, 0, h / 2], rgba=[0.85, 0.45, 0.2, 1], friction=[1.0, 0.005, 0.0001])
+        for name in self.robots:
+            self.spec.add_equality(name=f"{name}/grasp/{component.global_id}", type=mj.mjtEq.mjEQ_WELD,
+                                   objtype=mj.mjtObj.mjOBJ_BODY, name1=f"{name}/gripper", name2=component.global_id,
+                                   active=False)
+        self.components[component.global_id] = component
+        self._recompile()
+
+    def add_support(self, name: str, centre_xy, top_z: float, half_xy) -> None:
+        """A fixed box from the ground (or a pit's floor) up to ``top_z`` (a stand on the yard, the
+        structure a component is installed on)."""
+        floor = self.ground_z if top_z >= self.ground_z else self.ground_z - PIT_DEPTH_M
+        half = np.array([half_xy[0], half_xy[1], (top_z - floor) / 2])
+        centre = np.array([centre_xy[0], centre_xy[1], floor + half[2]])
+        self.spec.worldbody.add_geom(name=name, type=self.mj.mjtGeom.mjGEOM_BOX, size=half, pos=centre,
+                                     rgba=[0.6, 0.6, 0.62, 1], friction=[1.0, 0.005, 0.0001])
+        self.supports.append((centre, half))
+        self._recompile()
+
+    def _cut_slabs(self) -> None:
+        """(Re)build the ground slab as boxes around the pits."""
+        for geom in self._slabs:
+            self.spec.delete(geom)
+        xs = sorted({-SITE_HALF_M, SITE_HALF_M, *(float(v) for lo, hi in self.pits for v in (lo[0], hi[0]))})
+        ys = sorted({-SITE_HALF_M, SITE_HALF_M, *(float(v) for lo, hi in self.pits for v in (lo[1], hi[1]))})
+        self._slabs = []
+        for x0, x1 in zip(xs, xs[1:]):
+            for y0, y1 in zip(ys, ys[1:]):
+                centre = np.array([(x0 + x1) / 2, (y0 + y1) / 2])
+                if any(np.all(centre > lo) and np.all(centre < hi) for lo, hi in self.pits):
+                    continue
+                self._slabs.append(self.spec.worldbody.add_geom(
+                    name=f"ground/{len(self._slabs)}", type=self.mj.mjtGeom.mjGEOM_BOX,
+                    size=[(x1 - x0) / 2, (y1 - y0) / 2, PIT_DEPTH_M / 2],
+                    pos=[centre[0], centre[1], self.ground_z - PIT_DEPTH_M / 2], rgba=[0.42, 0.45, 0.4, 1],
+                    friction=[0.8, 0.005, 0.0001]))
+
+    def add_pit(self, centre_xy, half_xy) -> None:
+        """Cut a pit through the ground slab (a footing is installed in it)."""
+        centre, half = np.asarray(centre_xy, float), np.asarray(half_xy, float)
+        self.pits.append((centre - half, centre + half))
+        self._cut_slabs()
+        self._recompile()
+
+    # --- state -------------------------------------------------------------------------------------
+    def body_pose(self, name: str) -> np.ndarray:
+        body = self.data.body(name)
+        return motion.pose(body.xmat.reshape(3, 3).copy(), body.xpos.copy())
+
+    def tcp_pose(self, robot: str) -> np.ndarray:
+        site = self.data.site(f"{robot}/tcp")
+        return motion.pose(site.xmat.reshape(3, 3).copy(), site.xpos.copy())
+
+    def base_xy_yaw(self, robot: str) -> np.ndarray:
+        return self.data.qpos[self.idx[robot]["base_q"]].copy()
+
+    def arm_q(self, robot: str) -> np.ndarray:
+        return self.data.qpos[self.idx[robot]["q"]].copy()
+
+    # --- simulation --------------------------------------------------------------------------------
+    def step(self, seconds: float) -> None:
+        """Advance ``seconds`` with every robot's controllers running."""
+        for _ in range(max(1, int(round(seconds / self.model.opt.timestep)))):
+            self._control()
+            self.mj.mj_step(self.model, self.data)
+            self.time_s += self.model.opt.timestep
+            if self.time_s >= self._next_frame:
+                self._record()
+
+    def _control(self) -> None:
+        data = self.data
+        for name, robot in self.robots.items():
+            idx = self.idx[name]
+            kp, kd = robot.gains
+            q, v = data.qpos[idx["q"]], data.qvel[idx["v"]]
+            torque = kp * (robot.q_ref - q) - kd * v + data.qfrc_bias[idx["v"]]
+            if robot.holding:
+                torque += self._payload_torque(name, robot.holding)
+            data.ctrl[idx["arm_act"]] = np.clip(torque, -idx["limits"], idx["limits"])
+            data.ctrl[idx["base_act"]] = robot.base_velocity  # world-frame x, y speeds and yaw rate
+
+    def _payload_torque(self, robot: str, component: str) -> np.ndarray:
+        """Joint torques that hold the held component's weight (J^T m g at its centre of mass)."""
+        body = self.data.body(component)
+        jacp = np.zeros((3, self.model.nv))
+        self.mj.mj_jac(self.model, self.data, jacp, None, body.xipos, self.idx[robot]["gripper"])
+        mass = self.components[component].mass
+        return jacp[:, self.idx[robot]["v"]].T @ np.array([0.0, 0.0, mass * 9.81])
+
+    def saturated(self, robot: str) -> list[str]:
+        """Arm joints whose motor is at its torque limit now."""
+        idx = self.idx[robot]
+        at_limit = np.abs(self.data.ctrl[idx["arm_act"]]) >= idx["limits"] * 0.999
+        return [j for j, hit in zip(JOINT_NAMES, at_limit) if hit]
+
+    def _record(self) -> None:
+        self.frames.append((round(self.time_s, 6), self._names,
+                            np.concatenate([self.data.xpos[1:], self.data.xquat[1:]], axis=1).copy()))
+        self._next_frame += 1.0 / RECORD_HZ
+
+    def body_names(self) -> list[str]:
+        return [self.model.body(b).name for b in range(1, self.model.nbody)]
+
+    # --- contacts ----------------------------------------------------------------------------------
+    def robot_contacts(self, robot: str) -> list[str]:
+        """What the robot's arm, gripper or chassis touches other than the component it holds."""
+        found = []
+        m, idx = self.model, self.idx[robot]
+        held = m.body(self.robots[robot].holding).id if self.robots[robot].holding else -1
+        for contact in self.data.contact[: self.data.ncon]:
+            bodies = (m.geom_bodyid[contact.geom1], m.geom_bodyid[contact.geom2])
+            mine = [b in idx["robot_bodies"] for b in bodies]
+            if mine[0] == mine[1]:
+                continue
+            other = bodies[1] if mine[0] else bodies[0]
+            own = bodies[0] if mine[0] else bodies[1]
+            if other == held:
+                continue
+            other_name = m.body(other).name or m.geom(contact.geom2 if mine[0] else contact.geom1).name or "the ground"
+            found.append(f"{m.body(own).name} touches {other_name}")
+        return sorted(set(found))
+
+    # --- base --------------------------------------------------------------------------------------
+    def obstacles(self, robot: str) -> list[tuple[np.ndarray, np.ndarray]]:
+        """Boxes (centre xy, half size xy) the base must keep away from: supports, and the components
+        that rest on the ground (not those held)."""
+        boxes = [(c[:2], h[:2]) for c, h in self.supports]
+        held = {r.holding for r in self.robots.values() if r.holding}
+        for gid, component in self.components.items():
+            if gid in held:
+                continue
+            geom = self.data.geom(f"{gid}/box")
+            rotation = geom.xmat.reshape(3, 3)
+            half = np.abs(rotation) @ (np.array(component.size) / 2)
+            if geom.xpos[2] - half[2] < self.ground_z + self.robots[robot].model.base_height:
+                boxes.append((geom.xpos[:2].copy(), half[:2]))
+        return boxes
+
+    def _blocked(self, xy: np.ndarray, boxes, radius: float) -> bool:
+        for centre, half in boxes:
+            gap = np.maximum(np.abs(xy - centre) - half, 0.0)
+            if np.linalg.norm(gap) < radius:
+                return True
+        return False
+
+    def plan_path(self, robot: str, goal_xy) -> list[np.ndarray]:
+        """Waypoints (xy, m) from the base to ``goal_xy`` on an occupancy grid of :data:`GRID_M` cells
+        whose obstacles are grown by half the base's width plus :data:`CLEARANCE_M` (A* search by
+        pyastar2d, then straightened). MotionFailed when no path exists."""
+        model = self.robots[robot].model
+        start = self.base_xy_yaw(robot)[:2]
+        goal = np.asarray(goal_xy, float)
+        boxes = self.obstacles(robot)
+        radius = model.footprint[1] / 2 + CLEARANCE_M
+        if self._blocked(goal, boxes, radius):
+            raise MotionFailed(f"the base of {robot} does not fit at ({goal[0]:.2f}, {goal[1]:.2f}): an obstacle is "
+                               f"within {radius:.2f} m")
+        if not boxes or not _line_blocked(start, goal, lambda p: self._blocked(p, boxes, radius)):
+            return [goal]
+        corners = [start, goal] + [c - h for c, h in boxes] + [c + h for c, h in boxes]
+        lower = np.min(corners, axis=0) - 3.0
+        upper = np.max(corners, axis=0) + 3.0
+        shape = tuple(np.ceil((upper - lower) / GRID_M).astype(int) + 1)
+        xs = lower[0] + GRID_M * np.arange(shape[0])
+        ys = lower[1] + GRID_M * np.arange(shape[1])
+        occupied = np.zeros(shape, bool)
+        for centre, half in boxes:  # cells whose centre lies within radius of the box
+            gx = np.maximum(np.abs(xs[:, None] - centre[0]) - half[0], 0)
+            gy = np.maximum(np.abs(ys[None, :] - centre[1]) - half[1], 0)
+            occupied |= np.hypot(gx, gy) < radius
+        cell = lambda p: tuple(np.round((np.asarray(p) - lower) / GRID_M).astype(int))  # noqa: E731
+        cells = motion.grid_path(occupied, cell(start), cell(goal))
+        if cells is None:
+            raise MotionFailed(f"no collision-free path for {robot} to ({goal[0]:.2f}, {goal[1]:.2f})")
+        points = lower + cells * GRID_M
+        points[0], points[-1] = start, goal
+        return motion.simplify(points, lambda p: self._blocked(p, boxes, radius), GRID_M / 2)[1:]
+
+    def drive(self, robot: str, goal_xy, final_yaw: float | None = None) -> float:
+        """Drive the base along a planned path to ``goal_xy`` (turn, then go straight, per leg); turn
+        to ``final_yaw`` at the end. Returns the distance driven (m)."""
+        waypoints = self.plan_path(robot, goal_xy)
+        driven = 0.0
+        for point in waypoints:
+            here = self.base_xy_yaw(robot)[:2]
+            if np.linalg.norm(point - here) > 0.02:
+                self.turn(robot, math.atan2(point[1] - here[1], point[0] - here[0]))
+                driven += self._straight(robot, point)
+        if final_yaw is not None:
+            self.turn(robot, final_yaw)
+        return driven
+
+    def turn(self, robot: str, yaw: float) -> None:
+        """Turn the base in place to ``yaw`` (rad)."""
+        r = self.robots[robot]
+        for _ in range(int(30 / 0.02)):
+            error = _wrap(yaw - self.base_xy_yaw(robot)[2])
+            if abs(error) < 1e-3:
+                break
+            r.base_velocity = np.array([0.0, 0.0, np.clip(3.0 * error, -TURN_RATE_RAD_S, TURN_RATE_RAD_S)])
+            self.step(0.02)
+        r.base_velocity = np.zeros(3)
+        self.step(0.1)
+
+    def _straight(self, robot: str, point: np.ndarray) -> float:
+        r = self.robots[robot]
+        start = self.base_xy_yaw(robot)[:2]
+        stalled = 0.0
+        last = start
+        for _ in range(int(600 / 0.02)):
+            x, y, yaw = self.base_xy_yaw(robot)
+            offset = point - np.array([x, y])
+            distance = float(np.linalg.norm(offset))
+            if distance < 0.005:
+                break
+            speed = min(r.speed_m_s, 1.5 * distance)
+            heading = math.atan2(offset[1], offset[0]) if distance > 0.05 else yaw
+            turn = np.clip(3.0 * _wrap(heading - yaw), -TURN_RATE_RAD_S, TURN_RATE_RAD_S)
+            r.base_velocity = np.array([speed * math.cos(yaw), speed * math.sin(yaw), turn])
+            self.step(0.02)
+            moved = np.linalg.norm(self.base_xy_yaw(robot)[:2] - last)
+            last = self.base_xy_yaw(robot)[:2]
+            stalled = stalled + 0.02 if moved < 1e-4 else 0.0
+            if stalled > 1.0:
+                r.base_velocity = np.zeros(3)
+                contacts = "; ".join(self.robot_contacts(robot)) or "it stopped"
+                raise MotionFailed(f"the base of {robot} is blocked at ({x:.2f}, {y:.2f}): {contacts}")
+        r.base_velocity = np.zeros(3)
+        self.step(0.1)
+        return float(np.linalg.norm(self.base_xy_yaw(robot)[:2] - start))
+
+    def face(self, robot: str, target_xy) -> None:
+        """Turn the base to face ``target_xy``; when turning in place would sweep its corners into an
+        obstacle, back away from the target first and come forward again after the turn."""
+        model = self.robots[robot].model
+        x, y, _ = self.base_xy_yaw(robot)
+        here = np.array([x, y])
+        offset = np.asarray(target_xy, float) - here
+        yaw = math.atan2(offset[1], offset[0])
+        boxes = self.obstacles(robot)
+        corner = math.hypot(*model.footprint) / 2 + 0.02
+        if self._blocked(here, boxes, corner):
+            away = here - offset / max(np.linalg.norm(offset), 1e-9) * 0.8 * model.footprint[0]
+            self.drive(robot, away)
+            self.turn(robot, yaw)
+            self._straight(robot, here)  # facing the target now: forward to where it stood
+        self.turn(robot, yaw)
+
+    def make_room(self, robot: str, target_xy, half_xy) -> None:
+        """Before something is put or reached at ``target_xy`` (a box of ``half_xy``): when the base is
+        so close that its footprint could touch the box, drive it to the nearest free stand pose on a
+        circle around the target (its corners clear of the box by CLEARANCE_M), then face the target."""
+        model = self.robots[robot].model
+        target = np.asarray(target_xy, float)
+        here = self.base_xy_yaw(robot)[:2]
+        corner = math.hypot(*model.footprint) / 2
+        radius = corner + float(np.hypot(*half_xy)) + CLEARANCE_M
+        if np.linalg.norm(here - target) >= radius - 1e-6:
+            return
+        boxes = self.obstacles(robot) + [(target, np.asarray(half_xy, float))]
+        angles = np.linspace(-math.pi, math.pi, 36, endpoint=False)
+        candidates = [target + radius * np.array([math.cos(a), math.sin(a)]) for a in angles]
+        candidates.sort(key=lambda c: float(np.linalg.norm(c - here)))
+        for candidate in candidates:
+            if not self._blocked(candidate, boxes, corner):
+                self.drive(robot, candidate)
+                self.turn(robot, math.atan2(target[1] - candidate[1], target[0] - candidate[0]))
+                return
+        raise MotionFailed(f"no free stand pose for {robot} around ({target[0]:.2f}, {target[1]:.2f})")
+
+    # --- arm ---------------------------------------------------------------------------------------
+    def arm_base_pose(self, robot: str) -> np.ndarray:
+        return self.body_pose(f"{robot}/arm_base")
+
+    def solve(self, robot: str, tcp_world: np.ndarray) -> np.ndarray:
+        """Joint angles putting the tool centre point at ``tcp_world`` (4x4); MotionFailed when out of
+        reach (IK error over tolerance)."""
+        r = self.robots[robot]
+        local = np.linalg.inv(self.arm_base_pose(robot)) @ tcp_world
+        seeds = [r.q_ref, self._ready_posture_cached(robot)]
+        best = None
+        for seed in seeds:
+            q, position_error, angle_error = r.ik.solve(local, seed)
+            if best is None or position_error < best[1]:
+                best = (q, position_error, angle_error)
+            if position_error < motion.IK_POSITION_TOLERANCE_M and angle_error < motion.IK_ANGLE_TOLERANCE_RAD:
+                return motion.wrap_near(q, r.q_ref, np.array([True, True, False, True, True, True]))
+        p = tcp_world[:3, 3]
+        raise MotionFailed(f"({p[0]:.2f}, {p[1]:.2f}, {p[2]:.2f}) is out of reach of the arm of {robot} "
+                           f"(inverse kinematics ends {best[1] * 1000:.0f} mm away)")
+
+    def _ready_posture_cached(self, robot: str) -> np.ndarray:
+        if not hasattr(self, "_ready"):
+            self._ready = {}
+        if robot not in self._ready:
+            self._ready[robot] = self._ready_posture(self.robots[robot].model)
+        return self._ready[robot]
+
+    def move_arm(self, robot: str, q_goal: np.ndarray, check_contacts: bool = True) -> float:
+        """Move the arm to ``q_goal`` along a smooth joint-space interpolation at the arm's speed;
+        MotionFailed on a collision or when the arm cannot follow (torque limits). Returns seconds."""
+        r = self.robots[robot]
+        start_q = r.q_ref.copy()
+        start_tcp = self.tcp_pose(robot)[:3, 3]
+        goal_tcp = self._tcp_of(robot, q_goal)
+        seconds = max(float(np.abs(q_goal - start_q).max()) / JOINT_SPEED_RAD_S,
+                      float(np.linalg.norm(goal_tcp - start_tcp)) / r.arm_speed_m_s, 0.5)
+        dt = 0.01
+        for reference in motion.smooth_steps(start_q, q_goal, seconds, dt):
+            r.q_ref = reference
+            self.step(dt)
+            if check_contacts:
+                touching = self.robot_contacts(robot)
+                if touching:
+                    raise MotionFailed(f"collision while moving the arm of {robot}: {'; '.join(touching)}")
+        self.step(0.5)  # settle
+        error = float(np.linalg.norm(self.tcp_pose(robot)[:3, 3] - goal_tcp))
+        if error > TRACKING_TOLERANCE_M:
+            joints = self.saturated(robot)
+            why = f"torque limit of {', '.join(joints)}" if joints else "it could not follow"
+            raise MotionFailed(f"the arm of {robot} ended {error * 1000:.0f} mm from its goal ({why})")
+        return seconds + 0.5
+
+    def _tcp_of(self, robot: str, q: np.ndarray) -> np.ndarray:
+        """World position of the tcp for arm joints ``q`` with the base where it is (forward kinematics)."""
+        ik = self.robots[robot].ik
+        data = self.mj.MjData(ik.model)
+        data.qpos[:6] = q
+        self.mj.mj_kinematics(ik.model, data)
+        local = np.append(data.site("tcp").xpos, 1.0)
+        return (self.arm_base_pose(robot) @ local)[:3]
+
+    # --- gripper -----------------------------------------------------------------------------------
+    def grasp_pose(self, component: str, placement: np.ndarray | None = None) -> np.ndarray:
+        """Where the tcp grasps a component: on its vertical axis, FINGER_DEPTH_M below its top, tool
+        down, jaws across its x axis (4x4 world; ``placement``: the component's pose, default where it is)."""
+        pose = self.body_pose(component) if placement is None else placement
+        height = self.components[component].size[2]
+        yaw = math.atan2(pose[1, 0], pose[0, 0])
+        point = pose[:3, 3] + pose[:3, 2] * (height - FINGER_DEPTH_M)
+        return motion.pose(motion.tool_down(yaw), point)
+
+    def close_gripper(self, robot: str, component: str) -> None:
+        """Close the jaws on the component and switch the weld on; MotionFailed when the tcp is not
+        within the grasp tolerance."""
+        target = self.grasp_pose(component)
+        tcp = self.tcp_pose(robot)
+        offset = float(np.linalg.norm(tcp[:3, 3] - target[:3, 3]))
+        angle = math.degrees(min(motion.angle_between(tcp[:3, :3], target[:3, :3]),
+                                 motion.angle_between(tcp[:3, :3], target[:3, :3] @ np.diag([-1, -1, 1]))))
+        if offset > GRASP_POSITION_TOLERANCE_M or angle > GRASP_ANGLE_TOLERANCE_DEG:
+            raise MotionFailed(f"the gripper of {robot} is {offset * 1000:.1f} mm and {angle:.1f} degrees from the "
+                               f"grasp pose of {component} (tolerance {GRASP_POSITION_TOLERANCE_M * 1000:.0f} mm, "
+                               f"{GRASP_ANGLE_TOLERANCE_DEG:.0f} degrees)")
+        width = self.components[component].size[1]
+        self.data.ctrl[self.idx[robot]["fingers"]] = min(width / 2, self.robots[robot].model.gripper_opening / 2)
+        self.step(0.3)
+        relative = np.linalg.inv(self.body_pose(f"{robot}/gripper")) @ self.body_pose(component)
+        self._weld(robot, component, relative)
+        self.robots[robot].holding, self.robots[robot].grip = component, relative
+        self.step(0.2)
+
+    def _weld(self, robot: str, component: str, relative: np.ndarray) -> None:
+        """Switch on the weld holding ``component`` at ``relative`` (4x4, in the gripper's frame)."""
+        equality = self.model.equality(f"{robot}/grasp/{component}")
+        quat = np.zeros(4)
+        self.mj.mju_mat2Quat(quat, np.ascontiguousarray(relative[:3, :3]).ravel())
+        self.model.eq_data[equality.id, 0:3] = 0.0
+        self.model.eq_data[equality.id, 3:6] = relative[:3, 3]
+        self.model.eq_data[equality.id, 6:10] = quat
+        self.model.eq_data[equality.id, 10] = 1.0
+        self.data.eq_active[equality.id] = 1
+
+    def open_gripper(self, robot: str) -> None:
+        held = self.robots[robot].holding
+        if held:
+            self.data.eq_active[self.model.equality(f"{robot}/grasp/{held}").id] = 0
+        self.robots[robot].holding = None
+        self.data.ctrl[self.idx[robot]["fingers"]] = self.robots[robot].model.gripper_opening / 2
+        self.step(0.3)
+
+
+def _wrap(angle: float) -> float:
+    return (angle + math.pi) % (2 * math.pi) - math.pi
+
+
+def _line_blocked(a, b, blocked) -> bool:
+    return not motion._line_free(np.asarray(a, float), np.asarray(b, float), blocked, GRID_M / 2)

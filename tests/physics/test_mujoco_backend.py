@@ -1,0 +1,111 @@
+"""The `mujoco` RCAN backend: robots of the family build the thesis' experiments physically in MuJoCo."""
+
+import dataclasses
+import re
+
+import numpy as np
+import pytest
+
+pytest.importorskip("mujoco")
+pytest.importorskip("mink")
+pytest.importorskip("pyastar2d")
+
+from bimrobot.physics.robot import robot_model  # noqa: E402
+from bimrobot.physics.site import MujocoSite  # noqa: E402
+from bimrobot.rcan.activities import ActivityKind  # noqa: E402
+from bimrobot.rcan.backends import create_backend  # noqa: E402
+from bimrobot.rcan.generation import load_capabilities  # noqa: E402
+from bimrobot.rcan.node import RcanNode  # noqa: E402
+from bimrobot.rcan.plans import experiment  # noqa: E402
+from bimrobot.rcan.system import run_plan  # noqa: E402
+
+PLACED = re.compile(r"placement error ([0-9.]+) mm, ([0-9.]+) degrees")
+
+
+@pytest.mark.parametrize("number", [1, 2, 3])
+def test_experiment_ends_assembled_at_the_bim_pose(number, tmp_path):
+    lines = []
+    state_db = tmp_path / "run.sqlite"
+    report = run_plan(list(experiment(number).activities), load_capabilities(), backend="mujoco",
+                      state_db=str(state_db), log=lines.append)
+    assert report.status == "completed", lines[-5:]
+    assert set(report.component_states.values()) == {"Assembled"}
+    placed = [PLACED.search(line) for line in lines if "placement error" in line]
+    assert placed, "the install reported no placement error"
+    position_mm, angle_deg = map(float, placed[-1].groups())
+    assert position_mm < 10.0 and angle_deg < 1.0
+    trajectory = state_db.with_name("run.sqlite.trajectory.csv")
+    rows = trajectory.read_text().splitlines()
+    assert rows[0].startswith("# written by bimrobot") and rows[1].startswith("time_s,body,")
+    assert any(",husky_ur5/base," in row for row in rows[2:200])  # every body at 20 Hz, the robot among them
+
+
+def _nodes(number: int, **changes):
+    return [RcanNode(f"rcan/{a.activity_id}", dataclasses.replace(a, **changes), "husky_ur5", "mujoco")
+            for a in experiment(number).activities]
+
+
+def test_over_weight_component_makes_pick_up_fail_naming_the_payload():
+    backend = create_backend("mujoco", load_capabilities())
+    try:
+        results = []
+        for node in _nodes(1, weight_kg=40.0):
+            results.append(backend.execute(node))
+            if not results[-1].success:
+                break
+        failed = results[-1]
+        assert not failed.success and failed.activity_id.endswith(".3")  # the pick-up (E1.3)
+        assert "weighs 40.0 kg" in failed.message and "rated payload 5.0 kg" in failed.message
+        assert "torque limit" in failed.message
+        assert backend.site.robots["husky_ur5"].holding is None  # the gripper let go
+    finally:
+        backend.close()
+
+
+def test_the_rated_payload_is_lifted():
+    backend = create_backend("mujoco", load_capabilities())
+    try:
+        results = [backend.execute(node) for node in _nodes(1, weight_kg=5.0)[:3]]
+        assert all(r.success for r in results), results[-1].message
+    finally:
+        backend.close()
+
+
+def test_a_path_blocked_by_an_installed_column_is_driven_around():
+    husky = robot_model("husky_ur5", 5.0, 0.85, 0.12)
+    site = MujocoSite({"husky_ur5": (husky, 1.0, 0.5, (-3.0, 0.0))})
+    site.add_support("column", (0.0, 0.0), 3.0, (0.125, 0.125))  # a W250 column, installed, in the way
+    waypoints = site.plan_path("husky_ur5", (3.0, 0.0))
+    assert len(waypoints) >= 2  # not straight through
+    lateral = []
+    original_step = site.step
+
+    def step(seconds):
+        original_step(seconds)
+        lateral.append(abs(site.base_xy_yaw("husky_ur5")[1]))
+        assert not site.robot_contacts("husky_ur5")
+
+    site.step = step
+    site.drive("husky_ur5", (3.0, 0.0))
+    assert np.linalg.norm(site.base_xy_yaw("husky_ur5")[:2] - [3.0, 0.0]) < 0.01
+    assert max(lateral) > 0.125 + husky.footprint[1] / 2  # it went around the column
+
+
+def test_heavy_variant_for_heavy_payloads_and_torque_limits_from_the_payload():
+    ur5 = robot_model("husky_ur5", 5.0, 0.85, 0.12)
+    assert ur5.family == "ur5"
+    assert ur5.torque_limits[1] == pytest.approx(150, rel=0.05)  # UR5's published shoulder torque: 150 Nm
+    heavy = robot_model("heavy_mobile_manipulator", 5000.0, 6.0, 1.5)
+    assert heavy.family == "heavy" and heavy.scale == pytest.approx(6.0 / 0.85)
+    assert heavy.torque_limits[1] > 5000 * 9.81 * 6.0  # holds its payload at full reach
+
+
+def test_backend_is_registered_and_refuses_an_unknown_component_shape():
+    backend = create_backend("mujoco", load_capabilities())
+    try:
+        node = _nodes(1, component_id="0Unknown00000000000000", size_m=None)[1]  # a plan without sizes
+        assert node.kind is ActivityKind.POSITION_FOR_PICKING_UP
+        result = backend.execute(node)
+        assert not result.success and "shape of 0Unknown00000000000000 is unknown" in result.message
+    finally:
+        backend.close()
