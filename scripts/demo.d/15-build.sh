@@ -10,3 +10,4 @@ fi
 "$BIMROBOT" build "$frame" --fleet fleet2 -o "$DEMO_OUT/build" | grep -E '^(==|\$|build:|fleet|== completed)'
 echo
 echo "build: everything is in $DEMO_OUT/build/; $DEMO_OUT/build/README.md says what each file is and how to open it"
+echo "build: watch it in 4D with: $VENV/bin/rerun $DEMO_OUT/build/build.rrd   (or in a browser: $BIMROBOT replay $DEMO_OUT/build -o $DEMO_OUT/view.rrd --serve)"

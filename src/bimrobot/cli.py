@@ -24,6 +24,7 @@ PART_CLIS = [
     "bimrobot.assembly.cli",
     "bimrobot.rl.cli",
     "bimrobot.pipeline",
+    "bimrobot.replay.cli",
 ]
 
 EPILOG = """examples:

@@ -97,6 +97,9 @@ STAGES = (
                         "--report", str(d / "rcan" / "report.json"), "--graph-out", str(d / "rcan" / "graph-after-rcan.ttl"),
                         "--time-scale", repr(a.time_scale)],
           accepted=(0, 1)),
+    Stage("replay", "4D replay of the build in Rerun (build.rrd)",
+          lambda a, d: ["replay", str(d), "-o", str(d / "build.rrd"), "--model", str(a.model),
+                        *(["--start", a.start] if a.start else [])]),
 )
 
 
@@ -287,5 +290,6 @@ Fleet: `{args.fleet}`; site: {args.site or "the thesis' fig. 4.11"}. Units: metr
 | `rcan/report.json` | the RCAN run: each activity with its robot, result and times; escalated and blocked work | `jq` |
 | `rcan/state.db` | RCAN's state database (journal, component states); the build resumes from it | `sqlite3` |
 | `rcan/graph-after-rcan.ttl` | the graph with the states after the RCAN run | `bimrobot query` |
-{_work_schedule_row(args)}| `build.json` | the inputs, options and the time of each stage | `jq` |
+{_work_schedule_row(args)}| `build.rrd` | 4D replay: the structure growing, components travelling from the yard with their robots, states, a Gantt you can scrub (docs/replay.md) | `rerun build.rrd`, or `bimrobot replay out/ -o view.rrd --serve` for the web viewer |
+| `build.json` | the inputs, options and the time of each stage | `jq` |
 """

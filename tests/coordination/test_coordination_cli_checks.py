@@ -74,7 +74,7 @@ def test_a_folder_bimrobot_wrote_is_replaced_and_the_schedule_still_loads(projec
 
     assert len(lbd_schedule.load_schedule_csv(project / "sim" / "schedule.csv", load_model(project / "frame.ifc")).activities) == len(rows)
     assert main(["allocators", "generated:2x1x1", "--fleet", "fleet1", "--no-optimal", "--seeds", "1", "-o", "cmp"]) == 0
-    assert {p.name for p in (project / "cmp").iterdir()} == {"allocators.csv", "allocators.md", "allocators.json", ".bimrobot-output.json"}
+    assert {p.name for p in (project / "cmp").iterdir()} == {"allocators.csv", "allocators.md", "allocators.json", "allocators.png", ".bimrobot-output.json"}
     assert json.loads((project / "cmp" / ".bimrobot-output.json").read_text())["kind"] == "allocators"
 
 

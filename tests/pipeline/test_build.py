@@ -43,7 +43,7 @@ def _outcome(out: Path) -> tuple[dict, dict]:
 
 def test_build_writes_every_stage_and_says_what_each_file_is(built):
     for path in ("package/worlds/construction_site.sdf", "simulation/schedule.csv", "simulation/events.log",
-                 "graph.ttl", "rcan/report.json", "rcan/state.db", "README.md", "build.json"):
+                 "graph.ttl", "rcan/report.json", "rcan/state.db", "build.rrd", "README.md", "build.json"):
         assert (built / path).is_file(), path
     readme = (built / "README.md").read_text()
     for path in ("package/", "simulation/schedule.csv", "graph.ttl", "rcan/report.json"):
@@ -82,7 +82,7 @@ def test_build_graph_is_the_hub_rcan_runs_from_and_the_ifc_carries_the_work_sche
     from bimrobot.lbd.graph import ConstructionGraph
 
     log = json.loads((built / "build.json").read_text())
-    assert set(log["stages"]) == {"package", "simulation", "graph", "rcan"}
+    assert set(log["stages"]) == {"package", "simulation", "graph", "rcan", "replay"}
     rows = list(csv.DictReader((built / "simulation" / "schedule.csv").open()))
     graph = ConstructionGraph.open(built / "graph.ttl")
     column = next(r["GlobalId"] for r in rows if r["Activity"] == "assemble")

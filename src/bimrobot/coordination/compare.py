@@ -94,7 +94,38 @@ def write_outputs(rows: list[dict], table: str, folder: Path) -> list[Path]:
     write_csv(rows, folder / "allocators.csv")
     (folder / "allocators.md").write_text(table + "\n", encoding="utf-8")
     (folder / "allocators.json").write_text(json.dumps(rows, indent=2) + "\n", encoding="utf-8")
-    return [folder / name for name in ("allocators.csv", "allocators.md", "allocators.json")]
+    plot_makespans(rows, table.splitlines()[0].lstrip("# "), folder / "allocators.png")
+    return [folder / name for name in ("allocators.csv", "allocators.md", "allocators.json", "allocators.png")]
+
+
+def plot_makespans(rows: list[dict], title: str, path: Path) -> None:
+    """allocators.png: one bar per allocator, its makespan (s; the min-max of repeated runs as an error
+    bar), the proven optimum or CP-SAT's lower bound as a dashed line."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from bimrobot.io import signature
+
+    shown = [r for r in rows if r.get("makespan_s") is not None]
+    figure, ax = plt.subplots(figsize=(8, 1.0 + 0.45 * max(len(shown), 1)))
+    names = [r["allocator"] for r in shown]
+    values = [r["makespan_s"] for r in shown]
+    errors = [[r["makespan_s"] - r.get("min_s", r["makespan_s"]) for r in shown],
+              [r.get("max_s", r["makespan_s"]) - r["makespan_s"] for r in shown]]
+    ax.barh(names, values, xerr=errors, color="C0", capsize=3)
+    bounds = [r["lower_bound_s"] for r in shown if r.get("lower_bound_s") is not None]
+    if bounds:
+        ax.axvline(max(bounds), color="0.3", linestyle="--", linewidth=1, label="optimum / lower bound")
+        ax.legend(loc="lower right", fontsize=8)
+    ax.invert_yaxis()
+    ax.set_xlabel("makespan (s)")
+    ax.set_title(title, fontsize=10)
+    ax.grid(axis="x", alpha=0.3)
+    figure.tight_layout()
+    figure.savefig(path, dpi=110, format="png", metadata={"Comment": signature("allocators makespans")})
+    plt.close(figure)
 
 
 def write_csv(rows: list[dict], path: Path) -> None:

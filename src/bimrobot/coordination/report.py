@@ -94,14 +94,15 @@ def plot_gantt(result: SimulationResult, path: Path) -> None:
     import matplotlib.pyplot as plt
     from matplotlib.patches import Patch
 
+    scale, unit = time_unit(result.makespan)
     names = [r.name for r in result.robots]
     row_of = {name: i for i, name in enumerate(names)}
     fig, ax = plt.subplots(figsize=(11, 1.2 + 0.55 * len(names)))
     for activity in result.activities:
         ax.barh(
             row_of[activity.robot],
-            activity.duration,
-            left=activity.start,
+            activity.duration / scale,
+            left=activity.start / scale,
             height=0.6,
             color=ACTIVITY_COLOURS[activity.activity],
             edgecolor="black" if activity.aborted else "white",
@@ -111,11 +112,17 @@ def plot_gantt(result: SimulationResult, path: Path) -> None:
         )
     for robot in result.robots:
         if robot.broken_at is not None:
-            ax.plot([robot.broken_at], [row_of[robot.name]], marker="x", color="red", markersize=10)
+            ax.plot([robot.broken_at / scale], [row_of[robot.name]], marker="x", color="red", markersize=10)
     ax.set_yticks(range(len(names)), names)
     ax.invert_yaxis()
-    ax.set_xlabel("time from the start of the build (s)")
-    ax.set_title(f"{Path(result.model).name}: fleet {result.fleet}, {result.evaluator}, makespan {result.makespan:.0f} s")
+    # floor boundaries: when each floor (but the last) was complete, the next one could start
+    for floor, finish in enumerate(result.floor_finish[:-1], start=1):
+        ax.axvline(finish / scale, color="0.3", linestyle="--", linewidth=0.8)
+        ax.annotate(f"floor {floor} done", (finish / scale, -0.6), fontsize=7, ha="left", va="bottom",
+                    xytext=(2, 0), textcoords="offset points", annotation_clip=False)
+    ax.set_xlabel(f"time from the start of the build ({unit})")
+    makespan = f"{result.makespan:.0f} s" if unit == "s" else f"{result.makespan / scale:.1f} {unit}"
+    ax.set_title(f"{Path(result.model).name}: fleet {result.fleet}, {result.evaluator}, makespan {makespan}")
     handles = [Patch(color=c, label=a) for a, c in ACTIVITY_COLOURS.items()]
     if any(a.aborted for a in result.activities):
         handles.append(Patch(facecolor="white", edgecolor="black", hatch="//", label="aborted (breakdown)"))
@@ -124,6 +131,15 @@ def plot_gantt(result: SimulationResult, path: Path) -> None:
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
+
+
+def time_unit(seconds: float) -> tuple[float, str]:
+    """(seconds per unit, unit) for a time axis reaching ``seconds``: s up to 2 h, h up to 3 days, else d."""
+    if seconds <= 2 * 3600:
+        return 1.0, "s"
+    if seconds <= 3 * 86400:
+        return 3600.0, "h"
+    return 86400.0, "d"
 
 
 def write_outputs(result: SimulationResult, out_dir: Path, gantt: bool = True, unknown_weight: dict | None = None) -> list[Path]:

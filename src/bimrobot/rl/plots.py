@@ -83,3 +83,27 @@ def _plot_setting(ax, setting: str, runs: list[dict[str, Any]], algos: list[str]
     ax.set_ylabel("return")
     ax.ticklabel_format(axis="x", style="sci", scilimits=(0, 0))
     ax.grid(alpha=0.3)
+
+
+def plot_run_curve(returns: list[float], path: str | Path, title: str, window: int = WINDOW) -> None:
+    """A run's learning curve PNG: each training episode's return (dots) and the mean of the last
+    ``window`` episodes (line), against the episode number."""
+    figure, ax = plt.subplots(figsize=(7, 4))
+    episodes = np.arange(1, len(returns) + 1)
+    if len(returns):
+        values = np.asarray(returns, dtype=float)
+        cumulative = np.concatenate([[0.0], np.cumsum(values)])
+        first = np.maximum(episodes - window, 0)
+        ax.plot(episodes, values, ".", markersize=2, alpha=0.35, color="0.45", label="episode return")
+        ax.plot(episodes, (cumulative[episodes] - cumulative[first]) / (episodes - first), color="C0",
+                label=f"mean of the last {window} episodes")
+        ax.legend(loc="lower right", fontsize=8)
+    else:
+        ax.text(0.5, 0.5, "no training episode finished", ha="center", va="center", transform=ax.transAxes)
+    ax.set_xlabel("training episode")
+    ax.set_ylabel("return")
+    ax.set_title(title)
+    ax.grid(alpha=0.3)
+    figure.tight_layout()
+    figure.savefig(path, dpi=110, format="png", metadata={"Comment": signature("rl train learning curve")})
+    plt.close(figure)

@@ -257,6 +257,9 @@ def train(config: TrainConfig, out_dir: str | Path) -> Path:
         venv.close()
         results = summarise(config, episode_log.returns, model, train_seconds)
         (tmp / "results.json").write_text(json.dumps(results, indent=2))
+        from bimrobot.rl.plots import plot_run_curve
+
+        plot_run_curve(episode_log.returns, tmp / "learning_curve.png", f"{config.run_name}: training return")
     log.info("%s: %s", config.run_name, results)
     return run_dir
 

@@ -261,6 +261,10 @@ def build_package(
             report["mujoco"] = write_scene(tmp, converted, options, ground_z, yard)
         for warning in report["warnings"]:
             log.info("%s", warning)  # the CLI prints them in its summary
+        from bimrobot.world.render import render_preview
+
+        triangles = sum(c.get("visual_triangles") or 0 for c in report["converted"])
+        report["preview"] = render_preview(tmp, triangles)  # preview.png: a picture of the world (None: too large)
         (tmp / "report.json").write_text(json.dumps(report, indent=2), encoding="utf-8")
         (tmp / "README.md").write_text(_readme(report), encoding="utf-8")
     log.info("wrote %s: %d models, %d skipped", out_dir, len(converted), len(skipped))

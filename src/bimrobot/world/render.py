@@ -16,7 +16,11 @@ from bimrobot.world.check import read_models
 
 
 def _pose_matrix(text: str) -> np.ndarray:
-    x, y, z, roll, pitch, yaw = (float(v) for v in text.split())
+    return pose_matrix(*(float(v) for v in text.split()))
+
+
+def pose_matrix(x: float, y: float, z: float, roll: float, pitch: float, yaw: float) -> np.ndarray:
+    """4x4 local-to-world matrix of an SDF pose (metres, radians; rotation = Rz(yaw) Ry(pitch) Rx(roll))."""
     cr, sr, cp, sp, cy, sy = np.cos(roll), np.sin(roll), np.cos(pitch), np.sin(pitch), np.cos(yaw), np.sin(yaw)
     matrix = np.eye(4)
     matrix[:3, :3] = [
@@ -30,8 +34,6 @@ def _pose_matrix(text: str) -> np.ndarray:
 
 def world_triangles(package: Path, world_file: str | None = None) -> tuple[np.ndarray, np.ndarray]:
     """All visual triangles of the world in world coordinates (k, 3, 3) and their RGBA colours (k, 4)."""
-    import collada
-
     package = Path(package)
     world_path = package / world_file if world_file else sorted((package / "worlds").glob("*"))[0]
     world = ET.parse(world_path).getroot()
@@ -41,16 +43,23 @@ def world_triangles(package: Path, world_file: str | None = None) -> tuple[np.nd
         if info.sdf_file.name != "model.sdf" or info.name not in poses:
             continue
         dae_file = next(f for f in info.mesh_files if f.suffix == ".dae")
-        dae = collada.Collada(str(dae_file))
-        colour = dae.effects[0].diffuse if dae.effects else (0.6, 0.6, 0.6, 1.0)
+        local, colour = dae_triangles(dae_file)
         pose = poses[info.name]
-        for geometry in dae.geometries:
-            for primitive in geometry.primitives:
-                corners = primitive.vertex[primitive.vertex_index]
-                world_corners = corners @ pose[:3, :3].T + pose[:3, 3]
-                triangles.append(world_corners)
-                colours.append(np.tile(np.asarray(colour, float), (len(world_corners), 1)))
+        triangles.append(local @ pose[:3, :3].T + pose[:3, 3])
+        colours.append(np.tile(colour, (len(local), 1)))
     return np.concatenate(triangles), np.concatenate(colours)
+
+
+def dae_triangles(dae_file: Path) -> tuple[np.ndarray, np.ndarray]:
+    """The triangles of a model's COLLADA visual in its local frame (k, 3, 3), metres, and its RGBA
+    colour (4,), 0..1 (the first effect's diffuse colour; grey when it has none)."""
+    import collada
+
+    dae = collada.Collada(str(dae_file))
+    colour = dae.effects[0].diffuse if dae.effects else (0.6, 0.6, 0.6, 1.0)
+    pieces = [p.vertex[p.vertex_index] for g in dae.geometries for p in g.primitives if len(p.vertex_index)]
+    triangles = np.concatenate(pieces) if pieces else np.zeros((0, 3, 3))
+    return np.asarray(triangles, float), np.asarray(colour, float)
 
 
 def render_package(package: Path, png: Path, world_file: str | None = None, elevation: float = 22,
@@ -97,3 +106,20 @@ def render_package(package: Path, png: Path, world_file: str | None = None, elev
     finally:
         plt.close(figure)
     return png
+
+
+#: Above this many visual triangles `convert` skips its preview picture (matplotlib draws every one).
+PREVIEW_MAX_TRIANGLES = 60_000
+
+
+def render_preview(package: Path, triangles: int) -> str | None:
+    """Draw ``package/preview.png`` (the world seen from above a corner of the site) for a package
+    being written, whose visuals have ``triangles`` triangles in all; return its name, or None when
+    the world is too large to draw in a few seconds (PREVIEW_MAX_TRIANGLES)."""
+    package = Path(package)
+    worlds = sorted((package / "worlds").glob("*.sdf"))
+    if not worlds or triangles > PREVIEW_MAX_TRIANGLES:
+        return None
+    render_package(package, package / "preview.png", world_file=str(worlds[0].relative_to(package)),
+                   title=f"{worlds[0].stem} (metres, z up)")
+    return "preview.png"

@@ -1,0 +1,194 @@
+"""The replay in a real browser: Rerun's web viewer on 127.0.0.1, headless Chromium, WebGL via SwiftShader.
+
+Two times on the timeline (early in the build and its end), a screenshot at each: the 3D view must not
+be blank, and it must change where the structure grew (more of it coloured as assembled at the end).
+A browser without WebGL fails the test rather than passing on a blank canvas.
+"""
+
+from __future__ import annotations
+
+import base64
+import io
+import shutil
+import time
+
+import numpy as np
+import pytest
+
+pytestmark = pytest.mark.browser
+
+#: Window of the headless browser (CSS pixels) and where the viewer lays out its parts in it.
+WINDOW = (1280, 800)
+#: The time field of the time panel (canvas pixels), and the 3D view (x0, y0, x1, y1).
+TIME_FIELD = (390, 0)  # y: time_field_y(canvas height)
+VIEW_3D = (10, 60, 740, 0)
+
+
+def _chromium():
+    for name in ("chromium", "chromium-browser", "google-chrome"):
+        if shutil.which(name):
+            return shutil.which(name)
+    return None
+
+
+@pytest.fixture
+def browser():
+    webdriver = pytest.importorskip("selenium.webdriver", reason="selenium is not installed (pip install selenium)")
+    from selenium.webdriver.chrome.service import Service
+
+    binary, driver = _chromium(), shutil.which("chromedriver")
+    if binary is None or driver is None:
+        pytest.skip("Debian's chromium and chromium-driver are not installed (scripts/setup.sh installs them)")
+    options = webdriver.ChromeOptions()
+    options.binary_location = binary
+    for argument in ("--headless=new", "--no-sandbox", "--use-angle=swiftshader", "--enable-unsafe-swiftshader",
+                     f"--window-size={WINDOW[0]},{WINDOW[1]}", "--force-device-scale-factor=1",
+                     # nothing but 127.0.0.1 can be reached: no analytics, no examples, no fonts from the web
+                     "--host-resolver-rules=MAP * ~NOTFOUND , EXCLUDE 127.0.0.1"):
+        options.add_argument(argument)
+    session = webdriver.Chrome(service=Service(driver), options=options)
+    try:
+        yield session
+    finally:
+        session.quit()
+
+
+def _screenshot(browser) -> np.ndarray:
+    from PIL import Image
+
+    # CDP's capture waits less on a busy renderer than WebDriver's screenshot command
+    data = browser.execute_cdp_cmd("Page.captureScreenshot", {"format": "png"})["data"]
+    return np.asarray(Image.open(io.BytesIO(base64.b64decode(data))).convert("RGB")).astype(int)
+
+
+def _varint(data: bytes, index: int) -> tuple[int, int]:
+    value = shift = 0
+    while True:
+        byte = data[index]
+        index += 1
+        value |= (byte & 0x7F) << shift
+        shift += 7
+        if byte < 0x80:
+            return value, index
+
+
+def _fields(data: bytes) -> dict[int, list]:
+    """The top-level fields of a protobuf message: number -> [int or bytes] (enough for one path)."""
+    fields: dict[int, list] = {}
+    index = 0
+    while index < len(data):
+        key, index = _varint(data, index)
+        number, wire = key >> 3, key & 7
+        if wire == 0:
+            value, index = _varint(data, index)
+        elif wire == 2:
+            length, index = _varint(data, index)
+            value, index = data[index:index + length], index + length
+        elif wire in (1, 5):
+            value, index = data[index:index + (8 if wire == 1 else 4)], index + (8 if wire == 1 else 4)
+        else:
+            raise ValueError(f"wire type {wire}")
+        fields.setdefault(number, []).append(value)
+    return fields
+
+
+def _state(browser, *path: int) -> float | None:
+    """A time (s) in the viewer's Viewer Control state (GetStateResponse, nanoseconds), by field path;
+    None while it has none. (3, 3, 3, 1): the active recording's time cursor; (3, 2, 3, 2): the end of
+    its active timeline, i.e. the latest time the viewer has received."""
+    state = browser.execute_script("return window._handle ? Array.from(window._handle.viewer_state()) : null")
+    try:
+        message = bytes(state)
+        for number in path[:-1]:
+            message = _fields(message)[number][0]
+        return _fields(message)[path[-1]][0] / 1e9
+    except (TypeError, KeyError, IndexError, ValueError):
+        return None
+
+
+def _cursor_s(browser) -> float | None:
+    return _state(browser, 3, 3, 3, 1)
+
+
+def _type_time(browser, seconds: float) -> None:
+    """Type a time into the time panel's field, as a user would."""
+    from selenium.webdriver.common.action_chains import ActionChains
+    from selenium.webdriver.common.keys import Keys
+
+    canvas = browser.find_element("id", "the_canvas_id")
+    width, height = canvas.size["width"], canvas.size["height"]
+    x, y = TIME_FIELD[0], time_field_y(height)
+    ActionChains(browser).move_to_element_with_offset(canvas, x - width // 2, y - height // 2).double_click().perform()
+    time.sleep(0.5)
+    (ActionChains(browser).key_down(Keys.CONTROL).send_keys("a").key_up(Keys.CONTROL)
+     .send_keys(f"{seconds:.3f}s").send_keys(Keys.ENTER).perform())
+
+
+def _wait_until_loaded(browser, makespan_s: float, timeout_s: float = 420.0) -> None:
+    """Until the whole replay is in: the viewer's timeline reaches the end of the build."""
+    deadline = time.monotonic() + timeout_s
+    end = None
+    while time.monotonic() < deadline:
+        end = _state(browser, 3, 2, 3, 2)
+        if end is not None and abs(end - makespan_s) < 0.01:
+            time.sleep(3.0)
+            return
+        time.sleep(2.0)
+    raise AssertionError(f"the web viewer did not load the whole replay in {timeout_s:.0f} s (its timeline reaches "
+                         f"{end} s, the build {makespan_s} s)")
+
+
+def _go_to(browser, seconds: float, timeout_s: float = 60.0) -> None:
+    """Set the timeline to ``seconds``, check the viewer took it, and let it redraw."""
+    _type_time(browser, seconds)
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        cursor = _cursor_s(browser)
+        if cursor is not None and abs(cursor - seconds) < 0.01:
+            time.sleep(6.0)  # software rendering on a shared machine: a few frames
+            return
+        time.sleep(1.0)
+    raise AssertionError(f"the viewer's time is {_cursor_s(browser)} s, not the {seconds} s typed into it")
+
+
+def time_field_y(canvas_height: int) -> int:
+    return canvas_height - 135
+
+
+def _view(image: np.ndarray) -> np.ndarray:
+    x0, y0, x1, _ = VIEW_3D
+    return image[y0:time_field_y(image.shape[0]) - 20, x0:x1]
+
+
+def _assembled_green(view: np.ndarray) -> np.ndarray:
+    r, g, b = view[..., 0], view[..., 1], view[..., 2]
+    return (g > r + 40) & (g > b + 40)
+
+
+def test_web_viewer_shows_the_structure_growing(browser, frame_replay, tmp_path):
+    from bimrobot.replay.serve import serve_web
+
+    rrd, summary = frame_replay
+    with serve_web(rrd) as viewer:
+        browser.get(viewer.url + "&persist=0")
+        webgl = browser.execute_script("const c = document.createElement('canvas'); return !!(c.getContext('webgl2') || c.getContext('webgl'))")
+        assert webgl, "this Chromium has no WebGL (SwiftShader missing?): the replay cannot be checked in it"
+        _wait_until_loaded(browser, summary["makespan_s"])
+        early, late = round(0.05 * summary["makespan_s"], 1), summary["makespan_s"]
+        _go_to(browser, early)
+        first = _screenshot(browser)
+        _go_to(browser, late)
+        second = _screenshot(browser)
+    from PIL import Image
+
+    Image.fromarray(first.astype(np.uint8)).save(tmp_path / "early.png")
+    Image.fromarray(second.astype(np.uint8)).save(tmp_path / "late.png")
+    view1, view2 = _view(first), _view(second)
+    # not blank: a rendered scene has light and dark, a blank canvas is one colour
+    assert view1.std() > 12 and view2.std() > 12, f"blank 3D view (pixel std {view1.std():.1f}, {view2.std():.1f}); see {tmp_path}"
+    changed = np.abs(view1 - view2).sum(axis=2) > 60
+    assert changed.mean() > 0.01, f"the two times look the same; see {tmp_path}"
+    grown = _assembled_green(view2) & ~_assembled_green(view1)
+    assert grown.sum() > 2000, f"the end of the build shows no more assembled (green) structure than its start; see {tmp_path}"
+    # where the picture changed, it is mostly because the structure grew there
+    assert (grown & changed).sum() > 0.3 * grown.sum()

@@ -1,0 +1,96 @@
+"""`bimrobot replay`: the .rrd read back with Rerun's dataframe API agrees with the schedule."""
+
+from __future__ import annotations
+
+import csv
+import json
+
+import pytest
+
+from bimrobot.cli import main
+
+rr = pytest.importorskip("rerun")
+pytest.importorskip("datafusion", reason="Rerun's dataframe API needs rerun-sdk[catalog] (datafusion)")
+
+
+def read_back(rrd):
+    """A Rerun catalog server on 127.0.0.1 holding only ``rrd``: its dataset (dataframe API)."""
+    from rerun.server import Server
+
+    server = Server(host="127.0.0.1", datasets={"build": [str(rrd)]})
+    return server, server.client().get_dataset("build")
+
+
+def column(frame, name):
+    return frame.to_pandas()[name]
+
+
+def test_replay_holds_every_element_robot_and_node(frame_build, frame_replay):
+    rrd, summary = frame_replay
+    report = json.loads((frame_build / "package" / "report.json").read_text())
+    elements = {e["global_id"] for e in report["converted"]}
+    server, dataset = read_back(rrd)
+    with server:
+        paths = {c.entity_path for c in dataset.schema().component_columns()}
+    building = {p for p in paths if p.startswith("/building/")}
+    assert len(building) == len(elements) == summary["pieces"] == 88
+    assert "/building/" + rr.escape_entity_path_part("3Ua8LTHWPNNemz8Gs8JfMy") in building
+    robots = {p.split("/")[2] for p in paths if p.startswith("/robots/")}
+    assert robots == {"TransportRobot11", "TransportRobot12", "PositioningRobot21", "PositioningRobot22",
+                      "AssemblyRobot31", "AssemblyRobot32"}
+    assert len({p for p in paths if p.startswith("/nodes/")}) == summary["nodes"] > 0
+
+
+def test_installed_count_and_last_installation_match_the_schedule(frame_build, frame_replay):
+    rrd, _ = frame_replay
+    rows = list(csv.DictReader((frame_build / "simulation" / "schedule.csv").open()))
+    components = {r["GlobalId"] for r in rows}
+    last_finish = max(float(r["Finish"]) for r in rows)
+    server, dataset = read_back(rrd)
+    with server:
+        frame = dataset.filter_contents(["/progress/Assembled"]).reader(index="sim_time").to_pandas()
+    values = frame["/progress/Assembled:Scalars:scalars"].map(lambda v: float(v[0]))
+    times = frame["sim_time"].map(lambda t: t.total_seconds())
+    # every component the schedule builds is installed at the end, the last one when the schedule ends
+    assert values.iloc[-1] == len(components) == 12
+    first_full = times[values == len(components)].min()
+    assert first_full == pytest.approx(last_finish, abs=1e-3)
+    assert values.iloc[0] < len(components)
+
+
+def test_component_state_and_properties_are_read_back(frame_replay):
+    rrd, _ = frame_replay
+    column_gid = "/building/" + rr.escape_entity_path_part("3Ua8LTHWPNNemz8Gs8JfMy")
+    server, dataset = read_back(rrd)
+    with server:
+        frame = dataset.filter_contents([column_gid]).reader(index="sim_time").to_pandas()
+        static = dataset.filter_contents([column_gid]).reader(index=None).to_pandas()
+    assert static[f"{column_gid}:ifc_class"].iloc[0][0] == "IfcColumn"
+    assert static[f"{column_gid}:name"].iloc[0][0] == "Column C1"
+    states = [v[0] for v in frame[f"{column_gid}:state"].dropna()]
+    assert states[0] == "OnYard" and states[-1] == "Assembled"
+    assert "InTransit" in states and "WorkingInPositioning" in states
+
+
+def test_cli_writes_and_refuses_a_foreign_file(frame_build, tmp_path, capsys):
+    out = tmp_path / "b.rrd"
+    assert main(["replay", str(frame_build), "-o", str(out), "--start", "2026-03-02T07:00"]) == 0
+    assert "12 installed" in capsys.readouterr().out
+    assert out.stat().st_size > 10_000
+    foreign = tmp_path / "mine.rrd"
+    foreign.write_text("not bimrobot's")
+    assert main(["replay", str(frame_build), "-o", str(foreign)]) == 2
+    assert foreign.read_text() == "not bimrobot's"
+    assert "did not write" in capsys.readouterr().err
+
+
+def test_a_folder_that_is_not_a_build_is_refused(tmp_path, capsys):
+    assert main(["replay", str(tmp_path), "-o", str(tmp_path / "x.rrd")]) == 2
+    assert "not a `bimrobot build` output folder" in capsys.readouterr().err
+
+
+def test_a_simulate_and_convert_pair_replays_like_the_build(frame_build, frame_replay, tmp_path):
+    from bimrobot.replay import write_replay
+
+    summary = write_replay(frame_build / "package", tmp_path / "pair.rrd", simulation=frame_build / "simulation")
+    assert summary == frame_replay[1]
