@@ -342,5 +342,5 @@ def run_allocators(args) -> int:
     with atomic_output_dir(args.output, kind="allocators", inputs=_inputs(args)) as tmp:
         write_outputs(rows, table, tmp)
     print(table)
-    print(f"output: {Path(args.output).resolve()}/ (allocators.csv, allocators.md, allocators.json)")
+    print(f"output: {Path(args.output).resolve()}/ (allocators.csv, allocators.md, allocators.json, allocators.png)")
     return 0
