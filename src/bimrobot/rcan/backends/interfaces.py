@@ -107,4 +107,31 @@ class ExecutorBackend(abc.ABC):
         """Release connections; the default has none."""
 
 
+class DispatchingBackend(ExecutorBackend):
+    """A backend that executes all six features through one method, :meth:`_run`, which looks at
+    ``node.kind`` itself (the kinematic site, the ROS 2 client and the MuJoCo site do)."""
+
+    @abc.abstractmethod
+    def _run(self, node: RcanNode, attempt: int, ready_at_s: float, feedback) -> ActivityResult:
+        """Execute ``node``'s activity, whatever its kind."""
+
+    def move_to_component(self, node, attempt, ready_at_s, feedback) -> ActivityResult:
+        return self._run(node, attempt, ready_at_s, feedback)
+
+    def position_for_picking_up(self, node, attempt, ready_at_s, feedback) -> ActivityResult:
+        return self._run(node, attempt, ready_at_s, feedback)
+
+    def pick_up(self, node, attempt, ready_at_s, feedback) -> ActivityResult:
+        return self._run(node, attempt, ready_at_s, feedback)
+
+    def transport(self, node, attempt, ready_at_s, feedback) -> ActivityResult:
+        return self._run(node, attempt, ready_at_s, feedback)
+
+    def position_for_installing(self, node, attempt, ready_at_s, feedback) -> ActivityResult:
+        return self._run(node, attempt, ready_at_s, feedback)
+
+    def install(self, node, attempt, ready_at_s, feedback) -> ActivityResult:
+        return self._run(node, attempt, ready_at_s, feedback)
+
+
 FEATURES = tuple(kind.value for kind in ActivityKind)

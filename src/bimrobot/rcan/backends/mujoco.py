@@ -42,7 +42,7 @@ from pathlib import Path
 import numpy as np
 
 from bimrobot.rcan.activities import ActivityKind
-from bimrobot.rcan.backends.interfaces import ActivityResult, ExecutorBackend
+from bimrobot.rcan.backends.interfaces import ActivityResult, DispatchingBackend
 from bimrobot.rcan.generation import CapabilityTable
 from bimrobot.rcan.node import RcanNode
 
@@ -60,7 +60,7 @@ def experiment_shapes() -> dict[str, tuple[float, float, float]]:
     return {entry[1]: (entry[3][0], entry[3][1], entry[4]) for entry in RCAN_EXPERIMENTS.values()}
 
 
-class MujocoBackend(ExecutorBackend):
+class MujocoBackend(DispatchingBackend):
     """Executor backend on a MuJoCo scene (see the module docstring)."""
 
     name = "mujoco"
@@ -114,12 +114,6 @@ class MujocoBackend(ExecutorBackend):
     def _run(self, node, attempt, ready_at_s, feedback) -> ActivityResult:
         return self.execute(node, attempt, ready_at_s, feedback)
 
-    move_to_component = _run
-    position_for_picking_up = _run
-    pick_up = _run
-    transport = _run
-    position_for_installing = _run
-    install = _run
 
     def close(self) -> None:
         if self.trajectory_path is not None and self.site.frames:

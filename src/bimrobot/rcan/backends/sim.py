@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from bimrobot.rcan.activities import ActivityKind, Pose
-from bimrobot.rcan.backends.interfaces import ActivityResult, ExecutorBackend
+from bimrobot.rcan.backends.interfaces import ActivityResult, DispatchingBackend
 from bimrobot.rcan.generation import CapabilityTable, RobotSpec
 from bimrobot.rcan.node import RcanNode
 from bimrobot.rcan.state_manager import connect_state_db
@@ -252,7 +252,7 @@ class KinematicSite:
         self._db.close()
 
 
-class SimBackend(ExecutorBackend):
+class SimBackend(DispatchingBackend):
     """Executor backend on the built-in :class:`KinematicSite` (see the module docstring)."""
 
     name = "sim"
@@ -264,12 +264,6 @@ class SimBackend(ExecutorBackend):
     def _run(self, node, attempt, ready_at_s, feedback) -> ActivityResult:
         return self.site.execute(node, attempt, ready_at_s, feedback)
 
-    move_to_component = _run
-    position_for_picking_up = _run
-    pick_up = _run
-    transport = _run
-    position_for_installing = _run
-    install = _run
 
     def close(self) -> None:
         self.site.close()

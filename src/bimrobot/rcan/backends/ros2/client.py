@@ -12,7 +12,7 @@ import threading
 import time
 
 from bimrobot.rcan.activities import ActivityKind
-from bimrobot.rcan.backends.interfaces import ActivityResult, ExecutorBackend
+from bimrobot.rcan.backends.interfaces import ActivityResult, DispatchingBackend
 from bimrobot.rcan.backends.ros2.environment import HEARTBEAT, action_name, load_ros2
 from bimrobot.rcan.generation import CapabilityTable
 from bimrobot.rcan.node import RcanNode
@@ -26,7 +26,7 @@ def _quaternion_yaw(yaw: float) -> tuple[float, float, float, float]:
     return (0.0, 0.0, math.sin(yaw / 2), math.cos(yaw / 2))
 
 
-class Ros2Backend(ExecutorBackend):
+class Ros2Backend(DispatchingBackend):
     """Executor backend over ROS 2 actions (see the module docstring). Thread-safe: RCAN's executor
     calls :meth:`execute` from its worker threads while a background thread spins the node.
 
@@ -174,12 +174,6 @@ class Ros2Backend(ExecutorBackend):
                 return None
         return future.result()
 
-    move_to_component = _run
-    position_for_picking_up = _run
-    pick_up = _run
-    transport = _run
-    position_for_installing = _run
-    install = _run
 
     def stop(self) -> None:
         self._closed.set()  # goals still waited for end now, so no thread outlives the run
