@@ -20,8 +20,12 @@ from __future__ import annotations
 
 import argparse
 import statistics
-import time
+import sys
 from importlib import resources
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from schedule import timed  # noqa: E402  (bench/schedule.py, as bench/graph.py does)
 
 
 def capability_yaml(robots: int) -> str:
@@ -41,15 +45,6 @@ def capability_yaml(robots: int) -> str:
             f"    home: [{i % 100}.0, {i // 100}.0, 0.0]\n"
         )
     return "".join(lines)
-
-
-def timed(function, repeat: int) -> list[float]:
-    times = []
-    for _ in range(repeat):
-        start = time.perf_counter()
-        function()
-        times.append(time.perf_counter() - start)
-    return times
 
 
 def main(argv: list[str] | None = None) -> int:
