@@ -2,7 +2,8 @@
 
 Two times on the timeline (early in the build and its end), a screenshot at each: the 3D view must not
 be blank, and it must change where the structure grew (more of it coloured as assembled at the end).
-A browser without WebGL fails the test rather than passing on a blank canvas.
+A browser without WebGL fails the test rather than passing on a blank canvas. Every request the page
+makes is recorded: none may leave 127.0.0.1 (Rerun's analytics are stopped by the page's policy).
 """
 
 from __future__ import annotations
@@ -43,10 +44,15 @@ def browser():
     options.binary_location = binary
     for argument in ("--headless=new", "--no-sandbox", "--use-angle=swiftshader", "--enable-unsafe-swiftshader",
                      f"--window-size={WINDOW[0]},{WINDOW[1]}", "--force-device-scale-factor=1",
-                     # nothing but 127.0.0.1 can be reached: no analytics, no examples, no fonts from the web
+                     # nothing but 127.0.0.1 can be reached, should the page's policy let a request through
                      "--host-resolver-rules=MAP * ~NOTFOUND , EXCLUDE 127.0.0.1"):
         options.add_argument(argument)
+    options.set_capability("goog:loggingPrefs", {"performance": "ALL"})  # every request the page makes
     session = webdriver.Chrome(service=Service(driver), options=options)
+    # what the page's Content-Security-Policy stopped, as the page itself sees it
+    session.execute_cdp_cmd("Page.addScriptToEvaluateOnNewDocument", {"source": (
+        "window._blocked = []; document.addEventListener('securitypolicyviolation', "
+        "e => window._blocked.push(e.blockedURI));")})
     try:
         yield session
     finally:
@@ -151,6 +157,20 @@ def _go_to(browser, seconds: float, timeout_s: float = 60.0) -> None:
     raise AssertionError(f"the viewer's time is {_cursor_s(browser)} s, not the {seconds} s typed into it")
 
 
+def _requests(browser) -> list[tuple[str, str | None]]:
+    """(url, why it failed: Chromium's blockedReason or None) of every request the page began."""
+    import json
+
+    began, failed = {}, {}
+    for entry in browser.get_log("performance"):
+        message = json.loads(entry["message"])["message"]
+        if message["method"] == "Network.requestWillBeSent":
+            began[message["params"]["requestId"]] = message["params"]["request"]["url"]
+        elif message["method"] == "Network.loadingFailed":
+            failed[message["params"]["requestId"]] = message["params"].get("blockedReason")
+    return [(url, failed.get(request)) for request, url in began.items()]
+
+
 def time_field_y(canvas_height: int) -> int:
     return canvas_height - 135
 
@@ -179,6 +199,17 @@ def test_web_viewer_shows_the_structure_growing(browser, frame_replay, tmp_path)
         first = _screenshot(browser)
         _go_to(browser, late)
         second = _screenshot(browser)
+        requests = _requests(browser)
+        blocked = browser.execute_script("return window._blocked")
+    from urllib.parse import urlsplit
+
+    # Rerun's usage analytics: the page would post them to tel.rerun.io; the page's policy stops them in
+    # the browser (blocked by csp, not merely unresolved), and nothing else leaves 127.0.0.1 either
+    assert any(urlsplit(url).hostname == "127.0.0.1" for url, _ in requests)
+    leaving = [(url, why) for url, why in requests if urlsplit(url).hostname != "127.0.0.1" and not url.startswith(("data:", "blob:"))]
+    assert all(why == "csp" for _, why in leaving), f"requests that left 127.0.0.1: {leaving}"
+    assert any(urlsplit(url).hostname == "tel.rerun.io" for url in blocked), f"the policy blocked {blocked}"
+    assert all(urlsplit(url).hostname not in (None, "127.0.0.1") for url in blocked)
     from PIL import Image
 
     Image.fromarray(first.astype(np.uint8)).save(tmp_path / "early.png")

@@ -93,4 +93,24 @@ def test_a_simulate_and_convert_pair_replays_like_the_build(frame_build, frame_r
     from bimrobot.replay import write_replay
 
     summary = write_replay(frame_build / "package", tmp_path / "pair.rrd", simulation=frame_build / "simulation")
-    assert summary == frame_replay[1]
+    # the same replay, without the build's RCAN run (rcan/ is not part of the pair)
+    assert summary == {key: value for key, value in frame_replay[1].items() if not key.startswith("rcan")}
+
+
+def test_the_builds_rcan_run_is_on_rcan_time(frame_build, frame_replay):
+    """One line per activity RCAN finished, per robot, beside the simulated schedule: as many done as the
+    RCAN report lists, each on the robot the report names."""
+    rrd, summary = frame_replay
+    report = json.loads((frame_build / "rcan" / "report.json").read_text())
+    server, dataset = read_back(rrd)
+    with server:
+        frame = dataset.filter_contents(["/rcan/**"]).reader(index="rcan_time").to_pandas()
+    done = {}
+    for name in frame.columns:
+        if name.endswith(":activity_id"):
+            robot = name.split("/")[2].split(":")[0]
+            statuses = frame[name.replace(":activity_id", ":status")]
+            for ids, status in zip(frame[name].dropna(), statuses.dropna()):
+                done.update({a: robot for a, s in zip(ids, status) if s == "done"})
+    assert len(done) == len(report["done"]) == summary["rcan_done"] == 160
+    assert done == {activity: report["robots"][activity] for activity in report["done"]}

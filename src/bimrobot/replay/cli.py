@@ -14,9 +14,11 @@ REPLAY_EXAMPLES = """examples:
   bimrobot replay out/ -o build.rrd --serve          # ... or in the web viewer on 127.0.0.1
   bimrobot replay sim/ pkg/ -o sim.rrd               # a `simulate` folder and a `convert --layout yard` package
   bimrobot replay out/ -o build.rrd --start 2026-03-02T07:00   # adds a calendar timeline
+  bimrobot replay run/ --model e1.ifc -o e1.rrd      # an `rcan run` folder (report.json, state.db, trajectory)
 
-Timelines: sim_time (seconds of the simulated build) and, with --start, calendar. docs/replay.md says
-what is shown.
+Timelines: sim_time (seconds of the simulated build) and, with --start, calendar; rcan_time (the RCAN
+run's activities) and, from the mujoco backend's trajectory CSV, physics_time (recorded body poses).
+docs/replay.md says what is shown.
 """
 
 
@@ -33,7 +35,8 @@ def register(subparsers) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("folders", type=Path, nargs="+", metavar="FOLDER",
-                        help="a `bimrobot build` output folder, or a `simulate` folder and a `convert` package folder")
+                        help="a `bimrobot build` output folder, a `simulate` folder and a `convert` package folder, "
+                        "or an `rcan run` folder (its report.json and state database; with --model)")
     parser.add_argument("-o", "--output", type=Path, required=True,
                         help="the .rrd file to write (a new file, or one bimrobot wrote, which is replaced)")
     parser.add_argument("--model", type=Path,
@@ -66,9 +69,18 @@ def replay_command(args) -> int:
     simulation = args.folders[1] if len(args.folders) == 2 else None
     summary = write_replay(args.folders[0], args.output, model=args.model, start=args.start, simulation=simulation)
     last = summary["last_installation_s"]
-    print(f"{args.output}: {summary['pieces']} elements, {summary['components']} components "
-          f"({summary['installed']} installed, the last at {'-' if last is None else f'{last:,.1f}'} s), "
-          f"{summary['robots']} robots, {summary['nodes']} connection nodes; open it with: rerun {args.output}")
+    if summary["components"]:
+        print(f"{args.output}: {summary['pieces']} elements, {summary['components']} components "
+              f"({summary['installed']} installed, the last at {'-' if last is None else f'{last:,.1f}'} s), "
+              f"{summary['robots']} robots, {summary['nodes']} connection nodes")
+    else:
+        print(f"{args.output}: {summary['pieces']} elements")
+    if "rcan_activities" in summary:
+        physics = (f"; physics: {summary['physics_components']} components and {summary['physics_robots']} robots "
+                   "at their recorded poses (timeline physics_time)" if "physics_components" in summary else "")
+        print(f"RCAN run: {summary['rcan_done']} of {summary['rcan_activities']} activities done "
+              f"(timeline rcan_time){physics}")
+    print(f"open it with: rerun {args.output}")
     if args.serve:
         return _serve(args.output, args.web_port)
     return 0

@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from bimrobot.errors import InputError
+from bimrobot.replay.rcan import RcanRun, is_rcan_folder, load_rcan_run
 
 log = logging.getLogger(__name__)
 
@@ -87,6 +88,12 @@ class BuildRecord:
     robots: dict[str, Robot]
     nodes: dict[str, Node]
     inputs: list[Path] = field(default_factory=list)
+    #: the build's RCAN run (its rcan/ folder), or the RCAN run folder replayed alone; None without one
+    rcan: RcanRun | None = None
+    #: the site's rule for robots without work: "stay", or "yard" (they drive back to the nearest of
+    #: ``yard``, (k, 2) model frame, metres)
+    idle_robots: str = "stay"
+    yard: np.ndarray | None = None
 
     @property
     def makespan(self) -> float:
@@ -194,11 +201,39 @@ def load_build(folders: list[Path], model_path: Path | None = None) -> BuildReco
     offset = _model_offset(pieces, site)
     robots = _robots(schedule, summary, site, offset)
     nodes = _nodes(schedule, pieces, model)
+    rcan_folder = Path(folders[0]) / "rcan"
+    rcan = load_rcan_run(rcan_folder) if len(folders) == 1 and is_rcan_folder(rcan_folder) else None
     return BuildRecord(
         title=f"{report.get('project') or model_path.stem} ({model_path.name})",
         pieces=pieces, parts=parts, states=states, schedule=schedule, robots=robots, nodes=nodes,
-        inputs=[package, simulation, model_path],
+        inputs=[package, simulation, model_path], rcan=rcan,
+        idle_robots=site.idle_robots, yard=site.to_model(np.asarray(site.yard, float).reshape(-1, 2), offset),
     )
+
+
+def load_rcan_alone(folder: Path, model_path: Path | None) -> BuildRecord:
+    """An `rcan run` output folder (report.json, state database, trajectory CSV) with the IFC model
+    ``model_path`` for the meshes (every element of the model, in its own frame)."""
+    from bimrobot.bim import load_model
+    from bimrobot.world.layout import rigid
+
+    if model_path is None or not Path(model_path).is_file():
+        raise InputError(f"{folder} is an `rcan run` output folder: give the IFC model with --model "
+                         "(the replay draws its elements; for an experiment: bimrobot example rcan-experiment-N)")
+    run = load_rcan_run(folder)
+    model = load_model(Path(model_path))
+    pieces = {
+        gid: Piece(global_id=gid, ifc_class=e.ifc_class, name=e.name or "", storey_id=e.storey_id,
+                   triangles=np.asarray(e.vertices, float)[np.asarray(e.faces)], colour=np.array([0.6, 0.6, 0.6, 1.0]),
+                   yard_pose=None, installed_pose=rigid(e.placement))
+        for gid, e in model.elements.items() if len(e.faces)
+    }
+    if not pieces:
+        raise InputError(f"{model_path}: the model has no element with a body to replay")
+    components = {a.component_id for a in run.activities} | set(run.component_states)
+    parts = {c: [p for p in model.assemblies[c].part_ids if p in pieces] for c in components if c in model.assemblies}
+    return BuildRecord(title=f"RCAN run {folder.name} ({Path(model_path).name})", pieces=pieces, parts=parts,
+                       states={}, schedule=[], robots={}, nodes={}, inputs=[folder, Path(model_path)], rcan=run)
 
 
 def _pieces(package: Path, report: dict, model, layout_yard: bool) -> dict[str, Piece]:

@@ -5,7 +5,9 @@ activity from where the last one ended to where this one begins (a transport: to
 yard, then carrying it to its target; positioning and assembly: to a stand-off point beside the work).
 A component lies on the yard until it is ``InTransit``, rides on its transport robot, is set down at
 its target when it has ``Arrived``, is lifted into its installed pose while ``WorkingInPositioning``
-and stays there from ``PositionFixed``. Times in seconds from the start of the build; positions in the
+and stays there from ``PositionFixed``. On a site with ``idle_robots: yard`` a robot that has worked
+and has no task when it finishes drives back to the nearest yard position until its next task starts,
+as `simulate` sends it. Times in seconds from the start of the build; positions in the
 package's model frame, metres, z up.
 """
 
@@ -84,7 +86,10 @@ def robot_tracks(record: BuildRecord) -> dict[str, RobotTrack]:
         position = robot.home.copy()
         track.positions.append((0.0, float(position[0]), float(position[1])))
         track.activities.append((0.0, "idle", False))
-        for row in (r for r in record.schedule if r["Robot"] == name):
+        rows = [r for r in record.schedule if r["Robot"] == name]
+        for index, row in enumerate(rows):
+            if index and record.idle_robots == "yard" and record.yard is not None and len(record.yard):
+                position = _return_to_yard(track, robot, position, rows[index - 1]["Finish"], row["Start"], record.yard)
             start, finish = row["Start"], row["Finish"]
             target = np.array([row["TargetX"], row["TargetY"]])
             label = _label(record, row)
@@ -108,8 +113,31 @@ def robot_tracks(record: BuildRecord) -> dict[str, RobotTrack]:
                 _leg(track, start, arrive, position, spot)
                 position = spot
             track.activities.append((finish, "idle", False))
+        if rows and record.idle_robots == "yard" and record.yard is not None and len(record.yard):
+            _return_to_yard(track, robot, position, rows[-1]["Finish"], None, record.yard)
         tracks[name] = track
     return tracks
+
+
+def _return_to_yard(track: RobotTrack, robot, position: np.ndarray, free_s: float, next_s: float | None,
+                    yard: np.ndarray) -> np.ndarray:
+    """With the site's ``idle_robots: yard``, a robot that has worked and has no task when it finishes
+    drives to the nearest yard position, as `simulate` sends it (thesis 4.5.3), until it arrives or its
+    next task starts at ``next_s`` (then it stops where it is). Returns where it is then (model frame, m)."""
+    if next_s is not None and next_s <= free_s:
+        return position  # given its next task as it finished: it never left
+    target = yard[int(np.argmin(np.hypot(*(yard - position).T)))]
+    distance = float(np.hypot(*(target - position)))
+    if distance < 1e-6:
+        return position
+    arrive_s = free_s + distance / robot.speed
+    stop_s = arrive_s if next_s is None else min(arrive_s, next_s)
+    end = position + (target - position) * (stop_s - free_s) / (arrive_s - free_s)
+    track.activities.append((free_s, "idle: returning to the yard", False))
+    _leg(track, free_s, stop_s, position, end)
+    if stop_s == arrive_s:
+        track.activities.append((arrive_s, "idle at the yard", False))
+    return end
 
 
 def _label(record: BuildRecord, row: dict) -> str:

@@ -12,7 +12,8 @@ Entities (paths are Rerun entity paths; GlobalIds escaped as path parts):
 - ``/events``: one text line per activity start.
 
 Timelines: ``sim_time`` (seconds from the start of the build, a duration) and, when a start date is
-given, ``calendar`` (wall-clock timestamps).
+given, ``calendar`` (wall-clock timestamps). An RCAN run adds ``rcan_time`` and, from the mujoco
+backend's trajectory, ``physics_time`` (:mod:`bimrobot.replay.record_rcan`).
 """
 
 from __future__ import annotations
@@ -76,12 +77,23 @@ def write_rrd(record: BuildRecord, rrd: Path, start: dt.datetime | None = None, 
     rec.send_recording_name(f"{record.title} - {io.signature('replay')}")
     rec.save(str(rrd), default_blueprint=blueprint(record))
     clock = _Clock(rec, start)
-    tracks = robot_tracks(record)
-    poses = component_poses(record, tracks)
-    _log_pieces(rec, clock, record, poses)
-    _log_robots(rec, clock, record, tracks)
-    _log_nodes(rec, clock, record)
+    _log_properties(rec, record)
+    summary = {}
+    if record.schedule:  # a build: the simulated schedule on sim_time
+        tracks = robot_tracks(record)
+        poses = component_poses(record, tracks)
+        _log_pieces(rec, clock, record, poses)
+        _log_robots(rec, clock, record, tracks)
+        _log_nodes(rec, clock, record)
     summary = _log_progress(rec, clock, record)
+    if record.rcan is not None:  # what RCAN executed, and the physics bodies, on their own clocks
+        from bimrobot.replay.record_rcan import log_physics, log_rcan
+
+        log_rcan(rec, record.rcan)
+        summary["rcan_activities"] = len(record.rcan.activities)
+        summary["rcan_done"] = len(record.rcan.done)
+        if record.rcan.bodies:
+            summary.update(log_physics(rec, record, record.rcan))
     rec.flush()
     rec.disconnect()
     return summary
@@ -102,29 +114,60 @@ def blueprint(record: BuildRecord | None = None):
         eye = rrb.EyeControls3D(position=centre + np.array([0.2, -0.75, 0.5]) * size, look_target=centre,
                                 eye_up=[0.0, 0.0, 1.0])
         whole = rr.TimeRange(start=rr.TimeRangeBoundary.absolute(seconds=0.0),
-                             end=rr.TimeRangeBoundary.absolute(seconds=max(record.makespan, 1.0)))
+                             end=rr.TimeRangeBoundary.absolute(seconds=max(timeline_end(record), 1.0)))
         axis = rrb.TimeAxis(view_range=whole)
+    panels = []
+    if record is None or record.schedule:
+        panels += [rrb.TimeSeriesView(name="Robots: raised while working", origin="/gantt", axis_x=axis),
+                   rrb.TimeSeriesView(name="Components per state", origin="/progress", axis_x=axis),
+                   rrb.TextLogView(name="Activities", origin="/events")]
+    if record is not None and record.rcan is not None:
+        panels += [rrb.TimeSeriesView(name="RCAN: activities done per robot (rcan_time)", origin="/rcan_done"),
+                   rrb.TextLogView(name="RCAN activities (rcan_time)", origin="/rcan")]
+        if any(a.start_s is not None for a in record.rcan.activities):
+            panels.insert(-2, rrb.TimeSeriesView(name="RCAN: raised while working (rcan_time)", origin="/rcan_gantt"))
     return rrb.Blueprint(
         rrb.Horizontal(
-            rrb.Spatial3DView(name="Site (model frame, m)", origin="/", contents=["/building/**", "/robots/**", "/nodes/**"],
-                              eye_controls=eye),
-            rrb.Vertical(
-                rrb.TimeSeriesView(name="Robots: raised while working", origin="/gantt", axis_x=axis),
-                rrb.TimeSeriesView(name="Components per state", origin="/progress", axis_x=axis),
-                rrb.TextLogView(name="Activities", origin="/events"),
-            ),
+            rrb.Spatial3DView(name="Site (model frame, m)", origin="/",
+                              contents=["/building/**", "/robots/**", "/nodes/**", "/bodies/**"], eye_controls=eye),
+            rrb.Vertical(*panels),
             column_shares=[3, 2],
         ),
-        rrb.TimePanel(timeline=TIMELINE, state="expanded", play_state="paused"),
+        rrb.TimePanel(timeline=main_timeline(record), state="expanded", play_state="paused"),
         collapse_panels=True,
     )
+
+
+def main_timeline(record: BuildRecord | None) -> str:
+    """The timeline the viewer opens on: the physics run's when there is one, else the schedule's."""
+    from bimrobot.replay.record_rcan import PHYSICS_TIME, RCAN_TIME
+
+    if record is not None and record.rcan is not None and record.rcan.bodies:
+        return PHYSICS_TIME
+    if record is not None and not record.schedule and record.rcan is not None:
+        return RCAN_TIME
+    return TIMELINE
+
+
+def timeline_end(record: BuildRecord) -> float:
+    """The last second of the main timeline (:func:`main_timeline`)."""
+    from bimrobot.replay.record_rcan import PHYSICS_TIME, RCAN_TIME
+
+    main = main_timeline(record)
+    if main == PHYSICS_TIME:
+        return max(float(track.times[-1]) for track in record.rcan.bodies.values())
+    if main == RCAN_TIME:
+        return max((a.finish_s for a in record.rcan.activities if a.finish_s is not None), default=0.0)
+    return record.makespan
 
 
 def scene_bounds(record: BuildRecord) -> tuple[np.ndarray, np.ndarray]:
     """[xmin, ymin, zmin], [xmax, ymax, zmax] of the building, the yard and the robot homes (m)."""
     boxes = [p.world_bounds(p.installed_pose) for p in record.pieces.values()]
     boxes += [p.world_bounds(p.yard_pose) for p in record.pieces.values() if p.yard_pose is not None]
-    points = np.concatenate([np.concatenate(boxes)] + [[[*r.home, 0.0]] for r in record.robots.values()])
+    points = np.concatenate([np.concatenate(boxes)] + [[[*r.home, 0.0]] for r in record.robots.values()]
+                            + [track.xyz[[0, -1]] for body, track in (record.rcan.bodies if record.rcan else {}).items()
+                               if body.endswith("/base")])
     return points.min(axis=0), points.max(axis=0)
 
 
@@ -145,6 +188,15 @@ def _transform(rr, pose: np.ndarray):
     return rr.Transform3D(translation=pose[:3, 3].astype(np.float32), mat3x3=pose[:3, :3].astype(np.float32))
 
 
+def _log_properties(rec, record: BuildRecord) -> None:
+    """Each element's GlobalId, IFC class, name and storey (static: on every timeline)."""
+    import rerun as rr
+
+    for gid, piece in record.pieces.items():
+        rec.log(entity("building", gid), rr.AnyValues(global_id=gid, ifc_class=piece.ifc_class, name=piece.name,
+                                                      storey=piece.storey_id or ""), static=True)
+
+
 def _state_changes(record: BuildRecord) -> dict[str, list[tuple[float, str]]]:
     """Piece -> [(time, state)] from its component (the first change at time 0 at the latest)."""
     out = {}
@@ -162,8 +214,6 @@ def _log_pieces(rec, clock: _Clock, record: BuildRecord, poses: dict) -> None:
     node_times = _node_times(record)
     for gid, piece in record.pieces.items():
         path = entity("building", gid)
-        rec.log(path, rr.AnyValues(global_id=gid, ifc_class=piece.ifc_class, name=piece.name,
-                                   storey=piece.storey_id or ""), static=True)
         own_rgb = tuple(int(round(255 * c)) for c in piece.colour[:3])
         if gid in changes:
             history = changes[gid]
@@ -247,7 +297,7 @@ def _log_progress(rec, clock: _Clock, record: BuildRecord) -> dict:
 
     events = sorted((t, component, state) for component, history in record.states.items() for t, state in history)
     current: dict[str, str] = {}
-    for state in STATES:
+    for state in STATES if record.states else ():
         rec.log(entity("progress", state), rr.SeriesLines(names=state, colors=[STATE_COLOURS[state]]), static=True)
     index = 0
     last_installed = None

@@ -4,6 +4,14 @@ The viewer is the ``rerun`` program of the rerun-sdk wheel (the web viewer ships
 offline). Rerun's analytics are switched off the documented way, ``rerun analytics disable``, in a
 configuration folder of our own (``XDG_CONFIG_HOME``/``XDG_DATA_HOME`` of the started process only),
 so the user's own Rerun settings are neither read nor changed; OpenTelemetry export stays off too.
+
+That setting does not reach the web viewer running in the browser: Rerun 0.41's web viewer posts its
+usage events (``$identify``, ``viewer_started``, ``load_data_source``, ``open_recording``) to
+``https://tel.rerun.io/api/pog`` whatever the server's setting, and has no URL parameter or setting
+to stop it; its page also asks ``api.github.com`` for the latest release, ``app.rerun.io`` for the
+examples and Google for a web font. So the page is served through :class:`PolicyServer`, a small
+proxy on 127.0.0.1 that adds a Content-Security-Policy header allowing connections to 127.0.0.1 only:
+the browser then sends none of those requests (they show as blocked by ``csp`` in its developer tools).
 """
 
 from __future__ import annotations
@@ -46,16 +54,89 @@ def quiet_environment(home: Path) -> dict[str, str]:
     return env
 
 
+#: What the page of the web viewer may load: its own files and the replay's gRPC proxy, both on
+#: 127.0.0.1; no analytics, release checks, example lists, map tiles or web fonts from elsewhere.
+CONTENT_SECURITY_POLICY = ("connect-src 'self' http://127.0.0.1:* ws://127.0.0.1:* data: blob:; "
+                           "style-src 'self' 'unsafe-inline'; font-src 'self' data:; img-src 'self' data: blob:")
+#: Headers that belong to one connection and are not passed on by the proxy (RFC 9110, 7.6.1).
+HOP_BY_HOP = {"connection", "keep-alive", "proxy-authenticate", "proxy-authorization", "te", "trailer",
+              "transfer-encoding", "upgrade", "content-security-policy"}
+
+
+class PolicyServer:
+    """An HTTP proxy on 127.0.0.1 in front of Rerun's web viewer server that adds
+    :data:`CONTENT_SECURITY_POLICY` to every answer (module docstring). ``port``: the port it listens on."""
+
+    def __init__(self, upstream: str, port: int = 0):
+        import http.server
+        import threading
+
+        self.upstream = upstream.rstrip("/")
+        proxy = self
+
+        class Handler(http.server.BaseHTTPRequestHandler):
+            def do_GET(self):  # noqa: N802 (http.server's naming)
+                proxy.forward(self)
+
+            def do_HEAD(self):  # noqa: N802
+                proxy.forward(self, body=False)
+
+            def log_message(self, *args):  # quiet: the viewer's page asks for a few files
+                pass
+
+        try:
+            self.server = http.server.ThreadingHTTPServer(("127.0.0.1", port), Handler)
+        except OSError as exc:
+            raise InputError(f"--web-port {port}: cannot listen on 127.0.0.1:{port} ({exc.strerror})") from None
+        self.server.daemon_threads = True
+        self.port = self.server.server_address[1]
+        self.thread = threading.Thread(target=self.server.serve_forever, daemon=True)
+        self.thread.start()
+
+    def forward(self, handler, body: bool = True) -> None:
+        """Answer ``handler``'s request with the upstream server's answer and the policy header."""
+        import urllib.error
+        import urllib.request
+
+        request = urllib.request.Request(self.upstream + handler.path, method=handler.command,
+                                         headers={k: v for k, v in handler.headers.items() if k.lower() not in HOP_BY_HOP | {"host"}})
+        try:
+            answer = urllib.request.urlopen(request, timeout=60)
+        except urllib.error.HTTPError as error:
+            answer = error
+        except (urllib.error.URLError, OSError) as exc:
+            handler.send_error(502, f"Rerun's web viewer server did not answer ({exc})")
+            return
+        with answer:
+            handler.send_response(answer.status)
+            for key, value in answer.headers.items():
+                if key.lower() not in HOP_BY_HOP:
+                    handler.send_header(key, value)
+            handler.send_header("Content-Security-Policy", CONTENT_SECURITY_POLICY)
+            handler.end_headers()
+            while body and (chunk := answer.read(1 << 16)):
+                handler.wfile.write(chunk)
+
+    def stop(self) -> None:
+        self.server.shutdown()
+        self.server.server_close()
+
+
 @dataclass
 class WebViewer:
-    """A running ``rerun --serve-web`` process: ``url`` opens the replay in a browser."""
+    """A running ``rerun --serve-web`` process behind a :class:`PolicyServer`: ``url`` opens the replay
+    in a browser."""
 
     process: subprocess.Popen
     url: str
     home: tempfile.TemporaryDirectory
+    policy: PolicyServer | None = None
 
     def stop(self) -> None:
-        """Stop the viewer server and remove its private configuration folder."""
+        """Stop the proxy and the viewer server and remove its private configuration folder."""
+        if self.policy is not None:
+            self.policy.stop()
+            self.policy = None
         if self.process.poll() is None:
             self.process.terminate()
             try:
@@ -73,10 +154,26 @@ class WebViewer:
 
 
 def serve_web(rrd: Path, web_port: int = 0, grpc_port: int = 0, timeout_s: float = 60.0) -> WebViewer:
-    """Start Rerun's web viewer for ``rrd`` on 127.0.0.1 (port 0: a free one); return it once it listens."""
+    """Start Rerun's web viewer for ``rrd`` on 127.0.0.1 behind the policy proxy, which listens on
+    ``web_port`` (0: a free one); return it once it listens."""
+    policy = PolicyServer("http://127.0.0.1", web_port)  # its port first: a taken --web-port fails before rerun starts
+    try:
+        viewer = _start_rerun(rrd, grpc_port, timeout_s)
+    except BaseException:
+        policy.stop()
+        raise
+    upstream = re.match(r"http://127\.0\.0\.1:\d+", viewer.url).group(0)
+    policy.upstream = upstream
+    viewer.policy = policy
+    viewer.url = viewer.url.replace(upstream, f"http://127.0.0.1:{policy.port}", 1)
+    return viewer
+
+
+def _start_rerun(rrd: Path, grpc_port: int, timeout_s: float) -> WebViewer:
+    """``rerun --serve-web`` for ``rrd`` on 127.0.0.1 (free ports unless ``grpc_port`` is given)."""
     home = tempfile.TemporaryDirectory(prefix="bimrobot-rerun-")
     env = quiet_environment(Path(home.name))
-    command = [rerun_program(), "--serve-web", "--bind", "127.0.0.1", "--web-viewer-port", str(web_port),
+    command = [rerun_program(), "--serve-web", "--bind", "127.0.0.1", "--web-viewer-port", "0",
                "--port", str(grpc_port), str(Path(rrd).resolve())]
     process = subprocess.Popen(command, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     deadline = time.monotonic() + timeout_s
