@@ -27,6 +27,11 @@ transport in the same run, repeat after repeat (min/median/max of the ratios ove
 each with one round trip in flight (RCAN: one chain of activities) and with two (two chains on two
 robots; two ping-pongs, two action clients).
 
+With the journal on disk (``--state-db`` as ``bimrobot build`` runs it; skip with ``--no-disk``), the
+in-process run's p50 is measured against one bare fsync'ed SQLite commit (WAL, ``synchronous=FULL``, as
+the state database) on the same disk in the same round: the ratio is the number of disk syncs'
+worth of time on the dispatch path (the robot's record of the goal, the coordinator's turn).
+
 ``python bench/rcan.py --scaling [1000 3000 10000]`` measures instead how the time of a whole in-process
 run grows with the number of activities (min/median/max over ``--repeats``, growth ratios against the
 smallest size).
@@ -41,6 +46,7 @@ import os
 import random
 import shutil
 import socket
+import sqlite3
 import subprocess
 import sys
 import tempfile
@@ -381,13 +387,36 @@ def fastest_bare_action(n: int, in_flight: int = 1) -> tuple[str, list[float]]:
     return best
 
 
+def bare_commits(folder: str, n: int) -> list[float]:
+    """Seconds per SQLite commit of one row, WAL with ``synchronous=FULL`` as the state database (one
+    disk sync each), ``n`` of them after 5 warm-up commits, in a database under ``folder``."""
+    path = os.path.join(folder, "bare-commits.sqlite")
+    db = sqlite3.connect(path, isolation_level=None)
+    try:
+        db.execute("PRAGMA journal_mode=WAL")
+        db.execute("PRAGMA synchronous=FULL")
+        db.execute("CREATE TABLE IF NOT EXISTS t (n INTEGER)")
+        out = []
+        for i in range(n + 5):
+            started = time.perf_counter()
+            db.execute("BEGIN IMMEDIATE")
+            db.execute("INSERT INTO t VALUES (?)", (i,))
+            db.execute("COMMIT")
+            if i >= 5:
+                out.append(time.perf_counter() - started)
+    finally:
+        db.close()
+    return out
+
+
 def _summary(ratios: list[float]) -> str:
     return f"{min(ratios):6.2f} {float(np.median(ratios)):6.2f} {max(ratios):6.2f}"
 
 
-def references(n: int, repeats: int, redis: bool = True, ros: bool = True) -> list[dict]:
+def references(n: int, repeats: int, redis: bool = True, ros: bool = True, disk: bool = True) -> list[dict]:
     """Each transport's p50 dispatch latency against its bare round trip, measured alternately in
-    each of ``repeats`` rounds; returns one row per (transport, round)."""
+    each of ``repeats`` rounds (and, with ``disk``, the in-process run with its state database in a
+    file against one bare fsync'ed commit); returns one row per (transport, round)."""
     caps = parse_capabilities(TABLE, "bench table")
 
     def rcan_p50(in_flight: int, **kwargs) -> tuple[float, float]:
@@ -422,6 +451,13 @@ def references(n: int, repeats: int, redis: bool = True, ros: bool = True) -> li
                     executor.stdout.close()
                     os.unlink(caps_file)
                 add("redis, executor process", in_flight, "XADD -> XREAD BLOCK ping-pong, echo process", ref, rcan)
+    for _ in range(repeats if disk else 0):
+        with tempfile.TemporaryDirectory(prefix="bench-rcan-") as folder:
+            ref = bare_commits(folder, 100)
+            for in_flight in (1, 2):
+                rcan = rcan_p50(in_flight, state_db=os.path.join(folder, f"state-{in_flight}.sqlite"))
+                add("in-process, state db file", in_flight, "one fsync'ed SQLite commit (WAL, synchronous=FULL)",
+                    ref, rcan)
     if ros:
         from bimrobot.rcan.backends.ros2 import cleanup_fastdds, fastdds_files, robot_node_process, ros2_available
 
@@ -448,16 +484,16 @@ def references(n: int, repeats: int, redis: bool = True, ros: bool = True) -> li
     print(f"RCAN p50 dispatch latency / the bare round trip of its transport, same run, {repeats} rounds, "
           f"{n} round trips / activities each, with 1 or 2 in flight at once (RCAN: 1 chain of activities or 2 "
           "chains on 2 robots, sim kinematics without sleeping); ms are medians over the rounds")
-    print(f"{'transport':36s} {'ref p50':>8s} {'ref p99':>8s} {'rcan p50':>9s} {'rcan p99':>9s} "
+    print(f"{'transport':40s} {'ref p50':>8s} {'ref p99':>8s} {'rcan p50':>9s} {'rcan p99':>9s} "
           f"{'p50 ratio min/median/max':>25s} {'p99 ratio':>10s}")
     for transport in dict.fromkeys(r["transport"] for r in rows):
         mine = [r for r in rows if r["transport"] == transport]
         med = lambda key, i: float(np.median([r[key][i] for r in mine]))  # noqa: E731
         ratios = [r["rcan_ms"][0] / r["ref_ms"][0] for r in mine]
         p99 = float(np.median([r["rcan_ms"][1] / r["ref_ms"][1] for r in mine]))
-        print(f"{transport:36s} {med('ref_ms', 0):8.2f} {med('ref_ms', 1):8.2f} {med('rcan_ms', 0):9.2f} "
+        print(f"{transport:40s} {med('ref_ms', 0):8.2f} {med('ref_ms', 1):8.2f} {med('rcan_ms', 0):9.2f} "
               f"{med('rcan_ms', 1):9.2f} {_summary(ratios):>25s} {p99:10.2f}")
-        print(f"{'':36s} reference: {mine[-1]['reference']}")
+        print(f"{'':40s} reference: {mine[-1]['reference']}")
     return rows
 
 
@@ -466,6 +502,8 @@ def main() -> int:
     parser.add_argument("--activities", type=int, default=400)
     parser.add_argument("--no-redis", action="store_true")
     parser.add_argument("--no-ros", action="store_true")
+    parser.add_argument("--no-disk", action="store_true",
+                        help="--references: skip the run with the state database in a file")
     parser.add_argument("--repeats", type=int, default=3, help="runs per transport (at least 3 for min/median/max)")
     parser.add_argument("--json", help="also write the results to this JSON file")
     parser.add_argument("--scaling", type=int, nargs="*", metavar="N",
@@ -483,7 +521,8 @@ def main() -> int:
         bare_action_server(args.bare_action_server)
         return 0
     if args.references:
-        rows = references(args.activities, args.repeats, redis=not args.no_redis, ros=not args.no_ros)
+        rows = references(args.activities, args.repeats, redis=not args.no_redis, ros=not args.no_ros,
+                          disk=not args.no_disk)
         if args.json:
             with open(args.json, "w") as handle:
                 json.dump(rows, handle, indent=2)

@@ -44,3 +44,17 @@ def test_receivers_waiting_on_the_same_topics_get_each_message_exactly_once():
     for thread in workers:
         thread.join()
     assert sorted(received) == list(range(400))
+
+
+def test_a_posted_message_leaves_with_the_posters_next_receive_not_before():
+    """``post`` sends with the poster's next receive or send (as on Redis, where it shares that round
+    trip): the coordinator commits its journal before the RCAN nodes it posted reach an executor."""
+    broker = InProcessBroker()
+    broker.post("rcan.robot.a", {"node": 1})
+    other = []
+    reader = threading.Thread(target=lambda: other.extend(broker.receive(["rcan.robot.a"], timeout_s=0.0)))
+    reader.start()
+    reader.join()
+    assert other == []  # not sent yet
+    assert broker.receive(["rcan.result"], timeout_s=0.0) == []  # the poster's next receive sends it
+    assert [m.payload for m in broker.receive(["rcan.robot.a"], timeout_s=0.0)] == [{"node": 1}]

@@ -246,6 +246,6 @@ def test_a_redis_restart_mid_run_is_survived(tmp_path, persistence, schedule_csv
         process.wait(timeout=10)
     report = outcome["report"]
     assert report.status == "completed" and len(report.done) == len(plan)
-    assert any("broker reconnected: re-publishing" in line for line in lines)  # it did go through the restart
+    assert any("broker reconnected: re-sending" in line for line in lines)  # it did go through the restart
     goals = sqlite3.connect(db).execute("SELECT activity_id, COUNT(*) FROM sim_execution GROUP BY 1").fetchall()
     assert len(goals) == len(plan) and all(n == 1 for _, n in goals)  # the robots worked once per activity

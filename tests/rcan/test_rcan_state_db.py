@@ -120,3 +120,50 @@ def test_the_robot_refuses_a_goal_id_it_has_completed_and_reports_the_earlier_re
     assert sim.site.executions() == [("G.1", 1, True)]  # the robot moved once
     assert sim.site.robot_state("husky_ur5")["clock_s"] == pytest.approx(first.finished_s)
     sim.close()
+
+
+class _Heard:
+    """An observer that records what the state manager tells it."""
+
+    def __init__(self):
+        self.lines = []
+
+    def set_activity_state(self, activity_id, state):
+        self.lines.append((activity_id, state))
+
+    def set_component_state(self, global_id, state):
+        self.lines.append((global_id, state))
+
+
+def test_a_turn_is_committed_whole_before_anything_of_it_is_seen_and_a_failed_turn_leaves_nothing(tmp_path):
+    """The coordinator commits each turn of its loop as one transaction (one disk sync for the result
+    it handled and the node it starts next): until the turn commits, another reader of the database
+    and the observers (the construction graph) see none of it; a turn that fails leaves no trace."""
+    from bimrobot.rcan.backends.interfaces import ActivityResult
+    from bimrobot.rcan.state_manager import StateManager
+
+    path = tmp_path / "run.sqlite"
+    store, heard = StateStore(path), _Heard()
+    manager = StateManager(store, observers=[heard])
+    place = RcanActivity("P.1", "COL", K.POSITION_FOR_INSTALLING, Pose(1, 0, 0.3), 2.0)
+    store.register([("P.1", "COL", place.kind.value)], ["COL"])
+    node = RcanNode("rcan/P.1", place, "husky_ur5", "sim")
+    reader = sqlite3.connect(path)
+    journal = lambda: reader.execute("SELECT activity_id, event FROM journal ORDER BY seq").fetchall()  # noqa: E731
+
+    with pytest.raises(RuntimeError):
+        with store.batch():
+            manager.start(node, 1)
+            raise RuntimeError("the coordinator dies mid-turn")
+    assert journal() == [] and store.component_state("COL") == "OnYard" and heard.lines == []
+
+    with store.batch():
+        manager.start(node, 1)
+        manager.result(node, ActivityResult("P.1", 1, "husky_ur5", True, "placed", 0.0, 4.0))
+        assert journal() == [] and heard.lines == []  # not committed yet: nothing of the turn is out
+    assert journal() == [("P.1", "started"), ("P.1", "done")]
+    assert store.component_state("COL") == "PositionFixed"
+    assert heard.lines == [("P.1", "started"), ("COL", "WorkingInPositioning"), ("P.1", "done"),
+                           ("COL", "PositionFixed")]
+    reader.close()
+    store.close()

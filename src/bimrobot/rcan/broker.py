@@ -31,6 +31,14 @@ from bimrobot.errors import InputError, require_extra
 
 log = logging.getLogger(__name__)
 
+try:  # hiredis (redis[hiredis]) packs a command in C; redis-py's packer adds a Python pass per argument
+    from hiredis import pack_command as _pack_command
+
+    def _pack(commands: list[tuple]) -> bytes:
+        return b"".join(map(_pack_command, commands))
+except ImportError:  # pragma: no cover - redis-py packs them itself
+    _pack = None
+
 ACTIVITY_TOPIC = "rcan.activity"
 RESULT_TOPIC = "rcan.result"
 STATE_TOPIC = "rcan.state"
@@ -116,8 +124,28 @@ class InProcessBroker(Broker):
         # than a threading.Event, whose set() goes through a Condition in Python).
         self._waiters: list[tuple[object, threading.Lock]] = []
         self._ids = itertools.count(1)
+        self._local = threading.local()  # each thread's posted messages, sent with its next receive or send
+
+    def post(self, topic: str, payload: dict) -> None:
+        """As :meth:`Sender.post`: the message goes out with this thread's next receive or send, as on
+        Redis (the coordinator commits its journal before what it posted leaves)."""
+        posted = getattr(self._local, "posted", None)
+        if posted is None:
+            posted = self._local.posted = []
+        posted.append((topic, payload))
+
+    def _send_posted(self) -> None:
+        posted = getattr(self._local, "posted", None)
+        if posted:
+            self._local.posted = []
+            for topic, payload in posted:
+                self._put(topic, payload)
 
     def send(self, topic: str, payload: dict) -> str:
+        self._send_posted()
+        return self._put(topic, payload)
+
+    def _put(self, topic: str, payload: dict) -> str:
         data = json.dumps(payload)
         with self._lock:
             message_id = str(next(self._ids))
@@ -133,6 +161,7 @@ class InProcessBroker(Broker):
     def receive(self, topics: Iterable[str], timeout_s: float = 1.0, count: int = 16) -> list[Message]:
         """As :meth:`Receiver.receive`; ``topics`` in priority order, or a (frozen)set of topics taken in
         any order (an executor of many robots: only the topics holding messages are looked at)."""
+        self._send_posted()
         if isinstance(topics, (set, frozenset)):
             wanted, rank = topics, None
         else:
@@ -169,6 +198,9 @@ class InProcessBroker(Broker):
 
     def ack(self, message: Message) -> None:
         """Nothing to do: in-process messages are gone once received (a crash loses the process anyway)."""
+
+    def close(self) -> None:
+        self._send_posted()
 
 
 class RedisBroker(Broker):
@@ -218,8 +250,10 @@ class RedisBroker(Broker):
         self._lock = threading.Lock()  # the caches above are shared by an executor's worker threads
         # posted messages and acknowledgements not yet sent, in order: they go with the next command in
         # one pipeline (a round trip less each); a crash before that is a crash before sending or
-        # acknowledging, which the protocol survives (re-publishing, redelivery)
+        # acknowledging, which the protocol survives (re-sending, redelivery)
         self._pending: list[tuple[str, str, str]] = []  # ("xadd", key, data) or ("xack", key, message id)
+        self._local = threading.local()  # each thread's own connection (see _connection)
+        self._connections: list = []
 
     def _key(self, topic: str) -> str:
         return self.prefix + topic
@@ -266,36 +300,48 @@ class RedisBroker(Broker):
             pending, self._pending = self._pending, []
         return pending
 
-    def _with_pending(self, pending: list[tuple[str, str, str]], command: Callable):
-        """``command(client)`` preceded by the ``pending`` operations in one pipeline (one round trip).
-        An acknowledgement Redis refuses (NOGROUP: it restarted empty) is dropped: nothing to acknowledge."""
-        if not pending:
-            return command(self._redis)
-        pipe = self._redis.pipeline(transaction=False)
-        for operation, key, value in pending:
-            if operation == "xadd":
-                pipe.xadd(key, {"data": value}, maxlen=self.max_length, approximate=True)
-            else:
-                pipe.xack(key, self.group, value)
-        command(pipe)
-        replies = pipe.execute(raise_on_error=False)
-        for (operation, _, _), reply in zip(pending, replies):
-            if isinstance(reply, Exception) and (operation == "xadd" or isinstance(reply, self._errors)):
-                raise reply
-        if isinstance(replies[-1], Exception):
-            raise replies[-1]
-        return replies[-1]
+    def _connection(self):
+        """This thread's own connection to Redis, kept for the broker's life. The hot path (posts, acks
+        and the blocking read of every turn) talks on it directly: redis-py's pipeline objects, taken
+        from and given back to the pool on every call, cost about as much CPU as the round trip itself.
+        An executor's workers block in their reads at the same time: each needs its own connection."""
+        connection = getattr(self._local, "connection", None)
+        if connection is None:
+            connection = self._local.connection = self._redis.connection_pool.make_connection()
+            with self._lock:
+                self._connections.append(connection)
+        return connection
 
-    def _flushing(self, command: Callable):
-        """``command(client)`` with the pending operations, reconnecting as :meth:`_call` does (a lost
+    def _with_pending(self, pending: list[tuple[str, str, str]], command: tuple):
+        """Redis ``command`` (its arguments) preceded by the ``pending`` operations, in one round trip on
+        this thread's connection; returns the command's reply as Redis sent it. An acknowledgement Redis
+        refuses (NOGROUP: it restarted empty) is dropped: nothing to acknowledge."""
+        commands = [("XADD", key, "MAXLEN", "~", self.max_length, "*", "data", value) if operation == "xadd"
+                    else ("XACK", key, self.group, value) for operation, key, value in pending]
+        commands.append(command)
+        connection = self._connection()
+        connection.send_packed_command([_pack(commands)] if _pack else connection.pack_commands(commands))
+        refused = None
+        for operation, _, _ in pending:  # every reply is read, so the connection stays in step
+            try:
+                connection.read_response()
+            except self._ResponseError as exc:  # a refused XADD is not dropped
+                if operation == "xadd" and refused is None:
+                    refused = exc
+        reply = connection.read_response()  # the command's own error (e.g. NOGROUP) is raised here
+        if refused is not None:
+            raise refused
+        return reply
+
+    def _flushing(self, command: tuple):
+        """Redis ``command`` (its arguments) with the pending operations, reconnecting as :meth:`_call` does (a lost
         connection sends them again with the command: sending or acknowledging twice is harmless)."""
         pending = self._take_pending()
         return self._call(lambda: self._with_pending(pending, command))
 
     def send(self, topic: str, payload: dict) -> str:
         data = json.dumps(payload)
-        return self._flushing(lambda client: client.xadd(self._key(topic), {"data": data}, maxlen=self.max_length,
-                                                          approximate=True))
+        return self._flushing(("XADD", self._key(topic), "MAXLEN", "~", self.max_length, "*", "data", data))
 
     def post(self, topic: str, payload: dict) -> None:
         """As :meth:`Sender.post`: the message goes to Redis with this broker's next command."""
@@ -336,13 +382,13 @@ class RedisBroker(Broker):
         block_ms = max(1, int(timeout_s * 1000))
         pending = self._take_pending()
         try:
-            replies = self._with_pending(pending, lambda client: client.xreadgroup(
-                self.group, self.consumer, {k: ">" for k in keys}, count=count, block=block_ms))
+            replies = self._with_pending(pending, ("XREADGROUP", "GROUP", self.group, self.consumer, "COUNT", count,
+                                                   "BLOCK", block_ms, "STREAMS", *keys, *[">"] * len(keys)))
         except self._errors:
             with self._lock:  # the connection was lost: kept for the retry (_call retries this receive)
                 self._pending[:0] = pending
             raise
-        return self._decode(replies)
+        return self._decode_raw(replies)
 
     def _claim(self, keys: list[str], count: int) -> list[Message]:
         """Messages other consumers of the group left unacknowledged for ``claim_idle_s`` (XAUTOCLAIM)."""
@@ -385,6 +431,17 @@ class RedisBroker(Broker):
                     out.append(Message(topic, json.loads(fields["data"]), message_id))
         return out
 
+    def _decode_raw(self, replies) -> list[Message]:
+        """Messages of an XREADGROUP reply as Redis sent it: a map (RESP3) or a list of pairs (RESP2) of
+        stream key -> [[message id, [field, value, ...]], ...]."""
+        out = []
+        for key, entries in replies.items() if isinstance(replies, dict) else replies or []:
+            topic = key[len(self.prefix):]
+            for message_id, fields in entries:
+                if fields:  # an entry deleted after delivery comes back with no fields
+                    out.append(Message(topic, json.loads(fields[fields.index("data") + 1]), message_id))
+        return out
+
     def ack(self, message: Message) -> None:
         """Acknowledge ``message`` with this broker's next command (see ``_pending``)."""
         with self._lock:
@@ -393,9 +450,11 @@ class RedisBroker(Broker):
     def flush(self) -> None:
         """Send the posted messages and acknowledgements now."""
         if self._pending:
-            self._flushing(lambda client: client.ping())
+            self._flushing(("PING",))
 
     def close(self) -> None:
         with contextlib.suppress(Exception):  # best effort: what is not acknowledged is delivered again
             self.flush()
+        for connection in self._connections:
+            connection.disconnect()
         self._redis.close()

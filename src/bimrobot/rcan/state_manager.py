@@ -19,6 +19,7 @@ import contextlib
 import logging
 import os
 import sqlite3
+import threading
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -192,6 +193,24 @@ def connect_state_db(path: str | os.PathLike, option: str = "--state-db", schema
     return db
 
 
+_WRITE_LOCKS: dict[str, threading.Lock] = {}
+_WRITE_LOCKS_GUARD = threading.Lock()
+
+
+def write_lock(path: str | os.PathLike) -> threading.Lock:
+    """The lock that this process's writers of the state database ``path`` (the journal, the sim site's
+    executors) hold from ``BEGIN IMMEDIATE`` to ``COMMIT``. A writer that waits for another is woken
+    the moment it commits; left to SQLite's busy handler it would sleep 1, 2, 5, 10 ms ... between
+    tries, which was most of the dispatch latency with a database file. Writers in other processes
+    still meet through SQLite's locking. ``:memory:`` databases are private: each gets its own lock."""
+    name = str(path)
+    if name == ":memory:":
+        return threading.Lock()
+    key = os.path.realpath(name)
+    with _WRITE_LOCKS_GUARD:
+        return _WRITE_LOCKS.setdefault(key, threading.Lock())
+
+
 def _process_start(pid: int) -> str:
     """The start time of process ``pid`` (clock ticks since boot, from /proc), "" when unknown: with
     the pid it names one process, so a recycled pid is not taken for a lock's dead owner."""
@@ -267,7 +286,10 @@ class StateStore:
     def __init__(self, path: str | Path = ":memory:"):
         self.path = str(path)
         self.db = connect_state_db(self.path, schema=SCHEMA)
+        self.write_lock = write_lock(self.path)
         self._owner: str | None = None
+        self._batch: list | None = None  # in a batch: what runs once it is committed (see batch())
+        self._batch_begun = False
 
     def lock(self, option: str = "--state-db") -> None:
         """Make this run the only one on the database: the owner (pid and process start time) is
@@ -294,7 +316,45 @@ class StateStore:
             self._owner = None
 
     def transaction(self):
-        return _Transaction(self.db)
+        """A transaction; inside :meth:`batch`, a savepoint of the batch's transaction."""
+        return _Transaction(self)
+
+    @contextlib.contextmanager
+    def batch(self) -> Iterator[None]:
+        """Commit every transaction made inside as one (group commit): one disk sync per turn of the
+        coordinator's loop instead of one per activity started and per result. Nothing a turn sends
+        leaves before its batch is committed (the broker sends posted messages with its next receive),
+        so a crash loses the turn as a whole, as if its messages had never been received."""
+        if self._batch is not None:  # nested: part of the outer batch
+            yield
+            return
+        self._batch, self._batch_begun = [], False
+        try:
+            yield
+        except BaseException:
+            if self._batch_begun:
+                try:
+                    self.db.execute("ROLLBACK")
+                finally:
+                    self.write_lock.release()
+            raise
+        else:
+            if self._batch_begun:
+                try:
+                    self.db.execute("COMMIT")
+                finally:
+                    self.write_lock.release()
+            for action in self._batch:
+                action()
+        finally:
+            self._batch, self._batch_begun = None, False
+
+    def after_commit(self, action) -> None:
+        """Run ``action()`` once what was written so far is committed (at once outside a batch)."""
+        if self._batch is None:
+            action()
+        else:
+            self._batch.append(action)
 
     def meta(self, key: str) -> str | None:
         row = self.db.execute("SELECT value FROM meta WHERE key=?", (key,)).fetchone()
@@ -345,15 +405,36 @@ class StateStore:
 
 
 class _Transaction:
-    def __init__(self, db: sqlite3.Connection):
-        self.db = db
+    """``BEGIN IMMEDIATE`` ... ``COMMIT`` (``ROLLBACK`` on an exception); in a batch, a savepoint: the
+    batch's transaction begins with its first write and commits at the batch's end."""
+
+    def __init__(self, store: StateStore):
+        self.store, self.db = store, store.db
 
     def __enter__(self) -> sqlite3.Connection:
-        self.db.execute("BEGIN IMMEDIATE")
+        store = self.store
+        if store._batch is None or not store._batch_begun:
+            store.write_lock.acquire()
+            try:
+                self.db.execute("BEGIN IMMEDIATE")
+            except BaseException:
+                store.write_lock.release()
+                raise
+        if store._batch is not None:
+            store._batch_begun = True
+            self.db.execute("SAVEPOINT step")
         return self.db
 
     def __exit__(self, exc_type, exc, tb) -> None:
-        self.db.execute("COMMIT" if exc_type is None else "ROLLBACK")
+        if self.store._batch is None:
+            try:
+                self.db.execute("COMMIT" if exc_type is None else "ROLLBACK")
+            finally:
+                self.store.write_lock.release()
+        else:
+            if exc_type is not None:
+                self.db.execute("ROLLBACK TO step")
+            self.db.execute("RELEASE step")
 
 
 @dataclass(frozen=True)
@@ -487,6 +568,11 @@ class StateManager:
         )
 
     def _notify(self, node: RcanNode, state: State, activity_state: str) -> None:
+        """Tell the observers, once the change is committed (a graph never shows what a crash undid)."""
+        if self.observers:
+            self.store.after_commit(lambda: self._tell(node, state, activity_state))
+
+    def _tell(self, node: RcanNode, state: State, activity_state: str) -> None:
         for observer in self.observers:  # the activity's outcome first, then the state it led to
             if hasattr(observer, "set_activity_state"):
                 observer.set_activity_state(node.activity_id, activity_state)

@@ -48,6 +48,8 @@ class RunReport:
     blocked_by: dict[str, str] = field(default_factory=dict)
     #: activity -> the robot it was given to (the one the schedule assigned, unless re-allocated)
     robots: dict[str, str] = field(default_factory=dict)
+    #: what the backend measured, when it says (``mujoco``: placement error per installed component)
+    backend_summary: dict = field(default_factory=dict)
 
     @property
     def escalated(self) -> list[str]:
@@ -77,43 +79,32 @@ class RcanSystem:
         self.generator = NodeGenerator(self.allocator, backend_name)
         self.log = log or (lambda line: None)
         self.router = Router()
-        self.router.route(ACTIVITY_TOPIC, self._on_activity)
         self.router.route(RESULT_TOPIC, self._on_result)
         self.router.route(DEAD_LETTER_TOPIC, self._on_dead_letter)
 
     # --- smart component API -----------------------------------------------------------------------
     def publish(self, activity: RcanActivity, attempt: int = 1) -> None:
-        """A smart component publishes its next construction activity to the generation system."""
+        """A smart component publishes its next construction activity to the generation system.
+
+        The activity goes on the broker (``rcan.activity``, with this run's token) for whoever follows the
+        build, as the component states do on ``rcan.state``; the generation system, which runs in this
+        process, takes it from the component directly. Reading its own message back from Redis cost a
+        round trip per activity on the dispatch path and bought nothing: a crashed run resumes from its
+        journal, never from messages in Redis."""
         t = activity.target
         self.log(f"[component {activity.component_id}] publishes {activity.activity_id} '{activity.kind.label}' "
                  f"target ({t.x:.2f}, {t.y:.2f}, {t.z:.2f})" + (f" attempt {attempt}" if attempt > 1 else ""))
-        self._unreceived.add((activity.activity_id, attempt))
-        self._send_activity(activity.activity_id, attempt)
-
-    def _send_activity(self, activity_id: str, attempt: int) -> None:
-        self.broker.post(ACTIVITY_TOPIC, {"activity_id": activity_id, "attempt": attempt, "run": self._run_token})
+        self.broker.post(ACTIVITY_TOPIC, {"activity_id": activity.activity_id, "attempt": attempt,
+                                          "run": self._run_token})
+        self._enqueue(activity.activity_id, attempt)
 
     def _republish(self) -> None:
-        """After the broker reconnected (Redis restarted, maybe empty): publish again every activity not
-        yet received and send again every node whose result has not come. Duplicates are harmless: an
-        activity is taken once, the robot refuses a goal id it completed, a late result is ignored."""
-        self.log(f"[state manager] broker reconnected: re-publishing {len(self._unreceived)} activities and "
-                 f"re-sending {len(self._in_flight)} RCAN nodes")
-        for activity_id, attempt in sorted(self._unreceived):
-            self._send_activity(activity_id, attempt)
+        """After the broker reconnected (Redis restarted, maybe empty): send again every RCAN node whose
+        result has not come. Duplicates are harmless: the robot refuses a goal id it completed, a late
+        result is ignored."""
+        self.log(f"[state manager] broker reconnected: re-sending {len(self._in_flight)} RCAN nodes")
         for node, attempt in list(self._in_flight.values()):
             self._send(node, attempt)
-
-    # --- message handlers --------------------------------------------------------------------------
-    def _on_activity(self, message: Message) -> None:
-        if message.payload.get("run") != self._run_token:  # left on a shared Redis by an earlier, killed run
-            self.broker.ack(message)
-            return
-        key = (message.payload["activity_id"], int(message.payload["attempt"]))
-        if key in self._unreceived:  # else a copy re-published after a reconnection: taken already
-            self._unreceived.discard(key)
-            self._enqueue(*key)
-        self.broker.ack(message)
 
     # --- waiting activities --------------------------------------------------------------------------
     # An activity waits either for the robot committed to its component (``_held``, by component) or,
@@ -326,7 +317,7 @@ class RcanSystem:
                 self.log(f"[state manager] {activity_id} was escalated: retrying it")
         self._run_token = uuid.uuid4().hex
         self._in_flight, self._sent_at, self._latencies = {}, {}, []
-        self._done, self._escalations, self._finished_s, self._unreceived = set(), [], {}, set()
+        self._done, self._escalations, self._finished_s = set(), [], {}
         reconnections = getattr(self.broker, "reconnections", 0)
         self._held, self._groups, self._recheck, self._newly_done, self._down = {}, {}, set(), [], set()
         self._order = order = {a.activity_id: n for n, a in enumerate(activities)}
@@ -346,28 +337,32 @@ class RcanSystem:
         ready = {i for i, n in unmet.items() if n == 0 and i not in published}
         self._newly_done.clear()  # done before this run: already counted in ``unmet``
         started = time.perf_counter()
+        messages: list[Message] = []
         while True:
-            for activity_id in sorted(ready, key=order.__getitem__):  # components publish what became ready
-                published.add(activity_id)
-                self.publish(self._plan[activity_id])
-            ready.clear()
-            waiting_messages = self._unreceived or self._in_flight
-            for message in self.broker.receive(self.router.topics, timeout_s=0.05 if waiting_messages else 0.0):
-                self.router.dispatch(message)
-            if getattr(self.broker, "reconnections", 0) != reconnections:
-                reconnections = self.broker.reconnections
-                self._republish()
-            for finished in self._newly_done:
-                for successor in successors.get(finished, ()):
-                    unmet[successor] -= 1
-                    if unmet[successor] == 0 and successor not in published:
-                        ready.add(successor)
-            self._newly_done.clear()
-            self._dispatch_waiting()
-            if not self._unreceived and not self._in_flight and not ready:
+            # one turn: handle what came, publish what became ready, instantiate and post RCAN nodes;
+            # its journal writes are committed together before the next receive sends its posts
+            with store.batch():
+                for message in messages:
+                    self.router.dispatch(message)
+                if getattr(self.broker, "reconnections", 0) != reconnections:
+                    reconnections = self.broker.reconnections
+                    self._republish()
+                for finished in self._newly_done:
+                    for successor in successors.get(finished, ()):
+                        unmet[successor] -= 1
+                        if unmet[successor] == 0 and successor not in published:
+                            ready.add(successor)
+                self._newly_done.clear()
+                for activity_id in sorted(ready, key=order.__getitem__):  # components publish what became ready
+                    published.add(activity_id)
+                    self.publish(self._plan[activity_id])
+                ready.clear()
+                self._dispatch_waiting()
+            if not self._in_flight:
                 break  # finished, or blocked: waiting activities that no free robot will ever take
             if timeout_s is not None and time.perf_counter() - started > timeout_s:
                 raise TimeoutError(f"RCAN run did not finish within {timeout_s:.0f} s; in flight: {sorted(self._in_flight)}")
+            messages = self.broker.receive(self.router.topics, timeout_s=0.05)
         return self._report(activities, started, resumed)
 
     def _check_plan(self, activities: list[RcanActivity]) -> None:
@@ -513,6 +508,9 @@ def _run_plan(activities, capabilities, backend, state_db, redis_url, spawn_exec
     options = dict(backend_options or {})
     if backend in ("sim", "mujoco"):  # mujoco: its trajectory file goes beside the state database
         options.setdefault("db_path", state_db)
+    if backend == "mujoco":  # its scene starts with every component of the plan where it waits
+        activities = list(activities)
+        options.setdefault("plan", activities)
     store = StateStore(state_db)
     try:
         store.lock()  # one run per state database
@@ -538,7 +536,10 @@ def _run_plan(activities, capabilities, backend, state_db, redis_url, spawn_exec
             threads.append(executor.start_thread())
         system = RcanSystem(broker, capabilities, manager, backend, log)
         system.allocator.reallocate = reallocate
-        return system.run(activities, timeout_s=timeout_s, retry_escalated=retry_escalated)
+        report = system.run(activities, timeout_s=timeout_s, retry_escalated=retry_escalated)
+        if hasattr(backend_instance, "summary"):  # what the backend measured (mujoco: placement errors)
+            report.backend_summary = backend_instance.summary()
+        return report
     finally:
         for executor in executors:
             executor.stop.set()

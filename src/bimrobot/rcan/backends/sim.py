@@ -34,7 +34,7 @@ from bimrobot.rcan.activities import ActivityKind, Pose
 from bimrobot.rcan.backends.interfaces import ActivityResult, DispatchingBackend
 from bimrobot.rcan.generation import CapabilityTable, RobotSpec
 from bimrobot.rcan.node import RcanNode
-from bimrobot.rcan.state_manager import connect_state_db
+from bimrobot.rcan.state_manager import connect_state_db, write_lock
 
 GRASP_TOLERANCE_M = 0.05
 ARM_STOW_HEIGHT_M = 0.5
@@ -67,6 +67,7 @@ class KinematicSite:
         self.seed = int(seed)
         self._lock = threading.Lock()
         self._db = connect_state_db(db_path, schema=SCHEMA)  # the run's state database, or its own; never a foreign file
+        self._write_lock = write_lock(db_path)
         for robot in capabilities.robots.values():
             h = robot.home
             self._db.execute(
@@ -207,7 +208,7 @@ class KinematicSite:
         """Record the goal and apply its effect in one transaction (a crash keeps both or neither).
         When another executor (a process sharing this site) recorded the same goal meanwhile, nothing
         is applied and its result is returned: the goal is executed once."""
-        with self._lock:
+        with self._lock, self._write_lock:  # the journal's writers of the same file in this process too
             db = self._db
             db.execute("BEGIN IMMEDIATE")
             try:
