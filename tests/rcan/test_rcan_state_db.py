@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import contextlib
+import json
 import os
 import signal
 import sqlite3
@@ -167,3 +169,40 @@ def test_a_turn_is_committed_whole_before_anything_of_it_is_seen_and_a_failed_tu
                            ("COL", "PositionFixed")]
     reader.close()
     store.close()
+
+
+def test_a_database_from_before_started_s_resumes_and_the_report_gives_each_activitys_times(tmp_path, capsys):
+    """A state database written before RCAN kept start times (no ``activity.started_s``) opens and its
+    run resumes; the start of an activity done before is unknown (null), every other done activity
+    has its robot, start and finish in report.json, the start not after the finish."""
+    db, report_path = tmp_path / "run.sqlite", tmp_path / "report.json"
+    command = [sys.executable, "-m", "bimrobot", "rcan", "run", "--experiment", "2", "-q", "--state-db", str(db),
+               "--time-scale", "1"]  # about 15 s of robot time in real time: killed after 2 activities
+    first = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        deadline = time.monotonic() + 60
+        while done_count(db) < 2 and time.monotonic() < deadline:
+            time.sleep(0.05)
+    finally:
+        os.kill(first.pid, signal.SIGKILL)
+        first.wait(timeout=30)
+    con = sqlite3.connect(db)
+    before = dict(con.execute("SELECT activity_id, finished_s FROM activity WHERE status='done'"))
+    con.execute("ALTER TABLE activity DROP COLUMN started_s")  # as an older bimrobot wrote it
+    con.commit()
+    con.close()
+    assert 2 <= len(before) < 6
+
+    assert main(["rcan", "run", "--experiment", "2", "-q", "--state-db", str(db), "--report", str(report_path)]) == 0
+    assert "6/6 activities done" in capsys.readouterr().out
+    report = json.loads(report_path.read_text())
+    assert list(report["activities"]) == report["done"] and len(report["done"]) == 6
+    for activity_id, entry in report["activities"].items():
+        assert entry["result"] == "done" and entry["robot"] == report["robots"][activity_id]
+        if activity_id in before:
+            assert entry["started_s"] is None and entry["finished_s"] == pytest.approx(before[activity_id])
+        else:
+            assert 0.0 <= entry["started_s"] <= entry["finished_s"] <= report["makespan_s"]
+    with contextlib.closing(StateStore(db)) as store:
+        rows = store.activity_rows()
+    assert {a for a, row in rows.items() if row["started_s"] is not None} == set(report["done"]) - set(before)

@@ -114,3 +114,33 @@ def test_the_builds_rcan_run_is_on_rcan_time(frame_build, frame_replay):
                 done.update({a: robot for a, s in zip(ids, status) if s == "done"})
     assert len(done) == len(report["done"]) == summary["rcan_done"] == 160
     assert done == {activity: report["robots"][activity] for activity in report["done"]}
+
+
+def test_the_rcan_gantt_has_a_bar_per_done_activity_at_the_reports_times(frame_build, frame_replay):
+    """Per robot on rcan_time, a Gantt bar from each done activity's start to its finish: as many bars
+    as the RCAN report has done activities, each on its robot at the report's times (start <= finish),
+    and the robot's line raised from the start of each bar that lasts."""
+    rrd, _ = frame_replay
+    report = json.loads((frame_build / "rcan" / "report.json").read_text())
+    server, dataset = read_back(rrd)
+    with server:
+        frame = dataset.filter_contents(["/rcan_gantt/**"]).reader(index="rcan_time").to_pandas()
+    bars = []
+    for name in frame.columns:
+        if not name.endswith(":activity_id"):
+            continue
+        robot = name.split("/")[2].split(":")[0]
+        scalars = frame[name.replace(":activity_id", ":Scalars:scalars")]
+        baseline = min(v[0] for v in scalars.dropna())
+        rows = frame[["rcan_time", name, name.replace(":activity_id", ":finish_s")]].join(scalars).dropna()
+        for time_, ids, finishes, value in rows.itertuples(index=False):
+            start = time_.total_seconds()
+            bars += [(a, robot, start, finish) for a, finish in zip(ids, finishes)]
+            if any(finish > start for finish in finishes):
+                assert value[0] == pytest.approx(baseline + 0.6)
+    assert len(bars) == len(report["done"]) == 160
+    for activity, robot, start, finish in bars:
+        entry = report["activities"][activity]
+        assert entry["result"] == "done" and robot == entry["robot"] == report["robots"][activity]
+        assert start <= finish + 1e-9  # rcan_time counts whole nanoseconds
+        assert (start, finish) == (pytest.approx(entry["started_s"], abs=1e-6), pytest.approx(entry["finished_s"], abs=1e-6))

@@ -49,10 +49,16 @@ CREATE TABLE IF NOT EXISTS journal (
 CREATE TABLE IF NOT EXISTS activity (
     activity_id TEXT PRIMARY KEY, component_id TEXT, kind TEXT, status TEXT NOT NULL,
     attempts INTEGER NOT NULL DEFAULT 0, robot TEXT, finished_s REAL, message TEXT,
-    attempt_base INTEGER NOT NULL DEFAULT 0);
+    attempt_base INTEGER NOT NULL DEFAULT 0, started_s REAL);
 CREATE TABLE IF NOT EXISTS component (global_id TEXT PRIMARY KEY, state TEXT NOT NULL);
 CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT);
 """
+
+#: Columns added to RCAN's tables after databases without them were written: table -> (column, SQL
+#: type), last in the table's schema. A database that lacks them is RCAN's all the same; it gets them
+#: (NULL in the rows already there: unknown) when it is opened. ``activity.started_s``: the robot
+#: time (s) at which a done activity started, on the clock of its ``finished_s``.
+ADDED_COLUMNS = {"activity": (("started_s", "REAL"),)}
 
 
 @dataclass(frozen=True)
@@ -143,11 +149,18 @@ def _check_tables(db: sqlite3.Connection, name: str, schema: str | None, option:
         for table in tables:
             want = [r[1] for r in expected.execute(f"PRAGMA table_info({table})")]
             have = [r[1] for r in db.execute(f"PRAGMA table_info({table})")]
-            if want and have != want:
+            if want and have != want and not _lacks_only_added(table, have, want):
                 raise InputError(f"{option} {name} is not an RCAN state database: its table {table!r} has the "
                                  f"columns {', '.join(have)}, not RCAN's; give a new file name (nothing was changed)")
     finally:
         expected.close()
+
+
+def _lacks_only_added(table: str, have: list[str], want: list[str]) -> bool:
+    """Whether columns ``have`` are ``want`` but for some of the last :data:`ADDED_COLUMNS` (an older database)."""
+    added = [column for column, _ in ADDED_COLUMNS.get(table, ())]
+    missing = want[len(have):]
+    return have == want[:len(have)] and 0 < len(missing) <= len(added) and added[len(added) - len(missing):] == missing
 
 
 def connect_state_db(path: str | os.PathLike, option: str = "--state-db", schema: str | None = None) -> sqlite3.Connection:
@@ -188,9 +201,23 @@ def connect_state_db(path: str | os.PathLike, option: str = "--state-db", schema
         db.execute("PRAGMA synchronous=FULL")
         if schema:
             db.executescript(schema)
+            _add_columns(db)
     except sqlite3.Error as exc:
         raise InputError(f"{option} {name}: cannot open it as an SQLite database ({exc})") from None
     return db
+
+
+def _add_columns(db: sqlite3.Connection) -> None:
+    """Give an older database the :data:`ADDED_COLUMNS` it lacks (a no-op for a current one)."""
+    for table, columns in ADDED_COLUMNS.items():
+        have = {r[1] for r in db.execute(f"PRAGMA table_info({table})")}
+        for column, kind in columns:
+            if have and column not in have:
+                try:
+                    db.execute(f"ALTER TABLE {table} ADD COLUMN {column} {kind}")
+                except sqlite3.OperationalError as exc:
+                    if "duplicate column" not in str(exc):  # another process of the run added it first
+                        raise
 
 
 _WRITE_LOCKS: dict[str, threading.Lock] = {}
@@ -382,8 +409,9 @@ class StateStore:
         return ids
 
     def activity_rows(self) -> dict[str, dict]:
-        rows = self.db.execute("SELECT activity_id, component_id, kind, status, attempts, robot, finished_s, message FROM activity")
-        keys = ("activity_id", "component_id", "kind", "status", "attempts", "robot", "finished_s", "message")
+        rows = self.db.execute("SELECT activity_id, component_id, kind, status, attempts, robot, started_s, finished_s, "
+                               "message FROM activity")
+        keys = ("activity_id", "component_id", "kind", "status", "attempts", "robot", "started_s", "finished_s", "message")
         return {r[0]: dict(zip(keys, r)) for r in rows}
 
     def component_state(self, global_id: str) -> str | None:
@@ -540,8 +568,8 @@ class StateManager:
             if result.success:
                 state = self._advance(db, node, self._events_on_done(node.kind, state), state)
                 self._journal(db, node, result, "done")
-                db.execute("UPDATE activity SET status='done', finished_s=?, message=? WHERE activity_id=?",
-                           (result.finished_s, result.message, node.activity_id))
+                db.execute("UPDATE activity SET status='done', started_s=?, finished_s=?, message=? WHERE activity_id=?",
+                           (result.started_s, result.finished_s, result.message, node.activity_id))
                 decision = Decision(DONE, state.value)
             elif not escalate and result.attempt - base < self.policy.max_attempts:
                 self._journal(db, node, result, "failed")

@@ -48,6 +48,9 @@ class RunReport:
     blocked_by: dict[str, str] = field(default_factory=dict)
     #: activity -> the robot it was given to (the one the schedule assigned, unless re-allocated)
     robots: dict[str, str] = field(default_factory=dict)
+    #: activity -> {robot, started_s, finished_s, result}, in plan order: ``result`` its status (done,
+    #: escalated, pending, started); the times robot seconds of a done activity, else None (unknown)
+    activities: dict[str, dict] = field(default_factory=dict)
     #: what the backend measured, when it says (``mujoco``: placement error per installed component)
     backend_summary: dict = field(default_factory=dict)
 
@@ -433,6 +436,7 @@ class RcanSystem:
         blocked = [a.activity_id for a in activities if a.activity_id not in self._done and a.activity_id not in escalated]
         blocked_by = _dependents(activities, [r.activity_id for r in self._escalations])
         status = "completed" if not blocked and not escalated else ("escalated" if escalated else "blocked")
+        rows = self.state.store.activity_rows()
         return RunReport(
             status=status,
             done=[a.activity_id for a in activities if a.activity_id in self._done],
@@ -444,8 +448,17 @@ class RcanSystem:
             resumed=resumed,
             blocked=blocked,
             blocked_by={a: blocked_by[a] for a in blocked if a in blocked_by},
-            robots={a: row["robot"] for a, row in self.state.store.activity_rows().items() if row["robot"]},
+            robots={a: row["robot"] for a, row in rows.items() if row["robot"]},
+            activities={a.activity_id: _timing(rows.get(a.activity_id)) for a in activities},
         )
+
+
+def _timing(row: dict | None) -> dict:
+    """An activity's entry in :attr:`RunReport.activities` from its state database row."""
+    row = row or {}
+    done = row.get("status") == DONE  # times of an activity that is not done are unknown (None)
+    return {"robot": row.get("robot"), "started_s": row.get("started_s") if done else None,
+            "finished_s": row.get("finished_s") if done else None, "result": row.get("status") or "pending"}
 
 
 def _dependents(activities: list[RcanActivity], roots: list[str]) -> dict[str, str]:

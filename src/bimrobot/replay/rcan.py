@@ -2,8 +2,8 @@
 
 An RCAN run folder is what ``bimrobot rcan run --report R --state-db D`` writes, or a build's
 ``rcan/``: ``report.json`` (status, done activities, each activity's robot, the final component
-states), the state database (each activity's component, kind, status and the simulated second it
-finished) and, from ``--backend mujoco``, ``<state db>.trajectory.csv``: the pose of every MuJoCo
+states), the state database (each activity's component, kind, status and the simulated seconds it
+started and finished) and, from ``--backend mujoco``, ``<state db>.trajectory.csv``: the pose of every MuJoCo
 body at 20 Hz of simulated time (``time_s, body, x, y, z, qw, qx, qy, qz``; metres, world frame = the
 model frame of the RCAN goals; a body is a component, named by its GlobalId, or a robot's link,
 ``<robot>/<link>``). Times are the backend's simulated seconds: with the mujoco backend the trajectory
@@ -136,8 +136,8 @@ def load_rcan_run(folder: Path) -> RcanRun:
 def read_activities(db: Path, report: dict) -> list[RcanActivity]:
     """The run's activities from its state database (read only), with the robots of the report.
 
-    The database keeps when each activity finished (simulated seconds); a start is taken from a
-    ``started_s`` column when the database has one, else it is unknown (None)."""
+    The database keeps when each done activity started and finished (simulated seconds); a database
+    written before RCAN recorded starts has no ``started_s`` column: the starts are unknown (None)."""
     robots = report.get("robots") or {}
     from contextlib import closing
 

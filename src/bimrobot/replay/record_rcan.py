@@ -9,7 +9,7 @@ Timelines (each its own clock, so that none is mistaken for the simulated schedu
   line through the arm's links. Elements the physics run did not move stand at their installed pose.
 - ``rcan_time``: the RCAN run's own clock (the backend's simulated seconds; with the mujoco backend the
   same clock as ``physics_time``): ``/rcan/<robot>`` one text line per activity the robot finished,
-  ``/rcan_gantt/<robot>`` raised while it works (only for activities whose start was recorded),
+  ``/rcan_gantt/<robot>`` a Gantt bar per done activity, from its recorded start to its finish,
   ``/rcan_progress/done`` the number of activities done.
 
 Data logged on one timeline is not shown on another: ``/building`` carries the schedule's travel on
@@ -196,18 +196,42 @@ def _at(rec, seconds: float, timelines) -> None:
         rec.set_time(timeline, duration=float(seconds))
 
 
+def gantt_bars(activities) -> list[tuple[float, list]]:
+    """[(time s, [activities starting then])] for the Gantt: the done activities with a recorded start
+    and finish, grouped by start, in time order (every start or finish of a bar is one of the times)."""
+    timed = sorted((a for a in activities if a.status == "done" and a.start_s is not None and a.finish_s is not None),
+                   key=lambda a: (a.start_s, a.finish_s, a.activity_id))
+    starts = {t: list(group) for t, group in itertools.groupby(timed, key=lambda a: a.start_s)}
+    return [(t, starts.get(t, [])) for t in sorted(set(starts) | {a.finish_s for a in timed})]
+
+
 def _log_rcan_gantt(rec, robot: str, level: float, activities, timelines) -> None:
-    """A line raised from each activity's recorded start to its finish (none when no start was recorded)."""
+    """The robot's Gantt bars, as the schedule's ``/gantt`` is drawn: the line is raised (level + 0.6)
+    from each done activity's recorded start to its finish. It drops to ``level`` and rises again where
+    one activity ends as the next begins, so that back-to-back activities stay separate bars (an activity
+    of no duration is a spike). Each time a bar begins carries ``activity_id`` and ``finish_s`` (s) of
+    the bars that begin then. Nothing is drawn when no start was recorded (an older state database)."""
     import rerun as rr
 
     from bimrobot.replay.record import entity
 
-    timed = [a for a in activities if a.start_s is not None]
-    if not timed:
+    bars = gantt_bars(activities)
+    if not bars:
         return
-    path = entity("rcan_gantt", robot)
+    path, raised = entity("rcan_gantt", robot), level + 0.6
     rec.log(path, rr.SeriesLines(names=robot), static=True)
-    for activity in timed:
-        for t, raised in ((activity.start_s, 0.0), (activity.start_s, 0.6), (activity.finish_s, 0.6), (activity.finish_s, 0.0)):
-            _at(rec, t, timelines)
-            rec.log(path, rr.Scalars(level + raised))
+    _at(rec, 0.0, timelines)
+    rec.log(path, rr.Scalars(level))
+    working: list = []  # the activities running just before the current time
+    for t, starting in bars:
+        _at(rec, t, timelines)
+        working = [a for a in working if a.finish_s > t]
+        if not working:  # a bar (or several) ended here, or the robot was idle: down to the baseline
+            rec.log(path, rr.Scalars(level))
+        if not working and any(a.finish_s == t for a in starting):  # no duration: a spike
+            rec.log(path, rr.Scalars(raised))
+            rec.log(path, rr.Scalars(level))
+        working += [a for a in starting if a.finish_s > t]
+        if starting:
+            rec.log(path, rr.Scalars(raised if working else level),
+                    rr.AnyValues(activity_id=[a.activity_id for a in starting], finish_s=[a.finish_s for a in starting]))
