@@ -141,8 +141,13 @@ def read_activities(db: Path, report: dict) -> list[RcanActivity]:
     robots = report.get("robots") or {}
     from contextlib import closing
 
+    # A database closed cleanly has no -wal file: open it as immutable, which reads it without creating
+    # -wal/-shm files beside it (a read-only connection in WAL mode leaves them behind). A -wal file
+    # (a run that was killed) holds committed work: then read through it, read-only.
+    wal = db.with_name(db.name + "-wal")
+    mode = "mode=ro" if wal.exists() else "immutable=1"
     try:
-        with closing(sqlite3.connect(f"file:{db.resolve()}?mode=ro", uri=True)) as connection:
+        with closing(sqlite3.connect(f"file:{db.resolve()}?{mode}", uri=True)) as connection:
             columns = {row[1] for row in connection.execute("PRAGMA table_info(activity)")}
             start = "started_s" if "started_s" in columns else "NULL"
             rows = connection.execute(
