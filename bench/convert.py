@@ -4,13 +4,14 @@ For every IFC file in ../shared/data/ifc (when present) and the built-in example
 
 * reference: ``ifcopenshell.geom.iterator`` over the file's elements with the same settings and kernel
   that ``bimrobot.bim`` uses (local coordinates), reading every shape's vertices and faces;
-* conversion: :func:`bimrobot.world.package.convert` (read + meshes + SDF + maps + report).
+* conversion: :func:`bimrobot.world.package.convert` (read + meshes + SDF + maps + report + preview.png).
 
 Each runs in a fresh subprocess (imports done before the clock starts), so the peak memory
 (``ru_maxrss``) is that run's own. Prints a markdown table; the goal is ratio <= 1.5.
 
     .venv/bin/python bench/convert.py                 # all files, 3 repetitions: min/median/max ratios
     .venv/bin/python bench/convert.py --files frame.ifc other.ifc
+    .venv/bin/python bench/convert.py --baseline /tmp/old/src   # also an older bimrobot (its src/), same run
 """
 
 from __future__ import annotations
@@ -79,6 +80,7 @@ def child_convert(path: str, out: str) -> dict:
         "elements": report["counts"]["converted"],
         "timings": report["timings_s"],
         "peak_mb": _peak_mb(),
+        "preview": report.get("preview"),
     }
 
 
@@ -86,21 +88,29 @@ def _peak_mb() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
 
-def run_child(*args: str) -> dict:
-    result = subprocess.run([sys.executable, __file__, "--child", *args], capture_output=True, text=True, check=False)
+def run_child(*args: str, src: Path | None = None) -> dict:
+    """Run this script as a child; ``src``: import bimrobot from that folder (an older version) instead."""
+    env = None
+    if src is not None:
+        env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(src), os.environ.get("PYTHONPATH", "")]).rstrip(os.pathsep))
+    result = subprocess.run([sys.executable, __file__, "--child", *args], capture_output=True, text=True, check=False,
+                            env=env)
     if result.returncode != 0:
         raise RuntimeError(f"bench child {args} failed:\n{result.stderr[-2000:]}")
     return json.loads(result.stdout.strip().splitlines()[-1])
 
 
-def bench_file(path: Path, repeat: int, workdir: Path) -> dict:
-    """Reference and conversion alternately, ``repeat`` times; each pair gives one ratio."""
-    runs = []
+def bench_file(path: Path, repeat: int, workdir: Path, baseline: Path | None = None) -> dict:
+    """Reference and conversion alternately, ``repeat`` times; each pair gives one ratio. With
+    ``baseline`` (an older bimrobot's src/), its conversion runs right after, against the same iterator run."""
+    runs, older = [], []
     for index in range(repeat):
         iterate = run_child("iterate", str(path))
         convert = run_child("convert", str(path), str(workdir / f"{path.stem}_{index}"))
         runs.append((iterate, convert))
-    return {"file": path.name, "runs": runs}
+        if baseline is not None:
+            older.append((iterate, run_child("convert", str(path), str(workdir / f"{path.stem}_{index}_old"), src=baseline)))
+    return {"file": path.name, "runs": runs, "baseline": older}
 
 
 def _tree_rss_mb(root: int) -> float:
@@ -214,22 +224,26 @@ def _spread(values: list[float], digits: int = 2) -> str:
 
 def table(rows: list[dict]) -> str:
     """Markdown table of min/median/max over the repeats; "read" is bimrobot.bim.load_model, "write"
-    the world part (meshes, mass, SDF, files, maps), each divided by the same run's iterator time."""
+    the world part (meshes, mass, SDF, files, maps), "preview" the wait for preview.png after the rest,
+    each divided by the same run's iterator time."""
     lines = [
-        "| file | elements | iterator s | convert s | ratio min/med/max | read / iterator | write / iterator | peak MB it/cv |",
-        "|---|---:|---:|---:|---:|---:|---:|---:|",
+        "| file | elements | iterator s | convert s | ratio min/med/max | read / iterator | write / iterator "
+        "| preview / iterator | peak MB it/cv |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for row in rows:
         runs = row["runs"]
         ratios = [cv["seconds"] / it["seconds"] for it, cv in runs]
         reads = [cv["timings"].get("load", 0) / it["seconds"] for it, cv in runs]
-        writes = [(cv["timings"]["total"] - cv["timings"].get("load", 0)) / it["seconds"] for it, cv in runs]
+        writes = [(cv["timings"]["total"] - cv["timings"].get("load", 0) - cv["timings"].get("preview", 0)) / it["seconds"]
+                  for it, cv in runs]
+        previews = [cv["timings"].get("preview", 0) / it["seconds"] for it, cv in runs]
         flag = "" if statistics.median(ratios) <= GOAL else " (!)"
         it_s = [it["seconds"] for it, _ in runs]
         cv_s = [cv["seconds"] for _, cv in runs]
         lines.append(
             f"| {row['file']} | {runs[0][1]['elements']} | {statistics.median(it_s):.2f} | {statistics.median(cv_s):.2f} | "
-            f"{_spread(ratios)}{flag} | {_spread(reads)} | {_spread(writes)} | "
+            f"{_spread(ratios)}{flag} | {_spread(reads)} | {_spread(writes)} | {_spread(previews)} | "
             f"{max(it['peak_mb'] for it, _ in runs):.0f}/{max(cv['peak_mb'] for _, cv in runs):.0f} |"
         )
     return "\n".join(lines)
@@ -242,6 +256,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--min-elements", type=int, default=0, help="only files with at least this many elements")
     parser.add_argument("--validation", type=int, metavar="COPIES", default=0,
                         help="instead: time the package checks (convert --validate) on COPIES x the first file")
+    parser.add_argument("--baseline", type=Path, metavar="SRC",
+                        help="also convert with the bimrobot in SRC (e.g. an older version's src/), in the same run")
     parser.add_argument("--child", nargs="+", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     if args.child:
@@ -259,9 +275,16 @@ def main(argv: list[str] | None = None) -> int:
         rows = []
         for path in files:
             print(f"benchmarking {path.name} ...", file=sys.stderr, flush=True)
-            rows.append(bench_file(path, args.repeat, workdir))
+            rows.append(bench_file(path, args.repeat, workdir, args.baseline))
     rows = [row for row in rows if row["runs"][0][1]["elements"] >= args.min_elements]
     print(table(rows))
+    if args.baseline:
+        print(f"\nSame run, {args.baseline} (baseline) against this version, ratio to the iterator min/median/max:\n")
+        print("| file | baseline | this version |\n|---|---:|---:|")
+        for row in rows:
+            old = [cv["seconds"] / it["seconds"] for it, cv in row["baseline"]]
+            new = [cv["seconds"] / it["seconds"] for it, cv in row["runs"]]
+            print(f"| {row['file']} | {_spread(old)} | {_spread(new)} |")
     medians = [statistics.median(cv["seconds"] / it["seconds"] for it, cv in row["runs"]) for row in rows]
     print(f"\nworst median ratio: {max(medians):.2f} ({rows[medians.index(max(medians))]['file']}); goal <= {GOAL}; "
           f"{os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.1f} at the end")

@@ -334,3 +334,25 @@ def test_revit_base_plates_named_metal_stud_layer_have_unknown_weight(shared_mod
     plates = [e for e in model.by_class("IfcPlate") if e.material == "Metal Stud Layer"]
     assert len(plates) == 4
     assert all(p.weight_kg is None and p.weight_source is WeightSource.UNKNOWN for p in plates)
+
+
+@pytest.mark.parametrize("name", SHARED_FILES)
+def test_reading_only_the_weights_gives_every_element_the_same_weight(shared_models, name):
+    """``convert`` reads without the property values (``properties=False``): the same weights,
+    sources, bases, materials and storeys as the full read, only ``properties`` left empty."""
+    from bimrobot.bim.reader import load_model as read
+
+    full = shared_models(name)
+    lean = read(SHARED_IFC / name, properties=False)
+    assert list(lean.elements) == list(full.elements)
+    for key, element in lean.elements.items():
+        expected = full.elements[key]
+        assert (element.weight_kg, element.weight_source, element.weight_basis) == (
+            expected.weight_kg, expected.weight_source, expected.weight_basis), key
+        assert (element.material, element.density_kg_m3, element.storey_id) == (
+            expected.material, expected.density_kg_m3, expected.storey_id), key
+        assert element.properties == {}
+    if name == "ifcUnit.ifc":  # Revit's "Structural/Exact Weight" property is still found
+        assert any(e.weight_source is WeightSource.PROPERTY for e in lean.elements.values())
+    if name == "MULTICOM-Prefab.ifc":  # and Tekla's IfcQuantityWeight
+        assert any(e.weight_source is WeightSource.QUANTITY for e in lean.elements.values())

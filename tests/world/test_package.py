@@ -372,3 +372,64 @@ def test_render_draws_a_png_it_can_replace_and_refuses_a_foreign_file(package, t
     with pytest.raises(InputError, match="existing file that bimrobot did not write"):
         render_package(out, photo)
     assert photo.read_bytes() == b"\x89PNG\r\n\x1a\n not bimrobot's"
+
+
+def test_model_files_are_the_text_elementtree_would_write():
+    """model.sdf and model.config come from text templates (fast): the same bytes as serialising the
+    ElementTree, escaping of hostile names and descriptions included."""
+    from bimrobot.world import sdf
+
+    rotation = np.eye(4)
+    rotation[:3, :3] = [[0, -1, 0], [1, 0, 0], [0, 0, 1]]
+    rotation[:3, 3] = (1.25, -3e-7, 1e6)
+    for name, static in (("2O2Fr-t4X7Zf8NOew3FLOH", True), ('a&b<c>"d\x01\n\té', False)):
+        spec = sdf.ModelSpec(name=name, pose=rotation, static=static, mass=1234.5678901,
+                             center_of_mass=np.array([0.1, -0.0, 1e-19]),
+                             inertia=np.array([[1.0, -2e-17, 0.3], [-2e-17, 2.0, 0.0], [0.3, 0.0, 3.0]]),
+                             visual_uri=f"model://{name}/meshes/{name}.dae",
+                             collision_uri=f"model://{name}/meshes/{name}_collision.stl")
+        for version in (sdf.SIM_VERSION, sdf.CLASSIC_VERSION):
+            tree = ET.Element("sdf", version=version)
+            tree.append(sdf.model_element(spec))
+            assert sdf.model_sdf(spec, version) == sdf._to_text(tree)
+        versions = {sdf.SIM_VERSION: "model.sdf", sdf.CLASSIC_VERSION: "model-1_6.sdf"}
+        description = f'IfcBeam "{name}" & <more> (IFC GlobalId x) from /tmp/a&b.ifc'
+        assert sdf.model_config(name, versions, description) == sdf._to_text(sdf.model_config_tree(name, versions, description))
+
+
+def test_preview_drawn_by_the_helper_process_is_the_one_drawn_in_process(tmp_path, monkeypatch):
+    from bimrobot.world import preview
+
+    helper = build_package(frame_model(), tmp_path / "helper", ConvertOptions())
+    monkeypatch.setattr(preview.pool, "can_fork", lambda: False)  # no helper (and no pool): all in this process
+    inline = build_package(frame_model(), tmp_path / "inline", ConvertOptions())
+    assert helper["preview"] == inline["preview"] == "preview.png"
+    assert (tmp_path / "helper" / "preview.png").read_bytes() == (tmp_path / "inline" / "preview.png").read_bytes()
+    none = build_package(frame_model(), tmp_path / "none", ConvertOptions(preview=False))
+    assert none["preview"] is None and not (tmp_path / "none" / "preview.png").exists()
+
+
+def test_a_failing_conversion_stops_the_preview_helper_and_leaves_nothing(tmp_path, monkeypatch):
+    import multiprocessing
+
+    from bimrobot.world import package as package_module
+
+    def fail(*args, **kwargs):
+        raise InputError("stop here")
+
+    monkeypatch.setattr(package_module, "_report", fail)  # after the models are written and the preview began
+    with pytest.raises(InputError, match="stop here"):
+        build_package(frame_model(), tmp_path / "pkg", ConvertOptions())
+    assert multiprocessing.active_children() == []
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_mesh_normals_use_the_same_cross_products_as_numpy():
+    """meshes.cross (faster on small meshes) gives np.cross's bits, so DAE and STL files are unchanged."""
+    from bimrobot.world.meshes import cross
+
+    rng = np.random.default_rng(7)
+    for rows in (1, 12, 500):
+        a = rng.normal(size=(rows, 3)) * rng.uniform(1e-6, 1e6, size=(rows, 1))
+        b = rng.normal(size=(rows, 3))
+        assert cross(a, b).tobytes() == np.cross(a, b).tobytes()

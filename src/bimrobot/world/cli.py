@@ -71,6 +71,8 @@ def register(subparsers) -> None:
     parser.add_argument("--default-density", action=_DeprecatedDensity, type=UnknownWeightRule.parse,
                         dest="unknown_weight", help=argparse.SUPPRESS)  # the old name, kept working
     parser.add_argument("--no-maps", action="store_true", help="do not write occupancy maps")
+    parser.add_argument("--no-preview", action="store_true",
+                        help="do not draw preview.png (a picture of the world; drawing it takes 0.3-1 s)")
     parser.add_argument("--merge-static", action="store_true",
                         help="for large buildings: merge the static elements into one model per storey and IFC "
                         "class (merged_<storey>_<class>; visual, collision and exact combined inertia), except the "
@@ -127,6 +129,7 @@ def convert_command(args: argparse.Namespace) -> int:
         package_name=args.package_name,
         unknown_weight=args.unknown_weight,
         maps=not args.no_maps,
+        preview=not args.no_preview,
         site=site,
         merge_static=args.merge_static,
         keep_separate=args.keep_separate,

@@ -142,9 +142,7 @@ def _mark_segments(grid: np.ndarray, segments: np.ndarray, origin: tuple[float, 
     """Mark every cell that a 2-D segment (k, 2, 2; metres) passes through, so parts thinner than a
     cell (a 9 mm web, a sheet) still block the map. Sampled every half cell (a corner clipped by
     less than that may stay free); segments that project onto each other are sampled once."""
-    segments = np.round(segments, 5)
-    segments = np.unique(np.sort(segments.view([("x", float), ("y", float)]).reshape(-1, 2), axis=1)
-                         .view(float).reshape(-1, 2, 2), axis=0)
+    segments = _distinct_segments(np.round(segments, 5))
     lengths = np.linalg.norm(segments[:, 1] - segments[:, 0], axis=1)
     counts = np.ceil(lengths / (resolution / 2)).astype(int) + 1
     owner = np.repeat(np.arange(len(segments)), counts)
@@ -156,6 +154,18 @@ def _mark_segments(grid: np.ndarray, segments: np.ndarray, origin: tuple[float, 
     row = rows - 1 - np.floor((points[:, 1] - origin[1]) / resolution).astype(int)
     inside = (row >= 0) & (row < rows) & (col >= 0) & (col < cols)
     grid[row[inside], col[inside]] = True
+
+
+def _distinct_segments(segments: np.ndarray) -> np.ndarray:
+    """The distinct segments (k, 2, 2), each from its lower (x, y) end to its higher one, sorted (as
+    ``np.unique(axis=0)`` gives them, but without its slow sort of structured rows)."""
+    start, end = segments[:, 0], segments[:, 1]
+    swap = (start[:, 0] > end[:, 0]) | ((start[:, 0] == end[:, 0]) & (start[:, 1] > end[:, 1]))
+    rows = np.where(swap[:, None, None], segments[:, ::-1], segments).reshape(-1, 4)
+    rows = rows[np.lexsort(rows.T[::-1])]
+    distinct = np.ones(len(rows), dtype=bool)
+    distinct[1:] = np.any(rows[1:] != rows[:-1], axis=1)
+    return rows[distinct].reshape(-1, 2, 2)
 
 
 def _clipped_projected_triangles(vertices: np.ndarray, faces: np.ndarray, low: float, high: float) -> np.ndarray:

@@ -40,6 +40,8 @@ from bimrobot.io import printable
 from bimrobot.site import Site
 from bimrobot.world import launch, layout, merge, meshes, navmap, physics, pool, sdf
 from bimrobot.world.names import ros_package_name, safe_name, slug
+from bimrobot.world.preview import PreviewWorker
+from bimrobot.world.render import PREVIEW_MAX_TRIANGLES
 
 log = logging.getLogger(__name__)
 
@@ -58,7 +60,8 @@ class ConvertOptions:
     subclasses count), which keep one model per element. ``workers``: processes for the per-model
     work (default: every core). ``map_band``: (low, high) above each storey's elevation. ``max_triangles``:
     triangle budget of each collision mesh. ``unknown_weight``: the rule for elements without a weight
-    in the model (:mod:`bimrobot.bim.unknown_weight`; default: volume x 2400 kg/m3).
+    in the model (:mod:`bimrobot.bim.unknown_weight`; default: volume x 2400 kg/m3). ``preview``: draw
+    ``preview.png``, a picture of the world (:mod:`bimrobot.world.preview`).
     """
 
     target: str = "sim"
@@ -75,6 +78,7 @@ class ConvertOptions:
     merge_static: bool = False
     keep_separate: tuple[str, ...] = ()
     workers: int | None = None
+    preview: bool = True  # skipped above render.PREVIEW_MAX_TRIANGLES visual triangles
     site: Site | None = None  # where the yard is (--layout yard); None: the thesis' fig. 4.11
 
     def validate(self) -> None:
@@ -168,15 +172,17 @@ def convert(
     """Read an IFC file (``.ifc`` or ``.ifczip``) and write its Gazebo package to ``out_dir``; return
     the report (also in ``out_dir/report.json``). ``include`` / ``exclude``: IfcOpenShell selectors
     (:mod:`bimrobot.bim.selection`). Bad input raises InputError and leaves no ``out_dir``."""
-    from bimrobot.bim import load_model  # imported here: only bim/ touches ifcopenshell
+    from bimrobot.bim.reader import load_model  # imported here: only bim/ touches ifcopenshell
 
     options = options or ConvertOptions()
     options.validate()
     io.check_output(out_dir, folder=True, inputs=[ifc_path])  # before the long read
     started = time.perf_counter()
-    model = load_model(ifc_path, include=include, exclude=exclude, progress=progress)
-    load_seconds = time.perf_counter() - started
-    return build_package(model, out_dir, options, progress=progress, load_seconds=load_seconds)
+    with PreviewWorker(options.preview) as preview:  # gets ready to draw preview.png while the model is read
+        # Element.properties is not needed to convert: only what the weights need is read.
+        model = load_model(ifc_path, include=include, exclude=exclude, progress=progress, properties=False)
+        load_seconds = time.perf_counter() - started
+        return _build_package(model, out_dir, options, progress, load_seconds, preview)
 
 
 def build_package(
@@ -191,6 +197,12 @@ def build_package(
     Elements of unknown weight first get their mass by ``options.unknown_weight`` (in place; the
     refusal lists them by class); ``report["unknown_weight"]`` says what was assumed.
     """
+    with PreviewWorker((options or ConvertOptions()).preview) as preview:
+        return _build_package(model, out_dir, options, progress, load_seconds, preview)
+
+
+def _build_package(model: BuildingModel, out_dir: str | Path, options: ConvertOptions | None, progress: bool,
+                   load_seconds: float | None, preview: PreviewWorker) -> dict:
     options = options or ConvertOptions()
     options.validate()
     started = time.perf_counter()
@@ -205,11 +217,15 @@ def build_package(
     timings: dict[str, float] = {"load": load_seconds} if load_seconds is not None else {}
     unknown = apply_unknown_weight_rule(model.elements.values(), options.unknown_weight, source)
     _refuse_weightless(model, options, source)
-    with io.atomic_output_dir(out_dir, kind="convert", inputs=inputs) as tmp:
+    with io.atomic_output_dir(out_dir, kind="convert", inputs=inputs) as tmp, preview.stopped_on_error():
         tick = time.perf_counter()
         converted, skipped = _prepare_elements(model, options, progress)
         if not converted:
             raise InputError(f"{source}: none of the {len(model.elements)} elements has a usable solid mesh")
+        triangles = sum(len(item.body.faces) for item in converted)  # the preview's, as report["converted"]
+        drawing = options.preview and triangles <= PREVIEW_MAX_TRIANGLES
+        if not drawing:
+            preview.close()  # no picture (of so large a world): stop the helper now (its CPU goes to the models)
         if options.layout == "yard":  # the yard lays parts on their centre of mass: needed before placing
             for item in converted:
                 item.finish(options)
@@ -219,7 +235,9 @@ def build_package(
         timings["prepare"] = time.perf_counter() - tick
 
         # Models and maps are written by every core (bimrobot.world.pool) while this process writes the
-        # worlds and launch files; results come back as the tasks finish.
+        # worlds and launch files; results come back as the tasks finish. The preview is drawn as soon as
+        # the models are written, so the maps come last then, beside it; without a preview the maps
+        # (the longest tasks) come first.
         tick = time.perf_counter()
         plan = _plan_maps(model, converted, options, ground_z) if options.maps else _MapPlan([], (0.0, 0.0), (1, 1))
         (tmp / "models").mkdir()
@@ -227,7 +245,10 @@ def build_package(
             (tmp / "maps").mkdir()
         pool.shared.update(converted=converted, merged=merged, models_dir=tmp / "models", options=options,
                            source=source, maps_dir=tmp / "maps", map_plan=plan)
-        tasks = [("map", level) for level in range(len(plan.levels))] + _model_tasks(converted, merged, options)
+        model_tasks = _model_tasks(converted, merged, options)
+        map_tasks = [("map", level) for level in range(len(plan.levels))]
+        tasks = model_tasks + map_tasks if drawing else map_tasks + model_tasks
+        models_left = len(model_tasks)
         drawn: dict[int, dict] = {}
         try:
             parallel = len(converted) >= POOL_MIN_ELEMENTS or options.workers is not None
@@ -238,6 +259,9 @@ def build_package(
                 for results in running.results():
                     _apply_results(converted, merged, drawn, results)
                     bar.update(len(results[0]))
+                    models_left -= not _is_map(results)
+                    if drawing and models_left == 0 and not _is_map(results):
+                        preview.start(tmp, triangles)  # every model and world is written
                 bar.close()
         finally:
             pool.shared.clear()
@@ -261,10 +285,12 @@ def build_package(
             report["mujoco"] = write_scene(tmp, converted, options, ground_z, yard)
         for warning in report["warnings"]:
             log.info("%s", warning)  # the CLI prints them in its summary
-        from bimrobot.world.render import render_preview
-
-        triangles = sum(c.get("visual_triangles") or 0 for c in report["converted"])
-        report["preview"] = render_preview(tmp, triangles)  # preview.png: a picture of the world (None: too large)
+        tick = time.perf_counter()  # the time spent waiting for the preview after everything else
+        # preview.png: a picture of the world (None: too large, or not asked for)
+        report["preview"] = preview.result() if drawing else None
+        waited = time.perf_counter() - tick
+        report["timings_s"]["preview"] = round(waited, 4)
+        report["timings_s"]["total"] = round(timings["total"] + waited, 4)
         (tmp / "report.json").write_text(json.dumps(report, indent=2), encoding="utf-8")
         (tmp / "README.md").write_text(_readme(report), encoding="utf-8")
     log.info("wrote %s: %d models, %d skipped", out_dir, len(converted), len(skipped))
@@ -475,6 +501,11 @@ def _apply_results(converted: list[_Converted], merged: list[merge.MergedModel],
         maps[figures["map"]] = figures["entry"]
     elif figures is not None:
         next(m for m in merged if m.name == figures["name"]).figures = figures
+
+
+def _is_map(results: tuple) -> bool:
+    """Whether a task's results (see :func:`_model_task`) are a map's."""
+    return results[1] is not None and "map" in results[1]
 
 
 def _skip(element: Element, reason: str) -> dict:
