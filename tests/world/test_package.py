@@ -397,30 +397,27 @@ def test_model_files_are_the_text_elementtree_would_write():
         assert sdf.model_config(name, versions, description) == sdf._to_text(sdf.model_config_tree(name, versions, description))
 
 
-def test_preview_drawn_by_the_helper_process_is_the_one_drawn_in_process(tmp_path, monkeypatch):
-    from bimrobot.world import preview
+def test_preview_is_a_picture_of_the_world_unless_switched_off(tmp_path):
+    from PIL import Image
 
-    helper = build_package(frame_model(), tmp_path / "helper", ConvertOptions())
-    monkeypatch.setattr(preview.pool, "can_fork", lambda: False)  # no helper (and no pool): all in this process
-    inline = build_package(frame_model(), tmp_path / "inline", ConvertOptions())
-    assert helper["preview"] == inline["preview"] == "preview.png"
-    assert (tmp_path / "helper" / "preview.png").read_bytes() == (tmp_path / "inline" / "preview.png").read_bytes()
+    drawn = build_package(frame_model(), tmp_path / "drawn", ConvertOptions())
+    assert drawn["preview"] == "preview.png"
+    picture = np.asarray(Image.open(tmp_path / "drawn" / "preview.png").convert("L"), float)
+    assert picture.shape == (660, 880) and picture.std() > 10  # the structure drawn on white, not a blank page
+    assert (picture < 200).mean() > 0.05
     none = build_package(frame_model(), tmp_path / "none", ConvertOptions(preview=False))
     assert none["preview"] is None and not (tmp_path / "none" / "preview.png").exists()
 
 
-def test_a_failing_conversion_stops_the_preview_helper_and_leaves_nothing(tmp_path, monkeypatch):
-    import multiprocessing
-
+def test_a_failing_conversion_leaves_nothing(tmp_path, monkeypatch):
     from bimrobot.world import package as package_module
 
     def fail(*args, **kwargs):
         raise InputError("stop here")
 
-    monkeypatch.setattr(package_module, "_report", fail)  # after the models are written and the preview began
+    monkeypatch.setattr(package_module, "_report", fail)  # after the models are written
     with pytest.raises(InputError, match="stop here"):
         build_package(frame_model(), tmp_path / "pkg", ConvertOptions())
-    assert multiprocessing.active_children() == []
     assert list(tmp_path.iterdir()) == []
 
 

@@ -40,8 +40,7 @@ from bimrobot.io import printable
 from bimrobot.site import Site
 from bimrobot.world import launch, layout, merge, meshes, navmap, physics, pool, sdf
 from bimrobot.world.names import ros_package_name, safe_name, slug
-from bimrobot.world.preview import PreviewWorker
-from bimrobot.world.render import PREVIEW_MAX_TRIANGLES
+from bimrobot.world.render import PREVIEW_MAX_TRIANGLES, render_preview
 
 log = logging.getLogger(__name__)
 
@@ -61,7 +60,7 @@ class ConvertOptions:
     work (default: every core). ``map_band``: (low, high) above each storey's elevation. ``max_triangles``:
     triangle budget of each collision mesh. ``unknown_weight``: the rule for elements without a weight
     in the model (:mod:`bimrobot.bim.unknown_weight`; default: volume x 2400 kg/m3). ``preview``: draw
-    ``preview.png``, a picture of the world (:mod:`bimrobot.world.preview`).
+    ``preview.png``, a picture of the world (:mod:`bimrobot.world.render`).
     """
 
     target: str = "sim"
@@ -178,11 +177,10 @@ def convert(
     options.validate()
     io.check_output(out_dir, folder=True, inputs=[ifc_path])  # before the long read
     started = time.perf_counter()
-    with PreviewWorker(options.preview) as preview:  # gets ready to draw preview.png while the model is read
-        # Element.properties is not needed to convert: only what the weights need is read.
-        model = load_model(ifc_path, include=include, exclude=exclude, progress=progress, properties=False)
-        load_seconds = time.perf_counter() - started
-        return _build_package(model, out_dir, options, progress, load_seconds, preview)
+    # Element.properties is not needed to convert: only what the weights need is read.
+    model = load_model(ifc_path, include=include, exclude=exclude, progress=progress, properties=False)
+    load_seconds = time.perf_counter() - started
+    return build_package(model, out_dir, options, progress, load_seconds)
 
 
 def build_package(
@@ -197,12 +195,6 @@ def build_package(
     Elements of unknown weight first get their mass by ``options.unknown_weight`` (in place; the
     refusal lists them by class); ``report["unknown_weight"]`` says what was assumed.
     """
-    with PreviewWorker((options or ConvertOptions()).preview) as preview:
-        return _build_package(model, out_dir, options, progress, load_seconds, preview)
-
-
-def _build_package(model: BuildingModel, out_dir: str | Path, options: ConvertOptions | None, progress: bool,
-                   load_seconds: float | None, preview: PreviewWorker) -> dict:
     options = options or ConvertOptions()
     options.validate()
     started = time.perf_counter()
@@ -217,15 +209,13 @@ def _build_package(model: BuildingModel, out_dir: str | Path, options: ConvertOp
     timings: dict[str, float] = {"load": load_seconds} if load_seconds is not None else {}
     unknown = apply_unknown_weight_rule(model.elements.values(), options.unknown_weight, source)
     _refuse_weightless(model, options, source)
-    with io.atomic_output_dir(out_dir, kind="convert", inputs=inputs) as tmp, preview.stopped_on_error():
+    with io.atomic_output_dir(out_dir, kind="convert", inputs=inputs) as tmp:
         tick = time.perf_counter()
         converted, skipped = _prepare_elements(model, options, progress)
         if not converted:
             raise InputError(f"{source}: none of the {len(model.elements)} elements has a usable solid mesh")
         triangles = sum(len(item.body.faces) for item in converted)  # the preview's, as report["converted"]
         drawing = options.preview and triangles <= PREVIEW_MAX_TRIANGLES
-        if not drawing:
-            preview.close()  # no picture (of so large a world): stop the helper now (its CPU goes to the models)
         if options.layout == "yard":  # the yard lays parts on their centre of mass: needed before placing
             for item in converted:
                 item.finish(options)
@@ -235,9 +225,8 @@ def _build_package(model: BuildingModel, out_dir: str | Path, options: ConvertOp
         timings["prepare"] = time.perf_counter() - tick
 
         # Models and maps are written by every core (bimrobot.world.pool) while this process writes the
-        # worlds and launch files; results come back as the tasks finish. The preview is drawn as soon as
-        # the models are written, so the maps come last then, beside it; without a preview the maps
-        # (the longest tasks) come first.
+        # worlds and launch files; results come back as the tasks finish. The maps (the longest tasks)
+        # come first.
         tick = time.perf_counter()
         plan = _plan_maps(model, converted, options, ground_z) if options.maps else _MapPlan([], (0.0, 0.0), (1, 1))
         (tmp / "models").mkdir()
@@ -247,8 +236,7 @@ def _build_package(model: BuildingModel, out_dir: str | Path, options: ConvertOp
                            source=source, maps_dir=tmp / "maps", map_plan=plan)
         model_tasks = _model_tasks(converted, merged, options)
         map_tasks = [("map", level) for level in range(len(plan.levels))]
-        tasks = model_tasks + map_tasks if drawing else map_tasks + model_tasks
-        models_left = len(model_tasks)
+        tasks = map_tasks + model_tasks
         drawn: dict[int, dict] = {}
         try:
             parallel = len(converted) >= POOL_MIN_ELEMENTS or options.workers is not None
@@ -259,9 +247,6 @@ def _build_package(model: BuildingModel, out_dir: str | Path, options: ConvertOp
                 for results in running.results():
                     _apply_results(converted, merged, drawn, results)
                     bar.update(len(results[0]))
-                    models_left -= not _is_map(results)
-                    if drawing and models_left == 0 and not _is_map(results):
-                        preview.start(tmp, triangles)  # every model and world is written
                 bar.close()
         finally:
             pool.shared.clear()
@@ -285,9 +270,9 @@ def _build_package(model: BuildingModel, out_dir: str | Path, options: ConvertOp
             report["mujoco"] = write_scene(tmp, converted, options, ground_z, yard)
         for warning in report["warnings"]:
             log.info("%s", warning)  # the CLI prints them in its summary
-        tick = time.perf_counter()  # the time spent waiting for the preview after everything else
+        tick = time.perf_counter()
         # preview.png: a picture of the world (None: too large, or not asked for)
-        report["preview"] = preview.result() if drawing else None
+        report["preview"] = render_preview(tmp, triangles) if drawing else None
         waited = time.perf_counter() - tick
         report["timings_s"]["preview"] = round(waited, 4)
         report["timings_s"]["total"] = round(timings["total"] + waited, 4)
@@ -501,11 +486,6 @@ def _apply_results(converted: list[_Converted], merged: list[merge.MergedModel],
         maps[figures["map"]] = figures["entry"]
     elif figures is not None:
         next(m for m in merged if m.name == figures["name"]).figures = figures
-
-
-def _is_map(results: tuple) -> bool:
-    """Whether a task's results (see :func:`_model_task`) are a map's."""
-    return results[1] is not None and "map" in results[1]
 
 
 def _skip(element: Element, reason: str) -> dict:
