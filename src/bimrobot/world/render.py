@@ -164,7 +164,7 @@ def render_package(package: Path, png: Path, world_file: str | None = None, elev
     return png
 
 
-#: Above this many visual triangles `convert` skips its preview picture (matplotlib draws every one).
+#: Above this many visual triangles `convert` skips its preview picture (Pillow paints every one).
 PREVIEW_MAX_TRIANGLES = 60_000
 
 
