@@ -9,6 +9,9 @@ and steps per second of the bare scenes, each as a ratio against a reference mea
 - ``steel-frame yard``: steps/s of ``convert --target mujoco --layout yard`` of the chapter-4 frame
   (24 free components on CoACD pieces, bolts left out), plain ``mj_step``.
 - reference for both: steps/s of a one-box scene (ground and one free box at rest) in the same run.
+- ``--frame``: real-time factor of the chapter-4 steel frame's schedule (``bimrobot build --fleet
+  fleet2``, 160 activities, six heavy-variant robots) run by RCAN on the mujoco backend, as a ratio
+  of experiment 1's in the same repeat (minutes per repeat).
 
 min/median/max over ``--repeats`` (default 3). ``--pictures DIR`` also writes the docs' pictures of
 experiment 1 (pick-up and install; needs MUJOCO_GL=osmesa or egl). Usage:
@@ -84,6 +87,28 @@ def experiment_one(pictures: Path | None = None) -> tuple[float, float, float]:
     return simulated, wall, time.perf_counter() - started
 
 
+def frame_schedule(folder: Path) -> tuple[float, float, int, int]:
+    """(simulated s, wall s, activities done, activities) of the chapter-4 steel frame's schedule
+    (``bimrobot build --fleet fleet2``) run by RCAN on the mujoco backend; the build outside the clock."""
+    from bimrobot.bim.examples import steel_frame
+    from bimrobot.cli import main as bimrobot
+    from bimrobot.lbd.graph import ConstructionGraph
+    from bimrobot.rcan.generation import load_capabilities
+    from bimrobot.rcan.plans import plan_from_graph
+    from bimrobot.rcan.system import run_plan
+
+    graph_path = folder / "frame-build" / "graph.ttl"
+    if not graph_path.exists():
+        if bimrobot(["build", str(steel_frame(folder / "frame-schedule.ifc")), "--fleet", "fleet2",
+                     "-o", str(folder / "frame-build")]) not in (0, 1):
+            raise SystemExit("bimrobot build of the steel frame failed")
+    activities = plan_from_graph(ConstructionGraph.open(str(graph_path)), (-10.0, -10.0, 0.0), standoff_m=0.6)
+    started = time.perf_counter()
+    report = run_plan(activities, load_capabilities("fleet2"), backend="mujoco")
+    wall = time.perf_counter() - started
+    return report.backend_summary["simulated_s"], wall, len(report.done), len(activities)
+
+
 def _picture(backend, path: Path) -> None:
     from bimrobot.physics.render import render_png
 
@@ -102,6 +127,8 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--pictures", type=Path, help="write the docs' pictures of experiment 1 here")
+    parser.add_argument("--frame", action="store_true",
+                        help="also the chapter-4 frame's schedule on the mujoco backend (minutes per repeat)")
     args = parser.parse_args(argv)
     rows: dict[str, list[float]] = {k: [] for k in ("ref", "rtf", "rtf_ratio", "bare", "bare_ratio", "yard", "yard_ratio")}
     with tempfile.TemporaryDirectory() as folder:
@@ -118,6 +145,12 @@ def main(argv=None) -> int:
             rows["bare_ratio"].append(bare_steps / ref)
             rows["yard"].append(yard)
             rows["yard_ratio"].append(yard / ref)
+            if args.frame:
+                frame_sim, frame_wall, done, total = frame_schedule(Path(folder))
+                rows.setdefault("frame", []).append(frame_sim / frame_wall)
+                rows.setdefault("frame_ratio", []).append((frame_sim / frame_wall) / (simulated / wall))
+                print(f"repeat {repeat + 1}: steel-frame schedule {frame_sim:.0f} s simulated in {frame_wall:.1f} s, "
+                      f"{done}/{total} activities done", flush=True)
             print(f"repeat {repeat + 1}: experiment 1 {simulated:.1f} s simulated in {wall:.2f} s (real-time factor "
                   f"{simulated / wall:.1f}); bare robot scene {bare_steps:.0f} steps/s; steel-frame yard {yard:.0f} "
                   f"steps/s; one-box reference {ref:.0f} steps/s", flush=True)
@@ -127,6 +160,9 @@ def main(argv=None) -> int:
     print(f"  experiment 1 / bare robot scene:   {spread(rows['rtf_ratio'])} (wall time of the idle scene / of the experiment)")
     print(f"  bare robot scene:                  {spread(rows['bare'])} steps/s = {spread(rows['bare_ratio'])} x reference")
     print(f"  steel-frame yard (24 free bodies): {spread(rows['yard'])} steps/s = {spread(rows['yard_ratio'])} x reference")
+    if args.frame:
+        print(f"  steel-frame schedule real-time factor: {spread(rows['frame'])} (x real time) = "
+              f"{spread(rows['frame_ratio'])} x experiment 1's")
     return 0
 
 

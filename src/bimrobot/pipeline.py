@@ -92,7 +92,7 @@ STAGES = (
                         "-o", str(d / "graph.ttl"), "--package", str(d / "package"), "--prebuilt", a.prebuilt,
                         *(["--by-element"] if a.by_element else []), *_work_schedule(a, d), *_selection(a), *_weights(a)]),
     Stage("rcan", "RCAN run generated from the graph (the fleet's robots, simulated)",
-          lambda a, d: ["rcan", "run", "--graph", str(d / "graph.ttl"), "--backend", "sim",
+          lambda a, d: ["rcan", "run", "--graph", str(d / "graph.ttl"), "--backend", a.backend,
                         "--capabilities", str(a.fleet), "--state-db", str(d / "rcan" / "state.db"), "-q",
                         "--report", str(d / "rcan" / "report.json"), "--graph-out", str(d / "rcan" / "graph-after-rcan.ttl"),
                         "--time-scale", repr(a.time_scale)],
@@ -139,6 +139,9 @@ def register(subparsers) -> None:
     parser.add_argument("--start", metavar="ISO",
                         help="date-time of t = 0 s of the build for the IFC work schedule, e.g. 2027-03-01T07:00 "
                         "(default: today 08:00)")
+    parser.add_argument("--backend", default="sim", choices=("sim", "mujoco"),
+                        help="RCAN's executor backend: sim (kinematic robots, the default) or mujoco (the robots act "
+                        "physically in MuJoCo; rcan/state.db.trajectory.csv holds their trajectories)")
     parser.add_argument("--time-scale", type=_non_negative, default=0.0, metavar="S",
                         help="RCAN's sim robots: real seconds slept per simulated second (default 0, as fast as possible)")
     add_selection_options(parser, built=True)
@@ -177,7 +180,8 @@ def _fingerprint(args) -> dict:
         return hasher.hexdigest()
 
     options = {key: str(getattr(args, key)) for key in
-               ("fleet", "site", "prebuilt", "by_element", "include", "exclude", "unknown_weight_text", "start")}
+               ("fleet", "site", "prebuilt", "by_element", "include", "exclude", "unknown_weight_text", "start",
+                "backend")}
     return {"options": options, "inputs": {str(p.resolve()): digest(p) for p in _inputs(args)}}
 
 
@@ -231,7 +235,7 @@ def build_command(args: argparse.Namespace) -> int:
         (folder / STAGES_FILE).unlink()
         (folder / "build.json").write_text(json.dumps({
             "generator": io.signature("build"), "model": str(args.model.resolve()), "fleet": str(args.fleet),
-            "site": str(args.site) if args.site else "thesis fig. 4.11", "stages": done,
+            "site": str(args.site) if args.site else "thesis fig. 4.11", "backend": args.backend, "stages": done,
             "resumed": resumed}, indent=2), encoding="utf-8")
     print(f"\nbuild: {io.printable(str(args.output))}/ in {time.monotonic() - started:.1f} s"
           f"{' (resumed)' if resumed else ''}; README.md says what each file is")
@@ -268,6 +272,15 @@ def _work_schedule_row(args) -> str:
             "per activity, IfcTaskTime, IfcRelSequence, IfcRelAssignsToProduct | Bonsai's 4D sequencing; ifcopenshell |\n")
 
 
+def _trajectory_row(folder: Path) -> str:
+    """The README row of the mujoco backend's trajectory file, when the run wrote one."""
+    if not (folder / "rcan" / "state.db.trajectory.csv").exists():
+        return ""
+    return ("| `rcan/state.db.trajectory.csv` | `--backend mujoco`: every body's pose at 20 Hz of simulated time "
+            "(`time_s, body, x, y, z, qw, qx, qy, qz`; bodies are GlobalIds and `<robot>/<link>`) | a spreadsheet; "
+            "`bimrobot replay` |\n")
+
+
 def readme(args, folder: Path, done: dict) -> str:
     """out/README.md: what each file is and how to open it."""
     from bimrobot import io
@@ -290,6 +303,6 @@ Fleet: `{args.fleet}`; site: {args.site or "the thesis' fig. 4.11"}. Units: metr
 | `rcan/report.json` | the RCAN run: each activity with its robot, result and times; escalated and blocked work | `jq` |
 | `rcan/state.db` | RCAN's state database (journal, component states); the build resumes from it | `sqlite3` |
 | `rcan/graph-after-rcan.ttl` | the graph with the states after the RCAN run | `bimrobot query` |
-{_work_schedule_row(args)}| `build.rrd` | 4D replay: the structure growing, components travelling from the yard with their robots, states, a Gantt you can scrub (docs/replay.md) | `rerun build.rrd`, or `bimrobot replay out/ -o view.rrd --serve` for the web viewer |
+{_trajectory_row(folder)}{_work_schedule_row(args)}| `build.rrd` | 4D replay: the structure growing, components travelling from the yard with their robots, states, a Gantt you can scrub (docs/replay.md) | `rerun build.rrd`, or `bimrobot replay out/ -o view.rrd --serve` for the web viewer |
 | `build.json` | the inputs, options and the time of each stage | `jq` |
 """

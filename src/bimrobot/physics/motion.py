@@ -40,11 +40,31 @@ def angle_between(a: np.ndarray, b: np.ndarray) -> float:
     return float(math.acos(max(-1.0, min(1.0, cosine))))
 
 
+def between(a: np.ndarray, b: np.ndarray, t: float) -> np.ndarray:
+    """The pose a fraction ``t`` of the way from pose ``a`` to pose ``b`` (4x4): position linear,
+    rotation about the axis that turns one into the other."""
+    relative = a[:3, :3].T @ b[:3, :3]
+    angle = angle_between(a[:3, :3], b[:3, :3])
+    rotation = a[:3, :3]
+    if angle > 1e-9:
+        axis = np.array([relative[2, 1] - relative[1, 2], relative[0, 2] - relative[2, 0], relative[1, 0] - relative[0, 1]])
+        if np.linalg.norm(axis) < 1e-9:  # half a turn: the axis from the symmetric part
+            axis = np.sqrt(np.maximum((np.diag(relative) + 1) / 2, 0.0))
+        axis = axis / np.linalg.norm(axis)
+        k = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+        theta = angle * t
+        rotation = a[:3, :3] @ (np.eye(3) + math.sin(theta) * k + (1 - math.cos(theta)) * k @ k)
+    return pose(rotation, a[:3, 3] + (b[:3, 3] - a[:3, 3]) * t)
+
+
 def wrap_near(target: np.ndarray, current: np.ndarray, full_turn: np.ndarray) -> np.ndarray:
     """``target`` with every joint that may turn fully (``full_turn``) moved by whole turns to the
     equivalent angle nearest ``current``: the arm never turns a joint further than it must."""
     delta = (target - current + math.pi) % (2 * math.pi) - math.pi
-    return np.where(full_turn, current + delta, target)
+    wrapped = current + delta
+    # within the joints' range of +-2 pi (a whole turn the other way where it would leave it)
+    wrapped = np.where(wrapped > 2 * math.pi, wrapped - 2 * math.pi, np.where(wrapped < -2 * math.pi, wrapped + 2 * math.pi, wrapped))
+    return np.where(full_turn, wrapped, target)
 
 
 def smooth_steps(start: np.ndarray, goal: np.ndarray, seconds: float, dt: float):
@@ -94,6 +114,16 @@ class ArmIK:
                 if np.linalg.norm(error[:3]) < IK_POSITION_TOLERANCE_M / 10 and np.linalg.norm(error[3:]) < 1e-4:
                     break
         return self.configuration.q[:6].copy(), float(np.linalg.norm(error[:3])), float(np.linalg.norm(error[3:]))
+
+
+    def lowest_link(self, q: np.ndarray) -> float:
+        """Height (m, arm base frame) of the lowest joint of the arm at joints ``q``."""
+        import mujoco
+
+        data = mujoco.MjData(self.model)
+        data.qpos[:6] = q
+        mujoco.mj_kinematics(self.model, data)
+        return float(data.xpos[2:, 2].min())  # bodies after the world and the arm's first link
 
 
 def grid_path(occupied: np.ndarray, start: tuple[int, int], goal: tuple[int, int]) -> np.ndarray | None:

@@ -36,8 +36,19 @@ PIT_DEPTH_M = 1.0  # thickness of the ground slab: the deepest pit
 SITE_HALF_M = 200.0  # the ground slab spans +-200 m
 
 
+READY_SEED = np.array([0.0, -1.5, -1.3, -1.9, 1.57, 0.0])  # elbow up, tool down in front (rad)
+REACH_SEED = np.array([0.0, -1.9, -2.5, -0.3, 1.57, 0.0])  # elbow up, reaching down in front (rad)
+# the arm folded for driving empty: upper arm up, forearm folded down behind it, within the chassis' turn
+TUCK_POSTURE = np.array([0.0, -math.pi / 2, -2.9, math.pi / 2, -math.pi / 2, 0.0])
+
+
 class MotionFailed(Exception):
     """An activity cannot be executed: the message says why (one sentence)."""
+
+
+class Blocked(MotionFailed):
+    """The robot cannot get where it must be now (no free path or stand): other robots' work may
+    clear the way (a component lying in front of the one to fetch is taken away)."""
 
 
 @dataclass
@@ -60,6 +71,7 @@ class Robot:
     holding: str | None = None
     grip: np.ndarray | None = None  # the held component's pose in the gripper frame
     gains: tuple[np.ndarray, np.ndarray] | None = None
+    held_gains: tuple[np.ndarray, np.ndarray] | None = None  # damped for the held component's inertia
 
 
 class MujocoSite:
@@ -90,6 +102,7 @@ class MujocoSite:
         self.pits: list[tuple[np.ndarray, np.ndarray]] = []  # (lower xy, upper xy)
         self._slabs: list = []
         self._cut_slabs()
+        self._sweep: dict[tuple[str, bool], float] = {}
         self.components: dict[str, Component] = {}
         self.supports: list[tuple[np.ndarray, np.ndarray]] = []  # static boxes (centre, half size)
         self.time_s = 0.0
@@ -104,7 +117,7 @@ class MujocoSite:
         ik = motion.ArmIK(model)
         s = model.scale
         q, _, _ = ik.solve(motion.pose(motion.tool_down(0.0), (0.35 * s, 0.0, 0.45 * s)),
-                           np.array([0.0, -1.5, -1.3, -1.9, 1.57, 0.0]))
+                           READY_SEED)
         return q
 
     def _reindex(self) -> None:
@@ -158,8 +171,12 @@ class MujocoSite:
         body.ipos = [0, 0, h / 2]
         body.inertia = [component.mass / 12 * (d * d + h * h), component.mass / 12 * (w * w + h * h),
                         component.mass / 12 * (w * w + d * d)]
+        # components collide with the ground, the supports and the robots (contype 4, conaffinity 1 | 2),
+        # not with each other: their BIM boxes meet or overlap at the connections (a beam's end in its
+        # column), which the scene does not model; each rests on its own support instead
         body.add_geom(name=f"{component.global_id}/box", type=mj.mjtGeom.mjGEOM_BOX, size=[w / 2, d / 2, h / 2],
-                      pos=[0, 0, h / 2], rgba=[0.85, 0.45, 0.2, 1], friction=[1.0, 0.005, 0.0001])
+                      pos=[0, 0, h / 2], rgba=[0.85, 0.45, 0.2, 1], friction=[1.0, 0.005, 0.0001],
+                      contype=4, conaffinity=3)
         for name in self.robots:
             self.spec.add_equality(name=f"{name}/grasp/{component.global_id}", type=mj.mjtEq.mjEQ_WELD,
                                    objtype=mj.mjtObj.mjOBJ_BODY, name1=f"{name}/gripper", name2=component.global_id,
@@ -232,7 +249,7 @@ class MujocoSite:
         data = self.data
         for name, robot in self.robots.items():
             idx = self.idx[name]
-            kp, kd = robot.gains
+            kp, kd = robot.held_gains if robot.holding and robot.held_gains is not None else robot.gains
             q, v = data.qpos[idx["q"]], data.qvel[idx["v"]]
             torque = kp * (robot.q_ref - q) - kd * v + data.qfrc_bias[idx["v"]]
             if robot.holding:
@@ -282,10 +299,15 @@ class MujocoSite:
         return sorted(set(found))
 
     # --- base --------------------------------------------------------------------------------------
-    def obstacles(self, robot: str) -> list[tuple[np.ndarray, np.ndarray]]:
+    def obstacles(self, robot: str, split: bool = False):
         """Boxes (centre xy, half size xy) the base must keep away from: supports, and the components
-        that rest on the ground (not those held)."""
-        boxes = [(c[:2], h[:2]) for c, h in self.supports]
+        that rest on the ground (not those held). ``split``: (low, tall) lists: low boxes (below the
+        top of the chassis: a component lying on the ground) meet only the chassis, tall ones the arm
+        too, which reaches out further."""
+        low, tall = [], []
+        chassis_top = self.ground_z + self.robots[robot].model.base_height
+        for c, h in self.supports:
+            (low if c[2] + h[2] < chassis_top else tall).append((c[:2], h[:2]))
         held = {r.holding for r in self.robots.values() if r.holding}
         for gid, component in self.components.items():
             if gid in held:
@@ -293,9 +315,36 @@ class MujocoSite:
             geom = self.data.geom(f"{gid}/box")
             rotation = geom.xmat.reshape(3, 3)
             half = np.abs(rotation) @ (np.array(component.size) / 2)
-            if geom.xpos[2] - half[2] < self.ground_z + self.robots[robot].model.base_height:
-                boxes.append((geom.xpos[:2].copy(), half[:2]))
-        return boxes
+            bottom, top = geom.xpos[2] - half[2], geom.xpos[2] + half[2]
+            # not one that lies flush with or under the ground (a footing: driven over)
+            if bottom < chassis_top and top > self.ground_z + 0.01:
+                (low if top < chassis_top else tall).append((geom.xpos[:2].copy(), half[:2]))
+        return (low, tall) if split else low + tall
+
+    def _clear(self, robot: str, xy, low, tall) -> bool:
+        """Whether the robot may stand (and turn) at ``xy`` with these obstacles (see obstacles())."""
+        base = math.hypot(*self.robots[robot].model.footprint) / 2 + CLEARANCE_M
+        return not self._blocked(xy, low, base) and not self._blocked(xy, tall, self.sweep_radius(robot) + CLEARANCE_M)
+
+    def _footprint_clear(self, robot: str, xy, yaw: float, boxes) -> bool:
+        """Whether the chassis at ``xy`` heading ``yaw`` keeps CLEARANCE_M from every box (separating
+        axes of the chassis' rectangle and each axis-aligned box)."""
+        length, width = self.robots[robot].model.footprint
+        c, s_ = math.cos(yaw), math.sin(yaw)
+        axes = (np.array([c, s_]), np.array([-s_, c]), np.array([1.0, 0.0]), np.array([0.0, 1.0]))
+        halves = (length / 2 + CLEARANCE_M, width / 2 + CLEARANCE_M)
+        for centre, half in boxes:
+            offset = np.asarray(centre, float) - np.asarray(xy, float)
+            separated = False
+            for axis in axes:
+                mine = halves[0] * abs(axis @ axes[0]) + halves[1] * abs(axis @ axes[1])
+                theirs = half[0] * abs(axis[0]) + half[1] * abs(axis[1])
+                if abs(axis @ offset) > mine + theirs:
+                    separated = True
+                    break
+            if not separated:
+                return False
+        return True
 
     def _blocked(self, xy: np.ndarray, boxes, radius: float) -> bool:
         for centre, half in boxes:
@@ -307,16 +356,24 @@ class MujocoSite:
     def plan_path(self, robot: str, goal_xy) -> list[np.ndarray]:
         """Waypoints (xy, m) from the base to ``goal_xy`` on an occupancy grid of :data:`GRID_M` cells
         whose obstacles are grown by half the base's width plus :data:`CLEARANCE_M` (A* search by
-        pyastar2d, then straightened). MotionFailed when no path exists."""
+        pyastar2d, then straightened; grown by half the base's diagonal, so that it may turn anywhere
+        on the path). The grid covers the start, the goal and every obstacle with
+        3 m around them. A base that stands within the grown obstacles (it has just worked beside
+        one) may leave them: cells within that distance of it count free, unless an obstacle itself
+        (grown by a cell) is there. A goal within the grown obstacles is replaced by the nearest free
+        cell (the goal of *move to component* is a stand-off point, and the next activity finds its
+        own stand). MotionFailed when no path exists."""
         model = self.robots[robot].model
         start = self.base_xy_yaw(robot)[:2]
         goal = np.asarray(goal_xy, float)
-        boxes = self.obstacles(robot)
-        radius = model.footprint[1] / 2 + CLEARANCE_M
-        if self._blocked(goal, boxes, radius):
-            raise MotionFailed(f"the base of {robot} does not fit at ({goal[0]:.2f}, {goal[1]:.2f}): an obstacle is "
-                               f"within {radius:.2f} m")
-        if not boxes or not _line_blocked(start, goal, lambda p: self._blocked(p, boxes, radius)):
+        low, tall = self.obstacles(robot, split=True)
+        boxes = low + tall
+        # the robot turns in place at each waypoint: it needs its sweep radius all around (its chassis'
+        # half diagonal for what is lower than the chassis)
+        radius = self.sweep_radius(robot) + CLEARANCE_M
+        radii = [math.hypot(*model.footprint) / 2 + CLEARANCE_M] * len(low) + [radius] * len(tall)
+        blocked = lambda p: not self._clear(robot, p, low, tall)  # noqa: E731
+        if not boxes or (not blocked(goal) and not _line_blocked(start, goal, blocked)):
             return [goal]
         corners = [start, goal] + [c - h for c, h in boxes] + [c + h for c, h in boxes]
         lower = np.min(corners, axis=0) - 3.0
@@ -325,22 +382,38 @@ class MujocoSite:
         xs = lower[0] + GRID_M * np.arange(shape[0])
         ys = lower[1] + GRID_M * np.arange(shape[1])
         occupied = np.zeros(shape, bool)
-        for centre, half in boxes:  # cells whose centre lies within radius of the box
-            gx = np.maximum(np.abs(xs[:, None] - centre[0]) - half[0], 0)
-            gy = np.maximum(np.abs(ys[None, :] - centre[1]) - half[1], 0)
-            occupied |= np.hypot(gx, gy) < radius
+        solid = np.zeros(shape, bool)
+        for (centre, half), grown in zip(boxes, radii):  # cells whose centre lies within radius of the box
+            gap = np.hypot(np.maximum(np.abs(xs[:, None] - centre[0]) - half[0], 0),
+                           np.maximum(np.abs(ys[None, :] - centre[1]) - half[1], 0))
+            occupied |= gap < grown
+            solid |= gap < GRID_M
+        near_start = np.hypot(xs[:, None] - start[0], ys[None, :] - start[1]) < radius
+        occupied &= ~(near_start & ~solid)
         cell = lambda p: tuple(np.round((np.asarray(p) - lower) / GRID_M).astype(int))  # noqa: E731
+        if occupied[cell(goal)]:
+            free = np.argwhere(~occupied)
+            nearest = free[np.argmin(np.hypot(*(lower[:, None] + GRID_M * free.T - goal[:, None])))]
+            goal = lower + GRID_M * nearest
         cells = motion.grid_path(occupied, cell(start), cell(goal))
         if cells is None:
-            raise MotionFailed(f"no collision-free path for {robot} to ({goal[0]:.2f}, {goal[1]:.2f})")
+            raise Blocked(f"no collision-free path for {robot} from ({start[0]:.2f}, {start[1]:.2f}) to "
+                               f"({goal[0]:.2f}, {goal[1]:.2f})")
         points = lower + cells * GRID_M
         points[0], points[-1] = start, goal
-        return motion.simplify(points, lambda p: self._blocked(p, boxes, radius), GRID_M / 2)[1:]
+        # straightened through free cells only (the start's own neighbourhood may be grown-occupied)
+        free_at = lambda p: occupied[tuple(np.clip(cell(p), 0, np.array(shape) - 1))]  # noqa: E731
+        return motion.simplify(points, free_at, GRID_M / 2)[1:]
 
     def drive(self, robot: str, goal_xy, final_yaw: float | None = None) -> float:
         """Drive the base along a planned path to ``goal_xy`` (turn, then go straight, per leg); turn
         to ``final_yaw`` at the end. Returns the distance driven (m)."""
         waypoints = self.plan_path(robot, goal_xy)
+        r = self.robots[robot]
+        if not r.holding and r.model.family == "heavy":  # empty: drive with the (metres long) arm tucked
+            tuck = motion.wrap_near(TUCK_POSTURE, r.q_ref, np.array([True, True, False, True, True, True]))
+            if np.abs(tuck - r.q_ref).max() > 0.05:
+                self.move_arm(robot, tuck)
         driven = 0.0
         for point in waypoints:
             here = self.base_xy_yaw(robot)[:2]
@@ -360,6 +433,11 @@ class MujocoSite:
                 break
             r.base_velocity = np.array([0.0, 0.0, np.clip(3.0 * error, -TURN_RATE_RAD_S, TURN_RATE_RAD_S)])
             self.step(0.02)
+            touching = self.robot_contacts(robot)
+            if touching:  # its corners or its arm swept into something: stop there
+                r.base_velocity = np.zeros(3)
+                self.step(0.1)
+                raise MotionFailed(f"{robot} hit something while turning: {'; '.join(touching)}")
         r.base_velocity = np.zeros(3)
         self.step(0.1)
 
@@ -382,6 +460,11 @@ class MujocoSite:
             moved = np.linalg.norm(self.base_xy_yaw(robot)[:2] - last)
             last = self.base_xy_yaw(robot)[:2]
             stalled = stalled + 0.02 if moved < 1e-4 else 0.0
+            touching = self.robot_contacts(robot)
+            if touching:  # the robot ran into something the plan did not foresee: stop there
+                r.base_velocity = np.zeros(3)
+                self.step(0.1)
+                raise MotionFailed(f"{robot} hit something while driving at ({x:.2f}, {y:.2f}): {'; '.join(touching)}")
             if stalled > 1.0:
                 r.base_velocity = np.zeros(3)
                 contacts = "; ".join(self.robot_contacts(robot)) or "it stopped"
@@ -398,9 +481,8 @@ class MujocoSite:
         here = np.array([x, y])
         offset = np.asarray(target_xy, float) - here
         yaw = math.atan2(offset[1], offset[0])
-        boxes = self.obstacles(robot)
-        corner = math.hypot(*model.footprint) / 2 + 0.02
-        if self._blocked(here, boxes, corner):
+        low, tall = self.obstacles(robot, split=True)
+        if not self._clear(robot, here, low, tall):
             away = here - offset / max(np.linalg.norm(offset), 1e-9) * 0.8 * model.footprint[0]
             self.drive(robot, away)
             self.turn(robot, yaw)
@@ -429,24 +511,105 @@ class MujocoSite:
                 return
         raise MotionFailed(f"no free stand pose for {robot} around ({target[0]:.2f}, {target[1]:.2f})")
 
+    def sweep_radius(self, robot: str) -> float:
+        """Radius (m) of the circle around the base's centre that the robot sweeps when it turns in
+        place with its arm in the carry posture (holding a component; the UR5 always) or tucked (the
+        heavy variant, empty): its chassis' corners, or its arm's joints
+        (plus the links' thickness) where they reach out further."""
+        r = self.robots[robot]
+        key = (robot, bool(r.holding))
+        if key not in self._sweep:
+            data = self.mj.MjData(r.ik.model)
+            data.qpos[:6] = TUCK_POSTURE if not r.holding and r.model.family == "heavy" else self._ready_posture_cached(robot)
+            self.mj.mj_kinematics(r.ik.model, data)
+            mount = r.model.arm_mount
+            arm = np.hypot(data.xpos[1:, 0] + mount[0], data.xpos[1:, 1]).max() + 0.06 * r.model.scale
+            self._sweep[key] = float(max(math.hypot(*r.model.footprint) / 2, arm))
+        return self._sweep[key]
+
+    def working_distance(self, robot: str) -> float:
+        """Horizontal distance (m) from the arm's base at which the arm works comfortably: 45 % of
+        its upper arm and forearm together."""
+        model = self.robots[robot].model
+        return 0.45 * (abs(model.dh[1][0]) + abs(model.dh[2][0]))
+
+    def approach(self, robot: str, point_xy, keep_out=(), distance: float | None = None, low_keep_out=()) -> None:
+        """Stand where the arm's base is ``distance`` (default :meth:`working_distance`) from
+        ``point_xy`` and face it: stay when the arm's base is within 0.7-1.15 x that distance already
+        and the base is clear of every obstacle and of ``keep_out`` (boxes (centre xy, half xy) about
+        to appear, tall; ``low_keep_out``: lying on the ground); else drive to the nearest free stand on the circle around the point (its corners
+        clear by CLEARANCE_M, so that it may turn there). MotionFailed when none can be reached."""
+        model = self.robots[robot].model
+        point = np.asarray(point_xy, float)
+        distance = self.working_distance(robot) if distance is None else distance
+        low, tall = self.obstacles(robot, split=True)
+        low = low + [(np.asarray(c, float), np.asarray(h, float)) for c, h in low_keep_out]
+        tall = tall + [(np.asarray(c, float), np.asarray(h, float)) for c, h in keep_out]
+        boxes = low + tall
+        x, y, yaw = self.base_xy_yaw(robot)
+        arm = np.array([x, y]) + model.arm_mount[0] * np.array([math.cos(yaw), math.sin(yaw)])
+        here = np.array([x, y])
+        if 0.7 * distance <= np.linalg.norm(arm - point) <= 1.15 * distance and \
+                not self._blocked(here, boxes, model.footprint[1] / 2):
+            self.face(robot, point)
+            return
+        # stands on rings around the point (the ideal distance first), nearest to the base first
+        angles = np.linspace(-math.pi, math.pi, 72, endpoint=False)
+        candidates = []
+        for rank, factor in enumerate((1.0, 0.85, 1.15, 0.7)):
+            radius = factor * distance + model.arm_mount[0]
+            for a in angles:
+                c = point + radius * np.array([math.cos(a), math.sin(a)])
+                # the chassis, facing the point, clear of everything (the arm, raised, passes over
+                # what it works on)
+                if self._footprint_clear(robot, c, math.atan2(point[1] - c[1], point[0] - c[0]), boxes):
+                    candidates.append((float(np.linalg.norm(c - here)) + rank * 2.0 * distance, c))
+        candidates = [c for _, c in sorted(candidates, key=lambda item: item[0])]
+        why = "every stand around it is blocked"
+        for candidate in candidates[:8]:
+            try:
+                self.drive(robot, candidate)
+            except MotionFailed as failure:
+                why = str(failure)
+                continue
+            self.turn(robot, math.atan2(point[1] - candidate[1], point[0] - candidate[0]))
+            return
+        raise Blocked(f"no stand for {robot} within reach of ({point[0]:.2f}, {point[1]:.2f}): {why}")
+
     # --- arm ---------------------------------------------------------------------------------------
     def arm_base_pose(self, robot: str) -> np.ndarray:
         return self.body_pose(f"{robot}/arm_base")
 
     def solve(self, robot: str, tcp_world: np.ndarray) -> np.ndarray:
         """Joint angles putting the tool centre point at ``tcp_world`` (4x4); MotionFailed when out of
-        reach (IK error over tolerance)."""
+        reach (IK error over tolerance). Of the solutions from several seeds (the current joints, the
+        ready posture), the ones whose links stay above the ground (an elbow-down solution of an arm
+        on a low base would dig in) and, of those, the nearest to the current joints."""
         r = self.robots[robot]
-        local = np.linalg.inv(self.arm_base_pose(robot)) @ tcp_world
-        seeds = [r.q_ref, self._ready_posture_cached(robot)]
-        best = None
-        for seed in seeds:
+        arm_base = self.arm_base_pose(robot)
+        local = np.linalg.inv(arm_base) @ tcp_world
+        full_turn = np.array([True, True, False, True, True, True])
+        best, found = None, []
+        pan = math.atan2(local[1, 3], local[0, 3])  # elbow-up seeds turned towards the goal
+        toward = [np.array([pan, *seed[1:]]) for seed in (READY_SEED, REACH_SEED)]
+        for seed in (r.q_ref, self._ready_posture_cached(robot), READY_SEED, *toward):
             q, position_error, angle_error = r.ik.solve(local, seed)
             if best is None or position_error < best[1]:
                 best = (q, position_error, angle_error)
             if position_error < motion.IK_POSITION_TOLERANCE_M and angle_error < motion.IK_ANGLE_TOLERANCE_RAD:
-                return motion.wrap_near(q, r.q_ref, np.array([True, True, False, True, True, True]))
+                q = motion.wrap_near(q, r.q_ref, full_turn)
+                lowest = arm_base[2, 3] + r.ik.lowest_link(q)
+                clear = lowest >= self.ground_z + 0.06 * r.model.scale
+                change = float(np.abs(q - r.q_ref).max())
+                found.append((not clear, change, q))
+                if clear and change < 1.5:
+                    break
         p = tcp_world[:3, 3]
+        if found and not min(found, key=lambda item: item[:2])[0]:
+            return min(found, key=lambda item: item[:2])[2]
+        if found:
+            raise MotionFailed(f"the arm of {robot} reaches ({p[0]:.2f}, {p[1]:.2f}, {p[2]:.2f}) only with a link "
+                               "in the ground")
         raise MotionFailed(f"({p[0]:.2f}, {p[1]:.2f}, {p[2]:.2f}) is out of reach of the arm of {robot} "
                            f"(inverse kinematics ends {best[1] * 1000:.0f} mm away)")
 
@@ -464,7 +627,10 @@ class MujocoSite:
         start_q = r.q_ref.copy()
         start_tcp = self.tcp_pose(robot)[:3, 3]
         goal_tcp = self._tcp_of(robot, q_goal)
-        seconds = max(float(np.abs(q_goal - start_q).max()) / JOINT_SPEED_RAD_S,
+        # a held component is swung at a third of the speed: its inertia (a 4 m member's is hundreds of
+        # kg m2) would otherwise need more than the wrists' torque limits to accelerate it
+        joint_speed = JOINT_SPEED_RAD_S / (3.0 if r.holding else 1.0)
+        seconds = max(float(np.abs(q_goal - start_q).max()) / joint_speed,
                       float(np.linalg.norm(goal_tcp - start_tcp)) / r.arm_speed_m_s, 0.5)
         dt = 0.01
         for reference in motion.smooth_steps(start_q, q_goal, seconds, dt):
@@ -481,6 +647,44 @@ class MujocoSite:
             why = f"torque limit of {', '.join(joints)}" if joints else "it could not follow"
             raise MotionFailed(f"the arm of {robot} ended {error * 1000:.0f} mm from its goal ({why})")
         return seconds + 0.5
+
+    def move_tcp_through(self, robot: str, poses: list[np.ndarray], check_contacts: bool = True) -> None:
+        """Move the tool centre point through ``poses`` (4x4, world), each reached by inverse kinematics
+        and a joint-space move; holding a component, in steps of at most 0.3 m and 30 degrees (one
+        joint-space move between two poses lets the tool, and a long member with it, tilt on the way)."""
+        r = self.robots[robot]
+        for goal in poses:
+            steps = [goal]
+            if r.holding:
+                here = self.tcp_pose(robot)
+                angle = motion.angle_between(here[:3, :3], goal[:3, :3])
+                count = max(1, math.ceil(max(np.linalg.norm(goal[:3, 3] - here[:3, 3]) / 0.3, angle / math.radians(30))))
+                steps = [motion.between(here, goal, k / count) for k in range(1, count + 1)]
+            for step in steps:
+                self.move_arm(robot, self.solve(robot, step), check_contacts=check_contacts)
+
+    def carry_posture(self, robot: str) -> np.ndarray:
+        """Arm joints of the carry posture: the tool down over the base's front (the ready posture),
+        turned so that a held component's longest side runs across the base (a long member then
+        sticks out to the sides, clear of the chassis when set down in front)."""
+        r = self.robots[robot]
+        ready = self._ready_posture_cached(robot)
+        if not r.holding:
+            return ready
+        s = r.model.scale
+        long_axis = r.grip[:3, 0]  # the component's x (its longest side), in the gripper frame
+        axis = motion.tool_down(0.0) @ long_axis  # in the arm base frame, with the tool at yaw 0
+        turn = math.atan2(axis[1], axis[0])
+        best = None
+        for across in (math.pi / 2, -math.pi / 2):
+            tool = motion.tool_down(across - turn)
+            q, position_error, angle_error = r.ik.solve(motion.pose(tool, (0.35 * s, 0.0, 0.45 * s)), ready)
+            if position_error < motion.IK_POSITION_TOLERANCE_M and angle_error < motion.IK_ANGLE_TOLERANCE_RAD:
+                q = motion.wrap_near(q, r.q_ref, np.array([True, True, False, True, True, True]))
+                cost = float(np.abs(q - r.q_ref).max())
+                if best is None or cost < best[1]:
+                    best = (q, cost)
+        return ready if best is None else best[0]
 
     def _tcp_of(self, robot: str, q: np.ndarray) -> np.ndarray:
         """World position of the tcp for arm joints ``q`` with the base where it is (forward kinematics)."""
@@ -519,7 +723,34 @@ class MujocoSite:
         relative = np.linalg.inv(self.body_pose(f"{robot}/gripper")) @ self.body_pose(component)
         self._weld(robot, component, relative)
         self.robots[robot].holding, self.robots[robot].grip = component, relative
+        self._touches_robots(component, False)
+        self.robots[robot].held_gains = self._held_gains(robot, component)
         self.step(0.2)
+
+    def _held_gains(self, robot: str, component: str) -> tuple[np.ndarray, np.ndarray]:
+        """The arm's PD gains with the damping raised for the held component's inertia as each joint
+        feels it (m J_p^T J_p + J_r^T I J_r, diagonal): a 4 m member on a wrist tuned for the wrist's
+        own links would ring until the torque limits give way."""
+        kp, _ = self.robots[robot].gains
+        m, d, idx = self.model, self.data, self.idx[robot]
+        body = d.body(component)
+        jacp, jacr = np.zeros((3, m.nv)), np.zeros((3, m.nv))
+        self.mj.mj_jac(m, d, jacp, jacr, body.xipos, idx["gripper"])
+        jp, jr = jacp[:, idx["v"]], jacr[:, idx["v"]]
+        rotation = body.ximat.reshape(3, 3)
+        inertia = rotation @ np.diag(m.body(component).inertia) @ rotation.T
+        full = np.zeros((m.nv, m.nv))
+        self.mj.mj_fullM(m, d, full)
+        own = np.maximum(np.diag(full)[idx["v"]], 1e-3)
+        load = self.components[component].mass * np.sum(jp * jp, axis=0) + np.einsum("ij,ik,kj->j", jr, inertia, jr)
+        return kp, 2.0 * np.sqrt(kp * (own + load))
+
+    def _touches_robots(self, component: str, touches: bool) -> None:
+        """A held component does not collide with the robots (the one holding it turns it past its
+        own arm and chassis), only with the ground and the supports; let go, it does again."""
+        affinity = 3 if touches else 1
+        self.spec.geom(f"{component}/box").conaffinity = affinity
+        self.model.geom(f"{component}/box").conaffinity = affinity
 
     def _weld(self, robot: str, component: str, relative: np.ndarray) -> None:
         """Switch on the weld holding ``component`` at ``relative`` (4x4, in the gripper's frame)."""
@@ -536,6 +767,7 @@ class MujocoSite:
         held = self.robots[robot].holding
         if held:
             self.data.eq_active[self.model.equality(f"{robot}/grasp/{held}").id] = 0
+            self._touches_robots(held, True)
         self.robots[robot].holding = None
         self.data.ctrl[self.idx[robot]["fingers"]] = self.robots[robot].model.gripper_opening / 2
         self.step(0.3)

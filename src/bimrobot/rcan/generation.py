@@ -45,6 +45,9 @@ class RobotSpec:
     handling_s: dict[str, float] = field(default_factory=dict)
     home: Pose = Pose(0.0, 0.0, 0.0)
     gripper_opening_m: tuple[float, float] | None = None
+    #: the mobile base's (length, width) in metres, when the capability file gives it (``footprint_m``);
+    #: None: the physics backend's model family decides
+    footprint_m: tuple[float, float] | None = None
 
     def can(self, kind: ActivityKind) -> bool:
         """Whether one of this robot's types performs ``kind`` (Table 5.2)."""
@@ -91,9 +94,10 @@ ROBOT_RANGES = {
     "arm_speed_m_s": (0.0, 10.0, False, "m/s"),
 }
 #: The keys of a robot entry (capabilities.yaml).
-ROBOT_KEYS = ("types", *ROBOT_RANGES, "handling_s", "gripper_opening_m", "home")
+ROBOT_KEYS = ("types", *ROBOT_RANGES, "handling_s", "gripper_opening_m", "home", "footprint_m")
 HANDLING_RANGE_S = (0.0, 86400.0)
 GRIPPER_RANGE_M = (0.0, 20.0)
+FOOTPRINT_RANGE_M = (0.05, 100.0)  # a mobile base's length and width: a small robot's to a crawler crane's
 #: A robot's home may be anywhere a site is (georeferenced coordinates included), within 1e7 m.
 HOME_RANGE_M = 1.0e7
 
@@ -207,6 +211,7 @@ def _parse_robot(name: str, entry: object, robot_types: dict, source: str, line:
         handling_s=handling_s,
         home=Pose(*home),
         gripper_opening_m=opening,
+        footprint_m=_coordinates(entry, "footprint_m", source, name, line, 2, *FOOTPRINT_RANGE_M),
     )
 
 

@@ -1,14 +1,19 @@
 """The ``mujoco`` backend: the six activities executed physically in MuJoCo (bimrobot.physics).
 
 Each robot of the capability table becomes a mobile manipulator of the family of
-:mod:`bimrobot.physics.robot` (``ur5`` for payload <= 5 kg and reach <= 0.85 m, else ``heavy``) at its
-home. A component enters the scene when an activity first names it: a box of its size (``shapes`` or
-:func:`experiment_shapes` when they name it, else the RCAN node's planned ``size_m``: section, length),
-centred on the activity's target (the gripper's goal: the component's centre), upright. Under a
-target above the ground stands a support (a pedestal: the pick-up stand on the yard, the structure it
-is installed on); a target whose bottom is below the ground gets a pit with a support at its floor,
-so that a component released at its pose rests there. When the base stands where such a support
-would go, or too close to reach, it first drives to the nearest free stand pose around the target.
+:mod:`bimrobot.physics.robot` (``ur5`` for payload <= 5 kg and reach <= 0.85 m, else ``heavy``; its
+base ``footprint_m`` when the table gives one) at its home. Components are boxes:
+
+- given by ``shapes`` or :func:`experiment_shapes` (the thesis' experiments): upright, centred on the
+  activity's target, entering the scene when an activity first names it, as before;
+- else of the plan's ``size_m``, placed by :mod:`bimrobot.physics.placement` (lying on the yard
+  centred on the pick-up target; installed by the IFC origin: upright column, horizontal beam
+  between the members it spans, flat footing). Given the ``plan`` (``run_plan`` passes it), every
+  one starts in the scene: on the yard, or in place when no activity lifts it.
+
+Under a box above the ground stands a support (a pedestal; a prop under a beam's middle third); one
+below the ground gets a pit with a support at its floor. Components collide with the ground, the
+supports and the robots, not with each other (the connections are not modelled).
 
 - *move to component*, *transport*: the base drives along a collision-free path on an occupancy grid
   of the scene (supports and components on the ground, grown by half the base width and a clearance;
@@ -51,6 +56,8 @@ ANGLE_TOLERANCE_DEG = 1.0
 SETTLE_S = 2.0
 LIFT_M = 0.10
 SUPPORT_MIN_Z_M = 0.01
+BLOCKED_WAITS = 20  # a robot that finds its way blocked waits for up to this many other activities ...
+BLOCKED_WAIT_S = 120.0  # ... each within this many real seconds, before its activity fails
 
 def experiment_shapes() -> dict[str, tuple[float, float, float]]:
     """Shapes of the components of the thesis' experiments (the RCAN plan gives weight and section
@@ -66,7 +73,7 @@ class MujocoBackend(DispatchingBackend):
     name = "mujoco"
 
     def __init__(self, capabilities: CapabilityTable, db_path: str | Path = ":memory:",
-                 trajectory_path: str | Path | None = None, shapes: dict | None = None, **_options):
+                 trajectory_path: str | Path | None = None, shapes: dict | None = None, plan=None, **_options):
         from bimrobot.physics.robot import robot_model
         from bimrobot.physics.site import MujocoSite
 
@@ -75,7 +82,7 @@ class MujocoBackend(DispatchingBackend):
         robots = {}
         for spec in capabilities.robots.values():
             opening = spec.gripper_opening_m[1] if spec.gripper_opening_m else None
-            model = robot_model(spec.name, spec.payload_kg, spec.reach_m, opening)
+            model = robot_model(spec.name, spec.payload_kg, spec.reach_m, opening, spec.footprint_m)
             robots[spec.name] = (model, spec.speed_m_s, spec.arm_speed_m_s, (spec.home.x, spec.home.y))
         self.site = MujocoSite(robots)
         self.families = {name: value[0] for name, value in robots.items()}
@@ -83,8 +90,13 @@ class MujocoBackend(DispatchingBackend):
             trajectory_path = Path(db_path).with_name(Path(db_path).name + ".trajectory.csv")
         self.trajectory_path = None if trajectory_path is None else Path(trajectory_path)
         self.placements: dict[str, tuple[float, float]] = {}  # GlobalId -> (position error m, angle error deg)
+        self.targets: dict[str, np.ndarray] = {}  # GlobalId -> its pose once installed (4x4, body frame)
+        self.installed: dict = {}  # GlobalId -> its InstalledBox (bimrobot.physics.placement), once placed
+        if plan:
+            self._spawn_plan(plan)
         self._results: dict[tuple[str, int], ActivityResult] = {}
         self._lock = threading.Lock()
+        self._changed = threading.Condition(self._lock)  # notified after every activity
 
     # --- the interface -----------------------------------------------------------------------------
     def execute(self, node: RcanNode, attempt: int = 1, ready_at_s: float = 0.0, feedback=None) -> ActivityResult:
@@ -93,18 +105,26 @@ class MujocoBackend(DispatchingBackend):
                 (r for (a, _), r in self._results.items() if a == node.activity_id and r.success), None)
             if done:
                 return done
-            from bimrobot.physics.site import MotionFailed
+            from bimrobot.physics.site import Blocked, MotionFailed
 
             if ready_at_s > self.site.time_s:
                 self.site.step(ready_at_s - self.site.time_s)
             started = self.site.time_s
             if feedback:
                 feedback(0.0, f"{node.kind.label}: started")
-            try:
-                message = getattr(self, "_" + node.kind.value)(node)
-                success = True
-            except MotionFailed as failure:
-                message, success = str(failure), False
+            for waited in range(BLOCKED_WAITS + 1):
+                try:
+                    message = getattr(self, "_" + node.kind.value)(node)
+                    success = True
+                    break
+                except Blocked as failure:  # wait for other robots' work to clear the way, then try again
+                    message, success = str(failure), False
+                    if waited == BLOCKED_WAITS or not self._changed.wait(timeout=BLOCKED_WAIT_S):
+                        break
+                except MotionFailed as failure:
+                    message, success = str(failure), False
+                    break
+            self._changed.notify_all()
             if feedback:
                 feedback(1.0, f"{node.kind.label}: finished")
             result = ActivityResult(node.activity_id, attempt, node.robot, success, message, started, self.site.time_s)
@@ -115,31 +135,46 @@ class MujocoBackend(DispatchingBackend):
         return self.execute(node, attempt, ready_at_s, feedback)
 
 
+    def summary(self) -> dict:
+        """What the run measured: each installed component's placement error (position of its centre,
+        mm; angle, degrees) and the scene's simulated time (s)."""
+        return {"backend": self.name, "simulated_s": round(self.site.time_s, 3),
+                "placement_error": {gid: {"position_mm": round(m * 1000, 2), "angle_deg": round(d, 3)}
+                                    for gid, (m, d) in self.placements.items()},
+                "robot_models": {name: model.family for name, model in self.families.items()}}
+
     def close(self) -> None:
         if self.trajectory_path is not None and self.site.frames:
             self.write_trajectory(self.trajectory_path)
 
     # --- activities --------------------------------------------------------------------------------
     def _move_to_component(self, node: RcanNode) -> str:
-        distance = self.site.drive(node.robot, (node.target.x, node.target.y))
-        return f"{node.kind.label} {node.component_id}: drove {distance:.2f} m"
+        goal = np.array([node.target.x, node.target.y])
+        distance = self.site.drive(node.robot, goal)
+        short = float(np.linalg.norm(self.site.base_xy_yaw(node.robot)[:2] - goal))
+        note = f" (stopped {short:.2f} m short: the base does not fit at the stand-off point)" if short > 0.05 else ""
+        return f"{node.kind.label} {node.component_id}: drove {distance:.2f} m{note}"
 
     def _position_for_picking_up(self, node: RcanNode) -> str:
-        from bimrobot.physics.motion import planar
+        from bimrobot.physics.placement import lying_pose
 
-        site = self.site
-        gid = node.component_id
+        site, robot, gid = self.site, node.robot, node.component_id
+        legacy = gid in self.shapes
         if gid not in site.components:
-            shape = self._shape(node)
-            site.make_room(node.robot, (node.target.x, node.target.y), self._support_half(shape))
-            self._spawn(node, self._placement(node, shape), "stand")
-        placement = site.body_pose(gid)
-        site.face(node.robot, placement[:2, 3])
+            if legacy:
+                shape = self._shape(node)
+                site.make_room(robot, (node.target.x, node.target.y), self._support_half(shape))
+                self._spawn(node, self._placement(node, shape), "stand")
+            else:  # it lies as on the yard, centred on the target (see bimrobot.physics.placement)
+                target = node.target
+                self._spawn_box(node.activity, lying_pose(self._size(node.activity), (target.x, target.y, target.z), target.yaw), "stand")
         grasp = site.grasp_pose(gid)
+        if not legacy:
+            site.approach(robot, grasp[:2, 3])
+        site.face(robot, site.body_pose(gid)[:2, 3] if legacy else grasp[:2, 3])
         above = grasp.copy()
         above[2, 3] += LIFT_M
-        site.move_arm(node.robot, site.solve(node.robot, above))
-        site.move_arm(node.robot, site.solve(node.robot, grasp))
+        site.move_tcp_through(robot, [above, grasp])
         return f"{node.kind.label} {gid}: gripper at the grasp pose"
 
     def _pick_up(self, node: RcanNode) -> str:
@@ -168,11 +203,99 @@ class MujocoBackend(DispatchingBackend):
         site, robot, gid = self.site, node.robot, node.component_id
         if site.robots[robot].holding != gid:
             raise MotionFailed(f"robot {robot} does not hold {gid} to transport it")
-        site.move_arm(robot, site._ready_posture_cached(robot))  # carry posture: over the base
+        legacy = gid in self.shapes
+        if legacy:
+            site.move_arm(robot, site._ready_posture_cached(robot))
+        else:
+            self._to_carry(robot)
         distance = site.drive(robot, (node.target.x, node.target.y))
-        if node.activity.releases_robot:  # set it down in front of the base and let go
+        if not node.activity.releases_robot:
+            return f"{node.kind.label} {gid}: carried {distance:.2f} m"
+        if legacy:  # set it down in front of the base and let go
             self._set_down(robot, gid)
-        return f"{node.kind.label} {gid}: carried {distance:.2f} m"
+            return f"{node.kind.label} {gid}: carried {distance:.2f} m"
+        spot = self._lay_down(robot, gid, (node.target.x, node.target.y))
+        return f"{node.kind.label} {gid}: carried {distance:.2f} m, set down at ({spot[0]:.2f}, {spot[1]:.2f})"
+
+    def _to_carry(self, robot: str) -> None:
+        """The held component to the carry posture over the base: straight up first, tool down (a
+        long member would otherwise dip its ends into the ground), then across the base."""
+        from bimrobot.physics import motion
+
+        site = self.site
+        carry = site.carry_posture(robot)
+        goal = site._tcp_of(robot, carry)
+        up = site.tcp_pose(robot)
+        up[2, 3] = max(up[2, 3], goal[2])
+        site.move_tcp_through(robot, [up])
+        # then over and turned in steps (30 degrees, 0.3 m at most), the tool kept pointing down: one
+        # joint-space move would tilt the member on its way
+        start_yaw = math.atan2(up[1, 0], up[0, 0])
+        ik = site.robots[robot].ik
+        data = site.mj.MjData(ik.model)
+        data.qpos[:6] = carry
+        site.mj.mj_kinematics(ik.model, data)
+        end = site.arm_base_pose(robot)[:3, :3] @ data.site("tcp").xmat.reshape(3, 3)
+        turn = math.remainder(math.atan2(end[1, 0], end[0, 0]) - start_yaw, 2 * math.pi)
+        count = max(1, math.ceil(max(abs(turn) / math.radians(30), np.linalg.norm(goal - up[:3, 3]) / 0.3)))
+        poses = [motion.pose(motion.tool_down(start_yaw + turn * k / count), up[:3, 3] + (goal - up[:3, 3]) * k / count)
+                 for k in range(1, count + 1)]
+        site.move_tcp_through(robot, poses)
+        site.move_arm(robot, carry)
+
+    def _lay_down(self, robot: str, gid: str, near) -> np.ndarray:
+        """Set the held component down lying on the ground at the free spot nearest ``near`` where
+        the largest robot of the fleet can stand beside it to pick it up again, and let go."""
+        from bimrobot.physics.placement import lying_pose
+
+        site = self.site
+        spot, yaw = self._free_spot(gid, np.asarray(near, float))
+        size = self._size_of(gid)
+        half = (np.abs(lying_pose(size, (0, 0, 0), yaw)[:3, :3]) @ np.array(site.components[gid].size) / 2)[:2]
+        site.approach(robot, spot, low_keep_out=[(spot, half)])
+        tcp = site.tcp_pose(robot)
+        grip = np.linalg.inv(tcp) @ site.body_pose(gid)
+        best = None
+        for turn in (0.0, math.pi):  # the box is the same turned half a turn: the smaller wrist turn
+            body = lying_pose(size, (spot[0], spot[1], site.ground_z + size[0] / 2 + 0.002), yaw + turn)
+            goal = body @ np.linalg.inv(grip)
+            change = abs(math.remainder(math.atan2(goal[1, 0], goal[0, 0]) - math.atan2(tcp[1, 0], tcp[0, 0]), 2 * math.pi))
+            if best is None or change < best[0]:
+                best = (change, goal)
+        site.move_tcp_through(robot, self._carry_waypoints(robot, gid, best[1]))
+        self._release(robot)
+        return spot
+
+    def _free_spot(self, gid: str, near: np.ndarray) -> tuple[np.ndarray, float]:
+        """(centre xy, yaw) of a spot on the ground for the component lying (0.3 m clear of every
+        obstacle) beside which the largest robot of the fleet finds a free stand within reach;
+        the nearest to ``near`` of rings 1 m apart."""
+        from bimrobot.physics.site import Blocked
+
+        site = self.site
+        length, width, _ = site.components[gid].size
+        big = max(site.robots, key=lambda name: math.hypot(*site.robots[name].model.footprint))
+        model = site.robots[big].model
+        reach = site.working_distance(big) + model.arm_mount[0]
+        low, tall = site.obstacles(big, split=True)
+        tall = tall + [(b.centre[:2], b.half_xy) for b in self.installed.values()]
+        boxes = low + tall
+        for ring in range(8):
+            count = 1 if ring == 0 else 8 * ring
+            for k in range(count):
+                angle = 2 * math.pi * k / count
+                centre = near + ring * np.array([math.cos(angle), math.sin(angle)])
+                for yaw in (0.0, math.pi / 2):
+                    along = np.array([math.cos(yaw), math.sin(yaw)])
+                    half = np.abs(np.array([[along[0], -along[1]], [along[1], along[0]]])) @ np.array([length, width]) / 2
+                    if site._blocked(centre, boxes, 0.0) or any(
+                            np.all(np.abs(centre - c) < h + half + 0.3) for c, h in boxes):
+                        continue
+                    across = np.array([-along[1], along[0]])
+                    mine = low + [(centre, half)]
+                    if any(site._clear(big, centre + side * reach * across, mine, tall) for side in (1, -1)):
+                        return centre, yaw
+        raise Blocked(f"no free spot near ({near[0]:.2f}, {near[1]:.2f}) to set {gid} down where a robot can reach it")
 
     def _set_down(self, robot: str, gid: str) -> None:
         site = self.site
@@ -185,7 +308,35 @@ class MujocoBackend(DispatchingBackend):
         site.move_arm(robot, site._ready_posture_cached(robot))
 
     def _position_for_installing(self, node: RcanNode) -> str:
-        from bimrobot.physics.motion import planar
+        from bimrobot.physics.site import MotionFailed
+
+        site, robot, gid = self.site, node.robot, node.component_id
+        if gid in self.shapes:
+            return self._position_for_installing_as_given(node)
+        if gid not in site.components:
+            if node.activity.lifts:
+                raise MotionFailed(f"{gid} is not in the scene: it was never picked up")
+            self._spawn_in_place(node.activity)  # in place already (a footing): it enters the scene where it is installed
+        if site.robots[robot].holding != gid:  # work on a component in place (a further connection)
+            site.approach(robot, self._wrist_point(robot, self._work_poses(robot, gid)[-1]))
+            site.move_tcp_through(robot, self._work_poses(robot, gid))
+            return f"{node.kind.label} {gid}: gripper at its work point"
+        box = self._installed_box(node.activity)
+        self._support_for(gid, box)
+        if np.abs(site.arm_q(robot) - site.carry_posture(robot)).max() > 0.05:
+            self._to_carry(robot)  # it may drive and turn to its stand now
+        # stand where the arm's wrist (behind the tool centre point, along the tool) works comfortably
+        _, goal = self._install_pose(robot, gid, box)
+        site.approach(robot, self._wrist_point(robot, goal), keep_out=[(box.centre[:2], box.half_xy)])
+        target, goal = self._install_pose(robot, gid, box)
+        site.move_tcp_through(robot, self._carry_waypoints(robot, gid, goal))
+        self.targets[gid], self.installed[gid] = target, box
+        if node.activity.releases_robot:  # PositionFixed: let go, the assembly robots fix it
+            self._release(robot)
+        return f"{node.kind.label} {gid}: at its target ({box.kind})"
+
+    def _position_for_installing_as_given(self, node: RcanNode) -> str:
+        """The thesis' experiments: the component's shape is given and it stands upright on its target."""
         from bimrobot.physics.site import MotionFailed
 
         site, robot, gid = self.site, node.robot, node.component_id
@@ -208,29 +359,38 @@ class MujocoBackend(DispatchingBackend):
             goal = site.grasp_pose(gid)
         above = goal.copy()
         above[2, 3] += LIFT_M
-        site.move_arm(robot, site.solve(robot, above))
-        site.move_arm(robot, site.solve(robot, goal))
-        if holding and node.activity.releases_robot:  # PositionFixed: let go, the assembly robots fix it
+        site.move_tcp_through(robot, [above, goal])
+        self.targets[gid] = target
+        if holding and node.activity.releases_robot:
             self._release(robot)
         return f"{node.kind.label} {gid}: at its target"
 
     def _install(self, node: RcanNode) -> str:
-        from bimrobot.physics.motion import angle_between, planar
+        from bimrobot.physics.placement import box_angle
         from bimrobot.physics.site import MotionFailed
 
         site, robot, gid = self.site, node.robot, node.component_id
         if gid not in site.components:
-            raise MotionFailed(f"{gid} is not in the scene: it was never picked up")
+            if node.activity.lifts or gid in self.shapes:
+                raise MotionFailed(f"{gid} is not in the scene: it was never picked up")
+            self._spawn_in_place(node.activity)
         if site.robots[robot].holding == gid:
             self._release(robot)
         site.step(SETTLE_S)
         before = site.body_pose(gid)
         site.step(SETTLE_S)
         after = site.body_pose(gid)
-        target = self._placement(node, site.components[gid].size)
-        error_m = float(np.linalg.norm(after[:3, 3] - target[:3, 3]))
-        error_deg = math.degrees(angle_between(after[:3, :3], target[:3, :3]))
-        drift_m = float(np.linalg.norm(after[:3, 3] - before[:3, 3]))
+        target = self.targets.get(gid)
+        if target is None and gid in self.shapes:
+            target = self._placement(node, site.components[gid].size)
+        if target is None:  # no activity of this run put it at its installed pose: nothing to measure against
+            where = after[:3, 3]
+            raise MotionFailed(f"{gid} was not placed at its installed pose by any activity of this run (it lies at "
+                               f"({where[0]:.2f}, {where[1]:.2f}, {where[2]:.2f})): it cannot be installed there")
+        centre = np.array([0.0, 0.0, site.components[gid].size[2] / 2, 1.0])
+        error_m = float(np.linalg.norm((after @ centre)[:3] - (target @ centre)[:3]))
+        error_deg = math.degrees(box_angle(after[:3, :3], target[:3, :3]))
+        drift_m = float(np.linalg.norm((after @ centre)[:3] - (before @ centre)[:3]))
         self.placements[gid] = (error_m, error_deg)
         measured = f"placement error {error_m * 1000:.1f} mm, {error_deg:.2f} degrees; moved {drift_m * 1000:.2f} mm in {SETTLE_S:g} s"
         if error_m > POSITION_TOLERANCE_M or error_deg > ANGLE_TOLERANCE_DEG or drift_m > 1e-3:
@@ -238,13 +398,203 @@ class MujocoBackend(DispatchingBackend):
                                f"{POSITION_TOLERANCE_M * 1000:.0f} mm, {ANGLE_TOLERANCE_DEG:g} degree, 1 mm)")
         return f"{node.kind.label} {gid}: {measured}"
 
+    # --- placing components ------------------------------------------------------------------------
+    def _size(self, activity) -> tuple[float, float, float]:
+        from bimrobot.physics.site import MotionFailed
+
+        if activity.size_m is None:
+            raise MotionFailed(f"the shape of {activity.component_id} is unknown to the mujoco backend (the plan gives "
+                               f"no size; it knows {', '.join(self.shapes)}): give it with shapes={{GlobalId: (w, d, h)}}")
+        return tuple(float(v) for v in activity.size_m)
+
+    def _installed_box(self, activity):
+        from bimrobot.physics.placement import installed_box
+
+        others = [box for gid, box in self.installed.items() if gid != activity.component_id]
+        target = activity.target
+        return installed_box(self._size(activity), (target.x, target.y, target.z), target.yaw, others)
+
+    def _spawn_box(self, activity, placement: np.ndarray, support: str):
+        """Put the component's box (body size (L, b, a)) at ``placement``, on a support when it is
+        above the ground and in a pit when below."""
+        from bimrobot.physics.placement import body_size
+        from bimrobot.physics.site import Component, MotionFailed
+
+        if activity.weight_kg is None:
+            raise MotionFailed(f"the weight of {activity.component_id} is unknown: the scene cannot simulate it")
+        size = body_size(self._size(activity))
+        half = (np.abs(placement[:3, :3]) @ np.array(size) / 2)[:2] + 0.01
+        bottom = float(placement[2, 3] + min(0.0, (placement[:3, :3] @ np.array([0, 0, size[2]]))[2]))
+        centre = (placement @ np.array([0.0, 0.0, size[2] / 2, 1.0]))[:3]
+        self._support_under(activity.component_id, centre[:2], bottom, half, support)
+        self.site.add_component(Component(activity.component_id, size, float(activity.weight_kg)), placement)
+
+    def _support_under(self, gid: str, centre_xy, bottom_z: float, half_xy, kind: str) -> None:
+        site = self.site
+        if abs(bottom_z - site.ground_z) <= SUPPORT_MIN_Z_M:
+            return
+        if bottom_z < site.ground_z:
+            site.add_pit(centre_xy, half_xy)
+        site.add_support(f"{kind}/{gid}/{len(site.supports)}", centre_xy, bottom_z, half_xy)
+
+    def _support_for(self, gid: str, box) -> None:
+        """The structure an installed box rests on: a pedestal under an upright or flat one, a prop
+        under the middle third (at most 1 m) of a horizontal member (the connections it hangs from in
+        the building are not modelled)."""
+        if box.kind == "horizontal":
+            local = np.array([min(box.extents[0] / 6, 0.5), box.extents[1] / 2 + 0.01, 0.0])
+            half = (np.abs(box.frame) @ local)[:2]
+        else:
+            half = box.half_xy + 0.01
+        self._support_under(gid, box.centre[:2], box.bottom_z, half, "support")
+
+    def _spawn_in_place(self, activity) -> None:
+        from bimrobot.physics.placement import body_pose, body_rotations
+
+        box = self._installed_box(activity)
+        placement = body_pose(self._size(activity), box, body_rotations(self._size(activity), box)[0])
+        self._spawn_box(activity, placement, "support")
+        self.targets[activity.component_id], self.installed[activity.component_id] = placement, box
+
+    def _spawn_plan(self, plan) -> None:
+        """Put every component of ``plan`` (RCAN activities) where it starts: on the yard (lying, at the
+        target of its first *position for picking up*) or, when no activity lifts it, in place (a
+        footing). Components without a size or a weight stay out (their activities fail saying so)."""
+        from bimrobot.physics.placement import lying_pose
+
+        first: dict[str, object] = {}
+        lifted = {a.component_id for a in plan if a.lifts}
+        for activity in plan:
+            gid = activity.component_id
+            if gid in first or gid in self.shapes or activity.size_m is None or activity.weight_kg is None:
+                continue
+            if activity.kind is ActivityKind.TRANSPORT:
+                first[gid] = None  # moved before any pick-up of ours: not on the yard as far as we know
+            elif activity.kind is ActivityKind.POSITION_FOR_PICKING_UP and gid in lifted:
+                first[gid] = activity
+            elif activity.kind is ActivityKind.POSITION_FOR_INSTALLING and gid not in lifted:
+                first[gid] = activity
+        for gid, activity in first.items():
+            if activity is None:
+                continue
+            if activity.kind is ActivityKind.POSITION_FOR_PICKING_UP:
+                t = activity.target
+                self._spawn_box(activity, lying_pose(self._size(activity), (t.x, t.y, t.z), t.yaw), "stand")
+            else:
+                self._spawn_in_place(activity)
+
+    def _install_pose(self, robot: str, gid: str, box) -> tuple[np.ndarray, np.ndarray]:
+        """(component pose, tcp goal) on ``box``: of the rotations that fit the box, the one whose tool
+        points down, else away from the robot (its side towards the robot is where it is held)."""
+        from bimrobot.physics.placement import body_pose, body_rotations
+
+        site = self.site
+        grip = np.linalg.inv(site.tcp_pose(robot)) @ site.body_pose(gid)
+        arm = site.arm_base_pose(robot)[:2, 3]
+        toward = box.centre[:2] - arm
+        toward /= max(float(np.linalg.norm(toward)), 1e-9)
+        size = self._size_of(gid)
+        best = None
+        for rotation in body_rotations(size, box):
+            target = body_pose(size, box, rotation)
+            goal = target @ np.linalg.inv(grip)
+            tool = goal[:3, 2]
+            score = 2.0 * -tool[2] + float(tool[:2] @ toward)
+            if best is None or score > best[0]:
+                best = (score, target, goal)
+        _, target, goal = best
+        goal = goal.copy()
+        goal[2, 3] += 0.001  # released 1 mm above its seat
+        return target, goal
+
+    def _wrist_point(self, robot: str, goal: np.ndarray) -> np.ndarray:
+        """Where the arm's wrist is (xy, m) when its tool centre point is at ``goal``."""
+        from bimrobot.physics.robot import GRIPPER_LENGTH_M
+
+        model = self.families[robot]
+        return (goal[:3, 3] - goal[:3, 2] * (model.dh[5][1] + GRIPPER_LENGTH_M * model.scale))[:2]
+
+    def _size_of(self, gid: str) -> tuple[float, float, float]:
+        length, b, a = self.site.components[gid].size
+        return (a, b, length)
+
+    def _carry_waypoints(self, robot: str, gid: str, goal: np.ndarray) -> list[np.ndarray]:
+        """Tool poses from where the held component is to ``goal``: up to a height where it can turn
+        to its installed orientation clear of the ground, turn, over the goal, down onto it."""
+        site = self.site
+        tcp = site.tcp_pose(robot)
+        grip = np.linalg.inv(tcp) @ site.body_pose(gid)
+        size = np.array(site.components[gid].size)
+        corners = np.array([[x, y, z, 1.0] for x in (-size[0] / 2, size[0] / 2) for y in (-size[1] / 2, size[1] / 2)
+                            for z in (0.0, size[2])])
+
+        def lowest_below_tcp(pose: np.ndarray) -> float:
+            return float(((pose @ grip) @ corners.T)[2].min() - pose[2, 3])
+
+        clear = site.ground_z + 0.2
+        safe = max(tcp[2, 3], goal[2, 3] + LIFT_M, clear - lowest_below_tcp(goal), clear - lowest_below_tcp(tcp))
+        up = tcp.copy()
+        up[2, 3] = safe
+        turned = goal.copy()
+        turned[:3, 3] = up[:3, 3]
+        over = goal.copy()
+        over[2, 3] = safe
+        above = goal.copy()
+        above[2, 3] += LIFT_M
+        waypoints = []
+        for pose in (up, turned, over, above, goal):
+            last = waypoints[-1] if waypoints else tcp
+            if np.linalg.norm(pose[:3, 3] - last[:3, 3]) > 1e-3 or np.abs(pose[:3, :3] - last[:3, :3]).max() > 1e-3:
+                waypoints.append(pose)
+        return waypoints
+
+    def _work_poses(self, robot: str, gid: str) -> list[np.ndarray]:
+        """Where the tool works on a component in place (its connection nodes are not in the plan): at
+        the point of its surface nearest the arm's shoulder, 5 cm off it, the tool pointing at it (down
+        onto a top face, level onto a side of a tall one), and 0.10 m back from there first."""
+        from bimrobot.physics import motion
+
+        site = self.site
+        pose = site.body_pose(gid)
+        size = np.array(site.components[gid].size)
+        corners = np.array([[x, y, z, 1.0] for x in (-size[0] / 2, size[0] / 2) for y in (-size[1] / 2, size[1] / 2)
+                            for z in (0.0, size[2])])
+        world = (pose @ corners.T)[:3].T
+        low, high = world.min(axis=0), world.max(axis=0)
+        model = self.families[robot]
+        shoulder = site.arm_base_pose(robot)[:3, 3] + np.array([0.0, 0.0, model.dh[0][1]])
+        point = np.clip(shoulder, low + 0.05, np.maximum(high - 0.05, low + 0.05))
+        if shoulder[2] >= high[2]:  # onto its top face
+            yaw = math.atan2(point[1] - shoulder[1], point[0] - shoulder[0])
+            goal = motion.pose(motion.tool_down(yaw), (point[0], point[1], high[2] + 0.05))
+        else:  # level onto the side facing the arm
+            side = np.clip(shoulder[:2], low[:2], high[:2])
+            toward = side - shoulder[:2]
+            toward = toward / max(float(np.linalg.norm(toward)), 1e-9)
+            z_axis = np.array([toward[0], toward[1], 0.0])
+            x_axis = np.array([0.0, 0.0, -1.0])
+            goal = motion.pose(np.column_stack([x_axis, np.cross(z_axis, x_axis), z_axis]),
+                               (side[0] - 0.05 * toward[0], side[1] - 0.05 * toward[1], point[2]))
+        back = goal.copy()
+        back[:3, 3] -= goal[:3, 2] * LIFT_M
+        return [back, goal]
+
     # --- helpers -----------------------------------------------------------------------------------
     def _release(self, robot: str) -> None:
+        from bimrobot.physics.site import MotionFailed
+
         site = self.site
         site.open_gripper(robot)
-        away = site.tcp_pose(robot)
-        away[2, 3] += LIFT_M
+        away = site.tcp_pose(robot)  # back out along the tool's axis (up, for a tool pointing down)
+        away[:3, 3] -= away[:3, 2] * LIFT_M * max(1.0, self.families[robot].scale / 2)
         site.move_arm(robot, site.solve(robot, away), check_contacts=False)
+        if self.families[robot].family == "heavy":  # then straight back over the base, as it is turned:
+            back = away.copy()  # a joint-space swing of a metres-long arm would sweep through what it placed
+            back[:3, 3] = site._tcp_of(robot, site._ready_posture_cached(robot))
+            try:
+                site.move_arm(robot, site.solve(robot, back))
+            except MotionFailed:  # not reachable turned so: to the ready posture directly
+                pass
         site.move_arm(robot, site._ready_posture_cached(robot))
 
     def _shape(self, node: RcanNode) -> tuple[float, float, float]:

@@ -1,0 +1,128 @@
+"""The robot family from the capability table: a base's footprint from ``footprint_m``, and the heavy
+variant moving a component over 100 kg that the UR5 cannot lift."""
+
+import re
+
+import pytest
+
+pytest.importorskip("mujoco")
+pytest.importorskip("mink")
+pytest.importorskip("pyastar2d")
+
+from bimrobot.errors import InputError  # noqa: E402
+from bimrobot.physics.site import MotionFailed  # noqa: E402
+from bimrobot.rcan.activities import ActivityKind, Pose, RcanActivity  # noqa: E402
+from bimrobot.rcan.backends import create_backend  # noqa: E402
+from bimrobot.rcan.generation import load_capabilities  # noqa: E402
+from bimrobot.rcan.node import RcanNode  # noqa: E402
+
+TABLE = """
+robot_types:
+  mobile_base: {activities: [move_to_component, transport]}
+  manipulator: {activities: [position_for_picking_up, position_for_installing]}
+  gripper: {activities: [pick_up, install]}
+robots:
+  narrow:
+    types: [mobile_base, manipulator, gripper]
+    payload_kg: 5.0
+    reach_m: 0.85
+    home: [-4.0, 0.0, 0.0]
+  wide:
+    types: [mobile_base, manipulator, gripper]
+    payload_kg: 5.0
+    reach_m: 0.85
+    footprint_m: [3.0, 2.4]
+    home: [-4.0, 0.0, 0.0]
+"""
+
+
+def test_footprint_from_the_capability_table_sets_the_base_and_its_path_clearance(tmp_path):
+    table = tmp_path / "capabilities.yaml"
+    table.write_text(TABLE)
+    backend = create_backend("mujoco", load_capabilities(str(table)))
+    try:
+        site = backend.site
+        assert site.robots["wide"].model.footprint == (3.0, 2.4)
+        assert site.robots["narrow"].model.footprint == (0.99, 0.67)  # the Husky's, when the table gives none
+        chassis = site.model.geom("wide/chassis").size
+        assert chassis[0] == pytest.approx(1.5) and chassis[1] == pytest.approx(1.2)
+        # two installed columns 2.6 m apart (their faces), a wall of supports beside each out to +-6 m
+        for name, y in (("north", 1.3 + 2.5), ("south", -1.3 - 2.5)):
+            site.add_support(name, (0.0, y), 3.0, (0.15, 2.5))
+        narrow = site.plan_path("narrow", (4.0, 0.0))
+        wide_ok = True
+        try:
+            wide = site.plan_path("wide", (4.0, 0.0))
+        except MotionFailed:  # no way at all is as good as a way around
+            wide_ok, wide = False, []
+        assert len(narrow) == 1  # straight through the gap
+        if wide_ok:  # around the walls, not through the gap
+            assert max(abs(p[1]) for p in wide) > 6.0
+    finally:
+        backend.close()
+
+
+def test_a_footprint_out_of_range_is_refused_with_its_line(tmp_path):
+    table = tmp_path / "capabilities.yaml"
+    table.write_text(TABLE.replace("footprint_m: [3.0, 2.4]", "footprint_m: [3.0, 0.0]"))
+    with pytest.raises(InputError, match=r"capabilities.yaml line \d+: robot .wide.: key .footprint_m. must hold numbers between 0.05 and 100 m"):
+        load_capabilities(str(table))
+
+
+POST = "0SteelPost000000000001"  # a solid steel post, 100 x 100 mm, 1.6 m: 125.6 kg
+HEAVY_TABLE = """
+robot_types:
+  mobile_base: {activities: [move_to_component, transport]}
+  manipulator: {activities: [position_for_picking_up, position_for_installing]}
+  gripper: {activities: [pick_up, install]}
+robots:
+  ROBOT:
+    types: [mobile_base, manipulator, gripper]
+    payload_kg: PAYLOAD
+    reach_m: REACH
+    home: [-4.0, 0.0, 0.0]
+"""
+
+
+def _post_nodes(robot: str) -> list[RcanNode]:
+    """Pick the post up where it lies on the ground (as on the yard: its centre is the target) and
+    install it upright 3.5 m away (the target: the centre of its foot, on the ground): the chain of
+    a component the robot carries and installs itself."""
+    common = dict(component_id=POST, weight_kg=125.6, section_m=(0.1, 0.1), size_m=(0.1, 0.1, 1.6))
+    pick_up, installed = Pose(0.0, -2.0, 0.05), Pose(-1.0, 1.5, 0.0)
+    kinds = [(ActivityKind.MOVE_TO_COMPONENT, Pose(0.0, -3.0, 0.0)), (ActivityKind.POSITION_FOR_PICKING_UP, pick_up),
+             (ActivityKind.PICK_UP, pick_up), (ActivityKind.POSITION_FOR_INSTALLING, installed),
+             (ActivityKind.INSTALL, installed)]
+    return [RcanNode(f"rcan/B{n}", RcanActivity(f"B{n}", kind=kind, target=target, **common), robot, "mujoco")
+            for n, (kind, target) in enumerate(kinds, start=1)]
+
+
+def _run(tmp_path, name: str, payload: float, reach: float):
+    table = tmp_path / f"{name}.yaml"
+    table.write_text(HEAVY_TABLE.replace("ROBOT", name).replace("PAYLOAD", str(payload)).replace("REACH", str(reach)))
+    backend = create_backend("mujoco", load_capabilities(str(table)))
+    results = []
+    try:
+        for node in _post_nodes(name):
+            results.append(backend.execute(node))
+            if not results[-1].success:
+                break
+        return backend, results
+    finally:
+        backend.close()
+
+
+def test_the_heavy_variant_installs_a_126_kg_post_and_the_ur5_cannot_lift_it(tmp_path):
+    backend, results = _run(tmp_path, "heavy_arm", 300.0, 2.0)
+    assert backend.families["heavy_arm"].family == "heavy"
+    assert all(r.success for r in results), results[-1].message
+    placed = re.search(r"placement error ([0-9.]+) mm, ([0-9.]+) degrees", results[-1].message)
+    assert placed and float(placed.group(1)) < 10.0 and float(placed.group(2)) < 1.0
+    assert backend.placements[POST][0] < 0.010
+
+    backend, results = _run(tmp_path, "ur5_arm", 5.0, 0.85)
+    assert backend.families["ur5_arm"].family == "ur5"
+    failed = results[-1]
+    assert not failed.success and failed.activity_id == "B3"  # the pick-up
+    assert "weighs 125.6 kg" in failed.message and "rated payload 5.0 kg" in failed.message
+    assert backend.site.robots["ur5_arm"].holding is None
