@@ -2,6 +2,7 @@
 physically in MuJoCo."""
 
 import json
+import os
 
 import pytest
 
@@ -14,6 +15,9 @@ from bimrobot.cli import main  # noqa: E402
 
 
 @pytest.mark.slow
+@pytest.mark.skipif(os.environ.get("BIMROBOT_PHYSICS_FRAME") != "1",
+                    reason="runs for 15-20 min and is not reached yet (97 of 160 activities); "
+                    "BIMROBOT_PHYSICS_FRAME=1 runs it")
 @pytest.mark.xfail(strict=True, reason="not every activity of the frame is physically executable yet: "
                    "see docs/physics.md, 'Not done yet'")
 def test_build_with_the_mujoco_backend_assembles_the_steel_frame_at_its_bim_poses(tmp_path):

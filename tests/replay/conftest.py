@@ -29,3 +29,14 @@ def frame_replay(frame_build, tmp_path_factory):
     rrd = tmp_path_factory.mktemp("replay") / "build.rrd"
     summary = write_replay(frame_build, rrd)
     return rrd, summary
+
+
+@pytest.fixture(scope="session")
+def frame_pair_replay(frame_build, tmp_path_factory):
+    """(rrd path, summary) of the steel frame's replay from its `convert` package and `simulate` folder
+    (the build without RCAN's timelines: a lighter recording for the browser)."""
+    from bimrobot.replay import write_replay
+
+    rrd = tmp_path_factory.mktemp("pair-replay") / "frame.rrd"
+    summary = write_replay(frame_build / "package", rrd, simulation=frame_build / "simulation")
+    return rrd, summary

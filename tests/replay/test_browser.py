@@ -185,10 +185,10 @@ def _assembled_green(view: np.ndarray) -> np.ndarray:
     return (g > r + 40) & (g > b + 40)
 
 
-def test_web_viewer_shows_the_structure_growing(browser, frame_replay, tmp_path):
+def test_web_viewer_shows_the_structure_growing(browser, frame_pair_replay, tmp_path):
     from bimrobot.replay.serve import serve_web
 
-    rrd, summary = frame_replay
+    rrd, summary = frame_pair_replay
     with serve_web(rrd) as viewer:
         browser.get(viewer.url + "&persist=0")
         webgl = browser.execute_script("const c = document.createElement('canvas'); return !!(c.getContext('webgl2') || c.getContext('webgl'))")
