@@ -20,6 +20,7 @@ so its result equals an uninterrupted build's.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import hashlib
 import json
 import shlex
@@ -204,10 +205,26 @@ def _run_stage(stage: Stage, args, folder: Path) -> int:
     sub_args = build_parser().parse_args(argv)
     shown = shlex.join(argv).replace(str(folder), str(args.output).rstrip("/"))
     print(f"$ bimrobot {io.printable(shown)}", flush=True)
-    code = int(sub_args.func(sub_args) or 0)
+    # The stage writes into the build's partial folder, renamed to the output at the end: its lines name
+    # the output folder, where the user will find the files.
+    with contextlib.redirect_stdout(_Renaming(sys.stdout, str(folder), str(args.output).rstrip("/"))):
+        code = int(sub_args.func(sub_args) or 0)
     if code not in stage.accepted:
         raise InputError(f"stage {stage.name} ({stage.title}) failed with exit code {code}; see its output above")
     return code
+
+
+class _Renaming:
+    """A text stream that writes to ``stream`` with every ``old`` replaced by ``new``."""
+
+    def __init__(self, stream, old: str, new: str):
+        self.stream, self.old, self.new = stream, old, new
+
+    def write(self, text: str) -> int:
+        return self.stream.write(text.replace(self.old, self.new))
+
+    def flush(self) -> None:
+        self.stream.flush()
 
 
 def build_command(args: argparse.Namespace) -> int:
@@ -238,7 +255,8 @@ def build_command(args: argparse.Namespace) -> int:
             "site": str(args.site) if args.site else "thesis fig. 4.11", "backend": args.backend, "stages": done,
             "resumed": resumed}, indent=2), encoding="utf-8")
     print(f"\nbuild: {io.printable(str(args.output))}/ in {time.monotonic() - started:.1f} s"
-          f"{' (resumed)' if resumed else ''}; README.md says what each file is")
+          f"{' (resumed)' if resumed else ''}; README.md says what each file is; "
+          f"see the build with: rerun {io.printable(str(Path(args.output) / 'build.rrd'))}")
     if codes.get("rcan", 0) != 0:
         print("build: RCAN escalated activities; see rcan/report.json", file=sys.stderr)
         return 1

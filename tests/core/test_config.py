@@ -71,7 +71,7 @@ def _with(text: str, old: str, new: str) -> str:
         ("site.yaml", "yard: [[1, 2]]\nconstruction_area: [[0, 0], [1e7, 1]]\n", ["simulate", "generated:2x1x1", "--site", "{path}"],
          "{path} line 2: key 'construction_area[1]' must be >= -1e+06 and <= 1e+06 m, got 1e+07"),
         ("caps.yaml", CAPABILITIES + "    colour: red\n", ["rcan", "capabilities", "--capabilities", "{path}"],
-         "{path} line 8: robot 'r1': unknown key 'colour' (allowed: arm_speed_m_s, gripper_opening_m, handling_s, home,"),
+         "{path} line 8: robot 'r1': unknown key 'colour' (allowed: arm_speed_m_s, footprint_m, gripper_opening_m, handling_s, home,"),
         ("caps.yaml", _with(CAPABILITIES, "\nrobots:", "\n    max_load: 3\nrobots:"),
          ["rcan", "capabilities", "--capabilities", "{path}"],
          "{path} line 4: robot_types.base: unknown key 'max_load' (allowed: activities)"),

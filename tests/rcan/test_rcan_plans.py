@@ -88,3 +88,22 @@ def test_an_assembly_is_planned_as_one_unit_with_the_weight_of_its_parts(shared_
     assert [a.kind for a in plan[-2:]] == [K.POSITION_FOR_INSTALLING, K.INSTALL]
     assert plan[-1].target.z == pytest.approx(lowest)  # an assembly goes where its parts' bottom is
     assert min(plan[0].section_m) > 0
+
+
+def test_a_second_node_of_a_component_waits_until_the_first_put_it_in_place():
+    """Per-node schedules: a beam's two position rows both wait for its transport, not for each other.
+    The first picks the beam up at its drop-off and installs it; the second works on it in place, so it
+    must wait for that install (else a robot 'positions' a beam still lying at its drop-off)."""
+    target = (1.0, 0.0, 3.0)
+    rows = [
+        Activity("A1", "Transport BEAM", "transport", "BEAM", None, 0, 10, target=target),
+        Activity("A2", "Position BEAM node 1", "position", "BEAM", None, 10, 20, ("A1",), target=target),
+        Activity("A3", "Position BEAM node 2", "position", "BEAM", None, 10, 20, ("A1",), target=target),
+        Activity("A4", "Assemble BEAM node 1", "assemble", "BEAM", None, 20, 30, ("A2",), target=target),
+    ]
+    plan = {a.activity_id: a for a in plan_from_schedule(Schedule(rows))}
+    first = [a for a in plan if a.startswith("A2.")]
+    assert plan["A2.1"].kind is K.MOVE_TO_COMPONENT and plan["A2.3"].kind is K.PICK_UP  # from the drop-off
+    assert set(plan["A3.1"].predecessors) == {"A1.4", first[-1]}  # the second node waits for the first
+    assert "A3.3" not in plan or plan["A3.3"].kind is not K.PICK_UP  # and works on the beam in place
+    assert plan["A4.1"].predecessors[0] == first[-1]  # the schedule's own predecessor comes first

@@ -144,3 +144,22 @@ def test_the_rcan_gantt_has_a_bar_per_done_activity_at_the_reports_times(frame_b
         assert entry["result"] == "done" and robot == entry["robot"] == report["robots"][activity]
         assert start <= finish + 1e-9  # rcan_time counts whole nanoseconds
         assert (start, finish) == (pytest.approx(entry["started_s"], abs=1e-6), pytest.approx(entry["finished_s"], abs=1e-6))
+
+
+def test_the_web_viewer_is_served_on_127_0_0_1_and_stopped_with_every_process_it_started(frame_pair_replay):
+    """`rerun` is a launcher that starts the viewer binary as a child: stopping the viewer must stop both
+    (a leftover viewer keeps serving and uses a core)."""
+    import os
+    import urllib.request
+
+    from bimrobot.replay.serve import CONTENT_SECURITY_POLICY, serve_web
+
+    rrd, _ = frame_pair_replay
+    with serve_web(rrd) as viewer:
+        assert viewer.url.startswith("http://127.0.0.1:")
+        with urllib.request.urlopen(viewer.url, timeout=30) as page:
+            assert page.status == 200 and page.headers["Content-Security-Policy"] == CONTENT_SECURITY_POLICY
+        group = viewer.process.pid
+        os.killpg(group, 0)  # the launcher's group is alive while serving
+    with pytest.raises(ProcessLookupError):
+        os.killpg(group, 0)  # no process of it is left

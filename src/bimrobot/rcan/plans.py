@@ -105,6 +105,7 @@ def plan_from_schedule(schedule, model=None, yard: tuple[float, float, float] = 
     slots: dict[str, Pose] = {}
     dropped: set[str] = set()  # components transported and set down at their drop-off, not yet positioned
     on_yard: set[str] = set()  # components known to wait on the yard that no row has touched yet
+    placed_by: dict[str, str] = {}  # component -> last activity of the row that put it in place
     for row in rows:
         if row.activity not in SCHEDULE_DECOMPOSITION:
             raise InputError(f"schedule activity {row.id} has activity {row.activity!r}; RCAN knows "
@@ -132,6 +133,11 @@ def plan_from_schedule(schedule, model=None, yard: tuple[float, float, float] = 
         else:
             dropped.discard(gid)  # positioned (PositionFixed) or installed
         previous = tuple(last_of_row[p] for p in row.predecessors)
+        if where == "in place" and gid in placed_by and placed_by[gid] not in previous:
+            # Work on a component in place waits for the row that put it there: a beam's two per-node
+            # position rows both wait for its transport, not for each other, yet the second works on
+            # the beam where the first installs it.
+            previous += (placed_by[gid],)
         for n, kind in enumerate(kinds, start=1):
             activity_id = f"{row.id}.{n}"
             frees = (kind is K.TRANSPORT and row.activity == Task.TRANSPORT) or \
@@ -145,6 +151,8 @@ def plan_from_schedule(schedule, model=None, yard: tuple[float, float, float] = 
             ))
             previous = (activity_id,)
         last_of_row[row.id] = previous[0]
+        if where != "in place" and row.activity != Task.TRANSPORT:
+            placed_by[gid] = previous[0]
     return activities
 
 

@@ -137,13 +137,7 @@ class WebViewer:
         if self.policy is not None:
             self.policy.stop()
             self.policy = None
-        if self.process.poll() is None:
-            self.process.terminate()
-            try:
-                self.process.wait(timeout=10)
-            except subprocess.TimeoutExpired:
-                self.process.kill()
-                self.process.wait()
+        _stop_group(self.process)
         self.home.cleanup()
 
     def __enter__(self) -> "WebViewer":
@@ -175,7 +169,10 @@ def _start_rerun(rrd: Path, grpc_port: int, timeout_s: float) -> WebViewer:
     env = quiet_environment(Path(home.name))
     command = [rerun_program(), "--serve-web", "--bind", "127.0.0.1", "--web-viewer-port", "0",
                "--port", str(grpc_port), str(Path(rrd).resolve())]
-    process = subprocess.Popen(command, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    # Its own process group: `rerun` is a Python launcher that starts the viewer binary as a child, which
+    # stopping the launcher alone would leave serving (and busy) after we are gone.
+    process = subprocess.Popen(command, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                               start_new_session=True)
     deadline = time.monotonic() + timeout_s
     seen = []
     while time.monotonic() < deadline:
@@ -188,10 +185,29 @@ def _start_rerun(rrd: Path, grpc_port: int, timeout_s: float) -> WebViewer:
             # Keep reading its output so the viewer never blocks on a full pipe.
             _drain(process)
             return WebViewer(process, _local_url(match.group(1)), home)
-    process.kill()
-    process.wait()
+    _stop_group(process)
     home.cleanup()
     raise RuntimeError("rerun --serve-web did not report its address: " + " | ".join(seen[-5:]))
+
+
+def _stop_group(process: subprocess.Popen, wait_s: float = 5.0) -> None:
+    """Stop ``process`` and every process of its group (the launcher and the viewer binary it started):
+    SIGTERM, then SIGKILL for what is left after ``wait_s``; returns once none is left."""
+    import signal
+
+    for sig in (signal.SIGTERM, signal.SIGKILL):
+        try:
+            os.killpg(process.pid, sig)
+        except ProcessLookupError:  # the whole group is gone already
+            return
+        deadline = time.monotonic() + wait_s
+        while time.monotonic() < deadline:
+            process.poll()  # reap the launcher (its child, once orphaned, is reaped by init)
+            try:
+                os.killpg(process.pid, 0)
+            except ProcessLookupError:
+                return
+            time.sleep(0.05)
 
 
 def _local_url(url: str) -> str:
