@@ -459,28 +459,17 @@ def references(n: int, repeats: int, redis: bool = True, ros: bool = True, disk:
                 add("in-process, state db file", in_flight, "one fsync'ed SQLite commit (WAL, synchronous=FULL)",
                     ref, rcan)
     if ros:
-        from bimrobot.rcan.backends.ros2 import cleanup_fastdds, fastdds_files, robot_node_process, ros2_available
+        from bimrobot.rcan.backends.ros2 import robot_node_process
 
-        ok, why = ros2_available()
-        if not ok:
-            print(f"ROS 2 skipped: {why}")
-        else:
-            os.environ.setdefault("FASTDDS_BUILTIN_TRANSPORTS", "SHM")
-            os.environ.setdefault("ROS_DOMAIN_ID", str(random.randint(1, 200)))
-            before = fastdds_files()
-            caps_file = write_table()
-            try:
-                for _ in range(repeats):
-                    bare = {in_flight: fastest_bare_action(n, in_flight) for in_flight in (1, 2)}
-                    with robot_node_process(caps_file):
-                        for in_flight in (1, 2):
-                            # a generous discovery time: the shared machine is loaded
-                            rcan = rcan_p50(in_flight, backend="ros2", backend_options={"server_timeout_s": 60.0})
-                            label, trips = bare[in_flight]
-                            add("ros2 actions", in_flight, f"bare rclpy action ({label})", trips, rcan)
-            finally:
-                os.unlink(caps_file)
-                cleanup_fastdds(before)
+        with ros2_capabilities() as caps_file:
+            for _ in range(repeats if caps_file else 0):
+                bare = {in_flight: fastest_bare_action(n, in_flight) for in_flight in (1, 2)}
+                with robot_node_process(caps_file):
+                    for in_flight in (1, 2):
+                        # a generous discovery time: the shared machine is loaded
+                        rcan = rcan_p50(in_flight, backend="ros2", backend_options={"server_timeout_s": 60.0})
+                        label, trips = bare[in_flight]
+                        add("ros2 actions", in_flight, f"bare rclpy action ({label})", trips, rcan)
     print(f"RCAN p50 dispatch latency / the bare round trip of its transport, same run, {repeats} rounds, "
           f"{n} round trips / activities each, with 1 or 2 in flight at once (RCAN: 1 chain of activities or 2 "
           "chains on 2 robots, sim kinematics without sleeping); ms are medians over the rounds")
@@ -495,6 +484,29 @@ def references(n: int, repeats: int, redis: bool = True, ros: bool = True, disk:
               f"{med('rcan_ms', 1):9.2f} {_summary(ratios):>25s} {p99:10.2f}")
         print(f"{'':40s} reference: {mine[-1]['reference']}")
     return rows
+
+
+@contextlib.contextmanager
+def ros2_capabilities():
+    """The capability table's file for a ROS 2 run, in the benchmarks' ROS 2 environment (Fast DDS over
+    shared memory, a random domain); None, with the reason printed, when ROS 2 is not installed. The
+    table and the Fast DDS files the run leaves are removed afterwards."""
+    from bimrobot.rcan.backends.ros2 import cleanup_fastdds, fastdds_files, ros2_available
+
+    ok, why = ros2_available()
+    if not ok:
+        print(f"ROS 2 skipped: {why}")
+        yield None
+        return
+    os.environ.setdefault("FASTDDS_BUILTIN_TRANSPORTS", "SHM")
+    os.environ.setdefault("ROS_DOMAIN_ID", str(random.randint(1, 200)))
+    before = fastdds_files()
+    caps_file = write_table()
+    try:
+        yield caps_file
+    finally:
+        os.unlink(caps_file)
+        cleanup_fastdds(before)
 
 
 def main() -> int:
@@ -553,20 +565,12 @@ def main() -> int:
                 executor.stdout.close()
                 os.unlink(caps_file)
     if not args.no_ros:
-        from bimrobot.rcan.backends import ros2
+        from bimrobot.rcan.backends.ros2 import robot_node_process
 
-        ok, why = ros2.ros2_available()
-        if not ok:
-            print(f"ROS 2 skipped: {why}")
-        else:
-            os.environ.setdefault("FASTDDS_BUILTIN_TRANSPORTS", "SHM")
-            os.environ.setdefault("ROS_DOMAIN_ID", str(random.randint(1, 200)))
-            caps_file = write_table()
-            try:
-                with ros2.robot_node_process(caps_file):
+        with ros2_capabilities() as caps_file:
+            if caps_file:
+                with robot_node_process(caps_file):
                     rows.append(measure("ros2 actions", n, backend="ros2"))
-            finally:
-                os.unlink(caps_file)
     reference = rows[0]
     print(f"RCAN transports, {n} activities (2 robots, sim kinematics without sleeping), {REPEATS} runs each; "
           "figures are medians, ratios vs the in-process run of the same repeat (min/median/max)")
