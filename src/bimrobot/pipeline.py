@@ -226,6 +226,9 @@ class _Renaming:
     def flush(self) -> None:
         self.stream.flush()
 
+    def __getattr__(self, name: str):  # isatty, encoding, fileno ...: those of the stream
+        return getattr(self.stream, name)
+
 
 def build_command(args: argparse.Namespace) -> int:
     """``bimrobot build``: run the stages into one resumable output folder; 1 when RCAN escalated work."""

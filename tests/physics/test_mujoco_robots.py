@@ -16,12 +16,14 @@ from bimrobot.rcan.backends import create_backend  # noqa: E402
 from bimrobot.rcan.generation import load_capabilities  # noqa: E402
 from bimrobot.rcan.node import RcanNode  # noqa: E402
 
-TABLE = """
+#: Table 5.2: which robot type performs which activity
+ROBOT_TYPES = """
 robot_types:
   mobile_base: {activities: [move_to_component, transport]}
   manipulator: {activities: [position_for_picking_up, position_for_installing]}
   gripper: {activities: [pick_up, install]}
-robots:
+"""
+TABLE = ROBOT_TYPES + """robots:
   narrow:
     types: [mobile_base, manipulator, gripper]
     payload_kg: 5.0
@@ -70,12 +72,7 @@ def test_a_footprint_out_of_range_is_refused_with_its_line(tmp_path):
 
 
 POST = "0SteelPost000000000001"  # a solid steel post, 100 x 100 mm, 1.6 m: 125.6 kg
-HEAVY_TABLE = """
-robot_types:
-  mobile_base: {activities: [move_to_component, transport]}
-  manipulator: {activities: [position_for_picking_up, position_for_installing]}
-  gripper: {activities: [pick_up, install]}
-robots:
+HEAVY_TABLE = ROBOT_TYPES + """robots:
   ROBOT:
     types: [mobile_base, manipulator, gripper]
     payload_kg: PAYLOAD
