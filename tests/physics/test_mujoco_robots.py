@@ -3,6 +3,8 @@ variant moving a component over 100 kg that the UR5 cannot lift."""
 
 import re
 
+import numpy as np
+
 import pytest
 
 pytest.importorskip("mujoco")
@@ -123,3 +125,63 @@ def test_the_heavy_variant_installs_a_126_kg_post_and_the_ur5_cannot_lift_it(tmp
     assert not failed.success and failed.activity_id == "B3"  # the pick-up
     assert "weighs 125.6 kg" in failed.message and "rated payload 5.0 kg" in failed.message
     assert backend.site.robots["ur5_arm"].holding is None
+
+
+BEAM = "0SteelBeam000000000001"  # the chapter-4 frame's 3.2 m W-section beam: 134.4 kg
+COLUMNS = ("0SteelColumn0000000001", "0SteelColumn0000000002")  # 4 m W-section columns, 289.8 kg
+
+
+def test_a_4_m_arm_lifts_a_beam_from_the_ground_and_installs_it_level_between_two_columns(tmp_path):
+    """The frame's top beams: a beam lying flat (web horizontal) is picked from above and must roll
+    onto its side in the air, then rise to 3.9 m, where a tool held pointing down would put the wrist
+    out of a 4 m arm's reach. The columns it spans are installed already (no activity lifts them:
+    they start in place)."""
+    table = tmp_path / "positioner.yaml"
+    table.write_text(HEAVY_TABLE.replace("ROBOT", "positioner").replace("PAYLOAD", "300").replace("REACH", "4.0")
+                     .replace("home: [-4.0, 0.0, 0.0]", "home: [7.0, -3.0, 0.0]"))
+    column = dict(weight_kg=289.81, section_m=(0.253, 0.254), size_m=(0.253, 0.254, 4.0), lifts=False)
+    plan = [RcanActivity(f"C{n}", component_id=gid, kind=ActivityKind.POSITION_FOR_INSTALLING,
+                         target=Pose(2.85, y, 0.03), **column) for n, (gid, y) in enumerate(zip(COLUMNS, (0.0, 3.5)))]
+    beam = dict(component_id=BEAM, weight_kg=134.39, section_m=(0.165, 0.31), size_m=(0.165, 0.31, 3.223))
+    lying, installed = Pose(5.0, -1.5, 0.0825), Pose(2.85, 0.14, 3.87)  # its centre on the ground; its end's centre
+    chain = [(ActivityKind.MOVE_TO_COMPONENT, Pose(5.0, -2.5, 0.0)), (ActivityKind.POSITION_FOR_PICKING_UP, lying),
+             (ActivityKind.PICK_UP, lying), (ActivityKind.POSITION_FOR_INSTALLING, installed),
+             (ActivityKind.INSTALL, installed)]
+    plan += [RcanActivity(f"B{n}", kind=kind, target=target, **beam) for n, (kind, target) in enumerate(chain, start=1)]
+    backend = create_backend("mujoco", load_capabilities(str(table)), plan=plan)
+    try:
+        results = []
+        for activity in plan[2:]:
+            results.append(backend.execute(RcanNode(f"rcan/{activity.activity_id}", activity, "positioner", "mujoco")))
+            assert results[-1].success, results[-1].message
+        assert backend.installed[BEAM].kind == "horizontal"
+        position_m, angle_deg = backend.placements[BEAM]
+        assert position_m < 0.010 and angle_deg < 1.0, results[-1].message
+    finally:
+        backend.close()
+
+
+def test_a_4_m_arm_reaches_a_column_side_at_shoulder_height_with_its_elbow_up(tmp_path):
+    """Work on a column in place: the tool level, pointing at the column's side at the shoulder's
+    height, 2.8 m in front. From the arm tucked for driving, inverse kinematics seeded near it ends
+    with the elbow (a 1.8 m forearm) below the ground; the elbow-up solution must be found."""
+    from bimrobot.physics import motion
+    from bimrobot.physics.site import TUCK_POSTURE
+
+    table = tmp_path / "assembler.yaml"
+    table.write_text(HEAVY_TABLE.replace("ROBOT", "assembler").replace("PAYLOAD", "0").replace("REACH", "4.0"))
+    backend = create_backend("mujoco", load_capabilities(str(table)))
+    try:
+        site = backend.site
+        robot = site.robots["assembler"]
+        robot.q_ref = TUCK_POSTURE - [0.0, 0.0, 0.0, 2 * np.pi, 0.0, 0.0]  # as driving leaves it: wrist 1 at -3 pi / 2
+        arm_base = site.arm_base_pose("assembler")
+        shoulder = arm_base[:3, 3] + [0.0, 0.0, robot.model.dh[0][1]]
+        toward = np.array([1.0, -0.04, 0.0]) / np.hypot(1.0, 0.04)  # the tool level, 2.3 degrees off +x
+        level = np.column_stack([[0.0, 0.0, -1.0], np.cross(toward, [0.0, 0.0, -1.0]), toward])
+        goal = motion.pose(level, shoulder + [2.76, -0.11, 0.0])
+        q = site.solve("assembler", goal)
+        assert arm_base[2, 3] + robot.ik.lowest_link(q) >= site.ground_z + 0.06 * robot.model.scale
+        assert np.linalg.norm(site._tcp_of("assembler", q) - goal[:3, 3]) < 0.002
+    finally:
+        backend.close()

@@ -13,6 +13,7 @@ grasp pose. Trajectories: the pose of every body at :data:`RECORD_HZ`, simulated
 
 from __future__ import annotations
 
+import itertools
 import math
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
@@ -25,8 +26,13 @@ from bimrobot.physics.scene import scene_root
 
 GRASP_POSITION_TOLERANCE_M = 0.005
 GRASP_ANGLE_TOLERANCE_DEG = 2.0
+# the weld's time constant (s): stiffer than MuJoCo's default 0.02 s, under which a 290 kg column held
+# at its middle leans 0.16 degrees in the gripper (6 mm at its foot); twice the time step, the stiffest
+# that stays stable
+GRASP_TIME_CONSTANT_S = 0.004
 FINGER_DEPTH_M = 0.03  # the tool centre point is this far below the top of the component when grasping
 TRACKING_TOLERANCE_M = 0.01  # the tcp must end within this of its goal, else the arm could not follow
+SETTLE_MAX_S = 3.0  # the longest wait for the arm to get in position after a move
 RECORD_HZ = 20.0
 TURN_RATE_RAD_S = 1.0
 JOINT_SPEED_RAD_S = 1.0
@@ -38,6 +44,10 @@ SITE_HALF_M = 200.0  # the ground slab spans +-200 m
 
 READY_SEED = np.array([0.0, -1.5, -1.3, -1.9, 1.57, 0.0])  # elbow up, tool down in front (rad)
 REACH_SEED = np.array([0.0, -1.9, -2.5, -0.3, 1.57, 0.0])  # elbow up, reaching down in front (rad)
+# elbow-up seeds (shoulder lift, elbow, wrist 1, wrist 2; rad), tried when the seeds above give no
+# solution clear of the ground
+ELBOW_UP_SEEDS = [(lift, elbow, wrist_1, wrist_2) for lift in (-1.6, -1.2) for elbow in (-1.2, -1.8)
+                  for wrist_1 in (-math.pi / 2, math.pi) for wrist_2 in (-math.pi / 2, math.pi / 2)]
 # the arm folded for driving empty: upper arm up, forearm folded down behind it, within the chassis' turn
 TUCK_POSTURE = np.array([0.0, -math.pi / 2, -2.9, math.pi / 2, -math.pi / 2, 0.0])
 
@@ -180,7 +190,7 @@ class MujocoSite:
         for name in self.robots:
             self.spec.add_equality(name=f"{name}/grasp/{component.global_id}", type=mj.mjtEq.mjEQ_WELD,
                                    objtype=mj.mjtObj.mjOBJ_BODY, name1=f"{name}/gripper", name2=component.global_id,
-                                   active=False)
+                                   active=False, solref=[GRASP_TIME_CONSTANT_S, 1.0])
         self.components[component.global_id] = component
         self._recompile()
 
@@ -280,6 +290,21 @@ class MujocoSite:
         return [self.model.body(b).name for b in range(1, self.model.nbody)]
 
     # --- contacts ----------------------------------------------------------------------------------
+    def seated(self, robot: str) -> bool:
+        """Whether the component the robot holds rests on something: it touches a support or the
+        ground (components do not collide with each other or, held, with robots)."""
+        held = self.robots[robot].holding
+        if held is None:
+            return False
+        box = self.model.geom(f"{held}/box").id
+        m = self.model
+        for contact in self.data.contact[: self.data.ncon]:
+            if box in (contact.geom1, contact.geom2):
+                other = contact.geom2 if contact.geom1 == box else contact.geom1
+                if m.geom_bodyid[other] == 0:  # a static geom: a support, the ground slab
+                    return True
+        return False
+
     def robot_contacts(self, robot: str) -> list[str]:
         """What the robot's arm, gripper or chassis touches other than the component it holds."""
         found = []
@@ -592,7 +617,11 @@ class MujocoSite:
         best, found = None, []
         pan = math.atan2(local[1, 3], local[0, 3])  # elbow-up seeds turned towards the goal
         toward = [np.array([pan, *seed[1:]]) for seed in (READY_SEED, REACH_SEED)]
-        for seed in (r.q_ref, self._ready_posture_cached(robot), READY_SEED, *toward):
+        # the elbow-up families turned towards the goal come last: mink's differential IK stays in
+        # the family of its seed, and a level tool at the shoulder's height is often reached from
+        # the first seeds only with the elbow (a metres-long forearm) below the ground
+        families = [np.array([pan, lift, elbow, wrist_1, wrist_2, 0.0]) for lift, elbow, wrist_1, wrist_2 in ELBOW_UP_SEEDS]
+        for seed in (r.q_ref, self._ready_posture_cached(robot), READY_SEED, *toward, *families):
             q, position_error, angle_error = r.ik.solve(local, seed)
             if best is None or position_error < best[1]:
                 best = (q, position_error, angle_error)
@@ -620,9 +649,11 @@ class MujocoSite:
             self._ready[robot] = self._ready_posture(self.robots[robot].model)
         return self._ready[robot]
 
-    def move_arm(self, robot: str, q_goal: np.ndarray, check_contacts: bool = True) -> float:
+    def move_arm(self, robot: str, q_goal: np.ndarray, check_contacts: bool = True, onto_seat: bool = False) -> float:
         """Move the arm to ``q_goal`` along a smooth joint-space interpolation at the arm's speed;
-        MotionFailed on a collision or when the arm cannot follow (torque limits). Returns seconds."""
+        MotionFailed on a collision or when the arm cannot follow (torque limits). ``onto_seat``: the
+        move lowers the held component onto what it rests on; stopped short by that contact, the move
+        is done (a guarded move: the component sits on its seat). Returns seconds."""
         r = self.robots[robot]
         start_q = r.q_ref.copy()
         start_tcp = self.tcp_pose(robot)[:3, 3]
@@ -640,18 +671,33 @@ class MujocoSite:
                 touching = self.robot_contacts(robot)
                 if touching:
                     raise MotionFailed(f"collision while moving the arm of {robot}: {'; '.join(touching)}")
-        self.step(0.5)  # settle
-        error = float(np.linalg.norm(self.tcp_pose(robot)[:3, 3] - goal_tcp))
-        if error > TRACKING_TOLERANCE_M:
+        error = self._settle(robot, goal_tcp)
+        if error > TRACKING_TOLERANCE_M and not (onto_seat and self.seated(robot)):
             joints = self.saturated(robot)
             why = f"torque limit of {', '.join(joints)}" if joints else "it could not follow"
             raise MotionFailed(f"the arm of {robot} ended {error * 1000:.0f} mm from its goal ({why})")
         return seconds + 0.5
 
-    def move_tcp_through(self, robot: str, poses: list[np.ndarray], check_contacts: bool = True) -> None:
+    def _settle(self, robot: str, goal_tcp: np.ndarray) -> float:
+        """Wait until the arm is in position (its tcp within TRACKING_TOLERANCE_M of ``goal_tcp``) or
+        at rest, for at least 0.5 s and at most SETTLE_MAX_S; returns the tcp's distance to the goal
+        (m). An arm holding a member near its torque limits creeps the last millimetres in."""
+        self.step(0.5)
+        waited = 0.5
+        while True:
+            error = float(np.linalg.norm(self.tcp_pose(robot)[:3, 3] - goal_tcp))
+            moving = float(np.abs(self.data.qvel[self.idx[robot]["v"]]).max()) > 1e-3
+            if error <= TRACKING_TOLERANCE_M or not moving or waited >= SETTLE_MAX_S:
+                return error
+            self.step(0.25)
+            waited += 0.25
+
+    def move_tcp_through(self, robot: str, poses: list[np.ndarray], check_contacts: bool = True,
+                         onto_seat: bool = False) -> None:
         """Move the tool centre point through ``poses`` (4x4, world), each reached by inverse kinematics
         and a joint-space move; holding a component, in steps of at most 0.3 m and 30 degrees (one
-        joint-space move between two poses lets the tool, and a long member with it, tilt on the way)."""
+        joint-space move between two poses lets the tool, and a long member with it, tilt on the way).
+        ``onto_seat``: the last pose sets the held component on its seat (see :meth:`move_arm`)."""
         r = self.robots[robot]
         for goal in poses:
             steps = [goal]
@@ -661,7 +707,8 @@ class MujocoSite:
                 count = max(1, math.ceil(max(np.linalg.norm(goal[:3, 3] - here[:3, 3]) / 0.3, angle / math.radians(30))))
                 steps = [motion.between(here, goal, k / count) for k in range(1, count + 1)]
             for step in steps:
-                self.move_arm(robot, self.solve(robot, step), check_contacts=check_contacts)
+                last = onto_seat and goal is poses[-1] and step is steps[-1]
+                self.move_arm(robot, self.solve(robot, step), check_contacts=check_contacts, onto_seat=last)
 
     def carry_posture(self, robot: str) -> np.ndarray:
         """Arm joints of the carry posture: the tool down over the base's front (the ready posture),
@@ -676,9 +723,12 @@ class MujocoSite:
         axis = motion.tool_down(0.0) @ long_axis  # in the arm base frame, with the tool at yaw 0
         turn = math.atan2(axis[1], axis[0])
         best = None
-        for across in (math.pi / 2, -math.pi / 2):
+        # seeded from the joints as they are too: seeded only from the ready posture, the solution may
+        # be the same tool pose with the wrist flipped, and the move there swings the held member
+        # half a turn about the wrists
+        for across, seed in itertools.product((math.pi / 2, -math.pi / 2), (r.q_ref, ready)):
             tool = motion.tool_down(across - turn)
-            q, position_error, angle_error = r.ik.solve(motion.pose(tool, (0.35 * s, 0.0, 0.45 * s)), ready)
+            q, position_error, angle_error = r.ik.solve(motion.pose(tool, (0.35 * s, 0.0, 0.45 * s)), seed)
             if position_error < motion.IK_POSITION_TOLERANCE_M and angle_error < motion.IK_ANGLE_TOLERANCE_RAD:
                 q = motion.wrap_near(q, r.q_ref, np.array([True, True, False, True, True, True]))
                 cost = float(np.abs(q - r.q_ref).max())
@@ -704,6 +754,15 @@ class MujocoSite:
         yaw = math.atan2(pose[1, 0], pose[0, 0])
         point = pose[:3, 3] + pose[:3, 2] * (height - FINGER_DEPTH_M)
         return motion.pose(motion.tool_down(yaw), point)
+
+    def held_in_tcp(self, robot: str) -> np.ndarray:
+        """Pose (4x4) of the held component in the tool centre point's frame, as the weld holds it.
+        Plans use this, not the poses measured at the moment: the weld gives a little under load (a
+        held member yaws a few degrees in the gripper while the base turns) and springs back."""
+        r = self.robots[robot]
+        tcp_in_gripper = np.eye(4)
+        tcp_in_gripper[:3, 3] = self.model.site(f"{robot}/tcp").pos
+        return np.linalg.inv(tcp_in_gripper) @ r.grip
 
     def close_gripper(self, robot: str, component: str) -> None:
         """Close the jaws on the component and switch the weld on; MotionFailed when the tcp is not

@@ -254,7 +254,7 @@ class MujocoBackend(DispatchingBackend):
         half = (np.abs(lying_pose(size, (0, 0, 0), yaw)[:3, :3]) @ np.array(site.components[gid].size) / 2)[:2]
         site.approach(robot, spot, low_keep_out=[(spot, half)])
         tcp = site.tcp_pose(robot)
-        grip = np.linalg.inv(tcp) @ site.body_pose(gid)
+        grip = site.held_in_tcp(robot)
         best = None
         for turn in (0.0, math.pi):  # the box is the same turned half a turn: the smaller wrist turn
             body = lying_pose(size, (spot[0], spot[1], site.ground_z + size[0] / 2 + 0.002), yaw + turn)
@@ -301,7 +301,7 @@ class MujocoBackend(DispatchingBackend):
         site = self.site
         tcp = site.tcp_pose(robot)
         below = tcp.copy()
-        grip = np.linalg.inv(tcp) @ site.body_pose(gid)
+        grip = site.held_in_tcp(robot)
         below[2, 3] += site.ground_z + 0.002 - (tcp @ grip)[2, 3]
         site.move_arm(robot, site.solve(robot, below), check_contacts=False)
         site.open_gripper(robot)
@@ -329,7 +329,7 @@ class MujocoBackend(DispatchingBackend):
         _, goal = self._install_pose(robot, gid, box)
         site.approach(robot, self._wrist_point(robot, goal), keep_out=[(box.centre[:2], box.half_xy)])
         target, goal = self._install_pose(robot, gid, box)
-        site.move_tcp_through(robot, self._carry_waypoints(robot, gid, goal))
+        site.move_tcp_through(robot, self._carry_waypoints(robot, gid, goal), onto_seat=True)
         self.targets[gid], self.installed[gid] = target, box
         if node.activity.releases_robot:  # PositionFixed: let go, the assembly robots fix it
             self._release(robot)
@@ -352,7 +352,7 @@ class MujocoBackend(DispatchingBackend):
         site.face(robot, target[:2, 3])
         holding = site.robots[robot].holding == gid
         if holding:  # the tcp goes where the component's origin lands on the target, as gripped
-            grip = np.linalg.inv(site.tcp_pose(robot)) @ site.body_pose(gid)
+            grip = site.held_in_tcp(robot)
             goal = target @ np.linalg.inv(grip)
             goal[2, 3] += 0.001  # released 1 mm above its seat
         else:  # work on a component in place (a further connection): reach its grasp pose
@@ -489,7 +489,7 @@ class MujocoBackend(DispatchingBackend):
         from bimrobot.physics.placement import body_pose, body_rotations
 
         site = self.site
-        grip = np.linalg.inv(site.tcp_pose(robot)) @ site.body_pose(gid)
+        grip = site.held_in_tcp(robot)
         arm = site.arm_base_pose(robot)[:2, 3]
         toward = box.centre[:2] - arm
         toward /= max(float(np.linalg.norm(toward)), 1e-9)
@@ -520,10 +520,13 @@ class MujocoBackend(DispatchingBackend):
 
     def _carry_waypoints(self, robot: str, gid: str, goal: np.ndarray) -> list[np.ndarray]:
         """Tool poses from where the held component is to ``goal``: up to a height where it can turn
-        to its installed orientation clear of the ground, turn, over the goal, down onto it."""
+        to its installed orientation clear of the ground, turn, up to the goal's height (and
+        :data:`LIFT_M`), over the goal, down onto it. It turns low and rises turned: a beam held from
+        above rolls onto its side, and the tool, then level, keeps the wrist at the tool's height (held
+        tool-down at a beam's height, the wrist would be a metre above the tool, beyond the arm)."""
         site = self.site
         tcp = site.tcp_pose(robot)
-        grip = np.linalg.inv(tcp) @ site.body_pose(gid)
+        grip = site.held_in_tcp(robot)
         size = np.array(site.components[gid].size)
         corners = np.array([[x, y, z, 1.0] for x in (-size[0] / 2, size[0] / 2) for y in (-size[1] / 2, size[1] / 2)
                             for z in (0.0, size[2])])
@@ -532,17 +535,20 @@ class MujocoBackend(DispatchingBackend):
             return float(((pose @ grip) @ corners.T)[2].min() - pose[2, 3])
 
         clear = site.ground_z + 0.2
-        safe = max(tcp[2, 3], goal[2, 3] + LIFT_M, clear - lowest_below_tcp(goal), clear - lowest_below_tcp(tcp))
+        low = max(tcp[2, 3], clear - lowest_below_tcp(goal), clear - lowest_below_tcp(tcp))
+        safe = max(low, goal[2, 3] + LIFT_M)
         up = tcp.copy()
-        up[2, 3] = safe
+        up[2, 3] = low
         turned = goal.copy()
         turned[:3, 3] = up[:3, 3]
+        raised = turned.copy()
+        raised[2, 3] = safe
         over = goal.copy()
         over[2, 3] = safe
         above = goal.copy()
         above[2, 3] += LIFT_M
         waypoints = []
-        for pose in (up, turned, over, above, goal):
+        for pose in (up, turned, raised, over, above, goal):
             last = waypoints[-1] if waypoints else tcp
             if np.linalg.norm(pose[:3, 3] - last[:3, 3]) > 1e-3 or np.abs(pose[:3, :3] - last[:3, :3]).max() > 1e-3:
                 waypoints.append(pose)
