@@ -290,6 +290,15 @@ class MujocoSite:
         return [self.model.body(b).name for b in range(1, self.model.nbody)]
 
     # --- contacts ----------------------------------------------------------------------------------
+    def arm_contacts_at(self, robot: str, q: np.ndarray) -> list[str]:
+        """What the robot would touch with its arm at joints ``q``, everything else where it is now
+        (a check of positions only, on a scratch copy of the state)."""
+        scratch = self.mj.MjData(self.model)
+        scratch.qpos[:] = self.data.qpos
+        scratch.qpos[self.idx[robot]["q"]] = q
+        self.mj.mj_fwdPosition(self.model, scratch)
+        return self.robot_contacts(robot, scratch)
+
     def seated(self, robot: str) -> bool:
         """Whether the component the robot holds rests on something: it touches a support or the
         ground (components do not collide with each other or, held, with robots)."""
@@ -305,12 +314,14 @@ class MujocoSite:
                     return True
         return False
 
-    def robot_contacts(self, robot: str) -> list[str]:
-        """What the robot's arm, gripper or chassis touches other than the component it holds."""
+    def robot_contacts(self, robot: str, data=None) -> list[str]:
+        """What the robot's arm, gripper or chassis touches other than the component it holds (in
+        ``data``, default the simulation's)."""
+        data = self.data if data is None else data
         found = []
         m, idx = self.model, self.idx[robot]
         held = m.body(self.robots[robot].holding).id if self.robots[robot].holding else -1
-        for contact in self.data.contact[: self.data.ncon]:
+        for contact in data.contact[: data.ncon]:
             bodies = (m.geom_bodyid[contact.geom1], m.geom_bodyid[contact.geom2])
             mine = [b in idx["robot_bodies"] for b in bodies]
             if mine[0] == mine[1]:
@@ -434,6 +445,11 @@ class MujocoSite:
         """Drive the base along a planned path to ``goal_xy`` (turn, then go straight, per leg); turn
         to ``final_yaw`` at the end. Returns the distance driven (m)."""
         waypoints = self.plan_path(robot, goal_xy)
+        x, y, yaw = self.base_xy_yaw(robot)
+        first = waypoints[0] - np.array([x, y])
+        turns = np.linalg.norm(first) > 0.02 and abs(_wrap(math.atan2(first[1], first[0]) - yaw)) > 0.05
+        if turns and not self.robots[robot].holding and self._back_out(robot):
+            waypoints = self.plan_path(robot, goal_xy)  # from where it may turn
         r = self.robots[robot]
         if not r.holding and r.model.family == "heavy":  # empty: drive with the (metres long) arm tucked
             tuck = motion.wrap_near(TUCK_POSTURE, r.q_ref, np.array([True, True, False, True, True, True]))
@@ -448,6 +464,49 @@ class MujocoSite:
         if final_yaw is not None:
             self.turn(robot, final_yaw)
         return driven
+
+    def _back_out(self, robot: str) -> bool:
+        """When the empty robot's base stands too near something taller than its chassis to turn in
+        place (it has just worked beside it), drive it straight, backwards or forwards along its heading, to the
+        nearest spot (up to 4 m) where it may turn, its chassis clear of everything on the way.
+        Whether it moved."""
+        low, tall = self.obstacles(robot, split=True)
+        x, y, yaw = self.base_xy_yaw(robot)
+        here = np.array([x, y])
+        if self._clear(robot, here, low, tall):
+            return False
+        heading = np.array([math.cos(yaw), math.sin(yaw)])
+        boxes = low + tall
+        for distance in np.arange(0.1, 4.01, 0.1):
+            for sign in (-1.0, 1.0):
+                spot = here + sign * distance * heading
+                way = [here + sign * t * heading for t in np.arange(0.1, distance + 1e-9, 0.1)]
+                if self._clear(robot, spot, low, tall) and all(self._footprint_clear(robot, p, yaw, boxes) for p in way):
+                    self._straight_along(robot, distance, sign)
+                    return True
+        return False
+
+    def _straight_along(self, robot: str, distance: float, sign: float) -> None:
+        """Drive ``distance`` m straight along the heading (``sign`` -1: backwards), without turning."""
+        r = self.robots[robot]
+        x, y, yaw = self.base_xy_yaw(robot)
+        start = np.array([x, y])
+        heading = np.array([math.cos(yaw), math.sin(yaw)])
+        already = set(self.robot_contacts(robot))
+        for _ in range(int(120 / 0.02)):
+            left = distance - float((self.base_xy_yaw(robot)[:2] - start) @ heading) * sign
+            if left < 0.005:
+                break
+            speed = sign * min(r.speed_m_s, 1.5 * left)
+            r.base_velocity = np.array([speed * heading[0], speed * heading[1], 0.0])
+            self.step(0.02)
+            touching = [t for t in self.robot_contacts(robot) if t not in already]
+            if touching:
+                r.base_velocity = np.zeros(3)
+                self.step(0.1)
+                raise MotionFailed(f"{robot} hit something while backing out: {'; '.join(touching)}")
+        r.base_velocity = np.zeros(3)
+        self.step(0.1)
 
     def turn(self, robot: str, yaw: float) -> None:
         """Turn the base in place to ``yaw`` (rad)."""
@@ -651,9 +710,44 @@ class MujocoSite:
 
     def move_arm(self, robot: str, q_goal: np.ndarray, check_contacts: bool = True, onto_seat: bool = False) -> float:
         """Move the arm to ``q_goal`` along a smooth joint-space interpolation at the arm's speed;
-        MotionFailed on a collision or when the arm cannot follow (torque limits). ``onto_seat``: the
-        move lowers the held component onto what it rests on; stopped short by that contact, the move
-        is done (a guarded move: the component sits on its seat). Returns seconds."""
+        MotionFailed on a collision or when the arm cannot follow (torque limits). When the straight
+        joint-space path of an empty arm would touch something (checked on positions beforehand), it goes through
+        the first via posture of :meth:`_via_postures` from which both halves are clear. ``onto_seat``:
+        the move lowers the held component onto what it rests on; stopped short by that contact, the
+        move is done (a guarded move: the component sits on its seat). Returns seconds."""
+        if check_contacts and not self.robots[robot].holding:  # a held member is moved in short steps instead
+            already = set(self.robot_contacts(robot))
+            start = self.robots[robot].q_ref.copy()
+            if self._path_contacts(robot, start, q_goal, already):
+                for via in self._via_postures(robot, start, q_goal):
+                    if not self._path_contacts(robot, start, via, already) and \
+                            not self._path_contacts(robot, via, q_goal, already):
+                        return self._move_arm(robot, via, True) + self._move_arm(robot, q_goal, True, onto_seat)
+        return self._move_arm(robot, q_goal, check_contacts, onto_seat)
+
+    def _path_contacts(self, robot: str, q_from: np.ndarray, q_to: np.ndarray, already: set) -> list[str]:
+        """What the arm would newly touch on the straight joint-space path (24 samples, positions only)."""
+        for t in np.linspace(0.0, 1.0, 25)[1:]:
+            touching = [c for c in self.arm_contacts_at(robot, q_from + (q_to - q_from) * t) if c not in already]
+            if touching:
+                return touching
+        return []
+
+    def _via_postures(self, robot: str, q_from: np.ndarray, q_to: np.ndarray) -> list[np.ndarray]:
+        """Postures to go through around an obstacle: the ready posture (and, for the heavy variant,
+        the tucked one) turned as at the start, as at the goal, and as it is."""
+        full_turn = np.array([True, True, False, True, True, True])
+        r = self.robots[robot]
+        postures = [self._ready_posture_cached(robot)]
+        if r.model.family == "heavy" and not r.holding:
+            postures.append(TUCK_POSTURE)
+        out = []
+        for posture in postures:
+            for pan in (q_from[0], q_to[0], posture[0]):
+                out.append(motion.wrap_near(np.array([pan, *posture[1:]]), q_from, full_turn))
+        return out
+
+    def _move_arm(self, robot: str, q_goal: np.ndarray, check_contacts: bool = True, onto_seat: bool = False) -> float:
         r = self.robots[robot]
         start_q = r.q_ref.copy()
         start_tcp = self.tcp_pose(robot)[:3, 3]
@@ -664,11 +758,14 @@ class MujocoSite:
         seconds = max(float(np.abs(q_goal - start_q).max()) / joint_speed,
                       float(np.linalg.norm(goal_tcp - start_tcp)) / r.arm_speed_m_s, 0.5)
         dt = 0.01
+        # what it touches already it may move away from (an arm left against a column by a failed
+        # activity could otherwise never move again)
+        already = set(self.robot_contacts(robot)) if check_contacts else set()
         for reference in motion.smooth_steps(start_q, q_goal, seconds, dt):
             r.q_ref = reference
             self.step(dt)
             if check_contacts:
-                touching = self.robot_contacts(robot)
+                touching = [t for t in self.robot_contacts(robot) if t not in already]
                 if touching:
                     raise MotionFailed(f"collision while moving the arm of {robot}: {'; '.join(touching)}")
         error = self._settle(robot, goal_tcp)

@@ -319,7 +319,7 @@ class MujocoBackend(DispatchingBackend):
             self._spawn_in_place(node.activity)  # in place already (a footing): it enters the scene where it is installed
         if site.robots[robot].holding != gid:  # work on a component in place (a further connection)
             site.approach(robot, self._wrist_point(robot, self._work_poses(robot, gid)[-1]))
-            site.move_tcp_through(robot, self._work_poses(robot, gid))
+            site.move_tcp_through(robot, self._clear_work_poses(robot, gid))
             return f"{node.kind.label} {gid}: gripper at its work point"
         box = self._installed_box(node.activity)
         self._support_for(gid, box)
@@ -553,6 +553,28 @@ class MujocoBackend(DispatchingBackend):
             if np.linalg.norm(pose[:3, 3] - last[:3, 3]) > 1e-3 or np.abs(pose[:3, :3] - last[:3, :3]).max() > 1e-3:
                 waypoints.append(pose)
         return waypoints
+
+    def _clear_work_poses(self, robot: str, gid: str) -> list[np.ndarray]:
+        """The work poses (:meth:`_work_poses`) turned about the tool's axis by the first multiple of
+        45 degrees at which the arm reaches both without touching anything (a 4 m arm's wrist is
+        half a metre wide: turned one way it lies against the column standing on the footing it
+        works on); the unturned ones when no turn is clear (the move then fails saying what it hit)."""
+        from bimrobot.physics import motion
+        from bimrobot.physics.site import MotionFailed
+
+        site = self.site
+        poses = self._work_poses(robot, gid)
+        for k in (0, 1, -1, 2, -2, 3, -3, 4):
+            turn = motion.pose(np.array([[math.cos(k * math.pi / 4), -math.sin(k * math.pi / 4), 0.0],
+                                         [math.sin(k * math.pi / 4), math.cos(k * math.pi / 4), 0.0],
+                                         [0.0, 0.0, 1.0]]), (0.0, 0.0, 0.0))
+            turned = [pose @ turn for pose in poses]
+            try:
+                if not any(site.arm_contacts_at(robot, site.solve(robot, pose)) for pose in turned):
+                    return turned
+            except MotionFailed:
+                continue
+        return poses
 
     def _work_poses(self, robot: str, gid: str) -> list[np.ndarray]:
         """Where the tool works on a component in place (its connection nodes are not in the plan): at
