@@ -409,6 +409,17 @@ def test_preview_is_a_picture_of_the_world_unless_switched_off(tmp_path):
     assert none["preview"] is None and not (tmp_path / "none" / "preview.png").exists()
 
 
+def test_preview_drawn_from_memory_is_the_picture_the_written_files_give(tmp_path):
+    """convert draws preview.png from the meshes in memory while the models are being written; it must
+    be the very picture that the package's own files (world includes, model DAEs) give when read back."""
+    from bimrobot.world.render import render_package
+
+    report = build_package(frame_model(), tmp_path / "pkg", ConvertOptions(target="both", workers=2))
+    again = render_package(tmp_path / "pkg", tmp_path / "again.png", world_file=report["world_files"]["sim"],
+                           title=f"{report['world']} (metres, z up)")
+    assert (tmp_path / "pkg" / "preview.png").read_bytes() == again.read_bytes()
+
+
 def test_a_failing_conversion_leaves_nothing(tmp_path, monkeypatch):
     from bimrobot.world import package as package_module
 

@@ -398,8 +398,9 @@ def _read_weights(definition, mass_scale: float, flat: dict, quantities: dict, m
     elif definition.is_a("IfcPropertySet"):
         set_name = definition.Name
         for prop in definition.HasProperties or ():
-            # as pick_weight_property compares: the part of "Pset/Name" after the last "/"
-            if prop.is_a() != "IfcPropertySingleValue" or str(prop[0]).rsplit("/", 1)[-1].lower() not in _WEIGHT_NAMES:
+            # as pick_weight_property compares: the part of "Pset/Name" after the last "/" (the name
+            # first: most properties are not weights, and reading it is cheaper than the class)
+            if str(prop[0]).rsplit("/", 1)[-1].lower() not in _WEIGHT_NAMES or prop.is_a() != "IfcPropertySingleValue":
                 continue
             nominal = prop[2]
             if nominal is not None and nominal.is_a("IfcMassMeasure"):
@@ -551,7 +552,7 @@ def product_keys(ifc: ifcopenshell.file) -> dict[int, str]:
     keys: dict[int, str] = {}
     seen: set[str] = set()
     for product in sorted(ifc.by_type("IfcProduct"), key=lambda p: p.id()):
-        global_id = product.GlobalId or ""
+        global_id = product[0] or ""  # GlobalId, read by position (faster)
         if global_id and global_id not in seen:
             seen.add(global_id)
         else:
@@ -568,7 +569,7 @@ def duplicate_global_ids(ifc: ifcopenshell.file) -> dict[str, list]:
     """GlobalId -> the entities (IfcRoot, in file order) that carry it, for every GlobalId used more than once."""
     holders: dict[str, list] = {}
     for entity in ifc.by_type("IfcRoot"):
-        holders.setdefault(entity.GlobalId or "", []).append(entity)
+        holders.setdefault(entity[0] or "", []).append(entity)  # [0]: GlobalId, read by position (faster)
     return {gid: sorted(found, key=lambda e: e.id()) for gid, found in holders.items() if len(found) > 1}
 
 

@@ -45,6 +45,10 @@ DEFAULT_COLOUR = (0.65, 0.65, 0.65, 1.0)
 log = logging.getLogger(__name__)
 
 
+POSITION_FORMAT = "%.7g"
+"""How the DAE writes vertex coordinates (metres): 7 significant digits, float precision."""
+
+
 def colour_of(ifc_class: str) -> tuple[float, float, float, float]:
     """RGBA in 0..1 used for an IFC class in visuals and pictures."""
     return CLASS_COLOURS.get(ifc_class, DEFAULT_COLOUR)
@@ -60,11 +64,11 @@ def dae_text(vertices: np.ndarray, faces: np.ndarray, name: str, rgba=DEFAULT_CO
     vertices = np.asarray(vertices, np.float64)
     faces = np.asarray(faces, np.int64)
     normals = _face_normals(vertices, faces)
-    positions = _join("%.7g", vertices.ravel().tolist())
-    normal_text = _join("%.4g", normals.ravel().tolist())
+    positions = number_text(POSITION_FORMAT, vertices.ravel().tolist())
+    normal_text = number_text("%.4g", normals.ravel().tolist())
     # Each triangle corner: vertex index, then normal index (= face index).
     indices = np.stack([faces, np.repeat(np.arange(len(faces))[:, None], 3, axis=1)], axis=2).ravel()
-    index_text = _join("%d", indices.tolist())
+    index_text = number_text("%d", indices.tolist())
     r, g, b, a = rgba
     return _DAE_TEMPLATE.format(
         name=_xml_attr(name),
@@ -76,7 +80,7 @@ def dae_text(vertices: np.ndarray, faces: np.ndarray, name: str, rgba=DEFAULT_CO
         normals=normal_text,
         ntri=len(faces),
         indices=index_text,
-        colour=f"{r:.3f} {g:.3f} {b:.3f} {a:.3f}",
+        colour=colour_text(rgba),
         ambient=f"{r * 0.4:.3f} {g * 0.4:.3f} {b * 0.4:.3f} 1",
     )
 
@@ -137,7 +141,13 @@ def _decimated(vertices: np.ndarray, faces: np.ndarray, max_triangles: int) -> t
     return np.asarray(mesh.vertices), np.asarray(mesh.faces)
 
 
-def _join(pattern: str, values: list) -> str:
+def colour_text(rgba) -> str:
+    """The DAE's diffuse colour text of an RGBA colour (0..1)."""
+    r, g, b, a = rgba
+    return f"{r:.3f} {g:.3f} {b:.3f} {a:.3f}"
+
+
+def number_text(pattern: str, values: list) -> str:
     """Numbers as space-separated text (one %-format call: the fastest way in CPython)."""
     if not values:
         return ""

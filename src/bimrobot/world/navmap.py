@@ -143,15 +143,18 @@ def _mark_segments(grid: np.ndarray, segments: np.ndarray, origin: tuple[float, 
     cell (a 9 mm web, a sheet) still block the map. Sampled every half cell (a corner clipped by
     less than that may stay free); segments that project onto each other are sampled once."""
     segments = _distinct_segments(np.round(segments, 5))
-    lengths = np.linalg.norm(segments[:, 1] - segments[:, 0], axis=1)
+    starts, deltas = segments[:, 0], segments[:, 1] - segments[:, 0]
+    lengths = np.linalg.norm(deltas, axis=1)
     counts = np.ceil(lengths / (resolution / 2)).astype(int) + 1
-    owner = np.repeat(np.arange(len(segments)), counts)
     steps = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
     fraction = steps / np.maximum(np.repeat(counts, counts) - 1, 1)
-    points = segments[owner, 0] + (segments[owner, 1] - segments[owner, 0]) * fraction[:, None]
+    # start + (end - start) x fraction per sample, one coordinate at a time (np.repeat of each
+    # segment's numbers: the same values as indexing rows by owner, at a fraction of the cost)
+    x = np.repeat(starts[:, 0], counts) + np.repeat(deltas[:, 0], counts) * fraction
+    y = np.repeat(starts[:, 1], counts) + np.repeat(deltas[:, 1], counts) * fraction
     rows, cols = grid.shape
-    col = np.floor((points[:, 0] - origin[0]) / resolution).astype(int)
-    row = rows - 1 - np.floor((points[:, 1] - origin[1]) / resolution).astype(int)
+    col = np.floor((x - origin[0]) / resolution).astype(int)
+    row = rows - 1 - np.floor((y - origin[1]) / resolution).astype(int)
     inside = (row >= 0) & (row < rows) & (col >= 0) & (col < cols)
     grid[row[inside], col[inside]] = True
 

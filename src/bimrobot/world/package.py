@@ -40,7 +40,7 @@ from bimrobot.io import printable
 from bimrobot.site import Site
 from bimrobot.world import launch, layout, merge, meshes, navmap, physics, pool, sdf
 from bimrobot.world.names import ros_package_name, safe_name, slug
-from bimrobot.world.render import PREVIEW_MAX_TRIANGLES, render_preview
+from bimrobot.world.render import PREVIEW_MAX_TRIANGLES, draw_preview, render_preview
 
 log = logging.getLogger(__name__)
 
@@ -222,11 +222,14 @@ def build_package(
         ground_z = ground_height(model, [item.element for item in converted])
         yard = _place(converted, ground_z, options)
         merged = _merged_models(model, converted, options) if options.merge_static else []
+        # preview.png is drawn from the meshes in memory while the workers write the models, unless
+        # merged models (whose DAEs join many elements) are in the picture: those are read back at the end.
+        in_memory_preview = drawing and not merged and options.target in ("sim", "both", "mujoco")
         timings["prepare"] = time.perf_counter() - tick
 
-        # Models and maps are written by every core (bimrobot.world.pool) while this process writes the
-        # worlds and launch files; results come back as the tasks finish. The maps (the longest tasks)
-        # come first.
+        # Models and maps are made by every core (bimrobot.world.pool) while this process writes the
+        # worlds and launch files and draws preview.png; results come back as the tasks finish. The maps
+        # (the longest tasks) come first.
         tick = time.perf_counter()
         plan = _plan_maps(model, converted, options, ground_z) if options.maps else _MapPlan([], (0.0, 0.0), (1, 1))
         (tmp / "models").mkdir()
@@ -243,6 +246,10 @@ def build_package(
             with pool.Tasks(_model_task, tasks, options.workers, parallel) as running:
                 world_files = _write_worlds(tmp / "worlds", world_name, converted, merged, options, ground_z)
                 _write_launch_and_ros(tmp, package, world_name, world_files, source, options)
+                if in_memory_preview:  # this process would wait for the workers: it draws the picture meanwhile
+                    painting = time.perf_counter()
+                    preview = draw_preview(tmp, world_name, _preview_models(converted))
+                    timings["preview"] = time.perf_counter() - painting
                 bar = tqdm(total=len(converted), desc="models", unit="element", disable=not progress, leave=False)
                 for results in running.results():
                     _apply_results(converted, merged, drawn, results)
@@ -270,12 +277,17 @@ def build_package(
             report["mujoco"] = write_scene(tmp, converted, options, ground_z, yard)
         for warning in report["warnings"]:
             log.info("%s", warning)  # the CLI prints them in its summary
-        tick = time.perf_counter()
-        # preview.png: a picture of the world (None: too large, or not asked for)
-        report["preview"] = render_preview(tmp, triangles) if drawing else None
-        waited = time.perf_counter() - tick
-        report["timings_s"]["preview"] = round(waited, 4)
-        report["timings_s"]["total"] = round(timings["total"] + waited, 4)
+        # preview.png: a picture of the world (None: too large, or not asked for); drawn above from the
+        # meshes in memory, or here from the package's files (merged models)
+        if in_memory_preview:
+            report["preview"] = preview
+        else:
+            tick = time.perf_counter()
+            report["preview"] = render_preview(tmp, triangles) if drawing else None
+            timings["preview"] = time.perf_counter() - tick
+            timings["total"] += timings["preview"]
+        report["timings_s"]["preview"] = round(timings.get("preview", 0.0), 4)
+        report["timings_s"]["total"] = round(timings["total"], 4)
         (tmp / "report.json").write_text(json.dumps(report, indent=2), encoding="utf-8")
         (tmp / "README.md").write_text(_readme(report), encoding="utf-8")
     log.info("wrote %s: %d models, %d skipped", out_dir, len(converted), len(skipped))
@@ -486,6 +498,16 @@ def _apply_results(converted: list[_Converted], merged: list[merge.MergedModel],
         maps[figures["map"]] = figures["entry"]
     elif figures is not None:
         next(m for m in merged if m.name == figures["name"]).figures = figures
+
+
+def _preview_models(converted: list[_Converted]) -> list[tuple[str, str, np.ndarray, np.ndarray, str]]:
+    """What preview.png shows of each element's own model: its name, the pose text of its world
+    include, the mesh its DAE holds and the DAE's colour text (bimrobot.world.render.mesh_triangles)."""
+    return [
+        (item.name, layout.format_pose(item.pose), item.body.vertices, item.body.faces,
+         meshes.colour_text(meshes.colour_of(item.element.ifc_class)))
+        for item in converted if item.model == item.name
+    ]
 
 
 def _skip(element: Element, reason: str) -> dict:

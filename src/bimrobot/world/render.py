@@ -50,6 +50,26 @@ def world_triangles(package: Path, world_file: str | None = None) -> tuple[np.nd
     return np.concatenate(triangles), np.concatenate(colours)
 
 
+def mesh_triangles(models: list[tuple[str, str, np.ndarray, np.ndarray, str]]) -> tuple[np.ndarray, np.ndarray]:
+    """What :func:`world_triangles` reads back from a package, computed from the meshes in memory
+    while the package is being written (no file read back), with the same numbers in the same order.
+
+    ``models``: (model name, its include's SDF pose text, local vertices (n, 3) and faces (m, 3) as
+    its DAE holds them, the DAE's colour text "r g b a"). The vertices are rounded as the DAE text
+    rounds them (:data:`bimrobot.world.meshes.POSITION_FORMAT`); the models come in the order of
+    :func:`bimrobot.world.check.read_models` (by folder name)."""
+    from bimrobot.world.meshes import POSITION_FORMAT, number_text
+
+    triangles, colours = [], []
+    for _, pose_text, vertices, faces, colour_text in sorted(models, key=lambda m: Path(m[0], "model.sdf")):
+        positions = np.array(number_text(POSITION_FORMAT, vertices.ravel().tolist()).split(), float).reshape(-1, 3)
+        local = positions[faces.ravel()].reshape(-1, 3, 3)
+        pose = _pose_matrix(pose_text)
+        triangles.append(local @ pose[:3, :3].T + pose[:3, 3])
+        colours.append(np.tile(np.array(colour_text.split(), float), (len(local), 1)))
+    return np.concatenate(triangles), np.concatenate(colours)
+
+
 _DAE = "{http://www.collada.org/2005/11/COLLADASchema}"
 
 
@@ -117,9 +137,16 @@ def render_package(package: Path, png: Path, world_file: str | None = None, elev
     ``png`` follows :mod:`bimrobot.io`'s policy: a picture bimrobot drew is replaced, any other
     existing file is refused (checked before drawing)."""
     io.check_output(png, folder=False, inputs=[package])
+    triangles, colours = world_triangles(package, world_file)
+    return paint(triangles, colours, png, [package], elevation, azimuth, size, title)
+
+
+def paint(triangles: np.ndarray, colours: np.ndarray, png: Path, inputs: list, elevation: float = 22,
+          azimuth: float = -58, size: tuple[float, float] = (8, 6), title: str | None = None) -> Path:
+    """Draw world triangles (k, 3, 3; metres) in their RGBA colours (k, 4; 0..1) into ``png`` as
+    :func:`render_package` describes; ``inputs``: the paths the picture must not replace."""
     from PIL import Image, ImageDraw, PngImagePlugin
 
-    triangles, colours = world_triangles(package, world_file)
     normals = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
     normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-12)
     light = np.array([0.4, -0.6, 0.7]) / np.linalg.norm([0.4, -0.6, 0.7])
@@ -140,8 +167,9 @@ def render_package(package: Path, png: Path, world_file: str | None = None, elev
 
     image = Image.new("RGB", (width, height), "white")
     draw = ImageDraw.Draw(image)
-    for k in np.argsort(view[..., 2].mean(axis=1), kind="stable"):  # far to near
-        draw.polygon([tuple(corner) for corner in pixels[k]], fill=tuple(rgb[k]))
+    order = np.argsort(view[..., 2].mean(axis=1), kind="stable")  # far to near
+    for corners, colour in zip(pixels[order].reshape(-1, 6).tolist(), rgb[order].tolist()):
+        draw.polygon(corners, fill=tuple(colour))
     if title:
         draw.text((margin, 12), title, fill="black")
     bar_m = _scale_bar_m(float(max(upper - lower)))
@@ -159,7 +187,7 @@ def render_package(package: Path, png: Path, world_file: str | None = None, elev
     png = Path(png)
     # Through the output policy: a PNG bimrobot drew (its signature in a text chunk) is replaced,
     # any other existing file is refused.
-    with io.atomic_output_file(png, inputs=[package]) as tmp:
+    with io.atomic_output_file(png, inputs=inputs) as tmp:
         image.save(tmp, format="PNG", pnginfo=info)
     return png
 
@@ -178,4 +206,14 @@ def render_preview(package: Path, triangles: int) -> str | None:
         return None
     render_package(package, package / "preview.png", world_file=str(worlds[0].relative_to(package)),
                    title=f"{worlds[0].stem} (metres, z up)")
+    return "preview.png"
+
+
+def draw_preview(package: Path, world_name: str, models: list[tuple[str, str, np.ndarray, np.ndarray, str]]) -> str:
+    """Draw ``package/preview.png`` as :func:`render_preview` does, from the models' meshes in memory
+    (:func:`mesh_triangles`), so that it can be drawn while the package's files are still being
+    written; the same picture, byte for byte. Returns its name."""
+    package = Path(package)
+    triangles, colours = mesh_triangles(models)
+    paint(triangles, colours, package / "preview.png", [package], title=f"{world_name} (metres, z up)")
     return "preview.png"
