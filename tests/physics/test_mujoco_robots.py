@@ -185,3 +185,30 @@ def test_a_4_m_arm_reaches_a_column_side_at_shoulder_height_with_its_elbow_up(tm
         assert np.linalg.norm(site._tcp_of("assembler", q) - goal[:3, 3]) < 0.002
     finally:
         backend.close()
+
+
+def test_a_prebuilt_column_stands_on_its_footing_while_a_4_m_arm_works_on_the_footing_beside_it(tmp_path):
+    """The frame's footing connections with the column in place from the start (no activity lifts
+    it): the column stands on its pedestal (a support as tall as the column's lower half used to
+    push it over at the start), and the assembly robot, whose wrist is half a metre wide, reaches the
+    footing's top beside it touching nothing and leaves the column where it was."""
+    table = tmp_path / "assembler.yaml"
+    table.write_text(HEAVY_TABLE.replace("ROBOT", "assembler").replace("PAYLOAD", "0").replace("REACH", "4.0")
+                     .replace("home: [-4.0, 0.0, 0.0]", "home: [18.5, 4.0, 0.0]"))  # fleet2's
+    footing = "0ConcreteFooting000001"
+    plan = [RcanActivity("C1", component_id=COLUMNS[0], kind=ActivityKind.POSITION_FOR_INSTALLING,
+                         target=Pose(0.0, 0.0, 0.025), weight_kg=289.81, size_m=(0.253, 0.254, 4.0), lifts=False)]
+    common = dict(component_id=footing, weight_kg=2073.6, size_m=(0.6, 1.2, 1.2), lifts=False)
+    plan += [RcanActivity("F1", kind=ActivityKind.MOVE_TO_COMPONENT, target=Pose(0.0, -0.6, 0.0), **common),
+             RcanActivity("F2", kind=ActivityKind.POSITION_FOR_INSTALLING, target=Pose(0.0, 0.0, -0.6), **common),
+             RcanActivity("F3", kind=ActivityKind.INSTALL, target=Pose(0.0, 0.0, -0.6), **common)]
+    backend = create_backend("mujoco", load_capabilities(str(table)), plan=plan)
+    try:
+        for activity in plan[1:]:
+            result = backend.execute(RcanNode(f"rcan/{activity.activity_id}", activity, "assembler", "mujoco"))
+            assert result.success, result.message
+        assert backend.site.robot_contacts("assembler") == []
+        column = backend.site.body_pose(COLUMNS[0])
+        assert np.linalg.norm(column[:3, 3] - backend.targets[COLUMNS[0]][:3, 3]) < 0.001  # not pushed
+    finally:
+        backend.close()

@@ -330,7 +330,9 @@ class MujocoSite:
             own = bodies[0] if mine[0] else bodies[1]
             if other == held:
                 continue
-            other_name = m.body(other).name or m.geom(contact.geom2 if mine[0] else contact.geom1).name or "the ground"
+            # a static geom (body 0, "world") by its own name: a support, a stand, the ground slab
+            geom_name = m.geom(contact.geom2 if mine[0] else contact.geom1).name
+            other_name = (geom_name or "the ground") if other == 0 else m.body(other).name
             found.append(f"{m.body(own).name} touches {other_name}")
         return sorted(set(found))
 
@@ -664,11 +666,12 @@ class MujocoSite:
     def arm_base_pose(self, robot: str) -> np.ndarray:
         return self.body_pose(f"{robot}/arm_base")
 
-    def solve(self, robot: str, tcp_world: np.ndarray) -> np.ndarray:
+    def solve(self, robot: str, tcp_world: np.ndarray, avoid_contacts: bool = False) -> np.ndarray:
         """Joint angles putting the tool centre point at ``tcp_world`` (4x4); MotionFailed when out of
         reach (IK error over tolerance). Of the solutions from several seeds (the current joints, the
         ready posture), the ones whose links stay above the ground (an elbow-down solution of an arm
-        on a low base would dig in) and, of those, the nearest to the current joints."""
+        on a low base would dig in) and, of those (with ``avoid_contacts``: first those at which the arm
+        touches nothing), the nearest to the current joints."""
         r = self.robots[robot]
         arm_base = self.arm_base_pose(robot)
         local = np.linalg.inv(arm_base) @ tcp_world
@@ -689,12 +692,13 @@ class MujocoSite:
                 lowest = arm_base[2, 3] + r.ik.lowest_link(q)
                 clear = lowest >= self.ground_z + 0.06 * r.model.scale
                 change = float(np.abs(q - r.q_ref).max())
-                found.append((not clear, change, q))
-                if clear and change < 1.5:
+                touches = avoid_contacts and clear and bool(self.arm_contacts_at(robot, q))
+                found.append((not clear, touches, change, q))
+                if clear and not touches and change < 1.5:
                     break
         p = tcp_world[:3, 3]
-        if found and not min(found, key=lambda item: item[:2])[0]:
-            return min(found, key=lambda item: item[:2])[2]
+        if found and not min(found, key=lambda item: item[:3])[0]:
+            return min(found, key=lambda item: item[:3])[3]
         if found:
             raise MotionFailed(f"the arm of {robot} reaches ({p[0]:.2f}, {p[1]:.2f}, {p[2]:.2f}) only with a link "
                                "in the ground")
@@ -790,11 +794,12 @@ class MujocoSite:
             waited += 0.25
 
     def move_tcp_through(self, robot: str, poses: list[np.ndarray], check_contacts: bool = True,
-                         onto_seat: bool = False) -> None:
+                         onto_seat: bool = False, avoid_contacts: bool = False) -> None:
         """Move the tool centre point through ``poses`` (4x4, world), each reached by inverse kinematics
         and a joint-space move; holding a component, in steps of at most 0.3 m and 30 degrees (one
         joint-space move between two poses lets the tool, and a long member with it, tilt on the way).
-        ``onto_seat``: the last pose sets the held component on its seat (see :meth:`move_arm`)."""
+        ``onto_seat``: the last pose sets the held component on its seat (see :meth:`move_arm`);
+        ``avoid_contacts``: see :meth:`solve`."""
         r = self.robots[robot]
         for goal in poses:
             steps = [goal]
@@ -805,7 +810,7 @@ class MujocoSite:
                 steps = [motion.between(here, goal, k / count) for k in range(1, count + 1)]
             for step in steps:
                 last = onto_seat and goal is poses[-1] and step is steps[-1]
-                self.move_arm(robot, self.solve(robot, step), check_contacts=check_contacts, onto_seat=last)
+                self.move_arm(robot, self.solve(robot, step, avoid_contacts), check_contacts=check_contacts, onto_seat=last)
 
     def carry_posture(self, robot: str) -> np.ndarray:
         """Arm joints of the carry posture: the tool down over the base's front (the ready posture),

@@ -319,7 +319,7 @@ class MujocoBackend(DispatchingBackend):
             self._spawn_in_place(node.activity)  # in place already (a footing): it enters the scene where it is installed
         if site.robots[robot].holding != gid:  # work on a component in place (a further connection)
             site.approach(robot, self._wrist_point(robot, self._work_poses(robot, gid)[-1]))
-            site.move_tcp_through(robot, self._clear_work_poses(robot, gid))
+            site.move_tcp_through(robot, self._clear_work_poses(robot, gid), avoid_contacts=True)
             return f"{node.kind.label} {gid}: gripper at its work point"
         box = self._installed_box(node.activity)
         self._support_for(gid, box)
@@ -424,8 +424,9 @@ class MujocoBackend(DispatchingBackend):
             raise MotionFailed(f"the weight of {activity.component_id} is unknown: the scene cannot simulate it")
         size = body_size(self._size(activity))
         half = (np.abs(placement[:3, :3]) @ np.array(size) / 2)[:2] + 0.01
-        bottom = float(placement[2, 3] + min(0.0, (placement[:3, :3] @ np.array([0, 0, size[2]]))[2]))
         centre = (placement @ np.array([0.0, 0.0, size[2] / 2, 1.0]))[:3]
+        # its lowest point, whichever way it is turned (an upright member's body z is horizontal)
+        bottom = float(centre[2] - (np.abs(placement[:3, :3]) @ np.array(size) / 2)[2])
         self._support_under(activity.component_id, centre[:2], bottom, half, support)
         self.site.add_component(Component(activity.component_id, size, float(activity.weight_kg)), placement)
 
@@ -570,7 +571,7 @@ class MujocoBackend(DispatchingBackend):
                                          [0.0, 0.0, 1.0]]), (0.0, 0.0, 0.0))
             turned = [pose @ turn for pose in poses]
             try:
-                if not any(site.arm_contacts_at(robot, site.solve(robot, pose)) for pose in turned):
+                if not any(site.arm_contacts_at(robot, site.solve(robot, pose, avoid_contacts=True)) for pose in turned):
                     return turned
             except MotionFailed:
                 continue
