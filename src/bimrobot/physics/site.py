@@ -397,8 +397,8 @@ class MujocoSite:
         pyastar2d, then straightened; grown by half the base's diagonal, so that it may turn anywhere
         on the path). The grid covers the start, the goal and every obstacle with
         3 m around them. A base that stands within the grown obstacles (it has just worked beside
-        one) may leave them: cells within that distance of it count free, unless an obstacle itself
-        (grown by a cell) is there. A goal within the grown obstacles is replaced by the nearest free
+        one) may leave them: cells within that distance of it count free, unless the chassis would
+        touch an obstacle there (obstacles grown by half the chassis' width and the clearance). A goal within the grown obstacles is replaced by the nearest free
         cell (the goal of *move to component* is a stand-off point, and the next activity finds its
         own stand). MotionFailed when no path exists."""
         model = self.robots[robot].model
@@ -425,7 +425,8 @@ class MujocoSite:
             gap = np.hypot(np.maximum(np.abs(xs[:, None] - centre[0]) - half[0], 0),
                            np.maximum(np.abs(ys[None, :] - centre[1]) - half[1], 0))
             occupied |= gap < grown
-            solid |= gap < GRID_M
+            # where the chassis, driving out straight, would touch it: never free, not even near the start
+            solid |= gap < model.footprint[1] / 2 + CLEARANCE_M
         near_start = np.hypot(xs[:, None] - start[0], ys[None, :] - start[1]) < radius
         occupied &= ~(near_start & ~solid)
         cell = lambda p: tuple(np.round((np.asarray(p) - lower) / GRID_M).astype(int))  # noqa: E731
@@ -511,15 +512,49 @@ class MujocoSite:
         self.step(0.1)
 
     def turn(self, robot: str, yaw: float) -> None:
-        """Turn the base in place to ``yaw`` (rad)."""
+        """Turn the base in place to ``yaw`` (rad), the short way round, or the long way when the short
+        one would sweep the chassis or the arm into something (checked on positions first; Blocked
+        when both would: other robots' work may clear the way)."""
+        now = self.base_xy_yaw(robot)[2]
+        short = _wrap(yaw - now)
+        if abs(short) < 1e-3:
+            return
+        already = set(self.robot_contacts(robot))
+        turns = [short, short - math.copysign(2 * math.pi, short)]
+        clear = [t for t in turns if not self._sweep_contacts(robot, now, t, already)]
+        if not clear:
+            x, y, _ = self.base_xy_yaw(robot)
+            raise Blocked(f"{robot} cannot turn at ({x:.2f}, {y:.2f}) without touching "
+                          f"{'; '.join(self._sweep_contacts(robot, now, short, already))}")
+        # in steps of at most 90 degrees, so that each step's short way is the chosen way
+        count = max(1, math.ceil(abs(clear[0]) / (math.pi / 2)))
+        for k in range(1, count + 1):
+            self._turn_to(robot, now + clear[0] * k / count)
+
+    def _sweep_contacts(self, robot: str, start_yaw: float, turn: float, already: set) -> list[str]:
+        """What the robot would newly touch turning in place by ``turn`` rad from ``start_yaw``
+        (samples every 0.05 rad; positions only, on a scratch copy of the state)."""
+        scratch = self.mj.MjData(self.model)
+        scratch.qpos[:] = self.data.qpos
+        yaw_address = self.idx[robot]["base_q"][2]
+        for t in np.linspace(0.0, 1.0, max(2, math.ceil(abs(turn) / 0.05)) + 1)[1:]:
+            scratch.qpos[yaw_address] = start_yaw + turn * t
+            self.mj.mj_fwdPosition(self.model, scratch)
+            touching = [c for c in self.robot_contacts(robot, scratch) if c not in already]
+            if touching:
+                return touching
+        return []
+
+    def _turn_to(self, robot: str, yaw: float) -> None:
         r = self.robots[robot]
+        already = set(self.robot_contacts(robot))
         for _ in range(int(30 / 0.02)):
             error = _wrap(yaw - self.base_xy_yaw(robot)[2])
             if abs(error) < 1e-3:
                 break
             r.base_velocity = np.array([0.0, 0.0, np.clip(3.0 * error, -TURN_RATE_RAD_S, TURN_RATE_RAD_S)])
             self.step(0.02)
-            touching = self.robot_contacts(robot)
+            touching = [t for t in self.robot_contacts(robot) if t not in already]
             if touching:  # its corners or its arm swept into something: stop there
                 r.base_velocity = np.zeros(3)
                 self.step(0.1)
