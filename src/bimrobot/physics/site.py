@@ -688,12 +688,12 @@ class MujocoSite:
         candidates = [c for _, c in sorted(candidates, key=lambda item: item[0])]
         why = "every stand around it is blocked"
         for candidate in candidates[:8]:
-            try:
+            try:  # there, and turned to face the point (a turn that would touch something: the next stand)
                 self.drive(robot, candidate)
+                self.turn(robot, math.atan2(point[1] - candidate[1], point[0] - candidate[0]))
             except MotionFailed as failure:
                 why = str(failure)
                 continue
-            self.turn(robot, math.atan2(point[1] - candidate[1], point[0] - candidate[0]))
             return
         raise Blocked(f"no stand for {robot} within reach of ({point[0]:.2f}, {point[1]:.2f}): {why}")
 
