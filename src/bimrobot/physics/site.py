@@ -290,12 +290,21 @@ class MujocoSite:
         return [self.model.body(b).name for b in range(1, self.model.nbody)]
 
     # --- contacts ----------------------------------------------------------------------------------
-    def arm_contacts_at(self, robot: str, q: np.ndarray) -> list[str]:
+    def arm_contacts_at(self, robot: str, q: np.ndarray, scratch=None) -> list[str]:
         """What the robot would touch with its arm at joints ``q``, everything else where it is now
-        (a check of positions only, on a scratch copy of the state)."""
+        (a check of positions only, on a scratch copy of the state: :meth:`scratch_state`)."""
+        scratch = self.scratch_state() if scratch is None else scratch
+        return self._contacts_at(robot, scratch, self.idx[robot]["q"], q)
+
+    def scratch_state(self):
+        """A copy of the positions of everything, to try poses on without touching the simulation."""
         scratch = self.mj.MjData(self.model)
         scratch.qpos[:] = self.data.qpos
-        scratch.qpos[self.idx[robot]["q"]] = q
+        return scratch
+
+    def _contacts_at(self, robot: str, scratch, addresses, values) -> list[str]:
+        """The robot's contacts in ``scratch`` with its coordinates ``addresses`` (qpos) set to ``values``."""
+        scratch.qpos[addresses] = values
         self.mj.mj_fwdPosition(self.model, scratch)
         return self.robot_contacts(robot, scratch)
 
@@ -534,13 +543,10 @@ class MujocoSite:
     def _sweep_contacts(self, robot: str, start_yaw: float, turn: float, already: set) -> list[str]:
         """What the robot would newly touch turning in place by ``turn`` rad from ``start_yaw``
         (samples every 0.05 rad; positions only, on a scratch copy of the state)."""
-        scratch = self.mj.MjData(self.model)
-        scratch.qpos[:] = self.data.qpos
+        scratch = self.scratch_state()
         yaw_address = self.idx[robot]["base_q"][2]
         for t in np.linspace(0.0, 1.0, max(2, math.ceil(abs(turn) / 0.05)) + 1)[1:]:
-            scratch.qpos[yaw_address] = start_yaw + turn * t
-            self.mj.mj_fwdPosition(self.model, scratch)
-            touching = [c for c in self.robot_contacts(robot, scratch) if c not in already]
+            touching = [c for c in self._contacts_at(robot, scratch, yaw_address, start_yaw + turn * t) if c not in already]
             if touching:
                 return touching
         return []
@@ -766,8 +772,9 @@ class MujocoSite:
 
     def _path_contacts(self, robot: str, q_from: np.ndarray, q_to: np.ndarray, already: set) -> list[str]:
         """What the arm would newly touch on the straight joint-space path (24 samples, positions only)."""
+        scratch = self.scratch_state()
         for t in np.linspace(0.0, 1.0, 25)[1:]:
-            touching = [c for c in self.arm_contacts_at(robot, q_from + (q_to - q_from) * t) if c not in already]
+            touching = [c for c in self.arm_contacts_at(robot, q_from + (q_to - q_from) * t, scratch) if c not in already]
             if touching:
                 return touching
         return []

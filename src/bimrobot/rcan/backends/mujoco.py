@@ -566,10 +566,7 @@ class MujocoBackend(DispatchingBackend):
         site = self.site
         poses = self._work_poses(robot, gid)
         for k in (0, 1, -1, 2, -2, 3, -3, 4):
-            turn = motion.pose(np.array([[math.cos(k * math.pi / 4), -math.sin(k * math.pi / 4), 0.0],
-                                         [math.sin(k * math.pi / 4), math.cos(k * math.pi / 4), 0.0],
-                                         [0.0, 0.0, 1.0]]), (0.0, 0.0, 0.0))
-            turned = [pose @ turn for pose in poses]
+            turned = [pose @ motion.planar(0.0, 0.0, k * math.pi / 4) for pose in poses]  # about the tool's z
             try:
                 if not any(site.arm_contacts_at(robot, site.solve(robot, pose, avoid_contacts=True)) for pose in turned):
                     return turned
