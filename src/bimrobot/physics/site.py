@@ -290,11 +290,11 @@ class MujocoSite:
         return [self.model.body(b).name for b in range(1, self.model.nbody)]
 
     # --- contacts ----------------------------------------------------------------------------------
-    def arm_contacts_at(self, robot: str, q: np.ndarray, scratch=None) -> list[str]:
+    def arm_contacts_at(self, robot: str, q: np.ndarray, scratch=None, besides=()) -> list[str]:
         """What the robot would touch with its arm at joints ``q``, everything else where it is now
         (a check of positions only, on a scratch copy of the state: :meth:`scratch_state`)."""
         scratch = self.scratch_state() if scratch is None else scratch
-        return self._contacts_at(robot, scratch, self.idx[robot]["q"], q)
+        return self._contacts_at(robot, scratch, self.idx[robot]["q"], q, besides)
 
     def scratch_state(self):
         """A copy of the positions of everything, to try poses on without touching the simulation."""
@@ -302,11 +302,11 @@ class MujocoSite:
         scratch.qpos[:] = self.data.qpos
         return scratch
 
-    def _contacts_at(self, robot: str, scratch, addresses, values) -> list[str]:
+    def _contacts_at(self, robot: str, scratch, addresses, values, besides=()) -> list[str]:
         """The robot's contacts in ``scratch`` with its coordinates ``addresses`` (qpos) set to ``values``."""
         scratch.qpos[addresses] = values
         self.mj.mj_fwdPosition(self.model, scratch)
-        return self.robot_contacts(robot, scratch)
+        return self.robot_contacts(robot, scratch, besides)
 
     def seated(self, robot: str) -> bool:
         """Whether the component the robot holds rests on something: it touches a support or the
@@ -323,9 +323,10 @@ class MujocoSite:
                     return True
         return False
 
-    def robot_contacts(self, robot: str, data=None) -> list[str]:
+    def robot_contacts(self, robot: str, data=None, besides=()) -> list[str]:
         """What the robot's arm, gripper or chassis touches other than the component it holds (in
-        ``data``, default the simulation's)."""
+        ``data``, default the simulation's), leaving out the contacts ``besides`` (those it had
+        already: a robot may move away from what it touches)."""
         data = self.data if data is None else data
         found = []
         m, idx = self.model, self.idx[robot]
@@ -343,7 +344,7 @@ class MujocoSite:
             geom_name = m.geom(contact.geom2 if mine[0] else contact.geom1).name
             other_name = (geom_name or "the ground") if other == 0 else m.body(other).name
             found.append(f"{m.body(own).name} touches {other_name}")
-        return sorted(set(found))
+        return sorted(set(found) - set(besides))
 
     # --- base --------------------------------------------------------------------------------------
     def obstacles(self, robot: str, split: bool = False):
@@ -512,7 +513,7 @@ class MujocoSite:
             speed = sign * min(r.speed_m_s, 1.5 * left)
             r.base_velocity = np.array([speed * heading[0], speed * heading[1], 0.0])
             self.step(0.02)
-            touching = [t for t in self.robot_contacts(robot) if t not in already]
+            touching = self.robot_contacts(robot, besides=already)
             if touching:
                 r.base_velocity = np.zeros(3)
                 self.step(0.1)
@@ -529,16 +530,16 @@ class MujocoSite:
         if abs(short) < 1e-3:
             return
         already = set(self.robot_contacts(robot))
-        turns = [short, short - math.copysign(2 * math.pi, short)]
-        clear = [t for t in turns if not self._sweep_contacts(robot, now, t, already)]
-        if not clear:
-            x, y, _ = self.base_xy_yaw(robot)
-            raise Blocked(f"{robot} cannot turn at ({x:.2f}, {y:.2f}) without touching "
-                          f"{'; '.join(self._sweep_contacts(robot, now, short, already))}")
+        way, touched_short = short, self._sweep_contacts(robot, now, short, already)
+        if touched_short:
+            way = short - math.copysign(2 * math.pi, short)
+            if self._sweep_contacts(robot, now, way, already):
+                x, y, _ = self.base_xy_yaw(robot)
+                raise Blocked(f"{robot} cannot turn at ({x:.2f}, {y:.2f}) without touching {'; '.join(touched_short)}")
         # in steps of at most 90 degrees, so that each step's short way is the chosen way
-        count = max(1, math.ceil(abs(clear[0]) / (math.pi / 2)))
+        count = max(1, math.ceil(abs(way) / (math.pi / 2)))
         for k in range(1, count + 1):
-            self._turn_to(robot, now + clear[0] * k / count)
+            self._turn_to(robot, now + way * k / count)
 
     def _sweep_contacts(self, robot: str, start_yaw: float, turn: float, already: set) -> list[str]:
         """What the robot would newly touch turning in place by ``turn`` rad from ``start_yaw``
@@ -546,7 +547,7 @@ class MujocoSite:
         scratch = self.scratch_state()
         yaw_address = self.idx[robot]["base_q"][2]
         for t in np.linspace(0.0, 1.0, max(2, math.ceil(abs(turn) / 0.05)) + 1)[1:]:
-            touching = [c for c in self._contacts_at(robot, scratch, yaw_address, start_yaw + turn * t) if c not in already]
+            touching = self._contacts_at(robot, scratch, yaw_address, start_yaw + turn * t, already)
             if touching:
                 return touching
         return []
@@ -560,7 +561,7 @@ class MujocoSite:
                 break
             r.base_velocity = np.array([0.0, 0.0, np.clip(3.0 * error, -TURN_RATE_RAD_S, TURN_RATE_RAD_S)])
             self.step(0.02)
-            touching = [t for t in self.robot_contacts(robot) if t not in already]
+            touching = self.robot_contacts(robot, besides=already)
             if touching:  # its corners or its arm swept into something: stop there
                 r.base_velocity = np.zeros(3)
                 self.step(0.1)
@@ -774,7 +775,7 @@ class MujocoSite:
         """What the arm would newly touch on the straight joint-space path (24 samples, positions only)."""
         scratch = self.scratch_state()
         for t in np.linspace(0.0, 1.0, 25)[1:]:
-            touching = [c for c in self.arm_contacts_at(robot, q_from + (q_to - q_from) * t, scratch) if c not in already]
+            touching = self.arm_contacts_at(robot, q_from + (q_to - q_from) * t, scratch, already)
             if touching:
                 return touching
         return []
@@ -785,7 +786,7 @@ class MujocoSite:
         full_turn = np.array([True, True, False, True, True, True])
         r = self.robots[robot]
         postures = [self._ready_posture_cached(robot)]
-        if r.model.family == "heavy" and not r.holding:
+        if r.model.family == "heavy":  # only empty arms go round (see move_arm): tucking is allowed
             postures.append(TUCK_POSTURE)
         out = []
         for posture in postures:
@@ -811,7 +812,7 @@ class MujocoSite:
             r.q_ref = reference
             self.step(dt)
             if check_contacts:
-                touching = [t for t in self.robot_contacts(robot) if t not in already]
+                touching = self.robot_contacts(robot, besides=already)
                 if touching:
                     raise MotionFailed(f"collision while moving the arm of {robot}: {'; '.join(touching)}")
         error = self._settle(robot, goal_tcp)
