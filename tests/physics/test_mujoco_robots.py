@@ -212,3 +212,62 @@ def test_a_prebuilt_column_stands_on_its_footing_while_a_4_m_arm_works_on_the_fo
         assert np.linalg.norm(column[:3, 3] - backend.targets[COLUMNS[0]][:3, 3]) < 0.001  # not pushed
     finally:
         backend.close()
+
+
+def test_a_robot_waiting_where_a_beam_prop_goes_drives_aside_and_the_beam_is_installed(tmp_path):
+    """On the frame a transport robot waited under a beam's span; the beam's prop (the support under
+    its middle third) appeared inside its chassis and it could never leave. A robot waiting between
+    activities now drives aside before a support appears where it stands."""
+    table = tmp_path / "two.yaml"
+    table.write_text(HEAVY_TABLE.replace("ROBOT", "positioner").replace("PAYLOAD", "300").replace("REACH", "4.0")
+                     .replace("home: [-4.0, 0.0, 0.0]", "home: [7.0, -3.0, 0.0]")
+                     + "  bystander:\n    types: [mobile_base, manipulator, gripper]\n    payload_kg: 5.0\n"
+                       "    reach_m: 0.85\n    home: [2.85, 1.75, 0.0]\n")  # under the beam's middle
+    column = dict(weight_kg=289.81, section_m=(0.253, 0.254), size_m=(0.253, 0.254, 4.0), lifts=False)
+    plan = [RcanActivity(f"C{n}", component_id=gid, kind=ActivityKind.POSITION_FOR_INSTALLING,
+                         target=Pose(2.85, y, 0.03), **column) for n, (gid, y) in enumerate(zip(COLUMNS, (0.0, 3.5)))]
+    beam = dict(component_id=BEAM, weight_kg=134.39, section_m=(0.165, 0.31), size_m=(0.165, 0.31, 3.223))
+    lying, installed = Pose(5.0, -1.5, 0.0825), Pose(2.85, 0.14, 3.87)
+    chain = [(ActivityKind.MOVE_TO_COMPONENT, Pose(5.0, -2.5, 0.0)), (ActivityKind.POSITION_FOR_PICKING_UP, lying),
+             (ActivityKind.PICK_UP, lying), (ActivityKind.POSITION_FOR_INSTALLING, installed),
+             (ActivityKind.INSTALL, installed)]
+    plan += [RcanActivity(f"B{n}", kind=kind, target=target, **beam) for n, (kind, target) in enumerate(chain, start=1)]
+    backend = create_backend("mujoco", load_capabilities(str(table)), plan=plan)
+    try:
+        site = backend.site
+        for activity in plan[2:]:
+            result = backend.execute(RcanNode(f"rcan/{activity.activity_id}", activity, "positioner", "mujoco"))
+            assert result.success, result.message
+        prop = next((c, h) for c, h in site.supports if c[2] + h[2] > 3.0)  # the one under the beam
+        x, y, yaw = site.base_xy_yaw("bystander")
+        assert site._footprint_clear("bystander", (x, y), yaw, [(prop[0][:2], prop[1][:2])])
+        assert site.robot_contacts("bystander") == []
+        assert backend.placements[BEAM][0] < 0.010
+    finally:
+        backend.close()
+
+
+def test_a_blocked_activity_with_nothing_else_under_way_fails_without_waiting_out_the_long_wait(tmp_path):
+    """A robot whose way is blocked waits for other robots' work; when no other activity is under
+    way (nothing can clear the way) it fails after IDLE_WAIT_S, not BLOCKED_WAITS x BLOCKED_WAIT_S
+    (40 minutes of a frame run went so)."""
+    import time
+
+    from bimrobot.rcan.backends import mujoco as backend_module
+
+    table = tmp_path / "one.yaml"
+    table.write_text(HEAVY_TABLE.replace("ROBOT", "walled").replace("PAYLOAD", "5").replace("REACH", "0.85"))
+    backend = create_backend("mujoco", load_capabilities(str(table)))
+    try:
+        for name, (x, y, hx, hy) in {"n": (-4.0, 1.5, 3.0, 0.2), "s": (-4.0, -1.5, 3.0, 0.2),
+                                     "e": (-2.5, 0.0, 0.2, 1.3), "w": (-5.5, 0.0, 0.2, 1.3)}.items():
+            backend.site.add_support(f"wall/{name}", (x, y), 1.0, (hx, hy))  # a pen around its home
+        move = RcanActivity("M1", component_id=POST, kind=ActivityKind.MOVE_TO_COMPONENT, target=Pose(4.0, 0.0, 0.0),
+                            weight_kg=125.6, size_m=(0.1, 0.1, 1.6))
+        started = time.monotonic()
+        result = backend.execute(RcanNode("rcan/M1", move, "walled", "mujoco"))
+        waited = time.monotonic() - started
+        assert not result.success and "no collision-free path for walled" in result.message
+        assert waited < backend_module.BLOCKED_WAIT_S / 4  # it did not wait for work that nobody is doing
+    finally:
+        backend.close()

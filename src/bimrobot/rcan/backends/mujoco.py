@@ -58,6 +58,9 @@ LIFT_M = 0.10
 SUPPORT_MIN_Z_M = 0.01
 BLOCKED_WAITS = 20  # a robot that finds its way blocked waits for up to this many other activities ...
 BLOCKED_WAIT_S = 120.0  # ... each within this many real seconds, before its activity fails
+IDLE_WAIT_S = 3.0  # when every activity under way is waiting so, a new one may still be dispatched within
+    # this many real seconds (the coordinator reacts to the last result); if none is, nothing can clear the
+    # way and the activity fails at once instead of waiting out BLOCKED_WAIT_S
 
 def experiment_shapes() -> dict[str, tuple[float, float, float]]:
     """Shapes of the components of the thesis' experiments (the RCAN plan gives weight and section
@@ -97,39 +100,79 @@ class MujocoBackend(DispatchingBackend):
         self._results: dict[tuple[str, int], ActivityResult] = {}
         self._lock = threading.Lock()
         self._changed = threading.Condition(self._lock)  # notified after every activity
+        self._count_lock = threading.Lock()
+        self._under_way = 0  # execute() calls in progress, those waiting for the world's lock included
+        self._waiting = 0  # of those, the ones waiting for other robots' work to clear their way
+        self.at_work: dict[str, str] = {}  # robot -> the component its gripper is at (grasp or work pose)
 
     # --- the interface -----------------------------------------------------------------------------
     def execute(self, node: RcanNode, attempt: int = 1, ready_at_s: float = 0.0, feedback=None) -> ActivityResult:
-        with self._lock:  # one physical world: robots act one after the other in simulated time
-            done = self._results.get((node.activity_id, attempt)) or next(
-                (r for (a, _), r in self._results.items() if a == node.activity_id and r.success), None)
-            if done:
-                return done
-            from bimrobot.physics.site import Blocked, MotionFailed
+        with self._count_lock:
+            self._under_way += 1
+        try:
+            with self._lock:  # one physical world: robots act one after the other in simulated time
+                return self._execute(node, attempt, ready_at_s, feedback)
+        finally:
+            with self._count_lock:
+                self._under_way -= 1
 
-            if ready_at_s > self.site.time_s:
-                self.site.step(ready_at_s - self.site.time_s)
-            started = self.site.time_s
-            if feedback:
-                feedback(0.0, f"{node.kind.label}: started")
-            for waited in range(BLOCKED_WAITS + 1):
-                try:
-                    message = getattr(self, "_" + node.kind.value)(node)
-                    success = True
+    def _execute(self, node: RcanNode, attempt: int, ready_at_s: float, feedback) -> ActivityResult:
+        from bimrobot.physics.site import Blocked, MotionFailed
+
+        done = self._results.get((node.activity_id, attempt)) or next(
+            (r for (a, _), r in self._results.items() if a == node.activity_id and r.success), None)
+        if done:
+            return done
+        if ready_at_s > self.site.time_s:
+            self.site.step(ready_at_s - self.site.time_s)
+        started = self.site.time_s
+        if feedback:
+            feedback(0.0, f"{node.kind.label}: started")
+        for waited in range(BLOCKED_WAITS + 1):
+            try:
+                message = getattr(self, "_" + node.kind.value)(node)
+                success = True
+                break
+            except Blocked as failure:  # wait for other robots' work to clear the way, then try again
+                message, success = str(failure), False
+                if waited == BLOCKED_WAITS or not self._wait_for_other_work():
+                    if waited:
+                        message += f" (still so after {waited} other activities)"
                     break
-                except Blocked as failure:  # wait for other robots' work to clear the way, then try again
-                    message, success = str(failure), False
-                    if waited == BLOCKED_WAITS or not self._changed.wait(timeout=BLOCKED_WAIT_S):
-                        break
-                except MotionFailed as failure:
-                    message, success = str(failure), False
-                    break
-            self._changed.notify_all()
-            if feedback:
-                feedback(1.0, f"{node.kind.label}: finished")
-            result = ActivityResult(node.activity_id, attempt, node.robot, success, message, started, self.site.time_s)
-            self._results[(node.activity_id, attempt)] = result
-            return result
+            except MotionFailed as failure:
+                message, success = str(failure), False
+                break
+        self._note_at_work(node, success)
+        self._changed.notify_all()
+        if feedback:
+            feedback(1.0, f"{node.kind.label}: finished")
+        result = ActivityResult(node.activity_id, attempt, node.robot, success, message, started, self.site.time_s)
+        self._results[(node.activity_id, attempt)] = result
+        return result
+
+    def _wait_for_other_work(self) -> bool:
+        """Wait (the world's lock released) until another activity has been executed; False when none
+        was within the time allowed: :data:`BLOCKED_WAIT_S`, or :data:`IDLE_WAIT_S` when every activity
+        under way is waiting too (nothing would change the world but a newly dispatched one)."""
+        with self._count_lock:
+            self._waiting += 1
+            idle = self._waiting >= self._under_way
+        try:
+            return self._changed.wait(timeout=IDLE_WAIT_S if idle else BLOCKED_WAIT_S)
+        finally:
+            with self._count_lock:
+                self._waiting -= 1
+
+    def _note_at_work(self, node: RcanNode, success: bool) -> None:
+        """Keep :attr:`at_work`: a robot's gripper is at a component from a successful *position for
+        picking up* (or *position for installing* a component it does not hold) to the next *pick up*
+        or *install*, or to a failure (RCAN positions it again)."""
+        holding = self.site.robots[node.robot].holding
+        if success and not holding and node.kind in (ActivityKind.POSITION_FOR_PICKING_UP,
+                                                      ActivityKind.POSITION_FOR_INSTALLING):
+            self.at_work[node.robot] = node.component_id
+        else:
+            self.at_work.pop(node.robot, None)
 
     def _run(self, node, attempt, ready_at_s, feedback) -> ActivityResult:
         return self.execute(node, attempt, ready_at_s, feedback)
@@ -322,9 +365,9 @@ class MujocoBackend(DispatchingBackend):
             site.move_tcp_through(robot, self._clear_work_poses(robot, gid), avoid_contacts=True)
             return f"{node.kind.label} {gid}: gripper at its work point"
         box = self._installed_box(node.activity)
-        self._support_for(gid, box)
         if np.abs(site.arm_q(robot) - site.carry_posture(robot)).max() > 0.05:
             self._to_carry(robot)  # it may drive and turn to its stand now
+        self._support_for(gid, box, robot)
         # stand where the arm's wrist (behind the tool centre point, along the tool) works comfortably
         _, goal = self._install_pose(robot, gid, box)
         site.approach(robot, self._wrist_point(robot, goal), keep_out=[(box.centre[:2], box.half_xy)])
@@ -430,15 +473,37 @@ class MujocoBackend(DispatchingBackend):
         self._support_under(activity.component_id, centre[:2], bottom, half, support)
         self.site.add_component(Component(activity.component_id, size, float(activity.weight_kg)), placement)
 
-    def _support_under(self, gid: str, centre_xy, bottom_z: float, half_xy, kind: str) -> None:
+    def _support_under(self, gid: str, centre_xy, bottom_z: float, half_xy, kind: str, robot: str | None = None) -> None:
         site = self.site
         if abs(bottom_z - site.ground_z) <= SUPPORT_MIN_Z_M:
             return
+        self._make_way(gid, centre_xy, half_xy, robot)
         if bottom_z < site.ground_z:
             site.add_pit(centre_xy, half_xy)
         site.add_support(f"{kind}/{gid}/{len(site.supports)}", centre_xy, bottom_z, half_xy)
 
-    def _support_for(self, gid: str, box) -> None:
+    def _make_way(self, gid: str, centre_xy, half_xy, robot: str | None) -> None:
+        """Before a support appears at ``centre_xy`` (a box of ``half_xy``, m), every robot whose
+        chassis stands on it or within the clearance drives aside: ``robot`` (the one at work, in its
+        carry posture) and any other waiting between activities. Blocked when another one holds a
+        component or has its gripper at one: its own work comes first."""
+        from bimrobot.physics.site import Blocked, MotionFailed
+
+        site = self.site
+        box = [(np.asarray(centre_xy, float)[:2], np.asarray(half_xy, float))]
+        for name in site.robots:
+            x, y, yaw = site.base_xy_yaw(name)
+            if site._footprint_clear(name, (x, y), yaw, box):
+                continue
+            busy = name != robot and (site.robots[name].holding or self.at_work.get(name))
+            if busy:
+                raise Blocked(f"{name} stands where the support of {gid} goes, at work on {busy}")
+            try:
+                site.make_room(name, box[0][0], box[0][1])
+            except MotionFailed as failure:
+                raise Blocked(f"{name} stands where the support of {gid} goes and cannot move aside: {failure}") from None
+
+    def _support_for(self, gid: str, box, robot: str) -> None:
         """The structure an installed box rests on: a pedestal under an upright or flat one, a prop
         under the middle third (at most 1 m) of a horizontal member (the connections it hangs from in
         the building are not modelled)."""
@@ -447,7 +512,7 @@ class MujocoBackend(DispatchingBackend):
             half = (np.abs(box.frame) @ local)[:2]
         else:
             half = box.half_xy + 0.01
-        self._support_under(gid, box.centre[:2], box.bottom_z, half, "support")
+        self._support_under(gid, box.centre[:2], box.bottom_z, half, "support", robot)
 
     def _spawn_in_place(self, activity) -> None:
         from bimrobot.physics.placement import body_pose, body_rotations
