@@ -349,16 +349,17 @@ class MujocoSite:
     # --- base --------------------------------------------------------------------------------------
     def obstacles(self, robot: str, split: bool = False):
         """Boxes (centre xy, half size xy) the base must keep away from: supports, and the components
-        that rest on the ground (not those held). ``split``: (low, tall) lists: low boxes (below the
-        top of the chassis: a component lying on the ground) meet only the chassis, tall ones the arm
-        too, which reaches out further."""
+        that rest on the ground or that another robot holds (a column held upright while it is
+        fixed), not the robot's own. ``split``: (low, tall) lists: low boxes (below the top of the
+        chassis: a component lying on the ground) meet only the chassis, tall ones the arm too, which
+        reaches out further."""
         low, tall = [], []
         chassis_top = self.ground_z + self.robots[robot].model.base_height
         for c, h in self.supports:
-            (low if c[2] + h[2] < chassis_top else tall).append((c[:2], h[:2]))
-        held = {r.holding for r in self.robots.values() if r.holding}
+            if c[2] + h[2] > self.ground_z + 0.01:  # not one in a pit (under a footing: driven over)
+                (low if c[2] + h[2] < chassis_top else tall).append((c[:2], h[:2]))
         for gid, component in self.components.items():
-            if gid in held:
+            if gid == self.robots[robot].holding:
                 continue
             geom = self.data.geom(f"{gid}/box")
             rotation = geom.xmat.reshape(3, 3)
@@ -374,13 +375,13 @@ class MujocoSite:
         base = math.hypot(*self.robots[robot].model.footprint) / 2 + CLEARANCE_M
         return not self._blocked(xy, low, base) and not self._blocked(xy, tall, self.sweep_radius(robot) + CLEARANCE_M)
 
-    def _footprint_clear(self, robot: str, xy, yaw: float, boxes) -> bool:
-        """Whether the chassis at ``xy`` heading ``yaw`` keeps CLEARANCE_M from every box (separating
-        axes of the chassis' rectangle and each axis-aligned box)."""
+    def _footprint_clear(self, robot: str, xy, yaw: float, boxes, clearance: float = CLEARANCE_M) -> bool:
+        """Whether the chassis at ``xy`` heading ``yaw`` keeps ``clearance`` (m) from every box
+        (separating axes of the chassis' rectangle and each axis-aligned box)."""
         length, width = self.robots[robot].model.footprint
         c, s_ = math.cos(yaw), math.sin(yaw)
         axes = (np.array([c, s_]), np.array([-s_, c]), np.array([1.0, 0.0]), np.array([0.0, 1.0]))
-        halves = (length / 2 + CLEARANCE_M, width / 2 + CLEARANCE_M)
+        halves = (length / 2 + clearance, width / 2 + clearance)
         for centre, half in boxes:
             offset = np.asarray(centre, float) - np.asarray(xy, float)
             separated = False
@@ -437,11 +438,12 @@ class MujocoSite:
             occupied |= gap < grown
             # where the chassis, driving out straight, would touch it: never free, not even near the start
             solid |= gap < model.footprint[1] / 2 + CLEARANCE_M
+        grown = occupied.copy()
         near_start = np.hypot(xs[:, None] - start[0], ys[None, :] - start[1]) < radius
         occupied &= ~(near_start & ~solid)
         cell = lambda p: tuple(np.round((np.asarray(p) - lower) / GRID_M).astype(int))  # noqa: E731
-        if occupied[cell(goal)]:
-            free = np.argwhere(~occupied)
+        if grown[cell(goal)]:  # (a goal in the start's escape zone is no place to stop either)
+            free = np.argwhere(~grown)
             nearest = free[np.argmin(np.hypot(*(lower[:, None] + GRID_M * free.T - goal[:, None])))]
             goal = lower + GRID_M * nearest
         cells = motion.grid_path(occupied, cell(start), cell(goal))
@@ -461,7 +463,7 @@ class MujocoSite:
         x, y, yaw = self.base_xy_yaw(robot)
         first = waypoints[0] - np.array([x, y])
         turns = np.linalg.norm(first) > 0.02 and abs(_wrap(math.atan2(first[1], first[0]) - yaw)) > 0.05
-        if turns and not self.robots[robot].holding and self._back_out(robot):
+        if turns and self._back_out(robot):
             waypoints = self.plan_path(robot, goal_xy)  # from where it may turn
         r = self.robots[robot]
         if not r.holding and r.model.family == "heavy":  # empty: drive with the (metres long) arm tucked
@@ -479,9 +481,10 @@ class MujocoSite:
         return driven
 
     def _back_out(self, robot: str) -> bool:
-        """When the empty robot's base stands too near something taller than its chassis to turn in
-        place (it has just worked beside it), drive it straight, backwards or forwards along its heading, to the
-        nearest spot (up to 4 m) where it may turn, its chassis clear of everything on the way.
+        """When the robot's base stands too near something taller than its chassis to turn in place
+        (it has just worked beside it, or carried a component there), drive it straight, backwards or
+        forwards along its heading, to the nearest spot (up to 4 m) where it may turn, its chassis
+        clear of everything on the way (a component it holds passes through other components).
         Whether it moved."""
         low, tall = self.obstacles(robot, split=True)
         x, y, yaw = self.base_xy_yaw(robot)
@@ -489,12 +492,14 @@ class MujocoSite:
         if self._clear(robot, here, low, tall):
             return False
         heading = np.array([math.cos(yaw), math.sin(yaw)])
-        boxes = low + tall
+        # what the chassis' footprint overlaps already is left to the contact check while it moves
+        boxes = [box for box in low + tall if self._footprint_clear(robot, here, yaw, [box], 0.0)]
         for distance in np.arange(0.1, 4.01, 0.1):
             for sign in (-1.0, 1.0):
                 spot = here + sign * distance * heading
                 way = [here + sign * t * heading for t in np.arange(0.1, distance + 1e-9, 0.1)]
-                if self._clear(robot, spot, low, tall) and all(self._footprint_clear(robot, p, yaw, boxes) for p in way):
+                # on the way, not touching (it may have worked within the clearance of something)
+                if self._clear(robot, spot, low, tall) and all(self._footprint_clear(robot, p, yaw, boxes, 0.0) for p in way):
                     self._straight_along(robot, distance, sign)
                     return True
         return False
@@ -526,28 +531,40 @@ class MujocoSite:
         one would sweep the chassis or the arm into something (checked on positions first; Blocked
         when both would: other robots' work may clear the way)."""
         now = self.base_xy_yaw(robot)[2]
-        short = _wrap(yaw - now)
-        if abs(short) < 1e-3:
+        way = self._turning_way(robot, now, yaw)
+        if abs(way) < 1e-3:
             return
-        already = set(self.robot_contacts(robot))
-        way, touched_short = short, self._sweep_contacts(robot, now, short, already)
-        if touched_short:
-            way = short - math.copysign(2 * math.pi, short)
-            if self._sweep_contacts(robot, now, way, already):
-                x, y, _ = self.base_xy_yaw(robot)
-                raise Blocked(f"{robot} cannot turn at ({x:.2f}, {y:.2f}) without touching {'; '.join(touched_short)}")
         # in steps of at most 90 degrees, so that each step's short way is the chosen way
         count = max(1, math.ceil(abs(way) / (math.pi / 2)))
         for k in range(1, count + 1):
             self._turn_to(robot, now + way * k / count)
 
-    def _sweep_contacts(self, robot: str, start_yaw: float, turn: float, already: set) -> list[str]:
-        """What the robot would newly touch turning in place by ``turn`` rad from ``start_yaw``
-        (samples every 0.05 rad; positions only, on a scratch copy of the state)."""
+    def _turning_way(self, robot: str, from_yaw: float, to_yaw: float, xy=None) -> float:
+        """The turn (rad, signed) from ``from_yaw`` to ``to_yaw`` that sweeps the robot into nothing
+        new, the short way first, standing where it is or at ``xy``; Blocked when both ways would."""
+        short = _wrap(to_yaw - from_yaw)
+        if abs(short) < 1e-3:
+            return short
+        already = set(self.robot_contacts(robot))
+        touched_short = self._sweep_contacts(robot, from_yaw, short, already, xy)
+        if not touched_short:
+            return short
+        long = short - math.copysign(2 * math.pi, short)
+        if not self._sweep_contacts(robot, from_yaw, long, already, xy):
+            return long
+        x, y = self.base_xy_yaw(robot)[:2] if xy is None else xy
+        raise Blocked(f"{robot} cannot turn at ({x:.2f}, {y:.2f}) without touching {'; '.join(touched_short)}")
+
+    def _sweep_contacts(self, robot: str, start_yaw: float, turn: float, already: set, xy=None) -> list[str]:
+        """What the robot would newly touch turning in place by ``turn`` rad from ``start_yaw``, where
+        it stands or at ``xy`` (samples every 0.05 rad; positions only, on a scratch copy of the
+        state)."""
         scratch = self.scratch_state()
-        yaw_address = self.idx[robot]["base_q"][2]
+        base = self.idx[robot]["base_q"]
+        if xy is not None:
+            scratch.qpos[base[:2]] = xy
         for t in np.linspace(0.0, 1.0, max(2, math.ceil(abs(turn) / 0.05)) + 1)[1:]:
-            touching = self._contacts_at(robot, scratch, yaw_address, start_yaw + turn * t, already)
+            touching = self._contacts_at(robot, scratch, base[2], start_yaw + turn * t, already)
             if touching:
                 return touching
         return []
@@ -694,10 +711,23 @@ class MujocoSite:
                     candidates.append((float(np.linalg.norm(c - here)) + rank * 2.0 * distance, c))
         candidates = [c for _, c in sorted(candidates, key=lambda item: item[0])]
         why = "every stand around it is blocked"
-        for candidate in candidates[:8]:
+        tried = 0
+        for candidate in candidates:
+            if tried == 8:
+                break
+            facing = math.atan2(point[1] - candidate[1], point[0] - candidate[0])
+            try:  # a stand it can reach and turn at to face the point, checked before it moves
+                path = self.plan_path(robot, candidate)
+                before = path[-2] if len(path) > 1 else here
+                arrival = math.atan2(*(path[-1] - before)[::-1]) if np.linalg.norm(path[-1] - before) > 0.02 else yaw
+                self._turning_way(robot, arrival, facing, path[-1])
+            except Blocked as failure:
+                why = str(failure)
+                continue
+            tried += 1
             try:  # there, and turned to face the point (a turn that would touch something: the next stand)
                 self.drive(robot, candidate)
-                self.turn(robot, math.atan2(point[1] - candidate[1], point[0] - candidate[0]))
+                self.turn(robot, facing)
             except MotionFailed as failure:
                 why = str(failure)
                 continue
