@@ -271,3 +271,51 @@ def test_a_blocked_activity_with_nothing_else_under_way_fails_without_waiting_ou
         assert waited < backend_module.BLOCKED_WAIT_S / 4  # it did not wait for work that nobody is doing
     finally:
         backend.close()
+
+
+def _two_robot_site(tmp_path, homes: dict[str, tuple[float, float]]):
+    table = tmp_path / "robots.yaml"
+    table.write_text(ROBOT_TYPES + "robots:\n" + "".join(
+        f"  {name}:\n    types: [mobile_base, manipulator, gripper]\n    payload_kg: 5.0\n    reach_m: 0.85\n"
+        f"    home: [{x}, {y}, 0.0]\n" for name, (x, y) in homes.items()))
+    return create_backend("mujoco", load_capabilities(str(table)))
+
+
+def test_a_component_another_robot_holds_is_an_obstacle_to_drive_around(tmp_path):
+    """On the frame a column held upright by a positioning robot (while the assembly robots fix it)
+    was left out of every other robot's plans, as if it were in nobody's way: robots chose stands
+    where they could not turn and paths through it."""
+    from bimrobot.physics import motion
+    from bimrobot.physics.site import Component
+
+    backend = _two_robot_site(tmp_path, {"holder": (0.0, 2.0), "walker": (-3.0, 0.0)})
+    try:
+        site = backend.site
+        site.add_component(Component("held-block", (0.5, 0.5, 1.0), 100.0), motion.planar(0.0, 0.0, 0.0))
+        site.robots["holder"].holding = "held-block"  # as close_gripper leaves it
+        assert not any(np.allclose(c, (0.0, 0.0), atol=0.01) for c, _ in site.obstacles("holder"))
+        assert any(np.allclose(c, (0.0, 0.0), atol=0.01) for c, _ in site.obstacles("walker"))
+        path = [site.base_xy_yaw("walker")[:2]] + site.plan_path("walker", (3.0, 0.0))
+        low, tall = site.obstacles("walker", split=True)
+        samples = [a + (b - a) * t for a, b in zip(path, path[1:]) for t in np.linspace(0.0, 1.0, 20)]
+        assert all(site._clear("walker", p, low, tall) for p in samples[3:])  # around the block, not through it
+    finally:
+        backend.close()
+
+
+def test_a_robot_near_a_column_is_not_sent_to_a_spot_where_it_cannot_turn(tmp_path):
+    """A robot that has just worked beside a column may leave through the cells around it, but a goal
+    among those cells (a transport's stand-off point 0.6 m from a column) is replaced by the nearest
+    spot where it may stand and turn, as any goal too near an obstacle is."""
+    backend = _two_robot_site(tmp_path, {"worker": (-0.9, 0.0)})
+    try:
+        site = backend.site
+        site.add_support("column", (0.0, 0.0), 4.0, (0.13, 0.13))
+        low, tall = site.obstacles("worker", split=True)
+        goal = np.array([-0.6, 0.4])
+        assert not site._clear("worker", goal, low, tall)
+        stop = site.plan_path("worker", goal)[-1]
+        assert site._clear("worker", stop, low, tall)
+        assert np.linalg.norm(stop - goal) < 1.5
+    finally:
+        backend.close()
