@@ -319,3 +319,24 @@ def test_a_robot_near_a_column_is_not_sent_to_a_spot_where_it_cannot_turn(tmp_pa
         assert np.linalg.norm(stop - goal) < 1.5
     finally:
         backend.close()
+
+
+def test_a_robot_given_other_work_while_it_still_holds_a_component_sets_that_one_down_first(tmp_path):
+    """On the frame a positioning robot whose installs of a column had failed for good went on to its
+    next work with the 4 m column still in its gripper. It now lays the column down nearby first, and
+    says so."""
+    table = tmp_path / "heavy.yaml"
+    table.write_text(HEAVY_TABLE.replace("ROBOT", "heavy_arm").replace("PAYLOAD", "300").replace("REACH", "2.0"))
+    backend = create_backend("mujoco", load_capabilities(str(table)))
+    try:
+        for node in _post_nodes("heavy_arm")[:3]:  # to the post, over it, picked up
+            assert backend.execute(node).success
+        other = RcanActivity("X1", component_id="0OtherPost000000000001", kind=ActivityKind.MOVE_TO_COMPONENT,
+                             target=Pose(3.0, 3.0, 0.0), weight_kg=125.6, size_m=(0.1, 0.1, 1.6))
+        result = backend.execute(RcanNode("rcan/X1", other, "heavy_arm", "mujoco"))
+        assert result.success, result.message
+        assert result.message.startswith(f"first set down {POST}, which it still held, at (")
+        assert backend.site.robots["heavy_arm"].holding is None
+        assert backend.site.body_pose(POST)[2, 3] < 0.2  # lying on the ground
+    finally:
+        backend.close()

@@ -370,6 +370,15 @@ class MujocoSite:
                 (low if top < chassis_top else tall).append((geom.xpos[:2].copy(), half[:2]))
         return (low, tall) if split else low + tall
 
+    def robot_extent(self, robot: str) -> tuple[np.ndarray, np.ndarray]:
+        """(centre xy, half size xy), m: the box around everything of the robot as it stands now
+        (chassis, arm, gripper; each geom's bounding sphere)."""
+        m, data = self.model, self.data
+        geoms = np.isin(m.geom_bodyid, list(self.idx[robot]["robot_bodies"]))
+        xy, radius = data.geom_xpos[geoms, :2], m.geom_rbound[geoms][:, None]
+        lower, upper = (xy - radius).min(axis=0), (xy + radius).max(axis=0)
+        return (lower + upper) / 2, (upper - lower) / 2
+
     def _clear(self, robot: str, xy, low, tall) -> bool:
         """Whether the robot may stand (and turn) at ``xy`` with these obstacles (see obstacles())."""
         base = math.hypot(*self.robots[robot].model.footprint) / 2 + CLEARANCE_M
@@ -678,12 +687,16 @@ class MujocoSite:
         model = self.robots[robot].model
         return 0.45 * (abs(model.dh[1][0]) + abs(model.dh[2][0]))
 
-    def approach(self, robot: str, point_xy, keep_out=(), distance: float | None = None, low_keep_out=()) -> None:
+    def approach(self, robot: str, point_xy, keep_out=(), distance: float | None = None, low_keep_out=(),
+                 reach=()) -> None:
         """Stand where the arm's base is ``distance`` (default :meth:`working_distance`) from
         ``point_xy`` and face it: stay when the arm's base is within 0.7-1.15 x that distance already
         and the base is clear of every obstacle and of ``keep_out`` (boxes (centre xy, half xy) about
-        to appear, tall; ``low_keep_out``: lying on the ground); else drive to the nearest free stand on the circle around the point (its corners
-        clear by CLEARANCE_M, so that it may turn there). MotionFailed when none can be reached."""
+        to appear, tall; ``low_keep_out``: lying on the ground); else drive to the nearest free stand
+        on the circle around the point (its corners clear by CLEARANCE_M, so that it may turn there)
+        from which the arm reaches every tool pose of ``reach`` (a function of the stand's xy and
+        heading giving tool poses, 4x4 world, or a list; checked before it moves, as are the path and
+        the turn). MotionFailed when none can be reached."""
         model = self.robots[robot].model
         point = np.asarray(point_xy, float)
         distance = self.working_distance(robot) if distance is None else distance
@@ -695,7 +708,8 @@ class MujocoSite:
         arm = np.array([x, y]) + model.arm_mount[0] * np.array([math.cos(yaw), math.sin(yaw)])
         here = np.array([x, y])
         if 0.7 * distance <= np.linalg.norm(arm - point) <= 1.15 * distance and \
-                not self._blocked(here, boxes, model.footprint[1] / 2):
+                not self._blocked(here, boxes, model.footprint[1] / 2) and \
+                self._reaches(robot, reach, here, math.atan2(point[1] - y, point[0] - x)):
             self.face(robot, point)
             return
         # stands on rings around the point (the ideal distance first), nearest to the base first
@@ -711,18 +725,22 @@ class MujocoSite:
                     candidates.append((float(np.linalg.norm(c - here)) + rank * 2.0 * distance, c))
         candidates = [c for _, c in sorted(candidates, key=lambda item: item[0])]
         why = "every stand around it is blocked"
-        tried = 0
+        tried, unreachable = 0, 0
         for candidate in candidates:
-            if tried == 8:
+            if tried == 8 or unreachable == 12:
                 break
             facing = math.atan2(point[1] - candidate[1], point[0] - candidate[0])
-            try:  # a stand it can reach and turn at to face the point, checked before it moves
+            try:  # a stand it can drive to and turn at to face the point, checked before it moves
                 path = self.plan_path(robot, candidate)
                 before = path[-2] if len(path) > 1 else here
                 arrival = math.atan2(*(path[-1] - before)[::-1]) if np.linalg.norm(path[-1] - before) > 0.02 else yaw
                 self._turning_way(robot, arrival, facing, path[-1])
             except Blocked as failure:
                 why = str(failure)
+                continue
+            if not self._reaches(robot, reach, path[-1], facing):
+                unreachable += 1
+                why = f"its arm does not reach its work from the stands around it ({unreachable} tried)"
                 continue
             tried += 1
             try:  # there, and turned to face the point (a turn that would touch something: the next stand)
@@ -734,18 +752,34 @@ class MujocoSite:
             return
         raise Blocked(f"no stand for {robot} within reach of ({point[0]:.2f}, {point[1]:.2f}): {why}")
 
+    def _reaches(self, robot: str, reach, xy, yaw: float) -> bool:
+        """Whether the arm reaches every tool pose of ``reach(xy, yaw)`` (4x4, world) with the base at
+        ``xy`` heading ``yaw``; ``reach`` may also be a list of poses, or empty."""
+        poses = reach(xy, yaw) if callable(reach) else reach
+        if not len(poses):
+            return True
+        arm_base = self.moved_to(robot, xy, yaw) @ self.arm_base_pose(robot)
+        try:
+            for pose in poses:
+                self.solve(robot, pose, arm_base=arm_base)
+        except MotionFailed:
+            return False
+        return True
+
     # --- arm ---------------------------------------------------------------------------------------
     def arm_base_pose(self, robot: str) -> np.ndarray:
         return self.body_pose(f"{robot}/arm_base")
 
-    def solve(self, robot: str, tcp_world: np.ndarray, avoid_contacts: bool = False) -> np.ndarray:
+    def solve(self, robot: str, tcp_world: np.ndarray, avoid_contacts: bool = False,
+              arm_base: np.ndarray | None = None) -> np.ndarray:
         """Joint angles putting the tool centre point at ``tcp_world`` (4x4); MotionFailed when out of
         reach (IK error over tolerance). Of the solutions from several seeds (the current joints, the
         ready posture), the ones whose links stay above the ground (an elbow-down solution of an arm
         on a low base would dig in) and, of those (with ``avoid_contacts``: first those at which the arm
-        touches nothing), the nearest to the current joints."""
+        touches nothing), the nearest to the current joints. ``arm_base``: solve as if the arm's base
+        stood there (4x4, world) instead of where it is."""
         r = self.robots[robot]
-        arm_base = self.arm_base_pose(robot)
+        arm_base = self.arm_base_pose(robot) if arm_base is None else arm_base
         local = np.linalg.inv(arm_base) @ tcp_world
         full_turn = np.array([True, True, False, True, True, True])
         best, found = None, []
@@ -873,17 +907,33 @@ class MujocoSite:
         joint-space move between two poses lets the tool, and a long member with it, tilt on the way).
         ``onto_seat``: the last pose sets the held component on its seat (see :meth:`move_arm`);
         ``avoid_contacts``: see :meth:`solve`."""
-        r = self.robots[robot]
         for goal in poses:
-            steps = [goal]
-            if r.holding:
-                here = self.tcp_pose(robot)
-                angle = motion.angle_between(here[:3, :3], goal[:3, :3])
-                count = max(1, math.ceil(max(np.linalg.norm(goal[:3, 3] - here[:3, 3]) / 0.3, angle / math.radians(30))))
-                steps = [motion.between(here, goal, k / count) for k in range(1, count + 1)]
+            steps = self._steps(robot, self.tcp_pose(robot), goal)
             for step in steps:
                 last = onto_seat and goal is poses[-1] and step is steps[-1]
                 self.move_arm(robot, self.solve(robot, step, avoid_contacts), check_contacts=check_contacts, onto_seat=last)
+
+    def _steps(self, robot: str, here: np.ndarray, goal: np.ndarray) -> list[np.ndarray]:
+        """The tool poses of a move from ``here`` to ``goal`` (see :meth:`move_tcp_through`)."""
+        if not self.robots[robot].holding:
+            return [goal]
+        angle = motion.angle_between(here[:3, :3], goal[:3, :3])
+        count = max(1, math.ceil(max(np.linalg.norm(goal[:3, 3] - here[:3, 3]) / 0.3, angle / math.radians(30))))
+        return [motion.between(here, goal, k / count) for k in range(1, count + 1)]
+
+    def tcp_path(self, robot: str, start: np.ndarray, poses: list[np.ndarray]) -> list[np.ndarray]:
+        """Every tool pose :meth:`move_tcp_through` goes by from ``start`` through ``poses``."""
+        path, here = [], start
+        for goal in poses:
+            path += self._steps(robot, here, goal)
+            here = goal
+        return path
+
+    def moved_to(self, robot: str, xy, yaw: float) -> np.ndarray:
+        """The rigid motion (4x4, world) that takes the robot as it stands to ``xy`` heading ``yaw``:
+        where its tool would be, carried along, is this @ the tool's pose now."""
+        x, y, now = self.base_xy_yaw(robot)
+        return motion.planar(xy[0], xy[1], yaw) @ np.linalg.inv(motion.planar(x, y, now))
 
     def carry_posture(self, robot: str) -> np.ndarray:
         """Arm joints of the carry posture: the tool down over the base's front (the ready posture),

@@ -130,7 +130,7 @@ class MujocoBackend(DispatchingBackend):
             feedback(0.0, f"{node.kind.label}: started")
         for waited in range(BLOCKED_WAITS + 1):
             try:
-                message = getattr(self, "_" + node.kind.value)(node)
+                message = self._put_away_other(node) + getattr(self, "_" + node.kind.value)(node)
                 success = True
                 break
             except Blocked as failure:  # wait for other robots' work to clear the way, then try again
@@ -149,6 +149,20 @@ class MujocoBackend(DispatchingBackend):
         result = ActivityResult(node.activity_id, attempt, node.robot, success, message, started, self.site.time_s)
         self._results[(node.activity_id, attempt)] = result
         return result
+
+    def _put_away_other(self, node: RcanNode) -> str:
+        """A robot still holding another component (its activity on it failed for good, and RCAN gave
+        the robot other work) first sets that one down on the ground nearby: it would otherwise carry
+        it through its next work. What it did, as the start of the result's message, or ''."""
+        robot, held = node.robot, self.site.robots[node.robot].holding
+        if not held or held == node.component_id:
+            return ""
+        if held in self.shapes:
+            self._set_down(robot, held)
+            return f"first set down {held}, which it still held; "
+        self._to_carry(robot)
+        spot = self._lay_down(robot, held, self.site.base_xy_yaw(robot)[:2])
+        return f"first set down {held}, which it still held, at ({spot[0]:.2f}, {spot[1]:.2f}); "
 
     def _wait_for_other_work(self) -> bool:
         """Wait (the world's lock released) until another activity has been executed; False when none
@@ -292,7 +306,7 @@ class MujocoBackend(DispatchingBackend):
         from bimrobot.physics.placement import lying_pose
 
         site = self.site
-        spot, yaw = self._free_spot(gid, np.asarray(near, float))
+        spot, yaw = self._free_spot(robot, gid, np.asarray(near, float))
         size = self._size_of(gid)
         half = (np.abs(lying_pose(size, (0, 0, 0), yaw)[:3, :3]) @ np.array(site.components[gid].size) / 2)[:2]
         site.approach(robot, spot, low_keep_out=[(spot, half)])
@@ -309,9 +323,10 @@ class MujocoBackend(DispatchingBackend):
         self._release(robot)
         return spot
 
-    def _free_spot(self, gid: str, near: np.ndarray) -> tuple[np.ndarray, float]:
+    def _free_spot(self, robot: str, gid: str, near: np.ndarray) -> tuple[np.ndarray, float]:
         """(centre xy, yaw) of a spot on the ground for the component lying (0.3 m clear of every
-        obstacle) beside which the largest robot of the fleet finds a free stand within reach;
+        obstacle and of every other robot as it stands: a component let go on an arm at work would
+        push it away) beside which the largest robot of the fleet finds a free stand within reach;
         the nearest to ``near`` of rings 1 m apart."""
         from bimrobot.physics.site import Blocked
 
@@ -322,7 +337,8 @@ class MujocoBackend(DispatchingBackend):
         reach = site.working_distance(big) + model.arm_mount[0]
         low, tall = site.obstacles(big, split=True)
         tall = tall + [(b.centre[:2], b.half_xy) for b in self.installed.values()]
-        boxes = low + tall
+        others = [site.robot_extent(name) for name in site.robots if name != robot]
+        boxes = low + tall + others
         for ring in range(8):
             count = 1 if ring == 0 else 8 * ring
             for k in range(count):
@@ -370,7 +386,11 @@ class MujocoBackend(DispatchingBackend):
         self._support_for(gid, box, robot)
         # stand where the arm's wrist (behind the tool centre point, along the tool) works comfortably
         _, goal = self._install_pose(robot, gid, box)
-        site.approach(robot, self._wrist_point(robot, goal), keep_out=[(box.centre[:2], box.half_xy)])
+        def path_from(xy, yaw):  # every tool pose of the move onto the seat, the robot at that stand
+            tcp = site.moved_to(robot, xy, yaw) @ site.tcp_pose(robot)
+            return site.tcp_path(robot, tcp, self._carry_waypoints(robot, gid, goal, tcp))
+
+        site.approach(robot, self._wrist_point(robot, goal), keep_out=[(box.centre[:2], box.half_xy)], reach=path_from)
         target, goal = self._install_pose(robot, gid, box)
         site.move_tcp_through(robot, self._carry_waypoints(robot, gid, goal), onto_seat=True)
         self.targets[gid], self.installed[gid] = target, box
@@ -584,14 +604,15 @@ class MujocoBackend(DispatchingBackend):
         length, b, a = self.site.components[gid].size
         return (a, b, length)
 
-    def _carry_waypoints(self, robot: str, gid: str, goal: np.ndarray) -> list[np.ndarray]:
-        """Tool poses from where the held component is to ``goal``: up to a height where it can turn
+    def _carry_waypoints(self, robot: str, gid: str, goal: np.ndarray, tcp: np.ndarray | None = None) -> list[np.ndarray]:
+        """Tool poses from where the held component is (the tool at ``tcp``, default where it is) to
+        ``goal``: up to a height where it can turn
         to its installed orientation clear of the ground, turn, up to the goal's height (and
         :data:`LIFT_M`), over the goal, down onto it. It turns low and rises turned: a beam held from
         above rolls onto its side, and the tool, then level, keeps the wrist at the tool's height (held
         tool-down at a beam's height, the wrist would be a metre above the tool, beyond the arm)."""
         site = self.site
-        tcp = site.tcp_pose(robot)
+        tcp = site.tcp_pose(robot) if tcp is None else tcp
         grip = site.held_in_tcp(robot)
         size = np.array(site.components[gid].size)
         corners = np.array([[x, y, z, 1.0] for x in (-size[0] / 2, size[0] / 2) for y in (-size[1] / 2, size[1] / 2)
