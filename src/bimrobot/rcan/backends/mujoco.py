@@ -179,11 +179,11 @@ class MujocoBackend(DispatchingBackend):
 
     def _note_at_work(self, node: RcanNode, success: bool) -> None:
         """Keep :attr:`at_work`: a robot's gripper is at a component from a successful *position for
-        picking up* (or *position for installing* a component it does not hold) to the next *pick up*
-        or *install*, or to a failure (RCAN positions it again)."""
+        picking up* (or *position for installing* a component it does not hold, and did not just let
+        go of) to the next *pick up* or *install*, or to a failure (RCAN positions it again)."""
         holding = self.site.robots[node.robot].holding
-        if success and not holding and node.kind in (ActivityKind.POSITION_FOR_PICKING_UP,
-                                                      ActivityKind.POSITION_FOR_INSTALLING):
+        if success and not holding and not node.activity.releases_robot and node.kind in (
+                ActivityKind.POSITION_FOR_PICKING_UP, ActivityKind.POSITION_FOR_INSTALLING):
             self.at_work[node.robot] = node.component_id
         else:
             self.at_work.pop(node.robot, None)
