@@ -229,9 +229,13 @@ class MujocoBackend(DispatchingBackend):
         if not legacy:
             site.approach(robot, grasp[:2, 3])
         site.face(robot, site.body_pose(gid)[:2, 3] if legacy else grasp[:2, 3])
+        grasp = site.grasp_pose(gid)  # where it is now: driving up to it may have nudged it
         above = grasp.copy()
         above[2, 3] += LIFT_M
         site.move_tcp_through(robot, [above, grasp])
+        grasp = site.grasp_pose(gid)
+        if np.linalg.norm(site.tcp_pose(robot)[:3, 3] - grasp[:3, 3]) > 0.002:  # it moved as the arm came: once more
+            site.move_tcp_through(robot, [grasp])
         return f"{node.kind.label} {gid}: gripper at the grasp pose"
 
     def _pick_up(self, node: RcanNode) -> str:
