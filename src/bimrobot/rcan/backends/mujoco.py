@@ -703,7 +703,10 @@ class MujocoBackend(DispatchingBackend):
         site.open_gripper(robot)
         away = site.tcp_pose(robot)  # back out along the tool's axis (up, for a tool pointing down)
         away[:3, 3] -= away[:3, 2] * LIFT_M * max(1.0, self.families[robot].scale / 2)
-        site.move_arm(robot, site.solve(robot, away), check_contacts=False)
+        try:
+            site.move_arm(robot, site.solve(robot, away), check_contacts=False)
+        except MotionFailed:  # the component is down already: the arm goes to its ready posture below
+            pass
         if self.families[robot].family == "heavy":  # then straight back over the base, as it is turned:
             back = away.copy()  # a joint-space swing of a metres-long arm would sweep through what it placed
             back[:3, 3] = site._tcp_of(robot, site._ready_posture_cached(robot))
