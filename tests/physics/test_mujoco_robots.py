@@ -340,3 +340,26 @@ def test_a_robot_given_other_work_while_it_still_holds_a_component_sets_that_one
         assert backend.site.body_pose(POST)[2, 3] < 0.2  # lying on the ground
     finally:
         backend.close()
+
+
+def test_a_transport_tried_again_after_its_component_was_set_down_finds_it_there(tmp_path):
+    """On the frame a transport set its column down, then its arm failed to reach its ready posture:
+    the activity failed, and every retry said the robot did not hold the column, so it escalated with
+    the column lying where it was meant to be. A retry now finds it set down near the goal."""
+    table = tmp_path / "heavy.yaml"
+    table.write_text(HEAVY_TABLE.replace("ROBOT", "heavy_arm").replace("PAYLOAD", "300").replace("REACH", "2.0"))
+    backend = create_backend("mujoco", load_capabilities(str(table)))
+    try:
+        for node in _post_nodes("heavy_arm")[:3]:
+            assert backend.execute(node).success
+        common = dict(component_id=POST, weight_kg=125.6, section_m=(0.1, 0.1), size_m=(0.1, 0.1, 1.6))
+        carry = RcanActivity("T1", kind=ActivityKind.TRANSPORT, target=Pose(2.0, 2.0, 0.0), frees_robot=True, **common)
+        first = backend.execute(RcanNode("rcan/T1", carry, "heavy_arm", "mujoco"))
+        assert first.success and "set down at" in first.message
+        again = backend._transport(RcanNode("rcan/T1", carry, "heavy_arm", "mujoco"))  # as a retry would
+        assert again.startswith(f"Transport {POST}: set down at (") and again.endswith("by the attempt before")
+        elsewhere = RcanActivity("T2", kind=ActivityKind.TRANSPORT, target=Pose(12.0, 12.0, 0.0), frees_robot=True, **common)
+        with pytest.raises(MotionFailed, match="does not hold"):  # not near that goal: nothing was done
+            backend._transport(RcanNode("rcan/T2", elsewhere, "heavy_arm", "mujoco"))
+    finally:
+        backend.close()

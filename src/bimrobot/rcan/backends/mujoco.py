@@ -263,7 +263,11 @@ class MujocoBackend(DispatchingBackend):
 
         site, robot, gid = self.site, node.robot, node.component_id
         if site.robots[robot].holding != gid:
-            raise MotionFailed(f"robot {robot} does not hold {gid} to transport it")
+            down = self._set_down_near(gid, (node.target.x, node.target.y)) if node.activity.releases_robot else None
+            if down is None:
+                raise MotionFailed(f"robot {robot} does not hold {gid} to transport it")
+            site.move_arm(robot, site._ready_posture_cached(robot))  # what the attempt before did not finish
+            return f"{node.kind.label} {gid}: set down at ({down[0]:.2f}, {down[1]:.2f}) by the attempt before"
         legacy = gid in self.shapes
         if legacy:
             site.move_arm(robot, site._ready_posture_cached(robot))
@@ -277,6 +281,18 @@ class MujocoBackend(DispatchingBackend):
             return f"{node.kind.label} {gid}: carried {distance:.2f} m"
         spot = self._lay_down(robot, gid, (node.target.x, node.target.y))
         return f"{node.kind.label} {gid}: carried {distance:.2f} m, set down at ({spot[0]:.2f}, {spot[1]:.2f})"
+
+    def _set_down_near(self, gid: str, near, within_m: float = 4.0):
+        """Where (xy) ``gid`` lies on the ground within ``within_m`` of ``near``, held by no robot (an
+        attempt of a transport set it down and then failed, e.g. its arm's retreat), or None."""
+        site = self.site
+        if gid not in site.components or any(r.holding == gid for r in site.robots.values()):
+            return None
+        geom = site.data.geom(f"{gid}/box")
+        half = np.abs(geom.xmat.reshape(3, 3)) @ (np.array(site.components[gid].size) / 2)
+        on_ground = geom.xpos[2] - half[2] < site.ground_z + 0.02
+        where = geom.xpos[:2].copy()
+        return where if on_ground and np.linalg.norm(where - np.asarray(near, float)) <= within_m else None
 
     def _to_carry(self, robot: str) -> None:
         """The held component to the carry posture over the base: straight up first, tool down (a
