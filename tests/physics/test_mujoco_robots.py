@@ -131,14 +131,9 @@ BEAM = "0SteelBeam000000000001"  # the chapter-4 frame's 3.2 m W-section beam: 1
 COLUMNS = ("0SteelColumn0000000001", "0SteelColumn0000000002")  # 4 m W-section columns, 289.8 kg
 
 
-def test_a_4_m_arm_lifts_a_beam_from_the_ground_and_installs_it_level_between_two_columns(tmp_path):
-    """The frame's top beams: a beam lying flat (web horizontal) is picked from above and must roll
-    onto its side in the air, then rise to 3.9 m, where a tool held pointing down would put the wrist
-    out of a 4 m arm's reach. The columns it spans are installed already (no activity lifts them:
-    they start in place)."""
-    table = tmp_path / "positioner.yaml"
-    table.write_text(HEAVY_TABLE.replace("ROBOT", "positioner").replace("PAYLOAD", "300").replace("REACH", "4.0")
-                     .replace("home: [-4.0, 0.0, 0.0]", "home: [7.0, -3.0, 0.0]"))
+def _beam_between_two_columns() -> list[RcanActivity]:
+    """Two frame columns installed from the start (no activity lifts them), 3.5 m apart at x = 2.85 m,
+    and the chain of the 3.2 m beam between them: from lying flat on the ground to installed on top."""
     column = dict(weight_kg=289.81, section_m=(0.253, 0.254), size_m=(0.253, 0.254, 4.0), lifts=False)
     plan = [RcanActivity(f"C{n}", component_id=gid, kind=ActivityKind.POSITION_FOR_INSTALLING,
                          target=Pose(2.85, y, 0.03), **column) for n, (gid, y) in enumerate(zip(COLUMNS, (0.0, 3.5)))]
@@ -147,7 +142,18 @@ def test_a_4_m_arm_lifts_a_beam_from_the_ground_and_installs_it_level_between_tw
     chain = [(ActivityKind.MOVE_TO_COMPONENT, Pose(5.0, -2.5, 0.0)), (ActivityKind.POSITION_FOR_PICKING_UP, lying),
              (ActivityKind.PICK_UP, lying), (ActivityKind.POSITION_FOR_INSTALLING, installed),
              (ActivityKind.INSTALL, installed)]
-    plan += [RcanActivity(f"B{n}", kind=kind, target=target, **beam) for n, (kind, target) in enumerate(chain, start=1)]
+    return plan + [RcanActivity(f"B{n}", kind=kind, target=target, **beam) for n, (kind, target) in enumerate(chain, start=1)]
+
+
+def test_a_4_m_arm_lifts_a_beam_from_the_ground_and_installs_it_level_between_two_columns(tmp_path):
+    """The frame's top beams: a beam lying flat (web horizontal) is picked from above and must roll
+    onto its side in the air, then rise to 3.9 m, where a tool held pointing down would put the wrist
+    out of a 4 m arm's reach. The columns it spans are installed already (no activity lifts them:
+    they start in place)."""
+    table = tmp_path / "positioner.yaml"
+    table.write_text(HEAVY_TABLE.replace("ROBOT", "positioner").replace("PAYLOAD", "300").replace("REACH", "4.0")
+                     .replace("home: [-4.0, 0.0, 0.0]", "home: [7.0, -3.0, 0.0]"))
+    plan = _beam_between_two_columns()
     backend = create_backend("mujoco", load_capabilities(str(table)), plan=plan)
     try:
         results = []
@@ -223,15 +229,7 @@ def test_a_robot_waiting_where_a_beam_prop_goes_drives_aside_and_the_beam_is_ins
                      .replace("home: [-4.0, 0.0, 0.0]", "home: [7.0, -3.0, 0.0]")
                      + "  bystander:\n    types: [mobile_base, manipulator, gripper]\n    payload_kg: 5.0\n"
                        "    reach_m: 0.85\n    home: [2.85, 1.75, 0.0]\n")  # under the beam's middle
-    column = dict(weight_kg=289.81, section_m=(0.253, 0.254), size_m=(0.253, 0.254, 4.0), lifts=False)
-    plan = [RcanActivity(f"C{n}", component_id=gid, kind=ActivityKind.POSITION_FOR_INSTALLING,
-                         target=Pose(2.85, y, 0.03), **column) for n, (gid, y) in enumerate(zip(COLUMNS, (0.0, 3.5)))]
-    beam = dict(component_id=BEAM, weight_kg=134.39, section_m=(0.165, 0.31), size_m=(0.165, 0.31, 3.223))
-    lying, installed = Pose(5.0, -1.5, 0.0825), Pose(2.85, 0.14, 3.87)
-    chain = [(ActivityKind.MOVE_TO_COMPONENT, Pose(5.0, -2.5, 0.0)), (ActivityKind.POSITION_FOR_PICKING_UP, lying),
-             (ActivityKind.PICK_UP, lying), (ActivityKind.POSITION_FOR_INSTALLING, installed),
-             (ActivityKind.INSTALL, installed)]
-    plan += [RcanActivity(f"B{n}", kind=kind, target=target, **beam) for n, (kind, target) in enumerate(chain, start=1)]
+    plan = _beam_between_two_columns()
     backend = create_backend("mujoco", load_capabilities(str(table)), plan=plan)
     try:
         site = backend.site
