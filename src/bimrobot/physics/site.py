@@ -358,17 +358,21 @@ class MujocoSite:
         for c, h in self.supports:
             if c[2] + h[2] > self.ground_z + 0.01:  # not one in a pit (under a footing: driven over)
                 (low if c[2] + h[2] < chassis_top else tall).append((c[:2], h[:2]))
-        for gid, component in self.components.items():
+        for gid in self.components:
             if gid == self.robots[robot].holding:
                 continue
-            geom = self.data.geom(f"{gid}/box")
-            rotation = geom.xmat.reshape(3, 3)
-            half = np.abs(rotation) @ (np.array(component.size) / 2)
-            bottom, top = geom.xpos[2] - half[2], geom.xpos[2] + half[2]
+            centre, half = self.component_box(gid)
+            bottom, top = centre[2] - half[2], centre[2] + half[2]
             # not one that lies flush with or under the ground (a footing: driven over)
             if bottom < chassis_top and top > self.ground_z + 0.01:
-                (low if top < chassis_top else tall).append((geom.xpos[:2].copy(), half[:2]))
+                (low if top < chassis_top else tall).append((centre[:2], half[:2]))
         return (low, tall) if split else low + tall
+
+    def component_box(self, gid: str) -> tuple[np.ndarray, np.ndarray]:
+        """(centre xyz, half size xyz), m, world: the axis-aligned box around the component as it is now."""
+        geom = self.data.geom(f"{gid}/box")
+        half = np.abs(geom.xmat.reshape(3, 3)) @ (np.array(self.components[gid].size) / 2)
+        return geom.xpos.copy(), half
 
     def robot_extent(self, robot: str) -> tuple[np.ndarray, np.ndarray]:
         """(centre xy, half size xy), m: the box around everything of the robot as it stands now

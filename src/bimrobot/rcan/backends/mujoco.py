@@ -288,11 +288,9 @@ class MujocoBackend(DispatchingBackend):
         site = self.site
         if gid not in site.components or any(r.holding == gid for r in site.robots.values()):
             return None
-        geom = site.data.geom(f"{gid}/box")
-        half = np.abs(geom.xmat.reshape(3, 3)) @ (np.array(site.components[gid].size) / 2)
-        on_ground = geom.xpos[2] - half[2] < site.ground_z + 0.02
-        where = geom.xpos[:2].copy()
-        return where if on_ground and np.linalg.norm(where - np.asarray(near, float)) <= within_m else None
+        centre, half = site.component_box(gid)
+        on_ground = centre[2] - half[2] < site.ground_z + 0.02
+        return centre[:2] if on_ground and np.linalg.norm(centre[:2] - np.asarray(near, float)) <= within_m else None
 
     def _to_carry(self, robot: str) -> None:
         """The held component to the carry posture over the base: straight up first, tool down (a
