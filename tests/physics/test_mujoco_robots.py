@@ -245,6 +245,36 @@ def test_a_robot_waiting_where_a_beam_prop_goes_drives_aside_and_the_beam_is_ins
         backend.close()
 
 
+def test_an_arm_left_reaching_where_a_beam_prop_goes_is_stowed_first_and_its_robot_drives_on(tmp_path):
+    """On the frame an assembly robot ended its install with its 4 m arm stretched over the span of
+    the next beam; the beam's prop appeared around its wrist, and every later drive failed (tucking
+    the arm touched the prop). An empty arm that reaches into a support's place is stowed first."""
+    table = tmp_path / "two.yaml"
+    table.write_text(HEAVY_TABLE.replace("ROBOT", "positioner").replace("PAYLOAD", "300").replace("REACH", "4.0")
+                     .replace("home: [-4.0, 0.0, 0.0]", "home: [7.0, -3.0, 0.0]")
+                     + "  assembler:\n    types: [mobile_base, manipulator, gripper]\n    payload_kg: 300\n"
+                       "    reach_m: 4.0\n    home: [1.44, 0.92, 0.0]\n")  # beside the beam's middle
+    plan = _beam_between_two_columns()
+    backend = create_backend("mujoco", load_capabilities(str(table)), plan=plan)
+    try:
+        site = backend.site
+        site.turn("assembler", 0.61)
+        site.move_arm("assembler", np.array([1.10, -1.545, -2.597, 4.142, -1.073, -1.571]))  # as the frame's was
+        prop_xy, prop_half = (2.85, 1.75), (0.09, 0.5)  # where the prop under the beam's middle third goes
+        assert site.arm_within("assembler", prop_xy, prop_half, 3.7)
+        for activity in plan[2:]:
+            result = backend.execute(RcanNode(f"rcan/{activity.activity_id}", activity, "positioner", "mujoco"))
+            assert result.success, result.message
+        assert site.robot_contacts("assembler") == []
+        assert backend.placements[BEAM][0] < 0.010
+        away = RcanActivity("M9", component_id=BEAM, kind=ActivityKind.MOVE_TO_COMPONENT, target=Pose(-3.0, -3.0, 0.0),
+                            weight_kg=134.39, size_m=(0.165, 0.31, 3.223))
+        result = backend.execute(RcanNode("rcan/M9", away, "assembler", "mujoco"))
+        assert result.success, result.message
+    finally:
+        backend.close()
+
+
 def test_a_blocked_activity_with_nothing_else_under_way_fails_without_waiting_out_the_long_wait(tmp_path):
     """A robot whose way is blocked waits for other robots' work; when no other activity is under
     way (nothing can clear the way) it fails after IDLE_WAIT_S, not BLOCKED_WAITS x BLOCKED_WAIT_S

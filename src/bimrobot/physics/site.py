@@ -383,6 +383,31 @@ class MujocoSite:
         lower, upper = (xy - radius).min(axis=0), (xy + radius).max(axis=0)
         return (lower + upper) / 2, (upper - lower) / 2
 
+    def arm_within(self, robot: str, centre_xy, half_xy, top_z: float, clearance: float = CLEARANCE_M) -> bool:
+        """Whether the robot's arm or gripper (the world box around each geom, the chassis and
+        wheels left out) comes within ``clearance`` (m) of the box standing on the ground under
+        ``top_z`` (m) around ``centre_xy`` (half size ``half_xy``): something put there would meet it."""
+        m, data = self.model, self.data
+        base = m.body(f"{robot}/base").id
+        bodies = [b for b in self.idx[robot]["robot_bodies"] if b != base]
+        for g in np.flatnonzero(np.isin(m.geom_bodyid, bodies)):
+            rotation = data.geom_xmat[g].reshape(3, 3)
+            centre = data.geom_xpos[g] + rotation @ m.geom_aabb[g, :3]
+            half = np.abs(rotation) @ m.geom_aabb[g, 3:] + clearance
+            if np.all(np.abs(centre[:2] - np.asarray(centre_xy, float)) < half[:2] + np.asarray(half_xy, float)) \
+                    and centre[2] - half[2] < top_z:
+                return True
+        return False
+
+    def stow_arm(self, robot: str) -> None:
+        """An empty arm to the posture it drives in: tucked (the heavy variant's metres long arm), or
+        the ready posture (the UR5); its base joint turned the short way (checked for contacts)."""
+        r = self.robots[robot]
+        posture = TUCK_POSTURE if r.model.family == "heavy" else self._ready_posture_cached(robot)
+        goal = motion.wrap_near(posture, r.q_ref, np.array([True, True, False, True, True, True]))
+        if np.abs(goal - r.q_ref).max() > 0.05:
+            self.move_arm(robot, goal)
+
     def _clear(self, robot: str, xy, low, tall) -> bool:
         """Whether the robot may stand (and turn) at ``xy`` with these obstacles (see obstacles())."""
         base = math.hypot(*self.robots[robot].model.footprint) / 2 + CLEARANCE_M
@@ -480,9 +505,7 @@ class MujocoSite:
             waypoints = self.plan_path(robot, goal_xy)  # from where it may turn
         r = self.robots[robot]
         if not r.holding and r.model.family == "heavy":  # empty: drive with the (metres long) arm tucked
-            tuck = motion.wrap_near(TUCK_POSTURE, r.q_ref, np.array([True, True, False, True, True, True]))
-            if np.abs(tuck - r.q_ref).max() > 0.05:
-                self.move_arm(robot, tuck)
+            self.stow_arm(robot)
         driven = 0.0
         for point in waypoints:
             here = self.base_xy_yaw(robot)[:2]
@@ -650,7 +673,8 @@ class MujocoSite:
     def make_room(self, robot: str, target_xy, half_xy) -> None:
         """Before something is put or reached at ``target_xy`` (a box of ``half_xy``): when the base is
         so close that its footprint could touch the box, drive it to the nearest free stand pose on a
-        circle around the target (its corners clear of the box by CLEARANCE_M), then face the target."""
+        circle around the target (its corners clear of the box by CLEARANCE_M) that it has a path to,
+        then face the target. Blocked when it has a path to none."""
         model = self.robots[robot].model
         target = np.asarray(target_xy, float)
         here = self.base_xy_yaw(robot)[:2]
@@ -662,12 +686,19 @@ class MujocoSite:
         angles = np.linspace(-math.pi, math.pi, 36, endpoint=False)
         candidates = [target + radius * np.array([math.cos(a), math.sin(a)]) for a in angles]
         candidates.sort(key=lambda c: float(np.linalg.norm(c - here)))
+        why = "every pose around it is blocked"
         for candidate in candidates:
-            if not self._blocked(candidate, boxes, corner):
-                self.drive(robot, candidate)
-                self.turn(robot, math.atan2(target[1] - candidate[1], target[0] - candidate[0]))
-                return
-        raise MotionFailed(f"no free stand pose for {robot} around ({target[0]:.2f}, {target[1]:.2f})")
+            if self._blocked(candidate, boxes, corner):
+                continue
+            try:
+                self.plan_path(robot, candidate)  # the nearest pose may be walled off: the next one
+            except Blocked as failure:
+                why = str(failure)
+                continue
+            self.drive(robot, candidate)
+            self.turn(robot, math.atan2(target[1] - candidate[1], target[0] - candidate[0]))
+            return
+        raise Blocked(f"no free stand pose for {robot} around ({target[0]:.2f}, {target[1]:.2f}): {why}")
 
     def sweep_radius(self, robot: str) -> float:
         """Radius (m) of the circle around the base's centre that the robot sweeps when it turns in

@@ -515,28 +515,33 @@ class MujocoBackend(DispatchingBackend):
         site = self.site
         if abs(bottom_z - site.ground_z) <= SUPPORT_MIN_Z_M:
             return
-        self._make_way(gid, centre_xy, half_xy, robot)
+        self._make_way(gid, centre_xy, half_xy, bottom_z, robot)
         if bottom_z < site.ground_z:
             site.add_pit(centre_xy, half_xy)
         site.add_support(f"{kind}/{gid}/{len(site.supports)}", centre_xy, bottom_z, half_xy)
 
-    def _make_way(self, gid: str, centre_xy, half_xy, robot: str | None) -> None:
-        """Before a support appears at ``centre_xy`` (a box of ``half_xy``, m), every robot whose
-        chassis stands on it or within the clearance drives aside: ``robot`` (the one at work, in its
-        carry posture) and any other waiting between activities. Blocked when another one holds a
-        component or has its gripper at one: its own work comes first."""
+    def _make_way(self, gid: str, centre_xy, half_xy, top_z: float, robot: str | None) -> None:
+        """Before a support appears at ``centre_xy`` (a box of ``half_xy``, m, up to ``top_z``), every
+        robot whose chassis stands on it or within the clearance drives aside, and every empty arm
+        that reaches into it is stowed: ``robot`` (the one at work, in its carry posture) and any
+        other waiting between activities (an arm is left where its last activity ended). Blocked
+        when another one holds a component or has its gripper at one: its own work comes first."""
         from bimrobot.physics.site import Blocked, MotionFailed
 
         site = self.site
         box = [(np.asarray(centre_xy, float)[:2], np.asarray(half_xy, float))]
         for name in site.robots:
             x, y, yaw = site.base_xy_yaw(name)
-            if site._footprint_clear(name, (x, y), yaw, box):
+            empty = not site.robots[name].holding
+            arm_in = empty and site.arm_within(name, box[0][0], box[0][1], top_z)
+            if site._footprint_clear(name, (x, y), yaw, box) and not arm_in:
                 continue
             busy = name != robot and (site.robots[name].holding or self.at_work.get(name))
             if busy:
                 raise Blocked(f"{name} stands where the support of {gid} goes, at work on {busy}")
             try:
+                if arm_in:
+                    site.stow_arm(name)
                 site.make_room(name, box[0][0], box[0][1])
             except MotionFailed as failure:
                 raise Blocked(f"{name} stands where the support of {gid} goes and cannot move aside: {failure}") from None
