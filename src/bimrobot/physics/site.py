@@ -494,10 +494,11 @@ class MujocoSite:
         free_at = lambda p: occupied[tuple(np.clip(cell(p), 0, np.array(shape) - 1))]  # noqa: E731
         return motion.simplify(points, free_at, GRID_M / 2)[1:]
 
-    def drive(self, robot: str, goal_xy, final_yaw: float | None = None) -> float:
+    def drive(self, robot: str, goal_xy, final_yaw: float | None = None, path: list | None = None) -> float:
         """Drive the base along a planned path to ``goal_xy`` (turn, then go straight, per leg); turn
-        to ``final_yaw`` at the end. Returns the distance driven (m)."""
-        waypoints = self.plan_path(robot, goal_xy)
+        to ``final_yaw`` at the end. ``path``: the waypoints :meth:`plan_path` gave from where the
+        base stands now (planned already to check the way). Returns the distance driven (m)."""
+        waypoints = self.plan_path(robot, goal_xy) if path is None else path
         x, y, yaw = self.base_xy_yaw(robot)
         first = waypoints[0] - np.array([x, y])
         turns = np.linalg.norm(first) > 0.02 and abs(_wrap(math.atan2(first[1], first[0]) - yaw)) > 0.05
@@ -691,11 +692,11 @@ class MujocoSite:
             if self._blocked(candidate, boxes, corner):
                 continue
             try:
-                self.plan_path(robot, candidate)  # the nearest pose may be walled off: the next one
+                path = self.plan_path(robot, candidate)  # the nearest pose may be walled off: the next one
             except Blocked as failure:
                 why = str(failure)
                 continue
-            self.drive(robot, candidate)
+            self.drive(robot, candidate, path=path)
             self.turn(robot, math.atan2(target[1] - candidate[1], target[0] - candidate[0]))
             return
         raise Blocked(f"no free stand pose for {robot} around ({target[0]:.2f}, {target[1]:.2f}): {why}")
@@ -779,7 +780,7 @@ class MujocoSite:
                 continue
             tried += 1
             try:  # there, and turned to face the point (a turn that would touch something: the next stand)
-                self.drive(robot, candidate)
+                self.drive(robot, candidate, path=path)
                 self.turn(robot, facing)
             except MotionFailed as failure:
                 why = str(failure)
