@@ -275,6 +275,26 @@ def test_an_arm_left_reaching_where_a_beam_prop_goes_is_stowed_first_and_its_rob
         backend.close()
 
 
+def test_a_robot_with_a_low_support_put_under_its_chassis_drives_off_it(tmp_path):
+    """On the frame a column's 2.5 cm pedestal was put on its footing while the positioning robot's
+    chassis stood over it; every path from there was refused (the chassis 'would touch' it driving
+    out), and the robot never moved again. What the chassis stands over already is left to the
+    contact check while it drives off."""
+    table = tmp_path / "one.yaml"
+    table.write_text(HEAVY_TABLE.replace("ROBOT", "positioner").replace("PAYLOAD", "300").replace("REACH", "4.0")
+                     .replace("home: [-4.0, 0.0, 0.0]", "home: [0.0, 0.0, 0.0]"))
+    backend = create_backend("mujoco", load_capabilities(str(table)))
+    try:
+        site = backend.site
+        site.add_support("pedestal", (0.6, 0.0), 0.025, (0.14, 0.14))  # under the chassis' front half
+        site.step(0.5)
+        assert site.robot_contacts("positioner") == []  # it stands over it, touching nothing
+        driven = site.drive("positioner", (-4.0, 3.0))
+        assert np.linalg.norm(site.base_xy_yaw("positioner")[:2] - np.array([-4.0, 3.0])) < 0.05, driven
+    finally:
+        backend.close()
+
+
 def test_a_blocked_activity_with_nothing_else_under_way_fails_without_waiting_out_the_long_wait(tmp_path):
     """A robot whose way is blocked waits for other robots' work; when no other activity is under
     way (nothing can clear the way) it fails after IDLE_WAIT_S, not BLOCKED_WAITS x BLOCKED_WAIT_S

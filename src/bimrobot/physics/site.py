@@ -470,12 +470,16 @@ class MujocoSite:
         ys = lower[1] + GRID_M * np.arange(shape[1])
         occupied = np.zeros(shape, bool)
         solid = np.zeros(shape, bool)
+        yaw = self.base_xy_yaw(robot)[2]
         for (centre, half), grown in zip(boxes, radii):  # cells whose centre lies within radius of the box
             gap = np.hypot(np.maximum(np.abs(xs[:, None] - centre[0]) - half[0], 0),
                            np.maximum(np.abs(ys[None, :] - centre[1]) - half[1], 0))
             occupied |= gap < grown
-            # where the chassis, driving out straight, would touch it: never free, not even near the start
-            solid |= gap < model.footprint[1] / 2 + CLEARANCE_M
+            # where the chassis, driving out straight, would touch it: never free, not even near the
+            # start; unless the chassis stands over it already (a low support put under it): then
+            # the contact check judges while it drives off
+            if self._footprint_clear(robot, start, yaw, [(centre, half)], 0.0):
+                solid |= gap < model.footprint[1] / 2 + CLEARANCE_M
         grown = occupied.copy()
         near_start = np.hypot(xs[:, None] - start[0], ys[None, :] - start[1]) < radius
         occupied &= ~(near_start & ~solid)
@@ -696,8 +700,12 @@ class MujocoSite:
             except Blocked as failure:
                 why = str(failure)
                 continue
+            end = path[-1]  # the planner ends on the nearest free cell when the pose is too near a tall obstacle
+            if self._blocked(end, boxes, corner):
+                why = f"the nearest free spot to a pose, ({end[0]:.2f}, {end[1]:.2f}), is within the box"
+                continue
             self.drive(robot, candidate, path=path)
-            self.turn(robot, math.atan2(target[1] - candidate[1], target[0] - candidate[0]))
+            self.turn(robot, math.atan2(target[1] - end[1], target[0] - end[0]))
             return
         raise Blocked(f"no free stand pose for {robot} around ({target[0]:.2f}, {target[1]:.2f}): {why}")
 
