@@ -295,6 +295,30 @@ def test_a_robot_with_a_low_support_put_under_its_chassis_drives_off_it(tmp_path
         backend.close()
 
 
+def test_a_robot_that_cannot_turn_where_it_stands_backs_straight_out_of_a_supports_way(tmp_path):
+    """On the frame a positioning robot holding a beam stood between the columns, where it sweeps
+    metres when it turns; the beam's prop was to go where it stood, no stand around the prop had a
+    path, and the beam escalated. With no path to any stand it drives straight along its heading
+    until its chassis is clear of the support's place."""
+    table = tmp_path / "one.yaml"
+    table.write_text(HEAVY_TABLE.replace("ROBOT", "positioner").replace("PAYLOAD", "300").replace("REACH", "4.0")
+                     .replace("home: [-4.0, 0.0, 0.0]", "home: [0.0, 0.0, 0.0]"))
+    backend = create_backend("mujoco", load_capabilities(str(table)))
+    try:
+        site = backend.site
+        for name, y in (("north", 1.3), ("south", -1.3)):  # a corridor narrower than its turning circle
+            site.add_support(f"wall/{name}", (0.0, y), 2.0, (6.0, 0.1))
+        prop = (np.array([0.5, 0.0]), np.array([0.14, 0.14]))
+        assert not site._footprint_clear("positioner", (0.0, 0.0), 0.0, [prop])
+        site.make_room("positioner", *prop)
+        x, y, yaw = site.base_xy_yaw("positioner")
+        assert site._footprint_clear("positioner", (x, y), yaw, [prop])
+        assert abs(y) < 0.05 and abs(yaw) < 0.05 and x < 0.0  # straight back, not turned
+        assert site.robot_contacts("positioner") == []
+    finally:
+        backend.close()
+
+
 def test_a_blocked_activity_with_nothing_else_under_way_fails_without_waiting_out_the_long_wait(tmp_path):
     """A robot whose way is blocked waits for other robots' work; when no other activity is under
     way (nothing can clear the way) it fails after IDLE_WAIT_S, not BLOCKED_WAITS x BLOCKED_WAIT_S

@@ -528,19 +528,25 @@ class MujocoSite:
         clear of everything on the way (a component it holds passes through other components).
         Whether it moved."""
         low, tall = self.obstacles(robot, split=True)
+        if self._clear(robot, self.base_xy_yaw(robot)[:2], low, tall):
+            return False
+        return self._straight_to(robot, lambda spot: self._clear(robot, spot, low, tall))
+
+    def _straight_to(self, robot: str, good, boxes=()) -> bool:
+        """Drive straight, backwards or forwards along the heading, to the nearest spot (up to 4 m)
+        where ``good(spot)`` holds, the chassis clear of every obstacle (and of ``boxes``) on the way,
+        without turning. Whether it found one and moved."""
         x, y, yaw = self.base_xy_yaw(robot)
         here = np.array([x, y])
-        if self._clear(robot, here, low, tall):
-            return False
         heading = np.array([math.cos(yaw), math.sin(yaw)])
         # what the chassis' footprint overlaps already is left to the contact check while it moves
-        boxes = [box for box in low + tall if self._footprint_clear(robot, here, yaw, [box], 0.0)]
+        boxes = [box for box in self.obstacles(robot) + list(boxes) if self._footprint_clear(robot, here, yaw, [box], 0.0)]
         for distance in np.arange(0.1, 4.01, 0.1):
             for sign in (-1.0, 1.0):
                 spot = here + sign * distance * heading
                 way = [here + sign * t * heading for t in np.arange(0.1, distance + 1e-9, 0.1)]
                 # on the way, not touching (it may have worked within the clearance of something)
-                if self._clear(robot, spot, low, tall) and all(self._footprint_clear(robot, p, yaw, boxes, 0.0) for p in way):
+                if good(spot) and all(self._footprint_clear(robot, p, yaw, boxes, 0.0) for p in way):
                     self._straight_along(robot, distance, sign)
                     return True
         return False
@@ -679,7 +685,8 @@ class MujocoSite:
         """Before something is put or reached at ``target_xy`` (a box of ``half_xy``): when the base is
         so close that its footprint could touch the box, drive it to the nearest free stand pose on a
         circle around the target (its corners clear of the box by CLEARANCE_M) that it has a path to,
-        then face the target. Blocked when it has a path to none."""
+        then face the target; with a path to none, straight along its heading until its chassis is
+        clear of the box. Blocked when it cannot."""
         model = self.robots[robot].model
         target = np.asarray(target_xy, float)
         here = self.base_xy_yaw(robot)[:2]
@@ -706,6 +713,12 @@ class MujocoSite:
                 continue
             self.drive(robot, candidate, path=path)
             self.turn(robot, math.atan2(target[1] - end[1], target[0] - end[0]))
+            return
+        # none it can drive to, turning on the way (a robot inside the frame holding a beam sweeps
+        # metres when it turns): straight along its heading, out of the box's way
+        box = (target, np.asarray(half_xy, float))
+        yaw = self.base_xy_yaw(robot)[2]
+        if self._straight_to(robot, lambda spot: self._footprint_clear(robot, spot, yaw, [box]), [box]):
             return
         raise Blocked(f"no free stand pose for {robot} around ({target[0]:.2f}, {target[1]:.2f}): {why}")
 
