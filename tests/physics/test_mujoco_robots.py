@@ -220,22 +220,33 @@ def test_a_prebuilt_column_stands_on_its_footing_while_a_4_m_arm_works_on_the_fo
         backend.close()
 
 
+def _positioner_and(tmp_path, robot: str, payload_kg: float, reach_m: float, home_xy: tuple[float, float]):
+    """The beam chain's positioner (a 4 m arm, at (7, -3)) and one more robot at ``home_xy`` (m);
+    returns (backend, plan of :func:`_beam_between_two_columns`)."""
+    table = tmp_path / "two.yaml"
+    table.write_text(HEAVY_TABLE.replace("ROBOT", "positioner").replace("PAYLOAD", "300").replace("REACH", "4.0")
+                     .replace("home: [-4.0, 0.0, 0.0]", "home: [7.0, -3.0, 0.0]")
+                     + f"  {robot}:\n    types: [mobile_base, manipulator, gripper]\n    payload_kg: {payload_kg}\n"
+                       f"    reach_m: {reach_m}\n    home: [{home_xy[0]}, {home_xy[1]}, 0.0]\n")
+    plan = _beam_between_two_columns()
+    return create_backend("mujoco", load_capabilities(str(table)), plan=plan), plan
+
+
+def _install_beam(backend, plan) -> None:
+    """The positioner runs the beam's chain, from driving to it to installing it; every step succeeds."""
+    for activity in plan[2:]:
+        result = backend.execute(RcanNode(f"rcan/{activity.activity_id}", activity, "positioner", "mujoco"))
+        assert result.success, result.message
+
+
 def test_a_robot_waiting_where_a_beam_prop_goes_drives_aside_and_the_beam_is_installed(tmp_path):
     """On the frame a transport robot waited under a beam's span; the beam's prop (the support under
     its middle third) appeared inside its chassis and it could never leave. A robot waiting between
     activities now drives aside before a support appears where it stands."""
-    table = tmp_path / "two.yaml"
-    table.write_text(HEAVY_TABLE.replace("ROBOT", "positioner").replace("PAYLOAD", "300").replace("REACH", "4.0")
-                     .replace("home: [-4.0, 0.0, 0.0]", "home: [7.0, -3.0, 0.0]")
-                     + "  bystander:\n    types: [mobile_base, manipulator, gripper]\n    payload_kg: 5.0\n"
-                       "    reach_m: 0.85\n    home: [2.85, 1.75, 0.0]\n")  # under the beam's middle
-    plan = _beam_between_two_columns()
-    backend = create_backend("mujoco", load_capabilities(str(table)), plan=plan)
+    backend, plan = _positioner_and(tmp_path, "bystander", 5.0, 0.85, (2.85, 1.75))  # under the beam's middle
     try:
         site = backend.site
-        for activity in plan[2:]:
-            result = backend.execute(RcanNode(f"rcan/{activity.activity_id}", activity, "positioner", "mujoco"))
-            assert result.success, result.message
+        _install_beam(backend, plan)
         prop = next((c, h) for c, h in site.supports if c[2] + h[2] > 3.0)  # the one under the beam
         x, y, yaw = site.base_xy_yaw("bystander")
         assert site._footprint_clear("bystander", (x, y), yaw, [(prop[0][:2], prop[1][:2])])
@@ -249,22 +260,14 @@ def test_an_arm_left_reaching_where_a_beam_prop_goes_is_stowed_first_and_its_rob
     """On the frame an assembly robot ended its install with its 4 m arm stretched over the span of
     the next beam; the beam's prop appeared around its wrist, and every later drive failed (tucking
     the arm touched the prop). An empty arm that reaches into a support's place is stowed first."""
-    table = tmp_path / "two.yaml"
-    table.write_text(HEAVY_TABLE.replace("ROBOT", "positioner").replace("PAYLOAD", "300").replace("REACH", "4.0")
-                     .replace("home: [-4.0, 0.0, 0.0]", "home: [7.0, -3.0, 0.0]")
-                     + "  assembler:\n    types: [mobile_base, manipulator, gripper]\n    payload_kg: 300\n"
-                       "    reach_m: 4.0\n    home: [1.44, 0.92, 0.0]\n")  # beside the beam's middle
-    plan = _beam_between_two_columns()
-    backend = create_backend("mujoco", load_capabilities(str(table)), plan=plan)
+    backend, plan = _positioner_and(tmp_path, "assembler", 300.0, 4.0, (1.44, 0.92))  # beside the beam's middle
     try:
         site = backend.site
         site.turn("assembler", 0.61)
         site.move_arm("assembler", np.array([1.10, -1.545, -2.597, 4.142, -1.073, -1.571]))  # as the frame's was
         prop_xy, prop_half = (2.85, 1.75), (0.09, 0.5)  # where the prop under the beam's middle third goes
         assert site.arm_within("assembler", prop_xy, prop_half, 3.7)
-        for activity in plan[2:]:
-            result = backend.execute(RcanNode(f"rcan/{activity.activity_id}", activity, "positioner", "mujoco"))
-            assert result.success, result.message
+        _install_beam(backend, plan)
         assert site.robot_contacts("assembler") == []
         assert backend.placements[BEAM][0] < 0.010
         away = RcanActivity("M9", component_id=BEAM, kind=ActivityKind.MOVE_TO_COMPONENT, target=Pose(-3.0, -3.0, 0.0),
