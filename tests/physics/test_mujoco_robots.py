@@ -131,6 +131,12 @@ BEAM = "0SteelBeam000000000001"  # the chapter-4 frame's 3.2 m W-section beam: 1
 COLUMNS = ("0SteelColumn0000000001", "0SteelColumn0000000002")  # 4 m W-section columns, 289.8 kg
 
 
+def _positioner_table(home_xy: tuple[float, float]) -> str:
+    """A capability table of one robot, "positioner": the heavy variant (a 4 m arm, 300 kg) at ``home_xy`` (m)."""
+    return (HEAVY_TABLE.replace("ROBOT", "positioner").replace("PAYLOAD", "300").replace("REACH", "4.0")
+            .replace("home: [-4.0, 0.0, 0.0]", f"home: [{home_xy[0]}, {home_xy[1]}, 0.0]"))
+
+
 def _beam_between_two_columns() -> list[RcanActivity]:
     """Two frame columns installed from the start (no activity lifts them), 3.5 m apart at x = 2.85 m,
     and the chain of the 3.2 m beam between them: from lying flat on the ground to installed on top."""
@@ -151,8 +157,7 @@ def test_a_4_m_arm_lifts_a_beam_from_the_ground_and_installs_it_level_between_tw
     out of a 4 m arm's reach. The columns it spans are installed already (no activity lifts them:
     they start in place)."""
     table = tmp_path / "positioner.yaml"
-    table.write_text(HEAVY_TABLE.replace("ROBOT", "positioner").replace("PAYLOAD", "300").replace("REACH", "4.0")
-                     .replace("home: [-4.0, 0.0, 0.0]", "home: [7.0, -3.0, 0.0]"))
+    table.write_text(_positioner_table((7.0, -3.0)))
     plan = _beam_between_two_columns()
     backend = create_backend("mujoco", load_capabilities(str(table)), plan=plan)
     try:
@@ -224,8 +229,7 @@ def _positioner_and(tmp_path, robot: str, payload_kg: float, reach_m: float, hom
     """The beam chain's positioner (a 4 m arm, at (7, -3)) and one more robot at ``home_xy`` (m);
     returns (backend, plan of :func:`_beam_between_two_columns`)."""
     table = tmp_path / "two.yaml"
-    table.write_text(HEAVY_TABLE.replace("ROBOT", "positioner").replace("PAYLOAD", "300").replace("REACH", "4.0")
-                     .replace("home: [-4.0, 0.0, 0.0]", "home: [7.0, -3.0, 0.0]")
+    table.write_text(_positioner_table((7.0, -3.0))
                      + f"  {robot}:\n    types: [mobile_base, manipulator, gripper]\n    payload_kg: {payload_kg}\n"
                        f"    reach_m: {reach_m}\n    home: [{home_xy[0]}, {home_xy[1]}, 0.0]\n")
     plan = _beam_between_two_columns()
@@ -284,8 +288,7 @@ def test_a_robot_with_a_low_support_put_under_its_chassis_drives_off_it(tmp_path
     out), and the robot never moved again. What the chassis stands over already is left to the
     contact check while it drives off."""
     table = tmp_path / "one.yaml"
-    table.write_text(HEAVY_TABLE.replace("ROBOT", "positioner").replace("PAYLOAD", "300").replace("REACH", "4.0")
-                     .replace("home: [-4.0, 0.0, 0.0]", "home: [0.0, 0.0, 0.0]"))
+    table.write_text(_positioner_table((0.0, 0.0)))
     backend = create_backend("mujoco", load_capabilities(str(table)))
     try:
         site = backend.site
@@ -304,8 +307,7 @@ def test_a_robot_that_cannot_turn_where_it_stands_backs_straight_out_of_a_suppor
     path, and the beam escalated. With no path to any stand it drives straight along its heading
     until its chassis is clear of the support's place."""
     table = tmp_path / "one.yaml"
-    table.write_text(HEAVY_TABLE.replace("ROBOT", "positioner").replace("PAYLOAD", "300").replace("REACH", "4.0")
-                     .replace("home: [-4.0, 0.0, 0.0]", "home: [0.0, 0.0, 0.0]"))
+    table.write_text(_positioner_table((0.0, 0.0)))
     backend = create_backend("mujoco", load_capabilities(str(table)))
     try:
         site = backend.site
