@@ -282,6 +282,35 @@ def test_an_arm_left_reaching_where_a_beam_prop_goes_is_stowed_first_and_its_rob
         backend.close()
 
 
+def test_a_beam_carried_low_over_its_props_place_is_installed_and_the_prop_appears_under_it(tmp_path):
+    """On the frame a positioning robot stood between the columns with its beam carried low at its
+    front, right where the beam's prop goes; the prop appeared around its arm and the beam escalated.
+    The seat appears once the beam is held above it."""
+    table = tmp_path / "positioner.yaml"
+    table.write_text(_positioner_table((7.0, -3.0)))
+    plan = _beam_between_two_columns()
+    backend = create_backend("mujoco", load_capabilities(str(table)), plan=plan)
+    try:
+        site = backend.site
+        for activity in plan[2:5]:  # to the beam, over it, picked up
+            result = backend.execute(RcanNode(f"rcan/{activity.activity_id}", activity, "positioner", "mujoco"))
+            assert result.success, result.message
+        backend._to_carry("positioner")
+        prop_xy, prop_half = (2.85, 1.75), (0.09, 0.5)  # under the beam's middle third
+        reach = np.linalg.norm(site.tcp_pose("positioner")[:2, 3] - site.base_xy_yaw("positioner")[:2])
+        way = site.plan_poses("positioner", (2.85 - reach, 1.75), 0.0, seconds=5.0)  # the beam over the prop's place
+        site.drive("positioner", way.end, path=way)
+        assert site.arm_within("positioner", prop_xy, prop_half, 3.7)
+        for activity in plan[5:]:
+            result = backend.execute(RcanNode(f"rcan/{activity.activity_id}", activity, "positioner", "mujoco"))
+            assert result.success, result.message
+        assert any(c[2] + h[2] > 3.0 for c, h in site.supports)  # the prop stands under the beam
+        assert site.robot_contacts("positioner") == []
+        assert backend.placements[BEAM][0] < 0.010
+    finally:
+        backend.close()
+
+
 def test_a_robot_with_a_low_support_put_under_its_chassis_drives_off_it(tmp_path):
     """On the frame a column's 2.5 cm pedestal was put on its footing while the positioning robot's
     chassis stood over it; every path from there was refused (the chassis 'would touch' it driving
@@ -320,6 +349,58 @@ def test_a_robot_that_cannot_turn_where_it_stands_backs_straight_out_of_a_suppor
         assert site._footprint_clear("positioner", (x, y), yaw, [prop])
         assert abs(y) < 0.05 and abs(yaw) < 0.05 and x < 0.0  # straight back, not turned
         assert site.robot_contacts("positioner") == []
+    finally:
+        backend.close()
+
+
+def test_a_robot_in_a_corridor_too_narrow_to_turn_in_drives_out_backwards_and_on_to_its_goal(tmp_path):
+    """The grid planner lets a robot turn anywhere on its path, so it keeps the robot's turning
+    circle from everything: in a 12 m corridor narrower than that circle it finds no way at all, and
+    on the frame a positioning robot inside the columns was left with no path to any stand. The
+    planner in the plane (OMPL, forward and backward) checks the robot's whole body instead."""
+    table = tmp_path / "one.yaml"
+    table.write_text(_positioner_table((0.0, 0.0)))
+    backend = create_backend("mujoco", load_capabilities(str(table)))
+    try:
+        site = backend.site
+        for name, y in (("north", 1.3), ("south", -1.3)):
+            site.add_support(f"wall/{name}", (0.0, y), 2.0, (6.0, 0.1))
+        assert 2 * site.sweep_radius("positioner") > 2.4  # it cannot turn between the walls
+        with pytest.raises(MotionFailed, match="no collision-free path"):
+            site.plan_path("positioner", (-9.0, 3.0))
+        site.drive("positioner", (-9.0, 3.0))
+        assert np.linalg.norm(site.base_xy_yaw("positioner")[:2] - np.array([-9.0, 3.0])) < 0.02
+        assert site.robot_contacts("positioner") == []
+    finally:
+        backend.close()
+
+
+def test_an_arm_plans_its_way_round_a_pillar_its_straight_joint_path_would_hit(tmp_path):
+    """Arm paths used to be a straight joint-space move or one through a few fixed via postures; on
+    the frame a 4 m arm's elbow met a prop on the way to its tucked posture, and the robot escalated
+    its next activities. plan_arm searches joint space (OMPL's RRT-Connect on MuJoCo's collision
+    check); each straight segment of its path is clear."""
+    table = tmp_path / "arm.yaml"
+    table.write_text(HEAVY_TABLE.replace("ROBOT", "arm").replace("PAYLOAD", "5").replace("REACH", "0.85")
+                     .replace("home: [-4.0, 0.0, 0.0]", "home: [0.0, 0.0, 0.0]"))
+    backend = create_backend("mujoco", load_capabilities(str(table)))
+    try:
+        site = backend.site
+        site.add_support("pillar", (-0.62, 0.0), 2.0, (0.08, 0.6))  # behind the chassis
+        left = np.array([1.3, -0.3, -0.3, -1.0, 1.57, 0.0])  # reaching out to the left, then to the right
+        right = left * np.array([-1, 1, 1, 1, 1, 1])
+        site.data.qpos[site.idx["arm"]["q"]] = left
+        site.robots["arm"].q_ref = left.copy()
+        site.step(1.0)
+        assert site.robot_contacts("arm") == []
+        assert site._path_contacts("arm", left, right, set())  # the straight way sweeps through the pillar
+        path = site.plan_arm("arm", right)
+        assert path is not None and np.allclose(path[-1], right)
+        for a, b in zip(path, path[1:]):
+            assert site._path_contacts("arm", a, b, set()) == []
+            site.move_arm("arm", b)
+        assert site.robot_contacts("arm") == []
+        assert np.abs(site.arm_q("arm") - right).max() < 0.02
     finally:
         backend.close()
 

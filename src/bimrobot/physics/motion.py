@@ -93,6 +93,7 @@ class ArmIK:
         self.posture = mink.PostureTask(self.model, cost=1e-2)
         self.limits = [mink.ConfigurationLimit(self.model)]
         self.configuration = mink.Configuration(self.model)
+        self._kinematics = mujoco.MjData(self.model)  # scratch for lowest_link
 
     def solve(self, target: np.ndarray, seed: np.ndarray, iterations: int = 400) -> tuple[np.ndarray, float, float]:
         """Joint angles (6) putting the tcp at ``target`` (4x4 in the arm base frame) from ``seed``;
@@ -120,7 +121,7 @@ class ArmIK:
         """Height (m, arm base frame) of the lowest joint of the arm at joints ``q``."""
         import mujoco
 
-        data = mujoco.MjData(self.model)
+        data = self._kinematics
         data.qpos[:6] = q
         mujoco.mj_kinematics(self.model, data)
         return float(data.xpos[2:, 2].min())  # bodies after the world and the arm's first link

@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from bimrobot.physics import motion
+from bimrobot.physics import motion, planning
 from bimrobot.physics.robot import JOINT_NAMES, RobotModel, add_robot
 from bimrobot.physics.scene import scene_root
 
@@ -32,12 +32,14 @@ GRASP_ANGLE_TOLERANCE_DEG = 2.0
 GRASP_TIME_CONSTANT_S = 0.004
 FINGER_DEPTH_M = 0.03  # the tool centre point is this far below the top of the component when grasping
 TRACKING_TOLERANCE_M = 0.01  # the tcp must end within this of its goal, else the arm could not follow
-SETTLE_MAX_S = 3.0  # the longest wait for the arm to get in position after a move
+SETTLE_MAX_S = 8.0  # the longest wait for the arm to get in position after a move (while it still moves)
 RECORD_HZ = 20.0
 TURN_RATE_RAD_S = 1.0
 JOINT_SPEED_RAD_S = 1.0
 CLEARANCE_M = 0.05  # the base keeps this from obstacles on its path
 GRID_M = 0.05
+TURNING_RADIUS_M = 0.1  # of the arcs of plan_poses' paths (a skid-steer base turns almost in place)
+POSE_PLANS_PER_SEARCH = 3  # paths of plan_poses tried per search for a stand (each up to a second)
 PIT_DEPTH_M = 1.0  # thickness of the ground slab: the deepest pit
 SITE_HALF_M = 200.0  # the ground slab spans +-200 m
 
@@ -59,6 +61,18 @@ class MotionFailed(Exception):
 class Blocked(MotionFailed):
     """The robot cannot get where it must be now (no free path or stand): other robots' work may
     clear the way (a component lying in front of the one to fetch is taken away)."""
+
+
+@dataclass
+class PosePath:
+    """A base path planned in the plane with the robot's whole body (see :meth:`MujocoSite.plan_poses`):
+    poses (x, y, yaw; m, m, rad; world) about 2 cm apart, from where the base stands to its goal."""
+
+    poses: list[np.ndarray]
+
+    @property
+    def end(self) -> np.ndarray:
+        return self.poses[-1][:2]
 
 
 @dataclass
@@ -149,6 +163,8 @@ class MujocoSite:
                 "gripper": m.body(f"{name}/gripper").id,
                 "robot_bodies": {b for b in range(m.nbody) if m.body(b).name.startswith(f"{name}/")},
             }
+            self.idx[name]["geom_bodies"] = np.array(sorted(self.idx[name]["robot_bodies"]))
+            self.idx[name]["geoms"] = np.flatnonzero(np.isin(m.geom_bodyid, self.idx[name]["geom_bodies"]))
         for name, robot in self.robots.items():
             if robot.gains is None:
                 self.mj.mj_forward(self.model, self.data)
@@ -498,11 +514,156 @@ class MujocoSite:
         free_at = lambda p: occupied[tuple(np.clip(cell(p), 0, np.array(shape) - 1))]  # noqa: E731
         return motion.simplify(points, free_at, GRID_M / 2)[1:]
 
+    def driving_posture(self, robot: str) -> np.ndarray:
+        """The arm's joints (rad) while the base drives: as they are when it holds something, else
+        where :meth:`stow_arm` puts them."""
+        r = self.robots[robot]
+        if r.holding:
+            return r.q_ref.copy()
+        posture = TUCK_POSTURE if r.model.family == "heavy" else self._ready_posture_cached(robot)
+        return motion.wrap_near(posture, r.q_ref, np.array([True, True, False, True, True, True]))
+
+    def plan_poses(self, robot: str, goal_xy, goal_yaw: float | None = None, keep_out=(),
+                   seconds: float = 1.0) -> PosePath | None:
+        """A path in the plane (OMPL, Reeds-Shepp curves: forward and backward, see
+        :mod:`bimrobot.physics.planning`) to ``goal_xy`` heading ``goal_yaw`` (any of eight headings
+        when None), checked on the MuJoCo scene with the robot's whole body as it drives (chassis and
+        arm in :meth:`driving_posture`) keeping :data:`CLEARANCE_M` from everything; at the goal its
+        chassis is clear of ``keep_out`` boxes too (centre xy, half xy: about to appear, not there
+        to touch on the way). What it is nearer than that to at its start it may stay as near to,
+        never nearer (it has just worked beside it). For where the
+        grid planner, which lets the robot turn anywhere, finds no way: a robot holding a beam
+        between columns sweeps metres when it turns. None when no path is found in ``seconds`` per
+        heading (wall time)."""
+        x, y, yaw = self.base_xy_yaw(robot)
+        start = np.array([x, y, yaw])
+        valid = self._pose_check(robot, start)
+        keep_out = [(np.asarray(c, float), np.asarray(h, float)) for c, h in keep_out]
+        goal_xy = np.asarray(goal_xy, float)
+        boxes = self.obstacles(robot) + [(np.asarray(c, float), np.asarray(h, float)) for c, h in keep_out]
+        corners = [start[:2], goal_xy] + [c - h for c, h in boxes] + [c + h for c, h in boxes]
+        lower, upper = np.min(corners, axis=0) - 3.0, np.max(corners, axis=0) + 3.0
+        headings = [goal_yaw] if goal_yaw is not None else \
+            sorted(np.linspace(-math.pi, math.pi, 8, endpoint=False), key=lambda h: abs(_wrap(h - yaw)))
+        for heading in headings:
+            goal = np.array([*goal_xy, heading])
+            if not valid(*goal) or not self._footprint_clear(robot, goal[:2], heading, keep_out):
+                continue
+            # checked where the robot's farthest point (its sweep radius out) has moved 2 cm
+            resolution = 0.02 * TURNING_RADIUS_M / (self.sweep_radius(robot) + TURNING_RADIUS_M)
+            poses = planning.base_path(valid, start, goal, lower, upper, TURNING_RADIUS_M, resolution, seconds)
+            if poses is not None:
+                return PosePath(poses)
+        return None
+
+    def _pose_check(self, robot: str, start: np.ndarray):
+        """valid(x, y, yaw) for :meth:`plan_poses` (positions only, on a scratch copy of the state)."""
+        probe = self._probe_model(robot, CLEARANCE_M)
+        scratch = self.scratch_state()
+        scratch.qpos[self.idx[robot]["q"]] = self.driving_posture(robot)
+        base = self.idx[robot]["base_q"]
+        already = self._contacts_within(robot, probe, scratch, base, start)
+
+        def valid(x, y, yaw):
+            return self._no_nearer(self._contacts_within(robot, probe, scratch, base, (x, y, yaw)), already)
+
+        return valid
+
+    def _probe_model(self, robot: str, margin: float):
+        """A copy of the model for checking the robot's poses quickly: only the robot's geoms collide
+        (with what they would touch in the simulation, not other robots; what lies on the ground is
+        not checked against the ground on every try), and they touch what comes within ``margin`` (m)."""
+        import copy
+
+        probe = copy.copy(self.model)
+        mine = self.idx[robot]["geoms"]
+        kind, affinity = probe.geom_contype, probe.geom_conaffinity
+        solid = mine[(kind[mine] | affinity[mine]) != 0]
+        # MuJoCo's rule: two geoms collide when either's type matches the other's affinity
+        meets_robot = ((kind & np.bitwise_or.reduce(affinity[solid])) != 0) | \
+                      ((affinity & np.bitwise_or.reduce(kind[solid])) != 0)
+        meets_robot[mine] = False
+        only = 1 << 30  # a bit nothing else uses
+        kind[:], affinity[:] = 0, np.where(meets_robot, only, 0)
+        kind[solid] = only
+        probe.geom_margin[mine] = margin
+        return probe
+
+    def _contacts_within(self, robot: str, probe, scratch, addresses, values) -> dict[int, float]:
+        """What the robot would touch or come within the probe model's margin of, in ``scratch``
+        with its coordinates ``addresses`` (qpos) set to ``values`` (positions only): a body's id (or
+        minus one minus a static geom's id; a planner asks thousands of times: no names) -> the
+        least distance (m, negative: overlap)."""
+        scratch.qpos[addresses] = values
+        self.mj.mj_kinematics(probe, scratch)
+        self.mj.mj_collision(probe, scratch)
+        if not scratch.ncon:
+            return {}
+        contacts = scratch.contact
+        geoms = contacts.geom[: scratch.ncon]
+        own = np.isin(probe.geom_bodyid[geoms[:, 0]], self.idx[robot]["geom_bodies"])
+        other = np.where(own, geoms[:, 1], geoms[:, 0])
+        body = probe.geom_bodyid[other]
+        found: dict[int, float] = {}
+        for key, distance in zip(np.where(body == 0, -1 - other, body).tolist(), contacts.dist[: scratch.ncon].tolist()):
+            found[key] = min(distance, found.get(key, distance))
+        return found
+
+    @staticmethod
+    def _no_nearer(found: dict[int, float], already: dict[int, float]) -> bool:
+        """Whether every contact of ``found`` is one of ``already`` and no nearer (1 mm) than there:
+        a robot may move away from, or along, what it stood close to."""
+        return all(key in already and distance >= already[key] - 0.001 for key, distance in found.items())
+
+    def _follow(self, robot: str, path: PosePath) -> float:
+        """Drive the base along the poses of ``path`` (tracking each in turn at the robot's speed and
+        TURN_RATE_RAD_S); MotionFailed when it touches something new. Returns the distance driven (m)."""
+        r = self.robots[robot]
+        if not r.holding and r.model.family == "heavy":
+            self.stow_arm(robot)
+        already = set(self.robot_contacts(robot))
+        driven, last = 0.0, self.base_xy_yaw(robot)[:2]
+        for k, pose in enumerate(path.poses[1:], start=1):
+            final = k == len(path.poses) - 1
+            for _ in range(int(30 / 0.02)):
+                x, y, yaw = self.base_xy_yaw(robot)
+                offset, turn = pose[:2] - (x, y), _wrap(pose[2] - yaw)
+                if np.linalg.norm(offset) < (0.005 if final else 0.02) and abs(turn) < (2e-3 if final else 0.03):
+                    break
+                velocity = offset / 0.2  # reach the next pose (2 cm ahead) in about 0.2 s, within the speed
+                velocity *= min(1.0, r.speed_m_s / max(np.linalg.norm(velocity), 1e-9))
+                r.base_velocity = np.array([*velocity, np.clip(turn / 0.2, -TURN_RATE_RAD_S, TURN_RATE_RAD_S)])
+                self.step(0.02)
+                touching = self.robot_contacts(robot, besides=already)
+                if touching:
+                    r.base_velocity = np.zeros(3)
+                    self.step(0.1)
+                    raise MotionFailed(f"{robot} hit something while driving at ({x:.2f}, {y:.2f}): {'; '.join(touching)}")
+            here = self.base_xy_yaw(robot)[:2]
+            driven, last = driven + float(np.linalg.norm(here - last)), here
+        r.base_velocity = np.zeros(3)
+        self.step(0.1)
+        return driven
+
     def drive(self, robot: str, goal_xy, final_yaw: float | None = None, path: list | None = None) -> float:
         """Drive the base along a planned path to ``goal_xy`` (turn, then go straight, per leg); turn
         to ``final_yaw`` at the end. ``path``: the waypoints :meth:`plan_path` gave from where the
-        base stands now (planned already to check the way). Returns the distance driven (m)."""
-        waypoints = self.plan_path(robot, goal_xy) if path is None else path
+        base stands now (planned already to check the way), or a :class:`PosePath`. When the grid
+        planner finds no way, a path of :meth:`plan_poses` (the robot's whole body, driving forward
+        and backward). Returns the distance driven (m)."""
+        if path is None:
+            try:
+                path = self.plan_path(robot, goal_xy)
+            except Blocked:
+                path = self.plan_poses(robot, goal_xy, final_yaw)
+                if path is None:
+                    raise
+        if isinstance(path, PosePath):
+            driven = self._follow(robot, path)
+            if final_yaw is not None:
+                self.turn(robot, final_yaw)
+            return driven
+        waypoints = path
         x, y, yaw = self.base_xy_yaw(robot)
         first = waypoints[0] - np.array([x, y])
         turns = np.linalg.norm(first) > 0.02 and abs(_wrap(math.atan2(first[1], first[0]) - yaw)) > 0.05
@@ -699,15 +860,23 @@ class MujocoSite:
         candidates = [target + radius * np.array([math.cos(a), math.sin(a)]) for a in angles]
         candidates.sort(key=lambda c: float(np.linalg.norm(c - here)))
         why = "every pose around it is blocked"
+        planned = 0
         for candidate in candidates:
             if self._blocked(candidate, boxes, corner):
                 continue
+            facing = math.atan2(target[1] - candidate[1], target[0] - candidate[0])
             try:
                 path = self.plan_path(robot, candidate)  # the nearest pose may be walled off: the next one
+                end = path[-1]  # the planner ends on the nearest free cell when the pose is too near a tall obstacle
             except Blocked as failure:
                 why = str(failure)
-                continue
-            end = path[-1]  # the planner ends on the nearest free cell when the pose is too near a tall obstacle
+                if planned == POSE_PLANS_PER_SEARCH:
+                    continue
+                planned += 1  # its whole body's way in the plane (see approach)
+                path = self.plan_poses(robot, candidate, facing, keep_out=[(target, np.asarray(half_xy, float))])
+                if path is None:
+                    continue
+                end = path.end
             if self._blocked(end, boxes, corner):
                 why = f"the nearest free spot to a pose, ({end[0]:.2f}, {end[1]:.2f}), is within the box"
                 continue
@@ -782,22 +951,33 @@ class MujocoSite:
                     candidates.append((float(np.linalg.norm(c - here)) + rank * 2.0 * distance, c))
         candidates = [c for _, c in sorted(candidates, key=lambda item: item[0])]
         why = "every stand around it is blocked"
-        tried, unreachable = 0, 0
+        tried, unreachable, planned = 0, 0, 0
         for candidate in candidates:
             if tried == 8 or unreachable == 12:
                 break
             facing = math.atan2(point[1] - candidate[1], point[0] - candidate[0])
             try:  # a stand it can drive to and turn at to face the point, checked before it moves
                 path = self.plan_path(robot, candidate)
-                before = path[-2] if len(path) > 1 else here
-                arrival = math.atan2(*(path[-1] - before)[::-1]) if np.linalg.norm(path[-1] - before) > 0.02 else yaw
-                self._turning_way(robot, arrival, facing, path[-1])
+                turns = self._turns_on(robot, path, facing)
             except Blocked as failure:
-                why = str(failure)
-                continue
-            if not self._reaches(robot, reach, path[-1], facing):
+                why, path, turns = str(failure), None, "no path"
+            if not self._reaches(robot, reach, candidate if path is None else path[-1], facing):
                 unreachable += 1
                 why = f"its arm does not reach its work from the stands around it ({unreachable} tried)"
+                continue
+            if turns and planned < POSE_PLANS_PER_SEARCH:
+                # the grid lets the robot turn anywhere on its way; where it cannot (holding a beam it
+                # sweeps metres), its whole body's way in the plane, arriving facing the point
+                planned += 1
+                poses = self.plan_poses(robot, candidate, facing, keep_out=list(keep_out) + list(low_keep_out))
+                if poses is not None:
+                    path = poses
+                elif turns != "at the start":  # (there, drive may back out of the way first)
+                    path = None
+                    why = f"{why}; nor a way driving forward and backward ({planned} tried)"
+            elif turns and turns != "at the start":
+                path = None
+            if path is None:
                 continue
             tried += 1
             try:  # there, and turned to face the point (a turn that would touch something: the next stand)
@@ -808,6 +988,26 @@ class MujocoSite:
                 continue
             return
         raise Blocked(f"no stand for {robot} within reach of ({point[0]:.2f}, {point[1]:.2f}): {why}")
+
+    def _turns_on(self, robot: str, path: list, facing: float) -> str:
+        """Where the robot, driving the grid ``path`` (turn, then straight, per leg) from where it
+        stands, cannot make its first turn ("at the start") or the turn to ``facing`` at the end ("at
+        the end") without sweeping into something; "" when it can make both."""
+        x, y, yaw = self.base_xy_yaw(robot)
+        here = np.array([x, y])
+        try:
+            first = path[0] - here
+            if np.linalg.norm(first) > 0.02:
+                self._turning_way(robot, yaw, math.atan2(first[1], first[0]))
+        except Blocked:
+            return "at the start"
+        before = path[-2] if len(path) > 1 else here
+        arrival = math.atan2(*(path[-1] - before)[::-1]) if np.linalg.norm(path[-1] - before) > 0.02 else yaw
+        try:
+            self._turning_way(robot, arrival, facing, path[-1])
+        except Blocked:
+            return "at the end"
+        return ""
 
     def _reaches(self, robot: str, reach, xy, yaw: float) -> bool:
         """Whether the arm reaches every tool pose of ``reach(xy, yaw)`` (4x4, world) with the base at
@@ -890,7 +1090,39 @@ class MujocoSite:
                     if not self._path_contacts(robot, start, via, already) and \
                             not self._path_contacts(robot, via, q_goal, already):
                         return self._move_arm(robot, via, True) + self._move_arm(robot, q_goal, True, onto_seat)
+                path = self.plan_arm(robot, q_goal)
+                if path is not None:
+                    seconds = sum(self._move_arm(robot, q, True) for q in path[1:-1])
+                    return seconds + self._move_arm(robot, q_goal, True, onto_seat)
         return self._move_arm(robot, q_goal, check_contacts, onto_seat)
+
+    def plan_arm(self, robot: str, q_goal: np.ndarray, seconds: float = 2.0) -> list[np.ndarray] | None:
+        """Joint vectors (rad) from the arm's joints to ``q_goal`` along which the arm keeps 2 cm from
+        everything, its links above the ground (OMPL's RRT-Connect in joint space, checked on
+        positions every 0.01 rad; see :mod:`bimrobot.physics.planning`). What it is nearer than
+        that to at its start it may stay as near to, never nearer. None when none is found in
+        ``seconds``."""
+        r = self.robots[robot]
+        start = r.q_ref.copy()
+        scratch = self.scratch_state()
+        arm = self.idx[robot]["q"]
+        base_z = self.arm_base_pose(robot)[2, 3]
+        ground = self.ground_z + 0.06 * r.model.scale
+        probe = self._probe_model(robot, 0.02)
+        already = self._contacts_within(robot, probe, scratch, arm, start)
+
+        def valid(q):
+            if base_z + r.ik.lowest_link(q) < ground:
+                return False
+            return self._no_nearer(self._contacts_within(robot, probe, scratch, arm, q), already)
+
+        ranges = self.model.jnt_range[[self.model.joint(f"{robot}/{j}").id for j in JOINT_NAMES]]
+        limited = ranges[:, 1] > ranges[:, 0]
+        lower = np.where(limited, ranges[:, 0], np.minimum(start, q_goal) - 2 * math.pi)
+        upper = np.where(limited, ranges[:, 1], np.maximum(start, q_goal) + 2 * math.pi)
+        if not valid(np.asarray(q_goal, float)):
+            return None
+        return planning.joint_path(valid, start, q_goal, lower, upper, resolution_rad=0.01, seconds=seconds)
 
     def _path_contacts(self, robot: str, q_from: np.ndarray, q_to: np.ndarray, already: set) -> list[str]:
         """What the arm would newly touch on the straight joint-space path (24 samples, positions only)."""

@@ -401,7 +401,6 @@ class MujocoBackend(DispatchingBackend):
         box = self._installed_box(node.activity)
         if np.abs(site.arm_q(robot) - site.carry_posture(robot)).max() > 0.05:
             self._to_carry(robot)  # it may drive and turn to its stand now
-        self._support_for(gid, box, robot)
         # stand where the arm's wrist (behind the tool centre point, along the tool) works comfortably
         _, goal = self._install_pose(robot, gid, box)
         def path_from(xy, yaw):  # every tool pose of the move onto the seat, the robot at that stand
@@ -410,7 +409,12 @@ class MujocoBackend(DispatchingBackend):
 
         site.approach(robot, self._wrist_point(robot, goal), keep_out=[(box.centre[:2], box.half_xy)], reach=path_from)
         target, goal = self._install_pose(robot, gid, box)
-        site.move_tcp_through(robot, self._carry_waypoints(robot, gid, goal), onto_seat=True)
+        waypoints = self._carry_waypoints(robot, gid, goal)
+        site.move_tcp_through(robot, waypoints[:-1])
+        # its seat appears once it is held above it: carried low at the robot's front, a beam is
+        # where its prop stands, and the prop appeared around the arm holding it
+        self._support_for(gid, box, robot)
+        site.move_tcp_through(robot, waypoints[-1:], onto_seat=True)
         self.targets[gid], self.installed[gid] = target, box
         if node.activity.releases_robot:  # PositionFixed: let go, the assembly robots fix it
             self._release(robot)

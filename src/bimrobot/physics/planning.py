@@ -1,0 +1,108 @@
+"""Sampling-based motion planning with OMPL (the Open Motion Planning Library, ``ompl`` on PyPI).
+
+Two searches, both RRT-Connect followed by OMPL's path simplifier, around whatever the caller's
+``valid`` function says the robot would touch (the site checks a pose against the MuJoCo scene):
+
+- :func:`joint_path`: an arm's path in joint space (rad), from its joints to a goal posture.
+- :func:`base_path`: a wheeled base's path in the plane, poses (x, y, yaw; m, m, rad; world frame,
+  z up), as Reeds-Shepp curves of a small turning radius: forward and backward arcs and straights,
+  which a skid-steer or differential-drive base can follow; the robot's whole body (chassis, arm
+  as it is held while driving) counts, not a circle around it, so a robot holding a long member can
+  get out of a tight spot by driving along its heading.
+
+Each returns ``None`` when it finds no path within its time budget (wall seconds).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+
+import numpy as np
+
+_seeded = False
+
+
+def _ompl():
+    """OMPL's modules, quiet, seeded once per process (the seed takes effect only before any of
+    OMPL's random generators exists)."""
+    global _seeded
+    import ompl.base as ob
+    import ompl.geometric as og
+    import ompl.util as ou
+
+    if not _seeded:
+        ou.setLogLevel(ou.LogLevel.LOG_ERROR)
+        ou.RNG.setSeed(20261124)
+        _seeded = True
+    return ob, og
+
+
+def _solve(setup, og, seconds: float) -> bool:
+    setup.setPlanner(og.RRTConnect(setup.getSpaceInformation()))
+    solved = setup.solve(seconds)
+    if not solved or not setup.haveExactSolutionPath():
+        return False
+    setup.simplifySolution(min(0.2, seconds))
+    return True
+
+
+def joint_path(valid: Callable[[np.ndarray], bool], start: Sequence[float], goal: Sequence[float],
+               lower: Sequence[float], upper: Sequence[float], resolution_rad: float = 0.01,
+               seconds: float = 2.0) -> list[np.ndarray] | None:
+    """Joint vectors (rad) from ``start`` to ``goal`` (both included), every straight joint-space
+    segment between them valid when checked every ``resolution_rad`` (the largest joint step
+    between checks); ``lower``/``upper``: joint limits (rad)."""
+    ob, og = _ompl()
+    n = len(start)
+    space = ob.RealVectorStateSpace(n)
+    bounds = ob.RealVectorBounds(n)
+    for i in range(n):
+        bounds.setLow(i, float(lower[i]))
+        bounds.setHigh(i, float(upper[i]))
+    space.setBounds(bounds)
+    setup = og.SimpleSetup(space)
+    setup.setStateValidityChecker(lambda state: bool(valid(np.array([state[i] for i in range(n)]))))
+    setup.getSpaceInformation().setStateValidityCheckingResolution(resolution_rad / space.getMaximumExtent())
+    a, b = space.allocState(), space.allocState()
+    for i in range(n):
+        a[i], b[i] = float(start[i]), float(goal[i])
+    setup.setStartAndGoalStates(a, b)
+    if not _solve(setup, og, seconds):
+        return None
+    path = setup.getSolutionPath()
+    return [np.array([path.getState(k)[i] for i in range(n)]) for k in range(path.getStateCount())]
+
+
+def base_path(valid: Callable[[float, float, float], bool], start: Sequence[float], goal: Sequence[float],
+              lower_xy: Sequence[float], upper_xy: Sequence[float], turning_radius_m: float = 0.1,
+              resolution_m: float = 0.02, seconds: float = 2.0) -> list[np.ndarray] | None:
+    """Poses (x, y, yaw; m, rad) from ``start`` to ``goal``, both (x, y, yaw), every ``resolution_m``
+    of the way valid, on Reeds-Shepp curves of ``turning_radius_m`` within the box ``lower_xy`` -
+    ``upper_xy``; densely sampled (about every 2 cm of travel) so that a controller can track it."""
+    ob, og = _ompl()
+    space = ob.ReedsSheppStateSpace(turning_radius_m)
+    bounds = ob.RealVectorBounds(2)
+    for i in range(2):
+        bounds.setLow(i, float(lower_xy[i]))
+        bounds.setHigh(i, float(upper_xy[i]))
+    space.setBounds(bounds)
+    setup = og.SimpleSetup(space)
+    setup.setStateValidityChecker(lambda state: bool(valid(state.getX(), state.getY(), state.getYaw())))
+    setup.getSpaceInformation().setStateValidityCheckingResolution(resolution_m / space.getMaximumExtent())
+    ends = []
+    for x, y, yaw in (start, goal):
+        state = space.allocState()
+        state.setX(float(x))
+        state.setY(float(y))
+        state.setYaw(math.remainder(float(yaw), 2 * math.pi))
+        space.enforceBounds(state)
+        ends.append(state)
+    setup.setStartAndGoalStates(ends[0], ends[1])
+    if not _solve(setup, og, seconds):
+        return None
+    path = setup.getSolutionPath()
+    path.interpolate(max(2, int(math.ceil(path.length() / 0.02)) + 1))
+    poses = [np.array([s.getX(), s.getY(), s.getYaw()]) for s in (path.getState(k) for k in range(path.getStateCount()))]
+    poses[-1] = np.array([goal[0], goal[1], math.remainder(float(goal[2]), 2 * math.pi)])
+    return poses
