@@ -616,31 +616,47 @@ class MujocoSite:
         return all(key in already and distance >= already[key] - 0.001 for key, distance in found.items())
 
     def _follow(self, robot: str, path: PosePath) -> float:
-        """Drive the base along the poses of ``path`` (tracking each in turn at the robot's speed and
-        TURN_RATE_RAD_S); MotionFailed when it touches something new. Returns the distance driven (m)."""
+        """Drive the base along ``path``: its poses timed so that the base moves at the robot's speed
+        and turns at TURN_RATE_RAD_S at most, each step's velocity the reference's plus a correction
+        of the pose error; then into the last pose (5 mm, 0.002 rad). MotionFailed when it touches
+        something new. Returns the distance driven (m)."""
         r = self.robots[robot]
         if not r.holding and r.model.family == "heavy":
             self.stow_arm(robot)
+        poses = np.array(path.poses, float)
+        poses[:, 2] = np.unwrap(poses[:, 2])
+        step = np.diff(poses, axis=0)
+        times = np.concatenate([[0.0], np.cumsum(np.maximum(np.linalg.norm(step[:, :2], axis=1) / r.speed_m_s,
+                                                              np.abs(step[:, 2]) / TURN_RATE_RAD_S))])
+        reference = lambda t: np.array([np.interp(t, times, poses[:, i]) for i in range(3)])  # noqa: E731
         already = set(self.robot_contacts(robot))
-        driven, last = 0.0, self.base_xy_yaw(robot)[:2]
-        for k, pose in enumerate(path.poses[1:], start=1):
-            final = k == len(path.poses) - 1
-            for _ in range(int(30 / 0.02)):
-                x, y, yaw = self.base_xy_yaw(robot)
-                offset, turn = pose[:2] - (x, y), _wrap(pose[2] - yaw)
-                if np.linalg.norm(offset) < (0.005 if final else 0.02) and abs(turn) < (2e-3 if final else 0.03):
-                    break
-                velocity = offset / 0.2  # reach the next pose (2 cm ahead) in about 0.2 s, within the speed
-                velocity *= min(1.0, r.speed_m_s / max(np.linalg.norm(velocity), 1e-9))
-                r.base_velocity = np.array([*velocity, np.clip(turn / 0.2, -TURN_RATE_RAD_S, TURN_RATE_RAD_S)])
-                self.step(0.02)
-                touching = self.robot_contacts(robot, besides=already)
-                if touching:
-                    r.base_velocity = np.zeros(3)
-                    self.step(0.1)
-                    raise MotionFailed(f"{robot} hit something while driving at ({x:.2f}, {y:.2f}): {'; '.join(touching)}")
+        dt, t, driven, stalled = 0.02, 0.0, 0.0, 0.0
+        last = self.base_xy_yaw(robot)[:2]
+        while True:
+            t = min(t + dt, times[-1])
+            x, y, yaw = self.base_xy_yaw(robot)
+            goal = reference(t)
+            error = np.array([goal[0] - x, goal[1] - y, _wrap(goal[2] - yaw)])
+            if t >= times[-1] and np.linalg.norm(error[:2]) < 0.005 and abs(error[2]) < 2e-3:
+                break
+            if stalled > 5.0:  # 5 s past the end of its path and not in its last pose
+                r.base_velocity = np.zeros(3)
+                raise MotionFailed(f"the base of {robot} is blocked at ({x:.2f}, {y:.2f}), "
+                                   f"{np.linalg.norm(error[:2]) * 1000:.0f} mm from its goal")
+            stalled += dt if t >= times[-1] else 0.0
+            ahead = (reference(t + dt) - goal) / dt if t < times[-1] else np.zeros(3)
+            velocity = ahead + 3.0 * error
+            velocity[:2] *= min(1.0, 1.5 * r.speed_m_s / max(float(np.linalg.norm(velocity[:2])), 1e-9))
+            velocity[2] = np.clip(velocity[2], -1.5 * TURN_RATE_RAD_S, 1.5 * TURN_RATE_RAD_S)
+            r.base_velocity = velocity
+            self.step(dt)
             here = self.base_xy_yaw(robot)[:2]
             driven, last = driven + float(np.linalg.norm(here - last)), here
+            touching = self.robot_contacts(robot, besides=already)
+            if touching:
+                r.base_velocity = np.zeros(3)
+                self.step(0.1)
+                raise MotionFailed(f"{robot} hit something while driving at ({x:.2f}, {y:.2f}): {'; '.join(touching)}")
         r.base_velocity = np.zeros(3)
         self.step(0.1)
         return driven
@@ -970,8 +986,9 @@ class MujocoSite:
                 # sweeps metres), its whole body's way in the plane, arriving facing the point
                 planned += 1
                 poses = self.plan_poses(robot, candidate, facing, keep_out=list(keep_out) + list(low_keep_out))
-                if poses is not None:
-                    path = poses
+                if poses is not None and (path is None or np.linalg.norm(path[-1] - candidate) < 0.01
+                                          or self._reaches(robot, reach, candidate, facing)):
+                    path = poses  # (its end is the stand itself; the grid's may be the nearest free cell to it)
                 elif turns != "at the start":  # (there, drive may back out of the way first)
                     path = None
                     why = f"{why}; nor a way driving forward and backward ({planned} tried)"
@@ -1011,16 +1028,23 @@ class MujocoSite:
 
     def _reaches(self, robot: str, reach, xy, yaw: float) -> bool:
         """Whether the arm reaches every tool pose of ``reach(xy, yaw)`` (4x4, world) with the base at
-        ``xy`` heading ``yaw``; ``reach`` may also be a list of poses, or empty."""
+        ``xy`` heading ``yaw``, one after the other as it will move (each solved from the joints of
+        the one before: inverse kinematics near the edge of the workspace depends on its seed, and a
+        column's install checked from the carrying posture alone failed 148 mm out of reach on the
+        way); ``reach`` may also be a list of poses, or empty."""
         poses = reach(xy, yaw) if callable(reach) else reach
         if not len(poses):
             return True
+        r = self.robots[robot]
         arm_base = self.moved_to(robot, xy, yaw) @ self.arm_base_pose(robot)
-        try:
+        joints = r.q_ref
+        try:  # (q_ref is the seed of solve; nothing steps the simulation meanwhile)
             for pose in poses:
-                self.solve(robot, pose, arm_base=arm_base)
+                r.q_ref = self.solve(robot, pose, arm_base=arm_base)
         except MotionFailed:
             return False
+        finally:
+            r.q_ref = joints
         return True
 
     # --- arm ---------------------------------------------------------------------------------------

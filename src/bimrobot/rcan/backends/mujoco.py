@@ -404,8 +404,11 @@ class MujocoBackend(DispatchingBackend):
         # stand where the arm's wrist (behind the tool centre point, along the tool) works comfortably
         _, goal = self._install_pose(robot, gid, box)
         def path_from(xy, yaw):  # every tool pose of the move onto the seat, the robot at that stand
-            tcp = site.moved_to(robot, xy, yaw) @ site.tcp_pose(robot)
-            return site.tcp_path(robot, tcp, self._carry_waypoints(robot, gid, goal, tcp))
+            moved = site.moved_to(robot, xy, yaw)
+            tcp = moved @ site.tcp_pose(robot)
+            # the component's installed turn about its axis depends on where the arm stands
+            _, goal_there = self._install_pose(robot, gid, box, (moved @ site.arm_base_pose(robot))[:2, 3])
+            return site.tcp_path(robot, tcp, self._carry_waypoints(robot, gid, goal_there, tcp))
 
         site.approach(robot, self._wrist_point(robot, goal), keep_out=[(box.centre[:2], box.half_xy)], reach=path_from)
         target, goal = self._install_pose(robot, gid, box)
@@ -596,14 +599,15 @@ class MujocoBackend(DispatchingBackend):
             else:
                 self._spawn_in_place(activity)
 
-    def _install_pose(self, robot: str, gid: str, box) -> tuple[np.ndarray, np.ndarray]:
+    def _install_pose(self, robot: str, gid: str, box, arm_xy=None) -> tuple[np.ndarray, np.ndarray]:
         """(component pose, tcp goal) on ``box``: of the rotations that fit the box, the one whose tool
-        points down, else away from the robot (its side towards the robot is where it is held)."""
+        points down, else away from the robot (its side towards the robot is where it is held);
+        ``arm_xy``: where the arm's base will stand (m, world; default where it is)."""
         from bimrobot.physics.placement import body_pose, body_rotations
 
         site = self.site
         grip = site.held_in_tcp(robot)
-        arm = site.arm_base_pose(robot)[:2, 3]
+        arm = site.arm_base_pose(robot)[:2, 3] if arm_xy is None else np.asarray(arm_xy, float)
         toward = box.centre[:2] - arm
         toward /= max(float(np.linalg.norm(toward)), 1e-9)
         size = self._size_of(gid)
