@@ -402,16 +402,16 @@ class MujocoBackend(DispatchingBackend):
         if np.abs(site.arm_q(robot) - site.carry_posture(robot)).max() > 0.05:
             self._to_carry(robot)  # it may drive and turn to its stand now
         # stand where the arm's wrist (behind the tool centre point, along the tool) works comfortably
-        _, goal = self._install_pose(robot, gid, box)
+        # its installed turn about its axis is chosen once, here: the stands are sought around the
+        # wrist point it gives, and checked with it (chosen again at the stand, it differed, and
+        # columns failed 125-148 mm out of reach on the way)
+        target, goal = self._install_pose(robot, gid, box)
         def path_from(xy, yaw):  # every tool pose of the move onto the seat, the robot at that stand
-            moved = site.moved_to(robot, xy, yaw)
-            tcp = moved @ site.tcp_pose(robot)
-            # the component's installed turn about its axis depends on where the arm stands
-            _, goal_there = self._install_pose(robot, gid, box, (moved @ site.arm_base_pose(robot))[:2, 3])
-            return site.tcp_path(robot, tcp, self._carry_waypoints(robot, gid, goal_there, tcp))
+            tcp = site.moved_to(robot, xy, yaw) @ site.tcp_pose(robot)
+            return site.tcp_path(robot, tcp, self._carry_waypoints(robot, gid, goal, tcp))
 
         site.approach(robot, self._wrist_point(robot, goal), keep_out=[(box.centre[:2], box.half_xy)], reach=path_from)
-        target, goal = self._install_pose(robot, gid, box)
+        goal = self._tcp_goal(robot, target)  # as it is held now
         waypoints = self._carry_waypoints(robot, gid, goal)
         site.move_tcp_through(robot, waypoints[:-1])
         # its seat appears once it is held above it: carried low at the robot's front, a beam is
@@ -599,15 +599,14 @@ class MujocoBackend(DispatchingBackend):
             else:
                 self._spawn_in_place(activity)
 
-    def _install_pose(self, robot: str, gid: str, box, arm_xy=None) -> tuple[np.ndarray, np.ndarray]:
+    def _install_pose(self, robot: str, gid: str, box) -> tuple[np.ndarray, np.ndarray]:
         """(component pose, tcp goal) on ``box``: of the rotations that fit the box, the one whose tool
-        points down, else away from the robot (its side towards the robot is where it is held);
-        ``arm_xy``: where the arm's base will stand (m, world; default where it is)."""
+        points down, else away from the robot (its side towards the robot is where it is held)."""
         from bimrobot.physics.placement import body_pose, body_rotations
 
         site = self.site
         grip = site.held_in_tcp(robot)
-        arm = site.arm_base_pose(robot)[:2, 3] if arm_xy is None else np.asarray(arm_xy, float)
+        arm = site.arm_base_pose(robot)[:2, 3]
         toward = box.centre[:2] - arm
         toward /= max(float(np.linalg.norm(toward)), 1e-9)
         size = self._size_of(gid)
@@ -619,10 +618,14 @@ class MujocoBackend(DispatchingBackend):
             score = 2.0 * -tool[2] + float(tool[:2] @ toward)
             if best is None or score > best[0]:
                 best = (score, target, goal)
-        _, target, goal = best
-        goal = goal.copy()
-        goal[2, 3] += 0.001  # released 1 mm above its seat
-        return target, goal
+        return best[1], self._tcp_goal(robot, best[1])
+
+    def _tcp_goal(self, robot: str, target: np.ndarray) -> np.ndarray:
+        """The tool pose (4x4, world) that puts the held component at ``target``, as it is held now,
+        1 mm above its seat (where it is released)."""
+        goal = target @ np.linalg.inv(self.site.held_in_tcp(robot))
+        goal[2, 3] += 0.001
+        return goal
 
     def _wrist_point(self, robot: str, goal: np.ndarray) -> np.ndarray:
         """Where the arm's wrist is (xy, m) when its tool centre point is at ``goal``."""
