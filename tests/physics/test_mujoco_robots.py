@@ -243,27 +243,30 @@ def _install_beam(backend, plan) -> None:
         assert result.success, result.message
 
 
-def test_a_robot_waiting_where_a_beam_prop_goes_drives_aside_and_the_beam_is_installed(tmp_path):
+def test_a_robot_waiting_where_a_beam_prop_goes_stays_free_to_drive_under_the_installed_beam(tmp_path):
     """On the frame a transport robot waited under a beam's span; the beam's prop (the support under
-    its middle third) appeared inside its chassis and it could never leave. A robot waiting between
-    activities now drives aside before a support appears where it stands."""
+    its middle third) appeared inside its chassis and it could never leave; later the props of the
+    installed beams closed the bays between the columns to every robot. A prop stands for the
+    connections the beam hangs from: it holds the beam, and robots pass through it."""
     backend, plan = _positioner_and(tmp_path, "bystander", 5.0, 0.85, (2.85, 1.75))  # under the beam's middle
     try:
         site = backend.site
         _install_beam(backend, plan)
-        prop = next((c, h) for c, h in site.supports if c[2] + h[2] > 3.0)  # the one under the beam
-        x, y, yaw = site.base_xy_yaw("bystander")
-        assert site._footprint_clear("bystander", (x, y), yaw, [(prop[0][:2], prop[1][:2])])
+        assert backend.placements[BEAM][0] < 0.010  # resting on its prop
+        assert [c[2] + h[2] for c, h in site.props] == [pytest.approx(3.715, abs=0.01)]
         assert site.robot_contacts("bystander") == []
+        site.drive("bystander", (-1.0, 1.75))  # across the beam's span, under it
+        assert np.linalg.norm(site.base_xy_yaw("bystander")[:2] - np.array([-1.0, 1.75])) < 0.05
         assert backend.placements[BEAM][0] < 0.010
     finally:
         backend.close()
 
 
-def test_an_arm_left_reaching_where_a_beam_prop_goes_is_stowed_first_and_its_robot_drives_on(tmp_path):
+def test_an_arm_left_reaching_where_a_beam_prop_goes_does_not_stop_the_beam_or_its_robot(tmp_path):
     """On the frame an assembly robot ended its install with its 4 m arm stretched over the span of
     the next beam; the beam's prop appeared around its wrist, and every later drive failed (tucking
-    the arm touched the prop). An empty arm that reaches into a support's place is stowed first."""
+    the arm touched the prop). Robots pass through props (an empty arm reaching into the place of a
+    solid support, a column's pedestal, is stowed first)."""
     backend, plan = _positioner_and(tmp_path, "assembler", 300.0, 4.0, (1.44, 0.92))  # beside the beam's middle
     try:
         site = backend.site
@@ -304,7 +307,7 @@ def test_a_beam_carried_low_over_its_props_place_is_installed_and_the_prop_appea
         for activity in plan[5:]:
             result = backend.execute(RcanNode(f"rcan/{activity.activity_id}", activity, "positioner", "mujoco"))
             assert result.success, result.message
-        assert any(c[2] + h[2] > 3.0 for c, h in site.supports)  # the prop stands under the beam
+        assert any(c[2] + h[2] > 3.0 for c, h in site.props)  # the prop stands under the beam
         assert site.robot_contacts("positioner") == []
         assert backend.placements[BEAM][0] < 0.010
     finally:

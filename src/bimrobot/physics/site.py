@@ -38,6 +38,7 @@ TURN_RATE_RAD_S = 1.0
 JOINT_SPEED_RAD_S = 1.0
 CLEARANCE_M = 0.05  # the base keeps this from obstacles on its path
 GRID_M = 0.05
+PROP_CONTYPE = 8  # the collision bit of props: components meet them, robots (contype 2, conaffinity 1) do not
 TURNING_RADIUS_M = 0.1  # of the arcs of plan_poses' paths (a skid-steer base turns almost in place)
 POSE_PLANS_PER_SEARCH = 3  # paths of plan_poses tried per search for a stand (each up to a second)
 PIT_DEPTH_M = 1.0  # thickness of the ground slab: the deepest pit
@@ -129,6 +130,7 @@ class MujocoSite:
         self._sweep: dict[tuple[str, bool], float] = {}
         self.components: dict[str, Component] = {}
         self.supports: list[tuple[np.ndarray, np.ndarray]] = []  # static boxes (centre, half size)
+        self.props: list[tuple[np.ndarray, np.ndarray]] = []  # the same, that only components meet
         self.time_s = 0.0
         self.frames: list[tuple[float, np.ndarray]] = []
         self._next_frame = 0.0
@@ -197,12 +199,13 @@ class MujocoSite:
         body.ipos = [0, 0, h / 2]
         body.inertia = [component.mass / 12 * (d * d + h * h), component.mass / 12 * (w * w + h * h),
                         component.mass / 12 * (w * w + d * d)]
-        # components collide with the ground, the supports and the robots (contype 4, conaffinity 1 | 2),
-        # not with each other: their BIM boxes meet or overlap at the connections (a beam's end in its
-        # column), which the scene does not model; each rests on its own support instead
+        # components collide with the ground, the supports and the robots (contype 4, conaffinity
+        # 1 | 2), and the props (PROP_CONTYPE), not with each other: their BIM boxes meet or overlap at
+        # the connections (a beam's end in its column), which the scene does not model; each rests on
+        # its own support instead
         body.add_geom(name=f"{component.global_id}/box", type=mj.mjtGeom.mjGEOM_BOX, size=[w / 2, d / 2, h / 2],
                       pos=[0, 0, h / 2], rgba=[0.85, 0.45, 0.2, 1], friction=[1.0, 0.005, 0.0001],
-                      contype=4, conaffinity=3)
+                      contype=4, conaffinity=3 | PROP_CONTYPE)
         for name in self.robots:
             self.spec.add_equality(name=f"{name}/grasp/{component.global_id}", type=mj.mjtEq.mjEQ_WELD,
                                    objtype=mj.mjtObj.mjOBJ_BODY, name1=f"{name}/gripper", name2=component.global_id,
@@ -210,15 +213,19 @@ class MujocoSite:
         self.components[component.global_id] = component
         self._recompile()
 
-    def add_support(self, name: str, centre_xy, top_z: float, half_xy) -> None:
+    def add_support(self, name: str, centre_xy, top_z: float, half_xy, prop: bool = False) -> None:
         """A fixed box from the ground (or a pit's floor) up to ``top_z`` (a stand on the yard, the
-        structure a component is installed on)."""
+        structure a component is installed on). ``prop``: it holds components only, and robots pass
+        through it (it stands for the connections a beam hangs from, which are not modelled: robots
+        drive under the beam; solid, the props closed the frame's bays to them for good)."""
         floor = self.ground_z if top_z >= self.ground_z else self.ground_z - PIT_DEPTH_M
         half = np.array([half_xy[0], half_xy[1], (top_z - floor) / 2])
         centre = np.array([centre_xy[0], centre_xy[1], floor + half[2]])
+        collides = dict(contype=PROP_CONTYPE, conaffinity=0) if prop else {}
         self.spec.worldbody.add_geom(name=name, type=self.mj.mjtGeom.mjGEOM_BOX, size=half, pos=centre,
-                                     rgba=[0.6, 0.6, 0.62, 1], friction=[1.0, 0.005, 0.0001])
-        self.supports.append((centre, half))
+                                     rgba=[0.6, 0.6, 0.62, 0.35 if prop else 1], friction=[1.0, 0.005, 0.0001],
+                                     **collides)
+        (self.props if prop else self.supports).append((centre, half))
         self._recompile()
 
     def _cut_slabs(self) -> None:
@@ -1345,7 +1352,7 @@ class MujocoSite:
     def _touches_robots(self, component: str, touches: bool) -> None:
         """A held component does not collide with the robots (the one holding it turns it past its
         own arm and chassis), only with the ground and the supports; let go, it does again."""
-        affinity = 3 if touches else 1
+        affinity = (3 if touches else 1) | PROP_CONTYPE
         self.spec.geom(f"{component}/box").conaffinity = affinity
         self.model.geom(f"{component}/box").conaffinity = affinity
 

@@ -518,14 +518,18 @@ class MujocoBackend(DispatchingBackend):
         self._support_under(activity.component_id, centre[:2], bottom, half, support)
         self.site.add_component(Component(activity.component_id, size, float(activity.weight_kg)), placement)
 
-    def _support_under(self, gid: str, centre_xy, bottom_z: float, half_xy, kind: str, robot: str | None = None) -> None:
+    def _support_under(self, gid: str, centre_xy, bottom_z: float, half_xy, kind: str, robot: str | None = None,
+                       prop: bool = False) -> None:
+        """A support under ``gid`` from the ground (or a pit's floor) up to ``bottom_z`` (m); robots
+        make way for it first, unless it is a ``prop`` (see MujocoSite.add_support: they pass through)."""
         site = self.site
         if abs(bottom_z - site.ground_z) <= SUPPORT_MIN_Z_M:
             return
-        self._make_way(gid, centre_xy, half_xy, bottom_z, robot)
+        if not prop:
+            self._make_way(gid, centre_xy, half_xy, bottom_z, robot)
         if bottom_z < site.ground_z:
             site.add_pit(centre_xy, half_xy)
-        site.add_support(f"{kind}/{gid}/{len(site.supports)}", centre_xy, bottom_z, half_xy)
+        site.add_support(f"{kind}/{gid}/{len(site.supports) + len(site.props)}", centre_xy, bottom_z, half_xy, prop)
 
     def _make_way(self, gid: str, centre_xy, half_xy, top_z: float, robot: str | None) -> None:
         """Before a support appears at ``centre_xy`` (a box of ``half_xy``, m, up to ``top_z``), every
@@ -557,12 +561,13 @@ class MujocoBackend(DispatchingBackend):
         """The structure an installed box rests on: a pedestal under an upright or flat one, a prop
         under the middle third (at most 1 m) of a horizontal member (the connections it hangs from in
         the building are not modelled)."""
-        if box.kind == "horizontal":
+        horizontal = box.kind == "horizontal"
+        if horizontal:
             local = np.array([min(box.extents[0] / 6, 0.5), box.extents[1] / 2 + 0.01, 0.0])
             half = (np.abs(box.frame) @ local)[:2]
         else:
             half = box.half_xy + 0.01
-        self._support_under(gid, box.centre[:2], box.bottom_z, half, "support", robot)
+        self._support_under(gid, box.centre[:2], box.bottom_z, half, "support", robot, prop=horizontal)
 
     def _spawn_in_place(self, activity) -> None:
         from bimrobot.physics.placement import body_pose, body_rotations
