@@ -659,14 +659,19 @@ class MujocoSite:
             self.step(dt)
             here = self.base_xy_yaw(robot)[:2]
             driven, last = driven + float(np.linalg.norm(here - last)), here
-            touching = self.robot_contacts(robot, besides=already)
-            if touching:
-                r.base_velocity = np.zeros(3)
-                self.step(0.1)
-                raise MotionFailed(f"{robot} hit something while driving at ({x:.2f}, {y:.2f}): {'; '.join(touching)}")
+            self._halt_on_contact(robot, already, f"driving at ({x:.2f}, {y:.2f})")
         r.base_velocity = np.zeros(3)
         self.step(0.1)
         return driven
+
+    def _halt_on_contact(self, robot: str, already, doing: str) -> None:
+        """Stop the base there and fail when the robot touches anything but ``already`` (what it
+        touched when the motion began: it may move away from that) while ``doing`` (words)."""
+        touching = self.robot_contacts(robot, besides=already)
+        if touching:
+            self.robots[robot].base_velocity = np.zeros(3)
+            self.step(0.1)
+            raise MotionFailed(f"{robot} hit something while {doing}: {'; '.join(touching)}")
 
     def drive(self, robot: str, goal_xy, final_yaw: float | None = None, path: list | None = None) -> float:
         """Drive the base along a planned path to ``goal_xy`` (turn, then go straight, per leg); turn
@@ -749,11 +754,7 @@ class MujocoSite:
             speed = sign * min(r.speed_m_s, 1.5 * left)
             r.base_velocity = np.array([speed * heading[0], speed * heading[1], 0.0])
             self.step(0.02)
-            touching = self.robot_contacts(robot, besides=already)
-            if touching:
-                r.base_velocity = np.zeros(3)
-                self.step(0.1)
-                raise MotionFailed(f"{robot} hit something while backing out: {'; '.join(touching)}")
+            self._halt_on_contact(robot, already, "backing out")
         r.base_velocity = np.zeros(3)
         self.step(0.1)
 
@@ -809,11 +810,7 @@ class MujocoSite:
                 break
             r.base_velocity = np.array([0.0, 0.0, np.clip(3.0 * error, -TURN_RATE_RAD_S, TURN_RATE_RAD_S)])
             self.step(0.02)
-            touching = self.robot_contacts(robot, besides=already)
-            if touching:  # its corners or its arm swept into something: stop there
-                r.base_velocity = np.zeros(3)
-                self.step(0.1)
-                raise MotionFailed(f"{robot} hit something while turning: {'; '.join(touching)}")
+            self._halt_on_contact(robot, already, "turning")  # its corners or its arm swept into something
         r.base_velocity = np.zeros(3)
         self.step(0.1)
 
@@ -836,11 +833,8 @@ class MujocoSite:
             moved = np.linalg.norm(self.base_xy_yaw(robot)[:2] - last)
             last = self.base_xy_yaw(robot)[:2]
             stalled = stalled + 0.02 if moved < 1e-4 else 0.0
-            touching = self.robot_contacts(robot)
-            if touching:  # the robot ran into something the plan did not foresee: stop there
-                r.base_velocity = np.zeros(3)
-                self.step(0.1)
-                raise MotionFailed(f"{robot} hit something while driving at ({x:.2f}, {y:.2f}): {'; '.join(touching)}")
+            # the robot ran into something the plan did not foresee: stop there
+            self._halt_on_contact(robot, (), f"driving at ({x:.2f}, {y:.2f})")
             if stalled > 1.0:
                 r.base_velocity = np.zeros(3)
                 contacts = "; ".join(self.robot_contacts(robot)) or "it stopped"
