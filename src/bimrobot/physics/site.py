@@ -425,11 +425,15 @@ class MujocoSite:
     def stow_arm(self, robot: str) -> None:
         """An empty arm to the posture it drives in: tucked (the heavy variant's metres long arm), or
         the ready posture (the UR5); its base joint turned the short way (checked for contacts)."""
+        goal = self._stowed_posture(robot)
+        if np.abs(goal - self.robots[robot].q_ref).max() > 0.05:
+            self.move_arm(robot, goal)
+
+    def _stowed_posture(self, robot: str) -> np.ndarray:
+        """The joints (rad) :meth:`stow_arm` moves an empty arm to, its base joint turned the short way."""
         r = self.robots[robot]
         posture = TUCK_POSTURE if r.model.family == "heavy" else self._ready_posture_cached(robot)
-        goal = motion.wrap_near(posture, r.q_ref, np.array([True, True, False, True, True, True]))
-        if np.abs(goal - r.q_ref).max() > 0.05:
-            self.move_arm(robot, goal)
+        return motion.wrap_near(posture, r.q_ref, np.array([True, True, False, True, True, True]))
 
     def _clear(self, robot: str, xy, low, tall) -> bool:
         """Whether the robot may stand (and turn) at ``xy`` with these obstacles (see obstacles())."""
@@ -525,10 +529,7 @@ class MujocoSite:
         """The arm's joints (rad) while the base drives: as they are when it holds something, else
         where :meth:`stow_arm` puts them."""
         r = self.robots[robot]
-        if r.holding:
-            return r.q_ref.copy()
-        posture = TUCK_POSTURE if r.model.family == "heavy" else self._ready_posture_cached(robot)
-        return motion.wrap_near(posture, r.q_ref, np.array([True, True, False, True, True, True]))
+        return r.q_ref.copy() if r.holding else self._stowed_posture(robot)
 
     def plan_poses(self, robot: str, goal_xy, goal_yaw: float | None = None, keep_out=(),
                    seconds: float = 1.0) -> PosePath | None:
@@ -547,17 +548,17 @@ class MujocoSite:
         valid = self._pose_check(robot, start)
         keep_out = [(np.asarray(c, float), np.asarray(h, float)) for c, h in keep_out]
         goal_xy = np.asarray(goal_xy, float)
-        boxes = self.obstacles(robot) + [(np.asarray(c, float), np.asarray(h, float)) for c, h in keep_out]
+        boxes = self.obstacles(robot) + keep_out
         corners = [start[:2], goal_xy] + [c - h for c, h in boxes] + [c + h for c, h in boxes]
         lower, upper = np.min(corners, axis=0) - 3.0, np.max(corners, axis=0) + 3.0
+        # checked where the robot's farthest point (its sweep radius out) has moved 2 cm
+        resolution = 0.02 * TURNING_RADIUS_M / (self.sweep_radius(robot) + TURNING_RADIUS_M)
         headings = [goal_yaw] if goal_yaw is not None else \
             sorted(np.linspace(-math.pi, math.pi, 8, endpoint=False), key=lambda h: abs(_wrap(h - yaw)))
         for heading in headings:
             goal = np.array([*goal_xy, heading])
             if not valid(*goal) or not self._footprint_clear(robot, goal[:2], heading, keep_out):
                 continue
-            # checked where the robot's farthest point (its sweep radius out) has moved 2 cm
-            resolution = 0.02 * TURNING_RADIUS_M / (self.sweep_radius(robot) + TURNING_RADIUS_M)
             poses = planning.base_path(valid, start, goal, lower, upper, TURNING_RADIUS_M, resolution, seconds)
             if poses is not None:
                 return PosePath(poses)
