@@ -1,6 +1,6 @@
 """Sampling-based motion planning with OMPL (the Open Motion Planning Library, ``ompl`` on PyPI).
 
-Two searches, both RRT-Connect followed by OMPL's path simplifier, around whatever the caller's
+Two searches, both RRT-Connect followed by OMPL's path simplifier (run to its end, not for a time), around whatever the caller's
 ``valid`` function says the robot would touch (the site checks a pose against the MuJoCo scene):
 
 - :func:`joint_path`: an arm's path in joint space (rad), from its joints to a goal posture.
@@ -39,11 +39,14 @@ def _ompl():
 
 
 def _solve(setup, og, seconds: float) -> bool:
+    """RRT-Connect, stopped at its first exact solution (or after ``seconds``: then False), whose path
+    is then simplified as far as OMPL's simplifier goes: not for a time, as OMPL's default, so that
+    a run's paths do not depend on how busy the machine is (a replay reaches the same state)."""
     setup.setPlanner(og.RRTConnect(setup.getSpaceInformation()))
     solved = setup.solve(seconds)
     if not solved or not setup.haveExactSolutionPath():
         return False
-    setup.simplifySolution(min(0.2, seconds))
+    setup.getPathSimplifier().simplifyMax(setup.getSolutionPath())
     return True
 
 

@@ -127,7 +127,7 @@ class MujocoSite:
         self.pits: list[tuple[np.ndarray, np.ndarray]] = []  # (lower xy, upper xy)
         self._slabs: list = []
         self._cut_slabs()
-        self._sweep: dict[tuple[str, bool], float] = {}
+        self._sweep: dict[tuple[str, tuple], float] = {}  # (robot, driving posture) -> m
         self.components: dict[str, Component] = {}
         self.supports: list[tuple[np.ndarray, np.ndarray]] = []  # static boxes (centre, half size)
         self.props: list[tuple[np.ndarray, np.ndarray]] = []  # the same, that only components meet
@@ -911,14 +911,15 @@ class MujocoSite:
 
     def sweep_radius(self, robot: str) -> float:
         """Radius (m) of the circle around the base's centre that the robot sweeps when it turns in
-        place with its arm in the carry posture (holding a component; the UR5 always) or tucked (the
-        heavy variant, empty): its chassis' corners, or its arm's joints
-        (plus the links' thickness) where they reach out further."""
+        place with its arm in its driving posture (:meth:`driving_posture`: the carry posture when it
+        holds a component, which depends on how it holds it; stowed when empty): its chassis'
+        corners, or its arm's joints (plus the links' thickness) where they reach out further."""
         r = self.robots[robot]
-        key = (robot, bool(r.holding))
+        posture = self.driving_posture(robot)
+        key = (robot, tuple(np.round(posture, 2)))
         if key not in self._sweep:
             data = self.mj.MjData(r.ik.model)
-            data.qpos[:6] = TUCK_POSTURE if not r.holding and r.model.family == "heavy" else self._ready_posture_cached(robot)
+            data.qpos[:6] = posture
             self.mj.mj_kinematics(r.ik.model, data)
             mount = r.model.arm_mount
             arm = np.hypot(data.xpos[1:, 0] + mount[0], data.xpos[1:, 1]).max() + 0.06 * r.model.scale
@@ -959,8 +960,8 @@ class MujocoSite:
         # stands on rings around the point (the ideal distance first), nearest to the base first
         angles = np.linspace(-math.pi, math.pi, 72, endpoint=False)
         candidates = []
-        for rank, factor in enumerate((1.0, 0.85, 1.15, 0.7)):
-            radius = factor * distance + model.arm_mount[0]
+        checked = callable(reach) or len(reach) > 0  # (only a stand whose reach is checked may be far)
+        for rank, radius in enumerate(self._stand_radii(robot, distance, checked)):
             for a in angles:
                 c = point + radius * np.array([math.cos(a), math.sin(a)])
                 # the chassis, facing the point, clear of everything (the arm, raised, passes over
@@ -1007,6 +1008,19 @@ class MujocoSite:
                 continue
             return
         raise Blocked(f"no stand for {robot} within reach of ({point[0]:.2f}, {point[1]:.2f}): {why}")
+
+    def _stand_radii(self, robot: str, distance: float, checked: bool) -> list[float]:
+        """Distances (m) from the point worked on to the base's centre of the stands :meth:`approach`
+        tries, best first: the arm's base 1, 0.85, 1.15 and 0.7 x ``distance`` from it; when the reach
+        of each stand is ``checked``, then further out in 0.25 m steps to 90 % of the arm's horizontal
+        reach (the middle one of a row of long beams lying 0.5 m apart on the yard is reached
+        from beyond a beam's end, not from between two)."""
+        model = self.robots[robot].model
+        radii = [factor * distance for factor in (1.0, 0.85, 1.15, 0.7)]
+        if checked:
+            longest = 0.9 * (abs(model.dh[1][0]) + abs(model.dh[2][0]))
+            radii += list(np.arange(1.15 * distance + 0.25, longest, 0.25))
+        return [r + model.arm_mount[0] for r in radii]
 
     def _turns_on(self, robot: str, path: list, facing: float) -> str:
         """Where the robot, driving the grid ``path`` (turn, then straight, per leg) from where it

@@ -226,13 +226,11 @@ class MujocoBackend(DispatchingBackend):
                 target = node.target
                 self._spawn_box(node.activity, lying_pose(self._size(node.activity), (target.x, target.y, target.z), target.yaw), "stand")
         grasp = site.grasp_pose(gid)
-        if not legacy:
-            site.approach(robot, grasp[:2, 3])
+        if not legacy:  # (the stand's reach is checked: boxed in on the yard, it may stand further out)
+            site.approach(robot, grasp[:2, 3], reach=[self._above(grasp), grasp])
         site.face(robot, site.body_pose(gid)[:2, 3] if legacy else grasp[:2, 3])
         grasp = site.grasp_pose(gid)  # where it is now: driving up to it may have nudged it
-        above = grasp.copy()
-        above[2, 3] += LIFT_M
-        site.move_tcp_through(robot, [above, grasp])
+        site.move_tcp_through(robot, [self._above(grasp), grasp])
         grasp = site.grasp_pose(gid)
         if np.linalg.norm(site.tcp_pose(robot)[:3, 3] - grasp[:3, 3]) > 0.002:  # it moved as the arm came: once more
             site.move_tcp_through(robot, [grasp])
@@ -245,10 +243,8 @@ class MujocoBackend(DispatchingBackend):
         if gid not in site.components:
             raise MotionFailed(f"{gid} is not in the scene: position for picking up comes first")
         site.close_gripper(robot, gid)
-        above = site.tcp_pose(robot)
-        above[2, 3] += LIFT_M
         try:
-            site.move_arm(robot, site.solve(robot, above))
+            site.move_arm(robot, site.solve(robot, self._above(site.tcp_pose(robot))))
         except MotionFailed as failure:
             site.open_gripper(robot)
             site.step(1.0)
@@ -445,9 +441,7 @@ class MujocoBackend(DispatchingBackend):
             goal[2, 3] += 0.001  # released 1 mm above its seat
         else:  # work on a component in place (a further connection): reach its grasp pose
             goal = site.grasp_pose(gid)
-        above = goal.copy()
-        above[2, 3] += LIFT_M
-        site.move_tcp_through(robot, [above, goal])
+        site.move_tcp_through(robot, [self._above(goal), goal])
         self.targets[gid] = target
         if holding and node.activity.releases_robot:
             self._release(robot)
@@ -671,8 +665,7 @@ class MujocoBackend(DispatchingBackend):
         raised[2, 3] = safe
         over = goal.copy()
         over[2, 3] = safe
-        above = goal.copy()
-        above[2, 3] += LIFT_M
+        above = self._above(goal)
         waypoints = []
         for pose in (up, turned, raised, over, above, goal):
             last = waypoints[-1] if waypoints else tcp
@@ -731,6 +724,13 @@ class MujocoBackend(DispatchingBackend):
         return [back, goal]
 
     # --- helpers -----------------------------------------------------------------------------------
+    @staticmethod
+    def _above(pose: np.ndarray) -> np.ndarray:
+        """``pose`` (4x4, world) raised by LIFT_M: where the tool comes down from onto a grasp."""
+        above = pose.copy()
+        above[2, 3] += LIFT_M
+        return above
+
     def _release(self, robot: str) -> None:
         from bimrobot.physics.site import MotionFailed
 
