@@ -37,6 +37,7 @@ RECORD_HZ = 20.0
 TURN_RATE_RAD_S = 1.0
 JOINT_SPEED_RAD_S = 1.0
 CLEARANCE_M = 0.05  # the base keeps this from obstacles on its path
+SHOVE_TOLERANCE_M = 0.005  # a component a robot touches may move this far before the motion fails
 GRID_M = 0.05
 PROP_CONTYPE = 8  # the collision bit of props: components meet them, robots (contype 2, conaffinity 1) do not
 TURNING_RADIUS_M = 0.1  # of the arcs of plan_poses' paths (a skid-steer base turns almost in place)
@@ -351,7 +352,17 @@ class MujocoSite:
         ``data``, default the simulation's), leaving out the contacts ``besides`` (those it had
         already: a robot may move away from what it touches)."""
         data = self.data if data is None else data
+        m = self.model
         found = []
+        for own, other, geom in self._contact_pairs(robot, data):
+            # a static geom (body 0, "world") by its own name: a support, a stand, the ground slab
+            other_name = (m.geom(geom).name or "the ground") if other == 0 else m.body(other).name
+            found.append(f"{m.body(own).name} touches {other_name}")
+        return sorted(set(found) - set(besides))
+
+    def _contact_pairs(self, robot: str, data):
+        """(own body, other body, other geom) of each contact of the robot in ``data`` with anything but
+        itself and the component it holds."""
         m, idx = self.model, self.idx[robot]
         held = m.body(self.robots[robot].holding).id if self.robots[robot].holding else -1
         for contact in data.contact[: data.ncon]:
@@ -360,14 +371,31 @@ class MujocoSite:
             if mine[0] == mine[1]:
                 continue
             other = bodies[1] if mine[0] else bodies[0]
-            own = bodies[0] if mine[0] else bodies[1]
-            if other == held:
+            if other != held:
+                yield (bodies[0] if mine[0] else bodies[1]), other, (contact.geom2 if mine[0] else contact.geom1)
+
+    def component_poses(self) -> dict[int, tuple[np.ndarray, np.ndarray]]:
+        """Body id -> (centre of mass, m, world; rotation matrix) of every component's body now."""
+        ids = [self.model.body(gid).id for gid in self.components]
+        return {b: (self.data.xipos[b].copy(), self.data.xmat[b].reshape(3, 3).copy()) for b in ids}
+
+    def shoved(self, robot: str, before: dict) -> list[str]:
+        """The components the robot touches now that have moved more than SHOVE_TOLERANCE_M since
+        ``before`` (:meth:`component_poses`), with how far: their farthest corner's displacement
+        bound, so that a tall column tilting about its foot counts by its top (the robot pushes what
+        it touched already, which the contact check lets it move away from)."""
+        out = []
+        m = self.model
+        for other in {other for _, other, _ in self._contact_pairs(robot, self.data)}:
+            if other not in before:
                 continue
-            # a static geom (body 0, "world") by its own name: a support, a stand, the ground slab
-            geom_name = m.geom(contact.geom2 if mine[0] else contact.geom1).name
-            other_name = (geom_name or "the ground") if other == 0 else m.body(other).name
-            found.append(f"{m.body(own).name} touches {other_name}")
-        return sorted(set(found) - set(besides))
+            centre, rotation = before[other]
+            turned = motion.angle_between(rotation, self.data.xmat[other].reshape(3, 3))
+            reach = float(np.linalg.norm(self.components[m.body(other).name].size))  # > centre to corner
+            moved = float(np.linalg.norm(self.data.xipos[other] - centre)) + turned * reach
+            if moved > SHOVE_TOLERANCE_M:
+                out.append(f"{m.body(other).name} by {moved * 1000:.0f} mm")
+        return sorted(out)
 
     # --- base --------------------------------------------------------------------------------------
     def obstacles(self, robot: str, split: bool = False):
@@ -637,7 +665,7 @@ class MujocoSite:
         times = np.concatenate([[0.0], np.cumsum(np.maximum(np.linalg.norm(step[:, :2], axis=1) / r.speed_m_s,
                                                               np.abs(step[:, 2]) / TURN_RATE_RAD_S))])
         reference = lambda t: np.array([np.interp(t, times, poses[:, i]) for i in range(3)])  # noqa: E731
-        already = set(self.robot_contacts(robot))
+        already, before = set(self.robot_contacts(robot)), self.component_poses()
         dt, t, driven, stalled = 0.02, 0.0, 0.0, 0.0
         last = self.base_xy_yaw(robot)[:2]
         while True:
@@ -660,19 +688,23 @@ class MujocoSite:
             self.step(dt)
             here = self.base_xy_yaw(robot)[:2]
             driven, last = driven + float(np.linalg.norm(here - last)), here
-            self._halt_on_contact(robot, already, f"driving at ({x:.2f}, {y:.2f})")
+            self._halt_on_contact(robot, already, f"driving at ({x:.2f}, {y:.2f})", before)
         r.base_velocity = np.zeros(3)
         self.step(0.1)
         return driven
 
-    def _halt_on_contact(self, robot: str, already, doing: str) -> None:
+    def _halt_on_contact(self, robot: str, already, doing: str, before: dict | None = None) -> None:
         """Stop the base there and fail when the robot touches anything but ``already`` (what it
-        touched when the motion began: it may move away from that) while ``doing`` (words)."""
+        touched when the motion began: it may move away from that), or has pushed a component it
+        touches from where it was ``before`` (:meth:`component_poses`), while ``doing`` (words)."""
         touching = self.robot_contacts(robot, besides=already)
-        if touching:
+        pushed = self.shoved(robot, before) if before else []
+        if touching or pushed:
             self.robots[robot].base_velocity = np.zeros(3)
             self.step(0.1)
-            raise MotionFailed(f"{robot} hit something while {doing}: {'; '.join(touching)}")
+            what = f"hit something while {doing}: {'; '.join(touching)}" if touching else \
+                f"pushed {'; '.join(pushed)} while {doing}"
+            raise MotionFailed(f"{robot} {what}")
 
     def drive(self, robot: str, goal_xy, final_yaw: float | None = None, path: list | None = None) -> float:
         """Drive the base along a planned path to ``goal_xy`` (turn, then go straight, per leg); turn
@@ -747,7 +779,7 @@ class MujocoSite:
         x, y, yaw = self.base_xy_yaw(robot)
         start = np.array([x, y])
         heading = np.array([math.cos(yaw), math.sin(yaw)])
-        already = set(self.robot_contacts(robot))
+        already, before = set(self.robot_contacts(robot)), self.component_poses()
         for _ in range(int(120 / 0.02)):
             left = distance - float((self.base_xy_yaw(robot)[:2] - start) @ heading) * sign
             if left < 0.005:
@@ -755,7 +787,7 @@ class MujocoSite:
             speed = sign * min(r.speed_m_s, 1.5 * left)
             r.base_velocity = np.array([speed * heading[0], speed * heading[1], 0.0])
             self.step(0.02)
-            self._halt_on_contact(robot, already, "backing out")
+            self._halt_on_contact(robot, already, "backing out", before)
         r.base_velocity = np.zeros(3)
         self.step(0.1)
 
@@ -804,14 +836,14 @@ class MujocoSite:
 
     def _turn_to(self, robot: str, yaw: float) -> None:
         r = self.robots[robot]
-        already = set(self.robot_contacts(robot))
+        already, before = set(self.robot_contacts(robot)), self.component_poses()
         for _ in range(int(30 / 0.02)):
             error = _wrap(yaw - self.base_xy_yaw(robot)[2])
             if abs(error) < 1e-3:
                 break
             r.base_velocity = np.array([0.0, 0.0, np.clip(3.0 * error, -TURN_RATE_RAD_S, TURN_RATE_RAD_S)])
             self.step(0.02)
-            self._halt_on_contact(robot, already, "turning")  # its corners or its arm swept into something
+            self._halt_on_contact(robot, already, "turning", before)  # its corners or its arm swept into something
         r.base_velocity = np.zeros(3)
         self.step(0.1)
 
@@ -1201,13 +1233,18 @@ class MujocoSite:
         # what it touches already it may move away from (an arm left against a column by a failed
         # activity could otherwise never move again)
         already = set(self.robot_contacts(robot)) if check_contacts else set()
+        before = self.component_poses() if check_contacts else {}
         for reference in motion.smooth_steps(start_q, q_goal, seconds, dt):
             r.q_ref = reference
             self.step(dt)
             if check_contacts:
                 touching = self.robot_contacts(robot, besides=already)
-                if touching:
-                    raise MotionFailed(f"collision while moving the arm of {robot}: {'; '.join(touching)}")
+                pushed = self.shoved(robot, before)
+                if touching or pushed:
+                    r.q_ref = self.arm_q(robot)  # stop there: pressing on would push what it touches
+                    what = f"collision while moving the arm of {robot}: {'; '.join(touching)}" if touching else \
+                        f"the arm of {robot} pushed {'; '.join(pushed)}"
+                    raise MotionFailed(what)
         error = self._settle(robot, goal_tcp)
         if error > TRACKING_TOLERANCE_M and not (onto_seat and self.seated(robot)):
             joints = self.saturated(robot)
