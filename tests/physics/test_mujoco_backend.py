@@ -91,6 +91,22 @@ def test_a_path_blocked_by_an_installed_column_is_driven_around():
     assert max(lateral) > 0.125 + husky.footprint[1] / 2  # it went around the column
 
 
+def test_a_goal_too_near_a_column_whose_nearest_free_spot_is_where_the_robot_stands_gives_that_spot():
+    """The grid path to a goal within a column's clearance ends at the nearest free cell; when that
+    was the robot's own cell the path was empty, and the search for a stand failed with an
+    IndexError on the frame's yard instead of trying the stand."""
+    from bimrobot.physics.site import CLEARANCE_M
+
+    husky = robot_model("husky_ur5", 5.0, 0.85, 0.12)
+    site = MujocoSite({"husky_ur5": (husky, 1.0, 0.5, (0.0, 0.0))})
+    site.add_support("column", (0.0, 0.0), 3.0, (0.125, 0.125))
+    x = -(0.125 + site.sweep_radius("husky_ur5") + CLEARANCE_M)  # at the edge of the column's clearance
+    site.data.qpos[site.idx["husky_ur5"]["base_q"]] = [x, 0.0, 0.0]
+    site.mj.mj_forward(site.model, site.data)
+    path = site.plan_path("husky_ur5", (x + 0.03, 0.0))  # 3 cm nearer: inside it
+    assert len(path) == 1 and np.linalg.norm(path[0] - (x, 0.0)) < 0.03  # stay: the nearest free spot
+
+
 def test_heavy_variant_for_heavy_payloads_and_torque_limits_from_the_payload():
     ur5 = robot_model("husky_ur5", 5.0, 0.85, 0.12)
     assert ur5.family == "ur5"

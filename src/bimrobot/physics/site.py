@@ -551,7 +551,8 @@ class MujocoSite:
         points[0], points[-1] = start, goal
         # straightened through free cells only (the start's own neighbourhood may be grown-occupied)
         free_at = lambda p: occupied[tuple(np.clip(cell(p), 0, np.array(shape) - 1))]  # noqa: E731
-        return motion.simplify(points, free_at, GRID_M / 2)[1:]
+        # (start and goal in one cell: the goal alone, as for a straight way)
+        return motion.simplify(points, free_at, GRID_M / 2)[1:] or [goal]
 
     def driving_posture(self, robot: str) -> np.ndarray:
         """The arm's joints (rad) while the base drives: as they are when it holds something, else
