@@ -526,35 +526,44 @@ def test_a_transport_tried_again_after_its_component_was_set_down_finds_it_there
         backend.close()
 
 
-def test_the_middle_beam_of_a_yard_row_laid_half_a_metre_apart_is_picked_up_from_beyond_its_end(tmp_path):
-    """The yard lays components 0.5 m apart (`bimrobot.world.layout.yard_poses`): no 0.8 m wide base
-    fits between two 3.2 m beams, and every stand at the arm's working distance from the middle one's
-    centre lay on it or on its neighbours ("every stand around it is blocked", and the frame's top
-    beam escalated). Its reach checked, the robot stands further out, beyond a neighbour or the
-    beam's end, its arm over the neighbour."""
+def test_the_middle_column_of_a_yard_row_is_picked_from_further_out_and_carried(tmp_path):
+    """The yard lays components 0.5 m apart (`bimrobot.world.layout.yard_poses`; here 0.6 m): no 0.8 m
+    wide base fits between two 4 m columns, and every stand at the arm's working distance from the middle one's
+    centre lay on it or on its neighbours ("every stand around it is blocked": on the frame a beam's
+    chain escalated so). Its reach checked, the robot now stands further out, beyond a neighbour or
+    the end, its arm over the neighbour; and it pulls the 290 kg column in, level, before lifting it
+    to carry (lifted straight up out there, the arm left its branch at the edge of its workspace,
+    at the wrists' torque limits)."""
     table = tmp_path / "transport.yaml"
     table.write_text(HEAVY_TABLE.replace("ROBOT", "transport").replace("PAYLOAD", "300").replace("REACH", "2.0"))
-    beam = dict(weight_kg=134.39, section_m=(0.165, 0.31), size_m=(0.165, 0.31, 3.223))
-    width = 0.31  # lying flat, its flanges' width across the row
-    rows = {f"0YardBeam0000000000000{n}": (5.0, y) for n, y in enumerate((-(width + 0.5), 0.0, width + 0.5))}
+    column = dict(weight_kg=289.81, section_m=(0.253, 0.254), size_m=(0.253, 0.254, 4.0))
+    width = 0.254  # lying, across the row
+    rows = {f"0YardColumn00000000000{n}": (5.0, y) for n, y in enumerate((-(width + 0.6), 0.0, width + 0.6))}
     plan = [RcanActivity(f"P{n}", component_id=gid, kind=ActivityKind.POSITION_FOR_PICKING_UP,
-                         target=Pose(x, y, 0.0825), **beam) for n, (gid, (x, y)) in enumerate(rows.items())]
+                         target=Pose(x, y, 0.127), **column) for n, (gid, (x, y)) in enumerate(rows.items())]
     middle = plan[1]
-    pick = RcanActivity("U1", component_id=middle.component_id, kind=ActivityKind.PICK_UP, target=middle.target, **beam)
+    gid = middle.component_id
+    pick = RcanActivity("U1", component_id=gid, kind=ActivityKind.PICK_UP, target=middle.target, **column)
+    carry = RcanActivity("T1", component_id=gid, kind=ActivityKind.TRANSPORT, target=Pose(5.0, -6.0, 0.0),
+                         frees_robot=True, **column)
     backend = create_backend("mujoco", load_capabilities(str(table)), plan=plan)
     try:
-        lying_z = backend.site.body_pose(middle.component_id)[2, 3]
+        site = backend.site
+        lying_z = site.body_pose(gid)[2, 3]
         for activity in (middle, pick):
             result = backend.execute(RcanNode(f"rcan/{activity.activity_id}", activity, "transport", "mujoco"))
             assert result.success, result.message
-        site = backend.site
-        assert site.robots["transport"].holding == middle.component_id
+        assert site.robots["transport"].holding == gid
         x, y, _ = site.base_xy_yaw("transport")
         half_length, half_width = np.array(site.robots["transport"].model.footprint) / 2
-        outside_row = abs(x - 5.0) > 3.223 / 2 + half_width or abs(y) > 1.5 * width + 0.5 + half_width
-        assert outside_row, (x, y)  # not on or between the beams
+        outside_row = abs(x - 5.0) > 4.0 / 2 + half_width or abs(y) > 1.5 * width + 0.6 + half_width
+        assert outside_row, (x, y)  # not on or between the columns
         assert np.hypot(x - 5.0, y) > 1.15 * site.working_distance("transport") + half_length
-        assert site.body_pose(middle.component_id)[2, 3] - lying_z > 0.09  # lifted off the ground
+        assert site.body_pose(gid)[2, 3] - lying_z > 0.09  # lifted off the ground
+        result = backend.execute(RcanNode("rcan/T1", carry, "transport", "mujoco"))
+        assert result.success, result.message
+        centre, _ = site.component_box(gid)
+        assert np.linalg.norm(centre[:2] - (5.0, -6.0)) < 4.0 and centre[2] < 0.2  # set down near its goal
     finally:
         backend.close()
 

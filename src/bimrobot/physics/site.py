@@ -985,9 +985,11 @@ class MujocoSite:
         x, y, yaw = self.base_xy_yaw(robot)
         arm = np.array([x, y]) + model.arm_mount[0] * np.array([math.cos(yaw), math.sin(yaw)])
         here = np.array([x, y])
+        facing = math.atan2(point[1] - y, point[0] - x)
+        # (the chassis as it will stand, turned to the point: a circle of its half width let a
+        # transport stay with its corner where it then laid a column down, which shoved it away)
         if 0.7 * distance <= np.linalg.norm(arm - point) <= 1.15 * distance and \
-                not self._blocked(here, boxes, model.footprint[1] / 2) and \
-                self._reaches(robot, reach, here, math.atan2(point[1] - y, point[0] - x)):
+                self._footprint_clear(robot, here, facing, boxes, 0.0) and self._reaches(robot, reach, here, facing):
             self.face(robot, point)
             return
         # stands on rings around the point (the ideal distance first), nearest to the base first

@@ -289,13 +289,22 @@ class MujocoBackend(DispatchingBackend):
         return centre[:2] if on_ground and np.linalg.norm(centre[:2] - np.asarray(near, float)) <= within_m else None
 
     def _to_carry(self, robot: str) -> None:
-        """The held component to the carry posture over the base: straight up first, tool down (a
-        long member would otherwise dip its ends into the ground), then across the base."""
+        """The held component to the carry posture over the base: pulled in level to the arm's
+        working distance when it was picked up further out, then straight up, the tool down (a long
+        member would otherwise dip its ends into the ground), then across the base."""
         from bimrobot.physics import motion
 
         site = self.site
         carry = site.carry_posture(robot)
         goal = site._tcp_of(robot, carry)
+        here = site.tcp_pose(robot)
+        arm = site.arm_base_pose(robot)[:2, 3]
+        out = here[:2, 3] - arm
+        if np.linalg.norm(out) > site.working_distance(robot):
+            # (picked from a stand beyond the working distance, a 290 kg column could not be lifted
+            # straight up there: the arm's branch ended at the edge of its workspace)
+            here[:2, 3] = arm + out * site.working_distance(robot) / np.linalg.norm(out)
+            site.move_tcp_through(robot, [here])
         up = site.tcp_pose(robot)
         up[2, 3] = max(up[2, 3], goal[2])
         site.move_tcp_through(robot, [up])
