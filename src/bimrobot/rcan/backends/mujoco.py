@@ -290,7 +290,7 @@ class MujocoBackend(DispatchingBackend):
 
     def _to_carry(self, robot: str) -> None:
         """The held component to the carry posture over the base: pulled in level to the arm's
-        working distance when it was picked up further out, then straight up, the tool down (a long
+        working distance when it was picked up further out (below the carry height), then straight up, the tool down (a long
         member would otherwise dip its ends into the ground), then across the base."""
         from bimrobot.physics import motion
 
@@ -300,9 +300,10 @@ class MujocoBackend(DispatchingBackend):
         here = site.tcp_pose(robot)
         arm = site.arm_base_pose(robot)[:2, 3]
         out = here[:2, 3] - arm
-        if np.linalg.norm(out) > site.working_distance(robot):
+        if np.linalg.norm(out) > site.working_distance(robot) and here[2, 3] < goal[2]:
             # (picked from a stand beyond the working distance, a 290 kg column could not be lifted
-            # straight up there: the arm's branch ended at the edge of its workspace)
+            # straight up there: the arm's branch ended at the edge of its workspace; one held high
+            # already, by an install that stopped, is not pulled in up there, out of reach)
             here[:2, 3] = arm + out * site.working_distance(robot) / np.linalg.norm(out)
             site.move_tcp_through(robot, [here])
         up = site.tcp_pose(robot)
@@ -404,6 +405,7 @@ class MujocoBackend(DispatchingBackend):
             site.move_tcp_through(robot, self._clear_work_poses(robot, gid), avoid_contacts=True)
             return f"{node.kind.label} {gid}: gripper at its work point"
         box = self._installed_box(node.activity)
+        self._check_support_place(gid, box, robot)
         if np.abs(site.arm_q(robot) - site.carry_posture(robot)).max() > 0.05:
             self._to_carry(robot)  # it may drive and turn to its stand now
         # stand where the arm's wrist (behind the tool centre point, along the tool) works comfortably
@@ -543,34 +545,60 @@ class MujocoBackend(DispatchingBackend):
         from bimrobot.physics.site import Blocked, MotionFailed
 
         site = self.site
-        box = [(np.asarray(centre_xy, float)[:2], np.asarray(half_xy, float))]
-        for name in site.robots:
-            x, y, yaw = site.base_xy_yaw(name)
-            empty = not site.robots[name].holding
-            arm_in = empty and site.arm_within(name, box[0][0], box[0][1], top_z)
-            if site._footprint_clear(name, (x, y), yaw, box) and not arm_in:
-                continue
-            busy = name != robot and (site.robots[name].holding or self.at_work.get(name))
-            if busy:
-                raise Blocked(f"{name} stands where the support of {gid} goes, at work on {busy}")
+        box = (np.asarray(centre_xy, float)[:2], np.asarray(half_xy, float))
+        for name, arm_in in self._in_the_way(box, top_z):
+            self._raise_if_busy(name, gid, robot)
             try:
                 if arm_in:
                     site.stow_arm(name)
-                site.make_room(name, box[0][0], box[0][1])
+                site.make_room(name, box[0], box[1])
             except MotionFailed as failure:
                 raise Blocked(f"{name} stands where the support of {gid} goes and cannot move aside: {failure}") from None
 
-    def _support_for(self, gid: str, box, robot: str) -> None:
-        """The structure an installed box rests on: a pedestal under an upright or flat one, a prop
-        under the middle third (at most 1 m) of a horizontal member (the connections it hangs from in
-        the building are not modelled)."""
-        horizontal = box.kind == "horizontal"
-        if horizontal:
+    def _in_the_way(self, box, top_z: float) -> list[tuple[str, bool]]:
+        """(robot, whether it is by its empty arm) for each robot whose chassis stands on ``box``
+        (centre xy, half size xy; m) or within the clearance, or whose empty arm reaches into it
+        below ``top_z``."""
+        site, out = self.site, []
+        for name in site.robots:
+            x, y, yaw = site.base_xy_yaw(name)
+            arm_in = not site.robots[name].holding and site.arm_within(name, box[0], box[1], top_z)
+            if arm_in or not site._footprint_clear(name, (x, y), yaw, [box]):
+                out.append((name, arm_in))
+        return out
+
+    def _raise_if_busy(self, name: str, gid: str, robot: str | None) -> None:
+        """Blocked when robot ``name``, in the way of the support of ``gid``, is not ``robot`` and
+        holds a component or has its gripper at one."""
+        from bimrobot.physics.site import Blocked
+
+        busy = name != robot and (self.site.robots[name].holding or self.at_work.get(name))
+        if busy:
+            raise Blocked(f"{name} stands where the support of {gid} goes, at work on {busy}")
+
+    def _support_geometry(self, box) -> tuple[np.ndarray, np.ndarray, bool]:
+        """(centre xy, half size xy, whether a prop) of the support an installed box rests on: a
+        pedestal under an upright or flat one, a prop under the middle third (at most 1 m) of a
+        horizontal member (the connections it hangs from in the building are not modelled)."""
+        if box.kind == "horizontal":
             local = np.array([min(box.extents[0] / 6, 0.5), box.extents[1] / 2 + 0.01, 0.0])
-            half = (np.abs(box.frame) @ local)[:2]
-        else:
-            half = box.half_xy + 0.01
-        self._support_under(gid, box.centre[:2], box.bottom_z, half, "support", robot, prop=horizontal)
+            return box.centre[:2], (np.abs(box.frame) @ local)[:2], True
+        return box.centre[:2], box.half_xy + 0.01, False
+
+    def _support_for(self, gid: str, box, robot: str) -> None:
+        """The support an installed box rests on (:meth:`_support_geometry`), robots making way."""
+        centre, half, prop = self._support_geometry(box)
+        self._support_under(gid, centre, box.bottom_z, half, "support", robot, prop=prop)
+
+    def _check_support_place(self, gid: str, box, robot: str) -> None:
+        """Blocked, before the robot lifts ``gid`` towards its seat, when another robot at work stands
+        where its support will appear (found only once the component was held high, the robot was
+        left holding a 4 m column up there, and every try after failed from that posture)."""
+        centre, half, prop = self._support_geometry(box)
+        if prop or abs(box.bottom_z - self.site.ground_z) <= SUPPORT_MIN_Z_M:
+            return
+        for name, _ in self._in_the_way((centre, half), box.bottom_z):
+            self._raise_if_busy(name, gid, robot)
 
     def _spawn_in_place(self, activity) -> None:
         from bimrobot.physics.placement import body_pose, body_rotations
