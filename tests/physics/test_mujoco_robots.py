@@ -12,7 +12,7 @@ pytest.importorskip("mink")
 pytest.importorskip("pyastar2d")
 
 from bimrobot.errors import InputError  # noqa: E402
-from bimrobot.physics.site import MotionFailed  # noqa: E402
+from bimrobot.physics.site import Blocked, MotionFailed  # noqa: E402
 from bimrobot.rcan.activities import ActivityKind, Pose, RcanActivity  # noqa: E402
 from bimrobot.rcan.backends import create_backend  # noqa: E402
 from bimrobot.rcan.generation import load_capabilities  # noqa: E402
@@ -587,3 +587,30 @@ def test_an_arm_that_pushes_on_against_a_post_it_touches_stops_before_the_post_f
     site.step(2.0)
     upright = motion.angle_between(site.body_pose("post")[:3, :3], np.eye(3))
     assert np.degrees(upright) < 0.5 and np.linalg.norm(site.body_pose("post")[:2, 3] - (0.85, 0.0)) < 0.005
+
+
+def test_an_install_whose_support_place_holds_a_robot_at_work_is_blocked_before_anything_is_lifted(tmp_path):
+    """On the frame a positioning robot lifted a 4 m column over its footing before it found that an
+    assembly robot at work stood where the column's pedestal goes: the activity was blocked with the
+    column held high, and every retry failed from there (the way back to the carry posture was out
+    of reach). Now the support's place is checked first."""
+    table = tmp_path / "two.yaml"
+    table.write_text(HEAVY_TABLE.replace("ROBOT", "heavy_arm").replace("PAYLOAD", "300").replace("REACH", "2.0")
+                     + "  worker:\n    types: [mobile_base, manipulator, gripper]\n    payload_kg: 5.0\n"
+                       "    reach_m: 0.85\n    home: [-1.0, 1.5, 0.0]\n")
+    backend = create_backend("mujoco", load_capabilities(str(table)))
+    try:
+        nodes = _post_nodes("heavy_arm")
+        for node in nodes[:3]:  # to the post, over it, picked up
+            assert backend.execute(node).success
+        raised = RcanActivity("B4", kind=ActivityKind.POSITION_FOR_INSTALLING, target=Pose(-1.0, 1.5, 0.4),
+                              component_id=POST, weight_kg=125.6, section_m=(0.1, 0.1), size_m=(0.1, 0.1, 1.6))
+        backend.at_work["worker"] = "0SomethingElse00000000001"  # its gripper at another component
+        site = backend.site
+        tcp_before = site.tcp_pose("heavy_arm")[:3, 3]
+        with pytest.raises(Blocked, match="worker stands where the support of .* goes, at work on"):
+            backend._position_for_installing(RcanNode("rcan/B4", raised, "heavy_arm", "mujoco"))
+        assert np.linalg.norm(site.tcp_pose("heavy_arm")[:3, 3] - tcp_before) < 0.01  # nothing moved
+        assert site.robots["heavy_arm"].holding == POST
+    finally:
+        backend.close()
