@@ -314,11 +314,15 @@ class MujocoSite:
         return [self.model.body(b).name for b in range(1, self.model.nbody)]
 
     # --- contacts ----------------------------------------------------------------------------------
-    def arm_contacts_at(self, robot: str, q: np.ndarray, scratch=None, besides=()) -> list[str]:
+    def arm_contacts_at(self, robot: str, q: np.ndarray, scratch=None, besides=(), stand=None) -> list[str]:
         """What the robot would touch with its arm at joints ``q``, everything else where it is now
-        (a check of positions only, on a scratch copy of the state: :meth:`scratch_state`)."""
+        (a check of positions only, on a scratch copy of the state: :meth:`scratch_state`);
+        ``stand``: (xy, yaw) of its base instead of where it stands (m, rad)."""
         scratch = self.scratch_state() if scratch is None else scratch
-        return self._contacts_at(robot, scratch, self.idx[robot]["q"], q, besides)
+        if stand is None:
+            return self._contacts_at(robot, scratch, self.idx[robot]["q"], q, besides)
+        where = np.concatenate([self.idx[robot]["base_q"], self.idx[robot]["q"]])
+        return self._contacts_at(robot, scratch, where, np.concatenate([stand[0][:2], [stand[1]], q]), besides)
 
     def scratch_state(self):
         """A copy of the positions of everything, to try poses on without touching the simulation."""
@@ -1082,16 +1086,22 @@ class MujocoSite:
         ``xy`` heading ``yaw``, one after the other as it will move (each solved from the joints of
         the one before: inverse kinematics near the edge of the workspace depends on its seed, and a
         column's install checked from the carrying posture alone failed 148 mm out of reach on the
-        way); ``reach`` may also be a list of poses, or empty."""
+        way), its arm touching nothing at any of them (reaching from a stand beyond a neighbour on
+        the yard, a transport's upper arm met the neighbour); ``reach`` may also be a list of poses,
+        or empty."""
         poses = reach(xy, yaw) if callable(reach) else reach
         if not len(poses):
             return True
         r = self.robots[robot]
         arm_base = self.moved_to(robot, xy, yaw) @ self.arm_base_pose(robot)
         joints = r.q_ref
+        scratch = self.scratch_state()
+        stand = (np.asarray(xy, float), float(yaw))
         try:  # (q_ref is the seed of solve; nothing steps the simulation meanwhile)
             for pose in poses:
-                r.q_ref = self.solve(robot, pose, arm_base=arm_base)
+                r.q_ref = self.solve(robot, pose, avoid_contacts=True, arm_base=arm_base, stand=stand)
+                if self.arm_contacts_at(robot, r.q_ref, scratch, stand=stand):
+                    return False
         except MotionFailed:
             return False
         finally:
@@ -1103,13 +1113,14 @@ class MujocoSite:
         return self.body_pose(f"{robot}/arm_base")
 
     def solve(self, robot: str, tcp_world: np.ndarray, avoid_contacts: bool = False,
-              arm_base: np.ndarray | None = None) -> np.ndarray:
+              arm_base: np.ndarray | None = None, stand=None) -> np.ndarray:
         """Joint angles putting the tool centre point at ``tcp_world`` (4x4); MotionFailed when out of
         reach (IK error over tolerance). Of the solutions from several seeds (the current joints, the
         ready posture), the ones whose links stay above the ground (an elbow-down solution of an arm
         on a low base would dig in) and, of those (with ``avoid_contacts``: first those at which the arm
         touches nothing), the nearest to the current joints. ``arm_base``: solve as if the arm's base
-        stood there (4x4, world) instead of where it is."""
+        stood there (4x4, world) instead of where it is, its base at ``stand`` ((xy, yaw), for the
+        contacts)."""
         r = self.robots[robot]
         arm_base = self.arm_base_pose(robot) if arm_base is None else arm_base
         local = np.linalg.inv(arm_base) @ tcp_world
@@ -1130,7 +1141,7 @@ class MujocoSite:
                 lowest = arm_base[2, 3] + r.ik.lowest_link(q)
                 clear = lowest >= self.ground_z + 0.06 * r.model.scale
                 change = float(np.abs(q - r.q_ref).max())
-                touches = avoid_contacts and clear and bool(self.arm_contacts_at(robot, q))
+                touches = avoid_contacts and clear and bool(self.arm_contacts_at(robot, q, stand=stand))
                 found.append((not clear, touches, change, q))
                 if clear and not touches and change < 1.5:
                     break

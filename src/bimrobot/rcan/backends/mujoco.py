@@ -230,7 +230,9 @@ class MujocoBackend(DispatchingBackend):
             site.approach(robot, grasp[:2, 3], reach=[self._above(grasp), grasp])
         site.face(robot, site.body_pose(gid)[:2, 3] if legacy else grasp[:2, 3])
         grasp = site.grasp_pose(gid)  # where it is now: driving up to it may have nudged it
-        site.move_tcp_through(robot, [self._above(grasp), grasp])
+        # (of the arm's solutions, one touching nothing: reaching over a neighbour on the yard, the
+        # nearest one had a transport's upper arm on it)
+        site.move_tcp_through(robot, [self._above(grasp), grasp], avoid_contacts=True)
         grasp = site.grasp_pose(gid)
         if np.linalg.norm(site.tcp_pose(robot)[:3, 3] - grasp[:3, 3]) > 0.002:  # it moved as the arm came: once more
             site.move_tcp_through(robot, [grasp])
