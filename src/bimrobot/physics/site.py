@@ -37,6 +37,7 @@ RECORD_HZ = 20.0
 TURN_RATE_RAD_S = 1.0
 JOINT_SPEED_RAD_S = 1.0
 CLEARANCE_M = 0.05  # the base keeps this from obstacles on its path
+REACH_PATH_FRACTIONS = (0.25, 0.5, 0.75, 1.0)  # where between two poses a stand's reach check looks for contacts
 SHOVE_TOLERANCE_M = 0.005  # a component a robot touches may move this far before the motion fails
 GRID_M = 0.05
 PROP_CONTYPE = 8  # the collision bit of props: components meet them, robots (contype 2, conaffinity 1) do not
@@ -1019,7 +1020,12 @@ class MujocoSite:
                 turns = self._turns_on(robot, path, facing)
             except Blocked as failure:
                 why, path, turns = str(failure), None, "no path"
-            if not self._reaches(robot, reach, candidate if path is None else path[-1], facing):
+            if path is not None and np.linalg.norm(path[-1] - candidate) > 0.01:
+                # the grid's way ends at the free cell nearest the stand, metres from it where the
+                # robot swings a beam (its whole turning circle must be clear on the grid): only its
+                # whole body's way (below) gets it there, and its reach counts there only
+                path, turns = None, "no path"
+            if not self._reaches(robot, reach, candidate, facing):
                 unreachable += 1
                 why = f"its arm does not reach its work from the stands around it ({unreachable} tried)"
                 continue
@@ -1028,9 +1034,8 @@ class MujocoSite:
                 # sweeps metres), its whole body's way in the plane, arriving facing the point
                 planned += 1
                 poses = self.plan_poses(robot, candidate, facing, keep_out=list(keep_out) + list(low_keep_out))
-                if poses is not None and (path is None or np.linalg.norm(path[-1] - candidate) < 0.01
-                                          or self._reaches(robot, reach, candidate, facing)):
-                    path = poses  # (its end is the stand itself; the grid's may be the nearest free cell to it)
+                if poses is not None:
+                    path = poses
                 elif turns != "at the start":  # (there, drive may back out of the way first)
                     path = None
                     why = f"{why}; nor a way driving forward and backward ({planned} tried)"
@@ -1086,9 +1091,9 @@ class MujocoSite:
         ``xy`` heading ``yaw``, one after the other as it will move (each solved from the joints of
         the one before: inverse kinematics near the edge of the workspace depends on its seed, and a
         column's install checked from the carrying posture alone failed 148 mm out of reach on the
-        way), its arm touching nothing at any of them (reaching from a stand beyond a neighbour on
-        the yard, a transport's upper arm met the neighbour); ``reach`` may also be a list of poses,
-        or empty."""
+        way), its arm touching nothing at any of them or on its joint-space way between them (reaching
+        from a stand beyond a neighbour on the yard, a transport's upper arm met the neighbour);
+        ``reach`` may also be a list of poses, or empty."""
         poses = reach(xy, yaw) if callable(reach) else reach
         if not len(poses):
             return True
@@ -1099,9 +1104,13 @@ class MujocoSite:
         stand = (np.asarray(xy, float), float(yaw))
         try:  # (q_ref is the seed of solve; nothing steps the simulation meanwhile)
             for pose in poses:
+                before = r.q_ref
                 r.q_ref = self.solve(robot, pose, avoid_contacts=True, arm_base=arm_base, stand=stand)
-                if self.arm_contacts_at(robot, r.q_ref, scratch, stand=stand):
-                    return False
+                # and on the way there, which the arm goes in joint space (turning towards a beam's
+                # place, a 4 m arm's upper arm swept through the column beside its stand)
+                for fraction in REACH_PATH_FRACTIONS:
+                    if self.arm_contacts_at(robot, before + (r.q_ref - before) * fraction, scratch, stand=stand):
+                        return False
         except MotionFailed:
             return False
         finally:
