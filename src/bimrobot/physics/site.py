@@ -731,14 +731,16 @@ class MujocoSite:
                 self.turn(robot, final_yaw)
             return driven
         waypoints = path
+        r = self.robots[robot]
+        # empty: drive with the (metres long) arm tucked, tucked before it backs out too (backing
+        # out of a column's way, an arm left at its work point on the column dragged along it)
+        if not r.holding and r.model.family == "heavy":
+            self.stow_arm(robot)
         x, y, yaw = self.base_xy_yaw(robot)
         first = waypoints[0] - np.array([x, y])
         turns = np.linalg.norm(first) > 0.02 and abs(_wrap(math.atan2(first[1], first[0]) - yaw)) > 0.05
         if turns and self._back_out(robot):
             waypoints = self.plan_path(robot, goal_xy)  # from where it may turn
-        r = self.robots[robot]
-        if not r.holding and r.model.family == "heavy":  # empty: drive with the (metres long) arm tucked
-            self.stow_arm(robot)
         driven = 0.0
         for point in waypoints:
             here = self.base_xy_yaw(robot)[:2]
