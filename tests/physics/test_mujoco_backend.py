@@ -100,7 +100,9 @@ def test_a_goal_too_near_a_column_whose_nearest_free_spot_is_where_the_robot_sta
     husky = robot_model("husky_ur5", 5.0, 0.85, 0.12)
     site = MujocoSite({"husky_ur5": (husky, 1.0, 0.5, (0.0, 0.0))})
     site.add_support("column", (0.0, 0.0), 3.0, (0.125, 0.125))
-    x = -(0.125 + site.sweep_radius("husky_ur5") + CLEARANCE_M)  # at the edge of the column's clearance
+    # 1 mm outside the column's clearance: exactly on its edge, whether the robot's cell counts free
+    # is decided by the last bit of a float
+    x = -(0.125 + site.sweep_radius("husky_ur5") + CLEARANCE_M + 0.001)
     site.data.qpos[site.idx["husky_ur5"]["base_q"]] = [x, 0.0, 0.0]
     site.mj.mj_forward(site.model, site.data)
     path = site.plan_path("husky_ur5", (x + 0.03, 0.0))  # 3 cm nearer: inside it
@@ -140,3 +142,43 @@ def test_backend_is_registered_and_refuses_an_unknown_component_shape():
         assert not result.success and "shape of 0Unknown00000000000000 is unknown" in result.message
     finally:
         backend.close()
+
+
+def test_two_robots_ready_at_once_act_in_the_plans_order_whichever_thread_comes_first(tmp_path, monkeypatch):
+    """Robots share one physical world and act one at a time. Which of two activities ready at the
+    same simulated time acts first must not depend on which executor thread reaches the world first
+    (it did: runs of the same frame differed); here the plan's first activity arrives 0.5 s late."""
+    import time
+
+    from bimrobot.bim import load_model
+    from bimrobot.bim.examples import steel_frame
+    from bimrobot.coordination.fleet import load_fleet
+    from bimrobot.coordination.schedule import write_schedule_csv
+    from bimrobot.coordination.simulation import simulate
+    from bimrobot.lbd.schedule import load_schedule_csv
+    from bimrobot.rcan.backends.mujoco import MujocoBackend
+    from bimrobot.rcan.plans import plan_from_schedule
+    from bimrobot.sco import build_smart_model
+
+    model = load_model(steel_frame(tmp_path / "frame.ifc"))
+    result = simulate(build_smart_model(model), load_fleet("fleet2"), storey_elevations=[s.elevation for s in model.storeys])
+    schedule = load_schedule_csv(write_schedule_csv(result.activities, tmp_path / "schedule.csv"), model)
+    plan = plan_from_schedule(schedule, model)
+    first, second = [a for a in plan if not a.predecessors][:2]
+    assert first.robot != second.robot and first.kind is second.kind is ActivityKind.MOVE_TO_COMPONENT
+
+    execute, arrived = MujocoBackend.execute, []
+
+    def late_first(self, node, *args, **kwargs):
+        if node.activity_id == first.activity_id:
+            time.sleep(0.5)  # the first activity's thread is slow to reach the world
+        arrived.append(node.activity_id)
+        return execute(self, node, *args, **kwargs)
+
+    monkeypatch.setattr(MujocoBackend, "execute", late_first)
+    report = run_plan([first, second], load_capabilities("fleet2"), backend="mujoco", state_db=str(tmp_path / "run.db"))
+    assert arrived == [second.activity_id, first.activity_id]
+    assert report.status == "completed"
+    times = {a: (row["started_s"], row["finished_s"]) for a, row in report.activities.items()}
+    assert times[first.activity_id][0] == 0.0  # it acted first, although its thread came second
+    assert times[second.activity_id][0] == times[first.activity_id][1] > 0.0

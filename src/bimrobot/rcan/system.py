@@ -82,6 +82,10 @@ class RcanSystem:
         self.generator = NodeGenerator(self.allocator, backend_name)
         self.log = log or (lambda line: None)
         self.router = Router()
+        # called after each turn of the run with (results handled in all, nodes in flight): a backend in
+        # this process that executes one activity at a time uses it to choose the next deterministically
+        self.on_settled: Callable[[int, int], None] | None = None
+        self._results_handled = 0
         self.router.route(RESULT_TOPIC, self._on_result)
         self.router.route(DEAD_LETTER_TOPIC, self._on_dead_letter)
 
@@ -225,6 +229,7 @@ class RcanSystem:
                          {"node": node.to_message(), "attempt": attempt, "ready_at_s": ready_at})
 
     def _on_result(self, message: Message) -> None:
+        self._results_handled += 1
         result = ActivityResult.from_message(message.payload["result"])
         flight = self._in_flight.get(result.robot)
         if flight is None or flight[0].activity_id != result.activity_id or flight[1] != result.attempt:
@@ -361,6 +366,8 @@ class RcanSystem:
                     self.publish(self._plan[activity_id])
                 ready.clear()
                 self._dispatch_waiting()
+            if self.on_settled is not None:
+                self.on_settled(self._results_handled, len(self._in_flight))
             if not self._in_flight:
                 break  # finished, or blocked: waiting activities that no free robot will ever take
             if timeout_s is not None and time.perf_counter() - started > timeout_s:
@@ -544,10 +551,16 @@ def _run_plan(activities, capabilities, backend, state_db, redis_url, spawn_exec
             # one executor for every robot, on a bounded pool of threads: robots work in parallel
             executor_broker = (RedisBroker(redis_url, group="executor", consumer="executor-local", **redis_options)
                                if redis_url else broker)
-            executor = RobotExecutor(executor_broker, backend_instance, capabilities.robots)
+            # a backend that acts in turns (mujoco) needs every robot's node at hand: a thread per robot
+            in_turns = hasattr(backend_instance, "attach_coordinator")
+            executor = RobotExecutor(executor_broker, backend_instance, capabilities.robots,
+                                     workers=len(capabilities.robots) if in_turns else None)
             executors.append(executor)
             threads.append(executor.start_thread())
         system = RcanSystem(broker, capabilities, manager, backend, log)
+        if spawn_executors and hasattr(backend_instance, "attach_coordinator"):
+            backend_instance.attach_coordinator()
+            system.on_settled = backend_instance.coordinator_settled
         system.allocator.reallocate = reallocate
         report = system.run(activities, timeout_s=timeout_s, retry_escalated=retry_escalated)
         if hasattr(backend_instance, "summary"):  # what the backend measured (mujoco: placement errors)

@@ -31,6 +31,17 @@ supports and the robots, not with each other (the connections are not modelled).
   angle error (degrees) to its target are measured, and it must not move more than 1 mm in 2 s more.
   Over :data:`POSITION_TOLERANCE_M` / :data:`ANGLE_TOLERANCE_DEG` the activity fails.
 
+Turns: the robots share one physical world, so activities are executed one at a time. When the
+coordinator runs in this process (``run_plan`` attaches it, :meth:`MujocoBackend.coordinator_settled`),
+the next activity is chosen only once the coordinator has handled every result and every node it
+has sent has arrived here, and it is the one ready first in simulated time (ties: activity id, then
+attempt): a run is the same, activity for activity, whatever the threads' timing. An activity whose
+way is blocked by other robots' work gives up its turn and is tried again after another activity has
+finished (at most :data:`BLOCKED_WAITS` times); when every activity here is so blocked and nothing
+else is coming, the first of them fails. Without a coordinator (tests, executors in another
+process) activities run in the order they arrive, and a blocked one waits real seconds
+(:data:`BLOCKED_WAIT_S`, :data:`IDLE_WAIT_S`) for other work.
+
 Times in results are simulated seconds. Every body's pose is recorded at 20 Hz (simulated time) and
 written on close to ``<state db>.trajectory.csv`` beside the run's state database (or
 ``trajectory_path``): ``time_s, body, x, y, z, qw, qx, qy, qz``. The physical world is not persisted:
@@ -42,6 +53,7 @@ from __future__ import annotations
 import csv
 import math
 import threading
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -63,6 +75,89 @@ BLOCKED_WAIT_S = 120.0  # ... each within this many real seconds, before its act
 IDLE_WAIT_S = 3.0  # when every activity under way is waiting so, a new one may still be dispatched within
     # this many real seconds (the coordinator reacts to the last result); if none is, nothing can clear the
     # way and the activity fails at once instead of waiting out BLOCKED_WAIT_S
+
+class _Ticket:
+    """An activity queued for its turn: ``key`` (ready time s, activity id, attempt) orders turns;
+    ``blocked_at``: :attr:`_Turns.finished` when its way was last found blocked; ``tries``: how often."""
+
+    def __init__(self, key: tuple[float, str, int]):
+        self.key = key
+        self.blocked_at: int | None = None
+        self.tries = 0
+
+
+class _Turns:
+    """Which queued activity acts next in the one physical world (module docstring, Turns)."""
+
+    def __init__(self):
+        self._condition = threading.Condition()
+        self.coordinated = False  # a coordinator in this process reports when it has settled
+        self._handled = 0  # results the coordinator has handled
+        self._in_flight: int | None = None  # nodes it waits for (None: it has not reported yet)
+        self._returned = 0  # results given back to the executors
+        self.finished = 0  # activities finished here: what a blocked one waits for
+        self._queued: list[_Ticket] = []
+        self._acting: _Ticket | None = None
+        self._stopped = False
+
+    def attach(self) -> None:
+        with self._condition:
+            self.coordinated = True
+
+    def settled(self, handled: int, in_flight: int) -> None:
+        with self._condition:
+            self._handled, self._in_flight = handled, in_flight
+            self._condition.notify_all()
+
+    def stop(self) -> None:
+        with self._condition:
+            self._stopped = True
+            self._condition.notify_all()
+
+    @contextmanager
+    def queued(self, key: tuple[float, str, int]):
+        """Queue an activity for the time it is executed (its result given back at the end)."""
+        ticket = _Ticket(key)
+        with self._condition:
+            self._queued.append(ticket)
+            self._condition.notify_all()
+        try:
+            yield ticket
+        finally:
+            with self._condition:
+                self._queued.remove(ticket)
+                self._returned += 1
+                self.finished += 1
+                self._condition.notify_all()
+
+    def wait_for_turn(self, ticket: _Ticket, max_tries: int) -> bool:
+        """Wait until ``ticket`` acts; whether this is its last chance (blocked again, it fails): it was
+        blocked ``max_tries`` times, or it acts although nothing finished since it was blocked."""
+        with self._condition:
+            self._condition.wait_for(lambda: self._stopped or self._next() is ticket)
+            if self._stopped:
+                raise RuntimeError("the run is ending; the activity was not executed")
+            self._acting = ticket
+            return ticket.tries >= max_tries or ticket.blocked_at == self.finished
+
+    def end_turn(self, ticket: _Ticket, blocked: bool) -> None:
+        with self._condition:
+            self._acting = None
+            if blocked:
+                ticket.blocked_at, ticket.tries = self.finished, ticket.tries + 1
+            self._condition.notify_all()
+
+    def _next(self) -> _Ticket | None:
+        """The ticket whose turn it is, or None while one acts or the coordinator has not settled (a
+        result not yet handled, a node sent that has not arrived). The earliest of those not blocked
+        since the last activity finished; when all are, the earliest of all (its last chance)."""
+        if self._acting is not None or not self._queued or self._in_flight is None:
+            return None
+        if self._handled < self._returned or len(self._queued) < self._in_flight:
+            return None
+        free = [t for t in self._queued if t.blocked_at is None or t.blocked_at < self.finished]
+        return min(free or self._queued, key=lambda t: t.key)
+
 
 def experiment_shapes() -> dict[str, tuple[float, float, float]]:
     """Shapes of the components of the thesis' experiments (the RCAN plan gives weight and section
@@ -100,6 +195,7 @@ class MujocoBackend(DispatchingBackend):
         if plan:
             self._spawn_plan(plan)
         self._results: dict[tuple[str, int], ActivityResult] = {}
+        self._turns = _Turns()
         self._lock = threading.Lock()
         self._changed = threading.Condition(self._lock)  # notified after every activity
         self._count_lock = threading.Lock()
@@ -109,6 +205,8 @@ class MujocoBackend(DispatchingBackend):
 
     # --- the interface -----------------------------------------------------------------------------
     def execute(self, node: RcanNode, attempt: int = 1, ready_at_s: float = 0.0, feedback=None) -> ActivityResult:
+        if self._turns.coordinated:
+            return self._execute_in_turn(node, attempt, ready_at_s, feedback)
         with self._count_lock:
             self._under_way += 1
         try:
@@ -118,34 +216,87 @@ class MujocoBackend(DispatchingBackend):
             with self._count_lock:
                 self._under_way -= 1
 
-    def _execute(self, node: RcanNode, attempt: int, ready_at_s: float, feedback) -> ActivityResult:
-        from bimrobot.physics.site import Blocked, MotionFailed
+    def attach_coordinator(self) -> None:
+        """The coordinator runs in this process and will report :meth:`coordinator_settled` after each
+        of its turns: activities run in turns (module docstring). Call before it sends a node."""
+        self._turns.attach()
 
-        done = self._results.get((node.activity_id, attempt)) or next(
-            (r for (a, _), r in self._results.items() if a == node.activity_id and r.success), None)
+    def coordinator_settled(self, results_handled: int, in_flight: int) -> None:
+        """The coordinator has handled ``results_handled`` results in all, sent every node it will
+        send until the next result, and waits for ``in_flight`` of them."""
+        self._turns.settled(results_handled, in_flight)
+
+    def stop(self) -> None:
+        self._turns.stop()
+
+    def _execute(self, node: RcanNode, attempt: int, ready_at_s: float, feedback) -> ActivityResult:
+        """One activity, blocked ways waited out in real seconds (no coordinator attached)."""
+        done = self._known_result(node, attempt)
         if done:
             return done
+        started = self._begin(node, ready_at_s, feedback)
+        for waited in range(BLOCKED_WAITS + 1):
+            message, success, blocked = self._attempt(node)
+            if not blocked:
+                break
+            if waited == BLOCKED_WAITS or not self._wait_for_other_work():
+                if waited:
+                    message += f" (still so after {waited} other activities)"
+                break
+        self._changed.notify_all()
+        return self._finish(node, attempt, started, message, success, feedback)
+
+    def _execute_in_turn(self, node: RcanNode, attempt: int, ready_at_s: float, feedback) -> ActivityResult:
+        """One activity, executed in its turns (module docstring)."""
+        started = None
+        with self._turns.queued((ready_at_s, node.activity_id, attempt)) as ticket:
+            while True:
+                last_chance = self._turns.wait_for_turn(ticket, BLOCKED_WAITS)
+                blocked = False
+                try:
+                    with self._lock:
+                        done = self._known_result(node, attempt)
+                        if done:
+                            return done
+                        if started is None:
+                            started = self._begin(node, ready_at_s, feedback)
+                        message, success, blocked = self._attempt(node)
+                        if not blocked or last_chance:
+                            if blocked and ticket.tries:
+                                message += f" (still so after {ticket.tries} more tries, other activities between)"
+                            blocked = False
+                            return self._finish(node, attempt, started, message, success, feedback)
+                finally:
+                    self._turns.end_turn(ticket, blocked)
+
+    def _known_result(self, node: RcanNode, attempt: int) -> ActivityResult | None:
+        """The result already given for this attempt, or any success of the activity (a goal sent
+        again after a broker restart)."""
+        return self._results.get((node.activity_id, attempt)) or next(
+            (r for (a, _), r in self._results.items() if a == node.activity_id and r.success), None)
+
+    def _begin(self, node: RcanNode, ready_at_s: float, feedback) -> float:
+        """Step the world to the activity's ready time (s) when it lies ahead; the start time (s)."""
         if ready_at_s > self.site.time_s:
             self.site.step(ready_at_s - self.site.time_s)
-        started = self.site.time_s
         if feedback:
             feedback(0.0, f"{node.kind.label}: started")
-        for waited in range(BLOCKED_WAITS + 1):
-            try:
-                message = self._put_away_other(node) + getattr(self, "_" + node.kind.value)(node)
-                success = True
-                break
-            except Blocked as failure:  # wait for other robots' work to clear the way, then try again
-                message, success = str(failure), False
-                if waited == BLOCKED_WAITS or not self._wait_for_other_work():
-                    if waited:
-                        message += f" (still so after {waited} other activities)"
-                    break
-            except MotionFailed as failure:
-                message, success = str(failure), False
-                break
+        return self.site.time_s
+
+    def _attempt(self, node: RcanNode) -> tuple[str, bool, bool]:
+        """Try the activity once: (message, success, blocked by other robots' work)."""
+        from bimrobot.physics.site import Blocked, MotionFailed
+
+        try:
+            return self._put_away_other(node) + getattr(self, "_" + node.kind.value)(node), True, False
+        except Blocked as failure:
+            return str(failure), False, True
+        except MotionFailed as failure:
+            return str(failure), False, False
+
+    def _finish(self, node: RcanNode, attempt: int, started: float, message: str, success: bool,
+                feedback) -> ActivityResult:
         self._note_at_work(node, success)
-        self._changed.notify_all()
         if feedback:
             feedback(1.0, f"{node.kind.label}: finished")
         result = ActivityResult(node.activity_id, attempt, node.robot, success, message, started, self.site.time_s)
