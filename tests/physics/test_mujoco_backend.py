@@ -2,6 +2,7 @@
 
 import dataclasses
 import re
+import time
 
 import numpy as np
 import pytest
@@ -144,28 +145,35 @@ def test_backend_is_registered_and_refuses_an_unknown_component_shape():
         backend.close()
 
 
-def test_two_robots_ready_at_once_act_in_the_plans_order_whichever_thread_comes_first(tmp_path, monkeypatch):
-    """Robots share one physical world and act one at a time. Which of two activities ready at the
-    same simulated time acts first must not depend on which executor thread reaches the world first
-    (it did: runs of the same frame differed); here the plan's first activity arrives 0.5 s late."""
-    import time
-
+@pytest.fixture(scope="module")
+def frame_starts(tmp_path_factory):
+    """The chapter-4 frame's first two activities (fleet 2's schedule): two robots' *move to
+    component*, both ready at 0 s."""
     from bimrobot.bim import load_model
     from bimrobot.bim.examples import steel_frame
     from bimrobot.coordination.fleet import load_fleet
     from bimrobot.coordination.schedule import write_schedule_csv
     from bimrobot.coordination.simulation import simulate
     from bimrobot.lbd.schedule import load_schedule_csv
-    from bimrobot.rcan.backends.mujoco import MujocoBackend
     from bimrobot.rcan.plans import plan_from_schedule
     from bimrobot.sco import build_smart_model
 
-    model = load_model(steel_frame(tmp_path / "frame.ifc"))
+    folder = tmp_path_factory.mktemp("frame")
+    model = load_model(steel_frame(folder / "frame.ifc"))
     result = simulate(build_smart_model(model), load_fleet("fleet2"), storey_elevations=[s.elevation for s in model.storeys])
-    schedule = load_schedule_csv(write_schedule_csv(result.activities, tmp_path / "schedule.csv"), model)
-    plan = plan_from_schedule(schedule, model)
-    first, second = [a for a in plan if not a.predecessors][:2]
+    schedule = load_schedule_csv(write_schedule_csv(result.activities, folder / "schedule.csv"), model)
+    first, second = [a for a in plan_from_schedule(schedule, model) if not a.predecessors][:2]
     assert first.robot != second.robot and first.kind is second.kind is ActivityKind.MOVE_TO_COMPONENT
+    return first, second
+
+
+def test_two_robots_ready_at_once_act_in_the_plans_order_whichever_thread_comes_first(frame_starts, tmp_path, monkeypatch):
+    """Robots share one physical world and act one at a time. Which of two activities ready at the
+    same simulated time acts first must not depend on which executor thread reaches the world first
+    (it did: runs of the same frame differed); here the plan's first activity arrives 0.5 s late."""
+    from bimrobot.rcan.backends.mujoco import MujocoBackend
+
+    first, second = frame_starts
 
     execute, arrived = MujocoBackend.execute, []
 
@@ -182,3 +190,45 @@ def test_two_robots_ready_at_once_act_in_the_plans_order_whichever_thread_comes_
     times = {a: (row["started_s"], row["finished_s"]) for a, row in report.activities.items()}
     assert times[first.activity_id][0] == 0.0  # it acted first, although its thread came second
     assert times[second.activity_id][0] == times[first.activity_id][1] > 0.0
+
+
+def test_a_blocked_activity_gives_its_turn_away_and_fails_at_once_when_nothing_can_clear_its_way(frame_starts, tmp_path,
+                                                                                               monkeypatch):
+    """The first activity finds its way blocked until the second is done: it acts again after it and
+    succeeds. Blocked for good, with nothing else under way, it fails at once (it used to wait real
+    seconds for work that could not come) and RCAN escalates it after its retries."""
+    from bimrobot.physics.site import Blocked
+    from bimrobot.rcan.backends.mujoco import MujocoBackend
+
+    first, second = frame_starts
+    drive, tries = MujocoBackend._move_to_component, []
+
+    def blocked_until_second_done(self, node):
+        tries.append(node.activity_id)
+        if node.activity_id == first.activity_id and (second.activity_id, 1) not in self._results:
+            raise Blocked(f"{node.robot}: the way is blocked by the other robot")
+        return drive(self, node)
+
+    monkeypatch.setattr(MujocoBackend, "_move_to_component", blocked_until_second_done)
+    report = run_plan([first, second], load_capabilities("fleet2"), backend="mujoco", state_db=str(tmp_path / "a.db"))
+    assert report.status == "completed"
+    assert tries == [first.activity_id, second.activity_id, first.activity_id]
+    assert report.activities[first.activity_id]["started_s"] == 0.0  # its first try
+    assert report.activities[first.activity_id]["finished_s"] > report.activities[second.activity_id]["finished_s"]
+
+    def always_blocked(self, node):
+        tries.append(node.activity_id)
+        if node.activity_id == first.activity_id:
+            raise Blocked(f"{node.robot}: the way is blocked by a wall")
+        return drive(self, node)
+
+    monkeypatch.setattr(MujocoBackend, "_move_to_component", always_blocked)
+    tries.clear()
+    report = run_plan([first, second], load_capabilities("fleet2"), backend="mujoco", state_db=str(tmp_path / "b.db"),
+                      max_attempts=2)
+    assert report.status == "escalated" and [e.activity_id for e in report.escalations] == [first.activity_id]
+    assert "blocked by a wall" in report.escalations[0].message
+    assert second.activity_id in report.done
+    # attempt 1: blocked, the second acts, blocked again, then it fails (nothing else can change the
+    # world); attempt 2: blocked, fails. No try is repeated while nothing changed.
+    assert tries == [first.activity_id, second.activity_id, first.activity_id, first.activity_id]

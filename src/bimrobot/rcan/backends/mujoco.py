@@ -38,7 +38,7 @@ has sent has arrived here, and it is the one ready first in simulated time (ties
 attempt): a run is the same, activity for activity, whatever the threads' timing. An activity whose
 way is blocked by other robots' work gives up its turn and is tried again after another activity has
 finished (at most :data:`BLOCKED_WAITS` times); when every activity here is so blocked and nothing
-else is coming, the first of them fails. Without a coordinator (tests, executors in another
+else is coming, the first of them fails at once, with the reason it was last blocked. Without a coordinator (tests, executors in another
 process) activities run in the order they arrive, and a blocked one waits real seconds
 (:data:`BLOCKED_WAIT_S`, :data:`IDLE_WAIT_S`) for other work.
 
@@ -78,12 +78,14 @@ IDLE_WAIT_S = 3.0  # when every activity under way is waiting so, a new one may 
 
 class _Ticket:
     """An activity queued for its turn: ``key`` (ready time s, activity id, attempt) orders turns;
-    ``blocked_at``: :attr:`_Turns.finished` when its way was last found blocked; ``tries``: how often."""
+    ``blocked_at``: :attr:`_Turns.finished` when its way was last found blocked; ``tries``: how often;
+    ``blocked``: why, the last time."""
 
     def __init__(self, key: tuple[float, str, int]):
         self.key = key
         self.blocked_at: int | None = None
         self.tries = 0
+        self.blocked = ""
 
 
 class _Turns:
@@ -131,8 +133,8 @@ class _Turns:
                 self._condition.notify_all()
 
     def wait_for_turn(self, ticket: _Ticket, max_tries: int) -> bool:
-        """Wait until ``ticket`` acts; whether this is its last chance (blocked again, it fails): it was
-        blocked ``max_tries`` times, or it acts although nothing finished since it was blocked."""
+        """Wait until ``ticket`` acts; whether it should give up instead: it was blocked ``max_tries``
+        times, or its turn came although nothing finished since it was blocked (nothing can change)."""
         with self._condition:
             self._condition.wait_for(lambda: self._stopped or self._next() is ticket)
             if self._stopped:
@@ -140,17 +142,18 @@ class _Turns:
             self._acting = ticket
             return ticket.tries >= max_tries or ticket.blocked_at == self.finished
 
-    def end_turn(self, ticket: _Ticket, blocked: bool) -> None:
+    def end_turn(self, ticket: _Ticket, blocked: str | None) -> None:
+        """``ticket``'s turn is over; ``blocked``: why its way was blocked, or None (it is finished)."""
         with self._condition:
             self._acting = None
-            if blocked:
-                ticket.blocked_at, ticket.tries = self.finished, ticket.tries + 1
+            if blocked is not None:
+                ticket.blocked_at, ticket.tries, ticket.blocked = self.finished, ticket.tries + 1, blocked
             self._condition.notify_all()
 
     def _next(self) -> _Ticket | None:
         """The ticket whose turn it is, or None while one acts or the coordinator has not settled (a
         result not yet handled, a node sent that has not arrived). The earliest of those not blocked
-        since the last activity finished; when all are, the earliest of all (its last chance)."""
+        since the last activity finished; when all are, the earliest of all (to give up)."""
         if self._acting is not None or not self._queued or self._in_flight is None:
             return None
         if self._handled < self._returned or len(self._queued) < self._in_flight:
@@ -251,21 +254,22 @@ class MujocoBackend(DispatchingBackend):
         started = None
         with self._turns.queued((ready_at_s, node.activity_id, attempt)) as ticket:
             while True:
-                last_chance = self._turns.wait_for_turn(ticket, BLOCKED_WAITS)
-                blocked = False
+                give_up = self._turns.wait_for_turn(ticket, BLOCKED_WAITS + 1)
+                blocked = None
                 try:
                     with self._lock:
+                        if give_up:  # blocked, and nothing can clear the way (or it was tried often enough)
+                            tries = f" (tried {ticket.tries} times, other activities between)" if ticket.tries > 1 else ""
+                            return self._finish(node, attempt, started, ticket.blocked + tries, False, feedback)
                         done = self._known_result(node, attempt)
                         if done:
                             return done
                         if started is None:
                             started = self._begin(node, ready_at_s, feedback)
-                        message, success, blocked = self._attempt(node)
-                        if not blocked or last_chance:
-                            if blocked and ticket.tries:
-                                message += f" (still so after {ticket.tries} more tries, other activities between)"
-                            blocked = False
+                        message, success, was_blocked = self._attempt(node)
+                        if not was_blocked:
                             return self._finish(node, attempt, started, message, success, feedback)
+                        blocked = message
                 finally:
                     self._turns.end_turn(ticket, blocked)
 
