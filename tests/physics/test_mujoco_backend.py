@@ -232,3 +232,26 @@ def test_a_blocked_activity_gives_its_turn_away_and_fails_at_once_when_nothing_c
     # attempt 1: blocked, the second acts, blocked again, then it fails (nothing else can change the
     # world); attempt 2: blocked, fails. No try is repeated while nothing changed.
     assert tries == [first.activity_id, second.activity_id, first.activity_id, first.activity_id]
+
+
+def test_the_run_reports_how_long_two_robots_chassis_overlapped():
+    """Robots pass through each other in the scene (they are not obstacles to each other yet); the
+    summary says for how long each pair did, from the recorded frames (20 Hz)."""
+    from bimrobot.rcan.backends.mujoco import chassis_overlaps
+
+    names = ["a/base", "a/arm_base", "b/base"]
+    footprints = {"a": (2.0, 1.0), "b": (2.0, 1.0)}
+
+    def frame(t, bx, b_yaw=0.0):
+        poses = np.zeros((3, 7))
+        poses[:, 3] = 1.0
+        poses[2, 0] = bx
+        poses[2, 3], poses[2, 6] = np.cos(b_yaw / 2), np.sin(b_yaw / 2)
+        return (t, names, poses)
+
+    # b drives towards a along x: the boxes overlap once their centres are nearer than 2 m
+    frames = [frame(k / 20, 4.0 - 0.1 * k) for k in range(30)]
+    assert chassis_overlaps(frames, footprints) == {"a & b": 0.45}  # 1.9 m down to 1.1 m apart (at 2.0 they touch): 9 frames
+    # turned by 90 degrees at 1.4 m, b's 1 m wide side faces a: 0.5 + 1.0 = 1.5 > 1.4, they overlap
+    assert chassis_overlaps([frame(0.0, 1.4, np.pi / 2)], footprints) == {"a & b": 0.05}
+    assert chassis_overlaps([frame(0.0, 1.6, np.pi / 2)], footprints) == {}

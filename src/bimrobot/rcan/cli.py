@@ -305,6 +305,7 @@ def _run(args) -> int:
           + (f" ({report.resumed} re-sent after a resume)" if report.resumed else "")
           + f"; components: {', '.join(f'{n} {s}' for s, n in sorted(states.items()))}; "
           f"makespan {report.makespan_s:.1f} s (robot time), wall {report.wall_s:.2f} s", flush=True)
+    _print_physics(report.backend_summary)
     _print_outcome(report)
     if args.report:
         data = {"generator": signature("rcan run report"), **asdict(report)}
@@ -319,6 +320,23 @@ def _run(args) -> int:
         graph.serialize(args.graph_out, format=fmt, inputs=inputs, option="--graph-out")
         print(f"construction graph with live states: {args.graph_out}", flush=True)
     return 0 if report.status == "completed" else 1
+
+
+def _print_physics(summary: dict) -> None:
+    """The mujoco backend's measures, in one line: the worst placement error, and how long robots'
+    chassis overlapped (they pass through each other in the scene)."""
+    placed, overlaps = summary.get("placement_error"), summary.get("chassis_overlap_s")
+    if placed is None:
+        return
+    worst = (f"worst placement error {max(e['position_mm'] for e in placed.values()):.2f} mm, "
+             f"{max(e['angle_deg'] for e in placed.values()):.3f} degrees" if placed else "nothing installed")
+    if overlaps:
+        pair, longest = max(overlaps.items(), key=lambda item: item[1])
+        crossing = (f"robots' chassis overlapped {sum(overlaps.values()):.1f} s in all (pairs of robots; the longest "
+                    f"{pair}, {longest:.1f} s): robots pass through each other in the scene")
+    else:
+        crossing = "no two robots' chassis overlapped"
+    print(f"physics: {worst}; {crossing}", flush=True)
 
 
 def _listed(ids: list[str], limit: int = 10) -> str:

@@ -162,6 +162,37 @@ class _Turns:
         return min(free or self._queued, key=lambda t: t.key)
 
 
+def chassis_overlaps(frames: list, footprints: dict[str, tuple[float, float]]) -> dict[str, float]:
+    """Simulated seconds during which two robots' chassis (boxes of their footprints, length x width m,
+    centred on the base) overlap in plan view, per pair ("A & B", only pairs that did), counted over
+    the recorded ``frames`` (time s, body names, poses x y z qw qx qy qz) at :data:`RECORD_HZ`."""
+    import shapely
+    from bimrobot.physics.site import RECORD_HZ
+
+    if not frames or len(footprints) < 2:
+        return {}
+    names = frames[0][1]
+    robots = [r for r in footprints if f"{r}/base" in names]
+    rows = [names.index(f"{r}/base") for r in robots]
+    poses = np.stack([pose[rows] for _, _, pose in frames])  # (frames, robots, 7)
+    yaw = 2 * np.arctan2(poses[:, :, 6], poses[:, :, 3])  # the base turns about z only
+    chassis = {}
+    for k, robot in enumerate(robots):
+        length, width = footprints[robot]
+        corners = np.array([[1, 1], [-1, 1], [-1, -1], [1, -1]]) * [length / 2, width / 2]
+        c, s = np.cos(yaw[:, k])[:, None], np.sin(yaw[:, k])[:, None]
+        x = poses[:, k, 0:1] + c * corners[:, 0] - s * corners[:, 1]
+        y = poses[:, k, 1:2] + s * corners[:, 0] + c * corners[:, 1]
+        chassis[robot] = shapely.polygons(np.stack([x, y], axis=2))
+    overlaps = {}
+    for i, a in enumerate(robots):
+        for b in robots[i + 1:]:
+            frames_overlapping = int(np.count_nonzero(shapely.area(shapely.intersection(chassis[a], chassis[b])) > 1e-6))
+            if frames_overlapping:
+                overlaps[f"{a} & {b}"] = round(frames_overlapping / RECORD_HZ, 2)
+    return overlaps
+
+
 def experiment_shapes() -> dict[str, tuple[float, float, float]]:
     """Shapes of the components of the thesis' experiments (the RCAN plan gives weight and section
     only): GlobalId -> (width, depth, length) m, from their IFC models (bimrobot.bim.examples)."""
@@ -351,11 +382,15 @@ class MujocoBackend(DispatchingBackend):
 
     def summary(self) -> dict:
         """What the run measured: each installed component's placement error (position of its centre,
-        mm; angle, degrees) and the scene's simulated time (s)."""
+        mm; angle, degrees), the scene's simulated time (s), and for each pair of robots the simulated
+        seconds their chassis overlapped in plan view (robots do not collide with each other yet: this
+        says how much the run relied on it)."""
+        footprints = {name: model.footprint for name, model in self.families.items()}
         return {"backend": self.name, "simulated_s": round(self.site.time_s, 3),
                 "placement_error": {gid: {"position_mm": round(m * 1000, 2), "angle_deg": round(d, 3)}
                                     for gid, (m, d) in self.placements.items()},
-                "robot_models": {name: model.family for name, model in self.families.items()}}
+                "robot_models": {name: model.family for name, model in self.families.items()},
+                "chassis_overlap_s": chassis_overlaps(self.site.frames, footprints)}
 
     def close(self) -> None:
         if self.trajectory_path is not None and self.site.frames:
