@@ -255,3 +255,39 @@ def test_the_run_reports_how_long_two_robots_chassis_overlapped():
     # turned by 90 degrees at 1.4 m, b's 1 m wide side faces a: 0.5 + 1.0 = 1.5 > 1.4, they overlap
     assert chassis_overlaps([frame(0.0, 1.4, np.pi / 2)], footprints) == {"a & b": 0.05}
     assert chassis_overlaps([frame(0.0, 1.6, np.pi / 2)], footprints) == {}
+
+
+def test_the_trajectory_file_keeps_only_what_moved_and_every_pose_can_be_read_back_from_it():
+    """Written at 20 Hz for every body, a frame run's trajectory was 726 MB. Only groups that moved are
+    written (a robot's links together, so its arm is drawn whole), with the frame before a move starts:
+    every body's pose at every frame is still the last row at or before it, and linear interpolation
+    between rows gives it too."""
+    from bimrobot.rcan.backends.mujoco import TRAJECTORY_POSITION_M, trajectory_rows
+
+    def pose(x, y=0.0):
+        return [x, y, 0.0, 1.0, 0.0, 0.0, 0.0]
+
+    frames = []
+    before, after = ("r/base", "r/arm", "c"), ("r/base", "r/arm", "c", "s")  # a support appears at frame 25
+    for k in range(40):
+        robot_x = 0.1 * min(max(k - 10, 0), 10)  # drives from frame 10 to 20
+        component_y = 0.2 * min(max(k - 30, 0), 5)  # pushed from frame 30 to 35
+        rows = [pose(robot_x), pose(robot_x + 0.3, 0.5), pose(5.0, component_y)]
+        names = before if k < 25 else after
+        frames.append((k / 20, names, np.array(rows + ([pose(9.0)] if k >= 25 else []))))
+    written = list(trajectory_rows(frames))
+    tracks = {}
+    for t, names, poses in written:
+        for name, row in zip(names, poses):
+            tracks.setdefault(name, []).append((t, row))
+    assert sum(len(names) for _, names, _ in written) < 0.5 * sum(len(f[1]) for f in frames)
+    assert [len(tracks[n]) for n in ("r/base", "r/arm")] == [len(tracks["r/base"])] * 2  # the robot's links together
+    for t, names, poses in frames:
+        for name, row in zip(names, poses):
+            times = np.array([s for s, _ in tracks[name]])
+            values = np.array([r for _, r in tracks[name]])
+            latest = values[np.searchsorted(times, t, side="right") - 1]
+            interpolated = [np.interp(t, times, values[:, i]) for i in range(7)]
+            assert np.abs(latest - row).max() <= TRAJECTORY_POSITION_M, (name, t)
+            assert np.abs(interpolated - row).max() <= TRAJECTORY_POSITION_M, (name, t)
+    assert {n for n in tracks if tracks[n][-1][0] == frames[-1][0]} == set(after)  # all at the last frame
