@@ -4,7 +4,8 @@ An RCAN run folder is what ``bimrobot rcan run --report R --state-db D`` writes,
 ``rcan/``: ``report.json`` (status, done activities, each activity's robot, the final component
 states), the state database (each activity's component, kind, status and the simulated seconds it
 started and finished) and, from ``--backend mujoco``, ``<state db>.trajectory.csv``: the pose of every MuJoCo
-body at 20 Hz of simulated time (``time_s, body, x, y, z, qw, qx, qy, qz``; metres, world frame = the
+body at 20 Hz of simulated time, rows of the bodies that moved only (a body holds its last row's pose;
+``time_s, body, x, y, z, qw, qx, qy, qz``; metres, world frame = the
 model frame of the RCAN goals; a body is a component, named by its GlobalId, or a robot's link,
 ``<robot>/<link>``). Times are the backend's simulated seconds: with the mujoco backend the trajectory
 and the activities' finishes are on the same clock.

@@ -44,7 +44,8 @@ process) activities run in the order they arrive, and a blocked one waits real s
 
 Times in results are simulated seconds. Every body's pose is recorded at 20 Hz (simulated time) and
 written on close to ``<state db>.trajectory.csv`` beside the run's state database (or
-``trajectory_path``): ``time_s, body, x, y, z, qw, qx, qy, qz``. The physical world is not persisted:
+``trajectory_path``): ``time_s, body, x, y, z, qw, qx, qy, qz``, the rows of the bodies that moved
+(:func:`trajectory_rows`: a body's pose at any recorded time is its last row at or before it). The physical world is not persisted:
 a resumed run starts the scene anew (completed goals are still answered from memory within a run).
 """
 
