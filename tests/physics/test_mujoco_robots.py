@@ -589,16 +589,22 @@ def test_an_arm_that_pushes_on_against_a_post_it_touches_stops_before_the_post_f
     assert np.degrees(upright) < 0.5 and np.linalg.norm(site.body_pose("post")[:2, 3] - (0.85, 0.0)) < 0.005
 
 
+def _heavy_and_another(tmp_path, heavy: str, other: str, payload_kg: float, reach_m: float, home_xy):
+    """A mujoco backend with the heavy robot ``heavy`` (300 kg, 2 m reach) of HEAVY_TABLE and a
+    second robot ``other`` (payload kg, reach m, home x y m)."""
+    table = tmp_path / "two.yaml"
+    table.write_text(HEAVY_TABLE.replace("ROBOT", heavy).replace("PAYLOAD", "300").replace("REACH", "2.0")
+                     + f"  {other}:\n    types: [mobile_base, manipulator, gripper]\n    payload_kg: {payload_kg}\n"
+                       f"    reach_m: {reach_m}\n    home: [{home_xy[0]}, {home_xy[1]}, 0.0]\n")
+    return create_backend("mujoco", load_capabilities(str(table)))
+
+
 def test_an_install_whose_support_place_holds_a_robot_at_work_is_blocked_before_anything_is_lifted(tmp_path):
     """On the frame a positioning robot lifted a 4 m column over its footing before it found that an
     assembly robot at work stood where the column's pedestal goes: the activity was blocked with the
     column held high, and every retry failed from there (the way back to the carry posture was out
     of reach). Now the support's place is checked first."""
-    table = tmp_path / "two.yaml"
-    table.write_text(HEAVY_TABLE.replace("ROBOT", "heavy_arm").replace("PAYLOAD", "300").replace("REACH", "2.0")
-                     + "  worker:\n    types: [mobile_base, manipulator, gripper]\n    payload_kg: 5.0\n"
-                       "    reach_m: 0.85\n    home: [-1.0, 1.5, 0.0]\n")
-    backend = create_backend("mujoco", load_capabilities(str(table)))
+    backend = _heavy_and_another(tmp_path, "heavy_arm", "worker", 5.0, 0.85, (-1.0, 1.5))
     try:
         nodes = _post_nodes("heavy_arm")
         for node in nodes[:3]:  # to the post, over it, picked up
@@ -621,11 +627,7 @@ def test_a_post_held_on_its_seat_off_its_place_is_set_down_again_by_its_holder_b
     installs it. Set down 15 mm off its place (as a 290 kg column once was, the arm lagging behind
     its path), the post is lifted by its holder and set down again at its BIM pose, so the install
     succeeds instead of failing on the same error at every try."""
-    table = tmp_path / "two.yaml"
-    table.write_text(HEAVY_TABLE.replace("ROBOT", "holder").replace("PAYLOAD", "300").replace("REACH", "2.0")
-                     + "  fixer:\n    types: [mobile_base, manipulator, gripper]\n    payload_kg: 300\n"
-                       "    reach_m: 2.0\n    home: [-4.0, 4.0, 0.0]\n")
-    backend = create_backend("mujoco", load_capabilities(str(table)))
+    backend = _heavy_and_another(tmp_path, "holder", "fixer", 300, 2.0, (-4.0, 4.0))
     try:
         *positioning, install = _post_nodes("holder")
         for node in positioning:
