@@ -291,3 +291,18 @@ def test_the_trajectory_file_keeps_only_what_moved_and_every_pose_can_be_read_ba
             assert np.abs(latest - row).max() <= TRAJECTORY_POSITION_M, (name, t)
             assert np.abs(interpolated - row).max() <= TRAJECTORY_POSITION_M, (name, t)
     assert {n for n in tracks if tracks[n][-1][0] == frames[-1][0]} == set(after)  # all at the last frame
+
+
+def test_robots_that_share_a_home_start_side_by_side_further_from_the_work():
+    """Fleet 2's six robots share the site's four homes: two pairs started inside each other. The
+    later robot of a pair starts clear of the first, on the line from the work through the home."""
+    from bimrobot.rcan.backends.mujoco import START_GAP_M, starts_apart
+
+    heavy, light = (2.33, 1.58), (1.16, 0.79)
+    starts = starts_apart({"transport": ((18.5, 4.0), light), "other": ((18.5, 6.0), light),
+                           "assembly": ((18.5, 4.0), heavy)}, work_xy=(3.0, 4.0))
+    assert starts["transport"] == (18.5, 4.0) and starts["other"] == (18.5, 6.0)  # their own homes
+    x, y = starts["assembly"]
+    assert y == 4.0 and x > 18.5  # behind the transport, away from the work at x = 3
+    assert x - 18.5 >= (heavy[0] + light[0]) / 2 + START_GAP_M  # chassis clear of each other
+    assert x - 18.5 < (heavy[0] + light[0]) / 2 + START_GAP_M + 0.25  # and no further than a step past that

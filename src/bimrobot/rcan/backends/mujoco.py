@@ -2,7 +2,8 @@
 
 Each robot of the capability table becomes a mobile manipulator of the family of
 :mod:`bimrobot.physics.robot` (``ur5`` for payload <= 5 kg and reach <= 0.85 m, else ``heavy``; its
-base ``footprint_m`` when the table gives one) at its home. Components are boxes:
+base ``footprint_m`` when the table gives one) at its home, or beside it when a robot listed before it
+starts there (:func:`starts_apart`). Components are boxes:
 
 - given by ``shapes`` or :func:`experiment_shapes` (the thesis' experiments): upright, centred on the
   activity's target, entering the scene when an activity first names it, as before;
@@ -209,6 +210,34 @@ def _same_bodies(frames: list):
             start = k
 
 
+START_GAP_M = 0.2  # between the chassis of robots that start at one home
+START_STEP_M = 0.25
+
+
+def starts_apart(robots: dict[str, tuple[tuple[float, float], tuple[float, float]]], work_xy) -> dict[str, tuple[float, float]]:
+    """Where each robot starts (x, y m): its home, unless a robot listed before it starts there (their
+    chassis, facing +x, would come within :data:`START_GAP_M`): then the first spot clear of them on
+    the line from the work's centre ``work_xy`` through the home, further out in steps of
+    :data:`START_STEP_M`. (A site may have fewer homes than robots: fleet 2's six robots share four.)
+    ``robots``: name -> (home (x, y) m, footprint (length, width) m)."""
+    placed: list[tuple[np.ndarray, tuple[float, float]]] = []
+    starts = {}
+    for name, (home, footprint) in robots.items():
+        spot = np.asarray(home, float)
+        outward = spot - np.asarray(work_xy, float)
+        outward = outward / np.linalg.norm(outward) if np.linalg.norm(outward) > 1e-9 else np.array([1.0, 0.0])
+
+        def taken(p):
+            return any(abs(p[0] - q[0]) < (footprint[0] + f[0]) / 2 + START_GAP_M
+                       and abs(p[1] - q[1]) < (footprint[1] + f[1]) / 2 + START_GAP_M for q, f in placed)
+
+        while taken(spot):
+            spot = spot + START_STEP_M * outward
+        placed.append((spot, footprint))
+        starts[name] = (float(spot[0]), float(spot[1]))
+    return starts
+
+
 def chassis_overlaps(frames: list, footprints: dict[str, tuple[float, float]]) -> dict[str, float]:
     """Simulated seconds during which two robots' chassis (boxes of their footprints, length x width m,
     centred on the base) overlap in plan view, per pair ("A & B", only pairs that did), counted over
@@ -267,6 +296,10 @@ class MujocoBackend(DispatchingBackend):
             opening = spec.gripper_opening_m[1] if spec.gripper_opening_m else None
             model = robot_model(spec.name, spec.payload_kg, spec.reach_m, opening, spec.footprint_m)
             robots[spec.name] = (model, spec.speed_m_s, spec.arm_speed_m_s, (spec.home.x, spec.home.y))
+        targets = [(a.target.x, a.target.y) for a in plan or () if a.target is not None]
+        starts = starts_apart({name: (r[3], r[0].footprint) for name, r in robots.items()},
+                              np.mean(targets, axis=0) if targets else (0.0, 0.0))
+        robots = {name: (*r[:3], starts[name]) for name, r in robots.items()}
         self.site = MujocoSite(robots)
         self.families = {name: value[0] for name, value in robots.items()}
         if trajectory_path is None and str(db_path) != ":memory:":
