@@ -544,7 +544,7 @@ def _run_plan(activities, capabilities, backend, state_db, redis_url, spawn_exec
     except BaseException:
         store.close()
         raise
-    executors, threads, backend_instance = [], [], None
+    executors, threads, backend_instance, in_turns = [], [], None, False
     try:
         if spawn_executors:
             backend_instance = create_backend(backend, capabilities, **options)
@@ -558,7 +558,7 @@ def _run_plan(activities, capabilities, backend, state_db, redis_url, spawn_exec
             executors.append(executor)
             threads.append(executor.start_thread())
         system = RcanSystem(broker, capabilities, manager, backend, log)
-        if spawn_executors and hasattr(backend_instance, "attach_coordinator"):
+        if in_turns:
             backend_instance.attach_coordinator()
             system.on_settled = backend_instance.coordinator_settled
         system.allocator.reallocate = reallocate

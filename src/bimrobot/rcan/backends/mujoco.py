@@ -39,15 +39,16 @@ has sent has arrived here, and it is the one ready first in simulated time (ties
 attempt): a run is the same, activity for activity, whatever the threads' timing. An activity whose
 way is blocked by other robots' work gives up its turn and is tried again after another activity has
 finished (at most :data:`BLOCKED_WAITS` times); when every activity here is so blocked and nothing
-else is coming, the first of them fails at once, with the reason it was last blocked. Without a coordinator (tests, executors in another
-process) activities run in the order they arrive, and a blocked one waits real seconds
-(:data:`BLOCKED_WAIT_S`, :data:`IDLE_WAIT_S`) for other work.
+else is coming, the first of them fails at once, with the reason it was last blocked. Without a
+coordinator (tests, executors in another process) activities run in the order they arrive, and a
+blocked one waits real seconds (:data:`BLOCKED_WAIT_S`, :data:`IDLE_WAIT_S`) for other work.
 
 Times in results are simulated seconds. Every body's pose is recorded at 20 Hz (simulated time) and
 written on close to ``<state db>.trajectory.csv`` beside the run's state database (or
 ``trajectory_path``): ``time_s, body, x, y, z, qw, qx, qy, qz``, the rows of the bodies that moved
-(:func:`trajectory_rows`: a body's pose at any recorded time is its last row at or before it). The physical world is not persisted:
-a resumed run starts the scene anew (completed goals are still answered from memory within a run).
+(:func:`trajectory_rows`: a body's pose at any recorded time is its last row at or before it). The
+physical world is not persisted: a resumed run starts the scene anew (completed goals are still
+answered from memory within a run).
 """
 
 from __future__ import annotations
@@ -98,8 +99,7 @@ class _Turns:
         self.coordinated = False  # a coordinator in this process reports when it has settled
         self._handled = 0  # results the coordinator has handled
         self._in_flight: int | None = None  # nodes it waits for (None: it has not reported yet)
-        self._returned = 0  # results given back to the executors
-        self.finished = 0  # activities finished here: what a blocked one waits for
+        self.finished = 0  # activities finished here, their results given back: what a blocked one waits for
         self._queued: list[_Ticket] = []
         self._acting: _Ticket | None = None
         self._stopped = False
@@ -130,7 +130,6 @@ class _Turns:
         finally:
             with self._condition:
                 self._queued.remove(ticket)
-                self._returned += 1
                 self.finished += 1
                 self._condition.notify_all()
 
@@ -158,7 +157,7 @@ class _Turns:
         since the last activity finished; when all are, the earliest of all (to give up)."""
         if self._acting is not None or not self._queued or self._in_flight is None:
             return None
-        if self._handled < self._returned or len(self._queued) < self._in_flight:
+        if self._handled < self.finished or len(self._queued) < self._in_flight:
             return None
         free = [t for t in self._queued if t.blocked_at is None or t.blocked_at < self.finished]
         return min(free or self._queued, key=lambda t: t.key)
