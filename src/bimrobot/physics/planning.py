@@ -20,28 +20,36 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
-_seeded = False
+SEED = 20261124
 
 
 def _ompl():
-    """OMPL's modules, quiet, seeded once per process (the seed takes effect only before any of
-    OMPL's random generators exists)."""
-    global _seeded
+    """OMPL's modules, quiet."""
     import ompl.base as ob
     import ompl.geometric as og
     import ompl.util as ou
 
-    if not _seeded:
-        ou.setLogLevel(ou.LogLevel.LOG_ERROR)
-        ou.RNG.setSeed(20261124)
-        _seeded = True
+    ou.setLogLevel(ou.LogLevel.LOG_ERROR)
     return ob, og
+
+
+def _seed() -> None:
+    """Seed OMPL's generator of seeds again, so that the random generators of the planner about to be
+    made (and its samplers) draw the same numbers whatever was planned before in the process: a plan
+    depends on its inputs only, not on the order of plans (OMPL logs an error that seeds were drawn
+    already, which is the point here: silenced)."""
+    import ompl.util as ou
+
+    ou.setLogLevel(ou.LogLevel.LOG_NONE)
+    ou.RNG.setSeed(SEED)
+    ou.setLogLevel(ou.LogLevel.LOG_ERROR)
 
 
 def _solve(setup, og, seconds: float) -> bool:
     """RRT-Connect, stopped at its first exact solution (or after ``seconds``: then False), whose path
     is then simplified as far as OMPL's simplifier goes: not for a time, as OMPL's default, so that
     a run's paths do not depend on how busy the machine is (a replay reaches the same state)."""
+    _seed()
     setup.setPlanner(og.RRTConnect(setup.getSpaceInformation()))
     solved = setup.solve(seconds)
     if not solved or not setup.haveExactSolutionPath():

@@ -9,6 +9,10 @@ limit: an arm asked to lift more than its limits allow sags, and the motion fail
 Grasp: a weld constraint between the gripper and the component, switched on only when the tool
 centre point is within :data:`GRASP_POSITION_TOLERANCE_M` and :data:`GRASP_ANGLE_TOLERANCE_DEG` of the
 grasp pose. Trajectories: the pose of every body at :data:`RECORD_HZ`, simulated time.
+
+Robots collide with the building, the components and each other (a collision bit per robot), not
+with their own links; the other robots, as they stand, are obstacles of every robot's paths and
+stands (:meth:`MujocoSite.obstacles`). A held component collides with the ground and the supports only.
 """
 
 from __future__ import annotations
@@ -41,6 +45,10 @@ REACH_PATH_FRACTIONS = (0.25, 0.5, 0.75, 1.0)  # where between two poses a stand
 SHOVE_TOLERANCE_M = 0.005  # a component a robot touches may move this far before the motion fails
 GRID_M = 0.05
 PROP_CONTYPE = 8  # the collision bit of props: components meet them, robots (contype 2, conaffinity 1) do not
+# robots meet each other by a collision bit of their own (robot k: 1 << (ROBOT_BIT_0 + k)) in every other
+# robot's conaffinity; bit 30 is left free (MujocoSite._probe_model), so at most 26 robots have one
+ROBOT_BIT_0 = 4
+ROBOT_BITS = 26
 TURNING_RADIUS_M = 0.1  # of the arcs of plan_poses' paths (a skid-steer base turns almost in place)
 POSE_PLANS_PER_SEARCH = 3  # paths of plan_poses tried per search for a stand (each up to a second)
 PIT_DEPTH_M = 1.0  # thickness of the ground slab: the deepest pit
@@ -117,6 +125,7 @@ class MujocoSite:
             add_robot(world, actuators, model, home, ground_z)
         self.ground_z = ground_z
         self.spec = mujoco.MjSpec.from_string(ET.tostring(root, encoding="unicode"))
+        _robots_meet(self.spec, list(robots))
         self.model = self.spec.compile()
         self.data = mujoco.MjData(self.model)
         self.robots: dict[str, Robot] = {}
@@ -404,9 +413,9 @@ class MujocoSite:
 
     # --- base --------------------------------------------------------------------------------------
     def obstacles(self, robot: str, split: bool = False):
-        """Boxes (centre xy, half size xy) the base must keep away from: supports, and the components
+        """Boxes (centre xy, half size xy) the base must keep away from: supports, the components
         that rest on the ground or that another robot holds (a column held upright while it is
-        fixed), not the robot's own. ``split``: (low, tall) lists: low boxes (below the top of the
+        fixed), not the robot's own, and the other robots (:meth:`robot_boxes`). ``split``: (low, tall) lists: low boxes (below the top of the
         chassis: a component lying on the ground) meet only the chassis, tall ones the arm too, which
         reaches out further."""
         low, tall = [], []
@@ -422,7 +431,31 @@ class MujocoSite:
             # not one that lies flush with or under the ground (a footing: driven over)
             if bottom < chassis_top and top > self.ground_z + 0.01:
                 (low if top < chassis_top else tall).append((centre[:2], half[:2]))
+        for other in self.robots:
+            if other != robot:
+                chassis, arm = self.robot_boxes(other)
+                low.append(chassis)
+                if arm is not None:
+                    tall.append(arm)
         return (low, tall) if split else low + tall
+
+    def robot_boxes(self, robot: str):
+        """The robot as an obstacle to the others' bases: (chassis, arm), each (centre xy, half xy), m,
+        world: the box around its chassis' footprint as it stands now (low: another robot's arm passes
+        over it), and the box around its arm and gripper (each geom's bounding sphere) when they
+        reach out beyond that (tall), else None."""
+        length, width = self.robots[robot].model.footprint
+        x, y, yaw = self.base_xy_yaw(robot)
+        c, s_ = abs(math.cos(yaw)), abs(math.sin(yaw))
+        chassis = (np.array([x, y]), np.array([c * length + s_ * width, s_ * length + c * width]) / 2)
+        m = self.model
+        base = m.body(f"{robot}/base").id
+        geoms = np.isin(m.geom_bodyid, [b for b in self.idx[robot]["robot_bodies"] if b != base]) & (m.geom_contype != 0)
+        xy, radius = self.data.geom_xpos[geoms, :2], m.geom_rbound[geoms][:, None]
+        lower, upper = (xy - radius).min(axis=0), (xy + radius).max(axis=0)
+        if np.all(lower >= chassis[0] - chassis[1] - 0.01) and np.all(upper <= chassis[0] + chassis[1] + 0.01):
+            return chassis, None
+        return chassis, ((lower + upper) / 2, (upper - lower) / 2)
 
     def component_box(self, gid: str) -> tuple[np.ndarray, np.ndarray]:
         """(centre xyz, half size xyz), m, world: the axis-aligned box around the component as it is now."""
@@ -1361,6 +1394,18 @@ class MujocoSite:
         local = np.append(data.site("tcp").xpos, 1.0)
         return (self.arm_base_pose(robot) @ local)[:3]
 
+    def commanded_tcp_pose(self, robot: str) -> np.ndarray:
+        """The tool centre point's pose (4x4, world) at the arm's commanded joints, the base where it is:
+        where the arm settles. An arm holding a long member lags and sags centimetres behind its
+        command for a while; a reach checked from where its tool is at that moment did not hold once
+        it had settled (a 3.2 m beam, 30 mm at the edge of a 4 m arm's reach)."""
+        ik = self.robots[robot].ik
+        data = self.mj.MjData(ik.model)
+        data.qpos[:6] = self.robots[robot].q_ref
+        self.mj.mj_kinematics(ik.model, data)
+        tcp = data.site("tcp")
+        return self.arm_base_pose(robot) @ motion.pose(tcp.xmat.reshape(3, 3).copy(), tcp.xpos.copy())
+
     # --- gripper -----------------------------------------------------------------------------------
     def grasp_pose(self, component: str, placement: np.ndarray | None = None) -> np.ndarray:
         """Where the tcp grasps a component: on its vertical axis, FINGER_DEPTH_M below its top, tool
@@ -1446,6 +1491,20 @@ class MujocoSite:
         self.robots[robot].holding = None
         self.data.ctrl[self.idx[robot]["fingers"]] = self.robots[robot].model.gripper_opening / 2
         self.step(0.3)
+
+
+def _robots_meet(spec, names: list[str]) -> None:
+    """Give each robot's colliding geoms (contype 2, conaffinity 1: they meet the building, not each
+    other, nor the robot's own links) a bit of their own, and every other robot's geoms that bit in
+    their conaffinity: robots collide with each other, not with themselves. Robots past
+    :data:`ROBOT_BITS` get none and pass through the others (documented)."""
+    bits = {name: 1 << (ROBOT_BIT_0 + k) for k, name in enumerate(names[:ROBOT_BITS])}
+    everyone = sum(bits.values())
+    for geom in spec.geoms:
+        owner = geom.name.split("/", 1)[0]
+        if owner in bits and geom.contype & 2:
+            geom.contype |= bits[owner]
+            geom.conaffinity |= everyone & ~bits[owner]
 
 
 def _wrap(angle: float) -> float:

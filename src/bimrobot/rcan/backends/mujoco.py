@@ -14,7 +14,9 @@ starts there (:func:`starts_apart`). Components are boxes:
 
 Under a box above the ground stands a support (a pedestal; a prop under a beam's middle third); one
 below the ground gets a pit with a support at its floor. Components collide with the ground, the
-supports and the robots, not with each other (the connections are not modelled).
+supports and the robots, not with each other (the connections are not modelled). Robots collide
+with each other, and each robot's paths and stands keep clear of the others as they stand (the
+site's obstacles); a component one holds passes through the others, as through components.
 
 - *move to component*, *transport*: the base drives along a collision-free path on an occupancy grid
   of the scene (supports and components on the ground, grown by half the base width and a clearance;
@@ -39,7 +41,10 @@ has sent has arrived here, and it is the one ready first in simulated time (ties
 attempt): a run is the same, activity for activity, whatever the threads' timing. An activity whose
 way is blocked by other robots' work gives up its turn and is tried again after another activity has
 finished (at most :data:`BLOCKED_WAITS` times); when every activity here is so blocked and nothing
-else is coming, the first of them fails at once, with the reason it was last blocked. Without a
+else is coming, the first of them fails at once, with the reason it was last blocked. Before it gives
+up its turn, the robots standing idle near it or its work (in no chain of activities: they have
+placed their last component, or have had none yet) drive back to where they started, and it tries
+once more (``made way (...)`` in its result). Without a
 coordinator (tests, executors in another process) activities run in the order they arrive, and a
 blocked one waits real seconds (:data:`BLOCKED_WAIT_S`, :data:`IDLE_WAIT_S`) for other work.
 
@@ -73,6 +78,7 @@ LIFT_M = 0.10
 RESEAT_TRIES = 2  # a held component seated off its place is lifted and set down again at most this often
 RESEAT_LIFT_M = 0.02
 SUPPORT_MIN_Z_M = 0.01
+MAKE_WAY_M = 8.0  # idle robots this near a blocked robot or its target drive back to their start
 BLOCKED_WAITS = 20  # a robot that finds its way blocked waits for up to this many other activities ...
 BLOCKED_WAIT_S = 120.0  # ... each within this many real seconds, before its activity fails
 IDLE_WAIT_S = 3.0  # when every activity under way is waiting so, a new one may still be dispatched within
@@ -300,6 +306,8 @@ class MujocoBackend(DispatchingBackend):
                               np.mean(targets, axis=0) if targets else (0.0, 0.0))
         robots = {name: (*r[:3], starts[name]) for name, r in robots.items()}
         self.site = MujocoSite(robots)
+        self.parks = {name: np.array(xy) for name, xy in starts.items()}  # where a robot goes to make way
+        self.engaged: dict[str, str] = {}  # robot -> the component whose chain of activities it is in
         self.families = {name: value[0] for name, value in robots.items()}
         if trajectory_path is None and str(db_path) != ":memory:":
             trajectory_path = Path(db_path).with_name(Path(db_path).name + ".trajectory.csv")
@@ -400,19 +408,57 @@ class MujocoBackend(DispatchingBackend):
         return self.site.time_s
 
     def _attempt(self, node: RcanNode) -> tuple[str, bool, bool]:
-        """Try the activity once: (message, success, blocked by other robots' work)."""
+        """Try the activity (message, success, blocked by other robots' work); when its way is
+        blocked, once more after the idle robots near its work have made way (:meth:`_send_idle_robots_back`)."""
         from bimrobot.physics.site import Blocked, MotionFailed
 
-        try:
-            return self._put_away_other(node) + getattr(self, "_" + node.kind.value)(node), True, False
-        except Blocked as failure:
-            return str(failure), False, True
-        except MotionFailed as failure:
-            return str(failure), False, False
+        self.engaged[node.robot] = node.component_id
+        made_way = ""
+        for _ in range(2):
+            try:
+                return made_way + self._put_away_other(node) + getattr(self, "_" + node.kind.value)(node), True, False
+            except Blocked as failure:
+                blocked = str(failure)
+                if made_way:
+                    break
+                made_way = self._send_idle_robots_back(node)
+                if not made_way:
+                    break
+            except MotionFailed as failure:
+                return made_way + str(failure), False, False
+        return made_way + blocked, False, True
+
+    def _send_idle_robots_back(self, node: RcanNode) -> str:
+        """Send the idle robots (in no chain of activities: :attr:`engaged`) standing within
+        :data:`MAKE_WAY_M` of the node's robot or its target back to where they started, nearest to
+        the target first (each on a planned path; one that cannot get there stays). What moved, as
+        the start of a result's message, or ''."""
+        from bimrobot.physics.site import MotionFailed
+
+        site = self.site
+        work = [site.base_xy_yaw(node.robot)[:2]]
+        if node.target is not None:
+            work.append(np.array([node.target.x, node.target.y]))
+        idle = []
+        for robot in site.robots:
+            here = site.base_xy_yaw(robot)[:2]
+            near = min(float(np.linalg.norm(here - w)) for w in work)
+            if robot != node.robot and robot not in self.engaged and near < MAKE_WAY_M \
+                    and np.linalg.norm(here - self.parks[robot]) > 0.1:
+                idle.append((float(np.linalg.norm(here - work[-1])), robot))
+        moved = []
+        for _, robot in sorted(idle):
+            try:
+                distance = site.drive(robot, self.parks[robot])
+            except MotionFailed:
+                continue
+            moved.append(f"{robot} drove {distance:.1f} m back to its start")
+        return f"made way ({'; '.join(moved)}); " if moved else ""
 
     def _finish(self, node: RcanNode, attempt: int, started: float, message: str, success: bool,
                 feedback) -> ActivityResult:
         self._note_at_work(node, success)
+        self._note_engaged(node, success)
         if feedback:
             feedback(1.0, f"{node.kind.label}: finished")
         result = ActivityResult(node.activity_id, attempt, node.robot, success, message, started, self.site.time_s)
@@ -445,6 +491,12 @@ class MujocoBackend(DispatchingBackend):
         finally:
             with self._count_lock:
                 self._waiting -= 1
+
+    def _note_engaged(self, node: RcanNode, success: bool) -> None:
+        """Keep :attr:`engaged`: a robot is in a chain from its first activity on a component until
+        the activity that releases it has succeeded (a failed one leaves it there: RCAN tries it again)."""
+        if success and node.activity.releases_robot:
+            self.engaged.pop(node.robot, None)
 
     def _note_at_work(self, node: RcanNode, success: bool) -> None:
         """Keep :attr:`at_work`: a robot's gripper is at a component from a successful *position for
@@ -689,12 +741,13 @@ class MujocoBackend(DispatchingBackend):
         # columns failed 125-148 mm out of reach on the way)
         target, goal = self._install_pose(robot, gid, box)
         def path_from(xy, yaw):  # every tool pose of the move onto the seat, the robot at that stand
-            tcp = site.moved_to(robot, xy, yaw) @ site.tcp_pose(robot)
+            tcp = site.moved_to(robot, xy, yaw) @ site.commanded_tcp_pose(robot)
             return site.tcp_path(robot, tcp, self._carry_waypoints(robot, gid, goal, tcp))
 
         site.approach(robot, self._wrist_point(robot, goal), keep_out=[(box.centre[:2], box.half_xy)], reach=path_from)
         goal = self._tcp_goal(robot, target)  # as it is held now
-        waypoints = self._carry_waypoints(robot, gid, goal)
+        # (from where the arm settles, as the stand's reach was checked)
+        waypoints = self._carry_waypoints(robot, gid, goal, site.commanded_tcp_pose(robot))
         # (to the arm solutions touching nothing, as the stand's reach was checked)
         site.move_tcp_through(robot, waypoints[:-1], avoid_contacts=True)
         # its seat appears once it is held above it: carried low at the robot's front, a beam is
