@@ -728,7 +728,12 @@ class MujocoBackend(DispatchingBackend):
                 raise MotionFailed(f"{gid} is not in the scene: it was never picked up")
             self._spawn_in_place(node.activity)  # in place already (a footing): it enters the scene where it is installed
         if site.robots[robot].holding != gid:  # work on a component in place (a further connection)
-            site.approach(robot, self._wrist_point(robot, self._work_poses(robot, gid)[-1]))
+            # a stand from which the arm reaches its work touching nothing on the way (a stand taken
+            # unchecked, beside another robot, had the gripper meet the next member at the joint)
+            def work_from(xy, yaw):
+                return self._clear_work_poses(robot, gid, (np.asarray(xy, float), float(yaw)))
+
+            site.approach(robot, self._wrist_point(robot, self._work_poses(robot, gid)[-1]), reach=work_from)
             site.move_tcp_through(robot, self._clear_work_poses(robot, gid), avoid_contacts=True)
             return f"{node.kind.label} {gid}: gripper at its work point"
         box = self._installed_box(node.activity)
@@ -1077,32 +1082,39 @@ class MujocoBackend(DispatchingBackend):
                 waypoints.append(pose)
         return waypoints
 
-    def _clear_work_poses(self, robot: str, gid: str) -> list[np.ndarray]:
+    def _clear_work_poses(self, robot: str, gid: str, stand=None) -> list[np.ndarray]:
         """The work poses (:meth:`_work_poses`) turned about the tool's axis by the first multiple of
         45 degrees at which the arm reaches both without touching anything (a 4 m arm's wrist is
         half a metre wide: turned one way it lies against the column standing on the footing it
-        works on); the unturned ones when no turn is clear (the move then fails saying what it hit)."""
+        works on); the unturned ones when no turn is clear (the move then fails saying what it hit).
+        ``stand``: (xy, yaw) of the base to find them for (m, rad), instead of where it stands."""
         from bimrobot.physics import motion
         from bimrobot.physics.site import MotionFailed
 
         site = self.site
-        poses = self._work_poses(robot, gid)
+        arm_base = None if stand is None else site.moved_to(robot, *stand) @ site.arm_base_pose(robot)
+        poses = self._work_poses(robot, gid, arm_base)
         for k in (0, 1, -1, 2, -2, 3, -3, 4):
             turned = [pose @ motion.planar(0.0, 0.0, k * math.pi / 4) for pose in poses]  # about the tool's z
             try:
-                if not any(site.arm_contacts_at(robot, site.solve(robot, pose, avoid_contacts=True)) for pose in turned):
+                if not any(site.arm_contacts_at(robot, site.solve(robot, pose, True, arm_base, stand), stand=stand)
+                           for pose in turned):
                     return turned
             except MotionFailed:
+                if stand is not None:  # out of reach there: a turn about the tool's axis will not reach
+                    return poses  # either (a stand is checked for many stands: each try costs ~20 IK solves)
                 continue
         return poses
 
-    def _work_poses(self, robot: str, gid: str) -> list[np.ndarray]:
+    def _work_poses(self, robot: str, gid: str, arm_base: np.ndarray | None = None) -> list[np.ndarray]:
         """Where the tool works on a component in place (its connection nodes are not in the plan): at
         the point of its surface nearest the arm's shoulder, 5 cm off it, the tool pointing at it (down
-        onto a top face, level onto a side of a tall one), and 0.10 m back from there first."""
+        onto a top face, level onto a side of a tall one), and 0.10 m back from there first.
+        ``arm_base``: the arm's base (4x4, world) to find them for, instead of where it is."""
         from bimrobot.physics import motion
 
         site = self.site
+        arm_base = site.arm_base_pose(robot) if arm_base is None else arm_base
         pose = site.body_pose(gid)
         size = np.array(site.components[gid].size)
         corners = np.array([[x, y, z, 1.0] for x in (-size[0] / 2, size[0] / 2) for y in (-size[1] / 2, size[1] / 2)
@@ -1110,7 +1122,7 @@ class MujocoBackend(DispatchingBackend):
         world = (pose @ corners.T)[:3].T
         low, high = world.min(axis=0), world.max(axis=0)
         model = self.families[robot]
-        shoulder = site.arm_base_pose(robot)[:3, 3] + np.array([0.0, 0.0, model.dh[0][1]])
+        shoulder = arm_base[:3, 3] + np.array([0.0, 0.0, model.dh[0][1]])
         point = np.clip(shoulder, low + 0.05, np.maximum(high - 0.05, low + 0.05))
         if shoulder[2] >= high[2]:  # onto its top face
             yaw = math.atan2(point[1] - shoulder[1], point[0] - shoulder[0])
