@@ -235,8 +235,9 @@ def test_a_blocked_activity_gives_its_turn_away_and_fails_at_once_when_nothing_c
 
 
 def test_the_run_reports_how_long_two_robots_chassis_overlapped():
-    """Robots pass through each other in the scene (they are not obstacles to each other yet); the
-    summary says for how long each pair did, from the recorded frames (20 Hz)."""
+    """Robots collide and plan round each other; should two chassis overlap anyway (a fleet of more
+    robots than the scene has collision bits), the summary says for how long each pair did, from the
+    recorded frames (20 Hz)."""
     from bimrobot.rcan.backends.mujoco import chassis_overlaps
 
     names = ["a/base", "a/arm_base", "b/base"]

@@ -324,7 +324,8 @@ def _run(args) -> int:
 
 def _print_physics(summary: dict) -> None:
     """The mujoco backend's measures, in one line: the worst placement error, and how long robots'
-    chassis overlapped (they pass through each other in the scene)."""
+    chassis overlapped (robots collide and plan round each other: any overlap says something went
+    wrong, or that the fleet has more robots than collision bits)."""
     placed, overlaps = summary.get("placement_error"), summary.get("chassis_overlap_s")
     if placed is None:
         return
@@ -333,7 +334,7 @@ def _print_physics(summary: dict) -> None:
     if overlaps:
         pair, longest = max(overlaps.items(), key=lambda item: item[1])
         crossing = (f"robots' chassis overlapped {sum(overlaps.values()):.1f} s in all (pairs of robots; the longest "
-                    f"{pair}, {longest:.1f} s): robots pass through each other in the scene")
+                    f"{pair}, {longest:.1f} s): robots got into each other in the scene")
     else:
         crossing = "no two robots' chassis overlapped"
     print(f"physics: {worst}; {crossing}", flush=True)

@@ -516,8 +516,8 @@ class MujocoBackend(DispatchingBackend):
     def summary(self) -> dict:
         """What the run measured: each installed component's placement error (position of its centre,
         mm; angle, degrees), the scene's simulated time (s), and for each pair of robots the simulated
-        seconds their chassis overlapped in plan view (robots do not collide with each other yet: this
-        says how much the run relied on it)."""
+        seconds their chassis overlapped in plan view (robots collide and plan round each other: this
+        shows where that failed, or robots past the site's collision bits)."""
         footprints = {name: model.footprint for name, model in self.families.items()}
         return {"backend": self.name, "simulated_s": round(self.site.time_s, 3),
                 "placement_error": {gid: {"position_mm": round(m * 1000, 2), "angle_deg": round(d, 3)}
@@ -718,7 +718,7 @@ class MujocoBackend(DispatchingBackend):
         site.move_arm(robot, site._ready_posture_cached(robot))
 
     def _position_for_installing(self, node: RcanNode) -> str:
-        from bimrobot.physics.site import MotionFailed
+        from bimrobot.physics.site import Blocked, MotionFailed
 
         site, robot, gid = self.site, node.robot, node.component_id
         if gid in self.shapes:
@@ -729,11 +729,17 @@ class MujocoBackend(DispatchingBackend):
             self._spawn_in_place(node.activity)  # in place already (a footing): it enters the scene where it is installed
         if site.robots[robot].holding != gid:  # work on a component in place (a further connection)
             # a stand from which the arm reaches its work touching nothing on the way (a stand taken
-            # unchecked, beside another robot, had the gripper meet the next member at the joint)
+            # unchecked, beside another robot, had the gripper meet the next member at the joint);
+            # when the check finds none, the nearest free stand, unchecked (the check is strict: the
+            # work point moves with the stand, and the move may still go another way round)
             def work_from(xy, yaw):
                 return self._clear_work_poses(robot, gid, (np.asarray(xy, float), float(yaw)))
 
-            site.approach(robot, self._wrist_point(robot, self._work_poses(robot, gid)[-1]), reach=work_from)
+            wrist = self._wrist_point(robot, self._work_poses(robot, gid)[-1])
+            try:
+                site.approach(robot, wrist, reach=work_from)
+            except Blocked:
+                site.approach(robot, wrist)
             site.move_tcp_through(robot, self._clear_work_poses(robot, gid), avoid_contacts=True)
             return f"{node.kind.label} {gid}: gripper at its work point"
         box = self._installed_box(node.activity)
