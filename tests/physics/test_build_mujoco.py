@@ -17,7 +17,8 @@ from bimrobot.cli import main  # noqa: E402
 @pytest.mark.slow
 @pytest.mark.timeout(3600)  # the project's 600 s would cut it
 @pytest.mark.skipif(os.environ.get("BIMROBOT_PHYSICS_FRAME") != "1",
-                    reason="runs for about 20 min on a 2-core machine (4,400 simulated s); BIMROBOT_PHYSICS_FRAME=1 runs it")
+                    reason="runs for about 20 min on a 2-core machine (5,200 simulated s); BIMROBOT_PHYSICS_FRAME=1 runs it; "
+                           "with robots colliding it does not pass yet (149-156 of 160: docs/physics.md, Not done yet)")
 def test_build_with_the_mujoco_backend_assembles_the_steel_frame_at_its_bim_poses(tmp_path):
     model = steel_frame(tmp_path / "frame.ifc")
     out = tmp_path / "out"
@@ -31,3 +32,4 @@ def test_build_with_the_mujoco_backend_assembles_the_steel_frame_at_its_bim_pose
     placed = report["backend_summary"]["placement_error"]
     assert set(placed) == set(report["component_states"])
     assert all(e["position_mm"] < 10.0 and e["angle_deg"] < 1.0 for e in placed.values()), placed
+    assert report["backend_summary"]["chassis_overlap_s"] == {}  # no robot drove through another
