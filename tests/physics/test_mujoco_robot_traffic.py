@@ -11,26 +11,9 @@ pytest.importorskip("mink")
 pytest.importorskip("pyastar2d")
 
 from bimrobot.rcan.activities import ActivityKind, Pose, RcanActivity  # noqa: E402
-from bimrobot.rcan.backends import create_backend  # noqa: E402
 from bimrobot.rcan.backends.mujoco import chassis_overlaps  # noqa: E402
-from bimrobot.rcan.generation import load_capabilities  # noqa: E402
 from bimrobot.rcan.node import RcanNode  # noqa: E402
-
-ROBOT_TYPES = """
-robot_types:
-  mobile_base: {activities: [move_to_component, transport]}
-  manipulator: {activities: [position_for_picking_up, position_for_installing]}
-  gripper: {activities: [pick_up, install]}
-"""
-
-
-def _site(tmp_path, homes: dict[str, tuple[float, float]]):
-    """A mujoco backend with UR5-family robots (Husky footprint 0.99 x 0.67 m) at ``homes`` (x, y m)."""
-    table = tmp_path / "robots.yaml"
-    table.write_text(ROBOT_TYPES + "robots:\n" + "".join(
-        f"  {name}:\n    types: [mobile_base, manipulator, gripper]\n    payload_kg: 5.0\n    reach_m: 0.85\n"
-        f"    home: [{x}, {y}, 0.0]\n" for name, (x, y) in homes.items()))
-    return create_backend("mujoco", load_capabilities(str(table)))
+from mujoco_helpers import ur5_robots_at  # noqa: E402
 
 
 def _footprints(backend) -> dict[str, tuple[float, float]]:
@@ -44,7 +27,7 @@ def _place(site, robot: str, xy) -> None:
 
 
 def test_robots_touch_each_other_but_a_robot_does_not_touch_itself(tmp_path):
-    backend = _site(tmp_path, {"a": (0.0, 0.0), "b": (4.0, 0.0)})
+    backend = ur5_robots_at(tmp_path, {"a": (0.0, 0.0), "b": (4.0, 0.0)})
     try:
         site = backend.site
         assert site.robot_contacts("a") == [] and site.robot_contacts("b") == []  # arm over its own chassis
@@ -56,7 +39,7 @@ def test_robots_touch_each_other_but_a_robot_does_not_touch_itself(tmp_path):
 
 
 def test_a_robot_drives_round_another_that_stands_on_its_straight_way(tmp_path):
-    backend = _site(tmp_path, {"walker": (-3.0, 0.0), "stander": (0.0, 0.0)})
+    backend = ur5_robots_at(tmp_path, {"walker": (-3.0, 0.0), "stander": (0.0, 0.0)})
     try:
         site = backend.site
         site.drive("walker", (3.0, 0.0))
@@ -71,7 +54,7 @@ def test_a_robot_drives_round_another_that_stands_on_its_straight_way(tmp_path):
 
 def _pen_with_a_robot_in_its_opening(tmp_path):
     """'penned' stands in a pen of walls open to the east; 'idle' (home 4, 4) stands in the opening."""
-    backend = _site(tmp_path, {"penned": (-4.0, 0.0), "idle": (4.0, 4.0)})
+    backend = ur5_robots_at(tmp_path, {"penned": (-4.0, 0.0), "idle": (4.0, 4.0)})
     site = backend.site
     for name, (x, y, hx, hy) in {"n": (-4.0, 1.5, 3.0, 0.2), "s": (-4.0, -1.5, 3.0, 0.2),
                                  "w": (-5.5, 0.0, 0.2, 1.3)}.items():

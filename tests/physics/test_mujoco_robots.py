@@ -18,13 +18,7 @@ from bimrobot.rcan.backends import create_backend  # noqa: E402
 from bimrobot.rcan.generation import load_capabilities  # noqa: E402
 from bimrobot.rcan.node import RcanNode  # noqa: E402
 
-#: Table 5.2: which robot type performs which activity
-ROBOT_TYPES = """
-robot_types:
-  mobile_base: {activities: [move_to_component, transport]}
-  manipulator: {activities: [position_for_picking_up, position_for_installing]}
-  gripper: {activities: [pick_up, install]}
-"""
+from mujoco_helpers import ROBOT_TYPES, ur5_robots_at  # noqa: E402
 TABLE = ROBOT_TYPES + """robots:
   narrow:
     types: [mobile_base, manipulator, gripper]
@@ -434,14 +428,6 @@ def test_a_blocked_activity_with_nothing_else_under_way_fails_without_waiting_ou
         backend.close()
 
 
-def _two_robot_site(tmp_path, homes: dict[str, tuple[float, float]]):
-    table = tmp_path / "robots.yaml"
-    table.write_text(ROBOT_TYPES + "robots:\n" + "".join(
-        f"  {name}:\n    types: [mobile_base, manipulator, gripper]\n    payload_kg: 5.0\n    reach_m: 0.85\n"
-        f"    home: [{x}, {y}, 0.0]\n" for name, (x, y) in homes.items()))
-    return create_backend("mujoco", load_capabilities(str(table)))
-
-
 def test_a_component_another_robot_holds_is_an_obstacle_to_drive_around(tmp_path):
     """On the frame a column held upright by a positioning robot (while the assembly robots fix it)
     was left out of every other robot's plans, as if it were in nobody's way: robots chose stands
@@ -449,7 +435,7 @@ def test_a_component_another_robot_holds_is_an_obstacle_to_drive_around(tmp_path
     from bimrobot.physics import motion
     from bimrobot.physics.site import Component
 
-    backend = _two_robot_site(tmp_path, {"holder": (0.0, 2.0), "walker": (-3.0, 0.0)})
+    backend = ur5_robots_at(tmp_path, {"holder": (0.0, 2.0), "walker": (-3.0, 0.0)})
     try:
         site = backend.site
         site.add_component(Component("held-block", (0.5, 0.5, 1.0), 100.0), motion.planar(0.0, 0.0, 0.0))
@@ -468,7 +454,7 @@ def test_a_robot_near_a_column_is_not_sent_to_a_spot_where_it_cannot_turn(tmp_pa
     """A robot that has just worked beside a column may leave through the cells around it, but a goal
     among those cells (a transport's stand-off point 0.6 m from a column) is replaced by the nearest
     spot where it may stand and turn, as any goal too near an obstacle is."""
-    backend = _two_robot_site(tmp_path, {"worker": (-0.9, 0.0)})
+    backend = ur5_robots_at(tmp_path, {"worker": (-0.9, 0.0)})
     try:
         site = backend.site
         site.add_support("column", (0.0, 0.0), 4.0, (0.13, 0.13))
