@@ -450,12 +450,11 @@ class MujocoSite:
         chassis = (np.array([x, y]), np.array([c * length + s_ * width, s_ * length + c * width]) / 2)
         m = self.model
         base = m.body(f"{robot}/base").id
-        geoms = np.isin(m.geom_bodyid, [b for b in self.idx[robot]["robot_bodies"] if b != base]) & (m.geom_contype != 0)
-        xy, radius = self.data.geom_xpos[geoms, :2], m.geom_rbound[geoms][:, None]
-        lower, upper = (xy - radius).min(axis=0), (xy + radius).max(axis=0)
-        if np.all(lower >= chassis[0] - chassis[1] - 0.01) and np.all(upper <= chassis[0] + chassis[1] + 0.01):
+        arm = self._box_around(np.isin(m.geom_bodyid, [b for b in self.idx[robot]["robot_bodies"] if b != base])
+                               & (m.geom_contype != 0))
+        if np.all(np.abs(arm[0] - chassis[0]) + arm[1] <= chassis[1] + 0.01):
             return chassis, None
-        return chassis, ((lower + upper) / 2, (upper - lower) / 2)
+        return chassis, arm
 
     def component_box(self, gid: str) -> tuple[np.ndarray, np.ndarray]:
         """(centre xyz, half size xyz), m, world: the axis-aligned box around the component as it is now."""
@@ -466,9 +465,12 @@ class MujocoSite:
     def robot_extent(self, robot: str) -> tuple[np.ndarray, np.ndarray]:
         """(centre xy, half size xy), m: the box around everything of the robot as it stands now
         (chassis, arm, gripper; each geom's bounding sphere)."""
-        m, data = self.model, self.data
-        geoms = np.isin(m.geom_bodyid, list(self.idx[robot]["robot_bodies"]))
-        xy, radius = data.geom_xpos[geoms, :2], m.geom_rbound[geoms][:, None]
+        return self._box_around(np.isin(self.model.geom_bodyid, list(self.idx[robot]["robot_bodies"])))
+
+    def _box_around(self, geoms: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(centre xy, half size xy), m: the box around the geoms selected by the mask ``geoms`` as
+        they are now (each geom's bounding sphere)."""
+        xy, radius = self.data.geom_xpos[geoms, :2], self.model.geom_rbound[geoms][:, None]
         lower, upper = (xy - radius).min(axis=0), (xy + radius).max(axis=0)
         return (lower + upper) / 2, (upper - lower) / 2
 
