@@ -415,9 +415,9 @@ class MujocoSite:
     def obstacles(self, robot: str, split: bool = False):
         """Boxes (centre xy, half size xy) the base must keep away from: supports, the components
         that rest on the ground or that another robot holds (a column held upright while it is
-        fixed), not the robot's own, and the other robots (:meth:`robot_boxes`). ``split``: (low, tall) lists: low boxes (below the top of the
-        chassis: a component lying on the ground) meet only the chassis, tall ones the arm too, which
-        reaches out further."""
+        fixed), not the robot's own, and the other robots (:meth:`robot_boxes`). ``split``: (low,
+        tall) lists: low boxes (below the top of the chassis: a component lying on the ground) meet
+        only the chassis, tall ones the arm too, which reaches out further."""
         low, tall = [], []
         chassis_top = self.ground_z + self.robots[robot].model.base_height
         for c, h in self.supports:
@@ -1389,21 +1389,20 @@ class MujocoSite:
 
     def _tcp_of(self, robot: str, q: np.ndarray) -> np.ndarray:
         """World position of the tcp for arm joints ``q`` with the base where it is (forward kinematics)."""
-        ik = self.robots[robot].ik
-        data = self.mj.MjData(ik.model)
-        data.qpos[:6] = q
-        self.mj.mj_kinematics(ik.model, data)
-        local = np.append(data.site("tcp").xpos, 1.0)
-        return (self.arm_base_pose(robot) @ local)[:3]
+        return self._tcp_pose_at(robot, q)[:3, 3]
 
     def commanded_tcp_pose(self, robot: str) -> np.ndarray:
         """The tool centre point's pose (4x4, world) at the arm's commanded joints, the base where it is:
         where the arm settles. An arm holding a long member lags and sags centimetres behind its
         command for a while; a reach checked from where its tool is at that moment did not hold once
         it had settled (a 3.2 m beam, 30 mm at the edge of a 4 m arm's reach)."""
+        return self._tcp_pose_at(robot, self.robots[robot].q_ref)
+
+    def _tcp_pose_at(self, robot: str, q: np.ndarray) -> np.ndarray:
+        """The tcp's pose (4x4, world) for arm joints ``q`` with the base where it is (forward kinematics)."""
         ik = self.robots[robot].ik
         data = self.mj.MjData(ik.model)
-        data.qpos[:6] = self.robots[robot].q_ref
+        data.qpos[:6] = q
         self.mj.mj_kinematics(ik.model, data)
         tcp = data.site("tcp")
         return self.arm_base_pose(robot) @ motion.pose(tcp.xmat.reshape(3, 3).copy(), tcp.xpos.copy())
