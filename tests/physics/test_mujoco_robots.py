@@ -196,7 +196,9 @@ def test_a_prebuilt_column_stands_on_its_footing_while_a_4_m_arm_works_on_the_fo
     """The frame's footing connections with the column in place from the start (no activity lifts
     it): the column stands on its pedestal (a support as tall as the column's lower half used to
     push it over at the start), and the assembly robot, whose wrist is half a metre wide, reaches the
-    footing's top beside it touching nothing and leaves the column where it was."""
+    footing's top beside it touching nothing and leaves the column where it was. Freed by the
+    install, it takes its arm back from its work and tucks it (on the frame an idle robot's arm,
+    left out at its last work point, stood in the way of another robot's work)."""
     table = tmp_path / "assembler.yaml"
     table.write_text(HEAVY_TABLE.replace("ROBOT", "assembler").replace("PAYLOAD", "0").replace("REACH", "4.0")
                      .replace("home: [-4.0, 0.0, 0.0]", "home: [18.5, 4.0, 0.0]"))  # fleet2's
@@ -209,10 +211,16 @@ def test_a_prebuilt_column_stands_on_its_footing_while_a_4_m_arm_works_on_the_fo
              RcanActivity("F3", kind=ActivityKind.INSTALL, target=Pose(0.0, 0.0, -0.6), **common)]
     backend = create_backend("mujoco", load_capabilities(str(table)), plan=plan)
     try:
+        site, reach = backend.site, {}  # plan-view distance (m) of the tool from the base's centre
         for activity in plan[1:]:
             result = backend.execute(RcanNode(f"rcan/{activity.activity_id}", activity, "assembler", "mujoco"))
             assert result.success, result.message
-        assert backend.site.robot_contacts("assembler") == []
+            reach[activity.activity_id] = float(np.linalg.norm(site.tcp_pose("assembler")[:2, 3]
+                                                               - site.base_xy_yaw("assembler")[:2]))
+        assert "arm was left out" not in result.message
+        assert np.abs(site.arm_q("assembler") - site._stowed_posture("assembler")).max() < 0.05
+        assert reach["F2"] > 2.0 and reach["F3"] < min(site.robots["assembler"].model.footprint) / 2  # over its chassis
+        assert site.robot_contacts("assembler") == []
         column = backend.site.body_pose(COLUMNS[0])
         assert np.linalg.norm(column[:3, 3] - backend.targets[COLUMNS[0]][:3, 3]) < 0.001  # not pushed
     finally:

@@ -416,7 +416,8 @@ class MujocoBackend(DispatchingBackend):
         made_way = ""
         for _ in range(2):
             try:
-                return made_way + self._put_away_other(node) + getattr(self, "_" + node.kind.value)(node), True, False
+                done = made_way + self._put_away_other(node) + getattr(self, "_" + node.kind.value)(node)
+                return done + self._stow_when_freed(node), True, False
             except Blocked as failure:
                 blocked = str(failure)
                 if made_way:
@@ -427,6 +428,24 @@ class MujocoBackend(DispatchingBackend):
             except MotionFailed as failure:
                 return made_way + str(failure), False, False
         return made_way + blocked, False, True
+
+    def _stow_when_freed(self, node: RcanNode) -> str:
+        """When the activity frees its robot, its empty arm backs away from its work and is stowed
+        as it drives (:meth:`MujocoSite.stow_arm`): an idle robot's arm left out at its last work
+        point (a heavy arm reaches 4 m) stood in the way of other robots' work. What kept it out,
+        as the end of the result's message, or ''."""
+        from bimrobot.physics.site import MotionFailed
+
+        site, robot = self.site, node.robot
+        if not node.activity.releases_robot or site.robots[robot].holding:
+            return ""
+        try:
+            if np.abs(site.arm_q(robot) - site._ready_posture_cached(robot)).max() > 0.05:
+                self._retreat(robot)
+            site.stow_arm(robot)
+        except MotionFailed as failure:
+            return f"; its arm was left out: {failure}"
+        return ""
 
     def _send_idle_robots_back(self, node: RcanNode) -> str:
         """Send the idle robots (in no chain of activities: :attr:`engaged`) standing within
@@ -1154,10 +1173,16 @@ class MujocoBackend(DispatchingBackend):
         return above
 
     def _release(self, robot: str) -> None:
+        """Let go of the held component and take the arm back from it (:meth:`_retreat`)."""
+        self.site.open_gripper(robot)
+        self._retreat(robot)
+
+    def _retreat(self, robot: str) -> None:
+        """Take an empty arm back from where its tool works: along the tool's axis (the way it came
+        in), for the heavy variant straight back over the base, then to the ready posture."""
         from bimrobot.physics.site import MotionFailed
 
         site = self.site
-        site.open_gripper(robot)
         away = site.tcp_pose(robot)  # back out along the tool's axis (up, for a tool pointing down)
         away[:3, 3] -= away[:3, 2] * LIFT_M * max(1.0, self.families[robot].scale / 2)
         try:
