@@ -17,8 +17,7 @@ from bimrobot.cli import main  # noqa: E402
 @pytest.mark.slow
 @pytest.mark.timeout(3600)  # the project's 600 s would cut it
 @pytest.mark.skipif(os.environ.get("BIMROBOT_PHYSICS_FRAME") != "1",
-                    reason="runs for about 20 min on a 2-core machine (5,200 simulated s); BIMROBOT_PHYSICS_FRAME=1 runs it; "
-                           "with robots colliding it does not pass yet (149-156 of 160: docs/physics.md, Not done yet)")
+                    reason="runs for about 20 min on a 2-core machine (6,400 simulated s); BIMROBOT_PHYSICS_FRAME=1 runs it")
 def test_build_with_the_mujoco_backend_assembles_the_steel_frame_at_its_bim_poses(tmp_path):
     model = steel_frame(tmp_path / "frame.ifc")
     out = tmp_path / "out"
