@@ -442,6 +442,9 @@ class MujocoBackend(DispatchingBackend):
         try:
             if np.abs(site.arm_q(robot) - site._ready_posture_cached(robot)).max() > 0.05:
                 self._retreat(robot)
+        except MotionFailed:
+            pass  # stopped on the way back (a wrist against a column): stowing plans its way round
+        try:
             site.stow_arm(robot)
         except MotionFailed as failure:
             return f"; its arm was left out: {failure}"
