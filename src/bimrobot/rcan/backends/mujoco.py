@@ -44,7 +44,8 @@ finished (at most :data:`BLOCKED_WAITS` times); when every activity here is so b
 else is coming, the first of them fails at once, with the reason it was last blocked. Before it gives
 up its turn, the robots standing idle near it or its work (in no chain of activities: they have
 placed their last component, or have had none yet) drive back to where they started, and it tries
-once more (``made way (...)`` in its result). Without a
+once more (``made way (...)`` in its result). An activity that frees its robot ends with the robot's
+empty arm taken back from its work and tucked (``its arm was left out: ...`` when it could not be). Without a
 coordinator (tests, executors in another process) activities run in the order they arrive, and a
 blocked one waits real seconds (:data:`BLOCKED_WAIT_S`, :data:`IDLE_WAIT_S`) for other work.
 
