@@ -440,8 +440,10 @@ class MujocoBackend(DispatchingBackend):
         site, robot = self.site, node.robot
         if not node.activity.releases_robot or site.robots[robot].holding:
             return ""
-        try:
-            if np.abs(site.arm_q(robot) - site._ready_posture_cached(robot)).max() > 0.05:
+        q = site.arm_q(robot)
+        resting = (site._ready_posture_cached(robot), site._stowed_posture(robot))
+        try:  # (an arm in the ready or the tucked posture is at no work: nothing to back off from)
+            if min(np.abs(q - posture).max() for posture in resting) > 0.05:
                 self._retreat(robot)
         except MotionFailed:
             pass  # stopped on the way back (a wrist against a column): stowing plans its way round
