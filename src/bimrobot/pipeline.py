@@ -96,7 +96,7 @@ STAGES = (
           lambda a, d: ["rcan", "run", "--graph", str(d / "graph.ttl"), "--backend", a.backend,
                         "--capabilities", str(a.fleet), "--state-db", str(d / "rcan" / "state.db"), "-q",
                         "--report", str(d / "rcan" / "report.json"), "--graph-out", str(d / "rcan" / "graph-after-rcan.ttl"),
-                        "--time-scale", repr(a.time_scale)],
+                        "--time-scale", repr(a.time_scale), *_site(a)],
           accepted=(0, 1)),
     Stage("replay", "4D replay of the build in Rerun (build.rrd)",
           lambda a, d: ["replay", str(d), "-o", str(d / "build.rrd"), "--model", str(a.model),

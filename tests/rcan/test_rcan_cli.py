@@ -70,6 +70,9 @@ def test_bad_input_exits_2_with_one_sentence_and_no_report(tmp_path, capsys):
         (["--experiment", "1", "--max-attempts", "0"], "--max-attempts must be at least 1"),
         (["--experiment", "1", "--redis", "redis://127.0.0.1:1/0"], "cannot reach Redis at redis://127.0.0.1:1/0"),
         (["--experiment", "1", "--redis", "http://nope"], "cannot reach Redis at http://nope"),
+        (["--experiment", "1", "--capabilities", "fleet2", "--model-offset", "nan", "0"],
+         "--model-offset must be two finite numbers"),
+        (["--experiment", "1", "--capabilities", "fleet2", "--site", str(tmp_path / "none.yaml")], "none.yaml"),
     ]
     for extra, message in cases:
         assert main(["rcan", "run", *extra, "--report", str(report)]) == 2

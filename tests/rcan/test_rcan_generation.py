@@ -151,3 +151,22 @@ def test_capability_file_numbers_in_range_are_read_with_units(tmp_path):
     assert (crane.payload_kg, crane.reach_m, crane.speed_m_s) == (20000.0, 15.0, 0.8)
     assert crane.handling_s == {"pick_up": 300.0}  # the activity name normalised, as Table 5.2 spells it
     assert crane.home.as_tuple() == (155000.0, 463000.0, 0.0)  # georeferenced coordinates are fine
+
+
+def test_a_fleets_site_homes_are_placed_in_the_model_frame(tmp_path):
+    """A fleet's homes are site positions; RCAN's goals are in the model frame: a home h is at
+    h - model_offset (the model -> site translation `simulate` uses)."""
+    from bimrobot.rcan.fleet import model_offset_of
+    from bimrobot.site import load_site
+
+    site_file = tmp_path / "site.yaml"
+    site_file.write_text("robot_home: [[100.0, 50.0], [104.0, 50.0]]\nconstruction_area: [[0, 0], [20, 10]]\n")
+    site = load_site(site_file)
+    table = load_capabilities("fleet2", site=site, model_offset=(-154_990.0, -462_995.0))
+    homes = [robot.home.as_tuple() for robot in table.robots.values()]
+    assert homes[:3] == [(155_090.0, 463_045.0, 0.0), (155_094.0, 463_045.0, 0.0), (155_090.0, 463_045.0, 0.0)]
+    # a plan whose installs span x 155,000-155,004, y 463,000-463,002 is centred in the area (10, 5)
+    installs = [RcanActivity(f"A{i}", "C", K.INSTALL, Pose(x, y, 0.0)) for i, (x, y) in
+                enumerate([(155_000.0, 463_000.0), (155_004.0, 463_002.0)])]
+    moves = [RcanActivity("M", "C", K.MOVE_TO_COMPONENT, Pose(-10.0, -10.0, 0.0))]  # the yard does not count
+    assert model_offset_of(installs + moves, site) == pytest.approx((10.0 - 155_002.0, 5.0 - 463_001.0))

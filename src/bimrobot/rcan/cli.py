@@ -97,6 +97,7 @@ def register(subparsers) -> None:
                                epilog="example:\n  bimrobot rcan robot-node --time-scale 0.01",
                                formatter_class=argparse.RawDescriptionHelpFormatter)
     node.add_argument("--capabilities", help="capability YAML (default: the built-in one)")
+    _site_options(node)
     node.add_argument("--time-scale", type=float, default=0.0, help="real seconds per simulated second (default 0)")
     node.add_argument("--failure-probability", type=float, default=0.0, help="chance an activity fails (default 0)")
     node.add_argument("--seed", type=int, default=0, help="seed of the failure draws (default 0)")
@@ -109,6 +110,7 @@ def register(subparsers) -> None:
 def _common(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--backend", choices=tuple(BACKENDS), default="sim", help="executor backend (default sim)")
     parser.add_argument("--capabilities", help="capability YAML (default: the built-in Table 5.2 and robots)")
+    _site_options(parser)
     parser.add_argument("--state-db", default=":memory:",
                         help="SQLite file for the journal and the simulated site, new or from an earlier run, "
                              "which is resumed (default in memory); another program's file is refused")
@@ -133,6 +135,38 @@ def _common(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--liveness", type=float, default=4.0, metavar="S",
                         help="ros2: a robot whose server sends no feedback for this long while it works is taken "
                              "for dead; its activity goes to another capable robot (default 4 s)")
+
+
+def _site_options(parser: argparse.ArgumentParser) -> None:
+    """--site and --model-offset: where a fleet's robots start (its homes are site positions)."""
+    parser.add_argument("--site", help="with a fleet as --capabilities: the site YAML whose robot_home the fleet's "
+                                       "robots start at (default: the thesis' fig. 4.11), as `simulate --site`")
+    parser.add_argument("--model-offset", type=float, nargs=2, metavar=("DX", "DY"),
+                        help="with a fleet: model -> site translation in metres, to place the site's homes in the "
+                             "model frame (default: the site's model_offset; `rcan run` otherwise centres its "
+                             "plan's installs in the site's construction area, as `simulate`, and prints it: "
+                             "give the same to executors and robot nodes in other processes)")
+
+
+def _fleet_capabilities(args, activities=None):
+    """The capability table of ``--capabilities``; a fleet's homes go from ``--site`` into the model frame
+    with ``--model-offset``, else the site's model_offset, else the offset that centres ``activities``'
+    installs in the construction area (no plan: none)."""
+    from bimrobot.rcan.fleet import model_offset_of
+    from bimrobot.rcan.generation import load_capabilities
+    from bimrobot.site import OFFSET_LIMIT_M, load_site
+
+    site = load_site(args.site)
+    if args.model_offset is not None:
+        if not all(math.isfinite(v) and abs(v) <= OFFSET_LIMIT_M for v in args.model_offset):
+            raise InputError(f"--model-offset must be two finite numbers within +-{OFFSET_LIMIT_M:g} m, "
+                             f"got {' '.join(map(str, args.model_offset))}")
+        offset = tuple(args.model_offset)
+    elif activities is not None:
+        offset = model_offset_of(activities, site)
+    else:
+        offset = site.model_offset or (0.0, 0.0)
+    return load_capabilities(args.capabilities, site=site, model_offset=offset), offset
 
 
 def _check_sim_options(args) -> None:
@@ -260,7 +294,6 @@ def _unknown_weight_notice(activities, model_given: bool) -> list[str]:
 
 def _run(args) -> int:
     from bimrobot.io import atomic_output_file, signature
-    from bimrobot.rcan.generation import load_capabilities
     from bimrobot.rcan.state_manager import removed_unless_used
     from bimrobot.rcan.system import run_plan
 
@@ -281,8 +314,8 @@ def _run(args) -> int:
     redis_options = _redis_options(args)
     inputs = _inputs(args)
     _check_outputs(args, inputs)
-    capabilities = load_capabilities(args.capabilities)
     activities, graph, weights = _load_plan(args)
+    capabilities, offset = _fleet_capabilities(args, activities)
     _check_robots(activities, capabilities, args.reallocate)
     unknown = _unknown_weight_notice(activities, args.model is not None or _is_ifc(args.schedule) or bool(args.graph)) \
         if args.schedule or args.graph else []
@@ -292,7 +325,7 @@ def _run(args) -> int:
 
         observers.append(GraphStateObserver(graph, activities))
     log = None if args.quiet else (lambda line: print(line, flush=True))
-    with removed_unless_used(args.state_db), _robots(args):
+    with removed_unless_used(args.state_db), _robots(args, offset):
         report = run_plan(activities, capabilities, backend=args.backend, state_db=args.state_db,
                           redis_url=args.redis, spawn_executors=not args.no_local_executors,
                           max_attempts=args.max_attempts, log=log, backend_options=options,
@@ -309,6 +342,7 @@ def _run(args) -> int:
     _print_outcome(report)
     if args.report:
         data = {"generator": signature("rcan run report"), **asdict(report)}
+        data["model_offset_xy_m"] = list(offset)  # model -> site: where a fleet's site homes were placed
         data["unknown_weight"] = {**(weights.as_dict() if weights else {"rule": str(args.unknown_weight)}),
                                   "components_with_unknown_weight": unknown}
         with atomic_output_file(args.report, inputs=inputs, option="--report") as tmp:
@@ -367,8 +401,9 @@ def _print_outcome(report) -> None:
           + (f" ({_listed(report.done)})" if report.done else ""), flush=True)
 
 
-def _robots(args):
-    """For ``--backend ros2 --robot-node spawn``: the shipped ROS 2 robot node, started and stopped here."""
+def _robots(args, model_offset):
+    """For ``--backend ros2 --robot-node spawn``: the shipped ROS 2 robot node, started and stopped here,
+    with the robots' homes where this run put them (``model_offset``, m)."""
     import contextlib
     import os
 
@@ -378,15 +413,16 @@ def _robots(args):
 
     load_ros2()  # fails early with the setup hint when ROS 2 is absent
     os.environ.setdefault("FASTDDS_BUILTIN_TRANSPORTS", "SHM")  # both processes are on this machine
+    placement = [*(["--site", str(args.site)] if args.site else []), "--model-offset", *map(repr, model_offset)]
     return robot_node_process(args.capabilities, args.time_scale, args.failure_probability, args.seed,
-                              state_db=args.state_db, participants_closed=True)  # run_plan closes its backend first
+                              state_db=args.state_db, participants_closed=True,  # run_plan closes its backend first
+                              extra_args=placement)
 
 
 def _executor(args) -> int:
     from bimrobot.rcan.backends import create_backend
     from bimrobot.rcan.broker import RedisBroker
     from bimrobot.rcan.executor import RobotExecutor
-    from bimrobot.rcan.generation import load_capabilities
 
     if not args.redis:
         raise InputError("rcan executor needs --redis URL: it serves robots for a coordinator in another process")
@@ -395,7 +431,7 @@ def _executor(args) -> int:
         from bimrobot.rcan.state_manager import is_state_db
 
         check_output(args.state_db, folder=False, inputs=_inputs(args), option="--state-db", recognise=is_state_db)
-    capabilities = load_capabilities(args.capabilities)
+    capabilities, _ = _fleet_capabilities(args)
     robots = args.robot or list(capabilities.robots)
     unknown = [r for r in robots if r not in capabilities.robots]
     if unknown:
@@ -436,7 +472,6 @@ def _capabilities(args) -> int:
 
 def _robot_node(args) -> int:
     from bimrobot.rcan.backends.ros2 import serve_robot_node
-    from bimrobot.rcan.generation import load_capabilities
 
     _check_sim_options(args)
     if args.state_db != ":memory:":
@@ -444,7 +479,7 @@ def _robot_node(args) -> int:
         from bimrobot.rcan.state_manager import is_state_db
 
         check_output(args.state_db, folder=False, inputs=_inputs(args), option="--state-db", recognise=is_state_db)
-    capabilities = load_capabilities(args.capabilities)
+    capabilities, _ = _fleet_capabilities(args)
     unknown = [r for r in args.robot or () if r not in capabilities.robots]
     if unknown:
         raise InputError(f"--robot {unknown[0]!r} is not a robot of {capabilities.source} "

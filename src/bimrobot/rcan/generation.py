@@ -102,10 +102,12 @@ FOOTPRINT_RANGE_M = (0.05, 100.0)  # a mobile base's length and width: a small r
 HOME_RANGE_M = 1.0e7
 
 
-def load_capabilities(path: str | Path | None = None) -> CapabilityTable:
+def load_capabilities(path: str | Path | None = None, site=None, model_offset=(0.0, 0.0)) -> CapabilityTable:
     """Read and validate a capability table; ``None`` reads the built-in one. A fleet (a built-in name such as
     ``fleet2`` or a fleet YAML file, as `simulate` reads) gives one RCAN robot per fleet robot
-    (:mod:`bimrobot.rcan.fleet`).
+    (:mod:`bimrobot.rcan.fleet`), its homes taken from ``site`` (a :class:`bimrobot.site.Site`, default
+    fig. 4.11) into the model frame with ``model_offset`` (model -> site, metres). A capability table's
+    own homes are in the model frame already.
 
     Raises :class:`InputError` naming the file, key and line on any malformed entry or number out of
     its physical range (:data:`ROBOT_RANGES`).
@@ -113,7 +115,7 @@ def load_capabilities(path: str | Path | None = None) -> CapabilityTable:
     from bimrobot.rcan import fleet  # a fleet file (or built-in fleet) describes the robots once, for simulate too
 
     if path is not None and str(path) in fleet.BUILTIN_FLEETS:
-        return fleet.load_fleet_capabilities(str(path))
+        return fleet.load_fleet_capabilities(str(path), site=site, model_offset=model_offset)
     if path is None:
         text = resources.files("bimrobot.rcan").joinpath(DEFAULT_CAPABILITIES).read_text()
         source = f"built-in {DEFAULT_CAPABILITIES}"
@@ -121,7 +123,7 @@ def load_capabilities(path: str | Path | None = None) -> CapabilityTable:
     else:
         data, source = read_yaml_file(path, "capability table"), str(path)
     if fleet.is_fleet(data):
-        return fleet.load_fleet_capabilities(str(path), data, source)
+        return fleet.load_fleet_capabilities(str(path), data, source, site, model_offset)
     return parse_capabilities(data, source)
 
 

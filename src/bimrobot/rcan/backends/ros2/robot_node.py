@@ -140,7 +140,7 @@ def serve_robot_node(capabilities: CapabilityTable, time_scale: float = 0.0, fai
 @contextlib.contextmanager
 def robot_node_process(capabilities_path: str | None = None, time_scale: float = 0.0, failure_probability: float = 0.0,
                        seed: int = 0, state_db: str = ":memory:", startup_timeout_s: float = 60.0,
-                       participants_closed: bool = False):
+                       participants_closed: bool = False, extra_args: list[str] | None = None):
     """Start the shipped robot node in a subprocess (same ROS_DOMAIN_ID and transports as this process),
     yield it, then stop it by PID and delete the Fast DDS shared-memory files (``SHM_PATTERNS``)
     created meanwhile that no live process uses (``participants_closed``: not counting this one).
@@ -150,6 +150,7 @@ def robot_node_process(capabilities_path: str | None = None, time_scale: float =
                "--failure-probability", str(failure_probability), "--seed", str(seed), "--state-db", str(state_db)]
     if capabilities_path:
         command += ["--capabilities", str(capabilities_path)]
+    command += extra_args or []  # e.g. --site and --model-offset: where a fleet's robots start
     process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     try:
         deadline = time.monotonic() + startup_timeout_s
