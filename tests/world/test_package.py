@@ -212,6 +212,20 @@ def test_static_flag_is_configurable_and_buried_dynamic_parts_are_warned_about(t
     assert report["unknown_weight"]["count"] == 1
 
 
+def test_a_weight_no_material_can_have_is_warned_about_and_marked_in_the_report(tmp_path):
+    """A column weighing 289,810 kg (grams written as kilograms): 1.2 million kg/m3 is no material."""
+    model = frame_model()
+    column = next(e for e in model.elements.values() if e.ifc_class == "IfcColumn")
+    column.weight_kg = 289_810.0
+    report = build_package(model, tmp_path / "pkg", ConvertOptions())
+    (warning,) = [w for w in report["warnings"] if "not plausible" in w]
+    assert warning.startswith("1 model(s) have a weight from the model that is not plausible") and column.global_id in warning
+    suspect = {entry["global_id"]: entry["weight_suspect"] for entry in report["converted"] if "weight_suspect" in entry}
+    assert list(suspect) == [column.global_id] and "is outside 50-8,000 kg/m3" in suspect[column.global_id]
+    # the mass stays the model's: the warning says so, nothing is silently changed
+    assert next(e for e in report["converted"] if e["global_id"] == column.global_id)["mass_kg"] == 289_810.0
+
+
 def test_decimated_collision_respects_the_triangle_budget(tmp_path):
     import trimesh
 

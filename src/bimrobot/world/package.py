@@ -683,6 +683,14 @@ def _warnings(converted: list[_Converted], options: ConvertOptions, ground_z: fl
                 f"{len(below)} dynamic model(s) reach below the ground plane at z = {ground_z:g} m (e.g. {below[0]}); "
                 "the physics engine will push them up at the start: use --static, --layout yard or --exclude their class"
             )
+    suspect = [(item, reason) for item in converted if (reason := _suspect_weight(item))]
+    if suspect:
+        item, reason = suspect[0]
+        warnings.append(
+            f"{len(suspect)} model(s) have a weight from the model that is not plausible, e.g. {item.element.ifc_class} "
+            f"{printable(item.element.name)!r} ({item.element.global_id}): {reason}; their masses are as the model "
+            "says (report.json: weight_suspect; correct the model's weights, or --exclude them)"
+        )
     distance = float(np.abs(extent).max())
     if distance > FAR_FROM_ORIGIN_M:
         warnings.append(
@@ -690,6 +698,15 @@ def _warnings(converted: list[_Converted], options: ConvertOptions, ground_z: fl
             "physics lose accuracy that far out: move the IFC project origin near the building"
         )
     return warnings
+
+
+def _suspect_weight(item: _Converted) -> str | None:
+    """Why the weight the model gives an element is not plausible (the rule `bimrobot inspect` applies:
+    :func:`bimrobot.bim.quantities.weight_check`), or None."""
+    from bimrobot.bim.quantities import weight_check
+
+    element = item.element
+    return weight_check(element.weight_kg, element.weight_source, element.volume_m3, element.density_kg_m3)
 
 
 def _report(model, package, world_name, world_files, converted, skipped, maps, yard, options, timings) -> dict:
@@ -714,6 +731,9 @@ def _report(model, package, world_name, world_files, converted, skipped, maps, y
             "collision_triangles": int(item.collision_triangles),
             "pose_xyz_rpy": [round(v, 9) for v in (x, y, z, roll, pitch, yaw)],
         })
+        suspect = _suspect_weight(item)
+        if suspect:
+            entries[-1]["weight_suspect"] = suspect
     counts_by_source: dict[str, int] = {}
     for entry in entries:
         counts_by_source[entry["weight_source"]] = counts_by_source.get(entry["weight_source"], 0) + 1
