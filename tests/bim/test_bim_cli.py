@@ -54,6 +54,10 @@ def test_split_cli(tmp_path, capsys):
         ("ISO-10303-21;\nHEADER;\nFILE_SCHEMA(('IFC4'));\nENDSEC;\nDATA;\n#1=IFCWALL(", "is truncated"),
         ("ISO-10303-21;\nHEADER;\nFILE_DESCRIPTION((''),'2;1');\nFILE_NAME('','',(''),(''),'','','');\n"
          "FILE_SCHEMA(('IFC4X3_RC2'));\nENDSEC;\nDATA;\nENDSEC;\nEND-ISO-10303-21;\n", "unsupported IFC schema IFC4X3_RC2"),
+        # a stray character on line 8: the line is named (IfcOpenShell itself says only "check logs")
+        ("ISO-10303-21;\nHEADER;\nFILE_DESCRIPTION((''),'2;1');\nFILE_NAME('','',(''),(''),'','','');\n"
+         "FILE_SCHEMA(('IFC4'));\nENDSEC;\nDATA;\n#1=IFCPERSON($,$,@,$,$,$,$);\nENDSEC;\nEND-ISO-10303-21;\n",
+         "could not be parsed as IFC: syntax error: token @ at offset 143 invalid valid token (line 8)"),
     ],
 )
 @pytest.mark.parametrize("command", ["inspect", "split"])

@@ -256,6 +256,7 @@ def _open_spf(path: Path, shown: str, head: bytes, tail: bytes) -> ifcopenshell.
         raise InputError(f"{shown} is truncated: it does not end with 'END-ISO-10303-21;'")
     match = re.search(rb"FILE_SCHEMA\s*\(\s*\(\s*'([^']*)'", head)
     schema = _shown(match.group(1).decode("ascii", "replace").upper()) if match else "unknown"
+    ifcopenshell.get_log()  # emptied: a parse error's details are read from it below
     try:
         ifc = ifcopenshell.open(str(path), format=".ifc")
     except ifcopenshell.SchemaError:
@@ -263,9 +264,37 @@ def _open_spf(path: Path, shown: str, head: bytes, tail: bytes) -> ifcopenshell.
             f"{shown} uses the unsupported IFC schema {schema} (supported: {', '.join(SUPPORTED_SCHEMAS)})"
         ) from None
     except Exception as exc:  # ifcopenshell raises its own Error or RuntimeError on malformed files
-        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        raise InputError(f"{shown} could not be parsed as IFC: {_shown(first)}") from None
+        raise InputError(f"{shown} could not be parsed as IFC: {_shown(_parse_failure(exc, path))}") from None
     return ifc
+
+
+def _parse_failure(exc: Exception, path: Path) -> str:
+    """Why IfcOpenShell could not parse ``path``: the exception's first line, unless that only says
+    "Syntax error during parse, check logs": then the log's last error ("Unexpected 'p' at offset
+    235") with the line of the file that offset is on."""
+    message = str(exc).strip()
+    first = message.splitlines()[0] if message else type(exc).__name__
+    if "check logs" not in first:
+        return first
+    for line in reversed(ifcopenshell.get_log().splitlines()):
+        if line.startswith("[error]"):
+            detail = re.sub(r"^\[error\](?: \[[^\]]*\])* ", "", line)
+            match = re.search(r"at offset (\d+)", detail)
+            return f"syntax error: {detail} (line {_line_at(path, int(match.group(1)))})" if match else detail
+    return first
+
+
+def _line_at(path: Path, offset: int) -> int:
+    """The 1-based line of ``path`` that holds byte ``offset``."""
+    newlines, read = 0, 0
+    with open(path, "rb") as stream:
+        while read < offset:
+            chunk = stream.read(min(1 << 20, offset - read))
+            if not chunk:
+                break
+            newlines += chunk.count(b"\n")
+            read += len(chunk)
+    return newlines + 1
 
 
 def geometry_settings() -> ifcopenshell.geom.settings:
