@@ -307,3 +307,23 @@ def test_robots_that_share_a_home_start_side_by_side_further_from_the_work():
     assert y == 4.0 and x > 18.5  # behind the transport, away from the work at x = 3
     assert x - 18.5 >= (heavy[0] + light[0]) / 2 + START_GAP_M  # chassis clear of each other
     assert x - 18.5 < (heavy[0] + light[0]) / 2 + START_GAP_M + 0.25  # and no further than a step past that
+
+
+def test_a_robot_whose_home_the_yard_covers_starts_clear_of_the_components_lying_there():
+    """The yard's rows may reach over a home: the robot starts beyond the component lying there, on the
+    line from the work through its home, instead of inside it."""
+    from bimrobot.rcan.activities import ActivityKind as K, Pose, RcanActivity
+    from bimrobot.rcan.backends.mujoco import START_GAP_M, starts_apart, yard_footprints
+
+    # a 4 m column lying along x on the yard, centred on (13, 1), as the package lays it
+    column = [RcanActivity("A1.2", "C", K.POSITION_FOR_PICKING_UP, Pose(13.0, 1.0, 0.127), weight_kg=290.0,
+                           size_m=(0.254, 0.254, 4.0)),
+              RcanActivity("A1.4", "C", K.POSITION_FOR_INSTALLING, Pose(0.0, 0.0, 0.0), weight_kg=290.0,
+                           size_m=(0.254, 0.254, 4.0))]
+    (lying,) = yard_footprints(column, shapes={})
+    assert lying == ((13.0, 1.0), pytest.approx((4.0, 0.254)))
+    light = (1.16, 0.79)
+    starts = starts_apart({"transport": ((13.2, 1.0), light)}, work_xy=(1.4, 1.0), obstacles=[lying])
+    x, y = starts["transport"]
+    assert y == 1.0 and x - 13.0 >= (4.0 + light[0]) / 2 + START_GAP_M  # beyond the column's end
+    assert x - 13.0 < (4.0 + light[0]) / 2 + START_GAP_M + 0.25

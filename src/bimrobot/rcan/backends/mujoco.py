@@ -67,7 +67,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bimrobot.rcan.activities import ActivityKind
+from bimrobot.rcan.activities import ActivityKind, RcanActivity
 from bimrobot.rcan.backends.interfaces import ActivityResult, DispatchingBackend
 from bimrobot.rcan.generation import CapabilityTable
 from bimrobot.rcan.node import RcanNode
@@ -220,13 +220,16 @@ START_GAP_M = 0.2  # between the chassis of robots that start at one home
 START_STEP_M = 0.25
 
 
-def starts_apart(robots: dict[str, tuple[tuple[float, float], tuple[float, float]]], work_xy) -> dict[str, tuple[float, float]]:
-    """Where each robot starts (x, y m): its home, unless a robot listed before it starts there (their
-    chassis, facing +x, would come within :data:`START_GAP_M`): then the first spot clear of them on
-    the line from the work's centre ``work_xy`` through the home, further out in steps of
-    :data:`START_STEP_M`. (A site may have fewer homes than robots: fleet 2's six robots share four.)
-    ``robots``: name -> (home (x, y) m, footprint (length, width) m)."""
-    placed: list[tuple[np.ndarray, tuple[float, float]]] = []
+def starts_apart(robots: dict[str, tuple[tuple[float, float], tuple[float, float]]], work_xy,
+                 obstacles: list[tuple[tuple[float, float], tuple[float, float]]] = ()) -> dict[str, tuple[float, float]]:
+    """Where each robot starts (x, y m): its home, unless a robot listed before it starts there or one
+    of ``obstacles`` lies there (their boxes, the chassis facing +x, would come within
+    :data:`START_GAP_M`): then the first spot clear of them on the line from the work's centre
+    ``work_xy`` through the home, further out in steps of :data:`START_STEP_M`. (A site may have fewer
+    homes than robots: fleet 2's six robots share four; and the yard's rows may cover a home.)
+    ``robots``: name -> (home (x, y) m, footprint (length, width) m); ``obstacles``: (centre (x, y) m,
+    axis-aligned size (x, y) m) of what lies on the ground, e.g. the components on the yard."""
+    placed: list[tuple[np.ndarray, tuple[float, float]]] = [(np.asarray(c, float), size) for c, size in obstacles]
     starts = {}
     for name, (home, footprint) in robots.items():
         spot = np.asarray(home, float)
@@ -242,6 +245,41 @@ def starts_apart(robots: dict[str, tuple[tuple[float, float], tuple[float, float
         placed.append((spot, footprint))
         starts[name] = (float(spot[0]), float(spot[1]))
     return starts
+
+
+def starting_activities(plan, shapes: dict) -> dict[str, RcanActivity | None]:
+    """Component -> the activity that says where it starts: its first *position for picking up* (it
+    lies on the yard at that target), or its first *position for installing* when no activity lifts
+    it (it is in place, a footing), or None when a transport comes first (not on the yard as far as
+    the plan says). Components of ``shapes`` or without a size or weight are left out."""
+    first: dict[str, RcanActivity | None] = {}
+    lifted = {a.component_id for a in plan if a.lifts}
+    for activity in plan:
+        gid = activity.component_id
+        if gid in first or gid in shapes or activity.size_m is None or activity.weight_kg is None:
+            continue
+        if activity.kind is ActivityKind.TRANSPORT:
+            first[gid] = None
+        elif activity.kind is ActivityKind.POSITION_FOR_PICKING_UP and gid in lifted:
+            first[gid] = activity
+        elif activity.kind is ActivityKind.POSITION_FOR_INSTALLING and gid not in lifted:
+            first[gid] = activity
+    return first
+
+
+def yard_footprints(plan, shapes: dict) -> list[tuple[tuple[float, float], tuple[float, float]]]:
+    """(centre (x, y) m, axis-aligned size (x, y) m) of every component that starts lying on the yard
+    (:func:`starting_activities`), as the scene lays it (:func:`bimrobot.physics.placement.lying_pose`)."""
+    from bimrobot.physics.placement import body_size, yaw_frame
+
+    footprints = []
+    for activity in starting_activities(plan, shapes).values():
+        if activity is None or activity.kind is not ActivityKind.POSITION_FOR_PICKING_UP:
+            continue
+        t = activity.target
+        size = np.abs(yaw_frame(t.yaw)) @ np.array(body_size(sorted(activity.size_m)))
+        footprints.append(((t.x, t.y), (float(size[0]), float(size[1]))))
+    return footprints
 
 
 def chassis_overlaps(frames: list, footprints: dict[str, tuple[float, float]]) -> dict[str, float]:
@@ -304,7 +342,7 @@ class MujocoBackend(DispatchingBackend):
             robots[spec.name] = (model, spec.speed_m_s, spec.arm_speed_m_s, (spec.home.x, spec.home.y))
         targets = [(a.target.x, a.target.y) for a in plan or () if a.target is not None]
         starts = starts_apart({name: (r[3], r[0].footprint) for name, r in robots.items()},
-                              np.mean(targets, axis=0) if targets else (0.0, 0.0))
+                              np.mean(targets, axis=0) if targets else (0.0, 0.0), yard_footprints(plan or (), self.shapes))
         robots = {name: (*r[:3], starts[name]) for name, r in robots.items()}
         self.site = MujocoSite(robots)
         self.parks = {name: np.array(xy) for name, xy in starts.items()}  # where a robot goes to make way
@@ -1017,19 +1055,7 @@ class MujocoBackend(DispatchingBackend):
         footing). Components without a size or a weight stay out (their activities fail saying so)."""
         from bimrobot.physics.placement import lying_pose
 
-        first: dict[str, object] = {}
-        lifted = {a.component_id for a in plan if a.lifts}
-        for activity in plan:
-            gid = activity.component_id
-            if gid in first or gid in self.shapes or activity.size_m is None or activity.weight_kg is None:
-                continue
-            if activity.kind is ActivityKind.TRANSPORT:
-                first[gid] = None  # moved before any pick-up of ours: not on the yard as far as we know
-            elif activity.kind is ActivityKind.POSITION_FOR_PICKING_UP and gid in lifted:
-                first[gid] = activity
-            elif activity.kind is ActivityKind.POSITION_FOR_INSTALLING and gid not in lifted:
-                first[gid] = activity
-        for gid, activity in first.items():
+        for activity in starting_activities(plan, self.shapes).values():
             if activity is None:
                 continue
             if activity.kind is ActivityKind.POSITION_FOR_PICKING_UP:
