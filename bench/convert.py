@@ -3,7 +3,9 @@
 For every IFC file in ../shared/data/ifc (when present) and the built-in examples, in the same run:
 
 * reference: ``ifcopenshell.geom.iterator`` over the file's elements with the same settings and kernel
-  that ``bimrobot.bim`` uses (local coordinates), reading every shape's vertices and faces;
+  that ``bimrobot.bim`` uses (local coordinates), reading every shape's vertices and faces, at its best:
+  run with one thread and with one per core (at most 8), the faster of the two (bimrobot itself reads
+  with one iterator per core in forked processes, each with one thread);
 * conversion: :func:`bimrobot.world.package.convert` (read + meshes + SDF + maps + report + preview.png).
 
 Each runs in a fresh subprocess (imports done before the clock starts), so the peak memory
@@ -35,8 +37,8 @@ SHARED_IFC = REPO.parent / "shared" / "data" / "ifc"
 GOAL = 1.5
 
 
-def child_iterate(path: str) -> dict:
-    """Time the reference: the geometry iterator alone, as bimrobot.bim configures it."""
+def child_iterate(path: str, threads: str) -> dict:
+    """Time the reference: the geometry iterator alone, as bimrobot.bim configures it, with ``threads``."""
     import ifcopenshell
     import ifcopenshell.geom
     import ifcopenshell.util.shape
@@ -49,7 +51,7 @@ def child_iterate(path: str) -> dict:
     ifc = reader.open_ifc(path)  # .ifczip too, as bimrobot reads it
     products = select_products(ifc, None, None, Path(path))
     iterator = ifcopenshell.geom.iterator(
-        reader.geometry_settings(), ifc, reader.default_threads(), include=products,
+        reader.geometry_settings(), ifc, int(threads), include=products,
         geometry_library=reader.GEOMETRY_LIBRARY,
     )
     shapes = 0
@@ -62,7 +64,7 @@ def child_iterate(path: str) -> dict:
             if not iterator.next():
                 break
     seconds = time.perf_counter() - start
-    return {"seconds": seconds, "shapes": shapes, "peak_mb": _peak_mb()}
+    return {"seconds": seconds, "shapes": shapes, "peak_mb": _peak_mb(), "threads": int(threads)}
 
 
 def child_convert(path: str, out: str) -> dict:
@@ -103,9 +105,12 @@ def run_child(*args: str, src: Path | None = None) -> dict:
 def bench_file(path: Path, repeat: int, workdir: Path, baseline: Path | None = None) -> dict:
     """Reference and conversion alternately, ``repeat`` times; each pair gives one ratio. With
     ``baseline`` (an older bimrobot's src/), its conversion runs right after, against the same iterator run."""
+    from bimrobot.bim.reader import default_threads
+
     runs, older = [], []
     for index in range(repeat):
-        iterate = run_child("iterate", str(path))
+        tries = [run_child("iterate", str(path), str(threads)) for threads in sorted({1, default_threads()})]
+        iterate = min(tries, key=lambda run: run["seconds"])
         convert = run_child("convert", str(path), str(workdir / f"{path.stem}_{index}"))
         runs.append((iterate, convert))
         if baseline is not None:
@@ -229,8 +234,8 @@ def table(rows: list[dict]) -> str:
     the same run's iterator time."""
     lines = [
         "| file | elements | iterator s | convert s | ratio min/med/max | read / iterator | write / iterator "
-        "| preview / iterator | peak MB it/cv |",
-        "|---|---:|---:|---:|---:|---:|---:|---:|---:|",
+        "| preview / iterator | peak MB it/cv | iterator threads |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|",
     ]
     for row in rows:
         runs = row["runs"]
@@ -244,7 +249,8 @@ def table(rows: list[dict]) -> str:
         lines.append(
             f"| {row['file']} | {runs[0][1]['elements']} | {statistics.median(it_s):.2f} | {statistics.median(cv_s):.2f} | "
             f"{_spread(ratios)}{flag} | {_spread(reads)} | {_spread(writes)} | {_spread(previews)} | "
-            f"{max(it['peak_mb'] for it, _ in runs):.0f}/{max(cv['peak_mb'] for _, cv in runs):.0f} |"
+            f"{max(it['peak_mb'] for it, _ in runs):.0f}/{max(cv['peak_mb'] for _, cv in runs):.0f} | "
+            f"{'/'.join(str(it['threads']) for it, _ in runs)} |"
         )
     return "\n".join(lines)
 

@@ -35,6 +35,7 @@ from tqdm import tqdm
 from bimrobot import io
 from bimrobot.bim.model import BuildingModel, Element, WeightSource
 from bimrobot.bim.unknown_weight import UnknownWeightRule, UnknownWeights, apply_unknown_weight_rule
+from bimrobot.cores import frozen_heap
 from bimrobot.errors import InputError
 from bimrobot.io import printable
 from bimrobot.site import Site
@@ -176,11 +177,12 @@ def convert(
     options = options or ConvertOptions()
     options.validate()
     io.check_output(out_dir, folder=True, inputs=[ifc_path])  # before the long read
-    started = time.perf_counter()
-    # Element.properties is not needed to convert: only what the weights need is read.
-    model = load_model(ifc_path, include=include, exclude=exclude, progress=progress, properties=False)
-    load_seconds = time.perf_counter() - started
-    return build_package(model, out_dir, options, progress, load_seconds)
+    with frozen_heap():  # no full garbage collections through every library object on the way
+        started = time.perf_counter()
+        # Element.properties is not needed to convert: only what the weights need is read.
+        model = load_model(ifc_path, include=include, exclude=exclude, progress=progress, properties=False)
+        load_seconds = time.perf_counter() - started
+        return build_package(model, out_dir, options, progress, load_seconds)
 
 
 def build_package(

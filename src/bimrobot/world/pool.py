@@ -9,30 +9,16 @@ travel back. Where ``fork`` is not available, or the job is small, the same func
 
 from __future__ import annotations
 
-import gc
 import multiprocessing
-import os
-import sys
 from collections.abc import Callable, Iterable, Iterator
+
+from bimrobot.cores import can_fork, cores, frozen_heap
 
 shared: dict = {}
 """What the tasks read: set by the parent before :func:`run` forks; workers see a copy-on-write view."""
 
 MIN_TASKS_FOR_POOL = 2
 """Fewer tasks than this run in-process."""
-
-
-def cores() -> int:
-    """CPUs this process may run on."""
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:  # not Linux
-        return os.cpu_count() or 1
-
-
-def can_fork() -> bool:
-    """Whether a forked pool is safe here (Linux; macOS's fork is unsafe with its system libraries)."""
-    return sys.platform.startswith("linux") and "fork" in multiprocessing.get_all_start_methods()
 
 
 class Tasks:
@@ -49,13 +35,8 @@ class Tasks:
         self._pool = None
         self._pending: Iterator | None = None
         if parallel and workers > 1 and len(self._tasks) >= MIN_TASKS_FOR_POOL and can_fork():
-            # Objects that exist now are frozen out of the cyclic garbage collector, so that the workers'
-            # collections do not touch (and so copy) every page they inherited.
-            gc.freeze()
-            try:
+            with frozen_heap():  # the workers' collections do not copy every page they inherit
                 self._pool = multiprocessing.get_context("fork").Pool(workers)
-            finally:
-                gc.unfreeze()
             self._pending = self._pool.imap_unordered(function, self._tasks)
 
     @property
