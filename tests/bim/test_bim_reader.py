@@ -252,3 +252,59 @@ def test_duplicate_global_ids_keep_every_element_and_are_reported(tmp_path, capl
     assert len(message.splitlines()) == 1
     assert f"'{shared}' by #{first_id} IfcWall and #{second_id} IfcWall" in message
     assert f"'{shared}#{second_id}'" in message
+
+
+def _same_element(a, b) -> bool:
+    return (a.ifc_class == b.ifc_class and a.name == b.name and a.storey_id == b.storey_id
+            and a.material == b.material and a.weight_kg == b.weight_kg and a.weight_source == b.weight_source
+            and np.array_equal(a.placement, b.placement) and np.array_equal(a.vertices, b.vertices)
+            and np.array_equal(a.faces, b.faces))
+
+
+def test_geometry_read_by_two_processes_gives_the_same_model(shared_ifc):
+    # Tekla's precast stairs: 150 elements, 9 outermost assemblies, 36 realizing-element connections
+    path = shared_ifc("MULTICOM-trappen_bordessen.ifc")
+    alone = load_model(path, processes=1, properties=False)
+    shared = load_model(path, processes=2, properties=False)
+    assert list(shared.elements) == list(alone.elements)  # every element, in the file's order
+    assert all(_same_element(shared.elements[key], alone.elements[key]) for key in alone.elements)
+    assert shared.connections == alone.connections and len(shared.connections) == 36
+    assert shared.assemblies == alone.assemblies and len(shared.assemblies) == 9
+    assert shared.skipped == alone.skipped
+    # a mesh that several elements share is still one array (the package writes it once)
+    assert len({id(e.vertices) for e in shared.elements.values()}) == len({id(e.vertices) for e in alone.elements.values()})
+
+
+def test_an_error_in_a_geometry_process_is_raised_in_the_caller(steel_frame_ifc, monkeypatch):
+    import os
+
+    from bimrobot.bim import reader
+
+    caller, read = os.getpid(), reader._ShareReader.__call__
+
+    def failing_in_child(self, products, threads, bar=None):
+        if os.getpid() != caller:
+            raise InputError("a product the child could not read")
+        return read(self, products, threads, bar)
+
+    monkeypatch.setattr(reader._ShareReader, "__call__", failing_in_child)
+    with pytest.raises(InputError, match="a product the child could not read"):
+        load_model(steel_frame_ifc, processes=2)
+
+
+def test_a_crashed_geometry_process_names_the_file(steel_frame_ifc, monkeypatch):
+    import os
+    import signal
+
+    from bimrobot.bim import reader
+
+    caller, read = os.getpid(), reader._ShareReader.__call__
+
+    def crashing_in_child(self, products, threads, bar=None):
+        if os.getpid() != caller:
+            os.kill(os.getpid(), signal.SIGSEGV)  # as a geometry kernel crash ends a process
+        return read(self, products, threads, bar)
+
+    monkeypatch.setattr(reader._ShareReader, "__call__", crashing_in_child)
+    with pytest.raises(InputError, match=r"steel_frame\.ifc: IfcOpenShell's geometry kernel crashed \(exit code -11\)"):
+        load_model(steel_frame_ifc, processes=2)

@@ -12,11 +12,13 @@ buildings; ``bimrobot.bim.split`` writes one IFC file per assembly or element;
 from bimrobot.bim.model import BuildingModel, Connection, Element, SkippedProduct, Storey, WeightSource
 
 
-def load_model(path, include=None, exclude=None, progress=False, threads=None) -> BuildingModel:
+def load_model(path, include=None, exclude=None, progress=False, threads=None, properties=True,
+               processes=None) -> BuildingModel:
     """Read an IFC file into a BuildingModel (see :func:`bimrobot.bim.reader.load_model`)."""
     from bimrobot.bim.reader import load_model as _load_model
 
-    return _load_model(path, include=include, exclude=exclude, progress=progress, threads=threads)
+    return _load_model(path, include=include, exclude=exclude, progress=progress, threads=threads,
+                       properties=properties, processes=processes)
 
 
 __all__ = ["BuildingModel", "Connection", "Element", "SkippedProduct", "Storey", "WeightSource", "load_model"]

@@ -92,7 +92,7 @@ def load_model(
 
     materials = MaterialDensities(ifc)  # each material definition walked once, before any fork
     shares = _shares(candidates, processes, threads)
-    read = _ShareReader(ifc, mass_scale, keys, materials, properties)
+    read = _ShareReader(ifc, _shown(path), mass_scale, keys, materials, properties)
     found = _read_shares(read, shares, progress, threads)
     elements, storey_cache = found.elements, found.storeys
     seen, empty_bodies = found.seen, found.empty_bodies
@@ -164,6 +164,7 @@ class _ShareReader:
     material and storey (everything here is made before any fork, so every process has it)."""
 
     ifc: ifcopenshell.file
+    shown: str  # the file, as messages name it
     mass_scale: float
     keys: dict[int, str]
     materials: MaterialDensities
@@ -245,9 +246,13 @@ def _read_shares(read: _ShareReader, shares: list[list], progress: bool, threads
         for child, receiving in children:
             try:
                 outcome, payload = pickle.loads(receiving.recv_bytes())
-            except EOFError:
+            except EOFError:  # the process died: IfcOpenShell's geometry kernel crashed on one of its products
                 child.join()
-                raise RuntimeError(f"a geometry process ended without a result (exit code {child.exitcode})") from None
+                raise InputError(
+                    f"{read.shown}: IfcOpenShell's geometry kernel crashed (exit code {child.exitcode}) on one of "
+                    f"{len(children) + 1} shares of its {sum(len(share) for share in shares)} products; "
+                    "exclude products (--exclude) to find the one it cannot mesh"
+                ) from None
             if outcome == "error":
                 raise payload
             found.add(payload)
