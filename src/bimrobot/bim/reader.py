@@ -1,6 +1,7 @@
 """Read an IFC file into a :class:`~bimrobot.bim.model.BuildingModel` in one geometry-iterator pass.
 
-All geometry comes from one run of ifcopenshell's geometry iterator in local coordinates: each shape's
+All geometry comes from ifcopenshell's geometry iterator in local coordinates, one pass over the products
+(shared by one forked process per core, each with its own iterator over every n-th product): each shape's
 matrix is the element's placement (local -> world, metres) and its vertices are in the element's local
 frame, so ``world = placement @ local``. Shapes that share a representation (mapped items, types) share
 their vertex and face arrays. Kernel: ``hybrid-cgal-simple-opencascade`` (CGAL where it can, OpenCASCADE
@@ -71,7 +72,7 @@ def load_model(
     iterator's own threads in each process (default: one where several processes share the pass, else
     every core, at most 8). Geometry iterators in separate processes scale where the iterator's threads
     do not: on this project's 2-core build machine two threads bought 0-35 % over one thread (and on
-    files of 1-3 ms per element nothing, at twice the CPU), two processes 35-70 % (docs/world.md).
+    files of 1-3 ms per element nothing, at twice the CPU), two processes 33-73 % (docs/world.md).
     ``properties``: read every property and quantity value into ``Element.properties``; False leaves
     those empty and reads only what the weights need (weight quantities, weight properties by name),
     which is what ``convert`` does: reading every value costs up to 0.7 ms per element.
