@@ -271,8 +271,9 @@ def test_geometry_read_by_two_processes_gives_the_same_model(shared_ifc):
     assert shared.connections == alone.connections and len(shared.connections) == 36
     assert shared.assemblies == alone.assemblies and len(shared.assemblies) == 9
     assert shared.skipped == alone.skipped
-    # a mesh that several elements share is still one array (the package writes it once)
+    # a mesh that several elements share is still one array (the package writes it once), and read-only
     assert len({id(e.vertices) for e in shared.elements.values()}) == len({id(e.vertices) for e in alone.elements.values()})
+    assert not any(e.vertices.flags.writeable or e.faces.flags.writeable for e in shared.elements.values())
 
 
 def test_an_error_in_a_geometry_process_is_raised_in_the_caller(steel_frame_ifc, monkeypatch):

@@ -150,7 +150,9 @@ class _Found:
             gid = other.geometry_ids[key]
             if gid in meshes:
                 element = dataclasses.replace(element, vertices=meshes[gid][0], faces=meshes[gid][1])
-            else:
+            else:  # read-only again, as this process's own meshes (pickling dropped the flag)
+                element.vertices.setflags(write=False)
+                element.faces.setflags(write=False)
                 meshes[gid] = (element.vertices, element.faces)
             self.elements[key] = element
             self.geometry_ids[key] = gid
