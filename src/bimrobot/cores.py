@@ -32,10 +32,19 @@ def frozen_heap():
     Two reasons: a process forked inside the block does not touch (and so copy) every page it inherits
     when it collects; and a job that allocates many objects does not pay for full collections that
     walk every object of the libraries loaded before it (with trimesh, SciPy and Pillow loaded, one
-    such collection took 40 ms of a 0.1 s IFC read). Objects made inside the block are collected as usual.
+    such collection took 40 ms of a 0.1 s IFC read). Objects made inside the block are collected as
+    usual. Blocks nest: an inner one (before a fork, say) freezes what is new since the outer one began,
+    and only the outermost one thaws.
     """
+    global _frozen_depth
     gc.freeze()
+    _frozen_depth += 1
     try:
         yield
     finally:
-        gc.unfreeze()
+        _frozen_depth -= 1
+        if _frozen_depth == 0:
+            gc.unfreeze()
+
+
+_frozen_depth = 0  # how many frozen_heap blocks are open in this process
