@@ -14,6 +14,7 @@ Each runs in a fresh subprocess (imports done before the clock starts), so the p
     .venv/bin/python bench/convert.py                 # all files, 3 repetitions: min/median/max ratios
     .venv/bin/python bench/convert.py --files frame.ifc other.ifc
     .venv/bin/python bench/convert.py --baseline /tmp/old/src   # also an older bimrobot (its src/), same run
+    .venv/bin/python bench/convert.py --files ../shared/data/ifc/MULTICOM-Prefab.ifc --replicate 9  # 2,709 elements
 """
 
 from __future__ import annotations
@@ -184,6 +185,42 @@ def replicated_model(path: Path, copies: int, distinct: bool):
     return dataclasses.replace(model, elements=elements, assemblies={}, connections=[])
 
 
+def replicated_ifc(path: Path, copies: int, out: Path) -> Path:
+    """Write ``out``: the IFC file ``path`` with its building elements repeated ``copies`` times side by
+    side along the x axis of their placements' parents (a large real model from a smaller one). Each
+    copy gets its own deep copy of the body, so the iterator meshes every copy (IfcOpenShell's
+    ``root.copy_class`` keeps properties, materials, storey and assembly; it leaves the body to us)."""
+    import ifcopenshell.api.root
+    import ifcopenshell.util.element
+    import ifcopenshell.util.placement
+    import ifcopenshell.util.unit
+
+    from bimrobot.bim.reader import open_ifc
+    from bimrobot.bim.selection import select_products
+
+    ifc = open_ifc(path)
+    products = [p for p in select_products(ifc, None, None, path)
+                if p.Representation is not None and p.ObjectPlacement is not None
+                and p.ObjectPlacement.is_a("IfcLocalPlacement")]
+    xs = [ifcopenshell.util.placement.get_local_placement(p.ObjectPlacement)[0, 3] for p in products]
+    step = (max(xs) - min(xs)) * 1.2 + 5.0 / ifcopenshell.util.unit.calculate_unit_scale(ifc)  # file units
+    for copy in range(1, copies):
+        for product in products:
+            twin = ifcopenshell.api.root.copy_class(ifc, product=product)
+            twin.Representation = ifcopenshell.util.element.copy_deep(ifc, product.Representation)
+            placement = twin.ObjectPlacement
+            if placement is None or placement == product.ObjectPlacement:
+                placement = ifc.createIfcLocalPlacement(product.ObjectPlacement.PlacementRelTo,
+                                                        product.ObjectPlacement.RelativePlacement)
+                twin.ObjectPlacement = placement
+            relative = placement.RelativePlacement
+            x, *rest = relative.Location.Coordinates
+            moved = ifc.createIfcCartesianPoint((x + copy * step, *rest))  # a new point: files share points
+            placement.RelativePlacement = ifc.create_entity(relative.is_a(), moved, *list(relative)[1:])
+    ifc.write(str(out))
+    return out
+
+
 def bench_validation(path: Path, copies: int, workdir: Path, repeat: int, variants=(False, True)) -> str:
     """``convert --validate``'s checks on a package of ``copies`` x the file's elements; the reference
     is ``ign sdf -k`` on the world of the file's own package, which the same checks also run on."""
@@ -262,6 +299,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--min-elements", type=int, default=0, help="only files with at least this many elements")
     parser.add_argument("--validation", type=int, metavar="COPIES", default=0,
                         help="instead: time the package checks (convert --validate) on COPIES x the first file")
+    parser.add_argument("--replicate", type=int, metavar="COPIES", default=1,
+                        help="first write each file with its elements repeated COPIES times side by side (a large model)")
     parser.add_argument("--baseline", type=Path, metavar="SRC",
                         help="also convert with the bimrobot in SRC (e.g. an older version's src/), in the same run")
     parser.add_argument("--child", nargs="+", help=argparse.SUPPRESS)
@@ -278,6 +317,9 @@ def main(argv: list[str] | None = None) -> int:
     with tempfile.TemporaryDirectory(prefix="bimrobot-bench-") as tmp:
         workdir = Path(tmp)
         files = args.files or (sorted(SHARED_IFC.glob("*.ifc*")) if SHARED_IFC.exists() else []) + example_files(workdir)
+        if args.replicate > 1:
+            files = [replicated_ifc(path, args.replicate, workdir / f"{path.stem.split('.')[0]}-x{args.replicate}.ifc")
+                     for path in files]
         rows = []
         for path in files:
             print(f"benchmarking {path.name} ...", file=sys.stderr, flush=True)
