@@ -207,9 +207,9 @@ class _ShareReader:
 def _shares(candidates: list, processes: int | None, threads: int | None) -> list[list]:
     """The products each process reads: every n-th one (neighbours in a file are alike, so the shares
     cost about the same). One share where forking would not pay, or cannot be done safely."""
-    from bimrobot.cores import can_fork, cores
+    from bimrobot.cores import can_fork
 
-    count = processes or (1 if threads else min(8, cores()))
+    count = processes or (1 if threads else default_threads())
     if count <= 1 or len(candidates) < MIN_PRODUCTS_TO_SHARE or not can_fork():
         return [candidates]
     return [candidates[start::count] for start in range(count)]
@@ -452,35 +452,24 @@ def geometry_settings() -> ifcopenshell.geom.settings:
 
 
 def default_threads() -> int:
-    """Geometry threads: every core, at most 8 (the iterator's gain flattens beyond)."""
-    return max(1, min(8, os.cpu_count() or 1))
+    """Geometry threads, or processes sharing the geometry pass: every core this process may use, at
+    most 8 (the iterator's gain flattens beyond)."""
+    from bimrobot.cores import cores
+
+    return max(1, min(8, cores()))
 
 
-def iterate_shapes(
-    ifc: ifcopenshell.file, products: list, progress: bool = False, threads: int | None = None
-) -> Iterator:
+def iterate_shapes(ifc: ifcopenshell.file, products: list, threads: int | None = None) -> Iterator:
     """Yield the iterator's shapes for ``products`` (one pass, local coordinates)."""
-    threads = threads or default_threads()
     iterator = ifcopenshell.geom.iterator(
-        geometry_settings(), ifc, threads, include=products, geometry_library=GEOMETRY_LIBRARY
+        geometry_settings(), ifc, threads or default_threads(), include=products, geometry_library=GEOMETRY_LIBRARY
     )
-    bar = None
-    if progress:
-        from tqdm import tqdm
-
-        bar = tqdm(total=len(products), unit="element", desc="geometry")
-    try:
-        if not iterator.initialize():
-            return
-        while True:
-            yield iterator.get()
-            if bar is not None:
-                bar.update(1)
-            if not iterator.next():
-                break
-    finally:
-        if bar is not None:
-            bar.close()
+    if not iterator.initialize():
+        return
+    while True:
+        yield iterator.get()
+        if not iterator.next():
+            break
 
 
 def class_lineage(schema: str, ifc_class: str) -> tuple[str, ...] | None:
