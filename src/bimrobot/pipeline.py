@@ -36,6 +36,7 @@ BUILD_EXAMPLES = """examples:
   bimrobot build frame.ifc -o out/                                  # fleet2 on the thesis' site (fig. 4.11)
   bimrobot build model.ifc --fleet site-crane --prebuilt IfcFooting,IfcSlab,IfcWall -o out/
   bimrobot build model.ifc --fleet my-fleet.yaml --site my-site.yaml --unknown-weight 7850 -o out/
+  bimrobot build model.ifc -o out/ --schedule-out plan.xml --start 2027-03-01T07:00   # + out/plan.xml (MS Project)
 
 Killed or interrupted? Run the same command again: finished stages are kept and RCAN resumes.
 Open the result: out/README.md says what each file is.
@@ -106,8 +107,23 @@ STAGES = (
 
 def _work_schedule(args, folder: Path) -> list[str]:
     """``--ifc-out`` for the model with its simulated schedule as an IfcWorkSchedule (an IFC2X3 model's
-    copy is migrated to IFC4, which has IfcTaskTime)."""
-    return ["--ifc-out", str(folder / WORK_SCHEDULE_IFC), *(["--start", args.start] if args.start else [])]
+    copy is migrated to IFC4, which has IfcTaskTime), ``--schedule-out`` for its scheduler export in the
+    output folder, and the site whose work calendar the times are laid onto."""
+    return ["--ifc-out", str(folder / WORK_SCHEDULE_IFC), *(["--start", args.start] if args.start else []),
+            *(["--schedule-out", str(folder / args.schedule_out)] if args.schedule_out else []), *_site(args)]
+
+
+def _check_schedule_out(args) -> None:
+    """``build --schedule-out``: a file name (.xml or .p6.xml) written into the output folder."""
+    from bimrobot.bim.work_schedule import schedule_export_kind
+
+    if args.schedule_out is None:
+        return
+    schedule_export_kind(args.schedule_out)
+    name = Path(args.schedule_out)
+    if name.name != str(args.schedule_out) or name.name in (WORK_SCHEDULE_IFC, "README.md", "build.json", "graph.ttl"):
+        raise InputError(f"--schedule-out {args.schedule_out}: give a new file name such as plan.xml, without a folder; "
+                         "it is written into the output folder")
 
 
 def register(subparsers) -> None:
@@ -139,7 +155,10 @@ def register(subparsers) -> None:
                         help="build element by element even when the model groups them into assemblies")
     parser.add_argument("--start", metavar="ISO",
                         help="date-time of t = 0 s of the build for the IFC work schedule, e.g. 2027-03-01T07:00 "
-                        "(default: today 08:00)")
+                        "(default: today 08:00); the work is laid onto the site's work_calendar from there")
+    parser.add_argument("--schedule-out", metavar="NAME.xml",
+                        help="also write the work schedule for a scheduler into the output folder, through ifc4d: "
+                        "NAME.xml Microsoft Project XML, NAME.p6.xml Primavera P6 XML")
     parser.add_argument("--backend", default="sim", choices=("sim", "mujoco"),
                         help="RCAN's executor backend: sim (kinematic robots, the default) or mujoco (the robots act "
                         "physically in MuJoCo; rcan/state.db.trajectory.csv holds their trajectories)")
@@ -182,7 +201,7 @@ def _fingerprint(args) -> dict:
 
     options = {key: str(getattr(args, key)) for key in
                ("fleet", "site", "prebuilt", "by_element", "include", "exclude", "unknown_weight_text", "start",
-                "backend")}
+                "backend", "schedule_out")}
     return {"options": options, "inputs": {str(p.resolve()): digest(p) for p in _inputs(args)}}
 
 
@@ -194,6 +213,7 @@ def _check_inputs(args) -> None:
         raise InputError(f"model file {str(args.model)!r} does not exist")
     load_fleet(args.fleet)
     load_site(args.site)
+    _check_schedule_out(args)
 
 
 def _run_stage(stage: Stage, args, folder: Path) -> int:
@@ -289,8 +309,17 @@ def _work_schedule_row(args) -> str:
     from bimrobot.bim.reader import header_schema
 
     migrated = " (migrated from IFC2X3 to IFC4, which has IfcTaskTime)" if header_schema(args.model) == "IFC2X3" else ""
-    return (f"| `{WORK_SCHEDULE_IFC}` | the model with the simulated schedule as an IfcWorkSchedule{migrated}: one IfcTask "
-            "per activity, IfcTaskTime, IfcRelSequence, IfcRelAssignsToProduct | Bonsai's 4D sequencing; ifcopenshell |\n")
+    row = (f"| `{WORK_SCHEDULE_IFC}` | the model with the simulated schedule as an IfcWorkSchedule{migrated}: summary "
+           "tasks per storey and assembly unit with one IfcTask per activity nested in them, times in working time "
+           "on the site's IfcWorkCalendar, IfcRelSequence, outputs on the parts with a body | Bonsai's 4D sequencing; "
+           "ifcopenshell |\n")
+    if args.schedule_out:
+        from bimrobot.bim.work_schedule import SCHEDULE_EXPORTS
+
+        kind = SCHEDULE_EXPORTS[".p6.xml" if str(args.schedule_out).lower().endswith(".p6.xml") else ".xml"]
+        program = "Primavera P6 (Import, P6 XML)" if kind.startswith("Primavera") else "Microsoft Project"
+        row += f"| `{args.schedule_out}` | the same work schedule as {kind}, written through ifc4d | {program} |\n"
+    return row
 
 
 def _trajectory_row(folder: Path) -> str:

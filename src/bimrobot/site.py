@@ -13,6 +13,8 @@ Keys of a site YAML (each optional; a missing one takes fig. 4.11's value):
 ``construction_area`` [[xmin, ymin], [xmax, ymax]]: where the building stands
 ``model_offset``      [dx, dy]: model frame -> site frame (default: centre the building in the area)
 ``idle_robots``       ``stay`` (default) or ``yard``: a robot without work drives back to the nearest yard position
+``work_calendar``     {days: [Monday, ...], hours: ["07:00", "16:00"]}: when the site works (default Monday-Friday
+                      07:00-16:00); the IFC work schedule lays the simulated work onto these hours
 """
 
 from __future__ import annotations
@@ -23,6 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
+from bimrobot.bim.work_schedule import WorkCalendar, work_calendar_from
 from bimrobot.config import check_keys, line_of, read_yaml_file
 from bimrobot.errors import InputError
 
@@ -31,7 +34,7 @@ from bimrobot.errors import InputError
 SITE_COORDINATE_LIMIT_M = 1e6
 OFFSET_LIMIT_M = 2e7
 #: The keys of a site file (module docstring).
-SITE_KEYS = ("yard", "robot_home", "construction_area", "model_offset", "idle_robots")
+SITE_KEYS = ("yard", "robot_home", "construction_area", "model_offset", "idle_robots", "work_calendar")
 
 
 def number_in(value, label: str, low: float, high: float, unit: str, low_inclusive: bool = False) -> float:
@@ -66,6 +69,7 @@ class Site:
     is centred in it unless ``model_offset`` [dx, dy] (model frame -> site frame) is given.
     ``idle_robots``: "stay" (a robot with nothing to do waits where it finished; default) or "yard" (it
     drives back to the nearest yard position, as in the thesis, and can be called away on the way).
+    ``work_calendar``: working days and hours (:class:`bimrobot.bim.work_schedule.WorkCalendar`).
     """
 
     yard: tuple[tuple[float, float], ...]
@@ -74,6 +78,7 @@ class Site:
     model_offset: tuple[float, float] | None = None
     idle_robots: str = "stay"
     source: str = "default site (thesis fig. 4.11)"
+    work_calendar: WorkCalendar = WorkCalendar()
 
     def offset_for_points(self, model_points_xy) -> np.ndarray:
         """Translation (x, y) model frame -> site frame for a building whose parts are at
@@ -126,6 +131,8 @@ def site_from_dict(data, source: str) -> Site:
         if data["idle_robots"] not in ("stay", "yard"):
             raise InputError(f"{source}{line_of(data, 'idle_robots')}: key 'idle_robots' must be 'stay' or 'yard', got {data['idle_robots']!r}")
         values["idle_robots"] = data["idle_robots"]
+    if "work_calendar" in data:
+        values["work_calendar"] = work_calendar_from(data["work_calendar"], source, line_of(data, "work_calendar"))
     return Site(**values, source=source)
 
 

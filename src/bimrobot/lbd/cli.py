@@ -15,6 +15,8 @@ GRAPH_EXAMPLES = """examples:
   bimrobot graph frame.ifc -o frame.ttl
   bimrobot graph frame.ifc --schedule sim/schedule.csv -o frame.jsonld --format json-ld
   bimrobot graph frame.ifc --schedule sim/schedule.csv -o frame.ttl --ifc-out frame-4d.ifc   # + IfcWorkSchedule
+  bimrobot graph frame.ifc --schedule sim/schedule.csv -o frame.ttl --schedule-out plan.xml --site site.yaml
+                                                                  # MS Project (.p6.xml: Primavera P6)
   bimrobot graph prefab.ifc --schedule planning.xml -o prefab.ttl          # a Microsoft Project XML schedule
   bimrobot graph house.ifc --ifc-schedule -o house.ttl            # tasks from the IfcWorkSchedule
   bimrobot graph frame.ifc --schedule schedule.csv --store oxigraph --store-path frame.oxigraph
@@ -73,15 +75,27 @@ def register(subparsers) -> None:
     )
     graph.add_argument(
         "--ifc-out", type=Path, metavar="FILE.ifc",
-        help="also write a copy of the model with the schedule as an IfcWorkSchedule (IfcTask, IfcTaskTime, "
-        "IfcRelSequence, IfcRelAssignsToProduct), for 4D viewers such as Bonsai",
+        help="also write a copy of the model with the schedule as an IfcWorkSchedule (summary tasks per storey "
+        "and assembly unit, IfcTask, IfcTaskTime in working time, IfcWorkCalendar, IfcRelSequence, outputs on "
+        "the parts), for 4D viewers such as Bonsai",
+    )
+    graph.add_argument(
+        "--schedule-out", type=Path, metavar="FILE.xml",
+        help="also write the same work schedule for a scheduler, through ifc4d: FILE.xml Microsoft Project XML, "
+        "FILE.p6.xml Primavera P6 XML",
+    )
+    graph.add_argument(
+        "--site", type=Path,
+        help="site YAML whose work_calendar (working days and hours) the --ifc-out / --schedule-out times are laid "
+        "onto (default Monday-Friday 07:00-16:00)",
     )
     graph.add_argument(
         "--package", type=Path, metavar="DIR",
         help="world package of the same model written by `bimrobot convert --layout yard`: each component waiting "
         "on the yard gets its pick-up position there (brc:pickUpPosition), which `rcan run --graph` drives to",
     )
-    graph.add_argument("--start", metavar="ISO", help="date-time of t = 0 s for --ifc-out (default: the schedule's own, else today 08:00)")
+    graph.add_argument("--start", metavar="ISO", help="date-time of t = 0 s for --ifc-out / --schedule-out (default: "
+                       "the schedule's own, else today 08:00; outside working hours, the next working period)")
     add_selection_options(graph, built=True)
     add_unknown_weight_option(graph)
     graph.set_defaults(func=graph_command)
@@ -127,10 +141,7 @@ def graph_command(args) -> int:
         raise InputError("--store-path is only used with --store oxigraph (a folder) or --store sparql (a URL)")
     inputs = [args.model, args.schedule, *([args.package / "report.json"] if args.package else [])]
     _check_outputs(args, inputs)
-    if args.ifc_out is not None:
-        if args.schedule is None and not args.ifc_schedule:
-            raise InputError("--ifc-out writes the schedule into the model: give --schedule FILE (or --ifc-schedule)")
-        io.check_output(args.ifc_out, folder=False, inputs=inputs, option="--ifc-out")
+    calendar = _check_work_schedule_outputs(args, inputs)
     format_for(args.output, args.format)  # fail on a bad suffix before the slow work
     base = checked_base(args.base or DEFAULT_BASE)
     started = time.perf_counter()
@@ -185,12 +196,49 @@ def graph_command(args) -> int:
               f"the model (e.g. {first.id} {first.name!r}); they are in the graph as activities without a component")
     if args.store != "memory":
         print(f"{'Oxigraph store' if args.store == 'oxigraph' else 'SPARQL endpoint'}: {args.store_path}")
-    if args.ifc_out is not None:
-        from bimrobot.bim.work_schedule import write_work_schedule
-
-        write_work_schedule(args.model, schedule, args.ifc_out, epoch=args.start)
-        print(f"{args.ifc_out}: {args.model.name} with an IfcWorkSchedule of {len(schedule.activities)} IfcTasks")
+    if args.ifc_out is not None or args.schedule_out is not None:
+        _write_work_schedule(args, schedule, calendar, inputs)
     return 0
+
+
+def _check_work_schedule_outputs(args, inputs: list):
+    """The names of --ifc-out and --schedule-out and their output policy, checked before anything is
+    written; the site's work calendar (None when neither is asked for)."""
+    from bimrobot import io
+    from bimrobot.bim.work_schedule import check_ifc_out, schedule_export_kind
+    from bimrobot.site import load_site
+
+    wanted = [(option, path) for option, path in (("--ifc-out", args.ifc_out), ("--schedule-out", args.schedule_out))
+              if path is not None]
+    if not wanted:
+        return None
+    if args.schedule is None and not args.ifc_schedule:
+        raise InputError(f"{wanted[0][0]} writes the schedule out: give --schedule FILE (or --ifc-schedule)")
+    if args.ifc_out is not None:
+        check_ifc_out(args.ifc_out)
+    if args.schedule_out is not None:
+        schedule_export_kind(args.schedule_out)
+    for option, path in wanted:
+        io.check_output(path, folder=False, inputs=[*inputs, args.site], option=option)
+    if args.ifc_out is not None and args.schedule_out is not None and args.ifc_out.resolve() == args.schedule_out.resolve():
+        raise InputError(f"--ifc-out and --schedule-out are the same file {args.ifc_out}; give two names")
+    return load_site(args.site).work_calendar
+
+
+def _write_work_schedule(args, schedule, calendar, inputs: list) -> None:
+    """The model with the schedule as an IfcWorkSchedule (--ifc-out) and its scheduler export (--schedule-out)."""
+    from bimrobot.bim.work_schedule import (
+        SCHEDULE_EXPORTS, schedule_export_kind, scheduled_model, write_schedule_export, write_scheduled_ifc)
+
+    inputs = [*inputs, args.site]
+    ifc, figures = scheduled_model(args.model, schedule, epoch=args.start, calendar=calendar)
+    if args.ifc_out is not None:
+        write_scheduled_ifc(ifc, args.ifc_out, inputs=inputs)
+        print(f"{args.ifc_out}: {args.model.name} with an IfcWorkSchedule of {figures.describe()}")
+    if args.schedule_out is not None:
+        write_schedule_export(ifc, args.schedule_out, calendar, inputs=inputs)
+        kind = SCHEDULE_EXPORTS[".p6.xml" if schedule_export_kind(args.schedule_out) == "p6" else ".xml"]
+        print(f"{args.schedule_out}: {kind} of the same {figures.tasks} tasks (ifc4d)")
 
 
 def _oxigraph_installed() -> bool:
