@@ -7,10 +7,13 @@ adding a part means adding one module to :data:`PART_CLIS`.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
 import logging
 import os
+import signal
 import sys
+import threading
 
 from bimrobot import __version__
 from bimrobot.errors import BimrobotError
@@ -25,6 +28,7 @@ PART_CLIS = [
     "bimrobot.rl.cli",
     "bimrobot.pipeline",
     "bimrobot.replay.cli",
+    "bimrobot.report.cli",
 ]
 
 EPILOG = """examples:
@@ -55,7 +59,46 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+class Stopped(KeyboardInterrupt):
+    """SIGTERM or SIGHUP, raised where Ctrl-C raises KeyboardInterrupt, so that a command stopped by
+    ``kill``, ``timeout`` or a closed terminal unwinds the same way: every ``finally`` and context
+    manager runs (children stopped, temporary files removed, resumable work kept) before it exits."""
+
+    def __init__(self, signum: int):
+        super().__init__(signum)
+        self.signum = int(signum)
+
+
+STOP_SIGNALS = (signal.SIGTERM, signal.SIGHUP)
+"""Signals that stop a command like Ctrl-C does (SIGINT is Python's KeyboardInterrupt already)."""
+
+
+def _raise_stopped(signum: int, frame) -> None:
+    raise Stopped(signum)
+
+
+@contextlib.contextmanager
+def _stop_signals_unwind():
+    """While a command runs, SIGTERM and SIGHUP raise :class:`Stopped` (in the main thread only, where
+    Python delivers signals). A signal the caller ignores (``nohup``) stays ignored; the previous
+    handlers are back afterwards (main may be called in-process, by a test)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = {signum: signal.getsignal(signum) for signum in STOP_SIGNALS}
+    for signum, handler in previous.items():
+        if handler is not signal.SIG_IGN:
+            signal.signal(signum, _raise_stopped)
+    try:
+        yield
+    finally:
+        for signum, handler in previous.items():
+            signal.signal(signum, handler if handler is not None else signal.SIG_DFL)
+
+
 def main(argv: list[str] | None = None) -> int:
+    """Run one command; the exit status: 0 done, 1 no command, 2 bad input (one sentence, no traceback),
+    130 / 143 / 129 stopped by SIGINT (Ctrl-C) / SIGTERM / SIGHUP, 141 output pipe closed."""
     parser = build_parser()
     args = parser.parse_args(argv)
     logging.basicConfig(
@@ -66,10 +109,14 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help()
         return 1
     try:
-        return int(args.func(args) or 0)
+        with _stop_signals_unwind():
+            return int(args.func(args) or 0)
     except BimrobotError as exc:
         print(f"bimrobot {args.command}: error: {exc}", file=sys.stderr)
         return 2
+    except Stopped as stop:
+        print(f"bimrobot {args.command}: stopped by {signal.Signals(stop.signum).name}", file=sys.stderr)
+        return 128 + stop.signum
     except KeyboardInterrupt:
         return 130
     except BrokenPipeError:

@@ -1,4 +1,5 @@
-"""How many cores this process may use, and whether work can be spread over forked processes.
+"""How many cores this process may use, whether work can be spread over forked processes, and how a
+child process is bound to the command that started it.
 
 Shared by the IFC reader (geometry on every core) and the package writer (models on every core).
 """
@@ -6,10 +7,13 @@ Shared by the IFC reader (geometry on every core) and the package writer (models
 from __future__ import annotations
 
 import contextlib
+import ctypes
 import gc
 import multiprocessing
 import os
+import signal
 import sys
+import threading
 
 
 def cores() -> int:
@@ -48,3 +52,48 @@ def frozen_heap():
 
 
 _frozen_depth = 0  # how many frozen_heap blocks are open in this process
+
+
+PR_SET_PDEATHSIG = 1  # <linux/prctl.h>
+PARENT_WATCH_S = 0.5
+"""Where the kernel cannot kill a child with its parent, how often the child checks for its parent (s)."""
+
+
+def bind_to_parent(parent: int) -> None:
+    """Call first thing in a child process: it dies with ``parent`` (a pid) and leaves stopping to it.
+
+    * The kernel sends SIGKILL to this process when its parent dies, however the parent ended (Ctrl-C,
+      SIGTERM, SIGKILL, ``timeout``): Linux's ``prctl(PR_SET_PDEATHSIG)``. Where that call is not
+      available, a daemon thread checks every :data:`PARENT_WATCH_S` seconds that the parent is still
+      there. A parent that died before this call (its pid is no longer ours' parent) ends the child at
+      once. Note: Linux counts the *thread* that forked the child; bimrobot's children are forked by a
+      thread that waits for them.
+    * SIGINT is ignored (Ctrl-C reaches the whole process group; the parent stops its children itself,
+      so they print no traceback of their own), and SIGTERM and SIGHUP are back to their default
+      action (end at once), whatever handlers the parent had installed.
+    """
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    for signum in (signal.SIGTERM, signal.SIGHUP):
+        signal.signal(signum, signal.SIG_DFL)
+    if not _kill_with_parent():
+        threading.Thread(target=_watch_parent, args=(parent,), name="bimrobot-parent-watch", daemon=True).start()
+    if os.getppid() != parent:  # the parent died before the kernel was told to watch it
+        os._exit(1)
+
+
+def _kill_with_parent() -> bool:
+    """Ask Linux to SIGKILL this process when its parent dies; False where it cannot."""
+    if not sys.platform.startswith("linux"):
+        return False
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        return libc.prctl(PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0) == 0
+    except (OSError, AttributeError):
+        return False
+
+
+def _watch_parent(parent: int) -> None:
+    """The fallback of :func:`bind_to_parent`: end this process once ``parent`` is no longer its parent."""
+    while os.getppid() == parent:
+        threading.Event().wait(PARENT_WATCH_S)
+    os._exit(1)

@@ -311,3 +311,69 @@ def test_a_crashed_geometry_process_names_the_file(steel_frame_ifc, monkeypatch)
     monkeypatch.setattr(reader._ShareReader, "__call__", crashing_in_child)
     with pytest.raises(InputError, match=r"steel_frame\.ifc: IfcOpenShell's geometry kernel crashed \(exit code -11\)"):
         load_model(steel_frame_ifc, processes=2)
+
+
+def _alive(pid: int) -> bool:
+    """Whether process ``pid`` still runs (a zombie, dead but not yet reaped, does not)."""
+    try:
+        with open(f"/proc/{pid}/stat", encoding="ascii") as stat:
+            return stat.read().rsplit(")", 1)[1].split()[0] != "Z"
+    except OSError:
+        return False
+
+
+_HANGING_READ = """
+import multiprocessing, os, sys, time
+from bimrobot.bim import reader
+caller, read = os.getpid(), reader._ShareReader.__call__
+def hanging(self, products, threads, bar=None):
+    found = read(self, products, threads, bar)
+    if os.getpid() == caller:  # the parent names its geometry processes, then never reads their findings
+        print(" ".join(str(child.pid) for child in multiprocessing.active_children()), flush=True)
+    time.sleep(600)  # parent and children alike: only a kill ends them
+    return found
+reader._ShareReader.__call__ = hanging
+reader.load_model(sys.argv[1], processes=3)
+"""
+
+
+@pytest.mark.skipif(not __import__("bimrobot.cores").cores.can_fork(), reason="geometry processes are forked on Linux only")
+@pytest.mark.parametrize("signum", ["SIGKILL", "SIGTERM"])
+def test_geometry_processes_die_with_the_reader(steel_frame_ifc, signum):
+    # issue 35: `convert ... & kill $!` left a geometry process with parent 1, blocked for ever
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    reader = subprocess.Popen([sys.executable, "-c", _HANGING_READ, str(steel_frame_ifc)], stdout=subprocess.PIPE, text=True)
+    try:
+        children = [int(pid) for pid in reader.stdout.readline().split()]
+        assert len(children) == 2 and all(_alive(pid) for pid in children)
+        reader.send_signal(getattr(signal, signum))
+        reader.wait(timeout=60)
+        for _ in range(100):  # the kernel kills them with their parent: at once, but allow 10 s under load
+            if not any(_alive(pid) for pid in children):
+                break
+            time.sleep(0.1)
+        assert not any(_alive(pid) for pid in children)
+    finally:
+        reader.kill()
+        reader.wait()
+        reader.stdout.close()
+
+
+def test_an_entity_id_defined_twice_is_refused_with_its_lines(tmp_path, steel_frame_ifc):
+    # issue 35: IfcOpenShell keeps the last definition while inverses mix both (an AttributeError later)
+    lines = steel_frame_ifc.read_text(encoding="utf-8").splitlines(keepends=True)
+    relation = next(i for i, line in enumerate(lines) if "IFCRELCONTAINEDINSPATIALSTRUCTURE" in line)
+    point = next(i for i, line in enumerate(lines) if "IFCCARTESIANPOINT" in line)
+    entity_id = lines[relation].split("=", 1)[0].strip()
+    lines.insert(point + 1, entity_id + "=" + lines[point].split("=", 1)[1])  # a point, under the relation's id
+    path = tmp_path / "twice.ifc"
+    path.write_text("".join(lines), encoding="utf-8")
+    with pytest.raises(InputError) as refused:
+        load_model(path)
+    message = str(refused.value)
+    assert message.startswith(f"{path} defines 1 entity id(s) more than once ({entity_id} on lines ")
+    assert str(point + 2) in message and str(relation + 2) in message and "IFC-SPF forbids" in message

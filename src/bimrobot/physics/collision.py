@@ -17,6 +17,7 @@ needs several pieces or its hull closes the gaps between flanges. The rule:
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 
 import numpy as np
@@ -81,7 +82,8 @@ def _coacd(body: Body, budget: int) -> list[np.ndarray] | None:
     import multiprocessing
 
     receiver, sender = multiprocessing.get_context("fork").Pipe(duplex=False)
-    worker = multiprocessing.get_context("fork").Process(target=_decompose, args=(body.vertices, body.faces, budget, sender))
+    worker = multiprocessing.get_context("fork").Process(
+        target=_decompose, args=(body.vertices, body.faces, budget, sender, os.getpid(), receiver))
     worker.start()
     sender.close()
     try:
@@ -97,8 +99,13 @@ def _coacd(body: Body, budget: int) -> list[np.ndarray] | None:
         receiver.close()
 
 
-def _decompose(vertices: np.ndarray, faces: np.ndarray, budget: int, sender) -> None:
+def _decompose(vertices: np.ndarray, faces: np.ndarray, budget: int, sender, parent: int, receiver) -> None:
     import coacd  # imported here: only concave members need it
+
+    from bimrobot.cores import bind_to_parent
+
+    bind_to_parent(parent)  # dies with the command, however it ends
+    receiver.close()  # only the parent reads: a write to a parent that is gone fails instead of blocking
 
     coacd.set_log_level("error")
     parts = coacd.run_coacd(coacd.Mesh(vertices, faces), max_convex_hull=budget, **COACD_SETTINGS)

@@ -26,6 +26,8 @@ from PIL import Image, ImageDraw
 import shapely
 from shapely.geometry import Polygon
 
+from bimrobot.errors import InputError
+
 OCCUPIED, FREE = 0, 254
 OCCUPIED_THRESH, FREE_THRESH = 0.65, 0.196
 
@@ -61,12 +63,37 @@ class OccupancyGrid:
         return bool(self.occupied[row, col])
 
 
+MAX_MAP_CELLS = 100_000_000
+"""The most cells one map may have (10^4 x 10^4: 500 m x 500 m at 5 cm; 100 MB while it is drawn)."""
+
+
 def grid_frame(bounds_xy: np.ndarray, margin: float, resolution: float) -> tuple[tuple[float, float], tuple[int, int]]:
-    """Origin (m) and (rows, cols) of a grid covering ``[[xmin, ymin], [xmax, ymax]]`` plus ``margin``."""
-    lower = np.floor((np.asarray(bounds_xy[0]) - margin) / resolution) * resolution
-    upper = np.asarray(bounds_xy[1]) + margin
-    cols, rows = np.maximum(np.ceil((upper - lower) / resolution).astype(int), 1)
+    """Origin (m) and (rows, cols) of a grid covering ``[[xmin, ymin], [xmax, ymax]]`` plus ``margin``.
+
+    Raises InputError when the grid would have more than :data:`MAX_MAP_CELLS` cells (the model
+    reaches far from the building, e.g. an element placed kilometres away) or the bounds are not finite.
+    """
+    bounds = np.asarray(bounds_xy, dtype=np.float64)
+    if not np.isfinite(bounds).all():
+        raise InputError(f"the occupancy maps cannot be sized: the model's extent in x and y is not finite ({_extent(bounds)})")
+    with np.errstate(over="ignore", invalid="ignore"):  # a huge extent becomes inf cells, refused below
+        lower = np.floor((bounds[0] - margin) / resolution) * resolution
+        upper = bounds[1] + margin
+        cells = np.maximum(np.ceil((upper - lower) / resolution), 1)  # (cols, rows), as floats: no overflow
+    if not np.isfinite(cells).all() or cells[0] * cells[1] > MAX_MAP_CELLS:
+        raise InputError(
+            f"the occupancy maps would be {cells[0]:.3g} x {cells[1]:.3g} cells ({_extent(bounds)} plus "
+            f"{margin:g} m around it, at {resolution:g} m per cell), more than the {MAX_MAP_CELLS:.0e} one map may "
+            "have: move the elements that lie far from the building (or the IFC project origin), "
+            "--exclude them, or use --no-maps or a coarser --map-resolution"
+        )
+    cols, rows = cells.astype(int)
     return (round(float(lower[0]), 9), round(float(lower[1]), 9)), (int(rows), int(cols))
+
+
+def _extent(bounds: np.ndarray) -> str:
+    """The xy bounds in words (metres)."""
+    return f"x {bounds[0][0]:.6g} .. {bounds[1][0]:.6g} m, y {bounds[0][1]:.6g} .. {bounds[1][1]:.6g} m"
 
 
 def occupancy(

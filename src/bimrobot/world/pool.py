@@ -10,9 +10,10 @@ travel back. Where ``fork`` is not available, or the job is small, the same func
 from __future__ import annotations
 
 import multiprocessing
+import os
 from collections.abc import Callable, Iterable, Iterator
 
-from bimrobot.cores import can_fork, cores, frozen_heap
+from bimrobot.cores import bind_to_parent, can_fork, cores, frozen_heap
 
 shared: dict = {}
 """What the tasks read: set by the parent before :func:`run` forks; workers see a copy-on-write view."""
@@ -36,7 +37,8 @@ class Tasks:
         self._pending: Iterator | None = None
         if parallel and workers > 1 and len(self._tasks) >= MIN_TASKS_FOR_POOL and can_fork():
             with frozen_heap():  # the workers' collections do not copy every page they inherit
-                self._pool = multiprocessing.get_context("fork").Pool(workers)
+                # the workers die with this process (bimrobot.cores.bind_to_parent), however it ends
+                self._pool = multiprocessing.get_context("fork").Pool(workers, bind_to_parent, (os.getpid(),))
             self._pending = self._pool.imap_unordered(function, self._tasks)
 
     @property
