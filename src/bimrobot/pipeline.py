@@ -271,12 +271,13 @@ def build_command(args: argparse.Namespace) -> int:
             codes[stage.name] = _run_stage(stage, args, folder)
             done[stage.name] = {"exit": codes[stage.name], "seconds": round(time.monotonic() - stage_started, 2)}
             _write_stages(folder, done)
-        (folder / "README.md").write_text(readme(args, folder, done), encoding="utf-8")
         (folder / STAGES_FILE).unlink()
         (folder / "build.json").write_text(json.dumps({
             "generator": io.signature("build"), "model": str(args.model.resolve()), "fleet": str(args.fleet),
             "site": str(args.site) if args.site else "thesis fig. 4.11", "backend": args.backend, "stages": done,
-            "resumed": resumed}, indent=2), encoding="utf-8")
+            "resumed": resumed, "start": _start_text(args)}, indent=2), encoding="utf-8")
+        figures = _build_report(folder)
+        (folder / "README.md").write_text(readme(args, folder, done, figures), encoding="utf-8")
     print(f"\nbuild: {io.printable(str(args.output))}/ in {time.monotonic() - started:.1f} s"
           f"{' (resumed)' if resumed else ''}; README.md says what each file is; "
           f"see the build with: rerun {io.printable(str(Path(args.output) / 'build.rrd'))}")
@@ -331,8 +332,9 @@ def _trajectory_row(folder: Path) -> str:
             "`bimrobot replay` |\n")
 
 
-def readme(args, folder: Path, done: dict) -> str:
-    """out/README.md: what each file is and how to open it."""
+def readme(args, folder: Path, done: dict, figures: str = "") -> str:
+    """out/README.md: the build's key figures (``figures``, Markdown from :func:`_build_report`), then
+    what each file is and how to open it."""
     from bimrobot import io
 
     seconds = ", ".join(f"{name} {info['seconds']:.1f} s" for name, info in done.items() if "seconds" in info)
@@ -342,9 +344,12 @@ def readme(args, folder: Path, done: dict) -> str:
 `bimrobot build {args.model.name} --fleet {args.fleet}{' --site ' + str(args.site) if args.site else ''}` ({seconds}).
 Fleet: `{args.fleet}`; site: {args.site or "the thesis' fig. 4.11"}. Units: metres, z up, kg, seconds.
 
+{figures}
+## Files
+
 | path | what | open it with |
 |---|---|---|
-| `package/` | Gazebo Sim package: `worlds/`, one model per element (`models/<GlobalId>/`), the components on the yard, `launch/`, `maps/` (Nav2 occupancy maps), `report.json` | `ros2 launch package/launch/gz_sim.launch.py`; `package/README.md` |
+{_report_rows(folder)}| `package/` | Gazebo Sim package: `worlds/`, one model per element (`models/<GlobalId>/`), the components on the yard, `launch/`, `maps/` (Nav2 occupancy maps), `report.json` | `ros2 launch package/launch/gz_sim.launch.py`; `package/README.md` |
 | `simulation/schedule.csv` | the simulated schedule: one row per activity (transport, position, assemble), robot, start, finish, predecessors (docs/conventions.md) | a spreadsheet; `bimrobot rcan run --schedule` |
 | `simulation/events.log` | the build step by step, in the thesis' Listing 4.2 words | a text editor |
 | `simulation/gantt.png` | Gantt chart of the robots' work | an image viewer |
@@ -356,3 +361,40 @@ Fleet: `{args.fleet}`; site: {args.site or "the thesis' fig. 4.11"}. Units: metr
 {_trajectory_row(folder)}{_work_schedule_row(args)}| `build.rrd` | 4D replay: the structure growing, components travelling from the yard with their robots, states, a Gantt you can scrub (docs/replay.md) | `rerun build.rrd`, or `bimrobot replay out/ -o view.rrd --serve` for the web viewer |
 | `build.json` | the inputs, options and the time of each stage | `jq` |
 """
+
+
+# --- the build report (bimrobot.report, issue 36): report.html, building.png, the README's key figures ---
+
+def _start_text(args) -> str:
+    """The build's t = 0 s as ISO text: ``--start``, else today 08:00 (as the IFC work schedule's)."""
+    from bimrobot.report.facts import parse_start
+
+    try:
+        return parse_start(args.start).isoformat(timespec="minutes")
+    except ValueError:
+        return str(args.start)
+
+
+def _build_report(folder: Path) -> str:
+    """Write ``report.html`` and ``building.png`` into the build folder; return the key figures as Markdown
+    for the README. Without the report extra (plotly, jinja2) the page is left out, with a line saying so."""
+    from bimrobot import report
+
+    print("\n== report: report.html (key figures, Gantt, states over time, the building assembled)", flush=True)
+    if report.missing_packages():
+        print(f"report: report.html not written: {report.INSTALL_HINT}", file=sys.stderr, flush=True)
+    else:
+        report.write_report(folder)
+    return report.readme_figures(folder)
+
+
+def _report_rows(folder: Path) -> str:
+    """The README rows of the report's files, when the build wrote them."""
+    rows = ""
+    if (folder / "report.html").exists():
+        rows += ("| `report.html` | the build report: key figures, the building assembled, a Gantt per robot, components "
+                 "per state over time, critical path, what was assumed, refused or escalated (one file, no network) | "
+                 "a web browser; `bimrobot report out/` writes it again |\n")
+    if (folder / "building.png").exists():
+        rows += "| `building.png` | the building assembled (every element at its installed pose) | an image viewer |\n"
+    return rows

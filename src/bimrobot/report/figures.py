@@ -1,0 +1,103 @@
+"""The key figures of a build, in words: one list shown at the top of ``report.html`` and of ``README.md``.
+
+Every number is the build's own, as its files hold it (the makespan and utilisation exactly as
+``simulation/summary.json`` has them); what a file does not say is "unknown".
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+
+from bimrobot.report.facts import BuildFacts
+
+UNKNOWN = "unknown"
+
+
+def seconds_text(seconds: float | None) -> str:
+    """``1,642.433 s`` (the number as the build wrote it)."""
+    return UNKNOWN if seconds is None else f"{seconds:,.3f}".rstrip("0").rstrip(".") + " s"
+
+
+def work_text(seconds: float) -> str:
+    """A duration of work in the largest sensible units: ``27 min 22 s``, ``7 h 05 min``."""
+    seconds = round(seconds)
+    hours, rest = divmod(seconds, 3600)
+    minutes, secs = divmod(rest, 60)
+    if hours:
+        return f"{hours} h {minutes:02d} min"
+    if minutes:
+        return f"{minutes} min {secs:02d} s"
+    return f"{secs} s"
+
+
+def date_text(moment: dt.datetime) -> str:
+    """``Mon 30 Nov 2026 07:27``."""
+    return f"{moment:%a %d %b %Y %H:%M}"
+
+
+def makespan_text(facts: BuildFacts) -> tuple[str, str]:
+    """The makespan (as summary.json has it) and its working time and calendar dates."""
+    if facts.makespan_s is None:
+        return UNKNOWN, "no simulation/summary.json"
+    days = facts.makespan_s / facts.calendar.day_s
+    return (f"{seconds_text(facts.makespan_s)} of work",
+            f"{work_text(facts.makespan_s)}, {days:,.2f} working days of {facts.calendar.day_s / 3600:g} h: "
+            f"{date_text(facts.work_begins)} to {date_text(facts.finish)}")
+
+
+def key_figures(facts: BuildFacts) -> list[tuple[str, str, str]]:
+    """(label, figure, detail) triples, in the order a planner reads them."""
+    built, total = len(facts.built()), len(facts.states)
+    path = facts.critical_path
+    return [
+        ("model", facts.model, f"project {facts.project}" if facts.project else ""),
+        ("fleet", facts.fleet, f"{len(facts.robots)} robots" if facts.robots else ""),
+        ("site", facts.site, ""),
+        ("start", date_text(facts.start), f"build --start; calendar {facts.calendar}"),
+        ("makespan", *makespan_text(facts)),
+        ("components assembled", f"{built} of {total}" if facts.states else UNKNOWN, ""),
+        ("activities", f"{len(facts.schedule)}" if facts.schedule else UNKNOWN, "simulation/schedule.csv"),
+        ("fleet utilisation", UNKNOWN if facts.fleet_utilisation is None else f"{facts.fleet_utilisation:.2%}",
+         "the robots' busy time over robots x makespan"),
+        ("critical path", f"{len(path.activities)} activities" if path else UNKNOWN, critical_text(facts, count=False) if path else ""),
+        ("RCAN run", *rcan_text(facts)),
+    ]
+
+
+def critical_text(facts: BuildFacts, count: bool = True) -> str:
+    """The critical path in one sentence (``count``: starting with its number of activities)."""
+    path = facts.critical_path
+    if path is None:
+        return UNKNOWN
+    return ((f"{len(path.activities)} activities: " if count else "")
+            + f"{seconds_text(round(path.work_s, 3))} of work and {seconds_text(round(path.waiting_s, 3))} of waiting; "
+            f"with every robot always free the predecessors alone would take {seconds_text(round(path.logic_bound_s, 3))}")
+
+
+def rcan_text(facts: BuildFacts) -> tuple[str, str]:
+    """What RCAN executed: status; activities done, escalated and blocked."""
+    rcan = facts.rcan
+    if rcan is None:
+        return UNKNOWN, "no rcan/report.json"
+    done, escalated, blocked = (len(rcan.get(k) or []) for k in ("done", "escalations", "blocked"))
+    return str(rcan.get("status", UNKNOWN)), f"{done} activities done, {escalated} escalated, {blocked} blocked"
+
+
+def markdown(facts: BuildFacts, picture: str | None = None) -> str:
+    """The key figures as the top of README.md: a table (and the picture, when drawn)."""
+    lines = ["## Key figures", "", "| | |", "|---|---|"]
+    lines += [f"| {label} | {_cell(value + (f' ({detail})' if detail else ''))} |" for label, value, detail in key_figures(facts)]
+    by_class = ", ".join(f"{name} {built}/{total}" for name, (built, total) in facts.count_by(0, False).items())
+    by_storey = ", ".join(f"{name} {built}/{total}" for name, (built, total) in facts.count_by(2, False).items())
+    lines += [f"| assembled by class | {_cell(by_class or UNKNOWN)} |", f"| assembled by storey | {_cell(by_storey or UNKNOWN)} |"]
+    robots = ", ".join(f"{r['robot']} {float(r['utilisation']):.2%}" for r in facts.robots)
+    lines.append(f"| robots (utilisation) | {_cell(robots or UNKNOWN)} |")
+    lines += ["", "The whole report, with the Gantt, the states over time and what was assumed: `report.html` "
+              "(one file, opens offline in any browser)."]
+    if picture:
+        lines += ["", f"![The building assembled]({picture})"]
+    return "\n".join(lines) + "\n"
+
+
+def _cell(text: str) -> str:
+    return str(text).replace("|", "\\|").replace("\n", " ")
