@@ -93,11 +93,14 @@ def test_without_relations_connections_are_inferred_from_touching_bodies():
     column = box_element("C", "IfcColumn", "", "L1", (-0.12, -0.12, 0.0), (0.12, 0.12, 4.0), 289.8)
     beam = box_element("B", "IfcBeam", "", "L2", (0.12, -0.08, 3.69), (3.5, 0.08, 4.0), 134.4)
     far = box_element("X", "IfcBeam", "", "L2", (10, 10, 3.69), (13, 10.2, 4.0), 100.0)
-    smart = build_smart_model(_model([footing, column, beam, far], []), inferred_assembly_points=4)
+    smart = build_smart_model(_model([footing, column, beam, far], []), assembly_points_per_joint=8)
     assert smart.connection_source == "inferred from geometry"
     assert sorted(j.component_ids for j in smart.inferred) == [("C", "B"), ("F", "C")]
     assert smart.summary()["inferred_joints"] == [["F", "C"], ["C", "B"]]
     assert smart.nodes["C:B"].assembly_point_number == 4 and smart.nodes["B:C"].component_id == "B"
+    assert smart.nodes["C:B"].assembly_point_source == "assumed"  # no fastener in the model: 8 per joint, 4 a side
+    assert smart.assembly_points_by_source == {"model": {"joints": 0, "points": 0},
+                                               "assumed": {"joints": 2, "points": 16, "per_joint": 8}}
     assert smart.unconnected == ["X"]
     joint = smart.joints["C:B"]
     assert np.allclose(joint.position[:2], [0.12, 0.0], atol=1e-9)  # the contact face

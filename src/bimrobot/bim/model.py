@@ -125,16 +125,37 @@ class Element:
 
 @dataclass(frozen=True)
 class Assembly:
-    """An ``IfcElementAssembly`` lifted and placed as one unit (a precast cast unit, a steel sub-frame).
+    """An aggregate lifted and placed as one unit: an ``IfcElementAssembly`` (a precast cast unit, a steel
+    sub-frame) or another element made of parts (``IfcRelAggregates``), such as Tekla's wide-slab floor
+    plate (an ``IfcSlab`` of ``IfcBuildingElementProxy`` parts) or a window of frame members.
 
-    Only outermost assemblies are kept: a Tekla precast balcony that holds embedded steel assemblies is
-    one unit. ``part_ids``: GlobalIds of the loaded elements anywhere below it, in file order.
+    Only outermost aggregates are kept: a Tekla precast balcony that holds embedded steel assemblies is
+    one unit. ``part_ids``: GlobalIds of the loaded elements anywhere below it (and the whole itself when
+    it has a body of its own), in file order. ``ifc_class``: the class of the whole.
     """
 
     global_id: str
     name: str
     storey_id: str | None
     part_ids: tuple[str, ...]
+    ifc_class: str = "IfcElementAssembly"
+
+
+@dataclass(frozen=True)
+class Relocation:
+    """An element whose local placement lies away from its body: its origin was moved onto the body.
+
+    ``distance_m``: how far the file's origin lay outside the body's local bounding box (metres);
+    ``file_origin`` / ``origin``: the origin in world coordinates before and after (metres). The body
+    is unchanged in the world; only the frame's origin moved (see :func:`bimrobot.bim.reader.anchor_to_bodies`).
+    """
+
+    global_id: str
+    ifc_class: str
+    name: str
+    distance_m: float
+    file_origin: tuple[float, float, float]
+    origin: tuple[float, float, float]
 
 
 @dataclass(frozen=True)
@@ -165,6 +186,13 @@ class BuildingModel:
     connections: list[Connection]
     skipped: list[SkippedProduct] = field(default_factory=list)
     assemblies: dict[str, Assembly] = field(default_factory=dict)
+    #: elements whose origin was moved from a placement away from the body onto it (see Relocation)
+    relocated: list[Relocation] = field(default_factory=list)
+    #: what the unknown-weight rule did when the model was loaded (an UnknownWeights), None if not applied
+    unknown_weights: object | None = None
+    #: the ``--prebuilt`` selector evaluated when the model was loaded, and the keys it picked
+    prebuilt_selector: str | None = None
+    prebuilt_ids: frozenset[str] = frozenset()
 
     def assembly_of(self, global_id: str) -> Assembly | None:
         """The outermost assembly that holds the element, or None."""

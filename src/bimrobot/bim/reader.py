@@ -60,6 +60,8 @@ def load_model(
     threads: int | None = None,
     properties: bool = True,
     processes: int | None = None,
+    prebuilt: str | None = None,
+    unknown_weight=None,
 ) -> BuildingModel:
     """Read ``path`` (IFC2X3, IFC4 or IFC4X3_ADD2) into a BuildingModel (metres, z up, kg).
 
@@ -76,6 +78,13 @@ def load_model(
     ``properties``: read every property and quantity value into ``Element.properties``; False leaves
     those empty and reads only what the weights need (weight quantities, weight properties by name),
     which is what ``convert`` does: reading every value costs up to 0.7 ms per element.
+    ``prebuilt``: a ``--prebuilt`` selector, evaluated here (``model.prebuilt_ids``) for
+    :func:`bimrobot.sco.build.prebuilt_rule`. ``unknown_weight``: an
+    :class:`~bimrobot.bim.unknown_weight.UnknownWeightRule` applied once, here, to every element without
+    a weight in the model (``model.unknown_weights`` says what it did); None leaves them unknown.
+    An element whose local placement lies away from its body (Revit's stair flights, columns and slabs
+    placed at (0, 0, 0) with their bodies metres away) gets its origin moved onto the body
+    (:func:`anchor_to_bodies`; ``model.relocated`` lists them), so every consumer reads the body's place.
     Raises :class:`~bimrobot.errors.InputError` naming the file when it is missing, not IFC, truncated,
     of an unsupported schema, or holds no element with solid geometry.
     """
@@ -108,7 +117,7 @@ def load_model(
 
     order = {product_key(p, keys): i for i, p in enumerate(candidates)}
     elements = dict(sorted(elements.items(), key=lambda item: order[item[0]]))
-    return BuildingModel(
+    model = BuildingModel(
         source=path,
         schema=ifc.schema_identifier,
         project_name=_name_of_first(ifc, "IfcProject"),
@@ -125,6 +134,7 @@ def load_model(
         skipped=skipped,
         assemblies=_assemblies(ifc, elements, storey_cache, keys),
     )
+    return _finish(model, ifc, keys, prebuilt, unknown_weight)
 
 
 MIN_PRODUCTS_TO_SHARE = 32
@@ -701,19 +711,50 @@ def _connections(ifc: ifcopenshell.file, elements: dict[str, Element], keys: dic
 def _assemblies(
     ifc: ifcopenshell.file, elements: dict[str, Element], storey_cache: dict, keys: dict[int, str]
 ) -> dict[str, Assembly]:
-    """Outermost IfcElementAssemblies with at least one loaded part (parts of nested assemblies included)."""
+    """Outermost aggregates lifted as one unit (:func:`is_unit_whole`) with at least one loaded part
+    (parts of nested aggregates included, and the whole itself when it has a body of its own)."""
     order = {gid: index for index, gid in enumerate(elements)}
     assemblies = {}
-    for assembly in ifc.by_type("IfcElementAssembly"):
-        if outermost_assembly(assembly).id() != assembly.id():
+    wholes = {rel.RelatingObject for rel in ifc.by_type("IfcRelAggregates") if is_unit_whole(rel.RelatingObject)}
+    for whole in sorted(wholes, key=lambda w: w.id()):
+        if outermost_unit(whole).id() != whole.id():
             continue  # a sub-assembly: its parts belong to the outer unit
-        below = ifcopenshell.util.element.get_decomposition(assembly, is_recursive=True)
-        parts = sorted((key for p in below if (key := product_key(p, keys)) in order), key=order.__getitem__)
+        below = [whole, *ifcopenshell.util.element.get_decomposition(whole, is_recursive=True)]
+        parts = sorted({key for p in below if (key := product_key(p, keys)) in order}, key=order.__getitem__)
         if parts:
-            storey = _storey_of(assembly, storey_cache)
-            key = product_key(assembly, keys)
-            assemblies[key] = Assembly(key, assembly.Name or "", storey, tuple(parts))
+            storey = _storey_of(whole, storey_cache)
+            key = product_key(whole, keys)
+            assemblies[key] = Assembly(key, whole.Name or "", storey, tuple(parts), whole.is_a())
     return assemblies
+
+
+#: Aggregates whose parts are installed one by one on site (a roof of rafters and slabs, a curtain wall
+#: of mullions and panels, a stair or ramp of flights and landings): never one lifted unit.
+BUILT_IN_PLACE_WHOLES = ("IfcRoof", "IfcCurtainWall", "IfcStair", "IfcRamp")
+
+
+def is_unit_whole(entity) -> bool:
+    """Whether ``entity`` is an aggregate lifted and placed as one unit: an IfcElement (not spatial, not
+    a feature) that aggregates parts and is not one of :data:`BUILT_IN_PLACE_WHOLES`. IfcElementAssembly
+    always is; so are Tekla's precast floor plates (an IfcSlab of proxies) and a window of members."""
+    if entity is None or not entity.is_a("IfcElement") or entity.is_a("IfcFeatureElement"):
+        return False
+    if entity.is_a("IfcElementAssembly"):
+        return True
+    return not any(entity.is_a(name) for name in BUILT_IN_PLACE_WHOLES)
+
+
+def outermost_unit(product):
+    """The outermost aggregate lifted as one unit (:func:`is_unit_whole`) that holds ``product`` (itself
+    when it is one), or None: the climb stops at a whole built in place (a roof) or a spatial element."""
+    found = product if is_unit_whole(product) and getattr(product, "IsDecomposedBy", None) else None
+    node = product
+    for _ in range(32):  # aggregation trees are shallow; the bound guards against cyclic files
+        parent = ifcopenshell.util.element.get_aggregate(node)
+        if parent is None or not is_unit_whole(parent):
+            break
+        found = node = parent
+    return found
 
 
 def outermost_assembly(product):
@@ -726,6 +767,71 @@ def outermost_assembly(product):
             break
         found = node = parent
     return found
+
+
+# ---- finishing a model: bodies' origins, prebuilt selection, unknown weights --------------------------
+
+#: An origin farther than this outside its body's local bounding box lies elsewhere (metres). Real
+#: exports put an origin up to about 0.5 m off the body on purpose (Revit's beam ends at the column's
+#: axis, ArchiCAD's wall reference lines); Revit's columns, slabs and stair flights placed at (0, 0, 0)
+#: lie 3-110 m away.
+ORIGIN_OFF_BODY_M = 1.0
+
+
+def _finish(model: BuildingModel, ifc, keys: dict[int, str], prebuilt: str | None, unknown_weight) -> BuildingModel:
+    """What :func:`load_model` does once the elements are read: origins onto bodies, the prebuilt
+    selection, the unknown-weight rule."""
+    model.relocated = anchor_to_bodies(model.elements.values())
+    if model.relocated:
+        log.info("%s: %d element(s) are placed away from their bodies; their origins were moved onto them",
+                 _shown(model.source), len(model.relocated))
+    if prebuilt is not None and str(prebuilt).strip():
+        from bimrobot.bim.selection import select_ids
+
+        selector = as_selector(prebuilt) if not isinstance(prebuilt, str) else prebuilt
+        ids = select_ids(ifc, selector, model.source, "--prebuilt")
+        model.prebuilt_selector = selector
+        model.prebuilt_ids = frozenset(product_key(ifc.by_id(i), keys) for i in ids)
+    if unknown_weight is not None:
+        from bimrobot.bim.unknown_weight import apply_unknown_weight_rule
+
+        model.unknown_weights = apply_unknown_weight_rule(model.elements.values(), unknown_weight, _shown(model.source))
+    return model
+
+
+def anchor_to_bodies(elements: Iterable[Element], off_body_m: float = ORIGIN_OFF_BODY_M) -> list:
+    """Move the origin of every element whose placement lies away from its body onto the body.
+
+    An origin more than ``off_body_m`` (metres) outside the body's local bounding box is moved to the
+    bottom centre of that box: the placement's translation becomes that point in the world and the
+    vertices are shifted by the opposite amount, so the body stays exactly where it is in the world
+    while ``Element.position`` (and every goal, schedule row, graph node and pose taken from it) is
+    where the body is. The rotation is kept. Changes the elements in place; returns a
+    :class:`~bimrobot.bim.model.Relocation` per moved element, in the order given.
+    """
+    from bimrobot.bim.model import Relocation
+
+    moved = []
+    for element in elements:
+        if not len(element.vertices):
+            continue
+        low, high = element.local_bounds
+        distance = float(np.linalg.norm(np.maximum(0.0, np.maximum(low, -high))))  # origin to the box
+        if distance <= off_body_m:
+            continue
+        anchor = np.array([(low[0] + high[0]) / 2.0, (low[1] + high[1]) / 2.0, low[2]])
+        placement = element.placement.copy()
+        file_origin = placement[:3, 3].copy()
+        placement[:3, 3] = (placement @ np.append(anchor, 1.0))[:3]
+        vertices = element.vertices - anchor
+        vertices.setflags(write=False)
+        element.placement, element.vertices = placement, vertices
+        for cached in ("world_vertices", "mesh", "volume_m3"):
+            element.__dict__.pop(cached, None)
+        moved.append(Relocation(element.global_id, element.ifc_class, element.name, round(distance, 3),
+                                tuple(round(float(v), 4) for v in file_origin),
+                                tuple(round(float(v), 4) for v in placement[:3, 3])))
+    return moved
 
 
 # ---- duplicate GlobalIds ---------------------------------------------------------------------------

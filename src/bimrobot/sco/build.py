@@ -13,14 +13,19 @@ the assembly method from the ConnectionType or the realizing elements' class/nam
 
 When a model has no such relations (most real exports) the connections inferred from touching bodies
 (``Connection.inferred``) are used instead: each touching pair is a joint with a node on each side, and
-:attr:`SmartModel.inferred` says so.
+:attr:`SmartModel.inferred` says so. An inferred joint's fastening points come from the model where it
+has them: the IfcMechanicalFastener / IfcFastener elements whose bodies reach into both components (one
+point each, or the count a bolt group's property gives). Otherwise the joint is given
+``assembly_points_per_joint`` points (default :data:`ASSUMED_POINTS_PER_JOINT`), split over its two
+nodes and marked *assumed*; :attr:`SmartModel.assembly_points_by_source` counts both.
 
 Precast and steel exports (Tekla) group parts into ``IfcElementAssembly`` units, the unit that is
-lifted and placed. By default, when the model has assemblies, each outermost assembly is ONE component
-(:func:`assembly_units`): its parts travel and are placed together, its mass is the sum of its parts',
-its body the union of theirs, its id the assembly's GlobalId and its class that of its heaviest part
-(``object_type`` says ``IfcElementAssembly``). Connections between parts of one assembly are made in the
-factory, not on site. ``by_element=True`` builds element by element instead.
+lifted and placed, and into other aggregates (a wide-slab floor plate: an ``IfcSlab`` of proxies); see
+:attr:`BuildingModel.assemblies`. By default each outermost one is ONE component (:func:`assembly_units`):
+its parts travel and are placed together, its mass is the sum of its parts', its body the union of
+theirs, its id the whole's GlobalId, its ``object_type`` the whole's class, and its class the whole's
+(an IfcElementAssembly takes that of its heaviest part). Connections between parts of one unit are made
+in the factory, not on site. ``by_element=True`` builds element by element instead.
 
 Prebuilt components (foundations, or what ``--prebuilt`` names, e.g. cast-in-place slabs and walls) are
 work of others. One is on site from the start only when everything it rests on is prebuilt too; one
@@ -31,6 +36,7 @@ in no robot time, the moment everything it rests on has its position fixed (:att
 from __future__ import annotations
 
 import contextlib
+import re
 import copy
 import gc
 import logging
@@ -41,14 +47,25 @@ from typing import Callable, Iterable
 import numpy as np
 
 from bimrobot.bim.model import BuildingModel, Connection, Element, WeightSource
+from bimrobot.bim.selection import DEFAULT_PREBUILT
 from bimrobot.errors import InputError
 from bimrobot.sco.component import Component, ConnectionNode, Joint
 from bimrobot.sco.states import State
 
 log = logging.getLogger(__name__)
 
-#: Classes that are foundations already built on site when the simulation starts (thesis 4.5.2).
-PREBUILT_CLASSES = ("IfcFooting", "IfcPile")
+#: Classes that are foundations already built on site when the simulation starts (thesis 4.5.2): the
+#: default ``--prebuilt`` selector (:data:`bimrobot.bim.selection.DEFAULT_PREBUILT`) as a tuple.
+PREBUILT_CLASSES = tuple(name.strip() for name in DEFAULT_PREBUILT.split(","))
+#: Fastening points an inferred joint is given when the model has no fastener there: four bolts, the
+#: smallest usual bolted shear connection (a beam's fin plate or cleat), two on each side's node. An
+#: assumption, reported as such; set ``assembly_points_per_joint`` (the fleet/site file's key of that name).
+ASSUMED_POINTS_PER_JOINT = 4
+#: Classes whose elements are the fastening points of a joint when they reach into both its components.
+FASTENER_CLASSES = ("IfcMechanicalFastener", "IfcFastener")
+#: Property names (after the last "/", lower case) that give how many fasteners one element stands for
+#: (a bolt group exported as one element).
+FASTENER_COUNT_PROPERTIES = ("bolt count", "number of bolts", "numberofbolts", "boltcount", "number of fasteners")
 #: Classes that are never components themselves (fasteners, non-physical or non-structural items).
 #: Reinforcement is cast into its concrete, never lifted by itself. (Proxies are components: Tekla exports
 #: precast floor plates as IfcBuildingElementProxy; leave them out with ``--exclude IfcBuildingElementProxy``.)
@@ -93,6 +110,11 @@ class SmartModel:
     prebuilt_later: list[str] = field(default_factory=list)
     assemblies: int = 0
     internal_connections: int = 0
+    #: {"model": {"joints": n, "points": n}, "assumed": {"joints": n, "points": n, "per_joint": n}}
+    assembly_points_by_source: dict = field(default_factory=dict)
+    #: elements whose goal was taken from their body, not from a placement that lies elsewhere
+    #: (:attr:`bimrobot.bim.model.BuildingModel.relocated`): [{"GlobalId", "class", "name", "moved_m"}]
+    goals_from_body: list[dict] = field(default_factory=list)
 
     def copy_for_run(self) -> SmartModel:
         """A copy whose components and nodes change state and position independently of this model's.
@@ -154,7 +176,9 @@ class SmartModel:
             "connection_nodes": len(self.nodes),
             "joints": len(self.joints),
             "assembly_points": sum(n.assembly_point_number for n in nodes),
+            "assembly_points_by_source": self.assembly_points_by_source,
             "assembly_methods": sorted({n.assembly_method for n in nodes}),
+            "goals_from_body": {"count": len(self.goals_from_body), "elements": self.goals_from_body},
             "connectors": self.connectors,
             "inferred_joints": [list(j.component_ids) for j in self.inferred],
             "unconnected_components": self.unconnected,
@@ -186,9 +210,9 @@ def gc_paused():
 def build_smart_model(
     model: BuildingModel,
     *,
-    prebuilt_classes: Iterable[str] = PREBUILT_CLASSES,
+    prebuilt_classes: Iterable[str] | str = PREBUILT_CLASSES,
     inferred_tolerance_m: float = 0.01,
-    inferred_assembly_points: int = 4,
+    assembly_points_per_joint: int = ASSUMED_POINTS_PER_JOINT,
     inferred_assembly_method: str = "bolt",
     by_element: bool = False,
 ) -> SmartModel:
@@ -196,20 +220,23 @@ def build_smart_model(
 
     Uses the model's ``IfcRelConnectsWithRealizingElements`` when there are any; otherwise connections
     inferred from touching geometry (``bimrobot.bim.connections.infer_connections`` with
-    ``inferred_tolerance_m``, metres), each node of which gets ``inferred_assembly_points`` points
-    fastened by ``inferred_assembly_method``. When the model has assemblies (``model.assemblies``) each
-    is one component unless ``by_element``. ``prebuilt_classes``: IFC classes (subclasses count; and
-    ``IfcElementAssembly`` for every assembly unit) that are work of others. Raises InputError when the
-    model has no buildable element, a prebuilt class is not an IFC class, or the tolerance is not in
-    (0, 0.5] m.
+    ``inferred_tolerance_m``, metres). An inferred joint's points are the model's fasteners there, or
+    else ``assembly_points_per_joint`` (assumed, made by ``inferred_assembly_method``). When the model
+    has assemblies (``model.assemblies``) each is one component unless ``by_element``.
+    ``prebuilt_classes``: a ``--prebuilt`` selector, or IFC class names (subclasses count; and
+    ``IfcElementAssembly`` for every assembly unit), that are work of others. Raises InputError when the
+    model has no buildable element, a prebuilt class is not an IFC class, the tolerance is not in
+    (0, 0.5] m or the points per joint are not a whole number >= 1.
     """
     if not (0 < inferred_tolerance_m <= MAX_TOLERANCE_M):
         raise InputError(
             f"the contact tolerance must be > 0 and <= {MAX_TOLERANCE_M:g} m (bodies this close count as touching), "
             f"got {inferred_tolerance_m!r}"
         )
-    if isinstance(inferred_assembly_points, bool) or not isinstance(inferred_assembly_points, int) or inferred_assembly_points < 1:
-        raise InputError(f"inferred joints need at least 1 fastening point per node, got {inferred_assembly_points!r}")
+    if isinstance(assembly_points_per_joint, bool) or not isinstance(assembly_points_per_joint, int) or assembly_points_per_joint < 1:
+        raise InputError(
+            f"assembly_points_per_joint must be a whole number of fastening points >= 1, got {assembly_points_per_joint!r}"
+        )
     is_prebuilt = prebuilt_rule(model, prebuilt_classes)
     explicit = [c for c in model.connections if not c.inferred]
     realizing = {r for c in explicit for r in c.realizing_ids}
@@ -247,12 +274,14 @@ def build_smart_model(
         for gid, element in work.elements.items()
         if gid not in related and gid not in realizing and element.ifc_class not in NON_COMPONENT_CLASSES
     ]
+    wholes = {gid: a.ifc_class for gid, a in model.assemblies.items()} if parts else {}
     if not component_ids:
         raise InputError(f"{model.source or 'the model'} has no buildable element (columns, beams, footings, ...)")
 
     floors, floor_names = _floor_order(work)
     components = {
-        gid: _component(work.elements[gid], work, floors, is_prebuilt, parts.get(gid, ())) for gid in component_ids
+        gid: _component(work.elements[gid], work, floors, is_prebuilt, parts.get(gid, ()), wholes.get(gid))
+        for gid in component_ids
     }
 
     duplicates: list[str] = []
@@ -262,8 +291,10 @@ def build_smart_model(
         for gid in duplicates:
             del components[gid]
     else:
+        fasteners = _fasteners_at_joints(model, work, connections, components, inferred_tolerance_m,
+                                         {p for ids in parts.values() for p in ids})
         joints, nodes = _direct_joints(
-            work, model, connections, components, inferred_assembly_points, inferred_assembly_method
+            work, model, connections, components, assembly_points_per_joint, inferred_assembly_method, fasteners
         )
     for node in nodes.values():
         components[node.component_id].connection_nodes.append(node)
@@ -331,6 +362,11 @@ def build_smart_model(
         prebuilt_later=sorted(later),
         assemblies=sum(1 for c in components.values() if c.part_ids),
         internal_connections=internal,
+        assembly_points_by_source=_points_by_source(joints, nodes, assembly_points_per_joint),
+        goals_from_body=[
+            {"GlobalId": r.global_id, "class": r.ifc_class, "name": r.name, "moved_m": r.distance_m}
+            for r in getattr(model, "relocated", ())
+        ],
     )
     if smart.unknown_weight:
         log.warning(
@@ -362,52 +398,90 @@ def _declaration(schema, name: str):
         return None
 
 
-def prebuilt_rule(model: BuildingModel, classes: Iterable[str]) -> Callable[[str], bool]:
-    """A test ``ifc_class -> bool``: is a component of that class prebuilt (work of others)?
+_CLASS_NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")  # a bare name: the old class list
 
-    ``classes``: IFC class names; a class takes its subclasses in the model's schema (``IfcWall`` takes
-    ``IfcWallStandardCase``), as IfcOpenShell selectors do. A name valid in another IFC schema only
-    (e.g. ``IfcWallStandardCase`` asked of an IFC4X3 file) matches nothing. Raises InputError for a name
-    that is no IFC class at all, listing the classes the model has.
+
+class PrebuiltRule:
+    """Which components are prebuilt (work of others), from a ``--prebuilt`` selector.
+
+    Called with an IFC class name it says whether that class is prebuilt (subclasses count), as the
+    plain class rule always did; :meth:`of` decides for a component: an element or unit the selector
+    picked, one of a prebuilt class, or a unit whose whole is of a prebuilt class (or, with
+    ``IfcElementAssembly`` among the classes, any unit), or whose parts the selector all picked.
     """
-    if isinstance(classes, str):
-        classes = classes.split(",")
-    known = [s for s in (_schema(n) for n in KNOWN_SCHEMAS) if s is not None]
-    own = _schema(model.schema) or _schema("IFC4")
-    wanted: set[str] = set()
-    for raw in classes:
-        name = str(raw).strip()
-        if not name:
-            continue
-        declarations = [d for d in (_declaration(s, name) for s in known) if d is not None]
-        if not declarations:
-            present = sorted(set(model.class_counts()) | ({ASSEMBLY_CLASS} if model.assemblies else set()))
-            raise InputError(
-                f"--prebuilt names '{name}', which is not an IFC class "
-                f"(this model's classes: {', '.join(present) or 'none'})"
-            )
-        wanted.add(declarations[0].name())
-    cache: dict[str, bool] = {}
 
-    def matches(ifc_class: str) -> bool:
-        if ifc_class not in cache:
-            declaration = _declaration(own, ifc_class)
+    def __init__(self, classes: set[str], own_schema, ids: frozenset[str] = frozenset()):
+        self.classes, self.ids, self._own, self._cache = classes, ids, own_schema, {}
+        self.assemblies = ASSEMBLY_CLASS in classes
+
+    def __call__(self, ifc_class: str) -> bool:
+        if ifc_class not in self._cache:
+            declaration = _declaration(self._own, ifc_class)
             names = {ifc_class}
             while declaration is not None:
                 names.add(declaration.name())
                 declaration = declaration.supertype()
-            cache[ifc_class] = bool(names & wanted)
-        return cache[ifc_class]
+            self._cache[ifc_class] = bool(names & self.classes)
+        return self._cache[ifc_class]
 
-    matches.assemblies = ASSEMBLY_CLASS in wanted  # type: ignore[attr-defined]
-    return matches
+    def of(self, component_id: str, ifc_class: str, whole_class: str | None = None, part_ids=()) -> bool:
+        """Whether the component (an element, or a unit of ``part_ids`` whose whole is ``whole_class``) is prebuilt."""
+        if component_id in self.ids or self(ifc_class):
+            return True
+        if part_ids:
+            if self.assemblies or (whole_class and self(whole_class)):
+                return True
+            return bool(self.ids) and all(p in self.ids for p in part_ids)
+        return False
+
+
+def prebuilt_rule(model: BuildingModel, classes: Iterable[str] | str) -> PrebuiltRule:
+    """The :class:`PrebuiltRule` of a ``--prebuilt`` selector (or of IFC class names).
+
+    A comma list of class names (``"IfcFooting, IfcPile"``, the old ``--prebuilt`` syntax) is read
+    without the IFC file: a class takes its subclasses in the model's schema (``IfcWall`` takes
+    ``IfcWallStandardCase``), and a name valid in another IFC schema only matches nothing. Any other
+    selector (``"IfcSlab, /Pset_SlabCommon/.IsExternal=False"``, ``"IfcWall + IfcSlab"``) is evaluated
+    with IfcOpenShell: from ``model.prebuilt_ids`` when the model was loaded with that selector
+    (``load_model(prebuilt=...)``), else on the model's file. Raises InputError for a name that is no
+    IFC class at all (listing the classes the model has) or an invalid selector.
+    """
+    text = classes if isinstance(classes, str) else ", ".join(str(c) for c in classes)
+    names = [name.strip() for name in text.split(",") if name.strip()]
+    own = _schema(model.schema) or _schema("IFC4")
+    if all(_CLASS_NAME.match(name) for name in names):
+        known = [s for s in (_schema(n) for n in KNOWN_SCHEMAS) if s is not None]
+        wanted: set[str] = set()
+        for name in names:
+            declarations = [d for d in (_declaration(s, name) for s in known) if d is not None]
+            if not declarations:
+                present = sorted(set(model.class_counts()) | ({ASSEMBLY_CLASS} if model.assemblies else set()))
+                raise InputError(
+                    f"--prebuilt names '{name}', which is not an IFC class "
+                    f"(this model's classes: {', '.join(present) or 'none'})"
+                )
+            wanted.add(declarations[0].name())
+        return PrebuiltRule(wanted, own)
+    if getattr(model, "prebuilt_selector", None) == text:
+        return PrebuiltRule(set(), own, model.prebuilt_ids)
+    if model.source is None or not str(model.source).lower().endswith((".ifc", ".ifczip")):
+        raise InputError(f"--prebuilt '{text}' is a selector, which needs the model's IFC file; give IFC class names instead")
+    from bimrobot.bim.reader import open_ifc, product_key, product_keys
+    from bimrobot.bim.selection import select_ids
+
+    log.info("evaluating --prebuilt '%s' on %s", text, model.source)
+    ifc = open_ifc(model.source)
+    keys = product_keys(ifc)
+    ids = frozenset(product_key(ifc.by_id(i), keys) for i in select_ids(ifc, text, model.source, "--prebuilt"))
+    return PrebuiltRule(set(), own, ids)
 
 
 def assembly_units(model: BuildingModel) -> tuple[BuildingModel, dict[str, str], dict[str, tuple[str, ...]], list[str]]:
     """The model with each outermost assembly replaced by one element: its unit.
 
-    A unit keeps the assembly's GlobalId, name and storey (else its heaviest part's), takes the class,
-    placement and local frame of its heaviest part, and as body the union of its parts' bodies (in that
+    A unit keeps the assembly's GlobalId, name and storey (else its heaviest part's), takes the
+    placement and local frame of its heaviest part and its class (the whole's class when the whole is
+    not an IfcElementAssembly: an IfcSlab floor plate of proxies is an IfcSlab), and as body the union of its parts' bodies (in that
     frame, so its size is measured along the main part). Its weight is the sum of its parts' (kg), or
     None when no part has one. Returns (the unit model, element id -> unit id for every part, unit id ->
     part ids, ids of units with a part whose weight is unknown).
@@ -421,6 +495,7 @@ def assembly_units(model: BuildingModel) -> tuple[BuildingModel, dict[str, str],
         if not parts:
             continue
         main = max(parts, key=_mass_proxy)
+        whole_class = getattr(assembly, "ifc_class", ASSEMBLY_CLASS)
         to_main = np.linalg.inv(main.placement)
         vertices, faces, offset = [], [], 0
         for part in parts:
@@ -434,7 +509,7 @@ def assembly_units(model: BuildingModel) -> tuple[BuildingModel, dict[str, str],
         sources = {p.weight_source for p in parts}
         elements[assembly.global_id] = Element(
             global_id=assembly.global_id,
-            ifc_class=main.ifc_class,
+            ifc_class=main.ifc_class if whole_class == ASSEMBLY_CLASS else whole_class,
             name=assembly.name or main.name,
             storey_id=assembly.storey_id or main.storey_id,
             placement=main.placement.copy(),
@@ -514,15 +589,19 @@ def _floor_of(element: Element, model: BuildingModel, floors: list[str]) -> int:
     return floor
 
 
-def _component(element: Element, model: BuildingModel, floors: list[str], is_prebuilt, part_ids=()) -> Component:
+def _component(element: Element, model: BuildingModel, floors: list[str], is_prebuilt, part_ids=(),
+               whole_class: str | None = None) -> Component:
     bounds = element.world_bounds
     extents = sorted(own_extents(element), reverse=True)
     centre = bounds.mean(axis=0)
-    prebuilt = is_prebuilt(element.ifc_class) or bool(part_ids and getattr(is_prebuilt, "assemblies", False))
+    if isinstance(is_prebuilt, PrebuiltRule):
+        prebuilt = is_prebuilt.of(element.global_id, element.ifc_class, whole_class, part_ids)
+    else:  # a plain test of the class
+        prebuilt = bool(is_prebuilt(element.ifc_class))
     return Component(
         id=element.global_id,
         name=element.name,
-        object_type=ASSEMBLY_CLASS if part_ids else element.ifc_class,
+        object_type=(whole_class or ASSEMBLY_CLASS) if part_ids else element.ifc_class,
         ifc_class=element.ifc_class,
         weight_kg=element.weight_kg,
         storey_id=element.storey_id,
@@ -697,6 +776,7 @@ def _joints_from_relations(model, connections, components, connectors: set[str])
             connector_ids=(connector_id,),
             assembly_point_number=max(1, len(c.realizing_ids)),
             assembly_method=assembly_method(c, model),
+            assembly_point_source="model" if c.realizing_ids else "assumed",
             position=position if position is not None else component.target_position.copy(),
         )
         group_nodes.setdefault(group, []).append(node_id)
@@ -735,23 +815,117 @@ def _contact_point(a: Component, b: Component, model: BuildingModel) -> np.ndarr
     return (low + high) / 2.0  # centre of the overlap (or of the gap, when within tolerance)
 
 
-def _direct_joints(model, source_model, connections, components, points: int, method: str):
+def _fasteners_at_joints(model: BuildingModel, work: BuildingModel, connections, components, tolerance_m: float,
+                         internal: set[str]) -> dict[frozenset, list[Element]]:
+    """The model's fasteners at each inferred joint: {frozenset((a, b)): [fastener elements]}.
+
+    A fastener (:data:`FASTENER_CLASSES`; not a part of a unit, where it is made in the factory) is at
+    the joint of two components when its body's world box reaches into both components' boxes (within
+    ``tolerance_m`` metres, the contact tolerance): a bolt through a fin plate and a column. When it
+    reaches into several joints, it is at the one whose contact centre is nearest to it.
+    """
+    fasteners = [e for gid, e in model.elements.items() if e.ifc_class in FASTENER_CLASSES and gid not in internal]
+    pairs = list(dict.fromkeys(
+        frozenset((c.relating_id, c.related_id)) for c in connections
+        if c.inferred and c.relating_id in components and c.related_id in components and c.relating_id != c.related_id
+    ))
+    if not fasteners or not pairs:
+        return {}
+    ordered = [tuple(sorted(pair)) for pair in pairs]
+    box_of = {gid: work.elements[gid].world_bounds for pair in ordered for gid in pair}
+    low_a = np.array([box_of[a][0] for a, _ in ordered]) - tolerance_m
+    high_a = np.array([box_of[a][1] for a, _ in ordered]) + tolerance_m
+    low_b = np.array([box_of[b][0] for _, b in ordered]) - tolerance_m
+    high_b = np.array([box_of[b][1] for _, b in ordered]) + tolerance_m
+    centres = (np.maximum(low_a, low_b) + np.minimum(high_a, high_b)) / 2.0
+    found: dict[frozenset, list[Element]] = {}
+    for fastener in fasteners:
+        low, high = fastener.world_bounds
+        touches = (
+            np.all(low <= high_a, axis=1) & np.all(high >= low_a, axis=1)
+            & np.all(low <= high_b, axis=1) & np.all(high >= low_b, axis=1)
+        )
+        if not touches.any():
+            continue
+        candidates = np.flatnonzero(touches)
+        distance = np.linalg.norm(centres[candidates] - (low + high) / 2.0, axis=1)
+        found.setdefault(pairs[int(candidates[int(np.argmin(distance))])], []).append(fastener)
+    return found
+
+
+def fastener_count(element: Element) -> int:
+    """How many fastening points one fastener element stands for: a count property of a bolt group
+    (:data:`FASTENER_COUNT_PROPERTIES`, a whole number 1-1000), else 1."""
+    for key, value in (element.properties or {}).items():
+        if str(key).rsplit("/", 1)[-1].lower() in FASTENER_COUNT_PROPERTIES:
+            try:
+                count = int(float(value))
+            except (TypeError, ValueError):
+                continue
+            if 1 <= count <= 1000 and count == float(value):
+                return count
+    return 1
+
+
+def fastener_method(fasteners: list[Element]) -> str:
+    """"bolt" or "weld" for the fasteners of one joint: a name saying weld or bolt decides, else
+    IfcMechanicalFastener is a bolt and IfcFastener (IFC's class for welds, glue, nails) a weld."""
+    for fastener in fasteners:
+        name = (fastener.name or "").lower()
+        if "weld" in name:
+            return "weld"
+        if "bolt" in name or fastener.ifc_class == "IfcMechanicalFastener":
+            return "bolt"
+    return "weld"
+
+
+def split_points(points: int) -> tuple[int, int]:
+    """A joint's points over its two nodes: (the first node's, the second's), the first taking the odd one."""
+    return points - points // 2, points // 2
+
+
+def _points_by_source(joints: dict, nodes: dict, per_joint: int) -> dict:
+    """Joints and fastening points by where their count came from: {"model": ..., "assumed": ...}."""
+    result = {"model": {"joints": 0, "points": 0}, "assumed": {"joints": 0, "points": 0, "per_joint": per_joint}}
+    for joint in joints.values():
+        joint_nodes = [nodes[n] for n in joint.node_ids if n in nodes]
+        for source in ("model", "assumed"):
+            points = sum(n.assembly_point_number for n in joint_nodes if n.assembly_point_source == source)
+            if any(n.assembly_point_source == source for n in joint_nodes):
+                result[source]["joints"] += 1
+                result[source]["points"] += points
+    return result
+
+
+def _direct_joints(model, source_model, connections, components, points: int, method: str, fasteners=None):
     """One joint per connected pair of components, with a node on each side.
 
-    Inferred pairs get ``points`` fastening points per node, made by ``method``; a relation from the file
+    An inferred pair takes its points from the model's fasteners there (``fasteners``: see
+    :func:`_fasteners_at_joints`, method by :func:`fastener_method`), else ``points`` per joint made by
+    ``method``, assumed (split over the two nodes by :func:`split_points`); a relation from the file
     (between two assemblies) keeps its realizing elements' count and method. Several relations between
     the same pair add up on one joint.
     """
+    fasteners = fasteners or {}
     nodes: dict[str, ConnectionNode] = {}
     joints: dict[str, Joint] = {}
     for c in connections:
         a_id, b_id = c.relating_id, c.related_id
         if a_id not in components or b_id not in components or a_id == b_id:
             continue
+        realizing = tuple(c.realizing_ids)
         if c.inferred:
-            count, how = points, method
+            found = fasteners.get(frozenset((a_id, b_id)), [])
+            if found:
+                count, how, source = sum(fastener_count(f) for f in found), fastener_method(found), "model"
+                realizing = tuple(f.global_id for f in found)
+            else:
+                count, how, source = points, method, "assumed"
+            counts = split_points(count)
         else:
             count, how = max(1, len(c.realizing_ids)), assembly_method(c, source_model)
+            source = "model" if c.realizing_ids else "assumed"
+            counts = (count, count)
         joint_id = f"{a_id}:{b_id}" if f"{b_id}:{a_id}" not in joints else f"{b_id}:{a_id}"
         if joint_id in joints:
             if not c.inferred:
@@ -762,15 +936,16 @@ def _direct_joints(model, source_model, connections, components, points: int, me
         position = _contact_point(a, b, model)
         floor = max(a.floor, b.floor)
         pair = (f"{a_id}:{b_id}", f"{b_id}:{a_id}")
-        for node_id, owner, other in ((pair[0], a, b), (pair[1], b, a)):
+        for node_id, owner, other, node_points in ((pair[0], a, b, counts[0]), (pair[1], b, a, counts[1])):
             nodes[node_id] = ConnectionNode(
                 id=node_id,
                 name=f"{owner.name} / {other.name}",
                 object_type="ConnectionNode",
                 component_id=owner.id,
                 joint_id=joint_id,
-                assembly_point_number=count,
+                assembly_point_number=node_points,
                 assembly_method=how,
+                assembly_point_source=source,
                 level=floor,
                 position=position.copy(),
             )
@@ -779,7 +954,7 @@ def _direct_joints(model, source_model, connections, components, points: int, me
             component_ids=(a_id, b_id),
             node_ids=pair,
             connector_ids=(),
-            realizing_ids=tuple(c.realizing_ids),
+            realizing_ids=realizing,
             position=position,
             floor=floor,
             inferred=c.inferred,

@@ -57,7 +57,10 @@ class ConnectionNode(ConstructionObject):
     """One side of a joint: the component ``component_id`` fastened to a connector (or to another component).
 
     ``assembly_point_number``: how many fastening points (bolts, welds) must be made; ``assembly_method``:
-    "bolt" or "weld". ``level``: index of the floor the node is built on (see Listing 4.1).
+    "bolt" or "weld". ``assembly_point_source``: "model" when the count comes from the IFC (realizing
+    elements, fasteners at the joint), "assumed" when from the per-joint default
+    (:data:`bimrobot.sco.build.ASSUMED_POINTS_PER_JOINT`). ``level``: index of the floor the node is built
+    on (see Listing 4.1).
     """
 
     component_id: str = ""
@@ -65,6 +68,7 @@ class ConnectionNode(ConstructionObject):
     connector_ids: tuple[str, ...] = ()
     assembly_point_number: int = 1
     assembly_method: str = "bolt"
+    assembly_point_source: str = "model"
     level: int = 0
     state: State = State.IN_LOCATION
 
@@ -90,7 +94,8 @@ class Component(ConstructionObject):
     ``prebuilt``: work of others, not of the robots: foundations, or the classes given as prebuilt (on
     site from the start, state PositionFixed, unless they rest on a robot-built component: see
     :mod:`bimrobot.sco.build`). ``part_ids``: for an assembly unit (a precast unit lifted as one), the
-    GlobalIds of its parts; empty for a single element.
+    GlobalIds of its parts; empty for a single element. ``object_type`` is then the class of the whole
+    (IfcElementAssembly, or e.g. IfcSlab for a wide-slab floor plate of proxies).
     """
 
     ifc_class: str = ""
@@ -106,6 +111,15 @@ class Component(ConstructionObject):
     connection_nodes: list[ConnectionNode] = field(default_factory=list)
 
     kind = "component"
+
+    @property
+    def what(self) -> str:
+        """What the component is, for messages: its class, or for a unit e.g. ``"IfcElementAssembly unit
+        (main part IfcBeam)"``, so a refusal names the assembly that is lifted, not one of its parts."""
+        if not self.part_ids:
+            return self.ifc_class
+        main = f" (main part {self.ifc_class})" if self.ifc_class != self.object_type else ""
+        return f"{self.object_type} unit{main}"
 
     @property
     def node_number(self) -> int:
