@@ -153,19 +153,33 @@ WEEKDAY_NAMES = ("Monday", "Tuesday", "Wednesday", "Thursday", "Friday", "Saturd
 
 @dataclass(frozen=True)
 class WorkCalendar:
-    """When the site works: ``weekdays`` ISO numbers (1 = Monday ... 7 = Sunday) and one daily period
-    ``start``-``end`` (local wall-clock time, no time zone, ``start < end`` on the same day).
+    """When the site works: ``days`` (weekday names, Monday first) and one daily period ``hours`` =
+    (start, end) as "HH:MM" (local wall-clock time, no time zone, start < end on the same day).
 
-    The default is Monday-Friday 07:00-16:00 (9 h a day, 45 h a week)."""
+    The fields are the site file's ``work_calendar`` keys, in text, so that the calendar written into a
+    report (``dataclasses.asdict``, JSON) reads back as a site file's. The default is Monday-Friday
+    07:00-16:00 (9 h a day, 45 h a week)."""
 
-    weekdays: tuple[int, ...] = (1, 2, 3, 4, 5)
-    start: dt.time = dt.time(7)
-    end: dt.time = dt.time(16)
+    days: tuple[str, ...] = WEEKDAY_NAMES[:5]
+    hours: tuple[str, str] = ("07:00", "16:00")
+
+    @property
+    def weekdays(self) -> tuple[int, ...]:
+        """ISO weekday numbers of the working days (1 = Monday ... 7 = Sunday)."""
+        return tuple(WEEKDAY_NAMES.index(day) + 1 for day in self.days)
+
+    @property
+    def start_time(self) -> dt.time:
+        return dt.time.fromisoformat(self.hours[0])
+
+    @property
+    def end_time(self) -> dt.time:
+        return dt.time.fromisoformat(self.hours[1])
 
     @property
     def day_s(self) -> float:
         """Working seconds of one working day."""
-        return _seconds_of_day(self.end) - _seconds_of_day(self.start)
+        return _seconds_of_day(self.end_time) - _seconds_of_day(self.start_time)
 
     @property
     def week_s(self) -> float:
@@ -181,7 +195,7 @@ class WorkCalendar:
             else:
                 runs.append([day])
         days = ", ".join(WEEKDAY_NAMES[r[0] - 1] + (f"-{WEEKDAY_NAMES[r[-1] - 1]}" if len(r) > 1 else "") for r in runs)
-        return f"{days} {self.start:%H:%M}-{self.end:%H:%M}"
+        return f"{days} {self.start_time:%H:%M}-{self.end_time:%H:%M}"
 
 
 def _seconds_of_day(time: dt.time) -> float:
@@ -202,7 +216,7 @@ def working_datetime(calendar: WorkCalendar, origin: dt.datetime, seconds: float
     weeks, rest = divmod(worked, calendar.week_s)
     if finish and rest == 0 and weeks > 0:  # the end of the last working day of the week before
         weeks, rest = weeks - 1, calendar.week_s
-    start_s = _seconds_of_day(calendar.start)
+    start_s = _seconds_of_day(calendar.start_time)
     for day in range(7):
         if day + 1 not in calendar.weekdays:
             continue
@@ -217,7 +231,7 @@ def _worked_in_week(calendar: WorkCalendar, monday: dt.datetime, when: dt.dateti
     day = (when.date() - monday.date()).days
     worked = calendar.day_s * sum(1 for d in calendar.weekdays if d <= day)
     if day + 1 in calendar.weekdays:
-        into = (when - dt.datetime.combine(when.date(), calendar.start)).total_seconds()
+        into = (when - dt.datetime.combine(when.date(), calendar.start_time)).total_seconds()
         worked += min(max(into, 0.0), calendar.day_s)
     return worked
 
@@ -243,7 +257,7 @@ def work_calendar_from(value, source: str, line: str = "") -> WorkCalendar:
                          "e.g. {days: [Monday, Tuesday, Wednesday, Thursday, Friday], hours: ['07:00', '16:00']}")
     check_keys(value, ("days", "hours"), source, "work_calendar")
     default = WorkCalendar()
-    weekdays, (start, end) = default.weekdays, (default.start, default.end)
+    weekdays, (start, end) = default.weekdays, (default.start_time, default.end_time)
     if "days" in value:
         where = f"{source}{line_of(value, 'days')}: work_calendar: key 'days'"
         days = value["days"]
@@ -258,7 +272,7 @@ def work_calendar_from(value, source: str, line: str = "") -> WorkCalendar:
         start, end = (_clock(h, where) for h in hours)
         if not start < end:
             raise InputError(f"{where}: the start {start:%H:%M} must be before the end {end:%H:%M} on the same day")
-    return WorkCalendar(weekdays, start, end)
+    return WorkCalendar(tuple(WEEKDAY_NAMES[d - 1] for d in weekdays), (f"{start:%H:%M}", f"{end:%H:%M}"))
 
 
 def _weekday(name, where: str) -> int:
@@ -485,7 +499,7 @@ def _assign_calendar(ifc, calendar: WorkCalendar, roots: list) -> None:
     work_time.Name = str(calendar)
     pattern = sequence.assign_recurrence_pattern(ifc, parent=work_time, recurrence_type="WEEKLY")
     sequence.edit_recurrence_pattern(ifc, recurrence_pattern=pattern, attributes={"WeekdayComponent": list(calendar.weekdays)})
-    sequence.add_time_period(ifc, recurrence_pattern=pattern, start_time=calendar.start, end_time=calendar.end)
+    sequence.add_time_period(ifc, recurrence_pattern=pattern, start_time=calendar.start_time, end_time=calendar.end_time)
     ifcopenshell.api.control.assign_control(ifc, relating_control=work_calendar, related_objects=roots)
 
 
