@@ -33,7 +33,14 @@ log = logging.getLogger(__name__)
 COLUMNS = (
     "Identification", "Name", "PredefinedType", "Activity", "GlobalId", "Robot", "Start", "Finish",
     "Duration", "Predecessors", "TargetX", "TargetY", "TargetZ", "Storey",
+    "FromX", "FromY", "FromZ", "ToX", "ToY", "ToZ", "Nodes", "Points",
 )  # fmt: skip
+#: The work columns (optional when reading): where the robot begins the work (``From``: the pick-up on
+#: the yard for a transport, the connection node, joint or component it works at otherwise) and where it
+#: ends it (``To``: the drop-off of a transport; the work point otherwise), metres, model frame; the
+#: connection nodes it positions and the assembly points it makes. They are what the one time model
+#: (:mod:`bimrobot.sco.timing`) needs, so that RCAN executes a schedule in the time it was planned in.
+WORK_COLUMNS = ("FromX", "FromY", "FromZ", "ToX", "ToY", "ToZ", "Nodes", "Points")
 CSV_COLUMNS = COLUMNS
 REQUIRED_COLUMNS = ("Identification", "Activity", "GlobalId", "Start", "Finish")
 
@@ -72,7 +79,11 @@ class Activity:
     installed position (x, y, z) of the component's origin, metres, world frame, or None. ``storey``:
     storey GlobalId or None. ``node_id``: for ``assemble`` on a connection node, the node id
     ``<relating GlobalId>:<related GlobalId>``. ``parent``: id of the summary task it belongs to (IFC
-    work schedules only).
+    work schedules only). ``work_from``: where the robot begins the work (x, y, z metres, world frame:
+    the yard pick-up of a transport, the node, joint or component otherwise), ``work_to``: where it ends
+    it (the drop-off of a transport), ``nodes``: connection nodes
+    positioned, ``points``: assembly points made; each None when the schedule does not say
+    (:data:`WORK_COLUMNS`).
     """
 
     id: str
@@ -88,6 +99,10 @@ class Activity:
     predefined_type: str = ""
     node_id: str | None = None
     parent: str | None = None
+    work_from: tuple[float, float, float] | None = None
+    work_to: tuple[float, float, float] | None = None
+    nodes: int | None = None
+    points: int | None = None
 
     @property
     def duration(self) -> float:
@@ -230,9 +245,25 @@ class _Row:
             )
         return value
 
+    def count(self, column: str) -> int | None:
+        """The column as a whole number in [0, 1e6] (nodes, points), or None when empty or absent."""
+        raw = self.text(column)
+        if not raw:
+            return None
+        try:
+            value = int(raw)
+        except ValueError:
+            value = -1
+        if not 0 <= value <= 1_000_000:
+            raise InputError(f"{self.where()}: {column} {_shown(raw)} must be a whole number from 0 to 1,000,000")
+        return value
+
     def target(self) -> tuple[float, float, float] | None:
         """(TargetX, TargetY, TargetZ) in metres, each finite and within MAX_COORDINATE_M, or None when all empty."""
-        columns = ("TargetX", "TargetY", "TargetZ")
+        return self.xyz(("TargetX", "TargetY", "TargetZ"))
+
+    def xyz(self, columns: tuple[str, str, str]) -> tuple[float, float, float] | None:
+        """Three coordinate columns in metres, each finite and within MAX_COORDINATE_M, or None when all empty."""
         raw = [self.text(c) for c in columns]
         if not any(raw):
             return None
@@ -242,7 +273,7 @@ class _Row:
                 value = float(text)
             except ValueError:
                 raise InputError(
-                    f"{self.where()}: {column} {_shown(text)} is not a number of metres (TargetX/Y/Z: three numbers, or all empty)"
+                    f"{self.where()}: {column} {_shown(text)} is not a number of metres ({column[:-1]}X/Y/Z: three numbers, or all empty)"
                 ) from None
             if not (math.isfinite(value) and abs(value) <= MAX_COORDINATE_M):
                 raise InputError(
@@ -304,6 +335,10 @@ def _activity_from_row(row: _Row) -> Activity:
         storey=row.text("Storey") or None,
         predefined_type=predefined,
         node_id=_node_id_in(name, global_id) if kind == Task.ASSEMBLE else None,
+        work_from=row.xyz(("FromX", "FromY", "FromZ")),
+        work_to=row.xyz(("ToX", "ToY", "ToZ")),
+        nodes=row.count("Nodes"),
+        points=row.count("Points"),
     )
 
 
@@ -459,6 +494,8 @@ def write_schedule_csv(
             writer.writeheader()
             for a in schedule:
                 x, y, z = a.target if a.target else ("", "", "")
+                fx, fy, fz = a.work_from if a.work_from else ("", "", "")
+                tx, ty, tz = a.work_to if a.work_to else ("", "", "")
                 writer.writerow(
                     {
                         "Identification": a.id,
@@ -475,6 +512,14 @@ def write_schedule_csv(
                         "TargetY": y,
                         "TargetZ": z,
                         "Storey": a.storey or "",
+                        "FromX": fx,
+                        "FromY": fy,
+                        "FromZ": fz,
+                        "ToX": tx,
+                        "ToY": ty,
+                        "ToZ": tz,
+                        "Nodes": "" if a.nodes is None else a.nodes,
+                        "Points": "" if a.points is None else a.points,
                     }
                 )
     return path

@@ -130,7 +130,7 @@ def is_state_db(path: str | os.PathLike) -> bool:
 
 #: Every table an RCAN state database may hold (the journal's, and the sim backend's world).
 RCAN_TABLES = frozenset({"journal", "activity", "component", "meta", "sqlite_sequence",
-                         "sim_robot", "sim_component", "sim_execution"})
+                         "sim_robot", "sim_component", "sim_execution", "sim_work_point"})
 
 
 def _check_tables(db: sqlite3.Connection, name: str, schema: str | None, option: str) -> None:

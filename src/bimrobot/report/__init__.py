@@ -41,6 +41,23 @@ def write_report(build_folder: str | Path, output: str | Path | None = None, *, 
     ``calendar``: a :class:`bimrobot.bim.work_schedule.WorkCalendar` (default: the build's site's).
     Both files go through :mod:`bimrobot.io` (atomic; a file bimrobot did not write is never replaced).
     Raises InputError when ``build_folder`` is not a build folder or the report extra is missing."""
+    output = Path(output) if output is not None else Path(build_folder) / REPORT_HTML
+    _write(Path(build_folder), output, start, calendar, option)
+    return output
+
+
+def write_build_report(build_folder: str | Path) -> str:
+    """For `bimrobot build`: write ``report.html`` and ``building.png`` into the build folder and return
+    the key figures as Markdown for its README (one reading of the build for both)."""
+    from bimrobot.report.figures import markdown
+
+    folder = Path(build_folder)
+    facts = _write(folder, folder / REPORT_HTML, None, None, "-o")
+    return markdown(facts, BUILDING_PNG if (folder / BUILDING_PNG).is_file() else None)
+
+
+def _write(folder: Path, output: Path, start, calendar, option: str):
+    """Read the build, draw the building, write the page; the build's :class:`~bimrobot.report.facts.BuildFacts`."""
     from bimrobot import io
     from bimrobot.errors import InputError
     from bimrobot.report import page
@@ -50,10 +67,8 @@ def write_report(build_folder: str | Path, output: str | Path | None = None, *, 
     missing = missing_packages()
     if missing:
         raise InputError(f"the build report needs {', '.join(missing)}: {INSTALL_HINT}")
-    folder = Path(build_folder)
-    facts = read_build(folder, start=start, calendar=calendar)
-    output = Path(output) if output is not None else folder / REPORT_HTML
     io.check_output(output, folder=False, option=option)
+    facts = read_build(folder, start=start, calendar=calendar)
     in_build = output.resolve().parent == folder.resolve()
     with tempfile.TemporaryDirectory(prefix="bimrobot-report-") as scratch:
         png = Path(scratch) / BUILDING_PNG
@@ -65,7 +80,7 @@ def write_report(build_folder: str | Path, output: str | Path | None = None, *, 
     html = page.render(facts, picture, note or "")
     with io.atomic_output_file(output, option=option) as tmp:
         tmp.write_text(html, encoding="utf-8")
-    return output
+    return facts
 
 
 def readme_figures(build_folder: str | Path, *, start: str | dt.datetime | None = None,
@@ -79,4 +94,4 @@ def readme_figures(build_folder: str | Path, *, start: str | dt.datetime | None 
     return markdown(facts, BUILDING_PNG if (folder / BUILDING_PNG).is_file() else None)
 
 
-__all__ = ["BUILDING_PNG", "REPORT_HTML", "readme_figures", "write_report"]
+__all__ = ["BUILDING_PNG", "REPORT_HTML", "readme_figures", "write_build_report", "write_report"]

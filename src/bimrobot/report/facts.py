@@ -73,6 +73,9 @@ class BuildFacts:
     build: dict = field(default_factory=dict)
     critical_path: CriticalPath | None = None
     missing: list[str] = field(default_factory=list)
+    #: the IFC model of the build (:class:`bimrobot.bim.BuildingModel`), or None with ``model_note`` saying why
+    building_model: object | None = None
+    model_note: str = ""
 
     def date(self, seconds: float, finish: bool = False) -> dt.datetime:
         """The calendar date-time after ``seconds`` of work from the start (``finish``: work that ends
@@ -108,12 +111,14 @@ class BuildFacts:
 
 
 def read_build(folder: str | Path, start: str | dt.datetime | None = None,
-               calendar: WorkCalendar | None = None) -> BuildFacts:
+               calendar: WorkCalendar | None = None, with_model: bool = True) -> BuildFacts:
     """Read a build output folder into :class:`BuildFacts`.
 
     ``start``: date-time of t = 0 s (ISO text or datetime); default the build's (``build.json``'s
-    ``start``), else today 08:00. ``calendar``: default the site's (:func:`site_calendar`). Raises
-    InputError when ``folder`` is not a build output folder."""
+    ``start``), else today 08:00. ``calendar``: default the site's (:func:`site_calendar`).
+    ``with_model``: read the IFC model the build was made from (when it is still there) for the names,
+    classes and storeys of assemblies and the building's picture. Raises InputError when ``folder`` is
+    not a build output folder."""
     folder = Path(folder)
     if not folder.is_dir():
         raise InputError(f"{folder} is not a folder; give a `bimrobot build` output folder")
@@ -131,14 +136,16 @@ def read_build(folder: str | Path, start: str | dt.datetime | None = None,
     calendar_source = "given"
     if calendar is None:
         calendar, calendar_source = site_calendar(build.get("site"))
-    model = Path(str(build.get("model") or summary.get("model") or package.get("source") or "unknown model")).name
+    model_path = Path(str(build.get("model") or summary.get("model") or package.get("source") or "unknown model"))
+    building_model, model_note = _building_model(model_path) if with_model else (None, "not read")
     facts = BuildFacts(
-        folder=folder, model=model, project=package.get("project"), fleet=str(build.get("fleet") or summary.get("fleet") or "unknown"),
+        folder=folder, model=model_path.name, project=package.get("project"), fleet=str(build.get("fleet") or summary.get("fleet") or "unknown"),
         site=str(build.get("site") or (package.get("options") or {}).get("site", {}).get("source") or "unknown"),
         start=start_time, calendar=calendar, calendar_source=calendar_source,
         makespan_s=_number(summary.get("makespan_s")), fleet_utilisation=_number(summary.get("fleet_utilisation")),
-        schedule=schedule, states=states, robots=robots, components=_components(schedule, states, package),
-        summary=summary, package=package, rcan=rcan, build=build, missing=missing,
+        schedule=schedule, states=states, robots=robots, components=_components(schedule, states, package, building_model),
+        summary=summary, package=package, rcan=rcan, build=build, missing=missing, building_model=building_model,
+        model_note=model_note,
     )
     facts.critical_path = critical_path(schedule) if schedule else None
     return facts
@@ -169,6 +176,18 @@ def site_calendar(site: str | None) -> tuple[WorkCalendar, str]:
         except InputError as exc:
             return WorkCalendar(), f"the default (the site file {site} cannot be read: {exc})"
     return WorkCalendar(), "the default" + (f" (the site file {site} is gone)" if site and site.endswith((".yaml", ".yml")) else "")
+
+
+def _building_model(path: Path):
+    """(BuildingModel, "") of the build's IFC file, or (None, why not)."""
+    from bimrobot.bim import load_model
+
+    if not path.is_file():
+        return None, f"the model file {str(path)!r} is no longer there"
+    try:
+        return load_model(path, properties=False), ""
+    except (InputError, OSError) as exc:
+        return None, f"the model file {str(path)!r} cannot be read ({exc})"
 
 
 def _start(value) -> dt.datetime:
@@ -250,20 +269,28 @@ def _robots_csv(folder: Path, missing: list[str]) -> list[dict]:
         return []
 
 
-def _components(schedule: list[dict], states: dict, package: dict) -> dict[str, tuple[str, str, str]]:
-    """Component -> (IFC class, name, storey name) from the package's elements and maps and the
-    schedule's storeys; a component the package does not list (an IfcElementAssembly) is named by
-    its parts' classes."""
+def _components(schedule: list[dict], states: dict, package: dict, model=None) -> dict[str, tuple[str, str, str]]:
+    """Component -> (IFC class, name, storey name) from the package's elements and maps, the schedule's
+    storeys and, when read, the model; an assembly unit's class is ``IfcElementAssembly (<class of
+    its heaviest part>)``, e.g. ``IfcElementAssembly (IfcBeam)`` for a precast beam unit."""
     elements = {e.get("global_id"): e for e in package.get("converted") or [] if isinstance(e, dict)}
     storey_names = {m.get("storey_id"): m.get("storey_name") for m in package.get("maps") or [] if isinstance(m, dict)}
+    if model is not None:
+        storey_names.update({s.global_id: s.name for s in model.storeys if s.name})
+    assemblies = getattr(model, "assemblies", {}) or {}
     storey_of = {row["GlobalId"]: row.get("Storey") or "" for row in schedule}
     out = {}
     for component in list(states) or list(storey_of):
         element = elements.get(component)
-        storey = storey_of.get(component) or (element or {}).get("storey_id") or ""
+        assembly = assemblies.get(component)
+        storey = storey_of.get(component) or (element or {}).get("storey_id") or getattr(assembly, "storey_id", "") or ""
         storey_name = storey_names.get(storey) or storey or "unknown"
         if element is not None:
             out[component] = (element.get("ifc_class") or "unknown", element.get("name") or "", storey_name)
+        elif assembly is not None:
+            parts = [elements[p] for p in assembly.part_ids if p in elements]
+            main = max(parts, key=lambda e: e.get("mass_kg") or 0.0).get("ifc_class") if parts else None
+            out[component] = (f"IfcElementAssembly ({main})" if main else "IfcElementAssembly", assembly.name or "", storey_name)
         else:
             out[component] = ("IfcElementAssembly" if package else "unknown", "", storey_name)
     return out

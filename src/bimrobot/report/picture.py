@@ -3,7 +3,7 @@
 The package of a build has its components on the yard (its ``preview.png`` shows the yard); the
 report shows the building finished instead. Each element's visual mesh is the package's own
 (``models/<model>/meshes/<model>.dae``, the colours the simulator shows), placed by the element's
-IFC placement (read from the model file with :func:`bimrobot.bim.load_model`, as the replay does), and
+IFC placement (from the model file, read once for the report: :attr:`BuildFacts.building_model`), and
 painted with :func:`bimrobot.world.render.paint` (Pillow; metres, z up, a scale bar).
 """
 
@@ -21,14 +21,12 @@ log = logging.getLogger(__name__)
 MAX_TRIANGLES = 150_000
 
 
-def installed_triangles(package: Path, report: dict, model_path: Path) -> tuple[np.ndarray, np.ndarray]:
+def installed_triangles(package: Path, report: dict, model) -> tuple[np.ndarray, np.ndarray]:
     """World triangles (k, 3, 3; metres, model frame) and RGBA colours (k, 4) of the package's elements
-    at their installed poses. Raises OSError / InputError when the model or a mesh cannot be read."""
-    from bimrobot.bim import load_model
+    at their installed poses (``model``: the BuildingModel). Raises OSError when a mesh cannot be read."""
     from bimrobot.world.layout import rigid
     from bimrobot.world.render import dae_triangles
 
-    model = load_model(model_path, properties=False)
     triangles, colours = [], []
     for entry in report.get("converted") or []:
         element = model.elements.get(entry.get("global_id"))
@@ -54,18 +52,17 @@ def draw_building(folder: Path, png: Path, facts) -> str | None:
     report = facts.package
     if not report.get("converted"):
         return "the build has no package (package/report.json) to draw"
-    model_path = Path(str(facts.build.get("model") or report.get("source") or ""))
-    if not model_path.is_file():
-        return f"the model file {str(model_path)!r} is no longer there"
+    if facts.building_model is None:
+        return facts.model_note or "the model was not read"
     try:
-        triangles, colours = installed_triangles(package, report, model_path)
+        triangles, colours = installed_triangles(package, report, facts.building_model)
     except (OSError, InputError, ValueError) as exc:
-        return f"the package or the model could not be read ({exc})"
+        return f"the package's meshes could not be read ({exc})"
     if not len(triangles):
         return "the package has no element meshes"
     if len(triangles) > MAX_TRIANGLES:
         keep = np.linspace(0, len(triangles) - 1, MAX_TRIANGLES).astype(int)
         triangles, colours = triangles[keep], colours[keep]
     title = f"{facts.project or facts.model}: assembled (metres, z up)"
-    paint(triangles, colours, png, [model_path], elevation=25, azimuth=-55, size=(8, 6), title=title)
+    paint(triangles, colours, png, [], elevation=25, azimuth=-55, size=(8, 6), title=title)
     return None

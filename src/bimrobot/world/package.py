@@ -742,7 +742,7 @@ def _report(model, package, world_name, world_files, converted, skipped, maps, y
     by_class: dict[str, int] = {}
     for entry in entries:
         by_class[entry["ifc_class"]] = by_class.get(entry["ifc_class"], 0) + 1
-    options_dict = asdict(options)
+    options_dict = json.loads(json.dumps(asdict(options), default=str))  # a work calendar's times as "07:00:00"
     options_dict["static"] = options.is_static
     return {
         "generator": io.signature("convert"),
