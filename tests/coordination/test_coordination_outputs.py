@@ -16,6 +16,7 @@ from bimrobot.sco import build_smart_model
 CONVENTION_COLUMNS = [
     "Identification", "Name", "PredefinedType", "Activity", "GlobalId", "Robot", "Start", "Finish",
     "Duration", "Predecessors", "TargetX", "TargetY", "TargetZ", "Storey",
+    "FromX", "FromY", "FromZ", "ToX", "ToY", "ToZ", "Nodes", "Points",  # the work of the one time model
 ]
 
 
@@ -50,6 +51,12 @@ def test_schedule_csv_follows_the_convention_and_round_trips(tmp_path):
     position = next(r for r in rows if r["Activity"] == "position" and r["GlobalId"] == "beam-0-x-0-0")
     transport = next(r for r in rows if r["Activity"] == "transport" and r["GlobalId"] == "beam-0-x-0-0")
     assert position["Predecessors"] == [transport["Identification"]]
+    # the work the rows took (metres, model frame): a transport from the yard to the beam, its
+    # two nodes positioned at once (per joint), per assemble row the node's bolts
+    assert (transport["ToX"], transport["ToY"]) != (transport["FromX"], transport["FromY"])
+    assert position["Nodes"] == smart.components["beam-0-x-0-0"].node_number == 2 and position["FromX"] is not None
+    assert sum(r["Points"] for r in rows if r["Activity"] == "assemble") == sum(
+        n.assembly_point_number for n in smart.nodes.values())
 
 
 def test_bad_schedule_csv_names_line_and_column(tmp_path):

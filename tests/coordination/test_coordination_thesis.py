@@ -250,8 +250,8 @@ def test_event_mode_per_node_builds_any_frame_consistently(nx, ny, floors, per_k
 
 # ---------------------------------------------------------------- per node (--per-node) and per joint (the default)
 @pytest.mark.parametrize("bolts, fleet, per_node, makespan, steps", [
-    (None, "fleet1", True, 4207.2, 44), (None, "fleet2", True, 1642.4, 38),
-    (6, "fleet1", True, 7567.2, 44), (6, "fleet2", True, 2740.4, 38),
+    (None, "fleet1", True, 4204.4, 44), (None, "fleet2", True, 1639.0, 38),
+    (6, "fleet1", True, 7564.4, 44), (6, "fleet2", True, 2736.2, 38),
     (None, "fleet1", False, 4544.0, 24), (None, "fleet2", False, 1812.7, 18),  # per joint, the default
     (6, "fleet1", False, 7904.0, 24), (6, "fleet2", False, 3077.2, 18),
 ])

@@ -24,6 +24,8 @@ import numpy as np
 
 from bimrobot.coordination.fleet import RobotSpec
 from bimrobot.errors import InputError
+from bimrobot.sco import timing
+from bimrobot.sco.timing import RobotTimes
 from bimrobot.tasks import Task
 
 TOLERANCE_M = 1e-6
@@ -114,19 +116,20 @@ def incapability(spec: RobotSpec, request: TaskRequest) -> str | None:
 
 
 def handling_time(spec: RobotSpec, request: TaskRequest) -> float:
-    """Seconds of work once the robot is at ``request.start`` (for transport: load, drive, unload)."""
+    """Seconds of work once the robot is at ``request.start`` (for transport: load, drive, unload), from
+    the one time model (:mod:`bimrobot.sco.timing`)."""
+    times = RobotTimes.of_fleet_robot(spec)
     if request.activity == Task.TRANSPORT:
-        distance = float(np.hypot(*(request.end - request.start)))
-        return spec.load_time + distance / spec.speed + spec.unload_time
+        return timing.transport_s(times, float(np.hypot(*(request.end - request.start))))
     if request.activity == Task.POSITION:
-        return max(1, request.nodes) * spec.time_per_node
-    return max(1, request.points) * spec.time_per_point
+        return timing.position_s(times, request.nodes)
+    return timing.assemble_s(times, request.points)
 
 
 def propose(spec: RobotSpec, position: np.ndarray, available_at: float, idle: bool, request: TaskRequest) -> BidProposal:
     """The robot's proposal: travel (``distance`` metres) from ``position`` to the work, then handling."""
     distance = float(np.hypot(*(request.start - position)))
-    travel = distance / spec.speed
+    travel = timing.travel_s(RobotTimes.of_fleet_robot(spec), distance)
     handling = handling_time(spec, request)
     return BidProposal(spec.name, request.id, distance, travel, handling, available_at + travel + handling, idle)
 

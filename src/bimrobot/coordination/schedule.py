@@ -33,6 +33,7 @@ def schedule_activities(activities) -> list[Activity]:
             start=round(a.start, 3), finish=round(a.finish, 3), predecessors=tuple(a.predecessors),
             target=tuple(round(float(v), 4) for v in a.target), storey=a.storey,
             predefined_type=Task(a.activity).ifc_task_type,
+            work_from=a.work_from, work_to=a.work_to, nodes=a.nodes, points=a.points,
         ))  # fmt: skip
     return rows
 
@@ -50,6 +51,10 @@ def _row(a: Activity) -> dict:
         "GlobalId": a.global_id, "Robot": a.robot or "", "Start": a.start, "Finish": a.finish,
         "Duration": a.duration, "Predecessors": list(a.predecessors), "TargetX": x, "TargetY": y, "TargetZ": z,
         "Storey": a.storey or "",
+        "FromX": a.work_from[0] if a.work_from else None, "FromY": a.work_from[1] if a.work_from else None,
+        "FromZ": a.work_from[2] if a.work_from else None, "ToX": a.work_to[0] if a.work_to else None,
+        "ToY": a.work_to[1] if a.work_to else None, "ToZ": a.work_to[2] if a.work_to else None,
+        "Nodes": a.nodes, "Points": a.points,
     }  # fmt: skip
 
 

@@ -36,6 +36,7 @@ from bimrobot.coordination.market import (
     propose,
 )
 from bimrobot.errors import BimrobotError, InputError
+from bimrobot.sco import timing
 from bimrobot.sco.build import SmartModel, gc_paused
 from bimrobot.sco.component import Component, Joint
 from bimrobot.sco.states import Event, State, at_least
@@ -64,6 +65,11 @@ class Activity:
     storey: str
     predecessors: tuple[str, ...] = ()
     aborted: bool = False
+    #: where the robot began the work (model frame, m), and the nodes and points it did (schedule columns)
+    work_from: tuple[float, float, float] | None = None
+    work_to: tuple[float, float, float] | None = None
+    nodes: int | None = None
+    points: int | None = None
 
     @property
     def duration(self) -> float:
@@ -93,6 +99,11 @@ class _Robot:
     end_position: np.ndarray | None = None
     leg: tuple | None = None  # (t0, p0, t1, p1) of the current drive
     returning: simpy.Process | None = None  # driving back to the yard while idle
+
+    @property
+    def times(self) -> timing.RobotTimes:
+        """The robot's speeds and handling times in the one time model."""
+        return timing.RobotTimes.of_fleet_robot(self.spec)
 
 
 @dataclass
@@ -743,7 +754,7 @@ class ConstructionSimulation:
     # ---------------------------------------------------------------- robots
     def _drive(self, robot: _Robot, target: np.ndarray):
         distance = float(np.hypot(*(target - robot.position)))
-        duration = distance / robot.spec.speed
+        duration = timing.travel_s(robot.times, distance)
         robot.leg = (self.env.now, robot.position.copy(), self.env.now + duration, np.array(target, dtype=float))
         yield self.env.timeout(duration)
         robot.position = np.array(target, dtype=float)
@@ -779,7 +790,7 @@ class ConstructionSimulation:
                 else:
                     component.start_positioning()
                 self._note_state(component)
-                duration = max(1, request.nodes) * spec.time_per_node
+                duration = timing.position_s(robot.times, request.nodes)
                 yield self.env.timeout(duration)
                 robot.stats.handling_time += duration
             else:
@@ -789,7 +800,7 @@ class ConstructionSimulation:
                 node_windows = []
                 for node in nodes:
                     begin = self.env.now
-                    duration = node.assembly_point_number * spec.time_per_point
+                    duration = timing.assemble_s(robot.times, node.assembly_point_number)
                     yield self.env.timeout(duration)
                     robot.stats.handling_time += duration
                     node_windows.append((node, begin, self.env.now))
@@ -821,7 +832,8 @@ class ConstructionSimulation:
         component.update_state(Event.FINISH_TRANSPORT)
         self._note_state(component)
         self._say(f"Component: {component.id} is arrived, {name} is free for next work")
-        activity = self._record(Task.TRANSPORT, component, f"{Task.TRANSPORT.title} {component.id}", name, started, request.predecessors)
+        activity = self._record(Task.TRANSPORT, component, f"{Task.TRANSPORT.title} {component.id}", name, started,
+                                request.predecessors, work=self._work(request, 0.0, end_z=component.target_position[2]))
         component.publish_positioning()
         self._note_state(component)
         if self.per_node and component.connection_nodes:
@@ -840,7 +852,8 @@ class ConstructionSimulation:
         component.finish_positioning()
         self._note_state(component)
         self._say(f"Component: {component.id} position is fixed, {name} is free for next work")
-        activity = self._record(Task.POSITION, component, f"{Task.POSITION.title} {component.id}", name, started, request.predecessors)
+        activity = self._record(Task.POSITION, component, f"{Task.POSITION.title} {component.id}", name, started,
+                                request.predecessors, work=self._work(request, component.target_position[2], nodes=request.nodes))
         self.position_activity[component.id] = (activity.id,)
         if component.state == State.ASSEMBLED:  # no nodes to fasten
             self.open_on_floor[component.floor] -= 1
@@ -899,7 +912,9 @@ class ConstructionSimulation:
                 self.open_on_floor[node.level] -= 1
             row_start = started if previous is None else begin
             predecessors = tuple(request.predecessors) + ((previous,) if previous else ())
-            activity = self._record(Task.ASSEMBLE, owner, f"{Task.ASSEMBLE.title} {node.id}", name, row_start, predecessors, finish=end)
+            work = self._work(request, node.position[2], points=node.assembly_point_number)
+            activity = self._record(Task.ASSEMBLE, owner, f"{Task.ASSEMBLE.title} {node.id}", name, row_start, predecessors,
+                                    finish=end, work=work)
             previous = activity.id
         self._say(f"Nodes: {' and '.join(request.node_ids)} are assembled, {name} is free for next work")
         if not self.per_node:
@@ -938,11 +953,21 @@ class ConstructionSimulation:
             partners = [p for p in partners if not self._rests_on(p.id, component.id)]
         if not all(p.prebuilt or at_least(p.state, State.ARRIVED) for p in partners):
             return
+        if self._in_hands(component, node):
+            return  # one robot handles a component at a time: its other nodes follow its first positioning
         self.node_position_published.add(node.id)
         names = ", ".join(p.id for p in partners)
         self._say(f"Node: {node.id} asks to be positioned: its connection components have arrived (ACC){': ' + names if names else ''}")
         predecessors = [self.transport_activity.get(c.id) for c in (component, *partners)]
+        predecessors += self.position_activity.get(component.id, ())[:1]  # the row that put it in place
         self._publish(Task.POSITION, component, predecessors=predecessors, node=node)
+
+    def _in_hands(self, component: Component, node) -> bool:
+        """Whether another node of ``component`` is being positioned and none is fixed yet: the robot doing
+        it holds the component, so ``node`` waits until the component stands in place (RCAN's robots hold
+        a component one at a time; the schedule says so, and RCAN executes it in the same time)."""
+        return component.id not in self.position_activity and any(
+            other.id != node.id and other.id in self.node_position_published for other in component.connection_nodes)
 
     def _rests_on(self, upper: str, lower: str) -> bool:
         """Does ``upper`` rest on ``lower``, directly or through what it rests on (so it cannot arrive first)?"""
@@ -969,12 +994,16 @@ class ConstructionSimulation:
         node = self.smart.nodes[request.node_ids[0]]
         self._node_step(node, Event.FINISH_POSITIONING)
         self._say(f"Node: {node.id} position is fixed, {name} is free for next work")
-        activity = self._record(Task.POSITION, component, f"{Task.POSITION.title} {node.id}", name, started, request.predecessors)
+        activity = self._record(Task.POSITION, component, f"{Task.POSITION.title} {node.id}", name, started,
+                                request.predecessors, work=self._work(request, node.position[2], nodes=1))
         self.node_position_activity[node.id] = activity.id
         first = component.id not in self.position_activity
         self.position_activity[component.id] = self.position_activity.get(component.id, ()) + (activity.id,)
         if first:
             self._position_fixed(component, joints=False)
+            for other in component.connection_nodes:  # they waited for the component to stand in place
+                if other.id != node.id:
+                    self._maybe_publish_node_positioning(other)
         self._maybe_publish_node_assembly(node)
 
     def _maybe_publish_node_assembly(self, node) -> None:
@@ -994,7 +1023,20 @@ class ConstructionSimulation:
         self._node_step(node, Event.PUBLISH_ASSEMBLY)
         self._publish(Task.ASSEMBLE, component, self.smart.joints[node.joint_id], predecessors=list(dict.fromkeys(predecessors)), node=node)
 
-    def _record(self, activity, component, name, robot, start, predecessors, finish=None, aborted=False) -> Activity:
+    def _work(self, request: TaskRequest, z: float, nodes: int | None = None, points: int | None = None,
+              end_z: float | None = None) -> dict:
+        """The work columns of a schedule row: where the robot began and ended (``request.start`` and
+        ``request.end`` taken back into the model frame, at heights ``z`` and ``end_z`` m) and the nodes or
+        points it did (:mod:`bimrobot.sco.timing`)."""
+        def model_point(site_xy, height):
+            x, y = self.site.to_model(site_xy, self.offset)
+            return (round(float(x), 4), round(float(y), 4), round(float(height), 4))
+
+        return {"work_from": model_point(request.start, z), "work_to": model_point(request.end, z if end_z is None else end_z),
+                "nodes": nodes, "points": points}
+
+    def _record(self, activity, component, name, robot, start, predecessors, finish=None, aborted=False,
+                work: dict | None = None) -> Activity:
         self.activity_counter += 1
         origin = self.smart_origin(component)
         row = Activity(
@@ -1009,6 +1051,7 @@ class ConstructionSimulation:
             storey=component.storey_id or "",
             predecessors=tuple(p for p in predecessors if p),
             aborted=aborted,
+            **(work or {}),
         )
         self.activities.append(row)
         return row

@@ -36,6 +36,7 @@ from bimrobot.coordination.fleet import Fleet, RobotSpec, Site
 from bimrobot.coordination.market import TaskRequest, incapability
 from bimrobot.coordination.simulation import ConstructionSimulation
 from bimrobot.errors import BimrobotError, InputError
+from bimrobot.sco import timing
 from bimrobot.sco.build import SmartModel
 from bimrobot.sco.states import Event, State, at_least
 from bimrobot.tasks import TASKS, Task
@@ -217,14 +218,14 @@ class ThesisSimulation:
 
     def _phases(self, robot: ThesisRobot, task: ThesisTask) -> list[tuple[str, float]]:
         """The task's phases for this robot: [(name, seconds)]; their sum is its bid."""
-        spec, request = robot.spec, task.request
-        come = float(np.hypot(*(request.start - robot.position))) / spec.speed
+        times, request = timing.RobotTimes.of_fleet_robot(robot.spec), task.request
+        come = timing.travel_s(times, float(np.hypot(*(request.start - robot.position))))
         if task.kind == Task.TRANSPORT:
-            carry = float(np.hypot(*(request.end - request.start))) / spec.speed
-            return [("coming", come), ("carrying", spec.load_time + carry), ("unloading", spec.unload_time)]
+            carry = timing.travel_s(times, float(np.hypot(*(request.end - request.start))))
+            return [("coming", come), ("carrying", times.load_s + carry), ("unloading", times.unload_s)]
         if task.kind == Task.POSITION:
-            return [("coming", come), ("positioning", max(1, request.nodes) * spec.time_per_node)]
-        return [("coming", come), ("assembling", request.points * spec.time_per_point)]
+            return [("coming", come), ("positioning", timing.position_s(times, request.nodes))]
+        return [("coming", come), ("assembling", timing.assemble_s(times, request.points))]
 
     # ---------------------------------------------------------------- run
     def run(self) -> ThesisResult:

@@ -598,6 +598,14 @@ class _GraphWriter:
             yield robot, DICE.hasRole, role
         if activity.target is not None:
             yield from _position(URIRef(f"{iri}/target"), iri, BRC.targetPosition, activity.target)
+        if activity.work_from is not None:
+            yield from _position(URIRef(f"{iri}/work"), iri, BRC.workPosition, activity.work_from)
+        if activity.work_to is not None and activity.work_to != activity.work_from:
+            yield from _position(URIRef(f"{iri}/work-end"), iri, BRC.workEndPosition, activity.work_to)
+        if activity.nodes is not None:
+            yield iri, BRC.nodeCount, Literal(int(activity.nodes))
+        if activity.points is not None:
+            yield iri, BRC.pointCount, Literal(int(activity.points))
         if activity.storey:
             if activity.storey not in self.storeys:
                 raise InputError(f"schedule activity {activity.id}: Storey {activity.storey!r} is not a storey of {self.model.source or 'the model'}")

@@ -94,6 +94,15 @@ class RcanActivity:
     a separate assembly, as in chapter 4). ``lifts``: the robot carries the component in this
     activity's chain (False for work on a component already in place, e.g. fixing a joint on a
     footing or on a prebuilt slab: its weight and section do not limit the robot).
+
+    The work of the one time model (:mod:`bimrobot.sco.timing`), from the schedule row the activity comes
+    from: ``task`` the row's chapter-4 task (None: not from a schedule row); ``nodes`` and ``points`` the
+    connection nodes it positions and the assembly points it makes (None: not known, one each);
+    ``work_point`` where a drive (move to component, transport) ends in the time model, the point the
+    robot works at (world frame, m; the base stops beside it, at ``target``; None: at ``target``);
+    ``loads``: a pick-up that loads the component from the yard (the robot's load time), False for a
+    re-grip at the drop-off point, which the positioning time includes; ``after``: activities of the same robot
+    planned before this one, which it follows unless they fail (a soft order, unlike ``predecessors``).
     """
 
     activity_id: str
@@ -110,6 +119,12 @@ class RcanActivity:
     name: str = ""
     frees_robot: bool | None = None
     lifts: bool = True
+    task: Task | None = None
+    nodes: int | None = None
+    points: int | None = None
+    work_point: Pose | None = None
+    loads: bool = True
+    after: tuple[str, ...] = ()
 
     @property
     def releases_robot(self) -> bool:

@@ -15,6 +15,8 @@ reach_m                  ``reach``; a transport robot loads over its platform: h
 speed_m_s                ``speed``
 arm_speed_m_s            0.5 m/s, the built-in RCAN robots' end-effector speed
 handling_s               pick up: ``load_time``; install: ``time_per_point`` (assembly) or ``time_per_node``
+times                    the robot's speed, load, unload, per-node and per-point times: the one time model
+                         (:mod:`bimrobot.sco.timing`) by which the ``sim`` backend takes as long as `simulate`
 home                     the robot's ``home``, else the site's robot homes in turn (site frame, z = 0),
                          taken into the model frame (:func:`model_offset_of`)
 ======================== ==================================================================================
@@ -37,6 +39,7 @@ from bimrobot.config import parse_yaml
 from bimrobot.coordination.fleet import Fleet, RobotSpec as FleetRobot, fleet_from_dict, load_fleet, BUILTIN_FLEETS
 from bimrobot.rcan.activities import ActivityKind, Pose, RcanActivity
 from bimrobot.rcan.generation import DEFAULT_CAPABILITIES, CapabilityTable, RobotSpec, parse_capabilities
+from bimrobot.sco.timing import RobotTimes
 from bimrobot.site import Site, default_site
 from bimrobot.tasks import Task
 
@@ -89,7 +92,7 @@ def _rcan_robot(robot: FleetRobot, types: dict[str, frozenset[ActivityKind]], ho
         name=robot.name, types=names, activities=frozenset().union(*types.values()),
         payload_kg=payload, reach_m=reach, speed_m_s=robot.speed, arm_speed_m_s=ARM_SPEED_M_S,
         handling_s={ActivityKind.PICK_UP.value: robot.load_time, ActivityKind.INSTALL.value: install},
-        home=home,
+        home=home, times=RobotTimes.of_fleet_robot(robot),
     )
 
 

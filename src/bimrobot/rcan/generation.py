@@ -21,6 +21,7 @@ from bimrobot.config import number as config_number
 from bimrobot.errors import InputError
 from bimrobot.rcan.activities import ActivityKind, Pose, RcanActivity
 from bimrobot.rcan.node import RcanNode
+from bimrobot.sco.timing import RobotTimes
 
 DEFAULT_CAPABILITIES = "capabilities.yaml"
 
@@ -48,6 +49,19 @@ class RobotSpec:
     #: the mobile base's (length, width) in metres, when the capability file gives it (``footprint_m``);
     #: None: the physics backend's model family decides
     footprint_m: tuple[float, float] | None = None
+    #: the robot's times in the one time model (:mod:`bimrobot.sco.timing`) when it comes from a fleet
+    #: file (Table 4.1); None: from ``speed_m_s``, ``arm_speed_m_s`` and ``handling_s`` (:meth:`time_model`)
+    times: RobotTimes | None = None
+
+    def time_model(self) -> RobotTimes:
+        """The robot's speeds and handling times in the one time model: a fleet robot's own (its
+        handling includes the arm's motions), else the capability table's: ``pick_up`` is the load
+        time, ``install`` the time per node and per point."""
+        if self.times is not None:
+            return self.times
+        install = self.handling_s.get(ActivityKind.INSTALL.value, 0.0)
+        return RobotTimes(self.speed_m_s, load_s=self.handling_s.get(ActivityKind.PICK_UP.value, 0.0),
+                          per_node_s=install, per_point_s=install, arm_speed_m_s=self.arm_speed_m_s)
 
     def can(self, kind: ActivityKind) -> bool:
         """Whether one of this robot's types performs ``kind`` (Table 5.2)."""

@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from bimrobot.rcan.activities import ActivityKind, Pose, RcanActivity
+from bimrobot.tasks import Task
 
 
 @dataclass(frozen=True)
@@ -50,6 +51,11 @@ class RcanNode:
             "size_m": list(a.size_m) if a.size_m else None,
             "releases_robot": a.releases_robot,
             "lifts": a.lifts,
+            "task": a.task.value if a.task else None,
+            "nodes": a.nodes,
+            "points": a.points,
+            "work_point": [a.work_point.x, a.work_point.y, a.work_point.z] if a.work_point else None,
+            "loads": a.loads,
             "robot": self.robot,
             "backend": self.backend,
         }
@@ -68,5 +74,10 @@ class RcanNode:
             size_m=tuple(message["size_m"]) if message.get("size_m") else None,
             frees_robot=None if frees is None or bool(frees) == (kind is ActivityKind.INSTALL) else bool(frees),
             lifts=bool(message.get("lifts", True)),
+            task=Task(message["task"]) if message.get("task") else None,
+            nodes=None if message.get("nodes") is None else int(message["nodes"]),
+            points=None if message.get("points") is None else int(message["points"]),
+            work_point=Pose(*message["work_point"]) if message.get("work_point") else None,
+            loads=bool(message.get("loads", True)),
         )
         return cls(message["node_id"], activity, message["robot"], message["backend"])

@@ -8,6 +8,7 @@ position, and the gripper goes to the slot and to the installed position (``Targ
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 from dataclasses import dataclass
 from typing import Callable
@@ -123,6 +124,8 @@ def plan_from_schedule(schedule, model=None, yard: tuple[float, float, float] = 
         if gid not in slots:
             slots[gid] = Pose(*fact.pick_up) if fact.pick_up is not None else \
                 Pose(yard[0] + yard_spacing_m * len(slots), yard[1], yard[2])
+        if row.activity == Task.TRANSPORT and row.work_from is not None:
+            slots[gid] = Pose(*row.work_from)  # where the schedule's robot picked it up: the site's yard
         where = "drop-off" if gid in dropped else "yard" if gid in on_yard else "in place"
         installs = row.activity == Task.ASSEMBLE or (row.activity == Task.POSITION and gid not in assembled_later)
         kinds, goals, lifts = _row_activities(row.activity, slots[gid], Pose(*target), standoff_m, where, installs,
@@ -138,6 +141,7 @@ def plan_from_schedule(schedule, model=None, yard: tuple[float, float, float] = 
             # position rows both wait for its transport, not for each other, yet the second works on
             # the beam where the first installs it.
             previous += (placed_by[gid],)
+        work_points = _work_points(row, slots[gid], Pose(*target), where)
         for n, kind in enumerate(kinds, start=1):
             activity_id = f"{row.id}.{n}"
             frees = (kind is K.TRANSPORT and row.activity == Task.TRANSPORT) or \
@@ -148,12 +152,53 @@ def plan_from_schedule(schedule, model=None, yard: tuple[float, float, float] = 
                 predecessors=previous,
                 start=row.start, finish=row.finish, name=f"{kind.label} {gid}",
                 frees_robot=True if frees and not installs else None, lifts=lifts,
+                task=Task(row.activity), nodes=row.nodes, points=row.points, work_point=work_points.get(kind),
+                loads=where != "drop-off",
             ))
             previous = (activity_id,)
         last_of_row[row.id] = previous[0]
         if where != "in place" and row.activity != Task.TRANSPORT:
             placed_by[gid] = previous[0]
-    return activities
+    return _robot_order(activities, rows, last_of_row)
+
+
+def _work_points(row, slot: Pose, installed: Pose, where: str) -> dict[ActivityKind, Pose]:
+    """Where each drive of a row ends in the one time model (:mod:`bimrobot.sco.timing`): the points the
+    robot works at, as `simulate` drives between them. A transport goes from the pick-up on the yard to
+    the installed position; a positioning or an assembly goes to the row's work point (its node or joint;
+    the schedule's From columns). A row without them (a schedule of another tool) leaves the drives to
+    the stand poses (an empty mapping)."""
+    if row.activity == Task.TRANSPORT:
+        if row.work_from is None:
+            return {}
+        return {K.MOVE_TO_COMPONENT: slot, K.TRANSPORT: Pose(*row.work_to) if row.work_to else installed}
+    if row.work_from is None or where == "yard":
+        return {}
+    return {K.MOVE_TO_COMPONENT: Pose(*row.work_from)}
+
+
+def _robot_order(activities: list[RcanActivity], rows, last_of_row: dict[str, str]) -> list[RcanActivity]:
+    """Each row's first activity follows (``after``) the last activity of the previous row the schedule
+    gives the same robot, so a robot does its work in the schedule's order whatever order the results of
+    other robots come in (the times do not depend on threads). A soft order: a failed row does not
+    block the robot's later ones."""
+    previous_row: dict[str, str] = {}
+    robot_rows: dict[str, list] = {}
+    for row in rows:
+        if row.robot:
+            robot_rows.setdefault(row.robot, []).append(row)
+    for ordered in robot_rows.values():
+        ordered.sort(key=lambda r: (r.start, r.finish, r.id))
+        for before, row in zip(ordered, ordered[1:]):
+            previous_row[row.id] = before.id
+    out = []
+    for activity in activities:
+        row_id, _, number = activity.activity_id.rpartition(".")
+        before = previous_row.get(row_id)
+        if number == "1" and before is not None and last_of_row[before] not in activity.predecessors:
+            activity = dataclasses.replace(activity, after=(last_of_row[before],))
+        out.append(activity)
+    return out
 
 
 def _row_activities(activity: str, slot: Pose, installed: Pose, standoff_m: float, where: str,
@@ -214,7 +259,9 @@ def plan_from_graph(graph, yard: tuple[float, float, float] = (-10.0, -10.0, 0.0
         activities.append(Activity(
             id=str(row["activityId"]), name=str(row["name"] or ""), activity=str(row["activityType"]), global_id=gid,
             robot=row["robot"], start=float(row["start"]), finish=float(row["finish"]),
-            predecessors=tuple(sorted(str(row["predecessors"] or "").split())), target=target, node_id=row["nodeId"]))
+            predecessors=tuple(sorted(str(row["predecessors"] or "").split())), target=target, node_id=row["nodeId"],
+            work_from=_xyz(row, "work"), work_to=_xyz(row, "workEnd") or _xyz(row, "work"),
+            nodes=_count(row, "nodes"), points=_count(row, "points")))
     missing = sorted({p for a in activities for p in a.predecessors} - {a.id for a in activities})
     if missing:
         raise InputError(f"the construction graph's activities name predecessor(s) it does not schedule: {', '.join(missing[:5])}")
@@ -225,6 +272,10 @@ def plan_from_graph(graph, yard: tuple[float, float, float] = (-10.0, -10.0, 0.0
 def _xyz(row: dict, prefix: str) -> tuple[float, float, float] | None:
     values = [row.get(f"{prefix}{axis}") for axis in "XYZ"]
     return None if any(v is None for v in values) else tuple(float(v) for v in values)
+
+
+def _count(row: dict, key: str) -> int | None:
+    return None if row.get(key) is None else int(row[key])
 
 
 def _graph_facts(row: dict) -> ComponentFacts:

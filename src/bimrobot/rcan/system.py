@@ -292,6 +292,7 @@ class RcanSystem:
             self.publish(node.activity, decision.next_attempt)
         elif decision.verdict == ESCALATED:
             self._escalations.append(decision.report)
+            self._newly_settled.append(node.activity_id)
             self.log(f"[state manager] {decision.report}")
             # isolate, never block: the robot is released for work that does not depend on this one
             self._released(node.component_id)
@@ -337,11 +338,19 @@ class RcanSystem:
         published |= {r.activity_id for r in self._escalations}
         # Which activities wait for which (done activities count as met), to publish in plan order,
         # without rescanning the whole plan on every turn of the loop.
-        unmet = {a.activity_id: len({p for p in a.predecessors if p not in self._done}) for a in activities}
+        # ``after`` (a robot's schedule order) counts like a predecessor, but one that failed is met too.
+        links = {a.activity_id: set(a.predecessors) | set(a.after) for a in activities}
+        unmet = {i: len({p for p in ps if p not in self._done}) for i, ps in links.items()}
         successors: dict[str, list[str]] = {}
+        for i, ps in links.items():
+            for p in ps:
+                successors.setdefault(p, []).append(i)
+        self._soft_successors: dict[str, list[str]] = {}
         for a in activities:
-            for p in set(a.predecessors):
-                successors.setdefault(p, []).append(a.activity_id)
+            for p in set(a.after) - set(a.predecessors):
+                self._soft_successors.setdefault(p, []).append(a.activity_id)
+        self._settled: set[str] = set()
+        self._newly_settled = [r.activity_id for r in self._escalations]
         ready = {i for i, n in unmet.items() if n == 0 and i not in published}
         self._newly_done.clear()  # done before this run: already counted in ``unmet``
         started = time.perf_counter()
@@ -361,6 +370,10 @@ class RcanSystem:
                         if unmet[successor] == 0 and successor not in published:
                             ready.add(successor)
                 self._newly_done.clear()
+                for soft in self._settle_failed():
+                    unmet[soft] -= 1
+                    if unmet[soft] == 0 and soft not in published:
+                        ready.add(soft)
                 for activity_id in sorted(ready, key=order.__getitem__):  # components publish what became ready
                     published.add(activity_id)
                     self.publish(self._plan[activity_id])
@@ -374,6 +387,31 @@ class RcanSystem:
                 raise TimeoutError(f"RCAN run did not finish within {timeout_s:.0f} s; in flight: {sorted(self._in_flight)}")
             messages = self.broker.receive(self.router.topics, timeout_s=0.05)
         return self._report(activities, started, resumed)
+
+    def _settle_failed(self) -> list[str]:
+        """The soft-order links (``after``) met by failure: an escalated activity and every activity that
+        waits for it will not run, so the activities that merely follow them in their robot's order may
+        go. Returns one successor id per link met (each link once)."""
+        met = []
+        stack = list(self._newly_settled)
+        self._newly_settled.clear()
+        while stack:
+            activity_id = stack.pop()
+            if activity_id in self._settled or activity_id in self._done:
+                continue
+            self._settled.add(activity_id)
+            met += self._soft_successors.get(activity_id, ())
+            stack += [s for s in self._successors_of(activity_id) if s not in self._settled]
+        return met
+
+    def _successors_of(self, activity_id: str) -> list[str]:
+        """The activities that list ``activity_id`` as a predecessor (they cannot run once it failed)."""
+        if not hasattr(self, "_hard_successors") or self._hard_successors_plan is not self._plan:
+            self._hard_successors, self._hard_successors_plan = {}, self._plan
+            for a in self._plan.values():
+                for p in set(a.predecessors):
+                    self._hard_successors.setdefault(p, []).append(a.activity_id)
+        return self._hard_successors.get(activity_id, [])
 
     def _check_plan(self, activities: list[RcanActivity]) -> None:
         ids = set(self._plan)

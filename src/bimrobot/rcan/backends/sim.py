@@ -11,8 +11,15 @@ goal) and lets go; a later pick-up there takes it again. Any activity can also f
 the same failures as an uninterrupted one.
 
 Time: every robot keeps its own clock in simulated seconds; an activity starts at
-``max(robot clock, ready_at_s)``. ``time_scale`` real seconds are slept per simulated second (0: no
-sleeping, the default; 1: real time).
+``max(robot clock, ready_at_s)`` (its predecessors' finish and its planned start). How long it takes is
+the one time model's (:mod:`bimrobot.sco.timing`), the same as `simulate`'s: a drive (move to component,
+transport) takes the distance between the points the robot works at (the activity's ``work_point``; the
+base stands beside them) over its speed, a transport that sets the component down adds the unload time,
+a pick-up from the yard the load time, a positioning the time per node, an install the time per
+assembly point; arm motions take their distance over the arm's speed (nothing for a fleet robot, whose
+handling times include them). Nothing here depends on the wall clock or on the order in which threads
+run, so the same plan gives the same times. ``time_scale`` real seconds are slept per simulated second
+(0: no sleeping, the default; 1: real time).
 
 The world (robot poses, components, executed goals) lives in SQLite, in memory by default or in the
 run's state database, so it survives a crash like a real site does. Executed goals are recorded in the
@@ -35,6 +42,8 @@ from bimrobot.rcan.backends.interfaces import ActivityResult, DispatchingBackend
 from bimrobot.rcan.generation import CapabilityTable, RobotSpec
 from bimrobot.rcan.node import RcanNode
 from bimrobot.rcan.state_manager import connect_state_db, write_lock
+from bimrobot.sco import timing
+from bimrobot.tasks import Task
 
 GRASP_TOLERANCE_M = 0.05
 ARM_STOW_HEIGHT_M = 0.5
@@ -47,6 +56,7 @@ CREATE TABLE IF NOT EXISTS sim_execution (
     activity_id TEXT, attempt INTEGER, robot TEXT, success INTEGER, message TEXT,
     started_s REAL, finished_s REAL);
 CREATE INDEX IF NOT EXISTS sim_execution_goal ON sim_execution (activity_id, attempt);
+CREATE TABLE IF NOT EXISTS sim_work_point (name TEXT PRIMARY KEY, x REAL, y REAL);
 """
 
 
@@ -73,6 +83,7 @@ class KinematicSite:
             self._db.execute(
                 "INSERT OR IGNORE INTO sim_robot VALUES (?, ?, ?, ?, NULL, NULL, 0.0)", (robot.name, h.x, h.y, h.z)
             )
+            self._db.execute("INSERT OR IGNORE INTO sim_work_point VALUES (?, ?, ?)", (robot.name, h.x, h.y))
 
     # --- queries -----------------------------------------------------------------------------------
     def robot_state(self, name: str) -> dict:
@@ -81,7 +92,10 @@ class KinematicSite:
         if row is None:
             raise KeyError(f"robot {name!r} is not on this site")
         arm = Pose(*json.loads(row[3])) if row[3] else None
-        return {"base": Pose(row[0], row[1], row[2]), "arm": arm, "holding": row[4], "clock_s": row[5]}
+        work = self._db.execute("SELECT x, y FROM sim_work_point WHERE name=?", (name,)).fetchone()
+        work_point = Pose(work[0], work[1], 0.0) if work else Pose(row[0], row[1], row[2])
+        return {"base": Pose(row[0], row[1], row[2]), "arm": arm, "holding": row[4], "clock_s": row[5],
+                "work_point": work_point}
 
     def component_position(self, global_id: str) -> tuple[float, float, float] | None:
         row = self._db.execute("SELECT x, y, z FROM sim_component WHERE global_id=?", (global_id,)).fetchone()
@@ -150,14 +164,19 @@ class KinematicSite:
             duration, error, effect = self._plan(spec, {**state, "holding": None}, node)
             effect = {**effect, "set_down": (state["holding"], state["arm"] or base)}
             return duration, error, effect
+        times, activity = spec.time_model(), node.activity
         if kind in (ActivityKind.MOVE_TO_COMPONENT, ActivityKind.TRANSPORT):
             if kind is ActivityKind.TRANSPORT and state["holding"] != node.component_id:
                 return 0.0, f"robot {spec.name} does not hold {node.component_id} to transport it", {}
-            effect = {"base": Pose(target.x, target.y, base.z), "arm": None}
-            if kind is ActivityKind.TRANSPORT and node.activity.releases_robot:
+            work_point = activity.work_point or target
+            effect = {"base": Pose(target.x, target.y, base.z), "arm": None, "work_point": work_point}
+            duration = timing.travel_s(times, state["work_point"].distance_xy(work_point))
+            if kind is ActivityKind.TRANSPORT and activity.releases_robot:
                 # sets the component down at the drop-off point (the stand pose) and lets go of it
                 effect.update(holding=None, component=(target, None))
-            return base.distance_xy(target) / spec.speed_m_s, None, effect
+                if activity.task is Task.TRANSPORT:
+                    duration += times.unload_s
+            return duration, None, effect
         if kind in (ActivityKind.POSITION_FOR_PICKING_UP, ActivityKind.POSITION_FOR_INSTALLING):
             reach = base.distance_xy(target)
             if reach > spec.reach_m + 1e-9:
@@ -175,8 +194,10 @@ class KinematicSite:
                 effect["component"] = (target, None if released else spec.name)
                 if released:
                     effect["holding"] = None
-            return arm_from.distance(target) / spec.arm_speed_m_s, None, effect
-        handling = spec.handling_s.get(kind.value, 0.0)
+            duration = timing.arm_s(times, arm_from.distance(target))
+            if kind is ActivityKind.POSITION_FOR_INSTALLING and activity.task is Task.POSITION:
+                duration += timing.position_s(times, activity.nodes or 1)
+            return duration, None, effect
         arm = state["arm"]
         if arm is None or arm.distance(target) > GRASP_TOLERANCE_M:
             return 0.0, f"gripper of {spec.name} is not at the {kind.label.lower()} pose of {node.component_id}", {}
@@ -190,6 +211,7 @@ class KinematicSite:
                 return 0.0, f"the {w:.3f} x {d:.3f} m section of {node.component_id} does not fit the gripper of {spec.name}", {}
             if node.activity.weight_kg is not None and node.activity.weight_kg > spec.payload_kg:
                 return 0.0, f"{node.component_id} weighs {node.activity.weight_kg:.1f} kg, over the {spec.payload_kg:.1f} kg payload of {spec.name}", {}
+            handling = times.load_s if activity.loads else 0.0  # a re-grip is part of the positioning
             return handling, None, {"holding": node.component_id, "component": (target, spec.name)}
         # install: place the held component, or fix a component already in place (a further connection)
         if state["holding"] != node.component_id and self._held_by_other(node.component_id, spec.name):
@@ -197,6 +219,8 @@ class KinematicSite:
         effect = {"arm": None, "component": (target, None)}
         if state["holding"] == node.component_id:
             effect["holding"] = None
+        # the install of a positioning row lets go of the component: its positioning took the time
+        handling = 0.0 if activity.task is Task.POSITION else timing.assemble_s(times, activity.points)
         return handling, None, effect
 
     def _held_by_other(self, component_id: str, robot: str) -> bool:
@@ -235,6 +259,9 @@ class KinematicSite:
                     columns["holding"] = None
                 if "holding" in effect:
                     columns["holding"] = effect["holding"]
+                if "work_point" in effect:
+                    w = effect["work_point"]
+                    db.execute("INSERT OR REPLACE INTO sim_work_point VALUES (?, ?, ?)", (node.robot, w.x, w.y))
                 db.execute(f"UPDATE sim_robot SET {', '.join(f'{c}=?' for c in columns)} WHERE name=?",
                            (*columns.values(), node.robot))
                 if "component" in effect:
