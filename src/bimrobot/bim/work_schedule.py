@@ -98,8 +98,11 @@ def _wholes_first(products) -> list:
 
     products = set(products)
 
-    def is_part(product) -> bool:
-        return ifcopenshell.util.element.get_aggregate(product) in products
+    def is_part(product) -> bool:  # of a whole among the outputs, at any level
+        whole = ifcopenshell.util.element.get_aggregate(product)
+        while whole is not None and whole not in products:
+            whole = ifcopenshell.util.element.get_aggregate(whole)
+        return whole is not None
 
     return sorted(products, key=lambda p: (is_part(p), p.id()))
 
@@ -415,8 +418,9 @@ def scheduled_model(ifc_in: str | os.PathLike, schedule, *, epoch: str | None = 
       with one IfcTimePeriod) assigned to the top-level tasks, which the nested ones inherit;
     * IfcTaskTimes in working time (DurationType WORKTIME): the simulated seconds of work are laid onto
       the calendar's working hours (:func:`working_datetime`); ScheduleDuration counts working days as
-      IfcOpenShell, Bonsai and ifc4d do (P1D = one working day of the calendar, 9 h by default);
-      times to the second. The times are set on the IfcTaskTime directly because ``edit_task_time``
+      IfcOpenShell, Bonsai and ifc4d do (P1D = one working day of the calendar, 9 h by default; to the
+      second of that scale, i.e. within 0.2 s of work, as IfcOpenShell reads no fraction of a second);
+      dates and times to the second. The times are set on the IfcTaskTime directly because ``edit_task_time``
       snaps them to whole days.
 
     ``epoch``: ISO date-time of t = 0 s; default the schedule's own (``Schedule.epoch``), else today at
@@ -715,15 +719,17 @@ def _has_body(product) -> bool:
 
 
 def _assembly_unit(product):
-    """The assembly a product is or belongs to (IfcElementAssembly, or any element with parts), or None."""
+    """The outermost assembly a product is or belongs to (an IfcElementAssembly, or an element with parts),
+    or None: the unit that is lifted, also for an activity on one of its sub-assemblies or parts."""
     import ifcopenshell.util.element
 
-    if product is None:
+    if product is None or not product.is_a("IfcElement"):
         return None
-    if product.is_a("IfcElementAssembly") or (product.is_a("IfcElement") and product.IsDecomposedBy):
-        return product
+    unit = product if product.is_a("IfcElementAssembly") or product.IsDecomposedBy else None
     whole = ifcopenshell.util.element.get_aggregate(product)
-    return whole if whole is not None and whole.is_a("IfcElementAssembly") else None
+    while whole is not None and whole.is_a("IfcElementAssembly"):
+        unit, whole = whole, ifcopenshell.util.element.get_aggregate(whole)
+    return unit
 
 
 def _containing_storey(product):
