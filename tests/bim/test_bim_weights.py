@@ -248,10 +248,13 @@ def test_inspect_lists_implausible_weights_as_suspect_not_found(tmp_path, capsys
     summary = summarize(model)
     suspect = {row["name"]: row["reason"] for row in summary["suspect_weights"]}
     assert set(suspect) == {"ten times", "light", "impossible"}
-    assert "outside 50-8,000 kg/m3" in suspect["impossible"]
+    assert "outside 50-8,100 kg/m3" in suspect["impossible"]
     assert "0.25 x volume x material density" in suspect["light"]
-    assert summary["weights"]["found"] == 1 and summary["weights"]["suspect"] == 3
-    assert summary["weights"]["total_kg"] == pytest.approx(volume * 2300, rel=1e-3)  # suspects are not in it
+    assert summary["weights"]["found"] == 4 and summary["weights"]["suspect"] == 3
+    # every weight is in the total, with its source; the suspects are counted per class besides
+    assert summary["weights"]["total_kg"] == pytest.approx(volume * (2300 + 24000 + 600 + 20), rel=1e-3)
+    assert summary["weights"]["by_source_kg"] == {WeightSource.QUANTITY.value: pytest.approx(volume * 26920, rel=1e-3)}
+    assert summary["suspect_by_class"]["IfcWall"]["count"] == 3
 
     assert main(["inspect", str(path), "--json", "--elements", "--no-progress"]) == 0
     listed = {e["name"]: e for e in json.loads(capsys.readouterr().out)["element_list"]}
@@ -260,8 +263,9 @@ def test_inspect_lists_implausible_weights_as_suspect_not_found(tmp_path, capsys
     assert listed["light"]["density_kg_m3"] == 2400.0
     assert main(["inspect", str(path), "--no-progress"]) == 0
     text = capsys.readouterr().out
-    assert "weights: 1 found, 0 missing, 3 suspect" in text
-    assert "suspect weights (3, not in the totals above):" in text
+    assert "weights: 4 found, 0 missing, 3 suspect" in text
+    assert "suspect weights (3, in the totals above; each one in --json):" in text
+    assert len([line for line in text.splitlines() if line.startswith("  IfcWall: 3 (")]) == 1  # one line per class
 
 
 # ---- the shared real models (../shared/data/ifc) --------------------------------------------------
@@ -356,3 +360,46 @@ def test_reading_only_the_weights_gives_every_element_the_same_weight(shared_mod
         assert any(e.weight_source is WeightSource.PROPERTY for e in lean.elements.values())
     if name == "MULTICOM-Prefab.ifc":  # and Tekla's IfcQuantityWeight
         assert any(e.weight_source is WeightSource.QUANTITY for e in lean.elements.values())
+
+
+# ---- issue 34: steel stays plausible; the unknown-weight rule by class and material -------------------
+
+
+def test_tekla_steel_at_8000_4_kg_m3_and_copper_are_plausible_but_20_000_is_not():
+    """Tekla writes 8,000.4 kg/m3 for its steel (468 elements of one model were flagged at 50-8,000)."""
+    volume = 0.05
+    assert weight_check(volume * 8000.4, WeightSource.QUANTITY, volume, 7850.0) is None
+    assert weight_check(volume * 8000.4, WeightSource.QUANTITY, volume, None) is None  # no material: the range
+    assert weight_check(volume * 8900.0, WeightSource.QUANTITY, volume, 8900.0) is None  # copper is copper
+    assert "outside 50-8,100 kg/m3" in weight_check(volume * 20000.0, WeightSource.QUANTITY, volume, None)
+
+
+def test_unknown_weights_are_assumed_by_class_and_material_on_ifc_unit(shared_ifc):
+    """ifcUnit's 28 bolts, 16 angle cleats (IfcColumn 'Angle_Cleat') and 4 base plates have no weight:
+    steel 7,850 kg/m3, not the 2,400 of concrete; the report counts them per material assumed."""
+    from bimrobot.bim.unknown_weight import UnknownWeightRule, apply_unknown_weight_rule
+
+    model = load_model(shared_ifc("ifcUnit.ifc"), unknown_weight=UnknownWeightRule())
+    report = model.unknown_weights
+    assert report.materials == {"steel 7850 kg/m3": 48}
+    assert dict(report.classes) == {"IfcMechanicalFastener": 28, "IfcColumn": 16, "IfcPlate": 4}
+    bolt = model.by_class("IfcMechanicalFastener")[0]
+    assert bolt.weight_kg == pytest.approx(bolt.volume_m3 * 7850.0)
+    assert "IfcMechanicalFastener is steel" in bolt.weight_basis
+    assert "steel 7850 kg/m3 for 48" in report.message()
+    # applied once at loading; applying it again (as a command did) changes nothing and reports the same
+    again = apply_unknown_weight_rule(model.elements.values(), UnknownWeightRule(), "ifcUnit.ifc")
+    assert again.as_dict() == report.as_dict()
+    # a density given on the command line applies to all of them, as before
+    uniform = load_model(shared_ifc("ifcUnit.ifc"), unknown_weight=UnknownWeightRule.parse("2400"))
+    assert uniform.unknown_weights.materials == {"given 2400 kg/m3": 48}
+    assert UnknownWeightRule.parse("auto") == UnknownWeightRule() and UnknownWeightRule().text == "auto"
+    assert UnknownWeightRule.parse(UnknownWeightRule.parse("7850").text).density_kg_m3 == 7850.0
+
+
+def test_archicad_rafters_without_a_material_density_are_timber(shared_ifc):
+    """AC20-FZK-Haus's 42 roof members ('Sparren', material 'Solid') are timber, 500 kg/m3."""
+    from bimrobot.bim.unknown_weight import UnknownWeightRule
+
+    model = load_model(shared_ifc("AC20-FZK-Haus.ifc"), include="IfcMember", unknown_weight=UnknownWeightRule())
+    assert model.unknown_weights.materials == {"timber 500 kg/m3": 42}

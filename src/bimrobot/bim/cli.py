@@ -180,9 +180,11 @@ def _split(args) -> int:
 def summarize(model) -> dict:
     """A JSON-ready summary of a BuildingModel: classes, storeys, connections, units, weights, skipped.
 
-    Weights: "found" counts plausible weights only; a weight that :func:`~bimrobot.bim.quantities.weight_check`
-    finds implausible is "suspect", listed under ``suspect_weights`` with the reason and left out of the
-    class and total masses (kg). "missing" counts elements whose weight is unknown.
+    Weights: every element with a weight is in the class and total masses (kg), and ``by_source`` /
+    ``by_source_kg`` say where they came from; "found" counts them. A weight that
+    :func:`~bimrobot.bim.quantities.weight_check` finds implausible is also "suspect": counted per class
+    in ``suspect_by_class`` (count, kg, implied densities) and listed one by one, with the reason, under
+    ``suspect_weights``. "missing" counts elements whose weight is unknown.
     """
     from bimrobot.bim.quantities import weight_check
 
@@ -209,13 +211,26 @@ def summarize(model) -> dict:
         row["count"] += 1
         if element.weight_kg is None:
             row["weights_missing"] += 1
-        elif element.global_id not in suspect:
+        else:
             row["weight_kg"] += element.weight_kg
     for row in by_class.values():
         row["weight_kg"] = round(row["weight_kg"], 3)
     per_storey = Counter(e.storey_id for e in model.elements.values())
     sources = Counter(e.weight_source.value for e in model.elements.values())
-    found = [e for e in model.elements.values() if e.weight_kg is not None and e.global_id not in suspect]
+    found = [e for e in model.elements.values() if e.weight_kg is not None]
+    source_kg: dict[str, float] = {}
+    for element in found:
+        source_kg[element.weight_source.value] = source_kg.get(element.weight_source.value, 0.0) + element.weight_kg
+    suspect_by_class: dict[str, dict] = {}
+    for row in suspect_weights:
+        entry = suspect_by_class.setdefault(row["class"], {"count": 0, "weight_kg": 0.0, "implied_kg_m3": [], "example": row["GlobalId"]})
+        entry["count"] += 1
+        entry["weight_kg"] += row["weight_kg"]
+        entry["implied_kg_m3"].append(row["weight_kg"] / row["volume_m3"] if row["volume_m3"] else float("nan"))
+    for entry in suspect_by_class.values():
+        implied = [v for v in entry.pop("implied_kg_m3") if v == v]
+        entry["weight_kg"] = round(entry["weight_kg"], 3)
+        entry["implied_kg_m3"] = [round(min(implied), 1), round(max(implied), 1)] if implied else None
     return {
         "file": str(model.source),
         "schema": model.schema,
@@ -238,9 +253,11 @@ def summarize(model) -> dict:
             "missing": sources.get("unknown", 0),
             "suspect": len(suspect_weights),
             "by_source": dict(sources),
+            "by_source_kg": {source: round(kg, 3) for source, kg in source_kg.items()},
             "total_kg": round(sum(e.weight_kg for e in found), 3),
             "suspect_kg": round(sum(row["weight_kg"] for row in suspect_weights), 3),
         },
+        "suspect_by_class": dict(sorted(suspect_by_class.items(), key=lambda item: (-item[1]["count"], item[0]))),
         "suspect_weights": suspect_weights,
         "skipped": [{"GlobalId": s.global_id, "class": s.ifc_class, "name": s.name, "reason": s.reason} for s in model.skipped],
     }
@@ -272,15 +289,19 @@ def format_summary(summary: dict) -> str:
     if "inferred_connections" in summary:
         inferred = summary["inferred_connections"]
         lines.append(f"connections inferred from touching geometry (<= {inferred['tolerance_m']} m): {inferred['count']}")
-    by_source = ", ".join(f"{source} {n}" for source, n in weights["by_source"].items())
+    kg = weights.get("by_source_kg", {})
+    by_source = ", ".join(
+        f"{source} {n}" + (f" ({kg[source]:,.1f} kg)" if source in kg else "") for source, n in weights["by_source"].items()
+    )
     lines.append(
         f"weights: {weights['found']} found, {weights['missing']} missing, {weights['suspect']} suspect  [{by_source}]"
     )
     if summary["suspect_weights"]:
-        lines += ["", f"suspect weights ({len(summary['suspect_weights'])}, not in the totals above):"]
-        for row in summary["suspect_weights"]:
-            material = row["material"] or "no material"
-            lines.append(printable(f"  {row['GlobalId']} {row['class']} {row['name']!r} ({material}): {row['reason']}"))
+        lines += ["", f"suspect weights ({len(summary['suspect_weights'])}, in the totals above; each one in --json):"]
+        for ifc_class, entry in summary.get("suspect_by_class", {}).items():
+            implied = entry["implied_kg_m3"]
+            density = f", implied {implied[0]:,.1f}-{implied[1]:,.1f} kg/m3" if implied else ""
+            lines.append(printable(f"  {ifc_class}: {entry['count']} ({entry['weight_kg']:,.1f} kg{density}), e.g. {entry['example']}"))
     if summary["skipped"]:
         lines += ["", f"skipped ({len(summary['skipped'])} products without a solid body):"]
         for reason, n in Counter((s["class"], s["reason"]) for s in summary["skipped"]).items():

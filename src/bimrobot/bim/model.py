@@ -65,6 +65,7 @@ class Element:
     ``density_kg_m3``: the density of the element's material structure (kg/m3; None when unknown),
     used for the weight when ``weight_source`` is DENSITY and to check a weight the model gives.
     ``weight_basis``: how the weight was found, or why it is unknown, in words.
+    ``weight_assumed_as``: the material the unknown-weight rule assumed (e.g. "steel 7850 kg/m3"), or None.
     """
 
     global_id: str
@@ -80,6 +81,7 @@ class Element:
     properties: dict = field(default_factory=dict)
     density_kg_m3: float | None = None
     weight_basis: str = ""
+    weight_assumed_as: str | None = None  # e.g. "steel 7850 kg/m3" when the unknown-weight rule gave the weight
 
     @cached_property
     def volume_m3(self) -> float:

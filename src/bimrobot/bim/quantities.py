@@ -31,8 +31,12 @@ import numpy as np
 from bimrobot.bim.model import WeightSource
 
 #: Implied densities (kg/m3) that a building element can have: below, lighter than most insulation
-#: boards; above, heavier than steel. Outside this range a weight is listed as suspect.
-PLAUSIBLE_DENSITY_KG_M3 = (50.0, 8000.0)
+#: boards; above, heavier than steel (7,850; stainless 7,900-8,000; Tekla writes 8,000.4 for its steel
+#: meshes, whose fillets and holes it leaves out of the volume). Outside this range a weight is listed as
+#: suspect, unless the element's own material is that light or heavy (:func:`plausible_density_range`).
+PLAUSIBLE_DENSITY_KG_M3 = (50.0, 8100.0)
+#: Margin around a material's own density in which an implied density stays plausible (x and /).
+MATERIAL_DENSITY_MARGIN = 1.1
 #: A weight from the model that differs from volume x material density by more than this factor is suspect.
 DISAGREEMENT_FACTOR = 3.0
 #: A material's own MassDensity property is used when it lies in this range (kg/m3): air to osmium.
@@ -566,17 +570,28 @@ def resolve_weight(
     return Weight(volume * density, WeightSource.DENSITY, f"{volume:.4g} m3 x {_fmt(density)} kg/m3 ({material.basis})")
 
 
+def plausible_density_range(density_kg_m3: float | None) -> tuple[float, float]:
+    """Implied densities (kg/m3) plausible for an element of a material of ``density_kg_m3`` (None:
+    unknown): :data:`PLAUSIBLE_DENSITY_KG_M3`, widened to the material's own density within
+    :data:`MATERIAL_DENSITY_MARGIN` (copper 8,900 and lead 11,300 are real; so is a 30 kg/m3 foam)."""
+    low, high = PLAUSIBLE_DENSITY_KG_M3
+    if density_kg_m3:
+        low = min(low, density_kg_m3 / MATERIAL_DENSITY_MARGIN)
+        high = max(high, density_kg_m3 * MATERIAL_DENSITY_MARGIN)
+    return low, high
+
+
 def weight_check(weight_kg: float | None, source: WeightSource, volume_m3: float, density_kg_m3: float | None) -> str | None:
     """Why an element's weight is not plausible, in words, or None when it is (or cannot be checked).
 
-    Suspect: an implied density (weight / mesh volume) outside :data:`PLAUSIBLE_DENSITY_KG_M3`, or a
-    weight the model gives (quantity or property) that differs from volume x material density by more
-    than :data:`DISAGREEMENT_FACTOR`.
+    Suspect: an implied density (weight / mesh volume) outside :func:`plausible_density_range` (real
+    steel's 7,850-8,000.4 is inside), or a weight the model gives (quantity or property) that differs
+    from volume x material density by more than :data:`DISAGREEMENT_FACTOR`.
     """
     if weight_kg is None or volume_m3 <= 0:
         return None
     implied = weight_kg / volume_m3
-    low, high = PLAUSIBLE_DENSITY_KG_M3
+    low, high = plausible_density_range(density_kg_m3)
     if not low <= implied <= high:
         return (
             f"implied density {_fmt(implied)} kg/m3 ({weight_kg:.4g} kg / {volume_m3:.4g} m3) is outside "
