@@ -273,7 +273,7 @@ def run_simulate(args) -> int:
     later = f", {len(info['prebuilt_after_supports'])} made once what they rest on is placed" if info["prebuilt_after_supports"] else ""
     print(
         f"{len(smart.components)} components{units} ({len(info['prebuilt'])} prebuilt{later}), "
-        f"{info['connection_nodes']} connection nodes, {info['joints']} joints from {info['connection_source']}"
+        f"{info['connection_nodes']} connection nodes, {info['joints']} joints" + ("" if info["connection_source"] == "none" else f" ({info['connection_source']})")
     )
     if smart.internal_connections:
         print(f"{smart.internal_connections} connections between parts of one assembly are internal (made in the factory, not on site)")

@@ -162,5 +162,11 @@ def load_fleet(spec: str | Path) -> Fleet:
         source = f"built-in fleet {spec}"
         return fleet_from_dict(parse_yaml(text, source), source)
     if not Path(spec).is_file():
-        raise InputError(f"fleet {spec!r} is neither a built-in fleet ({', '.join(BUILTIN_FLEETS)}) nor a file")
+        if str(spec).lower() in BUILTIN_FLEETS:  # --fleet Fleet2: the built-in fleet2
+            return load_fleet(str(spec).lower())
+        import difflib
+
+        close = difflib.get_close_matches(str(spec).lower(), BUILTIN_FLEETS, n=1)
+        hint = f"; did you mean {close[0]!r}?" if close else ""
+        raise InputError(f"fleet {spec!r} is neither a built-in fleet ({', '.join(BUILTIN_FLEETS)}) nor a file{hint}")
     return fleet_from_dict(read_yaml_file(spec, "fleet file"), str(spec))

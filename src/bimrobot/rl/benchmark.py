@@ -303,7 +303,7 @@ def _run_one(config: TrainConfig, runs_dir: str) -> dict[str, Any]:
     """Worker: train one run (or read it when already finished); its results and learning curve."""
     run_dir = Path(runs_dir) / config.run_name
     if not (run_dir / "results.json").is_file():
-        train(config, runs_dir)
+        train(config, runs_dir, keep_earlier=False)
     results = json.loads((run_dir / "results.json").read_text())
     results["episodes"] = read_episodes(run_dir)
     results["episode_wall_s"] = read_episode_wall_seconds(run_dir)
@@ -359,18 +359,33 @@ def _sigterm_stops_the_pool():
         signal.signal(signal.SIGTERM, previous)
 
 
+@contextlib.contextmanager
 def _pool(workers: int, ray_address: str | None):
     if ray_address is None:
-        return multiprocessing.get_context("spawn").Pool(
+        with multiprocessing.get_context("spawn").Pool(
             processes=workers, initializer=_worker_exits_on_sigterm, maxtasksperchild=1
-        )
+        ) as pool:
+            yield pool
+        return
     from bimrobot.errors import require_extra
 
-    require_extra("ray", "ray")
+    ray = require_extra("ray", "ray")
     from ray.util.multiprocessing import Pool as RayPool
 
-    # "local" starts a Ray instance on this machine; "auto" or host:port joins a running cluster
-    return RayPool(processes=workers, ray_address=None if ray_address == "local" else ray_address)
+    if ray_address != "local":  # "auto" or host:port joins a running cluster (its session folder is its own)
+        with RayPool(processes=workers, ray_address=ray_address) as pool:
+            yield pool
+        return
+    # "local" starts a Ray instance on this machine: its session folder (logs, sockets) goes to a temporary
+    # folder of this benchmark, removed when the instance stops, not to <tmp>/ray where it would stay
+    folder = tempfile.mkdtemp(prefix="bimrobot-ray-")
+    try:
+        ray.init(_temp_dir=folder, include_dashboard=False, log_to_driver=False)
+        with RayPool(processes=workers) as pool:
+            yield pool
+    finally:
+        ray.shutdown()
+        shutil.rmtree(folder, ignore_errors=True)
 
 
 def run_benchmark(spec: BenchmarkSpec, out: str | Path, workers: int = 1, ray_address: str | None = None,

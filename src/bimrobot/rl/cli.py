@@ -55,7 +55,8 @@ def register(subparsers) -> None:
     train.add_argument("--algo", required=True, choices=list(ALGORITHM_NAMES))
     train.add_argument("--timesteps", default="1e6", help="env steps (e.g. 1e6, 250k; default 1e6)")
     train.add_argument("--seed", type=int, default=0)
-    train.add_argument("-o", "--out", default="runs", help="parent folder of the run dir (default runs/)")
+    _output(train, default="runs", help="parent folder of the run dir (default runs/); a run dir of the same setting, "
+            "algorithm and seed already there is kept, and the new run written beside it (<name>-2, ...)")
     train.add_argument("--checkpoint-every", default="1e5", help="env steps between checkpoints (default 1e5)")
     train.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                        help="override one hyperparameter, e.g. --set ent_coef=0.05 (JSON values); repeatable")
@@ -86,7 +87,7 @@ def register(subparsers) -> None:
     bench.add_argument("--workers", type=int, default=1, help="parallel runs (default 1)")
     bench.add_argument("--ray", default=None, metavar="ADDRESS",
                        help="run the grid on a Ray cluster ('auto', 'local' or host:port; needs pip install ray)")
-    bench.add_argument("-o", "--out", default="benchmark", help="output folder (default benchmark/)")
+    _output(bench, default="benchmark", help="output folder (default benchmark/)")
     bench.add_argument("--summary-only", action="store_true",
                        help="train nothing: rewrite the table and plots from the runs of this grid that have finished")
     common(bench)
@@ -97,8 +98,22 @@ def register(subparsers) -> None:
                                   description="Put the algorithms of several benchmark grids side by side (scores, "
                                               "env steps to 0.9, goal check against the thesis' best cells).")
     compare.add_argument("grids", nargs="+", metavar="GRID", help="a bimrobot rl benchmark output folder")
-    compare.add_argument("-o", "--out", required=True, help="the Markdown file to write")
+    _output(compare, default=None, help="the Markdown file to write (required)")
     compare.set_defaults(func=_compare)
+
+
+def _output(parser: argparse.ArgumentParser, default, help: str) -> None:
+    """``-o/--output`` as every bimrobot command takes it; ``--out``, the old spelling, still works (hidden)."""
+    parser.add_argument("-o", "--output", dest="out", default=default, help=help)
+    parser.add_argument("--out", dest="out", default=default, help=argparse.SUPPRESS)
+
+
+def _needs_rl() -> None:
+    """Name the `rl` extra (PyTorch, Stable-Baselines3) before any work starts when it is missing."""
+    from bimrobot.errors import require_extra
+
+    for module in ("torch", "stable_baselines3", "sb3_contrib"):
+        require_extra(module, "rl")
 
 
 def _overrides(pairs: list[str]) -> dict:
@@ -117,6 +132,7 @@ def _overrides(pairs: list[str]) -> dict:
 
 
 def _train(args) -> int:
+    _needs_rl()
     from bimrobot.rl.benchmark import parse_timesteps
     from bimrobot.rl.train import TrainConfig, train
 
@@ -128,6 +144,9 @@ def _train(args) -> int:
     )
     run_dir = train(config, args.out)
     results = json.loads((run_dir / "results.json").read_text())
+    if run_dir.name != config.run_name:
+        print(f"{run_dir.parent / config.run_name} holds an earlier run of this setting, algorithm and seed: "
+              f"kept; this run is {run_dir.name}")
     print(f"run dir: {run_dir}  (config.json, model.zip, episodes.csv, progress.csv, TensorBoard events, checkpoints/)")
     _print_results(results)
     return 0
@@ -145,6 +164,7 @@ def _print_results(results: dict) -> None:
 
 
 def _eval(args) -> int:
+    _needs_rl()
     from bimrobot.assembly.env import MAX_SEED
     from bimrobot.errors import InputError
     from bimrobot.rl.train import MAX_EVAL_EPISODES, evaluate_run
@@ -164,6 +184,7 @@ def _eval(args) -> int:
 
 
 def _benchmark(args) -> int:
+    _needs_rl()
     from bimrobot.errors import InputError
     from bimrobot.rl.benchmark import (
         MAX_WORKERS,
@@ -196,7 +217,11 @@ def _benchmark(args) -> int:
 
 
 def _compare(args) -> int:
+    from bimrobot.errors import InputError
     from bimrobot.rl.compare import write_comparison
+
+    if args.out is None:
+        raise InputError("give the Markdown file to write with -o/--output, e.g. -o table.md")
 
     out = write_comparison(args.grids, args.out)
     print(f"comparison of {len(args.grids)} grids written to {out}")

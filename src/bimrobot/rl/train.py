@@ -17,11 +17,15 @@ Returns are in the environment's reward units; time in seconds.
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import json
 import logging
 import math
+import os
 import platform
+import shutil
+import tempfile
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -221,18 +225,50 @@ def _versions() -> dict[str, str]:
     }
 
 
-def train(config: TrainConfig, out_dir: str | Path) -> Path:
+def free_run_dir(out_dir: Path, name: str) -> Path:
+    """``out_dir/name``, or beside an earlier run of that name the first free ``name-2``, ``name-3``, ..."""
+    run_dir, number = out_dir / name, 1
+    while run_dir.exists() or run_dir.is_symlink():
+        number += 1
+        run_dir = out_dir / f"{name}-{number}"
+    return run_dir
+
+
+@contextlib.contextmanager
+def private_temp_folder(prefix: str = "bimrobot-rl-"):
+    """A temporary folder for what PyTorch caches during a run (``TORCHINDUCTOR_CACHE_DIR``, else
+    ``<tmp>/torchinductor_<user>`` left behind after every run); removed, with the setting, at the end.
+    A cache folder the user set is kept as it is."""
+    folder = Path(tempfile.mkdtemp(prefix=prefix))
+    own = "TORCHINDUCTOR_CACHE_DIR" not in os.environ
+    if own:
+        os.environ["TORCHINDUCTOR_CACHE_DIR"] = str(folder / "torchinductor")
+    try:
+        yield folder
+    finally:
+        if own:
+            os.environ.pop("TORCHINDUCTOR_CACHE_DIR", None)
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+def train(config: TrainConfig, out_dir: str | Path, *, keep_earlier: bool = True) -> Path:
     """Train, checkpoint, evaluate and write the run dir ``out_dir/<setting>-<algo>-s<seed>``; returns it.
 
-    ``out_dir`` is the parent: it may exist and hold other runs. The run dir follows :mod:`bimrobot.io`'s
-    policy (a run dir bimrobot wrote is replaced, saying so; anything else there is refused) and appears
-    only when the run completes: a failure or Ctrl-C leaves neither it nor a parent this call created.
+    ``out_dir`` is the parent: it may exist and hold other runs. With ``keep_earlier`` (the CLI's way) an
+    earlier run of the same setting, algorithm and seed is never replaced: the new run is written beside
+    it, as ``<name>-2``, ``<name>-3``, ... (:func:`free_run_dir`). Without it (the benchmark, which
+    reuses finished runs) the run dir follows :mod:`bimrobot.io`'s policy (a run dir bimrobot wrote is
+    replaced; anything else there is refused). The run dir appears only when the run completes: a
+    failure or Ctrl-C leaves neither it nor a parent this call created, nor PyTorch's cache files in
+    the temporary folder (:func:`private_temp_folder`).
     """
     config.validate()
     th.set_num_threads(config.threads)
     params = hyperparameters(config.algo, config.setting, config.profile, config.overrides)
     run_dir = Path(out_dir) / config.run_name
-    with atomic_output_dir(run_dir, kind=RUN_KIND, option="-o") as tmp:
+    if keep_earlier:
+        run_dir = free_run_dir(Path(out_dir), config.run_name)
+    with private_temp_folder(), atomic_output_dir(run_dir, kind=RUN_KIND, option="-o") as tmp:
         (tmp / "config.json").write_text(
             json.dumps({**asdict(config), "hyperparameters": params, "versions": _versions()}, indent=2)
         )

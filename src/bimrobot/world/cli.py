@@ -9,7 +9,7 @@ from pathlib import Path
 
 from bimrobot.bim.selection import add_selection_options
 from bimrobot.bim.unknown_weight import UnknownWeightRule, add_unknown_weight_option
-from bimrobot.errors import InputError
+from bimrobot.errors import InputError, require_extra
 
 CONVERT_EXAMPLES = """examples:
   bimrobot convert frame.ifc -o frame_pkg/                       # Gazebo Sim package, installed, static
@@ -114,6 +114,9 @@ def convert_command(args: argparse.Namespace) -> int:
     from bimrobot.site import load_site
 
     io.check_output(args.output, folder=True, inputs=[args.ifc, args.site])  # before the long read and conversion
+    if args.target == "mujoco":  # the MJCF scene needs the physics extra: say so before the geometry work
+        for module in ("mujoco", "coacd"):
+            require_extra(module, "physics")
     if args.site and args.layout != "yard":
         raise InputError("--site places the yard, so it needs --layout yard")
     site = load_site(args.site)
