@@ -36,6 +36,17 @@ def experiment_replay(experiment_run):
     return rrd
 
 
+def column_path(experiment_run) -> str:
+    """The column's entity path: /building/<storey>/<class>/<name>, as the replay names it."""
+    from bimrobot.replay.inputs import load_rcan_alone
+    from bimrobot.replay.record import element_paths
+
+    run, model = experiment_run
+    path = element_paths(load_rcan_alone(run, model))[COLUMN]
+    assert path.startswith("/building/") and COLUMN not in path
+    return path
+
+
 def read_back(rrd, entities, index):
     from rerun.server import Server
 
@@ -69,7 +80,7 @@ def transforms(frame, path):
 def test_component_ends_at_the_recorded_pose_and_the_robot_moved(experiment_run, experiment_replay):
     run, _ = experiment_run
     last = last_rows(run / "state.db.trajectory.csv")
-    column = "/building/" + rr.escape_entity_path_part(COLUMN)
+    column = column_path(experiment_run)
     base = "/bodies/husky_ur5/base"
     paths, frame = read_back(experiment_replay, [column, base], "physics_time")
     assert {column, base, "/bodies/husky_ur5/gripper", "/bodies/husky_ur5/arm"} <= paths
@@ -94,7 +105,7 @@ def test_the_installed_mesh_lies_at_its_ifc_placement(experiment_run, experiment
 
     run, model_path = experiment_run
     element = load_model(model_path).elements[COLUMN]
-    column = "/building/" + rr.escape_entity_path_part(COLUMN)
+    column = column_path(experiment_run)
     _, frame = read_back(experiment_replay, [column], "physics_time")
     _, xyz, quat = transforms(frame, column)
     from scipy.spatial.transform import Rotation

@@ -13,6 +13,10 @@ rr = pytest.importorskip("rerun")
 pytest.importorskip("datafusion", reason="Rerun's dataframe API needs rerun-sdk[catalog] (datafusion)")
 
 
+#: Column C1 of the steel frame (GlobalId 3Ua8LTHWPNNemz8Gs8JfMy): named by storey, class and name.
+COLUMN_C1 = "/building/" + "/".join(rr.escape_entity_path_part(p) for p in ("Level 1", "IfcColumn", "Column C1"))
+
+
 def read_back(rrd):
     """A Rerun catalog server on 127.0.0.1 holding only ``rrd``: its dataset (dataframe API)."""
     from rerun.server import Server
@@ -34,7 +38,7 @@ def test_replay_holds_every_element_robot_and_node(frame_build, frame_replay):
         paths = {c.entity_path for c in dataset.schema().component_columns()}
     building = {p for p in paths if p.startswith("/building/")}
     assert len(building) == len(elements) == summary["pieces"] == 88
-    assert "/building/" + rr.escape_entity_path_part("3Ua8LTHWPNNemz8Gs8JfMy") in building
+    assert COLUMN_C1 in building
     robots = {p.split("/")[2] for p in paths if p.startswith("/robots/")}
     assert robots == {"TransportRobot11", "TransportRobot12", "PositioningRobot21", "PositioningRobot22",
                       "AssemblyRobot31", "AssemblyRobot32"}
@@ -60,13 +64,15 @@ def test_installed_count_and_last_installation_match_the_schedule(frame_build, f
 
 def test_component_state_and_properties_are_read_back(frame_replay):
     rrd, _ = frame_replay
-    column_gid = "/building/" + rr.escape_entity_path_part("3Ua8LTHWPNNemz8Gs8JfMy")
+    column_gid = COLUMN_C1
     server, dataset = read_back(rrd)
     with server:
         frame = dataset.filter_contents([column_gid]).reader(index="sim_time").to_pandas()
         static = dataset.filter_contents([column_gid]).reader(index=None).to_pandas()
     assert static[f"{column_gid}:ifc_class"].iloc[0][0] == "IfcColumn"
     assert static[f"{column_gid}:name"].iloc[0][0] == "Column C1"
+    assert static[f"{column_gid}:global_id"].iloc[0][0] == "3Ua8LTHWPNNemz8Gs8JfMy"
+    assert static[f"{column_gid}:storey"].iloc[0][0] == "Level 1"
     states = [v[0] for v in frame[f"{column_gid}:state"].dropna()]
     assert states[0] == "OnYard" and states[-1] == "Assembled"
     assert "InTransit" in states and "WorkingInPositioning" in states

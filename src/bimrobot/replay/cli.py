@@ -12,6 +12,7 @@ REPLAY_EXAMPLES = """examples:
   bimrobot replay out/ -o out/build.rrd              # a `bimrobot build` output folder
   rerun out/build.rrd                                # open it in Rerun's native viewer
   bimrobot replay out/ -o build.rrd --serve          # ... or in the web viewer on 127.0.0.1
+  bimrobot replay --serve out/build.rrd              # serve a recording written before, as it is
   bimrobot replay sim/ pkg/ -o sim.rrd               # a `simulate` folder and a `convert --layout yard` package
   bimrobot replay out/ -o build.rrd --start 2026-03-02T07:00   # adds a calendar timeline
   bimrobot replay run/ --model e1.ifc -o e1.rrd      # an `rcan run` folder (report.json, state.db, trajectory)
@@ -36,9 +37,11 @@ def register(subparsers) -> None:
     )
     parser.add_argument("folders", type=Path, nargs="+", metavar="FOLDER",
                         help="a `bimrobot build` output folder, a `simulate` folder and a `convert` package folder, "
-                        "or an `rcan run` folder (its report.json and state database; with --model)")
-    parser.add_argument("-o", "--output", type=Path, required=True,
-                        help="the .rrd file to write (a new file, or one bimrobot wrote, which is replaced)")
+                        "or an `rcan run` folder (its report.json and state database; with --model); with --serve, "
+                        "an existing .rrd recording, served as it is (nothing is written)")
+    parser.add_argument("-o", "--output", type=Path,
+                        help="the .rrd file to write (a new file, or one bimrobot wrote, which is replaced); "
+                        "required unless an existing recording is served")
     parser.add_argument("--model", type=Path,
                         help="the IFC file, when it is no longer where the package's report.json says")
     parser.add_argument("--start", type=_date_time, metavar="ISO",
@@ -58,8 +61,16 @@ def _date_time(text: str) -> dt.datetime:
 
 
 def replay_command(args) -> int:
+    from bimrobot.errors import require_extra
+
+    require_extra("rerun", "replay")  # before any work: the recording and the viewer are Rerun's
     from bimrobot.replay import write_replay
 
+    if len(args.folders) == 1 and args.folders[0].suffix == ".rrd":
+        return _serve_existing(args)
+    if args.output is None:
+        raise InputError("give the .rrd file to write with -o, e.g. -o build.rrd "
+                         "(or an existing recording with --serve, e.g. bimrobot replay --serve build.rrd)")
     if len(args.folders) > 2:
         raise InputError("give one build folder, or one `simulate` folder and one `convert` package folder")
     if not args.output.suffix == ".rrd":
@@ -86,15 +97,28 @@ def replay_command(args) -> int:
     return 0
 
 
-def _serve(rrd: Path, port: int) -> int:
-    from bimrobot.replay.serve import serve_web
+def _serve_existing(args) -> int:
+    """``bimrobot replay --serve build.rrd``: serve a recording as it is, writing nothing."""
+    from bimrobot.replay.serve import check_recording
 
-    viewer = serve_web(rrd, web_port=port)
-    print(f"web viewer: {viewer.url}\n(Ctrl-C stops it)", flush=True)
-    try:
-        viewer.process.wait()
-    except KeyboardInterrupt:
-        pass
-    finally:
-        viewer.stop()
-    return 0
+    rrd = args.folders[0]
+    if not args.serve:
+        raise InputError(f"{rrd} is a recording already: open it with `rerun {rrd}`, or serve it in the web viewer "
+                         f"with `bimrobot replay --serve {rrd}`")
+    if args.output is not None:
+        raise InputError(f"-o {args.output}: {rrd} is served as it is; -o names a new recording, written from a "
+                         "build folder")
+    for option, value in (("--model", args.model), ("--start", args.start)):
+        if value is not None:
+            raise InputError(f"{option}: {rrd} is served as it was recorded; {option} applies when a recording is "
+                             "written from a build folder")
+    check_recording(rrd)
+    if not 0 <= args.web_port <= 65535:
+        raise InputError(f"--web-port {args.web_port} is not a port number (0-65535; 0 picks a free one)")
+    return _serve(rrd, args.web_port)
+
+
+def _serve(rrd: Path, port: int) -> int:
+    from bimrobot.replay.serve import serve_until_stopped
+
+    return serve_until_stopped(rrd, port, lambda url: print(f"web viewer: {url}\n(Ctrl-C stops it)", flush=True))

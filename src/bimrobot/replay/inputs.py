@@ -94,6 +94,8 @@ class BuildRecord:
     #: ``yard``, (k, 2) model frame, metres)
     idle_robots: str = "stay"
     yard: np.ndarray | None = None
+    #: storey GlobalId -> the storey's name (the entity tree names elements by storey)
+    storeys: dict[str, str] = field(default_factory=dict)
 
     @property
     def makespan(self) -> float:
@@ -208,6 +210,7 @@ def load_build(folders: list[Path], model_path: Path | None = None) -> BuildReco
         pieces=pieces, parts=parts, states=states, schedule=schedule, robots=robots, nodes=nodes,
         inputs=[package, simulation, model_path], rcan=rcan,
         idle_robots=site.idle_robots, yard=site.to_model(np.asarray(site.yard, float).reshape(-1, 2), offset),
+        storeys=storey_names(model),
     )
 
 
@@ -233,7 +236,15 @@ def load_rcan_alone(folder: Path, model_path: Path | None) -> BuildRecord:
     components = {a.component_id for a in run.activities} | set(run.component_states)
     parts = {c: [p for p in model.assemblies[c].part_ids if p in pieces] for c in components if c in model.assemblies}
     return BuildRecord(title=f"RCAN run {folder.name} ({Path(model_path).name})", pieces=pieces, parts=parts,
-                       states={}, schedule=[], robots={}, nodes={}, inputs=[folder, Path(model_path)], rcan=run)
+                       states={}, schedule=[], robots={}, nodes={}, inputs=[folder, Path(model_path)], rcan=run,
+                       storeys=storey_names(model))
+
+
+def storey_names(model) -> dict[str, str]:
+    """Storey GlobalId -> its name (its GlobalId when unnamed; two storeys of one name get their elevation)."""
+    names = [s.name.strip() or s.global_id for s in model.storeys]
+    return {s.global_id: name if names.count(name) == 1 else f"{name} ({s.elevation:+.2f} m)"
+            for s, name in zip(model.storeys, names)}
 
 
 def _pieces(package: Path, report: dict, model, layout_yard: bool) -> dict[str, Piece]:

@@ -1,15 +1,24 @@
-"""Write a :class:`~bimrobot.replay.inputs.BuildRecord` as a Rerun recording (``.rrd``).
+"""Write a :class:`~bimrobot.replay.inputs.BuildRecord` as a Rerun recording (``.rrd``) with a blueprint
+a planner can read (:func:`blueprint`).
 
-Entities (paths are Rerun entity paths; GlobalIds escaped as path parts):
+Entities (paths are Rerun entity paths; each part escaped):
 
-- ``/building/<GlobalId>``: the element's mesh (local frame) with a Transform3D over time, coloured by
-  its component's state; properties ``global_id``, ``ifc_class``, ``name``, ``storey`` (static) and
-  ``state`` (over time);
-- ``/robots/<name>``: a box per robot, moved over time, labelled with its current activity;
+- ``/building/<storey>/<IFC class>/<name>``: the element's mesh (local frame, simplified to at most
+  :data:`MAX_TRIANGLES` triangles) with a Transform3D over time, coloured by its component's state;
+  properties ``global_id``, ``ifc_class``, ``name``, ``storey`` (static) and ``state`` (over time).
+  Elements of the same storey, class and name are told apart by `` (2)``, `` (3)``, ... in file order
+  (:func:`element_paths`); the GlobalId is the ``global_id`` property;
+- ``/ghost``: the work still to be built, translucent grey at its installed place from the start
+  (static: on every timeline), as 4D tools show it; each element drawn 1 % smaller about its centre,
+  so that the built element, once in place, hides it;
+- ``/robots/<name>``: a box per robot, moved over time, with its current activity as its label;
 - ``/nodes/<relating:related>``: a point per connection node, grey -> orange while assembled -> green;
-- ``/gantt/<robot>``: a scalar per robot, raised while it works (a Gantt chart you can scrub);
+- ``/gantt/<robot>``: the robot's activities as bars of a Gantt chart (2D: x = time, one row per
+  robot, coloured by activity), static; ``/gantt/now`` the time cursor over it, on ``sim_time``;
 - ``/progress/<state>``: how many components are in each state (``Assembled``: installed);
 - ``/events``: one text line per activity start.
+
+Labels are recorded hidden (``show_labels=False``): names show on hover and in the selection panel.
 
 Timelines: ``sim_time`` (seconds from the start of the build, a duration) and, when a start date is
 given, ``calendar`` (wall-clock timestamps). An RCAN run adds ``rcan_time`` and, from the mujoco
@@ -61,14 +70,34 @@ class _Clock:
         if self.start is not None:
             self.rec.set_time(CALENDAR, timestamp=self.start + dt.timedelta(seconds=float(seconds)))
 
+    def columns(self, seconds) -> list:
+        """The time columns of rows at ``seconds`` (for ``send_columns``): sim_time and, with a start, calendar."""
+        import rerun as rr
+
+        seconds = np.asarray(seconds, dtype=float)
+        out = [rr.TimeColumn(TIMELINE, duration=seconds)]
+        if self.start is not None:
+            out.append(rr.TimeColumn(CALENDAR, timestamp=[self.start + dt.timedelta(seconds=float(t)) for t in seconds]))
+        return out
+
+
+#: Most triangles one element is drawn with: a larger mesh is simplified (quadric decimation) to this
+#: many, so that a model of thousands of elements opens in the web viewer in seconds (docs/replay.md).
+MAX_TRIANGLES = 400
+#: The unbuilt work: translucent grey (RGBA), each element shrunk about its centre by this factor.
+GHOST_RGBA = (150, 150, 150, 70)
+GHOST_SHRINK = 0.99
+
 
 def write_rrd(record: BuildRecord, rrd: Path, start: dt.datetime | None = None, name: str | None = None) -> dict:
     """Write the replay of ``record`` to ``rrd`` (a path the caller made safe); return a summary dict
-    (entities, components, installed, last installation time)."""
+    (entities, components, installed, last installation time, elements drawn simplified)."""
     import rerun as rr
 
     from bimrobot import io
+    from bimrobot.replay.layout import blueprint
 
+    record, simplified = simplified_record(record)
     rec = rr.RecordingStream(APPLICATION_ID, recording_id=f"bimrobot-replay-{name or Path(rrd).stem}")
     rec.set_log_time_enabled(False)  # a replay is the same whenever it is written
     # The signature near the file's start lets bimrobot replace its own .rrd (docs/conventions.md): sent
@@ -77,15 +106,20 @@ def write_rrd(record: BuildRecord, rrd: Path, start: dt.datetime | None = None, 
     rec.send_recording_name(f"{record.title} - {io.signature('replay')}")
     rec.save(str(rrd), default_blueprint=blueprint(record))
     clock = _Clock(rec, start)
-    _log_properties(rec, record)
-    summary = {}
+    paths = element_paths(record)
+    _log_properties(rec, record, paths)
+    _log_ghost(rec, record)
     if record.schedule:  # a build: the simulated schedule on sim_time
+        from bimrobot.replay.gantt import log_gantt
+
         tracks = robot_tracks(record)
         poses = component_poses(record, tracks)
-        _log_pieces(rec, clock, record, poses)
+        _log_pieces(rec, clock, record, poses, paths)
         _log_robots(rec, clock, record, tracks)
         _log_nodes(rec, clock, record)
+        log_gantt(rec, record)
     summary = _log_progress(rec, clock, record)
+    summary["simplified"] = simplified
     if record.rcan is not None:  # what RCAN executed, and the physics bodies, on their own clocks
         from bimrobot.replay.record_rcan import log_physics, log_rcan
 
@@ -99,79 +133,56 @@ def write_rrd(record: BuildRecord, rrd: Path, start: dt.datetime | None = None, 
     return summary
 
 
-def blueprint(record: BuildRecord | None = None):
-    """The default layout: the site in 3D beside the robots' Gantt, the state counts and the activities.
-
-    With ``record``, the 3D camera looks at the whole site (building, yard, robot homes) from a fixed
-    eye, so that pictures at different times show the same view, and the plots span the whole build."""
-    import rerun as rr
-    import rerun.blueprint as rrb
-
-    eye, axis = None, None
-    if record is not None:
-        low, high = scene_bounds(record)
-        centre, size = (low + high) / 2, float(np.max(high - low))
-        eye = rrb.EyeControls3D(position=centre + np.array([0.2, -0.75, 0.5]) * size, look_target=centre,
-                                eye_up=[0.0, 0.0, 1.0])
-        whole = rr.TimeRange(start=rr.TimeRangeBoundary.absolute(seconds=0.0),
-                             end=rr.TimeRangeBoundary.absolute(seconds=max(timeline_end(record), 1.0)))
-        axis = rrb.TimeAxis(view_range=whole)
-    panels = []
-    if record is None or record.schedule:
-        panels += [rrb.TimeSeriesView(name="Robots: raised while working", origin="/gantt", axis_x=axis),
-                   rrb.TimeSeriesView(name="Components per state", origin="/progress", axis_x=axis),
-                   rrb.TextLogView(name="Activities", origin="/events")]
-    if record is not None and record.rcan is not None:
-        panels += [rrb.TimeSeriesView(name="RCAN: activities done per robot (rcan_time)", origin="/rcan_done"),
-                   rrb.TextLogView(name="RCAN activities (rcan_time)", origin="/rcan")]
-        if any(a.start_s is not None for a in record.rcan.activities):
-            panels.insert(-2, rrb.TimeSeriesView(name="RCAN: raised while working (rcan_time)", origin="/rcan_gantt"))
-    return rrb.Blueprint(
-        rrb.Horizontal(
-            rrb.Spatial3DView(name="Site (model frame, m)", origin="/",
-                              contents=["/building/**", "/robots/**", "/nodes/**", "/bodies/**"], eye_controls=eye),
-            rrb.Vertical(*panels),
-            column_shares=[3, 2],
-        ),
-        rrb.TimePanel(timeline=main_timeline(record), state="expanded", play_state="paused"),
-        collapse_panels=True,
-    )
+def element_paths(record: BuildRecord) -> dict[str, str]:
+    """GlobalId -> entity path ``/building/<storey>/<IFC class>/<name>`` (module docstring): the storey's
+    name (``no storey`` without one), the element's name (its GlobalId when it has none); elements
+    sharing all three get `` (2)``, `` (3)``, ... in file order."""
+    out: dict[str, str] = {}
+    used: set[str] = set()
+    for gid, piece in record.pieces.items():
+        storey = record.storeys.get(piece.storey_id or "", piece.storey_id or "no storey")
+        name = piece.name.strip() or gid
+        path, number = entity("building", storey, piece.ifc_class, name), 1
+        while path in used:
+            number += 1
+            path = entity("building", storey, piece.ifc_class, f"{name} ({number})")
+        used.add(path)
+        out[gid] = path
+    return out
 
 
-def main_timeline(record: BuildRecord | None) -> str:
-    """The timeline the viewer opens on: the physics run's when there is one, else the schedule's."""
-    from bimrobot.replay.record_rcan import PHYSICS_TIME, RCAN_TIME
+def simplified_record(record: BuildRecord, max_triangles: int = MAX_TRIANGLES) -> tuple[BuildRecord, int]:
+    """``record`` with every element mesh over ``max_triangles`` simplified to about that many (quadric
+    decimation; the bounds stay those of the full mesh within millimetres), and how many were."""
+    import dataclasses
 
-    if record is not None and record.rcan is not None and record.rcan.bodies:
-        return PHYSICS_TIME
-    if record is not None and not record.schedule and record.rcan is not None:
-        return RCAN_TIME
-    return TIMELINE
-
-
-def timeline_end(record: BuildRecord) -> float:
-    """The last second of the main timeline (:func:`main_timeline`)."""
-    from bimrobot.replay.record_rcan import PHYSICS_TIME, RCAN_TIME
-
-    main = main_timeline(record)
-    if main == PHYSICS_TIME:
-        return max(float(track.times[-1]) for track in record.rcan.bodies.values())
-    if main == RCAN_TIME:
-        return max((a.finish_s for a in record.rcan.activities if a.finish_s is not None), default=0.0)
-    return record.makespan
+    pieces, count = {}, 0
+    for gid, piece in record.pieces.items():
+        triangles = simplify(piece.triangles, max_triangles)
+        count += len(triangles) < len(piece.triangles)
+        pieces[gid] = dataclasses.replace(piece, triangles=triangles) if len(triangles) < len(piece.triangles) else piece
+    return dataclasses.replace(record, pieces=pieces), count
 
 
-def scene_bounds(record: BuildRecord) -> tuple[np.ndarray, np.ndarray]:
-    """[xmin, ymin, zmin], [xmax, ymax, zmax] of the building, the yard and the robot homes (m)."""
-    boxes = [p.world_bounds(p.installed_pose) for p in record.pieces.values()]
-    boxes += [p.world_bounds(p.yard_pose) for p in record.pieces.values() if p.yard_pose is not None]
-    points = np.concatenate([np.concatenate(boxes)] + [[[*r.home, 0.0]] for r in record.robots.values()]
-                            + [track.xyz[[0, -1]] for body, track in (record.rcan.bodies if record.rcan else {}).items()
-                               if body.endswith("/base")])
-    return points.min(axis=0), points.max(axis=0)
+def simplify(triangles: np.ndarray, max_triangles: int) -> np.ndarray:
+    """Triangles (k, 3, 3) reduced to at most about ``max_triangles`` (trimesh's quadric decimation on
+    the welded mesh); the mesh as it is when it is small enough or the decimator refuses it."""
+    if len(triangles) <= max_triangles:
+        return triangles
+    import trimesh
+
+    soup = triangles.reshape(-1, 3)
+    mesh = trimesh.Trimesh(soup, np.arange(len(soup)).reshape(-1, 3), process=True)  # welds shared corners
+    try:
+        small = mesh.simplify_quadric_decimation(face_count=max_triangles)
+    except Exception:  # noqa: BLE001 - the decimator refuses some degenerate meshes: keep the full one
+        return triangles
+    if not 0 < len(small.faces) < len(triangles):
+        return triangles
+    return np.asarray(small.vertices)[np.asarray(small.faces)]
 
 
-def _mesh(rr, triangles: np.ndarray, rgb) -> object:
+def _mesh(rr, triangles: np.ndarray, rgb, alpha: int = 255) -> object:
     """A flat-shaded mesh: every triangle its own three vertices with the face normal."""
     vertices = triangles.reshape(-1, 3)
     normals = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
@@ -180,7 +191,7 @@ def _mesh(rr, triangles: np.ndarray, rgb) -> object:
         vertex_positions=vertices.astype(np.float32),
         triangle_indices=np.arange(len(vertices), dtype=np.uint32).reshape(-1, 3),
         vertex_normals=np.repeat(normals, 3, axis=0).astype(np.float32),
-        albedo_factor=[*rgb, 255],
+        albedo_factor=[*rgb, alpha],
     )
 
 
@@ -188,13 +199,48 @@ def _transform(rr, pose: np.ndarray):
     return rr.Transform3D(translation=pose[:3, 3].astype(np.float32), mat3x3=pose[:3, :3].astype(np.float32))
 
 
-def _log_properties(rec, record: BuildRecord) -> None:
+def _log_properties(rec, record: BuildRecord, paths: dict[str, str]) -> None:
     """Each element's GlobalId, IFC class, name and storey (static: on every timeline)."""
     import rerun as rr
 
     for gid, piece in record.pieces.items():
-        rec.log(entity("building", gid), rr.AnyValues(global_id=gid, ifc_class=piece.ifc_class, name=piece.name,
-                                                      storey=piece.storey_id or ""), static=True)
+        rec.log(paths[gid], rr.AnyValues(global_id=gid, ifc_class=piece.ifc_class, name=piece.name,
+                                         storey=record.storeys.get(piece.storey_id or "", piece.storey_id or "")),
+                static=True)
+
+
+def ghost_pieces(record: BuildRecord) -> list[str]:
+    """The elements the replay builds: the pieces of every component that is not in place at its start,
+    the bolts, plates and welds of the joints it assembles, and the pieces of RCAN's components."""
+    built = {gid for component, history in record.states.items() if history and not _in_place(history[0][1])
+             for gid in record.parts.get(component, [])}
+    built |= {r for node in record.nodes.values() for r in node.realizing}
+    if record.rcan is not None:
+        from bimrobot.replay.record_rcan import component_pieces
+
+        built |= {g for a in record.rcan.activities for g in component_pieces(record, a.component_id)}
+    return [gid for gid in record.pieces if gid in built]
+
+
+def _in_place(state: str) -> bool:
+    return STATES.index(state) >= STATES.index("PositionFixed")
+
+
+def _log_ghost(rec, record: BuildRecord) -> None:
+    """``/ghost``: the work still to be built at its installed place, translucent grey (static)."""
+    import rerun as rr
+
+    gids = ghost_pieces(record)
+    if not gids:
+        return
+    parts = []
+    for gid in gids:
+        piece = record.pieces[gid]
+        pose = piece.installed_pose
+        world = piece.triangles @ pose[:3, :3].T + pose[:3, 3]
+        centre = world.reshape(-1, 3).mean(axis=0)
+        parts.append(centre + GHOST_SHRINK * (world - centre))
+    rec.log("/ghost", _mesh(rr, np.concatenate(parts), GHOST_RGBA[:3], GHOST_RGBA[3]), static=True)
 
 
 def _state_changes(record: BuildRecord) -> dict[str, list[tuple[float, str]]]:
@@ -206,25 +252,27 @@ def _state_changes(record: BuildRecord) -> dict[str, list[tuple[float, str]]]:
     return out
 
 
-def _log_pieces(rec, clock: _Clock, record: BuildRecord, poses: dict) -> None:
+def _log_pieces(rec, clock: _Clock, record: BuildRecord, poses: dict, paths: dict[str, str]) -> None:
     import rerun as rr
 
     changes = _state_changes(record)
     realizing = {r: node for node in record.nodes.values() for r in node.realizing}
     node_times = _node_times(record)
     for gid, piece in record.pieces.items():
-        path = entity("building", gid)
+        path = paths[gid]
         own_rgb = tuple(int(round(255 * c)) for c in piece.colour[:3])
         if gid in changes:
             history = changes[gid]
             clock.at(0.0)
             rec.log(path, _mesh(rr, piece.triangles, STATE_COLOURS[history[0][1]]))
-            for t, state in history:
-                clock.at(t)
-                rec.log(path, rr.Mesh3D.from_fields(albedo_factor=[*STATE_COLOURS[state], 255]), rr.AnyValues(state=state))
-            for t, pose in poses.get(gid, []):
-                clock.at(t)
-                rec.log(path, _transform(rr, pose))
+            times = [t for t, _ in history]
+            rec.send_columns(path, indexes=clock.columns(times), columns=[
+                *rr.Mesh3D.columns(albedo_factor=[[*STATE_COLOURS[state], 255] for _, state in history]),
+                *rr.AnyValues.columns(state=[state for _, state in history])])
+            if poses.get(gid):
+                matrices = np.array([pose for _, pose in poses[gid]], dtype=np.float32)
+                rec.send_columns(path, indexes=clock.columns([t for t, _ in poses[gid]]),
+                                 columns=rr.Transform3D.columns(translation=matrices[:, :3, 3], mat3x3=matrices[:, :3, :3]))
         elif gid in realizing and realizing[gid].node_id in node_times:
             # a bolt, plate or weld of a joint: brought by the assembly robot, shown from the joint's assembly
             begin, end = node_times[realizing[gid].node_id]
@@ -253,28 +301,21 @@ def _node_times(record: BuildRecord) -> dict[str, tuple[float, float]]:
 
 
 def _log_robots(rec, clock: _Clock, record: BuildRecord, tracks: dict) -> None:
+    """Each robot's box over time, with its current activity as a hidden label (shown on hover)."""
     import rerun as rr
 
-    count = len(record.robots)
-    for index, (name, robot) in enumerate(record.robots.items()):
+    for name, robot in record.robots.items():
         path = entity("robots", name)
         half = ROBOT_HALF_SIZES.get(robot.kind, (0.4, 0.4, 0.4))
         colour = ROBOT_COLOURS.get(robot.kind, (120, 120, 120))
         track = tracks[name]
-        for t, x, y in track.positions:
-            clock.at(t)
-            rec.log(path, rr.Transform3D(translation=[x, y, 0.0]))
-        gantt = entity("gantt", name)
-        level = float(count - index)
-        rec.log(gantt, rr.SeriesLines(names=name, colors=[colour]), static=True)
-        busy_before = False
+        positions = np.array([(x, y, 0.0) for _, x, y in track.positions])
+        rec.send_columns(path, indexes=clock.columns([t for t, _, _ in track.positions]),
+                         columns=rr.Transform3D.columns(translation=positions))
         for t, label, busy in track.activities:
             clock.at(t)
             rec.log(path, rr.Boxes3D(half_sizes=[half], centers=[[0.0, 0.0, half[2]]], colors=[colour],
-                                     labels=[f"{name}: {label}"], fill_mode="solid"))
-            rec.log(gantt, rr.Scalars(level + (0.6 if busy_before else 0.0)))
-            rec.log(gantt, rr.Scalars(level + (0.6 if busy else 0.0)))
-            busy_before = busy
+                                     labels=[f"{name}: {label}"], fill_mode="solid", show_labels=False))
             if busy:
                 rec.log("/events", rr.TextLog(f"t = {t:,.1f} s  {name}: {label}", level="INFO"))
 
@@ -288,7 +329,8 @@ def _log_nodes(rec, clock: _Clock, record: BuildRecord) -> None:
         begin, end = times[node_id]
         for t, phase in ((0.0, "waiting"), (begin, "assembling"), (end, "assembled")):
             clock.at(t)
-            rec.log(path, rr.Points3D([node.position], radii=[0.08], colors=[NODE_COLOURS[phase]], labels=[phase]))
+            rec.log(path, rr.Points3D([node.position], radii=[0.08], colors=[NODE_COLOURS[phase]],
+                                      labels=[f"node {node_id}: {phase}"], show_labels=False))
 
 
 def _log_progress(rec, clock: _Clock, record: BuildRecord) -> dict:

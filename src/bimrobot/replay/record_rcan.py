@@ -2,7 +2,7 @@
 
 Timelines (each its own clock, so that none is mistaken for the simulated schedule's ``sim_time``):
 
-- ``physics_time``: simulated seconds of the MuJoCo scene. ``/building/<GlobalId>`` of a component the
+- ``physics_time``: simulated seconds of the MuJoCo scene. ``/building/...`` of a component the
   physics moved follows its recorded body pose (Transform3D = the body's pose, as the trajectory CSV
   gives it); the element's mesh rides on that body (see :func:`mesh_offset`). Robots are drawn from
   their recorded links under ``/bodies/<robot>``: a marker box on the base, a point per link and a
@@ -86,9 +86,10 @@ def log_physics(rec, record: BuildRecord, run: RcanRun) -> dict:
     """Log the recorded bodies on ``physics_time``; returns {components, robots} moved by the physics."""
     import rerun as rr
 
-    from bimrobot.replay.record import STATE_COLOURS, _mesh, entity
+    from bimrobot.replay.record import STATE_COLOURS, _mesh, element_paths
 
     rec.reset_time()
+    paths = element_paths(record)
     moved = set()
     components = [b for b in run.bodies if "/" not in b]
     for component in components:
@@ -99,7 +100,7 @@ def log_physics(rec, record: BuildRecord, run: RcanRun) -> dict:
             continue
         changes = state_changes(run, component, float(track.times[0]))
         for gid in gids:
-            path = entity("building", gid)
+            path = paths[gid]
             offset = mesh_offset(record, run, component, gid)
             triangles = record.pieces[gid].triangles @ offset[:3, :3].T + offset[:3, 3]
             rec.set_time(PHYSICS_TIME, duration=changes[0][0])
@@ -123,15 +124,16 @@ def _log_unmoved(rec, record: BuildRecord, run: RcanRun, moved: set[str]) -> Non
     pieces of RCAN's components, which the physics would have brought (not drawn without a body)."""
     import rerun as rr
 
-    from bimrobot.replay.record import _mesh, _transform, entity
+    from bimrobot.replay.record import _mesh, _transform, element_paths
 
+    paths = element_paths(record)
     rcan_pieces = {g for a in run.activities for g in component_pieces(record, a.component_id)}
     rec.set_time(PHYSICS_TIME, duration=0.0)
     for gid, piece in record.pieces.items():
         if gid in moved or gid in rcan_pieces:
             continue
         own = tuple(int(round(255 * c)) for c in piece.colour[:3])
-        rec.log(entity("building", gid), _mesh(rr, piece.triangles, own), _transform(rr, piece.installed_pose))
+        rec.log(paths[gid], _mesh(rr, piece.triangles, own), _transform(rr, piece.installed_pose))
 
 
 def _log_robot_bodies(rec, run: RcanRun, robot: str, links: list[str]) -> None:
@@ -144,7 +146,8 @@ def _log_robot_bodies(rec, run: RcanRun, robot: str, links: list[str]) -> None:
         path = entity("bodies", robot, body.split("/", 1)[1])
         if body.endswith("/base"):
             rec.log(path, rr.Boxes3D(half_sizes=[BASE_MARKER_HALF], centers=[[0.0, 0.0, BASE_MARKER_HALF[2]]],
-                                     colors=[ROBOT_COLOUR], labels=[robot], fill_mode="solid"), static=True)
+                                     colors=[ROBOT_COLOUR], labels=[robot], fill_mode="solid", show_labels=False),
+                    static=True)
         else:
             rec.log(path, rr.Points3D([[0.0, 0.0, 0.0]], radii=[0.03], colors=[ROBOT_COLOUR]), static=True)
         rec.send_columns(path, indexes=[rr.TimeColumn(PHYSICS_TIME, duration=track.times)],

@@ -16,6 +16,7 @@ the browser then sends none of those requests (they show as blocked by ``csp`` i
 
 from __future__ import annotations
 
+import contextlib
 import os
 import re
 import shutil
@@ -147,47 +148,111 @@ class WebViewer:
         self.stop()
 
 
+#: The first bytes of a Rerun recording (an .rrd file of the rerun-sdk's format).
+RRD_MAGIC = b"RRF2"
+def check_recording(rrd: Path) -> None:
+    """Refuse, in one sentence, a path that is not a readable Rerun recording."""
+    try:
+        with open(rrd, "rb") as handle:
+            head = handle.read(len(RRD_MAGIC))
+    except FileNotFoundError:
+        raise InputError(f"{rrd}: no such recording") from None
+    except IsADirectoryError:
+        raise InputError(f"{rrd} is a folder, not a Rerun recording (.rrd)") from None
+    except OSError as exc:
+        raise InputError(f"{rrd}: cannot read it ({exc.strerror})") from None
+    if head != RRD_MAGIC:
+        raise InputError(f"{rrd} is not a Rerun recording (it does not start as an .rrd file does)")
+
+
+def serve_until_stopped(rrd: Path, port: int, announce) -> int:
+    """Serve ``rrd`` in the web viewer (:func:`serve_web`), call ``announce(url)`` and wait until the
+    viewer server ends or bimrobot is stopped; either way stop Rerun's server (its whole process group)
+    and remove its temporary folder before returning. Ctrl-C (SIGINT), SIGTERM and SIGHUP all unwind
+    through here (bimrobot.cli turns the latter two into :class:`bimrobot.cli.Stopped`, a
+    KeyboardInterrupt, for the command's duration; here too when called outside it), and a second
+    signal during the clean-up does not cut it short. Returns 1 when the server ended by itself."""
+    from bimrobot.cli import _stop_signals_unwind
+
+    with _stop_signals_unwind():
+        viewer = serve_web(rrd, web_port=port)
+        try:
+            announce(viewer.url)
+            code = viewer.process.wait()
+            print(f"Rerun's web viewer server stopped by itself (exit status {code})", file=sys.stderr)
+            return 1
+        finally:
+            with _stop_signals_ignored():
+                viewer.stop()
+
+
+@contextlib.contextmanager
+def _stop_signals_ignored():
+    """SIGINT, SIGTERM and SIGHUP ignored for a while (in the main thread, where signals are delivered)."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = {signum: signal.signal(signum, signal.SIG_IGN) for signum in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)}
+    try:
+        yield
+    finally:
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
+
+
 def serve_web(rrd: Path, web_port: int = 0, grpc_port: int = 0, timeout_s: float = 60.0) -> WebViewer:
     """Start Rerun's web viewer for ``rrd`` on 127.0.0.1 behind the policy proxy, which listens on
     ``web_port`` (0: a free one); return it once it listens."""
     policy = PolicyServer("http://127.0.0.1", web_port)  # its port first: a taken --web-port fails before rerun starts
+    viewer = None
     try:
         viewer = _start_rerun(rrd, grpc_port, timeout_s)
+        upstream = re.match(r"http://127\.0\.0\.1:\d+", viewer.url).group(0)
+        policy.upstream = upstream
+        viewer.policy = policy
+        viewer.url = viewer.url.replace(upstream, f"http://127.0.0.1:{policy.port}", 1)
+        return viewer
     except BaseException:
         policy.stop()
+        if viewer is not None:
+            viewer.policy = None
+            viewer.stop()
         raise
-    upstream = re.match(r"http://127\.0\.0\.1:\d+", viewer.url).group(0)
-    policy.upstream = upstream
-    viewer.policy = policy
-    viewer.url = viewer.url.replace(upstream, f"http://127.0.0.1:{policy.port}", 1)
-    return viewer
 
 
 def _start_rerun(rrd: Path, grpc_port: int, timeout_s: float) -> WebViewer:
     """``rerun --serve-web`` for ``rrd`` on 127.0.0.1 (free ports unless ``grpc_port`` is given)."""
     home = tempfile.TemporaryDirectory(prefix="bimrobot-rerun-")
-    env = quiet_environment(Path(home.name))
-    command = [rerun_program(), "--serve-web", "--bind", "127.0.0.1", "--web-viewer-port", "0",
-               "--port", str(grpc_port), str(Path(rrd).resolve())]
-    # Its own process group: `rerun` is a Python launcher that starts the viewer binary as a child, which
-    # stopping the launcher alone would leave serving (and busy) after we are gone.
-    process = subprocess.Popen(command, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-                               start_new_session=True)
-    deadline = time.monotonic() + timeout_s
-    seen = []
-    while time.monotonic() < deadline:
-        line = process.stdout.readline()
-        if not line:
-            break
-        seen.append(line.strip())
-        match = URL_PATTERN.search(line)
-        if match:
-            # Keep reading its output so the viewer never blocks on a full pipe.
-            _drain(process)
-            return WebViewer(process, _local_url(match.group(1)), home)
-    _stop_group(process)
-    home.cleanup()
-    raise RuntimeError("rerun --serve-web did not report its address: " + " | ".join(seen[-5:]))
+    process = None
+    try:
+        env = quiet_environment(Path(home.name))
+        command = [rerun_program(), "--serve-web", "--bind", "127.0.0.1", "--web-viewer-port", "0",
+                   "--port", str(grpc_port), str(Path(rrd).resolve())]
+        # Its own process group: `rerun` is a Python launcher that starts the viewer binary as a child, which
+        # stopping the launcher alone would leave serving (and busy) after we are gone.
+        process = subprocess.Popen(command, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                                   start_new_session=True)
+        deadline = time.monotonic() + timeout_s
+        seen = []
+        while time.monotonic() < deadline:
+            line = process.stdout.readline()
+            if not line:
+                break
+            seen.append(line.strip())
+            match = URL_PATTERN.search(line)
+            if match:
+                # Keep reading its output so the viewer never blocks on a full pipe.
+                _drain(process)
+                return WebViewer(process, _local_url(match.group(1)), home)
+        raise RuntimeError("rerun --serve-web did not report its address: " + " | ".join(seen[-5:]))
+    except BaseException:  # a failure, Ctrl-C or a stop signal while it starts: nothing is left behind
+        if process is not None:
+            _stop_group(process)
+        home.cleanup()
+        raise
 
 
 def _stop_group(process: subprocess.Popen, wait_s: float = 5.0) -> None:
