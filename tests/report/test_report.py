@@ -187,3 +187,18 @@ def test_report_command_refuses_what_is_not_a_build_and_keeps_foreign_files(fram
     assert foreign.read_text() == "<p>my own page</p>"
     assert main(["report", str(frame_build), "--start", "Friday"]) == 2
     assert "--start 'Friday' is not an ISO date-time" in capsys.readouterr().err
+
+
+def test_critical_path_counts_the_wait_of_a_late_start():
+    """D waits 15 s after its predecessor A (a crane's set-up the schedule does not show): the path is
+    A, D with 15 s of work and 15 s of waiting; the predecessors alone take 15 s."""
+    from bimrobot.report.facts import critical_path
+
+    def row(ident, robot, start, finish, predecessors=()):
+        return {"Identification": ident, "Robot": robot, "Start": start, "Finish": finish, "Predecessors": list(predecessors)}
+
+    schedule = [row("A", "r1", 0, 10), row("B", "r2", 0, 5), row("C", "r1", 10, 20, ["B"]), row("D", "r2", 25, 30, ["A"])]
+    path = critical_path(schedule)
+    assert path.activities == ["A", "D"]
+    assert (path.work_s, path.waiting_s, path.logic_bound_s) == (15, 15, 15)
+    assert (path.logic_edges, path.robot_edges) == (2, 2)

@@ -53,7 +53,7 @@ def key_figures(facts: BuildFacts) -> list[tuple[str, str, str]]:
         ("model", facts.model, f"project {facts.project}" if facts.project else ""),
         ("fleet", facts.fleet, f"{len(facts.robots)} robots" if facts.robots else ""),
         ("site", facts.site, ""),
-        ("start", date_text(facts.start), f"build --start; calendar {facts.calendar}"),
+        ("start", date_text(facts.start), f"t = 0 s of the build; work calendar {facts.calendar}"),
         ("makespan", *makespan_text(facts)),
         ("components assembled", f"{built} of {total}" if facts.states else UNKNOWN, ""),
         ("activities", f"{len(facts.schedule)}" if facts.schedule else UNKNOWN, "simulation/schedule.csv"),
