@@ -366,8 +366,9 @@ class ScheduleFigures:
 
     def describe(self) -> str:
         """One line for the command's output."""
-        units = f" and {self.units} assembly units" if self.units else ""
-        return (f"{self.tasks} IfcTasks ({self.activities} activities nested in {self.storeys} storeys{units}), "
+        units = f" and {self.units} assembly unit{'s' if self.units != 1 else ''}" if self.units else ""
+        storeys = f"{self.storeys} storey{'s' if self.storeys != 1 else ''}"
+        return (f"{self.tasks} IfcTasks ({self.activities} activities nested in {storeys}{units}), "
                 f"calendar {self.calendar}: {self.start:%Y-%m-%d %H:%M} to {self.finish:%Y-%m-%d %H:%M}, "
                 f"{self.working_days} working day{'s' if self.working_days != 1 else ''}")
 
