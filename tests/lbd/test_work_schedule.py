@@ -216,7 +216,8 @@ def test_p6_export_reads_back_with_ifc4d_on_the_site_calendar(frame_ifc, frame_s
 def test_bad_names_and_calendars_are_refused_before_anything_is_written(frame_ifc, frame_schedule_csv, tmp_path, capsys):
     graph = ["graph", str(frame_ifc), "--schedule", str(frame_schedule_csv), "-o", str(tmp_path / "g.ttl")]
     refusals = [
-        (["--schedule-out", str(tmp_path / "plan.xer")], "ifc4d writes Primavera P6 as P6 XML, not XER; give a name ending in .p6.xml"),
+        (["--schedule-out", str(tmp_path / "plan.xer")],
+         "ifc4d writes Primavera P6 as P6 XML, not XER; give a name ending in .p6.xml"),
         (["--schedule-out", str(tmp_path / "plan.mpp")], "give a name ending in .xml (Microsoft Project XML) or .p6.xml"),
         (["--ifc-out", str(tmp_path / "x.ifczip")], "the scheduled copy is written as .ifc (STEP)"),  # issue 35 item 7
     ]

@@ -31,10 +31,11 @@ class TaskRow:
     ``start``/``finish``: ISO date-times (ScheduleStart/ScheduleFinish, else EarlyStart/EarlyFinish,
     else ActualStart/ActualFinish), or None. ``predecessors``: GlobalIds of the tasks that must finish
     first (FINISH_START IfcRelSequence). ``outputs``: GlobalIds of the products the task is assigned to
-    (IfcRelAssignsToProduct, e.g. the wall it builds), in file order with an assembly before its parts; ``inputs``: products it operates on
-    (IfcRelAssignsToProcess); ``resources``: names of the resources assigned to it (a robot, a crew).
-    ``parent``: GlobalId of the summary task it is nested in; ``is_summary``: it has nested tasks.
-    ``storey``: GlobalId of the storey containing its first output, if any.
+    (IfcRelAssignsToProduct, e.g. the wall it builds), in file order with an assembly before its parts;
+    ``inputs``: products it operates on (IfcRelAssignsToProcess); ``resources``: names of the resources
+    assigned to it (a robot, a crew). ``parent``: GlobalId of the summary task it is nested in;
+    ``is_summary``: it has nested tasks. ``storey``: GlobalId of the storey containing its first output,
+    if any.
     """
 
     global_id: str

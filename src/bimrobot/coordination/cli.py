@@ -87,7 +87,7 @@ def _ranged(kind, low: float, high: float, unit: str, low_inclusive: bool = True
 
 
 def _add_common(parser: argparse.ArgumentParser) -> None:
-    from bimrobot.bim.selection import add_selection_options
+    from bimrobot.bim.selection import add_prebuilt_option, add_selection_options
     from bimrobot.bim.unknown_weight import add_unknown_weight_option
     from bimrobot.sco.build import MAX_TOLERANCE_M
 
@@ -102,12 +102,7 @@ def _add_common(parser: argparse.ArgumentParser) -> None:
         "-o", "--output", required=True,
         help="output folder: a new or empty folder, or one bimrobot wrote (replaced atomically)",
     )
-    parser.add_argument(
-        "--prebuilt", default="IfcFooting,IfcPile", metavar="CLASSES",
-        help="comma-separated IFC classes (subclasses count) that are work of others, e.g. cast-in-place "
-        "slabs and walls: IfcFooting,IfcSlab,IfcWall; IfcElementAssembly marks every assembly unit "
-        "(default IfcFooting,IfcPile)",
-    )
+    add_prebuilt_option(parser)  # a selector, like --include (bimrobot.bim.selection)
     parser.add_argument(
         "--tolerance", type=_ranged(float, 0.0, MAX_TOLERANCE_M, "m", low_inclusive=False), default=0.01,
         help=f"metres, > 0 and <= {MAX_TOLERANCE_M:g}; bodies this close count as touching when connections "
@@ -241,7 +236,7 @@ def _prepare(args):
         if robot not in names:
             raise InputError(f"--breakdown names robot {robot!r}, which is not in fleet {fleet.name} ({', '.join(sorted(names))})")
     model, elevations = load_building(args.model, args.include, args.exclude)
-    prebuilt = tuple(c.strip() for c in args.prebuilt.split(",") if c.strip())
+    prebuilt = args.prebuilt  # a selector; the old comma list of classes is one too
     prebuilt_rule(model, prebuilt)  # an unknown class name is refused now, with the model's classes
     weights = apply_unknown_weight_rule(model.elements.values(), args.unknown_weight, str(model.source or args.model))
     return model, elevations, fleet, site, weights, lambda: build_smart_model(

@@ -72,6 +72,7 @@ def summary(result: SimulationResult, unknown_weight: dict | None = None) -> dic
         "robots": robot_table_rows(result),
         "unknown_weight": unknown_weight,
         "smart_components": result.smart_summary,
+        "assembly_points_by_source": (result.smart_summary or {}).get("assembly_points_by_source"),  # model / assumed
     }
 
 
