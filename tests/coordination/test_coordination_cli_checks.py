@@ -144,7 +144,8 @@ def test_unknown_weights_follow_the_one_rule(shared_ifc, tmp_path, capsys):
     printed = capsys.readouterr().out
     summary = json.loads((out / "summary.json").read_text())
     report = summary["unknown_weight"]
-    assert report["rule"] == "assume volume x 2400 kg/m3" and report["count"] >= 1
+    assert report["rule"].startswith("assume volume x 2400 kg/m3, or by class and material") and report["count"] >= 1
+    assert report["by_material"] == {"concrete 2400 kg/m3": 1, "steel 7850 kg/m3": 1}  # the slab; the anchor bolt
     assert "(--unknown-weight)" in printed
     assert all(kg is None or kg > 0 for kg in report["elements"].values())
     assert main(["simulate", str(model), "--fleet", "site-crane", "--unknown-weight", "refuse", "-o", str(tmp_path / "no")]) == 2

@@ -55,7 +55,7 @@ def test_masses_equal_the_bim_weights_and_inertia_is_physical(package):
             assert info.mass == pytest.approx(element.weight_kg, rel=1e-9)
         else:
             assert by_name[info.name]["weight_source"].startswith("assumed")
-            assert info.mass == pytest.approx(0.4 * 0.4 * 0.02 * 2400)
+            assert info.mass == pytest.approx(0.4 * 0.4 * 0.02 * 7850)  # a steel base plate (IfcPlate)
         moments = np.linalg.eigvalsh(info.inertia)
         assert moments.min() > 0
         assert moments[0] + moments[1] >= moments[2] * (1 - 1e-9)
@@ -90,12 +90,12 @@ def test_report_says_what_was_skipped_and_where_each_weight_came_from(package):
     ]
     assert on_disk["counts"]["weight_sources"] == {
         "IfcQuantityWeight": 6,
-        "assumed: volume x 2400 kg/m3 (--unknown-weight)": 1,
+        "assumed: volume x steel 7850 kg/m3 (--unknown-weight)": 1,
     }
-    assert on_disk["counts"]["total_mass_kg"] == pytest.approx(4 * 289.81 + 2 * 134.39 + 0.4 * 0.4 * 0.02 * 2400)
+    assert on_disk["counts"]["total_mass_kg"] == pytest.approx(4 * 289.81 + 2 * 134.39 + 0.4 * 0.4 * 0.02 * 7850)
     unknown = on_disk["unknown_weight"]
-    assert unknown["rule"] == "assume volume x 2400 kg/m3" and unknown["by_class"] == {"IfcPlate": 1}
-    assert unknown["elements"] == {"2Plate$000000000000000": pytest.approx(0.4 * 0.4 * 0.02 * 2400)}
+    assert unknown["rule"].startswith("assume volume x 2400 kg/m3, or by class and material") and unknown["by_class"] == {"IfcPlate": 1}
+    assert unknown["elements"] == {"2Plate$000000000000000": pytest.approx(0.4 * 0.4 * 0.02 * 7850)}
     assert unknown["message"].startswith("1 element(s) have no weight in the model (1 IfcPlate)")
 
 
@@ -221,7 +221,7 @@ def test_a_weight_no_material_can_have_is_warned_about_and_marked_in_the_report(
     (warning,) = [w for w in report["warnings"] if "not plausible" in w]
     assert warning.startswith("1 model(s) have a weight from the model that is not plausible") and column.global_id in warning
     suspect = {entry["global_id"]: entry["weight_suspect"] for entry in report["converted"] if "weight_suspect" in entry}
-    assert list(suspect) == [column.global_id] and "is outside 50-8,000 kg/m3" in suspect[column.global_id]
+    assert list(suspect) == [column.global_id] and "is outside 50-8,100 kg/m3" in suspect[column.global_id]
     # the mass stays the model's: the warning says so, nothing is silently changed
     assert next(e for e in report["converted"] if e["global_id"] == column.global_id)["mass_kg"] == 289_810.0
 

@@ -775,8 +775,9 @@ def _report(model, package, world_name, world_files, converted, skipped, maps, y
 
 def _weight_source(element: Element, mass: physics.MassProperties, options: ConvertOptions) -> str:
     """Where the model's mass came from, in words (the same words for both ways of assuming it)."""
-    if element.weight_source is WeightSource.ASSUMED or mass.mass_assumed:
-        return f"assumed: volume x {options.unknown_weight.density_kg_m3:g} kg/m3 (--unknown-weight)"
+    if element.weight_source is WeightSource.ASSUMED or mass.mass_assumed:  # the material the rule chose
+        assumed = element.weight_assumed_as or f"{options.unknown_weight.density_kg_m3:g} kg/m3"
+        return f"assumed: volume x {assumed} (--unknown-weight)"
     return element.weight_source.value
 
 
