@@ -10,6 +10,7 @@ import sqlite3
 import subprocess
 import sys
 import time
+import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import pytest
@@ -29,7 +30,7 @@ def frame(tmp_path_factory) -> Path:
 @pytest.fixture(scope="module")
 def built(frame, tmp_path_factory) -> Path:
     out = tmp_path_factory.mktemp("build") / "out"
-    assert main(["build", str(frame), "-o", str(out)]) == 0
+    assert main(["build", str(frame), "-o", str(out), "--schedule-out", "plan.xml"]) == 0
     return out
 
 
@@ -132,6 +133,10 @@ def test_build_graph_is_the_hub_rcan_runs_from_and_the_ifc_carries_the_work_sche
     assert len(tasks) == len(rows)
     assert len(ifc.by_type("IfcWorkSchedule")) == 1 and all(t.TaskTime for t in tasks)
     assert "`model-with-schedule.ifc`" in (built / "README.md").read_text()
+    # --schedule-out plan.xml (issue 36): the same tasks for Microsoft Project, listed in the README
+    project = ET.parse(built / "plan.xml").getroot()
+    assert len(project.findall("{http://schemas.microsoft.com/project}Tasks/*")) == len(ifc.by_type("IfcTask"))
+    assert "`plan.xml` | the same work schedule as Microsoft Project XML" in (built / "README.md").read_text()
 
 
 def test_killed_build_resumes_to_the_result_of_an_uninterrupted_one(frame, built, tmp_path):
