@@ -21,6 +21,8 @@ STATE_COLOURS = dict(zip(STATES, ("#bdbdbd", "#9ecae1", "#6baed6", "#3182bd", "#
                                   "#c7b3e0", "#9467bd", "#2ca02c")))
 #: Element id of the Gantt's div (the browser test finds the chart by it).
 GANTT_ID = "gantt"
+#: Gap between the Gantt's rows, as a fraction of a row.
+BAR_GAP = 0.25
 STATES_ID = "states"
 
 
@@ -50,14 +52,41 @@ def time_axis(facts: BuildFacts, end_s: float, ticks: int = 10) -> dict:
             "title": {"text": f"working time ({facts.calendar}; nights and days off left out)", "font": {"size": 12}}}
 
 
+def day_breaks(facts: BuildFacts, end_s: float, most: int = 60) -> list[dict]:
+    """Dashed vertical lines where one working day ends and the next begins (seconds of work), at most ``most``."""
+    first = _first_day_left(facts)
+    breaks = []
+    moment = first
+    while moment < end_s and len(breaks) < most:
+        breaks.append({"type": "line", "xref": "x", "yref": "paper", "x0": moment, "x1": moment, "y0": 0, "y1": 1,
+                       "line": {"color": "#777", "width": 1, "dash": "dash"}, "layer": "between"})
+        moment += facts.calendar.day_s
+    return breaks
+
+
+def _first_day_left(facts: BuildFacts) -> float:
+    """Seconds of work left in the first working day after the start (to the second), found from the calendar's
+    date arithmetic alone (bisection: the last second of work that still ends on the first day)."""
+    day = facts.work_begins.date()
+    low, high = 0.0, facts.calendar.day_s
+    while high - low > 1e-3:
+        middle = (low + high) / 2
+        if facts.date(middle).date() == day:
+            low = middle
+        else:
+            high = middle
+    return float(round(high))  # a line on a chart: to the second
+
+
 def gantt_figure(facts: BuildFacts):
     """One horizontal bar per activity of the schedule, one row per robot, coloured by task kind; the
     critical path outlined in black. Hover: activity, component (class, name, GlobalId, storey),
     the calendar start and finish and the duration in seconds of work."""
     import plotly.graph_objects as go
 
-    critical = set(facts.critical_path.activities) if facts.critical_path else set()
-    robots = [r["robot"] for r in facts.robots] + sorted({row["Robot"] for row in facts.schedule} - {r["robot"] for r in facts.robots})
+    robots = [r["robot"] for r in facts.robots]
+    robots += sorted({_robot(row) for row in facts.schedule} - set(robots))
+    end_s = max((row["Finish"] for row in facts.schedule), default=0.0)
     figure = go.Figure()
     for task, colour in TASK_COLOURS.items():
         rows = [row for row in facts.schedule if row["Activity"] == task]
@@ -66,21 +95,41 @@ def gantt_figure(facts: BuildFacts):
         starts = [facts.date(row["Start"]) for row in rows]
         finishes = [facts.date(row["Finish"], finish=True) for row in rows]
         figure.add_trace(go.Bar(
-            name=task, orientation="h", y=[row["Robot"] or "(no robot)" for row in rows],
+            name=task, orientation="h", y=[_robot(row) for row in rows],
             base=[row["Start"] for row in rows], x=[row["Finish"] - row["Start"] for row in rows],
-            marker={"color": colour, "line": {"color": ["#000" if row["Identification"] in critical else "#fff" for row in rows],
-                                              "width": [2 if row["Identification"] in critical else 0.5 for row in rows]}},
+            marker={"color": colour, "line": {"color": "#fff", "width": 0.5}},
             customdata=[_hover(facts, row, s, f) for row, s, f in zip(rows, starts, finishes)],
             hovertemplate="%{customdata}<extra></extra>",
         ))
     figure.update_layout(
-        barmode="overlay", bargap=0.25, height=160 + 34 * max(len(robots), 1), margin={"l": 10, "r": 10, "t": 30, "b": 10},
+        barmode="overlay", bargap=BAR_GAP, height=160 + 34 * max(len(robots), 1), margin={"l": 10, "r": 10, "t": 30, "b": 10},
         legend={"orientation": "h", "yanchor": "bottom", "y": 1.0, "x": 0},
         yaxis={"categoryorder": "array", "categoryarray": robots, "autorange": "reversed", "title": None},
-        xaxis=time_axis(facts, max((row["Finish"] for row in facts.schedule), default=0.0)),
-        template="plotly_white",
+        xaxis=time_axis(facts, end_s),
+        template="plotly_white", shapes=day_breaks(facts, end_s) + _critical_outlines(facts, robots),
     )
     return figure
+
+
+def _robot(row: dict) -> str:
+    return row["Robot"] or "(no robot)"
+
+
+def _critical_outlines(facts: BuildFacts, robots: list[str]) -> list[dict]:
+    """A black frame around each bar of the critical path (layout shapes, so the bars stay one per
+    activity), the first one with a legend entry."""
+    if facts.critical_path is None:
+        return []
+    rows = {row["Identification"]: row for row in facts.schedule}
+    half = (1 - BAR_GAP) / 2  # half a bar's height, in rows
+    shapes = []
+    for activity in facts.critical_path.activities:
+        row, index = rows[activity], robots.index(_robot(rows[activity]))
+        shapes.append({"type": "rect", "xref": "x", "yref": "y", "x0": row["Start"], "x1": row["Finish"],
+                       "y0": index - half, "y1": index + half, "line": {"color": "#000", "width": 2},
+                       "fillcolor": "rgba(0,0,0,0)", "layer": "above", "name": "critical path",
+                       "legendgroup": "critical path", "showlegend": not shapes})
+    return shapes
 
 
 def _hover(facts: BuildFacts, row: dict, start: dt.datetime, finish: dt.datetime) -> str:
@@ -121,7 +170,7 @@ def states_figure(facts: BuildFacts):
     figure.update_layout(
         height=340, margin={"l": 10, "r": 10, "t": 30, "b": 10}, hovermode="closest",
         legend={"orientation": "h", "yanchor": "bottom", "y": 1.0, "x": 0}, template="plotly_white",
-        xaxis=time_axis(facts, end_s), yaxis={"title": "components", "rangemode": "tozero"},
+        xaxis=time_axis(facts, end_s), yaxis={"title": "components", "rangemode": "tozero"}, shapes=day_breaks(facts, end_s),
     )
     return figure
 
