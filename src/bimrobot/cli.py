@@ -6,14 +6,17 @@ adding a part means adding one module to :data:`PART_CLIS`.
 
 from __future__ import annotations
 
+import _thread
 import argparse
 import contextlib
+import functools
 import importlib
 import logging
 import os
 import signal
 import sys
 import threading
+import weakref
 
 from bimrobot import __version__
 from bimrobot.errors import BimrobotError
@@ -60,62 +63,131 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 class Stopped(KeyboardInterrupt):
-    """SIGTERM or SIGHUP, raised where Ctrl-C raises KeyboardInterrupt, so that a command stopped by
-    ``kill``, ``timeout`` or a closed terminal unwinds the same way: every ``finally`` and context
+    """SIGINT (Ctrl-C), SIGTERM or SIGHUP, raised as Ctrl-C's KeyboardInterrupt is, so that a command
+    stopped by a terminal, ``kill`` or ``timeout`` unwinds the same way: every ``finally`` and context
     manager runs (children stopped, temporary files removed, resumable work kept) before it exits."""
 
     def __init__(self, signum: int):
         super().__init__(signum)
         self.signum = int(signum)
+        self.seen = {"by_main": False}  # set once main (or the unraisable hook) has taken it
 
 
-STOP_SIGNALS = (signal.SIGTERM, signal.SIGHUP)
-"""Signals that stop a command like Ctrl-C does (SIGINT is Python's KeyboardInterrupt already)."""
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+"""Signals that stop a command (:class:`Stopped`); exit status 128 + the signal's number."""
+
+IMPORT_RETRY_S = 0.05
+"""A stop that comes while a module is being imported is delivered again this much later (s)."""
 
 
-def _raise_stopped(signum: int, frame) -> None:
-    raise Stopped(signum)
+def _stop(signum: int, frame) -> None:
+    """The handler of :data:`STOP_SIGNALS` while a command runs: raise :class:`Stopped`, so that it
+    cannot be lost (issue 35: Ctrl-C and SIGTERM were ignored a few times in 20):
+
+    * not inside an import: several libraries import their optional parts under ``except
+      BaseException`` (trimesh imports SciPy so, for seconds), which would discard it and leave the
+      module half made; the signal is delivered again once the import is over;
+    * should other code still discard it (a broad ``except``, a finalizer), it is delivered again as
+      soon as Python frees it (:func:`_again_if_discarded`).
+    """
+    if _importing(frame):
+        retry = threading.Timer(IMPORT_RETRY_S, _thread.interrupt_main, (signum,))
+        retry.daemon = True
+        retry.start()
+        return
+    stop = Stopped(signum)
+    weakref.finalize(stop, _again_if_discarded, signum, stop.seen).atexit = False
+    try:
+        raise stop
+    finally:
+        del stop  # this frame is in its traceback: no cycle, so a discarded stop is freed at once
+
+
+def _importing(frame) -> bool:
+    """Whether ``frame`` runs inside an import (a frame of importlib's bootstrap is below it)."""
+    while frame is not None:
+        if frame.f_code.co_filename.startswith("<frozen importlib"):
+            return True
+        frame = frame.f_back
+    return False
+
+
+def _again_if_discarded(signum: int, seen: dict) -> None:
+    """A :class:`Stopped` was freed before main saw it: some code caught it and went on. Deliver the
+    signal again, from another thread (this runs wherever Python freed it, where raising is lost)."""
+    if not seen["by_main"]:
+        _thread.start_new_thread(_thread.interrupt_main, (signum,))
 
 
 @contextlib.contextmanager
 def _stop_signals_unwind():
-    """While a command runs, SIGTERM and SIGHUP raise :class:`Stopped` (in the main thread only, where
-    Python delivers signals). A signal the caller ignores (``nohup``) stays ignored; the previous
-    handlers are back afterwards (main may be called in-process, by a test)."""
+    """While a command runs, SIGINT, SIGTERM and SIGHUP raise :class:`Stopped` (:func:`_stop`; in the
+    main thread only, where Python delivers signals). A signal the caller ignores (``nohup``, a
+    background job's SIGINT) stays ignored; the previous handlers are back afterwards (main may be
+    called in-process, by a test)."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
     previous = {signum: signal.getsignal(signum) for signum in STOP_SIGNALS}
     for signum, handler in previous.items():
         if handler is not signal.SIG_IGN:
-            signal.signal(signum, _raise_stopped)
+            signal.signal(signum, _stop)
+    hook = sys.unraisablehook
+    sys.unraisablehook = functools.partial(_redeliver, hook)
     try:
         yield
     finally:
+        sys.unraisablehook = hook
         for signum, handler in previous.items():
             signal.signal(signum, handler if handler is not None else signal.SIG_DFL)
 
 
+def _redeliver(hook, unraisable) -> None:
+    """``sys.unraisablehook`` while a command runs: a stop raised inside a finalizer or a weakref
+    callback cannot propagate (Python only prints "Exception ignored in ..." and goes on; issue 35:
+    a Ctrl-C landed in a ``WeakKeyDictionary`` callback and ``simulate`` finished, exit 0). The signal
+    is delivered again, from another thread once this hook has returned (raised in the hook it would be
+    discarded again). Anything else goes to the previous hook."""
+    stop = unraisable.exc_value
+    if isinstance(stop, KeyboardInterrupt):
+        if isinstance(stop, Stopped):
+            stop.seen["by_main"] = True  # delivered again here, not by its finalizer as well
+        _thread.start_new_thread(_thread.interrupt_main, (getattr(stop, "signum", signal.SIGINT),))
+    else:
+        hook(unraisable)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run one command; the exit status: 0 done, 1 no command, 2 bad input (one sentence, no traceback),
-    130 / 143 / 129 stopped by SIGINT (Ctrl-C) / SIGTERM / SIGHUP, 141 output pipe closed."""
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    logging.basicConfig(
-        level=[logging.WARNING, logging.INFO, logging.DEBUG][min(args.verbose, 2)],
-        format="%(levelname)s %(name)s: %(message)s",
-    )
-    if not getattr(args, "func", None):
-        parser.print_help()
-        return 1
+    130 / 143 / 129 stopped by SIGINT (Ctrl-C) / SIGTERM / SIGHUP, 141 output pipe closed.
+
+    From its first line, SIGTERM and SIGHUP stop it as Ctrl-C does (:class:`Stopped`), and the
+    command's temporary files live in a folder of its own that is removed however it ends
+    (:func:`bimrobot.cores.private_temp_folder`)."""
+    from bimrobot.cores import private_temp_folder
+
+    command = None
     try:
         with _stop_signals_unwind():
-            return int(args.func(args) or 0)
+            parser = build_parser()  # imports every part: a second or two in which a signal may come
+            args = parser.parse_args(argv)
+            command = args.command
+            logging.basicConfig(
+                level=[logging.WARNING, logging.INFO, logging.DEBUG][min(args.verbose, 2)],
+                format="%(levelname)s %(name)s: %(message)s",
+            )
+            if not getattr(args, "func", None):
+                parser.print_help()
+                return 1
+            with private_temp_folder():
+                return int(args.func(args) or 0)
     except BimrobotError as exc:
-        print(f"bimrobot {args.command}: error: {exc}", file=sys.stderr)
+        print(f"bimrobot {command}: error: {exc}", file=sys.stderr)
         return 2
     except Stopped as stop:
-        print(f"bimrobot {args.command}: stopped by {signal.Signals(stop.signum).name}", file=sys.stderr)
+        stop.seen["by_main"] = True
+        if stop.signum != signal.SIGINT:  # Ctrl-C: the user knows
+            print(f"bimrobot{f' {command}' if command else ''}: stopped by {signal.Signals(stop.signum).name}", file=sys.stderr)
         return 128 + stop.signum
     except KeyboardInterrupt:
         return 130

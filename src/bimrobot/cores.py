@@ -11,8 +11,10 @@ import ctypes
 import gc
 import multiprocessing
 import os
+import shutil
 import signal
 import sys
+import tempfile
 import threading
 
 
@@ -97,3 +99,58 @@ def _watch_parent(parent: int) -> None:
     while os.getppid() == parent:
         threading.Event().wait(PARENT_WATCH_S)
     os._exit(1)
+
+
+@contextlib.contextmanager
+def private_temp_folder():
+    """While inside, the temporary files of this process and of every process it starts go into one
+    folder of its own, ``bimrobot-<pid>-*`` in the temporary folder (``tempfile``'s, and ``$TMPDIR``
+    for the processes it starts), which a small watcher process removes once this process and the
+    children it forked have all ended, however they ended: SIGKILL included. Yields the folder.
+
+    The watcher is forked first thing (a few MB, no library loaded), ignores the signals a terminal
+    sends, waits for end-of-file on a pipe whose write end only the command and its forked children
+    hold, removes the folder and exits. Where fork is unsafe, the folder is removed at the end of the
+    block only.
+    """
+    folder = tempfile.mkdtemp(prefix=f"bimrobot-{os.getpid()}-")
+    watcher = None
+    if can_fork():
+        read_end, write_end = os.pipe()
+        watcher = os.fork()
+        if watcher == 0:
+            _remove_when_closed(read_end, folder)  # never returns
+        os.close(read_end)
+    saved = tempfile.tempdir, os.environ.get("TMPDIR")
+    tempfile.tempdir, os.environ["TMPDIR"] = folder, folder
+    try:
+        yield folder
+    finally:
+        tempfile.tempdir = saved[0]
+        if saved[1] is None:
+            os.environ.pop("TMPDIR", None)
+        else:
+            os.environ["TMPDIR"] = saved[1]
+        if watcher is None:
+            shutil.rmtree(folder, ignore_errors=True)
+        else:
+            os.close(write_end)
+            os.waitpid(watcher, 0)  # it removes the folder now: every write end is closed
+
+
+def _remove_when_closed(read_end: int, folder: str) -> None:
+    """The watcher of :func:`private_temp_folder` (in the forked process): wait until every write end
+    of the pipe is closed, remove ``folder``, exit. Holds no other file of the command."""
+    try:
+        for signum in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+            signal.signal(signum, signal.SIG_IGN)
+        devnull = os.open(os.devnull, os.O_RDWR)
+        for fd in (0, 1, 2):
+            os.dup2(devnull, fd)
+        os.closerange(3, read_end)
+        os.closerange(read_end + 1, os.sysconf("SC_OPEN_MAX") if hasattr(os, "sysconf") else 65536)
+        while os.read(read_end, 4096):
+            pass
+        shutil.rmtree(folder, ignore_errors=True)
+    finally:
+        os._exit(0)

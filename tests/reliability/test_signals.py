@@ -1,0 +1,242 @@
+"""Long commands stopped at seeded pseudo-random moments by SIGINT (Ctrl-C), SIGTERM, SIGHUP or SIGKILL
+leave nothing behind: no process of the run, no /dev/shm file, nothing in the run's temporary folder.
+
+Each run is a ``bimrobot`` subprocess in its own session (so that every process it starts can be found by
+its session id, and Ctrl-C reaches its whole process group as a terminal's would), with its own TMPDIR.
+SIGTERM, SIGHUP and SIGKILL go to the command's process alone, as ``kill $!`` or ``timeout`` send them.
+CI runs 12 trials (every command, every signal); BIMROBOT_CHAOS_LONG=1 runs 60.
+"""
+
+from __future__ import annotations
+
+import os
+import random
+import signal
+import subprocess
+import sys
+import threading
+import time
+import weakref
+from pathlib import Path
+
+import pytest
+
+from .conftest import CHAOS_LONG, SHARED_IFC, session_processes, shm_files, shm_in_use, tally
+
+pytestmark = pytest.mark.chaos
+
+SEED = 35
+TRIALS = 60 if CHAOS_LONG else 12
+SIGNALS = ("SIGINT", "SIGTERM", "SIGHUP", "SIGKILL")
+STOPPED_STATUS = {"SIGINT": 130, "SIGTERM": 143, "SIGHUP": 129, "SIGKILL": -9}
+
+
+def _commands(work: Path) -> dict[str, tuple[list[str], tuple[float, float]]]:
+    """Command name -> (bimrobot arguments, the window in seconds after the start in which to stop it)."""
+    return {
+        "convert": (["convert", str(SHARED_IFC / "AC20-FZK-Haus.ifc"), "-o", str(work / "pkg")], (0.5, 10.0)),
+        "build": (["build", str(work.parent / "frame.ifc"), "-o", str(work / "out")], (0.5, 20.0)),
+        "rcan run": (["rcan", "run", "--experiment", "1", "--backend", "sim"], (0.5, 5.0)),
+        "rl train": (["rl", "train", "--setting", "E3S2", "--algo", "ppo", "--timesteps", "500", "-o", str(work / "runs")],
+                     (0.5, 15.0)),
+    }
+
+
+def _trials() -> list[tuple[str, str, float]]:
+    """(command, signal, fraction of its window) per trial: every command meets every signal in turn."""
+    rng = random.Random(SEED)
+    names = ["convert", "build", "rcan run", "rl train"]
+    return [(names[i % 4], SIGNALS[(i // 4 + i) % 4], rng.random()) for i in range(TRIALS)]
+
+
+@pytest.fixture(scope="module")
+def frame_ifc(tmp_path_factory) -> Path:
+    from bimrobot.bim.examples import steel_frame
+
+    return steel_frame(tmp_path_factory.mktemp("chaos") / "frame.ifc")
+
+
+def _environment(tmp: Path) -> dict[str, str]:
+    env = dict(os.environ, TMPDIR=str(tmp), PYTHONUNBUFFERED="1")
+    env.pop("BIMROBOT_CHAOS_LONG", None)
+    return env
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("trial", range(TRIALS))
+def test_a_stopped_command_leaves_nothing_behind(trial, frame_ifc, tmp_path):
+    command, signame, fraction = _trials()[trial]
+    if command == "convert" and not (SHARED_IFC / "AC20-FZK-Haus.ifc").exists():
+        pytest.skip(f"{SHARED_IFC}/AC20-FZK-Haus.ifc is absent: the shared test data lives beside the repository")
+    work = tmp_path / "work"
+    work.mkdir()
+    (work.parent / "frame.ifc").write_bytes(frame_ifc.read_bytes())
+    tmp = tmp_path / "tmp"
+    tmp.mkdir()
+    arguments, (earliest, latest) = _commands(work)[command]
+    delay = earliest + fraction * (latest - earliest)
+    shm_before = shm_files()
+    run = subprocess.Popen([sys.executable, "-m", "bimrobot", *arguments], cwd=work, env=_environment(tmp),
+                           stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    errors: list[str] = []
+    reader = threading.Thread(target=lambda: errors.append(run.stderr.read()), daemon=True)
+    reader.start()
+    failed = True
+    try:
+        try:
+            run.wait(timeout=delay)  # a command that ends first is stopped by nothing: still checked
+        except subprocess.TimeoutExpired:
+            signum = getattr(signal, signame)
+            if signame == "SIGINT":
+                os.killpg(run.pid, signum)  # Ctrl-C: the terminal signals the whole foreground group
+            else:
+                os.kill(run.pid, signum)
+        status = run.wait(timeout=180)
+        reader.join(timeout=30)
+        left = _left_processes(run.pid)
+        shm_left = sorted(name for name in shm_files() - shm_before if name not in shm_in_use())
+        tmp_left = sorted(p.name for p in tmp.iterdir())
+        stderr = "".join(errors)
+        what = f"{command} stopped by {signame} after {delay:.2f} s (exit status {status})"
+        assert not left, f"{what}: processes {left} of the run remain"
+        assert not shm_left, f"{what}: /dev/shm files {shm_left} remain"
+        # 0: it ended first; 128 + n: stopped by bimrobot; -n: stopped before Python's start was over
+        assert status in (0, STOPPED_STATUS[signame], -getattr(signal, signame)), f"{what}: stderr {stderr[-2000:]}"
+        assert "Traceback" not in stderr, f"{what}: {stderr[-2000:]}"
+        if tmp_left == ["torchinductor_root"] and command == "rl train":
+            failed = False
+            pytest.xfail(f"{what}: rl leaves torchinductor_root in the temporary folder (rl/ is another part's)")
+        assert not tmp_left, f"{what}: {tmp_left} remain in its temporary folder"
+        failed = False
+    finally:
+        for pid in session_processes(run.pid):  # nothing is left to the next test, whatever happened
+            with_suppressed_kill(pid)
+        tally("signals", 1, int(failed))
+
+
+def _left_processes(session: int) -> list[int]:
+    """The processes of ``session`` still alive after a short grace (the kernel kills orphaned children
+    at once, but a loaded machine may take a moment), up to 100 polls."""
+    for _ in range(100):
+        left = session_processes(session)
+        if not left:
+            return []
+        time.sleep(0.1)
+    return left
+
+
+def with_suppressed_kill(pid: int) -> None:
+    try:
+        os.kill(pid, signal.SIGKILL)
+    except OSError:
+        pass
+
+
+def test_an_interrupt_python_discarded_in_a_finalizer_stops_the_command():
+    # issue 35: 2 of 20 Ctrl-C let `simulate` finish and exit 0; the interrupt landed in a weakref
+    # callback, where Python prints "Exception ignored" and goes on. The CLI delivers it again.
+    from bimrobot import cli
+
+    class Thing:
+        pass
+
+    def landed_here(_):
+        raise KeyboardInterrupt  # as the signal handler raises it when Ctrl-C comes during the callback
+
+    stopped = False
+    with cli._stop_signals_unwind():
+        thing = Thing()
+        watch = weakref.ref(thing, landed_here)
+        try:
+            del thing  # the callback runs, its KeyboardInterrupt is unraisable
+            for _ in range(10_000):  # the re-delivered interrupt comes once the hook's thread runs
+                time.sleep(0.001)
+        except KeyboardInterrupt as stop:
+            stopped = True
+            stop.seen["by_main"] = True  # taken here, as main takes it: not to be delivered again
+    assert stopped and watch() is None
+    tally("signals")
+
+
+def _spin() -> None:
+    """Python bytecodes (and sleeps, so that other threads run) for up to 10 s: where a signal lands."""
+    for _ in range(10_000):
+        time.sleep(0.001)
+
+
+@pytest.mark.parametrize("signame", ["SIGTERM", "SIGHUP", "SIGINT"])
+def test_every_stop_signal_stops_a_command_like_ctrl_c(monkeypatch, signame):
+    # in-process: the handler raises Stopped, main returns 128 + the signal's number, and the previous
+    # handlers are back afterwards
+    from bimrobot import cli
+
+    signum = getattr(signal, signame)
+    before = {s: signal.getsignal(s) for s in cli.STOP_SIGNALS}
+
+    def stopped(args):
+        os.kill(os.getpid(), signum)
+        _spin()
+        return 0
+
+    monkeypatch.setattr("bimrobot.assembly.cli.cmd_optimum", stopped)
+    assert cli.main(["assembly", "optimum", "--setting", "E1S1"]) == 128 + signum
+    assert {s: signal.getsignal(s) for s in cli.STOP_SIGNALS} == before
+    tally("signals")
+
+
+def test_a_stop_caught_by_a_broad_except_is_delivered_again(monkeypatch):
+    # trimesh and others catch BaseException in places: the command must stop all the same
+    from bimrobot import cli
+
+    caught = []
+
+    def swallowing(args):
+        try:
+            os.kill(os.getpid(), signal.SIGTERM)
+            _spin()
+        except BaseException as exc:  # noqa: BLE001 - what the libraries do
+            caught.append(type(exc).__name__)
+        _spin()
+        return 0
+
+    monkeypatch.setattr("bimrobot.assembly.cli.cmd_optimum", swallowing)
+    caught_before = caught
+    assert cli.main(["assembly", "optimum", "--setting", "E1S1"]) == 143
+    assert caught_before == ["Stopped"]
+    tally("signals")
+
+
+def test_a_stop_during_an_import_waits_for_the_import_to_finish(monkeypatch, tmp_path):
+    # trimesh imports SciPy under `except BaseException` for seconds: a stop raised there was lost and
+    # left trimesh half imported; it is delivered once the import is over
+    import importlib
+    import sys as system
+
+    from bimrobot import cli
+
+    (tmp_path / "slow_optional.py").write_text(
+        "import os, signal, time\n"
+        "try:\n"
+        "    os.kill(os.getpid(), signal.SIGTERM)\n"
+        "    for _ in range(200):\n"
+        "        time.sleep(0.001)\n"
+        "    complete = True\n"
+        "except BaseException:\n"
+        "    complete = False\n",
+        encoding="utf-8",
+    )
+    monkeypatch.syspath_prepend(str(tmp_path))
+    imported = []
+
+    def importing(args):
+        imported.append(importlib.import_module("slow_optional"))
+        _spin()
+        return 0
+
+    monkeypatch.setattr("bimrobot.assembly.cli.cmd_optimum", importing)
+    try:
+        assert cli.main(["assembly", "optimum", "--setting", "E1S1"]) == 143
+        assert imported and imported[0].complete  # the import ran to its end, the stop came after it
+    finally:
+        system.modules.pop("slow_optional", None)
+    tally("signals")
