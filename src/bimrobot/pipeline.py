@@ -81,6 +81,29 @@ def _site(args) -> list[str]:
     return ["--site", str(args.site)] if args.site else []
 
 
+#: The build's site with the building placed on it (``model_offset`` set), written after the package stage
+#: from the package's report and given to every later stage: one placement, read back, never recomputed.
+PLACED_SITE = "site.yaml"
+
+
+def _placed_site(folder: Path) -> list[str]:
+    return ["--site", str(folder / PLACED_SITE)]
+
+
+def _write_placed_site(folder: Path) -> None:
+    """``site.yaml``: the site the package stage placed the building on (its report's ``options.site``)."""
+    import yaml
+
+    report = json.loads((folder / "package" / "report.json").read_text(encoding="utf-8"))
+    site = dict(report["options"]["site"])
+    source = site.pop("source", "the default site")
+    text = (f"# The site of this build ({source}) with the building placed on it: model_offset [dx, dy] m takes the\n"
+            "# model frame to the site frame. Written by bimrobot build; every later stage reads this file.\n")
+    tmp = folder / (PLACED_SITE + ".tmp")
+    tmp.write_text(text + yaml.safe_dump(json.loads(json.dumps(site)), sort_keys=False), encoding="utf-8")
+    tmp.replace(folder / PLACED_SITE)
+
+
 STAGES = (
     Stage("package", "Gazebo package (components on the yard)",
           lambda a, d: ["convert", str(a.model), "-o", str(d / "package"), "--layout", "yard", "--no-progress",
@@ -88,7 +111,7 @@ STAGES = (
     Stage("simulation", "build simulation (market, SimPy)",
           lambda a, d: ["simulate", str(a.model), "--fleet", str(a.fleet), "-o", str(d / "simulation"), "--no-progress",
                         "--prebuilt", a.prebuilt, *(["--by-element"] if a.by_element else []),
-                        *_site(a), *_selection(a), *_weights(a)]),
+                        *_placed_site(d), *_selection(a), *_weights(a)]),
     Stage("graph", "knowledge graph (BOT + DiCon + schedule, joints, pick-up positions) and the IFC work schedule",
           lambda a, d: ["graph", str(a.model), "--schedule", str(d / "simulation" / "schedule.csv"),
                         "-o", str(d / "graph.ttl"), "--package", str(d / "package"), "--prebuilt", a.prebuilt,
@@ -97,7 +120,7 @@ STAGES = (
           lambda a, d: ["rcan", "run", "--graph", str(d / "graph.ttl"), "--backend", a.backend,
                         "--capabilities", str(a.fleet), "--state-db", str(d / "rcan" / "state.db"), "-q",
                         "--report", str(d / "rcan" / "report.json"), "--graph-out", str(d / "rcan" / "graph-after-rcan.ttl"),
-                        "--time-scale", repr(a.time_scale), *_site(a)],
+                        "--time-scale", repr(a.time_scale), *_placed_site(d)],
           accepted=(0, 1)),
     Stage("replay", "4D replay of the build in Rerun (build.rrd)",
           lambda a, d: ["replay", str(d), "-o", str(d / "build.rrd"), "--model", str(a.model),
@@ -110,7 +133,7 @@ def _work_schedule(args, folder: Path) -> list[str]:
     copy is migrated to IFC4, which has IfcTaskTime), ``--schedule-out`` for its scheduler export in the
     output folder, and the site whose work calendar the times are laid onto."""
     return ["--ifc-out", str(folder / WORK_SCHEDULE_IFC), *(["--start", args.start] if args.start else []),
-            *(["--schedule-out", str(folder / args.schedule_out)] if args.schedule_out else []), *_site(args)]
+            *(["--schedule-out", str(folder / args.schedule_out)] if args.schedule_out else []), *_placed_site(folder)]
 
 
 def _check_schedule_out(args) -> None:
@@ -269,6 +292,8 @@ def build_command(args: argparse.Namespace) -> int:
                 continue
             stage_started = time.monotonic()
             codes[stage.name] = _run_stage(stage, args, folder)
+            if stage.name == "package":
+                _write_placed_site(folder)
             done[stage.name] = {"exit": codes[stage.name], "seconds": round(time.monotonic() - stage_started, 2)}
             _write_stages(folder, done)
         (folder / STAGES_FILE).unlink()
@@ -350,6 +375,7 @@ Fleet: `{args.fleet}`; site: {args.site or "the thesis' fig. 4.11"}. Units: metr
 | path | what | open it with |
 |---|---|---|
 {_report_rows(folder)}| `package/` | Gazebo Sim package: `worlds/`, one model per element (`models/<GlobalId>/`), the components on the yard, `launch/`, `maps/` (Nav2 occupancy maps), `report.json` | `ros2 launch package/launch/gz_sim.launch.py`; `package/README.md` |
+| `site.yaml` | the site (yard, robot homes, construction area, work calendar) with the building placed on it (`model_offset`): every stage after the package used this one placement | a text editor; `--site` of any command |
 | `simulation/schedule.csv` | the simulated schedule: one row per activity (transport, position, assemble), robot, start, finish, predecessors (docs/conventions.md) | a spreadsheet; `bimrobot rcan run --schedule` |
 | `simulation/events.log` | the build step by step, in the thesis' Listing 4.2 words | a text editor |
 | `simulation/gantt.png` | Gantt chart of the robots' work | an image viewer |

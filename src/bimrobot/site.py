@@ -20,7 +20,7 @@ Keys of a site YAML (each optional; a missing one takes fig. 4.11's value):
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -80,6 +80,17 @@ class Site:
     source: str = "default site (thesis fig. 4.11)"
     work_calendar: WorkCalendar = WorkCalendar()
 
+    def placed(self, elements) -> "Site":
+        """This site with the building placed on it: ``model_offset`` set, once, from the footprint of
+        ``elements`` (:class:`bimrobot.bim.model.Element`, their bodies' world bounding boxes) unless the
+        site file gives it. Every output of a run is written with this one placement (rounded to 0.1 mm,
+        so that a file read back gives the same number), and reads it back rather than computing it again."""
+        if self.model_offset is not None:
+            return self
+        low, high = footprint(elements)
+        offset = self.offset_for(low, high)
+        return replace(self, model_offset=(round(float(offset[0]), 4), round(float(offset[1]), 4)))
+
     def offset_for_points(self, model_points_xy) -> np.ndarray:
         """Translation (x, y) model frame -> site frame for a building whose parts are at
         ``model_points_xy`` (an (n, 2) array of model-frame centres, metres)."""
@@ -99,6 +110,16 @@ class Site:
         (x0, y0), (x1, y1) = self.construction_area
         area_centre = np.array([(x0 + x1) / 2, (y0 + y1) / 2])
         return area_centre - (np.asarray(model_min_xy) + np.asarray(model_max_xy)) / 2
+
+
+def footprint(elements) -> tuple[np.ndarray, np.ndarray]:
+    """(min_xy, max_xy) in metres, model frame: the horizontal extent of the elements' bodies (the union
+    of their world bounding boxes). No elements: the origin."""
+    bounds = [np.asarray(e.world_bounds, dtype=float) for e in elements]
+    if not bounds:
+        return np.zeros(2), np.zeros(2)
+    stacked = np.stack(bounds)  # (n, 2, 3)
+    return stacked[:, 0, :2].min(axis=0), stacked[:, 1, :2].max(axis=0)
 
 
 def site_from_dict(data, source: str) -> Site:

@@ -239,6 +239,7 @@ def _prepare(args):
     prebuilt = args.prebuilt  # a selector; the old comma list of classes is one too
     prebuilt_rule(model, prebuilt)  # an unknown class name is refused now, with the model's classes
     weights = apply_unknown_weight_rule(model.elements.values(), args.unknown_weight, str(model.source or args.model))
+    site = site.placed(model.elements.values())  # the one placement of the building on the site
     return model, elevations, fleet, site, weights, lambda: build_smart_model(
         model, prebuilt_classes=prebuilt, inferred_tolerance_m=args.tolerance, by_element=args.by_element
     )

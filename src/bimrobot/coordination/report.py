@@ -60,6 +60,8 @@ def summary(result: SimulationResult, unknown_weight: dict | None = None) -> dic
         "model": result.model,
         "fleet": result.fleet,
         "evaluator": result.evaluator,
+        "site": result.site_source,
+        "model_offset_xy_m": list(result.model_offset),  # model frame -> site frame, as every output of the run
         "makespan_s": round(result.makespan, 3),
         "steps": result.steps,
         "work": "per-node" if result.per_node else "per-joint",

@@ -125,6 +125,9 @@ class SimulationResult:
     breakdowns: list[tuple] = field(default_factory=list)
     per_node: bool = False  # tasks per connection node (--per-node); False: per component / per joint
     built: SmartModel | None = None  # the run's copy of the model, in its final states (the input is unchanged)
+    #: the site (its file, or the default) and the model -> site translation (x, y) in metres the run used
+    site_source: str = ""
+    model_offset: tuple[float, float] = (0.0, 0.0)
 
     @property
     def utilisation(self) -> float:
@@ -317,7 +320,7 @@ class ConstructionSimulation:
                 request = self._request(activity, component)
                 if not impossible(request):
                     continue
-                need = by_class.setdefault(component.ifc_class, {"ids": set(), Task.TRANSPORT: None, Task.POSITION: None})
+                need = by_class.setdefault(component.what, {"ids": set(), Task.TRANSPORT: None, Task.POSITION: None})
                 need["ids"].add(component.id)
                 worst = need[activity] or {"kg": 0.0, "length": 0.0, "width": 0.0, "reach": 0.0, "example": component.id}
                 if request.weight_kg > worst["kg"]:
@@ -356,6 +359,9 @@ class ConstructionSimulation:
                 f"{', '.join(sorted(joint_methods))} (e.g. {failing_joints[0]})"
             )
         stronger = ", e.g. --fleet site-crane" if self.fleet.name != "site-crane" else ""
+        remedy = f"give a stronger fleet{stronger}"
+        if any(self.smart.components[i].part_ids for need in by_class.values() for i in need["ids"]):  # units
+            remedy = f"build the units element by element with --by-element, give a fleet with a longer platform and payload{stronger}"
         counts = []
         if by_class:
             counts.append(f"{sum(len(n['ids']) for n in by_class.values())} of {len(to_build)} components")
@@ -363,7 +369,7 @@ class ConstructionSimulation:
             counts.append(f"{len(failing_joints)} of {len(joints)} joints")
         raise InputError(
             f"fleet {self.fleet.name} cannot build {' and '.join(counts)}: {'; '.join(parts)}; "
-            f"the fleet {self._capacity_text(distinct)} (give a stronger fleet{stronger}, mark cast-in-place "
+            f"the fleet {self._capacity_text(distinct)} ({remedy}, mark cast-in-place "
             "classes as work of others with --prebuilt, or leave elements out with --exclude)"
         )
 
@@ -497,6 +503,8 @@ class ConstructionSimulation:
             breakdowns=self.breakdowns,
             per_node=self.per_node,
             built=self.smart,
+            site_source=self.site.source,
+            model_offset=(round(float(self.offset[0]), 4), round(float(self.offset[1]), 4)),
         )
 
     def _number_by_start(self) -> None:

@@ -256,6 +256,10 @@ def _load_plan(args):
         weights = apply_unknown_weight_rule(model.elements.values(), args.unknown_weight, str(source))
         if weights.message():
             print(weights.message(), flush=True)
+        if args.model_offset is None:  # the building placed on the site as `simulate` and `convert` place it
+            from bimrobot.site import load_site
+
+            args.model_offset = list(load_site(args.site).placed(model.elements.values()).model_offset)
     schedule = load_schedule(args.schedule, model)
     graph = None
     if args.graph_out:

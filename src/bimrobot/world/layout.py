@@ -82,10 +82,10 @@ def installed_poses(elements: list[Element]) -> dict[str, np.ndarray]:
 
 
 def site_offset(elements: list[Element], site: Site) -> np.ndarray:
-    """Model frame -> site frame translation (x, y) in metres: the site's ``model_offset``, or the one
-    that centres the elements' bounding-box centres in the construction area (as `simulate` does)."""
-    centres = [(e.world_bounds[0][:2] + e.world_bounds[1][:2]) / 2 for e in elements]
-    return site.offset_for_points(centres)
+    """Model frame -> site frame translation (x, y) in metres: the site's placement of the building
+    (:meth:`bimrobot.site.Site.placed`: its ``model_offset``, or the one that centres the elements'
+    footprint in the construction area, as `simulate` and `rcan` place it)."""
+    return np.array(site.placed(elements).model_offset, dtype=float)
 
 
 def yard_poses(

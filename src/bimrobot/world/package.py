@@ -25,7 +25,7 @@ import logging
 import re
 import time
 from collections import Counter
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from functools import cached_property
 from pathlib import Path
 
@@ -38,7 +38,7 @@ from bimrobot.bim.unknown_weight import UnknownWeightRule, UnknownWeights, apply
 from bimrobot.cores import frozen_heap
 from bimrobot.errors import InputError
 from bimrobot.io import printable
-from bimrobot.site import Site
+from bimrobot.site import Site, default_site
 from bimrobot.world import launch, layout, merge, meshes, navmap, physics, pool, sdf
 from bimrobot.world.names import ros_package_name, safe_name, slug
 from bimrobot.world.render import PREVIEW_MAX_TRIANGLES, draw_preview, render_preview
@@ -199,6 +199,8 @@ def build_package(
     """
     options = options or ConvertOptions()
     options.validate()
+    if options.layout == "yard":  # the one placement of the building on the site, written in report.json
+        options = replace(options, site=(options.site or default_site()).placed(model.elements.values()))
     started = time.perf_counter()
     source = printable(str(model.source)) if model.source else "an in-memory BuildingModel"
     if not model.elements:
