@@ -10,7 +10,9 @@ from bimrobot.coordination.fleet import load_fleet
 from bimrobot.coordination.generate import box_element
 from bimrobot.coordination.simulation import simulate
 from bimrobot.errors import InputError
+from bimrobot.bim import load_model
 from bimrobot.sco import State, build_smart_model
+from bimrobot.sco.build import ASSUMED_POINTS_PER_JOINT, split_points
 
 SHARED_IFC = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "ifc"
 
@@ -205,3 +207,92 @@ def test_a_rafter_drawn_diagonally_in_an_unrotated_frame_is_as_long_and_thin_as_
     element.vertices, element.faces = np.asarray(rafter.vertices), np.asarray(rafter.faces)
     smart = build_smart_model(_model([element]))
     assert smart.components["R"].size == pytest.approx((5.0, 0.2, 0.1), abs=1e-6)
+
+
+# ---- issue 34: aggregates lifted as units (not only IfcElementAssembly), fastening points from the model
+# or a per-joint default reported as assumed, goals from the body, and refusals that name the unit ----
+
+SHORT_PLATFORM_FLEET = """\
+name: short-platform
+robots:
+  - {name: T, kind: transport, speed: 1, carry_load: 20000, platform_size: [3, 2]}
+  - {name: P, kind: positioning, speed: 1, payload: 20000, reach: 12, time_per_node: 60}
+  - {name: A, kind: assembly, speed: 1, reach: 12, time_per_point: 30}
+"""
+
+
+@pytest.fixture(scope="module")
+def geelen():
+    path = SHARED_IFC / "GEELEN-Breedplaat_V1.ifc"
+    if not path.exists():
+        pytest.skip(f"{path} is absent: the shared test data lives beside the repository, not in it")
+    return load_model(path)
+
+
+def test_tekla_wide_slab_aggregates_are_lifted_as_25_units_not_279_blocks(geelen):
+    """GEELEN-Breedplaat: 25 precast floor plates, each an IfcSlab aggregating 5-16 proxies (plate,
+    lattice girders, blocks). Each plate is one lift; --by-element keeps the 279 pieces."""
+    pytest.importorskip("fcl", reason="connection inference uses python-fcl")
+    assert len(geelen.assemblies) == 25 and {a.ifc_class for a in geelen.assemblies.values()} == {"IfcSlab"}
+    units = build_smart_model(geelen)
+    assert len(units.components) == 25 and units.assemblies == 25
+    plate = next(iter(units.components.values()))
+    assert plate.object_type == "IfcSlab" and plate.ifc_class == "IfcSlab" and plate.what == "IfcSlab unit"
+    assert len(build_smart_model(geelen, by_element=True).components) == 279
+    # the old comma list marks the plates prebuilt by the class of their whole
+    assert all(c.prebuilt for c in build_smart_model(geelen, prebuilt_classes="IfcSlab").components.values())
+
+
+def test_inferred_joints_take_their_points_from_the_models_bolts(shared_ifc):
+    """ifcUnit without its relations: its 28 bolts (placed at the origin in the file, found where their
+    bodies are) give the joints they reach into their points; the other joints are assumed, 4 each."""
+    pytest.importorskip("fcl", reason="connection inference uses python-fcl")
+    model = load_model(shared_ifc("ifcUnit.ifc"))
+    model.connections = []
+    smart = build_smart_model(model, by_element=True)
+    by_source = smart.assembly_points_by_source
+    assert smart.connection_source == "inferred from geometry"
+    assert 0 < by_source["model"]["points"] <= 28
+    assert by_source["assumed"]["points"] == by_source["assumed"]["joints"] * ASSUMED_POINTS_PER_JOINT
+    bolted = [j for j in smart.joints.values() if smart.nodes[j.node_ids[0]].assembly_point_source == "model"]
+    assert bolted and all(j.realizing_ids for j in bolted)
+    assert all(smart.nodes[n].assembly_method == "bolt" for j in bolted for n in j.node_ids)
+    assert smart.summary()["assembly_points_by_source"] == by_source
+
+
+def test_the_per_joint_default_is_a_parameter_split_over_the_two_nodes():
+    pytest.importorskip("fcl", reason="connection inference uses python-fcl")
+    smart = build_smart_model(_precast_balcony(), assembly_points_per_joint=3)
+    (joint,) = smart.joints.values()
+    assert sorted(smart.nodes[n].assembly_point_number for n in joint.node_ids) == [1, 2]
+    assert smart.assembly_points_by_source["assumed"] == {"joints": 1, "points": 3, "per_joint": 3}
+    assert split_points(4) == (2, 2) and split_points(1) == (1, 0)
+    with pytest.raises(InputError, match="assembly_points_per_joint must be a whole number of fastening points >= 1"):
+        build_smart_model(_precast_balcony(), assembly_points_per_joint=0)
+
+
+def test_goals_come_from_the_body_in_the_smart_model(shared_ifc):
+    """engine_web's concrete columns are placed at (0, 0, 0): their components' origin (the goal the
+    schedule, graph and RCAN use) is the body's bottom centre, 100 m away, and the summary says so."""
+    pytest.importorskip("fcl", reason="connection inference uses python-fcl")
+    model = load_model(shared_ifc("engine_web-ifc_example.ifc"), include="IfcColumn")
+    smart = build_smart_model(model)
+    goals = smart.summary()["goals_from_body"]
+    assert goals["count"] == 41 - 11 and {e["class"] for e in goals["elements"]} == {"IfcColumn"}
+    for entry in goals["elements"]:
+        component = smart.components[entry["GlobalId"]]
+        assert abs(component.origin[0] - component.target_position[0]) < 0.2
+        assert abs(component.origin[1] - component.target_position[1]) < 0.2
+
+
+def test_a_unit_too_long_for_the_fleet_is_named_as_the_assembly_with_remedies_that_fit(tmp_path):
+    """The 4 m balcony unit on a 3 m platform: named 'IfcElementAssembly unit (main part IfcSlab)', and
+    the remedies are --by-element or a longer platform (not 'IfcSlab', not only 'a stronger fleet')."""
+    pytest.importorskip("fcl", reason="connection inference uses python-fcl")
+    fleet = tmp_path / "short.yaml"
+    fleet.write_text(SHORT_PLATFORM_FLEET)
+    with pytest.raises(InputError) as refused:
+        simulate(build_smart_model(_precast_balcony()), load_fleet(fleet), storey_elevations=[0.0, 3.0])
+    message = str(refused.value)
+    assert "1 IfcElementAssembly unit (main part IfcSlab) needs a carrier" in message
+    assert "--by-element" in message and "longer platform" in message

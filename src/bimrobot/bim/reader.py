@@ -781,7 +781,7 @@ ORIGIN_OFF_BODY_M = 1.0
 def _finish(model: BuildingModel, ifc, keys: dict[int, str], prebuilt: str | None, unknown_weight) -> BuildingModel:
     """What :func:`load_model` does once the elements are read: origins onto bodies, the prebuilt
     selection, the unknown-weight rule."""
-    model.relocated = anchor_to_bodies(model.elements.values())
+    model.relocated = anchor_to_bodies(model.elements.values(), ORIGIN_OFF_BODY_M)
     if model.relocated:
         log.info("%s: %d element(s) are placed away from their bodies; their origins were moved onto them",
                  _shown(model.source), len(model.relocated))
