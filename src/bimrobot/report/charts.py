@@ -102,7 +102,8 @@ def gantt_figure(facts: BuildFacts):
             hovertemplate="%{customdata}<extra></extra>",
         ))
     figure.update_layout(
-        barmode="overlay", bargap=BAR_GAP, height=160 + 34 * max(len(robots), 1), margin={"l": 10, "r": 10, "t": 30, "b": 10},
+        barmode="overlay", bargap=BAR_GAP, height=160 + 34 * max(len(robots), 1),
+        margin={"l": 10, "r": 10, "t": 30, "b": 10},
         legend={"orientation": "h", "yanchor": "bottom", "y": 1.0, "x": 0},
         yaxis={"categoryorder": "array", "categoryarray": robots, "autorange": "reversed", "title": None},
         xaxis=time_axis(facts, end_s),
@@ -135,7 +136,8 @@ def _critical_outlines(facts: BuildFacts, robots: list[str]) -> list[dict]:
 def _hover(facts: BuildFacts, row: dict, start: dt.datetime, finish: dt.datetime) -> str:
     ifc_class, name, storey = facts.components.get(row["GlobalId"], ("", "", ""))
     component = " ".join(part for part in (ifc_class, f"'{name}'" if name else "") if part)
-    critical = "<br><b>on the critical path</b>" if facts.critical_path and row["Identification"] in facts.critical_path.activities else ""
+    on_path = facts.critical_path is not None and row["Identification"] in facts.critical_path.activities
+    critical = "<br><b>on the critical path</b>" if on_path else ""
     return (f"<b>{_html(row['Identification'])} {_html(row['Activity'])}</b> by {_html(row['Robot'])}<br>"
             f"{_html(component)} {_html(row['GlobalId'])}<br>storey {_html(storey)}<br>"
             f"{start:%a %d %b %H:%M:%S} - {finish:%a %d %b %H:%M:%S} ({row['Finish'] - row['Start']:,.1f} s of work)"

@@ -99,15 +99,15 @@ class BuildFacts:
         """Components whose last state is Assembled."""
         return [c for c in self.states if self.final_state(c) == INSTALLED]
 
-    def count_by(self, index: int, only_built: bool) -> dict[str, tuple[int, int]]:
-        """Components per IFC class (``index`` 0) or storey (2): name -> (assembled, all)."""
+    def count_by(self, index: int) -> dict[str, tuple[int, int]]:
+        """Components per IFC class (``index`` 0) or storey (2): name -> (assembled, all), by name."""
         counts: dict[str, list[int]] = {}
         for component in self.states:
             key = self.components.get(component, ("unknown", "", "unknown"))[index] or "unknown"
             entry = counts.setdefault(key, [0, 0])
             entry[1] += 1
             entry[0] += self.final_state(component) == INSTALLED
-        return {key: (built, total) for key, (built, total) in sorted(counts.items()) if built or not only_built}
+        return {key: (built, total) for key, (built, total) in sorted(counts.items())}
 
 
 def read_build(folder: str | Path, start: str | dt.datetime | None = None,
@@ -139,7 +139,8 @@ def read_build(folder: str | Path, start: str | dt.datetime | None = None,
     model_path = Path(str(build.get("model") or summary.get("model") or package.get("source") or "unknown model"))
     building_model, model_note = _building_model(model_path) if with_model else (None, "not read")
     facts = BuildFacts(
-        folder=folder, model=model_path.name, project=package.get("project"), fleet=str(build.get("fleet") or summary.get("fleet") or "unknown"),
+        folder=folder, model=model_path.name, project=package.get("project"),
+        fleet=str(build.get("fleet") or summary.get("fleet") or "unknown"),
         site=str(build.get("site") or (package.get("options") or {}).get("site", {}).get("source") or "unknown"),
         start=start_time, calendar=calendar, calendar_source=calendar_source,
         makespan_s=_number(summary.get("makespan_s")), fleet_utilisation=_number(summary.get("fleet_utilisation")),
@@ -175,7 +176,8 @@ def site_calendar(site: str | None) -> tuple[WorkCalendar, str]:
             return load_site(site).work_calendar, f"the site file {site}"
         except InputError as exc:
             return WorkCalendar(), f"the default (the site file {site} cannot be read: {exc})"
-    return WorkCalendar(), "the default" + (f" (the site file {site} is gone)" if site and site.endswith((".yaml", ".yml")) else "")
+    gone = site and site.endswith((".yaml", ".yml"))
+    return WorkCalendar(), "the default" + (f" (the site file {site} is gone)" if gone else "")
 
 
 def _building_model(path: Path):
@@ -290,7 +292,8 @@ def _components(schedule: list[dict], states: dict, package: dict, model=None) -
         elif assembly is not None:
             parts = [elements[p] for p in assembly.part_ids if p in elements]
             main = max(parts, key=lambda e: e.get("mass_kg") or 0.0).get("ifc_class") if parts else None
-            out[component] = (f"IfcElementAssembly ({main})" if main else "IfcElementAssembly", assembly.name or "", storey_name)
+            ifc_class = f"IfcElementAssembly ({main})" if main else "IfcElementAssembly"
+            out[component] = (ifc_class, assembly.name or "", storey_name)
         else:
             out[component] = ("IfcElementAssembly" if package else "unknown", "", storey_name)
     return out

@@ -59,7 +59,8 @@ def key_figures(facts: BuildFacts) -> list[tuple[str, str, str]]:
         ("activities", f"{len(facts.schedule)}" if facts.schedule else UNKNOWN, "simulation/schedule.csv"),
         ("fleet utilisation", UNKNOWN if facts.fleet_utilisation is None else f"{facts.fleet_utilisation:.2%}",
          "the robots' busy time over robots x makespan"),
-        ("critical path", f"{len(path.activities)} activities" if path else UNKNOWN, critical_text(facts, count=False) if path else ""),
+        ("critical path", f"{len(path.activities)} activities" if path else UNKNOWN,
+         critical_text(facts, count=False) if path else ""),
         ("RCAN run", *rcan_text(facts)),
     ]
 
@@ -86,10 +87,12 @@ def rcan_text(facts: BuildFacts) -> tuple[str, str]:
 def markdown(facts: BuildFacts, picture: str | None = None) -> str:
     """The key figures as the top of README.md: a table (and the picture, when drawn)."""
     lines = ["## Key figures", "", "| | |", "|---|---|"]
-    lines += [f"| {label} | {_cell(value + (f' ({detail})' if detail else ''))} |" for label, value, detail in key_figures(facts)]
-    by_class = ", ".join(f"{name} {built}/{total}" for name, (built, total) in facts.count_by(0, False).items())
-    by_storey = ", ".join(f"{name} {built}/{total}" for name, (built, total) in facts.count_by(2, False).items())
-    lines += [f"| assembled by class | {_cell(by_class or UNKNOWN)} |", f"| assembled by storey | {_cell(by_storey or UNKNOWN)} |"]
+    for label, value, detail in key_figures(facts):
+        lines.append(f"| {label} | {_cell(value + (f' ({detail})' if detail else ''))} |")
+    by_class = ", ".join(f"{name} {built}/{total}" for name, (built, total) in facts.count_by(0).items())
+    by_storey = ", ".join(f"{name} {built}/{total}" for name, (built, total) in facts.count_by(2).items())
+    lines += [f"| assembled by class | {_cell(by_class or UNKNOWN)} |",
+              f"| assembled by storey | {_cell(by_storey or UNKNOWN)} |"]
     robots = ", ".join(f"{r['robot']} {float(r['utilisation']):.2%}" for r in facts.robots)
     lines.append(f"| robots (utilisation) | {_cell(robots or UNKNOWN)} |")
     lines += ["", "The whole report, with the Gantt, the states over time and what was assumed: `report.html` "
