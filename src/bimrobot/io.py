@@ -7,8 +7,15 @@ Rule (checked before the work starts and again when the result is put in place):
   non-empty folder that bimrobot did not write, a file where a folder is wanted (and the reverse), a
   path under a regular file, and a path whose folder cannot be written; a symlink is judged by what it
   points at;
-* replaced, saying so in one line on stderr: a folder bimrobot wrote (it holds :data:`MARKER`) or a
-  file bimrobot wrote (it carries :data:`SIGNATURE`, or a kind-specific recogniser says so);
+* replaced, saying so in one line on stderr: a folder bimrobot wrote, unchanged since (it holds
+  :data:`MARKER`, whose manifest lists every file with its size and SHA-256, and the folder holds
+  exactly those files, byte for byte), by a command of the same kind; or a file bimrobot wrote (it
+  carries :data:`SIGNATURE`, or a kind-specific recogniser says so);
+* refused as well: a folder bimrobot wrote to which anything was added, in which anything was changed
+  or removed since (the message names up to :data:`SHOWN_FOREIGN` such files), one written by another
+  kind of command (a ``simulate`` output is not replaced by a ``split``), and one whose marker lists no
+  files (written before markers had a manifest, or a folder that grows run by run): bimrobot cannot
+  tell what in it is the user's, so the user deletes it or gives another folder;
 * written atomically: into a temporary sibling that is renamed into place at the end. On any failure
   the temporary sibling and any parent folder the run created are removed, so nothing is left behind.
 
@@ -20,6 +27,8 @@ from __future__ import annotations
 
 import contextlib
 import datetime
+import fnmatch
+import hashlib
 import json
 import os
 import shutil
@@ -32,8 +41,24 @@ from typing import Callable, Iterable, Iterator
 from bimrobot import __version__
 from bimrobot.errors import InputError
 
-#: The file that marks a folder as written by bimrobot (JSON: kind, inputs, version, time).
+#: The file that marks a folder as written by bimrobot (JSON: kind, inputs, version, time, and the
+#: manifest ``files``: every file's path relative to the folder, with its size in bytes and SHA-256).
 MARKER = ".bimrobot-output.json"
+
+#: The file that marks an unfinished, resumable output folder (JSON: kind, fingerprint, inputs).
+PARTIAL_MARKER = ".bimrobot-partial.json"
+
+#: How many foreign (added, changed or removed) files a refusal names; the rest are counted.
+SHOWN_FOREIGN = 3
+
+#: Files that a later bimrobot command changes in an output of this kind, by kind: patterns
+#: (:mod:`fnmatch`, top-level names) a marker records as ``managed`` and the check does not hold
+#: against the folder. An Oxigraph store is a RocksDB database: opening it to query it (``bimrobot
+#: query``) rewrites its log, manifest, options and table files; anything else added is still foreign.
+MANAGED_FILES = {
+    "graph (Oxigraph store)": ("[0-9]*.log", "[0-9]*.sst", "[0-9]*.blob", "CURRENT", "IDENTITY", "LOCK", "LOG",
+                               "LOG.old.*", "MANIFEST-*", "OPTIONS-*"),
+}
 
 #: Text every single file written by bimrobot carries near its start.
 SIGNATURE = "written by bimrobot"
@@ -112,6 +137,102 @@ def describe_folder(folder: Path) -> str:
         return "bimrobot output"
 
 
+def _digest(path: Path) -> str:
+    """SHA-256 of a file's bytes (hex), read in 1 MiB blocks."""
+    sha = hashlib.sha256()
+    with open(path, "rb") as stream:
+        for block in iter(lambda: stream.read(1 << 20), b""):
+            sha.update(block)
+    return sha.hexdigest()
+
+
+def manifest(folder: Path) -> dict[str, dict]:
+    """Every entry under ``folder`` (symbolic links not followed), by its path relative to ``folder``
+    ('/'-separated): ``{"size": bytes, "sha256": hex}`` for a file, ``{"dir": True}`` for a folder,
+    ``{"link": target}`` for a symbolic link. The markers themselves (:data:`MARKER`,
+    :data:`PARTIAL_MARKER` at the top) are left out: they are bimrobot's bookkeeping, not content."""
+    entries: dict[str, dict] = {}
+    for root, dirs, files in os.walk(folder):
+        base = Path(root)
+        for name in dirs + files:
+            path = base / name
+            key = path.relative_to(folder).as_posix()
+            if key in (MARKER, PARTIAL_MARKER):
+                continue
+            if path.is_symlink():
+                entries[key] = {"link": os.readlink(path)}
+            elif path.is_dir():
+                entries[key] = {"dir": True}
+            else:
+                entries[key] = {"size": path.stat().st_size, "sha256": _digest(path)}
+    return entries
+
+
+def _differences(folder: Path, listed: dict, managed: Iterable[str] = ()) -> list[str]:
+    """What in ``folder`` is not as its manifest ``listed`` says: ``'notes.txt' (added)``, ``(changed)``,
+    ``(removed)``, sorted by path. A file whose size differs is not hashed; top-level names matching a
+    ``managed`` pattern (:data:`MANAGED_FILES`) are not compared."""
+    found: list[str] = []
+    seen = set()
+    managed = tuple(p for p in managed if isinstance(p, str))
+    listed = {k: v for k, v in listed.items() if not ("/" not in k and any(fnmatch.fnmatchcase(k, p) for p in managed))}
+    for root, dirs, files in os.walk(folder):
+        base = Path(root)
+        for name in dirs + files:
+            path = base / name
+            key = path.relative_to(folder).as_posix()
+            if key in (MARKER, PARTIAL_MARKER) or (base == folder and any(fnmatch.fnmatchcase(key, p) for p in managed)):
+                continue
+            seen.add(key)
+            want = listed.get(key)
+            if not isinstance(want, dict):
+                found.append(f"{key!r} (added)")
+            elif not _matches(path, want):
+                found.append(f"{key!r} (changed)")
+    found.extend(f"{key!r} (removed)" for key in listed if key not in seen)
+    return sorted(found)
+
+
+def _matches(path: Path, want: dict) -> bool:
+    """Whether ``path`` is the entry ``want`` of a manifest (same kind, size, SHA-256 or link target)."""
+    if path.is_symlink():
+        return "link" in want and os.readlink(path) == want["link"]
+    if path.is_dir():
+        return want.get("dir") is True
+    try:
+        return path.stat().st_size == want.get("size") and _digest(path) == want.get("sha256")
+    except OSError:
+        return False
+
+
+def _read_marker(folder: Path) -> dict:
+    try:
+        marker = json.loads((folder / MARKER).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return {}
+    return marker if isinstance(marker, dict) else {}
+
+
+def _check_marked_folder(path: Path, shown: str, option: str, kind: str | None) -> None:
+    """Refuse the marked folder ``path`` unless it is, file for file, what bimrobot wrote there, and (when
+    ``kind`` is given) written by a command of that kind."""
+    marker = _read_marker(path)
+    what = describe_folder(path)
+    how = "give another folder, or delete it yourself if you mean to replace it (nothing was changed)"
+    if kind is not None and marker.get("kind") != kind:
+        raise InputError(f"{option} {shown} holds a {what}, not a {kind} output; {how}")
+    listed = marker.get("files")
+    if not isinstance(listed, dict):
+        raise InputError(f"{option} {shown} holds a {what} that does not list its files (an older or growing folder), "
+                         f"so bimrobot cannot tell whether anything in it is yours; {how}")
+    managed = marker.get("managed")
+    differences = _differences(path, listed, managed if isinstance(managed, list) else ())
+    if differences:
+        named = ", ".join(printable(d) for d in differences[:SHOWN_FOREIGN])
+        more = f" and {len(differences) - SHOWN_FOREIGN} more" if len(differences) > SHOWN_FOREIGN else ""
+        raise InputError(f"{option} {shown} holds a {what}, but it was changed since: {named}{more}; {how}")
+
+
 def check_output(
     target: str | os.PathLike,
     *,
@@ -119,12 +240,15 @@ def check_output(
     inputs: Iterable = (),
     option: str = "-o",
     recognise: Recogniser = has_signature,
+    kind: str | None = None,
 ) -> Path | None:
     """Apply the output policy to ``target``; return the resolved path of what would be replaced, or None.
 
     ``folder``: the output is a folder (else a file). ``inputs``: the files the command reads (paths;
     None, ``:memory:``, URLs and ``generated:`` specs are ignored). ``option``: how the user named the
     path, for the message. ``recognise``: for file outputs, tells whether an existing file is bimrobot's.
+    ``kind``: for folder outputs, the command kind that will write it (as in its marker); a folder
+    another kind wrote is refused. None accepts any kind (the content is checked all the same).
     Raises InputError when the policy refuses the path.
     """
     shown = _display(target)
@@ -150,6 +274,7 @@ def check_output(
         if not path.is_dir():
             raise InputError(f"{option} {shown} is an existing file, not a folder; give a folder")
         if (path / MARKER).is_file():
+            _check_marked_folder(path, shown, option, kind)
             return path
         if any(path.iterdir()):
             raise InputError(
@@ -211,13 +336,16 @@ def _remove_empty(folders: list[Path]) -> None:
             break
 
 
-def _marker(kind: str, inputs: list[Path]) -> str:
+def _marker(kind: str, inputs: list[Path], folder: Path) -> str:
+    """The marker of the finished ``folder``: what wrote it, from what, when, and its manifest."""
     return json.dumps(
         {
             "kind": kind,
             "inputs": [str(p) for p in inputs],
             "bimrobot": __version__,
             "written": datetime.datetime.now().astimezone().isoformat(timespec="seconds"),
+            "files": manifest(folder),
+            "managed": list(MANAGED_FILES.get(kind, ())),
         },
         indent=2,
     )
@@ -234,7 +362,7 @@ def atomic_output_dir(
     exception the temporary folder and the parents this call created are removed.
     """
     inputs = _resolved_inputs(inputs)
-    check_output(target, folder=True, inputs=inputs, option=option)
+    check_output(target, folder=True, inputs=inputs, option=option, kind=kind)
     path = Path(target).resolve()
     created: list[Path] = []
     try:
@@ -256,21 +384,30 @@ def atomic_output_dir(
 def _finish_folder(tmp: Path, target: str | os.PathLike, *, kind: str, inputs: list[Path], option: str) -> None:
     """Mark the finished folder ``tmp`` as bimrobot's, check ``target`` again (it may have changed during
     the work) and put ``tmp`` in its place, announcing what it replaces."""
-    (tmp / MARKER).write_text(_marker(kind, inputs), encoding="utf-8")
-    replaced = check_output(target, folder=True, inputs=inputs, option=option)
+    (tmp / MARKER).write_text(_marker(kind, inputs, tmp), encoding="utf-8")
+    replaced = check_output(target, folder=True, inputs=inputs, option=option, kind=kind)
     if replaced is not None:
         _announce(target, replaced, True, inputs)
-    _put_folder_in_place(tmp, Path(target).resolve())
+    _put_folder_in_place(tmp, Path(target).resolve(), option)
 
 
-def _put_folder_in_place(tmp: Path, path: Path) -> None:
-    """Rename ``tmp`` onto ``path``; an existing ``path`` (checked to be ours or empty) goes away after."""
+def _put_folder_in_place(tmp: Path, path: Path, option: str = "-o") -> None:
+    """Rename ``tmp`` onto ``path``; an existing ``path`` (checked to be ours or empty) goes away after.
+
+    The old folder is moved aside first and checked once more against its manifest there (nothing can
+    be added to it any more under its hidden name): a file written into it since the last check puts it
+    back and refuses, instead of being deleted with it."""
     if not path.exists():
         tmp.rename(path)
         return
     backup = path.with_name(f".{path.name}.{uuid.uuid4().hex[:8]}.old")
     path.rename(backup)
     try:
+        if (backup / MARKER).is_file():
+            _check_marked_folder(backup, _display(path), option, None)
+        elif any(backup.iterdir()):
+            raise InputError(f"{option} {_display(path)} is a folder that bimrobot did not write and it is not empty; "
+                             "give a new or empty folder (nothing was changed)")
         tmp.rename(path)
     except BaseException:
         backup.rename(path)
@@ -318,9 +455,6 @@ def atomic_output_file(
         raise
 
 
-#: The file that marks an unfinished, resumable output folder (JSON: kind, fingerprint, inputs).
-PARTIAL_MARKER = ".bimrobot-partial.json"
-
 
 def partial_folder(target: str | os.PathLike) -> Path:
     """Where the unfinished output of a resumable command for ``target`` lives: ``.NAME.partial`` beside it."""
@@ -341,7 +475,7 @@ def resumable_output_dir(
     call created, so a failed run leaves nothing behind.
     """
     inputs = _resolved_inputs(inputs)
-    check_output(target, folder=True, inputs=inputs, option=option)
+    check_output(target, folder=True, inputs=inputs, option=option, kind=kind)
     path = Path(target).resolve()
     staging = partial_folder(target)
     shown = _display(staging)

@@ -1,5 +1,6 @@
 """The output policy (bimrobot.io): what is refused, what is replaced, and that failures leave nothing."""
 
+import hashlib
 import json
 import os
 import stat
@@ -12,9 +13,11 @@ from bimrobot.io import MARKER, atomic_output_dir, atomic_output_file, check_out
 from output_checks import snapshot
 
 
-def _write_ours(target: Path, text: str = "new") -> None:
-    with atomic_output_dir(target, kind="test", inputs=[]) as tmp:
+def _write_ours(target: Path, text: str = "new", kind: str = "test") -> None:
+    with atomic_output_dir(target, kind=kind, inputs=[]) as tmp:
         (tmp / "result.txt").write_text(text)
+        (tmp / "meshes").mkdir()
+        (tmp / "meshes" / "a.stl").write_bytes(b"solid a")
 
 
 def test_failed_run_leaves_no_directory_and_no_parents_it_created(tmp_path):
@@ -30,12 +33,13 @@ def test_a_folder_bimrobot_wrote_is_replaced_and_the_replacement_is_announced(tm
     model = tmp_path / "model.ifc"
     model.write_text("ISO-10303-21;")
     target = tmp_path / "out"
-    _write_ours(target, "first")
+    _write_ours(target, "first", kind="simulate")
     with atomic_output_dir(target, kind="simulate", inputs=[model]) as tmp:
         (tmp / "result.txt").write_text("second")
     assert (target / "result.txt").read_text() == "second"
     marker = json.loads((target / MARKER).read_text())
     assert marker["kind"] == "simulate" and marker["inputs"] == [str(model.resolve())]
+    assert marker["files"] == {"result.txt": {"size": 6, "sha256": hashlib.sha256(b"second").hexdigest()}}
     assert "replacing" in capsys.readouterr().err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["model.ifc", "out"]  # no backup or temp left
 
@@ -150,3 +154,119 @@ def test_control_characters_in_a_path_are_escaped_in_the_message(tmp_path, monke
     with pytest.raises(InputError) as error:
         check_output("evil\x1b[31m", folder=True)
     assert "\x1b" not in str(error.value) and "\\x1b" in str(error.value)
+
+
+def _refused_unchanged(target: Path, match: str, kind: str = "test") -> str:
+    """Writing ``kind`` into ``target`` is refused with one sentence matching ``match``; nothing changes."""
+    before = snapshot(target.parent)
+    with pytest.raises(InputError, match=match) as error:
+        with atomic_output_dir(target, kind=kind) as tmp:
+            (tmp / "result.txt").write_text("replacement")
+    assert "\n" not in str(error.value)
+    assert snapshot(target.parent) == before
+    return str(error.value)
+
+
+@pytest.mark.parametrize("change", ["added", "added_in_a_subfolder", "added_empty_folder", "changed_same_size",
+                                    "removed", "truncated", "symlink_added"])
+def test_a_folder_bimrobot_wrote_and_the_user_changed_since_is_refused_naming_the_file(tmp_path, change):
+    target = tmp_path / "out"
+    _write_ours(target)
+    if change == "added":
+        (target / "notes.txt").write_text("mine")
+        named = "'notes.txt' (added)"
+    elif change == "added_in_a_subfolder":
+        (target / "meshes" / "mine.stl").write_text("mine")
+        named = "'meshes/mine.stl' (added)"
+    elif change == "added_empty_folder":
+        (target / "drafts").mkdir()
+        named = "'drafts' (added)"
+    elif change == "changed_same_size":
+        (target / "result.txt").write_text("NEW")  # same size, other bytes: the hash tells
+        named = "'result.txt' (changed)"
+    elif change == "removed":
+        (target / "meshes" / "a.stl").unlink()
+        named = "'meshes/a.stl' (removed)"
+    elif change == "truncated":
+        (target / "result.txt").write_text("")
+        named = "'result.txt' (changed)"
+    else:
+        (target / "link").symlink_to(tmp_path)
+        named = "'link' (added)"
+    message = _refused_unchanged(target, "was changed since")
+    assert named in message and "delete it yourself" in message and "another folder" in message
+
+
+def test_the_refusal_names_three_foreign_files_and_counts_the_rest(tmp_path):
+    target = tmp_path / "out"
+    _write_ours(target)
+    for n in range(5):
+        (target / f"mine{n}.txt").write_text("mine")
+    message = _refused_unchanged(target, "was changed since")
+    assert "'mine0.txt' (added), 'mine1.txt' (added), 'mine2.txt' (added) and 2 more" in message
+
+
+def test_a_folder_of_another_kind_is_refused(tmp_path):
+    target = tmp_path / "out"
+    _write_ours(target, kind="simulate")
+    message = _refused_unchanged(target, "not a split output", kind="split")
+    assert "holds a simulate output of no input file" in message
+
+
+def test_a_marker_without_a_manifest_is_refused(tmp_path):
+    """A folder marked before markers listed their files (or a folder that grows, as a benchmark's):
+    what in it is the user's cannot be told, so it is not deleted."""
+    target = tmp_path / "out"
+    target.mkdir()
+    (target / MARKER).write_text(json.dumps({"kind": "test", "inputs": [], "written": "yesterday"}))
+    (target / "thesis.docx").write_bytes(b"my only copy")
+    _refused_unchanged(target, "does not list its files")
+
+
+def test_a_file_added_while_the_work_runs_is_not_lost(tmp_path):
+    """The check before the work passes; a file the user adds during the work is found when the old
+    folder is moved aside, and everything is put back."""
+    target = tmp_path / "out"
+    _write_ours(target)
+    with pytest.raises(InputError, match="'late.txt' \\(added\\)"):
+        with atomic_output_dir(target, kind="test") as tmp:
+            (tmp / "result.txt").write_text("replacement")
+            (target / "late.txt").write_text("written during the run")
+    assert (target / "late.txt").read_text() == "written during the run"
+    assert (target / "result.txt").read_text() == "new"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]  # no temporary or backup left
+
+
+def test_an_unchanged_folder_copied_elsewhere_is_still_replaced(tmp_path, capsys):
+    """The manifest holds sizes and hashes, not times: a copy (new mtimes) of an output is still bimrobot's."""
+    import shutil
+
+    _write_ours(tmp_path / "out")
+    shutil.copytree(tmp_path / "out", tmp_path / "copy")
+    _write_ours(tmp_path / "copy", "second")
+    assert (tmp_path / "copy" / "result.txt").read_text() == "second"
+    assert "bimrobot: replacing " in capsys.readouterr().err
+
+
+def test_an_oxigraph_store_queried_since_is_still_bimrobots_but_a_file_added_to_it_is_not(tmp_path, capsys):
+    """Opening a RocksDB store rewrites its own files (kind 'graph (Oxigraph store)'): those are not the
+    user's; a notes file put into the store folder is."""
+    ox = pytest.importorskip("pyoxigraph")
+    kind = "graph (Oxigraph store)"
+
+    def write_store(target: Path) -> None:
+        with atomic_output_dir(target, kind=kind) as tmp:
+            store = ox.Store(str(tmp))
+            store.add(ox.Quad(ox.NamedNode("http://x/a"), ox.NamedNode("http://x/b"), ox.Literal("c")))
+            store.flush()
+            del store
+
+    target = tmp_path / "store"
+    write_store(target)
+    store = ox.Store(str(target))  # as `bimrobot query` does
+    assert len(list(store.query("SELECT * WHERE { ?s ?p ?o }"))) == 1
+    del store
+    write_store(target)
+    assert "bimrobot: replacing " in capsys.readouterr().err
+    (target / "notes.txt").write_text("mine")
+    _refused_unchanged(target, "'notes.txt' \\(added\\)", kind=kind)

@@ -93,3 +93,54 @@ def test_a_destructive_path_is_refused_and_nothing_changes(name, argv, applies, 
     errors = [line for line in err.splitlines() if "error:" in line]
     assert len(errors) == 1 and "Traceback" not in err, err
     assert snapshot(project) == before, f"{name} {case} changed files"
+
+
+#: Options that write a folder: argv with {out}, run twice into one folder.
+FOLDER_OPTIONS = [o for o in OPTIONS if o[0] in ("split -o", "convert -o", "simulate -o", "allocators -o", "graph --store-path")]
+
+
+@pytest.mark.parametrize("change", ["added", "changed"])
+@pytest.mark.parametrize("name, argv, applies", FOLDER_OPTIONS, ids=[o[0] for o in FOLDER_OPTIONS])
+def test_a_file_the_user_added_to_or_changed_in_an_output_folder_is_never_deleted(name, argv, applies, change, inputs,
+                                                                                  tmp_path, monkeypatch, capsys):
+    """Issue 35: ``simulate -o out; echo mine > out/notes.txt; simulate -o out`` deleted notes.txt. The
+    second run is refused with one sentence naming the file; the folder stays byte for byte."""
+    if "--store-path" in argv:
+        pytest.importorskip("pyoxigraph")
+        if change == "changed":
+            pytest.skip("a store's files are RocksDB's own, which a query rewrites (bimrobot.io.MANAGED_FILES)")
+    monkeypatch.chdir(tmp_path)
+    values = {"out": "out", "model": str(inputs["model"]), "schedule": str(inputs["schedule"])}
+    command = [arg.format(**values) for arg in argv]
+    assert main(command) == 0
+    written = sorted(p.name for p in Path("out").iterdir())
+    if change == "added":
+        Path("out/notes.txt").write_text("mine")
+        named = "'notes.txt' (added)"
+    else:
+        victim = next(p for p in sorted(Path("out").rglob("*")) if p.is_file() and not p.name.startswith("."))
+        victim.write_bytes(victim.read_bytes() + b"\n# my edit")
+        named = f"'{victim.relative_to('out').as_posix()}' (changed)"
+    capsys.readouterr()
+    before = snapshot(tmp_path)
+    assert main(command) == 2
+    err = capsys.readouterr().err
+    errors = [line for line in err.splitlines() if "error:" in line]
+    assert len(errors) == 1 and "Traceback" not in err and "replacing" not in err, err
+    assert named in errors[0] and "delete it yourself" in errors[0], errors[0]
+    assert snapshot(tmp_path) == before, f"{name}: files changed"
+    assert written  # the first run wrote something to protect
+
+
+def test_an_output_folder_of_one_kind_is_not_replaced_by_another(inputs, tmp_path, monkeypatch, capsys):
+    """Issue 35: a simulation folder was replaced by a split. Refused, naming both kinds."""
+    monkeypatch.chdir(tmp_path)
+    assert main(["simulate", str(inputs["model"]), "-o", "out", "--no-progress", "--no-gantt"]) == 0
+    capsys.readouterr()
+    before = snapshot(tmp_path)
+    assert main(["split", str(inputs["model"]), "-o", "out"]) == 2
+    err = capsys.readouterr().err
+    assert "holds a simulate output of model.ifc" in err and "not a split output" in err and "Traceback" not in err
+    assert snapshot(tmp_path) == before
+    assert main(["simulate", str(inputs["model"]), "-o", "out", "--no-progress", "--no-gantt"]) == 0  # same kind: replaced
+    assert "bimrobot: replacing out (simulate output of model.ifc" in capsys.readouterr().err

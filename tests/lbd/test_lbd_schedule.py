@@ -193,3 +193,79 @@ def test_written_schedule_is_replaced_but_a_foreign_csv_is_not(tmp_path):
     with pytest.raises(InputError, match="existing file that bimrobot did not write"):
         write_schedule_csv(schedule, foreign)
     assert foreign.read_bytes() == before
+
+
+# ------------------------------------------------------------------ bounded input, one sentence each (issue 35)
+
+
+def test_a_row_with_more_cells_than_the_header_is_refused_naming_its_line(tmp_path):
+    path = write_csv(tmp_path, [GOOD_ROWS[0], GOOD_ROWS[1] + ",extra"])
+    with pytest.raises(InputError, match=r"schedule.csv, line 3: 15 cells, but the header has 14 columns"):
+        load_schedule_csv(path)
+
+
+def test_a_column_named_twice_in_the_header_is_refused(tmp_path):
+    path = write_csv(tmp_path, [GOOD_ROWS[0] + ",L9"], header=HEADER.rstrip("\n") + ",Storey\n")
+    with pytest.raises(InputError, match=r"line 1: column 'Storey' appears more than once"):
+        load_schedule_csv(path)
+
+
+@pytest.mark.parametrize("column, cell", [("GlobalId", '"CO\rL"'), ("Identification", '"A\n1"'), ("Robot", '"T\x1b1"'),
+                                          ("Identification", "A 1"), ("Storey", '"L\t1"')])
+def test_an_id_with_a_control_character_or_a_space_is_refused_in_one_sentence(tmp_path, column, cell):
+    cells = GOOD_ROWS[0].split(",")
+    cells[HEADER.rstrip("\n").split(",").index(column)] = cell
+    path = write_csv(tmp_path, [",".join(cells)])
+    with pytest.raises(InputError, match=rf"schedule.csv, line 2: {column} .* contains (a control character|white space)") as error:
+        load_schedule_csv(path)
+    assert "\n" not in str(error.value) and "\r" not in str(error.value)
+
+
+def test_the_writer_refuses_what_the_reader_would_refuse_and_quotes_free_text(tmp_path):
+    from bimrobot.lbd.schedule import Activity
+
+    def activity(**changes) -> Activity:
+        fields = dict(id="A1", name="Lift, then\r\nturn \"slowly\"", activity="transport", global_id="COL",
+                      robot="Transport 1", start=0.0, finish=100.0)
+        return Activity(**{**fields, **changes})
+
+    path = write_schedule_csv([activity()], tmp_path / "ok.csv")
+    assert load_schedule_csv(path)["A1"].name == "Lift, then\r\nturn \"slowly\""  # quoted: round trip
+    for changes, message in [({"global_id": "CO\rL"}, "its GlobalId 'CO\\\\rL' contains a control character"),
+                             ({"id": "A 1"}, "Identification 'A 1' contains white space"),
+                             ({"finish": 2e9}, "Finish 2e\\+09 s is not within 0 to 1e\\+09 s"),
+                             ({"target": (0.0, 0.0, 1e300)}, "target .* is not within")]:
+        with pytest.raises(InputError, match=message):
+            write_schedule_csv([activity(**changes)], tmp_path / "bad.csv")
+        assert not (tmp_path / "bad.csv").exists()
+
+
+def test_row_and_per_component_limits_name_the_variable_that_raises_them(tmp_path, monkeypatch):
+    path = write_csv(tmp_path, GOOD_ROWS)
+    monkeypatch.setenv("BIMROBOT_SCHEDULE_MAX_ROWS", "3")
+    with pytest.raises(InputError, match=r"line 5: the schedule has more than 3 rows, the limit; .*BIMROBOT_SCHEDULE_MAX_ROWS"):
+        load_schedule_csv(path)
+    monkeypatch.setenv("BIMROBOT_SCHEDULE_MAX_ROWS", "4")
+    assert len(load_schedule_csv(path)) == 4
+    monkeypatch.setenv("BIMROBOT_SCHEDULE_MAX_PER_COMPONENT", "2")
+    with pytest.raises(InputError, match=r"line 4: component 'COL' has more than 2 activities.*BIMROBOT_SCHEDULE_MAX_PER_COMPONENT"):
+        load_schedule_csv(path)
+    monkeypatch.setenv("BIMROBOT_SCHEDULE_MAX_PER_COMPONENT", "many")
+    with pytest.raises(InputError, match=r"BIMROBOT_SCHEDULE_MAX_PER_COMPONENT='many' must be a whole number >= 1"):
+        load_schedule_csv(path)
+
+
+def test_a_schedule_over_the_size_limit_is_refused_before_it_is_read(tmp_path, monkeypatch):
+    path = write_csv(tmp_path, GOOD_ROWS * 6000)  # duplicate ids: refused on line 6 if it were read
+    assert path.stat().st_size > 1_000_000
+    monkeypatch.setenv("BIMROBOT_SCHEDULE_MAX_MB", "1")
+    with pytest.raises(InputError, match=r"is 2 MB, more than the 1 MB a schedule CSV may have; .*BIMROBOT_SCHEDULE_MAX_MB"):
+        load_schedule_csv(path)
+
+
+def test_one_component_transported_250000_times_is_refused_at_the_limit_not_loaded(tmp_path):
+    rows = "".join(f"T{n},,,transport,COL,,0,1,,,,,,\n" for n in range(250_000))
+    path = tmp_path / "schedule.csv"
+    path.write_text(HEADER + rows)
+    with pytest.raises(InputError, match=r"line 1002: component 'COL' has more than 1,000 activities"):
+        load_schedule_csv(path)

@@ -74,7 +74,7 @@ def test_tasks_are_matched_to_the_model_or_listed_as_unmatched(tmp_path, frame_m
 
 def test_malformed_microsoft_project_files_are_one_sentence(tmp_path):
     bad = tmp_path / "bad.xml"
-    bad.write_text("<Project><Tasks>")
+    bad.write_text('<Project xmlns="http://schemas.microsoft.com/project"><Tasks>')  # cut short
     with pytest.raises(InputError, match=r"bad.xml is not a well-formed Microsoft Project XML schedule"):
         load_schedule_msproject(bad)
     bad.write_text("<schedule/>")
@@ -184,3 +184,31 @@ def test_successors_and_topological_order_on_a_long_chain():
     schedule = Schedule(list(reversed(chain)))
     assert [a.id for a in schedule.topological_order()] == [a.id for a in chain]
     assert [a.id for a in schedule.successors("A41")] == ["A42"]
+
+
+def test_two_microsoft_project_tasks_with_one_uid_are_refused_not_merged(tmp_path):
+    path = msp(tmp_path, task(2, "a", "2026-01-01T08:00:00", "2026-01-01T09:00:00")
+               + task(2, "b", "2026-01-01T09:00:00", "2026-01-01T10:00:00"))
+    with pytest.raises(InputError, match=r"plan.xml: tasks 1 and 2 of the file have the same UID 2 \(each task needs its own\)"):
+        load_schedule_msproject(path)
+
+
+def test_microsoft_project_limits_refuse_before_or_while_reading(tmp_path, monkeypatch):
+    tasks = "".join(task(n, f"t{n}", "2026-01-01T08:00:00", "2026-01-01T09:00:00") for n in range(1, 6))
+    path = msp(tmp_path, tasks)
+    monkeypatch.setenv("BIMROBOT_SCHEDULE_MAX_ROWS", "4")
+    with pytest.raises(InputError, match=r"plan.xml: the file has more than 4 tasks, the limit; .*BIMROBOT_SCHEDULE_MAX_ROWS"):
+        load_schedule_msproject(path)
+    monkeypatch.setenv("BIMROBOT_SCHEDULE_MAX_ROWS", "5")
+    assert len(load_schedule_msproject(path)) == 5
+    path.write_text(path.read_text().replace("<Tasks>", "<Tasks>" + " " * 1_100_000))
+    monkeypatch.setenv("BIMROBOT_MSPROJECT_MAX_MB", "1")
+    with pytest.raises(InputError, match=r"more than the 1 MB a Microsoft Project XML file may have; .*BIMROBOT_MSPROJECT_MAX_MB"):
+        load_schedule_msproject(path)
+
+
+def test_a_microsoft_project_plan_over_31_years_is_refused(tmp_path):
+    path = msp(tmp_path, task(1, "a", "2026-01-01T08:00:00", "2026-01-01T09:00:00")
+               + task(2, "b", "2026-01-01T08:00:00", "2090-01-01T09:00:00"))
+    with pytest.raises(InputError, match=r"task 2 ends 2.02e\+09 s after the earliest start, more than the 1e\+09 s"):
+        load_schedule_msproject(path)

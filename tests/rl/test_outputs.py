@@ -168,10 +168,11 @@ def _finish_a_run(folder: Path, name: str = "E1S1-ppo-s0") -> None:
 
 
 def test_another_bimrobot_output_is_replaced_saying_so_and_put_back_if_nothing_finished(tmp_path, capsys):
+    from bimrobot.io import atomic_output_dir
+
     old = tmp_path / "out"
-    old.mkdir()
-    (old / MARKER).write_text(json.dumps({"kind": "simulate", "inputs": ["/x/frame.ifc"], "written": "yesterday"}))
-    (old / "report.json").write_text("{}")
+    with atomic_output_dir(old, kind="simulate") as tmp:  # marked, with the manifest of its files
+        (tmp / "report.json").write_text("{}")
     before = snapshot(old)
     with pytest.raises(RuntimeError):
         with benchmark_folder(old):

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import csv
 import heapq
+import itertools
 import logging
 import math
 import os
@@ -65,6 +66,70 @@ MAX_SECONDS = 1e9
 #: Largest coordinate of a target position (m): georeferenced site coordinates (UTM northings reach
 #: 1e7 m) fit, a number beyond any site does not.
 MAX_COORDINATE_M = 1e7
+
+#: Limits checked before and while a schedule is read, so that no file makes a command run for hours or
+#: take more than 2 GB of memory: (environment variable that raises it, default). Rows: the largest
+#: real schedule has 14.5k rows (3 per component of a 4.8k-component model); 200k rows of 110 bytes
+#: peak at 0.25 GB while read, 200k rows of 1.2 kB (the 256 MB allowed) at 0.42 GB. Megabytes: 256 MB
+#: of CSV is over 1 million rows of the usual 200 bytes each; an MS Project XML file spends 1 to 3 kB on
+#: a task (its tags are not kept). Activities per component: a transport, a position and one assemble
+#: per connection node; a component joined at 1,000 nodes is no building element.
+LIMITS = {
+    "rows": ("BIMROBOT_SCHEDULE_MAX_ROWS", 200_000),
+    "csv_mb": ("BIMROBOT_SCHEDULE_MAX_MB", 256),
+    "xml_mb": ("BIMROBOT_MSPROJECT_MAX_MB", 1024),
+    "per_component": ("BIMROBOT_SCHEDULE_MAX_PER_COMPONENT", 1_000),
+}
+
+
+def limit(name: str) -> int:
+    """The limit ``name`` of :data:`LIMITS`: its environment variable when set to a positive whole
+    number (an InputError otherwise), else the default."""
+    variable, default = LIMITS[name]
+    text = os.environ.get(variable, "").strip()
+    if not text:
+        return default
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise InputError(f"environment variable {variable}={text!r} must be a whole number >= 1 (default {default})")
+    return value
+
+
+def check_file_size(path: Path, name: str, what: str) -> None:
+    """Refuse ``path`` when it is larger than the limit ``name`` (megabytes) before reading any of it."""
+    try:
+        size = path.stat().st_size
+    except OSError:
+        return  # not there or unreadable: the reader says so in its own words
+    most = limit(name)
+    if size > most * 1_000_000:
+        variable = LIMITS[name][0]
+        raise InputError(f"the schedule {path} is {size / 1e6:,.0f} MB, more than the {most:,} MB a {what} may have; "
+                         f"split it, or raise the limit with the environment variable {variable}")
+
+
+def too_many(where: str, subject: str, name: str, noun: str = "") -> InputError:
+    """The one-sentence error for a schedule over the count limit ``name`` (``rows`` or
+    ``per_component``): ``subject`` says what has too many (e.g. ``the schedule has``), ``noun`` what
+    they are (rows or activities by default)."""
+    variable = LIMITS[name][0]
+    noun = noun or ("rows" if name == "rows" else "activities")
+    return InputError(f"{where}: {subject} more than {limit(name):,} {noun}, the limit; split the schedule, or "
+                      f"raise the limit with the environment variable {variable}")
+
+
+def id_problem(text: str, *, spaces: bool) -> str | None:
+    """What makes ``text`` unusable as an id in a schedule file, or None: control characters (a line
+    break, a tab, ...) never; white space only where ``spaces`` is True (names, not ids lists)."""
+    if not text.isprintable():
+        return "contains a control character"
+    if not spaces and any(c.isspace() for c in text):
+        return "contains white space"
+    return None
+
 
 
 @dataclass(frozen=True)
@@ -232,6 +297,14 @@ class _Row:
     def text(self, column: str) -> str:
         return (self.values.get(column) or "").strip()
 
+    def ident(self, column: str, spaces: bool = False) -> str:
+        """The column as an id: no control character, no white space inside unless ``spaces``."""
+        value = self.text(column)
+        problem = id_problem(value, spaces=spaces)
+        if problem:
+            raise InputError(f"{self.where()}: {column} {_shown(value)} {problem} (ids are single printable words)")
+        return value
+
     def seconds(self, column: str) -> float:
         """The column as seconds: a finite number in [0, MAX_SECONDS] (no NaN, inf or 1e308)."""
         raw = self.text(column)
@@ -299,7 +372,7 @@ def _node_id_in(name: str, global_id: str) -> str | None:
 
 
 def _activity_from_row(row: _Row) -> Activity:
-    activity_id = row.text("Identification")
+    activity_id = row.ident("Identification")
     if not activity_id:
         raise InputError(f"{row.where()}: Identification is empty")
     try:
@@ -311,7 +384,7 @@ def _activity_from_row(row: _Row) -> Activity:
     predefined = row.text("PredefinedType").upper() or kind.ifc_task_type
     if predefined not in IFC_TASK_TYPES:
         raise InputError(f"{row.where()}: PredefinedType {predefined!r} is not an IfcTaskTypeEnum value")
-    global_id = row.text("GlobalId")
+    global_id = row.ident("GlobalId")
     if not global_id:
         raise InputError(f"{row.where()}: GlobalId is empty")
     start, finish = row.seconds("Start"), row.seconds("Finish")
@@ -327,12 +400,12 @@ def _activity_from_row(row: _Row) -> Activity:
         name=name,
         activity=kind,
         global_id=global_id,
-        robot=row.text("Robot") or None,
+        robot=row.ident("Robot", spaces=True) or None,
         start=start,
         finish=max(start, finish),
-        predecessors=tuple(row.text("Predecessors").split()),
+        predecessors=tuple(row.ident("Predecessors", spaces=True).split()),
         target=row.target(),
-        storey=row.text("Storey") or None,
+        storey=row.ident("Storey") or None,
         predefined_type=predefined,
         node_id=_node_id_in(name, global_id) if kind == Task.ASSEMBLE else None,
         work_from=row.xyz(("FromX", "FromY", "FromZ")),
@@ -342,66 +415,102 @@ def _activity_from_row(row: _Row) -> Activity:
     )
 
 
-def _schedule_lines(path: Path) -> tuple[list[str], int]:
-    """The CSV's lines after its leading ``#`` comment lines, and how many were skipped.
-
-    Schedule files written by bimrobot may open with a ``# written by bimrobot ...`` line."""
+def _open_schedule(path: Path):
+    """The schedule CSV opened for reading (UTF-8, a BOM skipped, line ends kept for the csv module)."""
     try:
-        text = path.read_text(encoding="utf-8-sig")
+        if path.is_dir():
+            raise IsADirectoryError
+        return open(path, encoding="utf-8-sig", newline="")
     except IsADirectoryError:
         raise InputError(f"the schedule {path} is a folder, not a CSV file") from None
     except OSError as exc:
         raise InputError(f"cannot read the schedule {path}: {exc.strerror}") from None
+
+
+def _rows(handle, path: Path) -> Iterator[tuple[int, list[str]]]:
+    """(line, cells) of every CSV row after the leading ``#`` comment lines (schedule files written by
+    bimrobot may open with a ``# written by bimrobot ...`` line), read line by line, never whole."""
+    skipped, reader = 0, None
+    try:
+        first = handle.readline()
+        while first and first.lstrip().startswith("#"):
+            skipped += 1
+            first = handle.readline()
+        reader = csv.reader(itertools.chain([first], handle) if first else iter(()))
+        begins = 1  # the line a row starts on (a quoted cell may hold line breaks)
+        for cells in reader:
+            yield begins + skipped, cells
+            begins = reader.line_num + 1
+    except csv.Error as exc:
+        raise InputError(f"{path}, line {reader.line_num + skipped}: not a valid CSV row ({exc})") from None
     except UnicodeDecodeError:
-        raise InputError(f"the schedule {path} is not a UTF-8 text file (a CSV is expected, see docs/conventions.md)") from None
-    lines = text.splitlines(keepends=True)
-    skipped = 0
-    while skipped < len(lines) and lines[skipped].lstrip().startswith("#"):
-        skipped += 1
-    return lines[skipped:], skipped
+        after = f" (after line {reader.line_num + skipped})" if reader is not None and reader.line_num else ""
+        raise InputError(f"the schedule {path} is not a UTF-8 text file{after} (a CSV is expected, see docs/conventions.md)") from None
 
 
 def load_schedule_csv(path: str | os.PathLike, model: BuildingModel | None = None) -> Schedule:
     """Read and validate a schedule CSV (format: ``docs/conventions.md``).
 
     With ``model``, every GlobalId (and Storey) must be an element (or an assembly) of it or a storey.
-    Raises :class:`InputError` naming the file and line for: a missing column, a file without any
-    activity, an empty or duplicate Identification, an unknown Activity or PredefinedType, a time that
-    is not a finite number of seconds in [0, 1e9], a target that is not a finite coordinate, Finish
-    before Start, a Duration that is not Finish - Start, an unknown GlobalId/Storey/predecessor, an
-    activity that starts before a predecessor finishes, and a cycle in the predecessors.
+    Raises :class:`InputError` naming the file and line for: a missing or repeated column, a file
+    without any activity, a row with more cells than the header, an empty or duplicate Identification,
+    an id with a control character (or white space, in Identification and GlobalId), an unknown
+    Activity or PredefinedType, a time that is not a finite number of seconds in [0, 1e9], a target
+    that is not a finite coordinate, Finish before Start, a Duration that is not Finish - Start, an
+    unknown GlobalId/Storey/predecessor, an activity that starts before a predecessor finishes, and a
+    cycle in the predecessors. The file is read row by row and refused, before it is read, when
+    larger than :func:`limit` ``("csv_mb")`` MB, and as soon as it has more than ``limit("rows")``
+    rows or a component has more than ``limit("per_component")`` activities.
     """
     from bimrobot.sco.build import gc_paused
 
+    path = Path(path)
+    check_file_size(path, "csv_mb", "schedule CSV")
     with gc_paused():  # tens of thousands of long-lived rows: see Schedule.topological_order
-        return _load_schedule_csv(Path(path), model)
+        with _open_schedule(path) as handle:
+            return _load_schedule_csv(handle, path, model)
 
 
-def _load_schedule_csv(path: Path, model: BuildingModel | None) -> Schedule:
-    text_lines, skipped = _schedule_lines(path)
-    try:
-        reader = csv.DictReader(text_lines)
-        missing = [c for c in REQUIRED_COLUMNS if c not in (reader.fieldnames or [])]
-        if missing:
-            raise InputError(
-                f"{path}, line {skipped + 1}: missing column(s) {', '.join(missing)} (a bimrobot schedule CSV "
-                "is expected, see docs/conventions.md)"
-            )
-        activities: list[Activity] = []
-        lines: dict[str, int] = {}  # activity id -> its line in the file
-        for values in reader:
-            row = _Row(values, path, reader.line_num + skipped)
-            if not any((v or "").strip() for v in values.values() if isinstance(v, str)):
-                continue  # blank line
-            activity = _activity_from_row(row)
-            if activity.id in lines:
-                raise InputError(
-                    f"{row.where()}: Identification {activity.id!r} is already used on line {lines[activity.id]}"
-                )
-            lines[activity.id] = row.line
-            activities.append(activity)
-    except csv.Error as exc:
-        raise InputError(f"{path}, line {reader.line_num + skipped}: not a valid CSV row ({exc})") from None
+def _header(rows: Iterator[tuple[int, list[str]]], path: Path) -> list[str]:
+    """The header row's column names, checked: the required columns, each name once."""
+    line, header = next(rows, (1, []))
+    header = [name.strip() for name in header]
+    missing = [c for c in REQUIRED_COLUMNS if c not in header]
+    if missing:
+        raise InputError(
+            f"{path}, line {line}: missing column(s) {', '.join(missing)} (a bimrobot schedule CSV "
+            "is expected, see docs/conventions.md)"
+        )
+    repeated = sorted({name for name in header if name and header.count(name) > 1})
+    if repeated:
+        raise InputError(f"{path}, line {line}: column {repeated[0]!r} appears more than once in the header")
+    return header
+
+
+def _load_schedule_csv(handle, path: Path, model: BuildingModel | None) -> Schedule:
+    rows = _rows(handle, path)
+    header = _header(rows, path)
+    most_rows, most_each = limit("rows"), limit("per_component")
+    activities: list[Activity] = []
+    lines: dict[str, int] = {}  # activity id -> its line in the file
+    per_component: dict[str, int] = {}
+    for line, cells in rows:
+        if not any(cell.strip() for cell in cells):
+            continue  # blank line
+        if len(cells) > len(header):
+            raise InputError(f"{path}, line {line}: {len(cells)} cells, but the header has {len(header)} columns "
+                             "(a comma too many, or a cell with a comma that is not quoted)")
+        row = _Row(dict(zip(header, cells)), path, line)
+        activity = _activity_from_row(row)
+        if activity.id in lines:
+            raise InputError(f"{row.where()}: Identification {activity.id!r} is already used on line {lines[activity.id]}")
+        if len(activities) == most_rows:
+            raise too_many(row.where(), "the schedule has", "rows")
+        count = per_component[activity.global_id] = per_component.get(activity.global_id, 0) + 1
+        if count > most_each:
+            raise too_many(row.where(), f"component {activity.global_id!r} has", "per_component")
+        lines[activity.id] = row.line
+        activities.append(activity)
     if not activities:
         raise InputError(f"the schedule {path} has a header but no activity: nothing to build")
     schedule = Schedule(activities, source=path)
@@ -493,6 +602,7 @@ def write_schedule_csv(
             writer = csv.DictWriter(handle, fieldnames=CSV_COLUMNS)
             writer.writeheader()
             for a in schedule:
+                _check_writable(a)
                 x, y, z = a.target if a.target else ("", "", "")
                 fx, fy, fz = a.work_from if a.work_from else ("", "", "")
                 tx, ty, tz = a.work_to if a.work_to else ("", "", "")
@@ -523,6 +633,25 @@ def write_schedule_csv(
                     }
                 )
     return path
+
+
+def _check_writable(a: Activity) -> None:
+    """Refuse (InputError) to write an activity :func:`load_schedule_csv` would refuse to read back:
+    an id with a control character or white space, a time outside [0, 1e9] s, a target beyond 1e7 m."""
+    texts = {"Identification": (a.id, False), "GlobalId": (a.global_id or "", False), "Robot": (a.robot or "", True),
+             "Storey": (a.storey or "", False), **{"Predecessors": (p, False) for p in a.predecessors}}
+    for column, (text, spaces) in texts.items():
+        problem = id_problem(text, spaces=spaces)
+        if problem:
+            raise InputError(f"activity {_shown(a.id)}: its {column} {_shown(text)} {problem}, so it cannot be written "
+                             "to a schedule CSV (ids are single printable words)")
+    for column, value in (("Start", a.start), ("Finish", a.finish)):
+        if not (math.isfinite(value) and 0 <= value <= MAX_SECONDS):
+            raise InputError(f"activity {_shown(a.id)}: {column} {value:g} s is not within 0 to {MAX_SECONDS:g} s "
+                             "(31 years), so it cannot be written to a schedule CSV")
+    if a.target is not None and not all(math.isfinite(v) and abs(v) <= MAX_COORDINATE_M for v in a.target):
+        raise InputError(f"activity {_shown(a.id)}: its target {a.target} is not within +-{MAX_COORDINATE_M:g} m, "
+                         "so it cannot be written to a schedule CSV")
 
 
 # --------------------------------------------------------------------------------------------- IFC
@@ -561,10 +690,19 @@ def schedule_from_task_rows(rows: list, source: Path | None, model: BuildingMode
 
     known_storeys = {s.global_id for s in model.storeys} if model is not None else set()
     leaves, phases = [], []
+    per_component: dict[str, int] = {}
+    most_each = limit("per_component")
     for row in rows:
         start = seconds(row.start, 0.0)
         finish = seconds(row.finish, start)
+        if not (0 <= start <= MAX_SECONDS and 0 <= finish <= MAX_SECONDS):
+            raise InputError(f"{source}: task {row.global_id} ends {max(start, finish):.3g} s after the earliest start, "
+                             f"more than the {MAX_SECONDS:g} s (31 years) a schedule may span")
         output = row.outputs[0] if row.outputs else None
+        if output and not row.is_summary:
+            count = per_component[output] = per_component.get(output, 0) + 1
+            if count > most_each:
+                raise too_many(f"{source}: task {row.global_id}", f"component {output!r} has", "per_component")
         if model is not None and output and not is_component(model, output) and output not in known_storeys:
             log.warning("IfcTask %s outputs %s, which is not an element of the model: left unlinked", row.global_id, output)
             output = None
