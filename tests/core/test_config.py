@@ -64,7 +64,7 @@ def _with(text: str, old: str, new: str) -> str:
         ("fleet.yaml", "name: f\ndepot: [0, 0]\n" + FLEET_ROBOT, ["simulate", "generated:2x1x1", "--fleet", "{path}"],
          "{path} line 2: unknown key 'depot' (allowed: name, robots)"),
         ("fleet.yaml", FLEET_ROBOT.replace("speed: 1", "speed: 90"), ["simulate", "generated:2x1x1", "--fleet", "{path}"],
-         "{path} line 4: robots[0] (T1): key 'speed' must be > 0 and <= 50 m/s, got 90"),
+         "{path} line 4: robots[0] (T1): key 'speed' must be >= 0.01 and <= 50 m/s, got 90"),
         ("site.yaml", "yard: [[1, 2]]\nrobot_home: [[3, 4]]\nparking: [[0, 0]]\n",
          ["simulate", "generated:2x1x1", "--site", "{path}"],
          "{path} line 3: unknown key 'parking' (allowed: construction_area, idle_robots, model_offset, robot_home, yard)"),

@@ -44,22 +44,26 @@ OPTIONAL_KEYS = ("load_time", "unload_time", "methods", "home")
 BUILTIN_FLEETS = ("fleet1", "fleet2", "site-crane")
 METHODS = ("bolt", "weld")
 
-#: Physical range of each robot key: (low, high, unit); low is exclusive except for handling times,
-#: which may be 0. Speeds: the fastest site vehicle is far below 50 m/s (180 km/h); loads: the largest
-#: mobile cranes lift about 1,200 t, so 1e6 kg; a reach or platform beyond 300 m / 100 m is a typo;
-#: one handling step longer than a day (86,400 s) is not a step.
+#: Physical range of each robot key: (low, high, unit), both bounds inclusive. Upper bounds: the fastest
+#: site vehicle is far below 50 m/s (180 km/h); the largest mobile cranes lift about 1,200 t, so 1e6
+#: kg; a reach or platform beyond 300 m / 100 m is a typo; one handling step longer than a day
+#: (86,400 s) is not a step. Lower bounds, so that no time a simulation derives from them overflows
+#: what a schedule holds (1e9 s): 0.01 m/s (36 m an hour, slower than any site robot crawls; a 1e-300
+#: m/s robot made a 302-digit makespan) crosses a 10 km site in 11.6 days; 1 kg is less than any
+#: building part or tool a robot carries; a reach under 0.1 m reaches nothing; a node or assembly point
+#: takes at least 0.1 s; loading and unloading may take no time at all.
 RANGES = {
-    "speed": (0.0, 50.0, "m/s"),
-    "carry_load": (0.0, 1e6, "kg"),
-    "payload": (0.0, 1e6, "kg"),
-    "reach": (0.0, 300.0, "m"),
-    "time_per_node": (0.0, 86_400.0, "s"),
-    "time_per_point": (0.0, 86_400.0, "s"),
+    "speed": (0.01, 50.0, "m/s"),
+    "carry_load": (1.0, 1e6, "kg"),
+    "payload": (1.0, 1e6, "kg"),
+    "reach": (0.1, 300.0, "m"),
+    "time_per_node": (0.1, 86_400.0, "s"),
+    "time_per_point": (0.1, 86_400.0, "s"),
     "load_time": (0.0, 86_400.0, "s"),
     "unload_time": (0.0, 86_400.0, "s"),
 }
-#: Platform length and width (m).
-PLATFORM_RANGE_M = (0.0, 100.0)
+#: Platform length and width (m), both inclusive: 0.1 m is a tray, 100 m longer than any transport deck.
+PLATFORM_RANGE_M = (0.1, 100.0)
 
 
 @dataclass(frozen=True)
@@ -118,13 +122,13 @@ def _robot(entry, source: str, index: int) -> RobotSpec:
     values: dict = {"name": name, "kind": kind}
     for key in sorted((needed - {"platform_size"}) | ({"load_time", "unload_time"} & set(entry))):
         low, high, unit = RANGES[key]
-        values[key] = number(entry, key, source, low=low, high=high, low_inclusive=key in ("load_time", "unload_time"), unit=unit, where=where)
+        values[key] = number(entry, key, source, low=low, high=high, low_inclusive=True, unit=unit, where=where)
     if "platform_size" in needed:
         size = entry["platform_size"]
         label = f"{source}{line_of(entry, 'platform_size')}: {where}: key 'platform_size'"
         if not isinstance(size, (list, tuple)) or len(size) != 2:
             raise InputError(f"{label} must be [length, width] in metres, got {size!r}")
-        length, width = (_number_in(v, label, *PLATFORM_RANGE_M, "m") for v in size)
+        length, width = (_number_in(v, label, *PLATFORM_RANGE_M, "m", low_inclusive=True) for v in size)
         values["platform_size"] = (max(length, width), min(length, width))
     if "methods" in entry:
         methods = entry["methods"]
