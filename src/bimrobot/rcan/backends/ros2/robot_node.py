@@ -21,6 +21,11 @@ from bimrobot.rcan.generation import CapabilityTable
 from bimrobot.rcan.node import RcanNode
 
 
+NODE_TRANSPORTS = "UDPv4"
+"""The robot node's Fast DDS transports (``FASTDDS_BUILTIN_TRANSPORTS``, unless the environment sets it):
+no shared memory, so a killed node leaves nothing in /dev/shm."""
+
+
 class _Heartbeat:
     """One thread that sends the heartbeat feedback (phase :data:`HEARTBEAT`) of every goal being worked
     on, every :data:`HEARTBEAT_S` seconds (a thread per goal cost a thread start and join per activity)."""
@@ -64,6 +69,9 @@ def serve_robot_node(capabilities: CapabilityTable, time_scale: float = 0.0, fai
     phase, and a heartbeat every 0.5 s while working). A goal whose activity id the robots already
     completed is not executed again: its earlier result is returned.
     """
+    # Fast DDS over UDP only: its shared-memory transport leaves fastrtps_port* files in /dev/shm when the
+    # node is killed (SIGKILL), which nothing removes; a client on the default transports reaches it by UDP
+    os.environ.setdefault("FASTDDS_BUILTIN_TRANSPORTS", NODE_TRANSPORTS)
     rclpy, action = load_ros2()
     from rclpy.action import ActionServer
     from rclpy.callback_groups import ReentrantCallbackGroup
@@ -141,7 +149,8 @@ def serve_robot_node(capabilities: CapabilityTable, time_scale: float = 0.0, fai
 def robot_node_process(capabilities_path: str | None = None, time_scale: float = 0.0, failure_probability: float = 0.0,
                        seed: int = 0, state_db: str = ":memory:", startup_timeout_s: float = 60.0,
                        participants_closed: bool = False, extra_args: list[str] | None = None):
-    """Start the shipped robot node in a subprocess (same ROS_DOMAIN_ID and transports as this process),
+    """Start the shipped robot node in a subprocess (same ROS_DOMAIN_ID as this process; UDP, see
+    :data:`NODE_TRANSPORTS`),
     yield it, then stop it by PID and delete the Fast DDS shared-memory files (``SHM_PATTERNS``)
     created meanwhile that no live process uses (``participants_closed``: not counting this one).
     """
