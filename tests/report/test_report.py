@@ -202,3 +202,22 @@ def test_critical_path_counts_the_wait_of_a_late_start():
     assert path.activities == ["A", "D"]
     assert (path.work_s, path.waiting_s, path.logic_bound_s) == (15, 15, 15)
     assert (path.logic_edges, path.robot_edges) == (2, 2)
+
+
+def test_without_the_report_extra_the_build_still_gives_its_key_figures(frame_build, tmp_path, monkeypatch, capsys):
+    """plotly missing (as bimrobot.report sees it): the build's README keeps the figures and says how to get
+    the page; `bimrobot report` refuses in one sentence naming the install command."""
+    from bimrobot import pipeline, report
+
+    copy = tmp_path / "build"
+    shutil.copytree(frame_build, copy, ignore=shutil.ignore_patterns("*.rrd", "*.ttl", "report.html", "building.png"))
+    monkeypatch.setattr(report, "missing_packages", lambda: ["plotly"])
+    figures = pipeline._build_report(copy)
+    assert "pip install 'bimrobot[report]'" in capsys.readouterr().err
+    assert not (copy / "report.html").exists()
+    summary = json.loads((copy / "simulation" / "summary.json").read_text())
+    makespan = re.search(r"\| makespan \| ([\d,.]+) s of work", figures)
+    assert float(makespan.group(1).replace(",", "")) == summary["makespan_s"]
+    assert "No `report.html`" in figures and "pip install 'bimrobot[report]'" in figures
+    assert main(["report", str(copy)]) == 2
+    assert "the build report needs plotly: pip install 'bimrobot[report]'" in capsys.readouterr().err

@@ -32,17 +32,17 @@ def missing_packages() -> list[str]:
 
 
 def write_report(build_folder: str | Path, output: str | Path | None = None, *, start: str | dt.datetime | None = None,
-                 calendar=None, option: str = "-o") -> Path:
+                 calendar=None, model: str | Path | None = None, option: str = "-o") -> Path:
     """Write the report of the build in ``build_folder`` to ``output`` (default ``build_folder/report.html``);
     return its path. In the build folder itself the building's picture is also written as
     ``building.png`` (for README.md); elsewhere it is only inside the page.
 
     ``start``: date-time of the build's t = 0 s (default: the build's own, else today 08:00);
-    ``calendar``: a :class:`bimrobot.bim.work_schedule.WorkCalendar` (default: the build's site's).
-    Both files go through :mod:`bimrobot.io` (atomic; a file bimrobot did not write is never replaced).
-    Raises InputError when ``build_folder`` is not a build folder or the report extra is missing."""
+    ``calendar``: a :class:`bimrobot.bim.work_schedule.WorkCalendar` (default: the build's site's);
+    ``model``: the IFC file, when it is no longer where the build read it. Both files go through
+    :mod:`bimrobot.io` (atomic; a file bimrobot did not write is never replaced). Raises InputError when ``build_folder`` is not a build folder or the report extra is missing."""
     output = Path(output) if output is not None else Path(build_folder) / REPORT_HTML
-    _write(Path(build_folder), output, start, calendar, option)
+    _write(Path(build_folder), output, start, calendar, option, model)
     return output
 
 
@@ -56,7 +56,7 @@ def write_build_report(build_folder: str | Path) -> str:
     return markdown(facts, BUILDING_PNG if (folder / BUILDING_PNG).is_file() else None)
 
 
-def _write(folder: Path, output: Path, start, calendar, option: str):
+def _write(folder: Path, output: Path, start, calendar, option: str, model=None):
     """Read the build, draw the building, write the page; the build's :class:`~bimrobot.report.facts.BuildFacts`."""
     from bimrobot import io
     from bimrobot.errors import InputError
@@ -68,7 +68,7 @@ def _write(folder: Path, output: Path, start, calendar, option: str):
     if missing:
         raise InputError(f"the build report needs {', '.join(missing)}: {INSTALL_HINT}")
     io.check_output(output, folder=False, option=option)
-    facts = read_build(folder, start=start, calendar=calendar)
+    facts = read_build(folder, start=start, calendar=calendar, model=model)
     in_build = output.resolve().parent == folder.resolve()
     with tempfile.TemporaryDirectory(prefix="bimrobot-report-") as scratch:
         png = Path(scratch) / BUILDING_PNG
@@ -85,13 +85,15 @@ def _write(folder: Path, output: Path, start, calendar, option: str):
 
 def readme_figures(build_folder: str | Path, *, start: str | dt.datetime | None = None,
                    calendar=None) -> str:
-    """The key figures of the build as Markdown for the top of README.md (the same numbers as the page's)."""
+    """The key figures of the build as Markdown for the top of README.md (the same numbers as the page's),
+    for a build without the page (the report extra missing)."""
     from bimrobot.report.facts import read_build
     from bimrobot.report.figures import markdown
 
     folder = Path(build_folder)
     facts = read_build(folder, start=start, calendar=calendar)
-    return markdown(facts, BUILDING_PNG if (folder / BUILDING_PNG).is_file() else None)
+    page = REPORT_HTML if (folder / REPORT_HTML).is_file() else None
+    return markdown(facts, BUILDING_PNG if (folder / BUILDING_PNG).is_file() else None, page)
 
 
 __all__ = ["BUILDING_PNG", "REPORT_HTML", "readme_figures", "write_build_report", "write_report"]

@@ -165,7 +165,8 @@ def states_figure(facts: BuildFacts):
         if not any(counts):
             continue
         figure.add_trace(go.Scatter(
-            name=state, x=times, y=counts, mode="lines", line={"shape": "hv", "width": 0.5, "color": STATE_COLOURS.get(state)},
+            name=state, x=times, y=counts, mode="lines",
+            line={"shape": "hv", "width": 0.5, "color": STATE_COLOURS.get(state)},
             stackgroup="states", customdata=dates,
             hovertemplate=f"%{{customdata}}<br>{state}: %{{text}} components<extra></extra>", text=counts,
         ))

@@ -27,6 +27,9 @@ def register(subparsers) -> None:
     parser.add_argument("build", type=Path, help="a `bimrobot build` output folder")
     parser.add_argument("-o", "--output", type=Path,
                         help="the HTML file to write (default BUILD/report.html; a file bimrobot wrote is replaced)")
+    parser.add_argument("--model", type=Path,
+                        help="the IFC file, when it is no longer where the build read it (for the building's picture "
+                        "and the names of assemblies)")
     parser.add_argument("--start", metavar="ISO",
                         help="date-time of t = 0 s of the build, e.g. 2027-03-01T07:00 (default: the build's own, "
                         "else today 08:00)")
@@ -44,6 +47,6 @@ def report_command(args: argparse.Namespace) -> int:
             parse_start(args.start)
         except ValueError:
             raise InputError(f"--start {args.start!r} is not an ISO date-time such as 2027-03-01T07:00") from None
-    path = write_report(args.build, args.output, start=args.start)
+    path = write_report(args.build, args.output, start=args.start, model=args.model)
     print(f"{io.printable(str(path))}: the build report; open it in a browser (no network needed)")
     return 0

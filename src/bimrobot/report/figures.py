@@ -84,8 +84,9 @@ def rcan_text(facts: BuildFacts) -> tuple[str, str]:
     return str(rcan.get("status", UNKNOWN)), f"{done} activities done, {escalated} escalated, {blocked} blocked"
 
 
-def markdown(facts: BuildFacts, picture: str | None = None) -> str:
-    """The key figures as the top of README.md: a table (and the picture, when drawn)."""
+def markdown(facts: BuildFacts, picture: str | None = None, page: str | None = "report.html") -> str:
+    """The key figures as the top of README.md: a table, where the whole report is (``page``; None:
+    the page was not written, and how to get it), and the picture (``picture``, when drawn)."""
     lines = ["## Key figures", "", "| | |", "|---|---|"]
     for label, value, detail in key_figures(facts):
         lines.append(f"| {label} | {_cell(value + (f' ({detail})' if detail else ''))} |")
@@ -95,8 +96,12 @@ def markdown(facts: BuildFacts, picture: str | None = None) -> str:
               f"| assembled by storey | {_cell(by_storey or UNKNOWN)} |"]
     robots = ", ".join(f"{r['robot']} {float(r['utilisation']):.2%}" for r in facts.robots)
     lines.append(f"| robots (utilisation) | {_cell(robots or UNKNOWN)} |")
-    lines += ["", "The whole report, with the Gantt, the states over time and what was assumed: `report.html` "
-              "(one file, opens offline in any browser)."]
+    if page:
+        lines += ["", f"The whole report, with the Gantt, the states over time and what was assumed: `{page}` "
+                  "(one file, opens offline in any browser)."]
+    else:
+        lines += ["", "No `report.html` (the Gantt, the states over time, what was assumed): it needs the report "
+                  "extra, `pip install 'bimrobot[report]'`, then `bimrobot report` on this folder."]
     if picture:
         lines += ["", f"![The building assembled]({picture})"]
     return "\n".join(lines) + "\n"

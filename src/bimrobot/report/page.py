@@ -103,7 +103,8 @@ def assumed(facts: BuildFacts) -> list[tuple[str, str]]:
             ("assembly units", f"{smart.get('assembly_units', unknown)}"),
         ]
     if facts.summary:
-        rows += [("market", f"evaluator {facts.summary.get('evaluator', unknown)}, work {facts.summary.get('work', unknown)}")]
+        summary = facts.summary
+        rows += [("market", f"evaluator {summary.get('evaluator', unknown)}, work {summary.get('work', unknown)}")]
     return rows
 
 
