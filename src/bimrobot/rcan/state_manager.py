@@ -303,15 +303,46 @@ def removed_unless_used(path: str | os.PathLike | None) -> Iterator[None]:
                     break
 
 
+def stored_plan(path: str | os.PathLike) -> str | None:
+    """The plan signature recorded in the bimrobot state database at ``path`` (None for a new or empty
+    file, another program's file or a database without a plan). Read only: nothing is written."""
+    name = str(path)
+    if name == ":memory:" or not os.path.isfile(name) or os.path.getsize(name) == 0 or not is_state_db(name):
+        return None
+    try:
+        # read-write although it only reads, as in _journal_is_empty: no -wal or -shm file is left behind
+        db = sqlite3.connect(f"file:{quote(name)}?mode=rw", uri=True)
+    except sqlite3.Error:
+        return None
+    try:
+        row = db.execute("SELECT value FROM meta WHERE key='plan'").fetchone()
+    except sqlite3.Error:
+        return None
+    finally:
+        db.close()
+    return row[0] if row else None
+
+
+def check_plan(path: str | os.PathLike, plan: str, option: str = "--state-db") -> None:
+    """Refuse (InputError) the state database at ``path`` when it records a plan other than ``plan``
+    (a signature, :func:`bimrobot.rcan.system.plan_signature`), before anything opens it for writing."""
+    if stored_plan(path) not in (None, plan):
+        raise InputError(f"state database {path} belongs to a different plan; use a new {option} "
+                         "(nothing was changed)")
+
+
 class StateStore:
     """The SQLite journal and the current activity and component states (``:memory:`` by default).
 
     The file is a bimrobot state database (:func:`connect_state_db`); another program's SQLite file
-    is refused.
+    is refused. With ``plan`` (a plan signature), a database that records another plan is refused
+    before anything is written to it (:func:`check_plan`).
     """
 
-    def __init__(self, path: str | Path = ":memory:"):
+    def __init__(self, path: str | Path = ":memory:", plan: str | None = None):
         self.path = str(path)
+        if plan is not None:
+            check_plan(self.path, plan)
         self.db = connect_state_db(self.path, schema=SCHEMA)
         self.write_lock = write_lock(self.path)
         self._owner: str | None = None

@@ -569,7 +569,8 @@ def _run_plan(activities, capabilities, backend, state_db, redis_url, spawn_exec
     if backend == "mujoco":  # its scene starts with every component of the plan where it waits
         activities = list(activities)
         options.setdefault("plan", activities)
-    store = StateStore(state_db)
+    activities = list(activities)
+    store = StateStore(state_db, plan=plan_signature(activities))  # another plan's database: refused, unwritten
     try:
         store.lock()  # one run per state database
     except BaseException:
