@@ -107,3 +107,17 @@ def test_ifc_unit_bolts_placed_at_the_origin_are_found_where_they_fasten(ifc_uni
     for r in ifc_unit_model.relocated:
         low, high = ifc_unit_model.element(r.global_id).world_bounds
         assert np.linalg.norm(np.array(r.origin) - (low + high) / 2) < 0.2  # within the bolt's own size
+
+
+def test_inspect_says_which_elements_were_placed_away_from_their_bodies(shared_ifc, capsys):
+    import json
+
+    from bimrobot.cli import main
+
+    path = str(shared_ifc("engine_web-ifc_example.ifc"))
+    assert main(["inspect", path, "--no-progress"]) == 0
+    assert "placed away from their bodies: 41 elements (30 IfcColumn, 7 IfcSlab, 4 IfcBuildingElementProxy)" in capsys.readouterr().out
+    assert main(["inspect", path, "--json", "--no-progress"]) == 0
+    goals = json.loads(capsys.readouterr().out)["goals_from_body"]
+    assert goals["count"] == len(goals["elements"]) == 41
+    assert all(e["moved_m"] > 1.0 and e["name"] for e in goals["elements"])

@@ -258,6 +258,15 @@ def summarize(model) -> dict:
             "suspect_kg": round(sum(row["weight_kg"] for row in suspect_weights), 3),
         },
         "suspect_by_class": dict(sorted(suspect_by_class.items(), key=lambda item: (-item[1]["count"], item[0]))),
+        "goals_from_body": {
+            "count": len(getattr(model, "relocated", ())),
+            "by_class": dict(Counter(r.ifc_class for r in getattr(model, "relocated", ())).most_common()),
+            "elements": [
+                {"GlobalId": r.global_id, "class": r.ifc_class, "name": r.name, "moved_m": r.distance_m,
+                 "file_origin_m": list(r.file_origin), "origin_m": list(r.origin)}
+                for r in getattr(model, "relocated", ())
+            ],
+        },
         "suspect_weights": suspect_weights,
         "skipped": [{"GlobalId": s.global_id, "class": s.ifc_class, "name": s.name, "reason": s.reason} for s in model.skipped],
     }
@@ -302,6 +311,11 @@ def format_summary(summary: dict) -> str:
             implied = entry["implied_kg_m3"]
             density = f", implied {implied[0]:,.1f}-{implied[1]:,.1f} kg/m3" if implied else ""
             lines.append(printable(f"  {ifc_class}: {entry['count']} ({entry['weight_kg']:,.1f} kg{density}), e.g. {entry['example']}"))
+    goals = summary.get("goals_from_body") or {}
+    if goals.get("count"):
+        classes = ", ".join(f"{n} {c}" for c, n in goals["by_class"].items())
+        lines += ["", f"placed away from their bodies: {goals['count']} elements ({classes}); their positions are "
+                  "taken from their bodies (each one in --json: goals_from_body)"]
     if summary["skipped"]:
         lines += ["", f"skipped ({len(summary['skipped'])} products without a solid body):"]
         for reason, n in Counter((s["class"], s["reason"]) for s in summary["skipped"]).items():
