@@ -15,6 +15,7 @@ import logging
 import threading
 from typing import Iterable
 
+from bimrobot.errors import InputError
 from bimrobot.rcan.backends.interfaces import ActivityResult, ExecutorBackend
 from bimrobot.rcan.broker import RESULT_TOPIC, Broker, Message, robot_topic
 from bimrobot.rcan.node import RcanNode
@@ -37,6 +38,9 @@ class RobotExecutor:
         self.topics = frozenset(robot_topic(r) for r in self.robots)
         self.workers = max(1, min(workers or DEFAULT_WORKERS, len(self.robots) or 1))
         self.stop = threading.Event()
+        #: Why the executor stopped serving by itself: the broker gave up (e.g. Redis was not back within
+        #: ``--redis-reconnect`` seconds); :meth:`serve` raises it.
+        self.error: InputError | None = None
         self._robot_locks: dict[str, threading.Lock] = {}
         self._locks_guard = threading.Lock()
 
@@ -64,31 +68,58 @@ class RobotExecutor:
     def _work(self, poll_s: float) -> None:
         """One worker: receive one node, execute it, send its result, until :attr:`stop` is set. Each
         worker receives for itself: a node goes from the broker to the thread that executes it with no
-        hand-over between threads (one thread wake-up less per activity). A broker error (e.g. Redis
-        restarting) is logged and retried: unacknowledged messages are delivered again once it is back."""
+        hand-over between threads (one thread wake-up less per activity). The broker itself rides out a
+        lost connection for its reconnection time (``--redis-reconnect``); when it gives up (an
+        InputError) the executor stops, every worker with it, and :meth:`serve` raises that one
+        sentence. Any other broker error is logged in one line, once until a receive works again, and
+        retried: unacknowledged messages are delivered again once the broker is back."""
+        failing = False
         while not self.stop.is_set():
             try:
                 messages = self.broker.receive(self.topics, timeout_s=poll_s, count=1)
-            except Exception:  # noqa: BLE001 - keep serving; the coordinator is waiting for results
-                log.warning("robot executor: broker error, retrying in 1 s", exc_info=True)
+            except InputError as exc:  # the broker gave up: no point in serving on
+                with self._locks_guard:
+                    self.error = self.error or exc
+                self.stop.set()
+                return
+            except Exception as exc:  # noqa: BLE001 - keep serving; the coordinator is waiting for results
+                if not failing:
+                    log.warning("robot executor: broker error (%s: %s), retrying every second", type(exc).__name__, exc)
+                failing = True
                 self.stop.wait(1.0)
                 continue
+            failing = False
             for message in messages:
                 try:
                     self.handle(message)
-                except Exception:  # noqa: BLE001 - the result could not be sent: unacknowledged, so redelivered
-                    log.exception("robot executor: could not send the result of message %s", message.message_id)
+                except InputError as exc:  # the broker gave up while the result was sent
+                    with self._locks_guard:
+                        self.error = self.error or exc
+                    self.stop.set()
+                    return
+                except Exception as exc:  # noqa: BLE001 - the result could not be sent: unacknowledged, so redelivered
+                    log.warning("robot executor: could not send the result of message %s (%s: %s)",
+                                message.message_id, type(exc).__name__, exc)
 
     def serve(self, poll_s: float = 0.2) -> None:
-        """Serve on :attr:`workers` threads until :attr:`stop` is set (``poll_s``: how often each checks)."""
+        """Serve on :attr:`workers` threads until :attr:`stop` is set (``poll_s``: how often each checks);
+        raises :attr:`error` when the broker gave up (one sentence, no traceback at the command line)."""
         threads = [threading.Thread(target=self._work, args=(poll_s,), name=f"rcan-executor_{n}", daemon=True)
                    for n in range(self.workers)]
         for thread in threads:
             thread.start()
         for thread in threads:
             thread.join()
+        if self.error is not None:
+            raise self.error
+
+    def _serve_in_thread(self) -> None:
+        try:
+            self.serve()
+        except InputError as exc:  # in a thread of the run: said once; the coordinator's broker gives up too
+            log.error("robot executor stopped: %s", exc)
 
     def start_thread(self) -> threading.Thread:
-        thread = threading.Thread(target=self.serve, name="rcan-executor", daemon=True)
+        thread = threading.Thread(target=self._serve_in_thread, name="rcan-executor", daemon=True)
         thread.start()
         return thread
