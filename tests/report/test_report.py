@@ -101,7 +101,7 @@ def test_gantt_has_one_bar_per_activity_at_its_robot_and_times(frame_build):
     bars = [(robot, start, width, task) for trace in traces
             for robot, start, width in zip(trace["y"], _numbers(trace["base"]), _numbers(trace["x"]))
             for task in [trace["name"]]]
-    assert len(bars) == len(schedule) == 52
+    assert len(bars) == len(schedule) > 0
     expected = sorted((row["Robot"], float(row["Start"]), float(row["Finish"]) - float(row["Start"]), row["Activity"])
                       for row in schedule)
     for got, want in zip(sorted(bars), expected):
@@ -123,7 +123,7 @@ def test_key_figures_are_summary_json_s(frame_build):
     assert float(utilisation.group(1)) / 100 == pytest.approx(summary["fleet_utilisation"], abs=5e-7)
     assert figures["activities"].startswith(f"{summary['activities']} ")
     assembled = sum(history[-1][1] == "Assembled" for history in states.values())
-    assert figures["components assembled"] == f"{assembled} of {len(states)}" == "12 of 12"
+    assert figures["components assembled"] == f"{assembled} of {len(states)}" == f"{len(states)} of {len(states)}"
     assert figures["RCAN run"].startswith(f"completed ({len(rcan['done'])} activities done, 0 escalated")
     assert figures["fleet"].startswith("fleet2")
     for robot in summary["robots"]:
