@@ -238,7 +238,7 @@ def test_bad_names_and_calendars_are_refused_before_anything_is_written(frame_if
 
 def test_build_passes_schedule_out_and_the_site_to_the_graph_stage(frame_ifc, tmp_path):
     from bimrobot.cli import build_parser
-    from bimrobot.pipeline import STAGES, _unknown_weight_text, _work_schedule_row
+    from bimrobot.pipeline import PLACED_SITE, STAGES, _unknown_weight_text, _work_schedule_row
 
     site = tmp_path / "site.yaml"
     args = build_parser().parse_args(["build", str(frame_ifc), "-o", str(tmp_path / "out"), "--schedule-out",
@@ -247,7 +247,7 @@ def test_build_passes_schedule_out_and_the_site_to_the_graph_stage(frame_ifc, tm
     (graph,) = [s for s in STAGES if s.name == "graph"]
     argv = graph.argv(args, tmp_path / "partial")
     assert argv[argv.index("--schedule-out") + 1] == str(tmp_path / "partial" / "plan.p6.xml")
-    assert argv[argv.index("--site") + 1] == str(site)
+    assert argv[argv.index("--site") + 1] == str(tmp_path / "partial" / PLACED_SITE)  # the site, placed
     assert "| `plan.p6.xml` | the same work schedule as Primavera P6 XML" in _work_schedule_row(args)
 
 
