@@ -34,7 +34,7 @@ QUERY_EXAMPLES = """examples:
 
 def register(subparsers) -> None:
     """Add this part's sub-commands to the ``bimrobot`` parser."""
-    from bimrobot.bim.selection import add_selection_options
+    from bimrobot.bim.selection import add_prebuilt_option, add_selection_options
     from bimrobot.bim.unknown_weight import add_unknown_weight_option
     from bimrobot.lbd.graph import query_names
 
@@ -68,11 +68,7 @@ def register(subparsers) -> None:
         help="every element on its own: leave the model's IfcElementAssemblies out (by default each is an element "
         "with its parts as bot:hasSubElement, the unit that is lifted)",
     )
-    graph.add_argument(
-        "--prebuilt", default="IfcFooting,IfcPile", metavar="CLASSES",
-        help="IFC classes built by others, as for `bimrobot simulate` (default: IfcFooting,IfcPile): they start "
-        "in their own state (PositionFixed / Assembled) instead of OnYard",
-    )
+    add_prebuilt_option(graph)  # a selector, as for `bimrobot simulate` (bimrobot.bim.selection)
     graph.add_argument(
         "--ifc-out", type=Path, metavar="FILE.ifc",
         help="also write a copy of the model with the schedule as an IfcWorkSchedule (summary tasks per storey "
