@@ -221,3 +221,20 @@ def test_without_the_report_extra_the_build_still_gives_its_key_figures(frame_bu
     assert "No `report.html`" in figures and "pip install 'bimrobot[report]'" in figures
     assert main(["report", str(copy)]) == 2
     assert "the build report needs plotly: pip install 'bimrobot[report]'" in capsys.readouterr().err
+
+
+def test_dates_follow_the_calendar_of_the_build_s_site(frame_build, tmp_path):
+    """A site working Monday-Saturday 06:00-18:00 (its site.yaml): the Friday 15:50 start finishes the same day."""
+    copy = tmp_path / "build"
+    shutil.copytree(frame_build, copy, ignore=shutil.ignore_patterns("*.rrd", "*.ttl", "*.ifc"))
+    site = (copy / "site.yaml").read_text()
+    assert "work_calendar:" in site
+    site = site[:site.index("work_calendar:")] + (
+        "work_calendar: {days: [Monday, Tuesday, Wednesday, Thursday, Friday, Saturday], hours: ['06:00', '18:00']}\n")
+    (copy / "site.yaml").write_text(site)
+    assert main(["report", str(copy)]) == 0
+    makespan = json.loads((copy / "simulation" / "summary.json").read_text())["makespan_s"]
+    finish = dt.datetime.fromisoformat(START) + dt.timedelta(seconds=makespan)
+    html = _page(copy)
+    assert f"Fri 05 Mar 2027 15:50 to {finish:%a %d %b %Y %H:%M}" in html
+    assert "Monday-Saturday 06:00-18:00" in html and "site.yaml of this build" in html

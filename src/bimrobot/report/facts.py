@@ -136,8 +136,10 @@ def read_build(folder: str | Path, start: str | dt.datetime | None = None,
     robots = summary.get("robots") or _robots_csv(folder, missing)
     start_time = _start(start if start is not None else build.get("start"))
     calendar_source = "given"
-    if calendar is None:
-        calendar, calendar_source = site_calendar(build.get("site"))
+    if calendar is None:  # the site the build placed the building on (out/site.yaml), else the one it was given
+        placed = folder / "site.yaml"
+        calendar, calendar_source = site_calendar(str(placed) if placed.is_file() else build.get("site"))
+        calendar_source = calendar_source.replace(str(placed), "site.yaml of this build")
     model_path = Path(str(model or build.get("model") or summary.get("model") or package.get("source") or "unknown model"))
     if model is not None and not model_path.is_file():
         raise InputError(f"--model {model}: no such file")
@@ -171,8 +173,8 @@ def parse_start(text: str | None) -> dt.datetime:
 
 
 def site_calendar(site: str | None) -> tuple[WorkCalendar, str]:
-    """The working calendar of the build's site file (``build.json``'s ``site``) and where it comes from;
-    the default calendar when the build used the default site or its file is gone."""
+    """The working calendar of the build's site file (its ``site.yaml``, else ``build.json``'s ``site``) and
+    where it comes from; the default calendar when the build used the default site or its file is gone."""
     from bimrobot.site import load_site
 
     if site and Path(site).is_file():
