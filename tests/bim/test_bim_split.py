@@ -291,3 +291,18 @@ def test_split_replaces_its_own_output_and_says_so(tmp_path, capsys, greenhouse_
     (line,) = captured.err.strip().splitlines()
     assert line.startswith(f"bimrobot: replacing {out} (split output of {greenhouse_ifc.name}")
     assert len(list(out.glob("*.ifc"))) == 9
+
+
+def test_a_window_is_split_as_one_unit_with_its_frame_and_pane(tmp_path, shared_ifc):
+    """IfcOpenHouse's 5 windows aggregate 4 IfcMember and 1 IfcPlate each (IfcRelAggregates, not an
+    IfcElementAssembly): one file per window with its 5 parts, as the model's lifted units are."""
+    import json
+
+    from bimrobot.bim.split import split_model
+
+    written = split_model(shared_ifc("IfcOpenHouse_IFC4.ifc"), tmp_path / "parts")
+    windows = [f for f in written if f.ifc_class == "IfcWindow"]
+    assert len(windows) == 5 and all(sorted(p.ifc_class for p in f.parts) == ["IfcMember"] * 4 + ["IfcPlate"] for f in windows)
+    assert not any(f.ifc_class in ("IfcMember", "IfcPlate") for f in written)  # no part written alone
+    index = json.loads((tmp_path / "parts" / "index.json").read_text())
+    assert index["split_by"] == "assembly" and all(len(row["parts"]) == 5 for row in index["elements"] if row["class"] == "IfcWindow")

@@ -3,7 +3,9 @@
 
 **Units.** In Tekla precast and steel exports the ``IfcElementAssembly`` is what is cast, lifted and
 placed, so by default (when the model has assemblies) every *outermost* assembly becomes one file
-holding all its parts (nested sub-assemblies folded in); an element that belongs to no assembly gets a
+holding all its parts (nested sub-assemblies folded in); so does every other aggregate lifted as one
+unit (a Tekla wide-slab floor plate, a window with its frame and pane: the model's
+:attr:`~bimrobot.bim.model.BuildingModel.assemblies`); an element that belongs to no assembly gets a
 file of its own. ``by_element=True`` writes one file per element, assemblies included, as a model
 without assemblies always is.
 
@@ -48,7 +50,8 @@ from bimrobot.bim.reader import (
     duplicate_global_ids,
     duplicates_message,
     open_ifc,
-    outermost_assembly,
+    is_unit_whole,
+    outermost_unit,
     product_key,
     product_keys,
 )
@@ -103,8 +106,9 @@ def split_model(
     """Write one IFC file per assembly or element of ``path`` into ``output_dir`` (written atomically).
 
     ``include`` / ``exclude``: IfcOpenShell selectors as in :func:`bimrobot.bim.load_model`.
-    ``by_element``: one file per element; ``None`` (default) splits by outermost IfcElementAssembly
-    when the model has assemblies, else by element. Every ``IfcElement`` except openings and virtual
+    ``by_element``: one file per element; ``None`` (default) splits by outermost lifted aggregate
+    (an IfcElementAssembly, a Tekla wide-slab plate, a window: see
+    :func:`~bimrobot.bim.reader.is_unit_whole`) when the model has any, else by element. Every ``IfcElement`` except openings and virtual
     elements is written, including products without a solid body (e.g. curve-only welds), since their
     IFC data is still worth keeping. ``output_dir`` follows :mod:`bimrobot.io`'s policy.
     """
@@ -119,7 +123,7 @@ def split_model(
     if duplicates:
         log.warning("%s", duplicates_message(path, duplicates, keys))
     if by_element is None:
-        by_element = not any(outermost_assembly(p) is not None for p in products)
+        by_element = not any(outermost_unit(p) is not None for p in products)
     units = _units_by_element(products) if by_element else _units_by_assembly(products)
 
     iterable = units
@@ -147,23 +151,27 @@ def _units_by_element(products: list) -> list[_Unit]:
 
 
 def _units_by_assembly(products: list) -> list[_Unit]:
-    """One unit per outermost assembly holding a selected product; a product in no assembly alone.
+    """One unit per outermost lifted aggregate (:func:`~bimrobot.bim.reader.outermost_unit`: an
+    IfcElementAssembly, a wide-slab floor plate, a window) holding a selected product; a product in no
+    such aggregate alone.
 
-    An assembly's members are itself, its sub-assemblies and its selected parts (file order); an
-    assembly chosen by the selection whose parts all were left out is written alone, like any element.
+    A unit's members are its whole, its sub-wholes and its selected parts (file order); a whole chosen
+    by the selection whose parts all were left out is written alone, like any element.
     """
     units: dict[int, _Unit] = {}
+    wholes: set[int] = set()
     for product in products:
-        outer = outermost_assembly(product)
+        outer = outermost_unit(product)
         if outer is None:
             units[product.id()] = _Unit(product, [product], [])
             continue
         unit = units.get(outer.id())
         if unit is None:
             below = ifcopenshell.util.element.get_decomposition(outer, is_recursive=True)
-            subassemblies = sorted((e for e in below if e.is_a("IfcElementAssembly")), key=lambda e: e.id())
-            unit = units[outer.id()] = _Unit(outer, [outer, *subassemblies], [])
-        if not product.is_a("IfcElementAssembly"):
+            subwholes = sorted((e for e in below if is_unit_whole(e) and e.IsDecomposedBy), key=lambda e: e.id())
+            wholes.update(e.id() for e in (outer, *subwholes))
+            unit = units[outer.id()] = _Unit(outer, [outer, *subwholes], [])
+        if product.id() not in wholes:
             unit.members.append(product)
             unit.parts.append(product)
     return sorted(units.values(), key=lambda u: u.head.id())
@@ -173,7 +181,7 @@ def _index(path: Path, source: ifcopenshell.file, written: list[SplitFile], by_e
     rows = []
     for f in written:
         row = {"GlobalId": f.global_id, "file": f.path.name, "class": f.ifc_class, "name": f.name}
-        if f.ifc_class == "IfcElementAssembly" and not by_element:
+        if f.parts and not by_element:
             row["parts"] = [{"GlobalId": p.global_id, "class": p.ifc_class, "name": p.name} for p in f.parts]
         rows.append(row)
     return {
