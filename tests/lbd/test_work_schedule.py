@@ -153,6 +153,22 @@ def test_precast_units_are_summary_tasks_whose_activities_output_the_parts(share
     assert finish == dt.datetime(2027, 3, 2, 9, 15)  # 11.25 h of work: Monday 07:00-16:00, Tuesday 07:00-09:15
 
 
+def test_a_schedule_read_in_calendar_time_keeps_its_dates(frame_ifc, frame_model, tmp_path):
+    """A schedule from Microsoft Project or an IFC has its own dates (``Schedule.epoch``): they are kept,
+    not laid onto working hours again; the duration is the working time between them."""
+    import ifcopenshell
+
+    from bimrobot.bim.work_schedule import write_work_schedule
+
+    column = frame_model.by_class("IfcColumn")[0].global_id
+    night = Schedule([Activity("T1", "Erect", "position", column, None, 0.0, 24 * 3600.0)], epoch="2026-03-02T08:00:00")
+    out = write_work_schedule(frame_ifc, night, tmp_path / "planned.ifc")
+    ifc = ifcopenshell.open(str(out))
+    (task,) = [t for t in ifc.by_type("IfcTask") if not t.IsNestedBy]
+    assert (task.TaskTime.ScheduleStart, task.TaskTime.ScheduleFinish) == ("2026-03-02T08:00:00", "2026-03-03T08:00:00")
+    assert when(task.TaskTime.ScheduleDuration) == dt.timedelta(days=1)  # 8 + 1 working hours = one 9 h day
+
+
 def test_ms_project_export_reads_back_with_ifc4d(frame_4d, frame_model, frame_schedule_csv, tmp_path):
     import ifcopenshell
     from ifc4d.msp2ifc import MSP2Ifc

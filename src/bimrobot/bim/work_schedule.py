@@ -240,6 +240,17 @@ def _worked_in_week(calendar: WorkCalendar, monday: dt.datetime, when: dt.dateti
     return worked
 
 
+def working_seconds(calendar: WorkCalendar, start: dt.datetime, finish: dt.datetime) -> float:
+    """Working seconds of the calendar from ``start`` to ``finish`` (the inverse of :func:`working_datetime`;
+    0 when ``finish`` is not after ``start``)."""
+    if finish <= start:
+        return 0.0
+    monday = dt.datetime.combine(start.date() - dt.timedelta(days=start.weekday()), dt.time())
+    later = dt.datetime.combine(finish.date() - dt.timedelta(days=finish.weekday()), dt.time())
+    weeks = (later - monday).days // 7
+    return weeks * calendar.week_s + _worked_in_week(calendar, later, finish) - _worked_in_week(calendar, monday, start)
+
+
 def working_days(calendar: WorkCalendar, first: dt.date, last: dt.date) -> int:
     """Working days of the calendar from ``first`` to ``last``, both included."""
     weeks, extra = divmod((last - first).days + 1, 7)
@@ -419,7 +430,8 @@ def scheduled_model(ifc_in: str | os.PathLike, schedule, *, epoch: str | None = 
     * an IfcWorkCalendar (``calendar``, default Monday-Friday 07:00-16:00: a weekly IfcRecurrencePattern
       with one IfcTimePeriod) assigned to the top-level tasks, which the nested ones inherit;
     * IfcTaskTimes in working time (DurationType WORKTIME): the simulated seconds of work are laid onto
-      the calendar's working hours (:func:`working_datetime`); ScheduleDuration counts working days as
+      the calendar's working hours (:func:`working_datetime`); a schedule read in calendar time (it has
+      its own ``epoch``: Microsoft Project, an IFC) keeps its date-times; ScheduleDuration counts working days as
       IfcOpenShell, Bonsai and ifc4d do (P1D = one working day of the calendar, 9 h by default; to the
       second of that scale, i.e. within 0.2 s of work, as IfcOpenShell reads no fraction of a second);
       dates and times to the second. The times are set on the IfcTaskTime directly because ``edit_task_time``
@@ -440,8 +452,10 @@ def scheduled_model(ifc_in: str | os.PathLike, schedule, *, epoch: str | None = 
     ifc = _open(ifc_in)
     if ifc.schema == "IFC2X3":  # no IfcTaskTime in IFC2X3: the copy is migrated to IFC4 first
         ifc = migrated_to_ifc4(ifc, ifc_in)
-    first = working_datetime(calendar, origin, activities[0].start)
-    work_schedule = sequence.add_work_schedule(ifc, name=name, predefined_type="PLANNED", start_time=_rounded(first))
+    clock = _Clock(calendar, origin, calendar_time=bool(getattr(schedule, "epoch", None)))
+    spans = {a.id: clock.span(a.start, a.finish) for a in activities}
+    first, last = min(s for s, _ in spans.values()), max(f for _, f in spans.values())
+    work_schedule = sequence.add_work_schedule(ifc, name=name, predefined_type="PLANNED", start_time=first)
     work_schedule.Identification = "BIMROBOT"
     groups = _Groups(ifc, work_schedule)
     tasks = {a.id: groups.add_activity(a) for a in activities}
@@ -450,22 +464,41 @@ def scheduled_model(ifc_in: str | os.PathLike, schedule, *, epoch: str | None = 
             if predecessor in tasks:
                 sequence.assign_sequence(ifc, relating_process=tasks[predecessor], related_process=tasks[a.id])
     # Times last: assign_sequence cascades existing task times over the calendar in whole days.
-    spans = {}
     for a in activities:
-        spans[a.id] = (a.start, a.finish)
-        _set_times(ifc, tasks[a.id], calendar, origin, a.start, a.finish)
+        _set_times(ifc, tasks[a.id], clock, *spans[a.id])
     for summary, members in groups.summaries():
-        _set_times(ifc, summary, calendar, origin, min(spans[m][0] for m in members), max(spans[m][1] for m in members))
+        _set_times(ifc, summary, clock, min(spans[m][0] for m in members), max(spans[m][1] for m in members))
     _assign_calendar(ifc, calendar, groups.roots)
     if groups.unassigned:
         log.warning("%d of %d activities act on no product of %s: their tasks are not assigned to a product",
                     groups.unassigned, len(activities), ifc_in)
-    start = working_datetime(calendar, origin, activities[0].start)
-    finish = working_datetime(calendar, origin, max(a.finish for a in activities), finish=True)
     figures = ScheduleFigures(activities=len(activities), storeys=groups.storey_count, units=groups.unit_count,
-                              calendar=calendar, start=_rounded(start), finish=_rounded(finish),
-                              working_days=working_days(calendar, start.date(), finish.date()))
+                              calendar=calendar, start=first, finish=last,
+                              working_days=working_days(calendar, first.date(), last.date()))
     return ifc, figures
+
+
+class _Clock:
+    """Date-times of a schedule's seconds: seconds of work laid onto the calendar's working hours (a
+    simulated schedule), or, for a schedule read in calendar time (``calendar_time``: it has its own
+    epoch, e.g. from Microsoft Project or an IFC), the date-times as they were."""
+
+    def __init__(self, calendar: WorkCalendar, origin: dt.datetime, calendar_time: bool):
+        self.calendar, self.origin, self.calendar_time = calendar, origin, calendar_time
+
+    def span(self, start_s: float, finish_s: float) -> tuple[dt.datetime, dt.datetime]:
+        """(start, finish) to the second; finish >= start."""
+        if self.calendar_time:
+            start, finish = (self.origin + dt.timedelta(seconds=t) for t in (start_s, finish_s))
+        else:
+            start = working_datetime(self.calendar, self.origin, start_s)
+            finish = working_datetime(self.calendar, self.origin, finish_s, finish=True)
+        start = _rounded(start)
+        return start, max(start, _rounded(finish))
+
+    def worked(self, start: dt.datetime, finish: dt.datetime) -> float:
+        """Working seconds of the calendar from ``start`` to ``finish``."""
+        return working_seconds(self.calendar, start, finish)
 
 
 def _origin(text: str | None) -> dt.datetime:
@@ -480,18 +513,16 @@ def _rounded(when: dt.datetime) -> dt.datetime:
     return (when + dt.timedelta(microseconds=500_000)).replace(microsecond=0)
 
 
-def _set_times(ifc, task, calendar: WorkCalendar, origin: dt.datetime, start_s: float, finish_s: float) -> None:
-    """The task's IfcTaskTime for ``start_s``-``finish_s`` seconds of work after ``origin``."""
+def _set_times(ifc, task, clock: _Clock, start: dt.datetime, finish: dt.datetime) -> None:
+    """The task's IfcTaskTime from ``start`` to ``finish``, its duration in working days of the calendar."""
     import ifcopenshell.api.sequence as sequence
     from ifcopenshell.util.date import datetime2ifc
 
-    start = _rounded(working_datetime(calendar, origin, start_s))
-    finish = max(start, _rounded(working_datetime(calendar, origin, finish_s, finish=True)))
     time = sequence.add_task_time(ifc, task=task)
     time.DurationType = DURATION_TYPE
     time.ScheduleStart = datetime2ifc(start, "IfcDateTime")
     time.ScheduleFinish = datetime2ifc(finish, "IfcDateTime")
-    days = dt.timedelta(seconds=round((finish_s - start_s) / calendar.day_s * 86400))  # working days, P1D = 1
+    days = dt.timedelta(seconds=round(clock.worked(start, finish) / clock.calendar.day_s * 86400))  # P1D = 1 day
     time.ScheduleDuration = datetime2ifc(days, "IfcDuration")
 
 
@@ -555,7 +586,11 @@ def _exported(exporter, work_schedule) -> None:
     exporter.work_schedule = work_schedule
     with tempfile.TemporaryDirectory() as folder, contextlib.redirect_stdout(text_io.StringIO()):
         exporter.xml = str(Path(folder) / "schedule.xml")
-        exporter.execute()
+        try:
+            exporter.execute()
+        except Exception as exc:  # ifc4d raises what its code meets (IndexError, KeyError ...)
+            raise InputError(f"ifc4d's {type(exporter).__name__} could not export the work schedule of this model: "
+                             f"{type(exc).__name__}: {exc}") from None
 
 
 def _msp_export(ifc, work_schedule, calendar: WorkCalendar):
@@ -599,7 +634,14 @@ def _p6_export(ifc, work_schedule, calendar: WorkCalendar):
     exporter.file = ifc
     exporter.hours_per_day = calendar.day_s / 3600
     exporter.holiday_start_date = exporter.holiday_finish_date = dt.date.today()  # no holidays to list
+    # ifc4d makes a P6 project of every IfcWorkSchedule in the file (a model may bring its own, whose
+    # tasks may have no times) and takes the file's first calendar as the default: only ours here.
+    exporter.create_projects = lambda: exporter.create_project(work_schedule)
     _exported(exporter, work_schedule)
+    calendar_entity = next(c for c in ifc.by_type("IfcWorkCalendar") if c.Name == f"Site working time: {calendar}")
+    for element in exporter.root.iter():
+        if element.tag.rpartition("}")[2] == "ActivityDefaultCalendarObjectId":
+            element.text = exporter.id_map[calendar_entity]
     hours = {"HoursPerDay": calendar.day_s / 3600, "HoursPerWeek": calendar.week_s / 3600,
              "HoursPerMonth": calendar.week_s / 3600 * 52 / 12, "HoursPerYear": calendar.week_s / 3600 * 52}
     for element in exporter.root.iter():
