@@ -207,7 +207,7 @@ def _check_work_schedule_outputs(args, inputs: list):
     wanted = [(option, path) for option, path in (("--ifc-out", args.ifc_out), ("--schedule-out", args.schedule_out))
               if path is not None]
     if not wanted:
-        return None
+        return load_site(args.site).work_calendar if args.site else None  # a bad site file is refused all the same
     if args.schedule is None and not args.ifc_schedule:
         raise InputError(f"{wanted[0][0]} writes the schedule out: give --schedule FILE (or --ifc-schedule)")
     if args.ifc_out is not None:
