@@ -313,9 +313,9 @@ def build_command(args: argparse.Namespace) -> int:
 
 
 def _unknown_weight_text(args) -> str:
-    """The --unknown-weight rule as command-line text for the stages (which parse it again)."""
-    density = args.unknown_weight.density_kg_m3
-    return "refuse" if density is None else repr(density)
+    """The --unknown-weight rule as command-line text for the stages (which parse it again): auto, refuse
+    or the density (UnknownWeightRule.text)."""
+    return args.unknown_weight.text
 
 
 def _read_stages(folder: Path) -> dict:
