@@ -126,7 +126,6 @@ def _check_outputs(args, inputs: list) -> None:
 def graph_command(args) -> int:
     from bimrobot import io
     from bimrobot.bim import load_model
-    from bimrobot.bim.unknown_weight import apply_unknown_weight_rule
     from bimrobot.lbd.graph import DEFAULT_BASE, build_graph, checked_base
     from bimrobot.lbd.schedule import load_schedule, load_schedule_ifc
     from bimrobot.lbd.store import format_for
@@ -141,8 +140,8 @@ def graph_command(args) -> int:
     format_for(args.output, args.format)  # fail on a bad suffix before the slow work
     base = checked_base(args.base or DEFAULT_BASE)
     started = time.perf_counter()
-    model = load_model(args.model, include=args.include, exclude=args.exclude)
-    weights = apply_unknown_weight_rule(model.elements.values(), args.unknown_weight, str(args.model))
+    model = load_model(args.model, include=args.include, exclude=args.exclude, unknown_weight=args.unknown_weight)
+    weights = model.unknown_weights  # the rule, applied once when the model was read
     if weights.message():
         print(weights.message(), flush=True)
     schedule = None
