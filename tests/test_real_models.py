@@ -99,3 +99,25 @@ def test_no_output_lands_outside_the_named_folders(pipeline):
     assert not list(pipeline["model"].parent.glob(".*.tmp"))
     names = {p.name for p in pipeline["work"].iterdir()}
     assert names <= {"pkg", "parts", "sim", "graph.ttl", "rcan.json"}, names
+
+
+def test_rcan_executes_the_schedule_in_the_time_simulate_planned(pipeline):
+    """One time model: RCAN's sim robots, generated from the graph alone, take the schedule's time — the
+    makespan within 0.5 %, every row's start within 1 s (issue 34)."""
+    import csv
+
+    work = pipeline["work"]
+    if not (work / "rcan.json").exists():
+        pytest.skip(f"{pipeline['model'].name}: nothing was simulated (the fleet cannot build it)")
+    with open(work / "sim" / "schedule.csv", newline="", encoding="utf-8") as handle:
+        rows = {row["Identification"]: row for row in csv.DictReader(handle)}
+    report = json.loads((work / "rcan.json").read_text())
+    simulated = json.loads((work / "sim" / "summary.json").read_text())["makespan_s"]
+    assert report["makespan_s"] == pytest.approx(simulated, rel=0.005)
+    starts: dict[str, float] = {}
+    for activity_id, timing in report["activities"].items():
+        row = activity_id.rpartition(".")[0]
+        starts[row] = min(starts.get(row, float("inf")), timing["started_s"])
+    late = {row: round(start - float(rows[row]["Start"]), 3) for row, start in starts.items()
+            if abs(start - float(rows[row]["Start"])) > 1.0}
+    assert not late, f"rows starting more than 1 s from the schedule: {dict(list(late.items())[:5])}"

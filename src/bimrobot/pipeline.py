@@ -90,6 +90,16 @@ def _placed_site(folder: Path) -> list[str]:
     return ["--site", str(folder / PLACED_SITE)]
 
 
+def _site_source(folder: Path) -> str:
+    """Where the build's site came from (a site file, fig. 4.11, or derived from the building), as the
+    package stage recorded it."""
+    try:
+        report = json.loads((folder / "package" / "report.json").read_text(encoding="utf-8"))
+        return str(report["options"]["site"]["source"])
+    except (OSError, ValueError, KeyError, TypeError):
+        return "unknown"
+
+
 def _write_placed_site(folder: Path) -> None:
     """``site.yaml``: the site the package stage placed the building on (its report's ``options.site``)."""
     import yaml
@@ -171,7 +181,7 @@ def register(subparsers) -> None:
                         help="fleet1, fleet2 (thesis Table 4.1), site-crane, or a fleet YAML file (default fleet2)")
     parser.add_argument("--site", type=Path,
                         help="site YAML: yard, robot_home, construction_area, model_offset, idle_robots "
-                        "(default: thesis fig. 4.11)")
+                        "(default: fig. 4.11 when the building fits its 7.5 x 6.5 m area, else a site derived from the building; 'thesis' forces fig. 4.11)")
     parser.add_argument("--prebuilt", default="IfcFooting,IfcPile", metavar="CLASSES",
                         help="IFC classes that are work of others (default IfcFooting,IfcPile); see `simulate --help`")
     parser.add_argument("--by-element", action="store_true",
@@ -208,7 +218,7 @@ def _inputs(args) -> list[Path]:
     files = [args.model]
     if str(args.fleet) not in BUILTIN_FLEETS:
         files.append(Path(args.fleet))
-    if args.site:
+    if args.site and str(args.site) != "thesis":
         files.append(args.site)
     return files
 
@@ -299,7 +309,7 @@ def build_command(args: argparse.Namespace) -> int:
         (folder / STAGES_FILE).unlink()
         (folder / "build.json").write_text(json.dumps({
             "generator": io.signature("build"), "model": str(args.model.resolve()), "fleet": str(args.fleet),
-            "site": str(args.site) if args.site else "thesis fig. 4.11", "backend": args.backend, "stages": done,
+            "site": _site_source(folder), "backend": args.backend, "stages": done,
             "resumed": resumed, "start": _start_text(args)}, indent=2), encoding="utf-8")
         figures = _build_report(folder)
         (folder / "README.md").write_text(readme(args, folder, done, figures), encoding="utf-8")
@@ -367,7 +377,7 @@ def readme(args, folder: Path, done: dict, figures: str = "") -> str:
 # Build of {args.model.name}
 
 `bimrobot build {args.model.name} --fleet {args.fleet}{' --site ' + str(args.site) if args.site else ''}` ({seconds}).
-Fleet: `{args.fleet}`; site: {args.site or "the thesis' fig. 4.11"}. Units: metres, z up, kg, seconds.
+Fleet: `{args.fleet}`; site: {_site_source(folder)} (`site.yaml`). Units: metres, z up, kg, seconds.
 
 {figures}
 ## Files

@@ -15,10 +15,19 @@ Keys of a site YAML (each optional; a missing one takes fig. 4.11's value):
 ``idle_robots``       ``stay`` (default) or ``yard``: a robot without work drives back to the nearest yard position
 ``work_calendar``     {days: [Monday, ...], hours: ["07:00", "16:00"]}: when the site works (default Monday-Friday
                       07:00-16:00); the IFC work schedule lays the simulated work onto these hours
+
+Which site a run uses (:func:`site_for`): the site file given with ``--site``; ``--site thesis``, the lab
+site of fig. 4.11 (7.5 x 6.5 m construction area, yard at x = 12.5 m, homes at x = 18.5 m); with no
+``--site``, fig. 4.11 when the building's footprint fits its construction area (the thesis' frame, the RCAN
+experiments), else a site derived from the building (:func:`derive_site`): the construction area is the
+footprint plus :data:`AREA_MARGIN_M` on every side, the yard a line of positions east of it (+x), the robot
+homes a line south of it (-y), so neither lies on the building. A site file whose yard positions or robot
+homes lie on the building's footprint is used as given, with a warning naming them.
 """
 
 from __future__ import annotations
 
+import logging
 import math
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -28,6 +37,8 @@ import numpy as np
 from bimrobot.bim.work_schedule import WorkCalendar, work_calendar_from
 from bimrobot.config import check_keys, line_of, read_yaml_file
 from bimrobot.errors import InputError
+
+log = logging.getLogger(__name__)
 
 #: Site positions (yard, homes, construction area) within this many metres of the site origin; the
 #: model offset may be as large as projected map coordinates (UTM northings reach 1e7 m).
@@ -122,6 +133,90 @@ def footprint(elements) -> tuple[np.ndarray, np.ndarray]:
     return stacked[:, 0, :2].min(axis=0), stacked[:, 1, :2].max(axis=0)
 
 
+#: A derived site (:func:`derive_site`): clear space around the footprint inside the construction area,
+#: the gap from the area to the yard line and to the home line, and the spacing of yard positions and
+#: homes along their lines (m). 3 m lets a mobile robot drive round the building; yard positions 3 m
+#: apart keep neighbouring stacks of components apart.
+AREA_MARGIN_M = 3.0
+YARD_GAP_M = 4.0
+HOME_GAP_M = 4.0
+YARD_PITCH_M = 3.0
+HOME_PITCH_M = 3.0
+THESIS_SITE = "thesis"
+
+
+def derive_site(elements) -> Site:
+    """A site made for the building of ``elements`` (module docstring), already placed on it.
+
+    The site frame's origin is the construction area's south-west corner, so site positions stay small
+    even for a model in map coordinates; ``model_offset`` takes the model frame there."""
+    low, high = footprint(elements)
+    width, depth = (float(v) for v in high - low)
+    area = ((0.0, 0.0), (round(width + 2 * AREA_MARGIN_M, 4), round(depth + 2 * AREA_MARGIN_M, 4)))
+    offset = (round(AREA_MARGIN_M - float(low[0]), 4), round(AREA_MARGIN_M - float(low[1]), 4))
+    yard_x = area[1][0] + YARD_GAP_M
+    yard = tuple((yard_x, round(y, 4)) for y in _line(area[1][1], YARD_PITCH_M))
+    homes = tuple((round(x, 4), -HOME_GAP_M) for x in _line(area[1][0], HOME_PITCH_M))
+    return Site(yard=yard, robot_home=homes, construction_area=area, model_offset=offset,
+                source=f"site derived from the building ({width:.1f} x {depth:.1f} m footprint; bimrobot.site.derive_site)")
+
+
+def _line(length: float, pitch: float, least: int = 4) -> list[float]:
+    """At least ``least`` positions ``pitch`` apart along a side ``length`` long, centred on it (m)."""
+    count = max(least, int(length // pitch) + 1)
+    start = (length - (count - 1) * pitch) / 2
+    return [start + i * pitch for i in range(count)]
+
+
+def fits_thesis_site(elements) -> bool:
+    """Whether the footprint of ``elements`` fits fig. 4.11's 7.5 x 6.5 m construction area."""
+    low, high = footprint(elements)
+    (x0, y0), (x1, y1) = default_site().construction_area
+    width, depth = high - low
+    return bool(width <= x1 - x0 and depth <= y1 - y0)
+
+
+def site_for(spec: "str | Path | Site | None", elements) -> Site:
+    """The site a run uses, placed on the building of ``elements`` (module docstring): ``spec`` is a
+    site file, ``"thesis"`` (fig. 4.11), a loaded :class:`Site`, or None (fig. 4.11 when the building
+    fits it, else derived)."""
+    elements = list(elements)
+    if spec is None:
+        return default_site().placed(elements) if fits_thesis_site(elements) else derive_site(elements)
+    site = (spec if isinstance(spec, Site) else load_site(spec)).placed(elements)
+    warning = on_the_building(site, elements)
+    if warning:
+        log.warning("%s", warning)
+    return site
+
+
+def on_the_building(site: Site, elements) -> str | None:
+    """One sentence naming the yard positions and robot homes of ``site`` that lie on the footprint of
+    ``elements`` (robots would start, or components wait, inside the building), or None."""
+    if site.model_offset is None:
+        return None
+    low, high = footprint(elements)
+    low, high = low + np.asarray(site.model_offset), high + np.asarray(site.model_offset)
+    inside = [f"{what} ({x:g}, {y:g})" for what, points in (("yard position", site.yard), ("robot home", site.robot_home))
+              for x, y in points if low[0] <= x <= high[0] and low[1] <= y <= high[1]]
+    if not inside:
+        return None
+    shown = ", ".join(inside[:3]) + (f" and {len(inside) - 3} more" if len(inside) > 3 else "")
+    return (f"{site.source}: {shown} lie on the building, whose footprint spans ({low[0]:.1f}, {low[1]:.1f}) to "
+            f"({high[0]:.1f}, {high[1]:.1f}) m on the site: move them outside it (or give no --site: a site is "
+            "derived from the building)")
+
+
+def site_to_dict(site: Site) -> dict:
+    """The site as the keys of a site file (JSON- and YAML-safe; ``model_offset`` only when placed)."""
+    data = {"yard": [list(p) for p in site.yard], "robot_home": [list(p) for p in site.robot_home],
+            "construction_area": [list(p) for p in site.construction_area], "idle_robots": site.idle_robots,
+            "work_calendar": {"days": list(site.work_calendar.days), "hours": list(site.work_calendar.hours)}}
+    if site.model_offset is not None:
+        data["model_offset"] = list(site.model_offset)
+    return data
+
+
 def site_from_dict(data, source: str) -> Site:
     if not isinstance(data, dict):
         raise InputError(f"{source}: expected a mapping with yard, robot_home and construction_area")
@@ -167,7 +262,8 @@ def default_site() -> Site:
 
 
 def load_site(path: str | Path | None) -> Site:
-    """The site YAML at ``path`` (missing keys take fig. 4.11's values), or the default site."""
-    if path is None:
+    """The site YAML at ``path`` (missing keys take fig. 4.11's values), or fig. 4.11's site (``None`` or
+    ``"thesis"``; a run without a site file uses :func:`site_for`, which may derive one instead)."""
+    if path is None or str(path) == THESIS_SITE:
         return default_site()
     return site_from_dict(read_yaml_file(path, "site file"), str(path))

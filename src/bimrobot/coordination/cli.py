@@ -97,7 +97,7 @@ def _add_common(parser: argparse.ArgumentParser) -> None:
         help="fleet1, fleet2 (thesis Table 4.1), site-crane (carries, positions and assembles anything up to "
         "20 t and 15 m) or a fleet YAML file (default fleet2)",
     )
-    parser.add_argument("--site", help="site YAML: yard, robot_home, construction_area, model_offset (default: thesis fig. 4.11)")
+    parser.add_argument("--site", help="site YAML: yard, robot_home, construction_area, model_offset (default: fig. 4.11 when the building fits its 7.5 x 6.5 m area, else a site derived from the building; 'thesis' forces fig. 4.11)")
     parser.add_argument(
         "-o", "--output", required=True,
         help="output folder: a new or empty folder, or one bimrobot wrote (replaced atomically)",
@@ -227,6 +227,7 @@ def _prepare(args):
     from bimrobot.coordination.fleet import load_fleet, load_site
     from bimrobot.io import check_output
     from bimrobot.sco.build import build_smart_model, prebuilt_rule
+    from bimrobot.site import site_for
 
     check_output(args.output, folder=True, inputs=_inputs(args))
     fleet = load_fleet(args.fleet)
@@ -239,7 +240,7 @@ def _prepare(args):
     prebuilt = args.prebuilt  # a selector; the old comma list of classes is one too
     prebuilt_rule(model, prebuilt)  # an unknown class name is refused now, with the model's classes
     weights = apply_unknown_weight_rule(model.elements.values(), args.unknown_weight, str(model.source or args.model))
-    site = site.placed(model.elements.values())  # the one placement of the building on the site
+    site = site_for(args.site, model.elements.values())  # given, fig. 4.11 or derived; placed on the building
     return model, elevations, fleet, site, weights, lambda: build_smart_model(
         model, prebuilt_classes=prebuilt, inferred_tolerance_m=args.tolerance, by_element=args.by_element
     )

@@ -151,6 +151,9 @@ def graph_command(args) -> int:
         schedule = load_schedule_ifc(args.model, model=model)
     smart = _smart_model(model, args)
     options = {"base": base, "properties": not args.no_properties, "assemblies": not args.by_element, "smart": smart}
+    from bimrobot.site import site_for
+
+    options["site"] = site_for(args.site, model.elements.values())  # the run's site, held by the graph
     if args.package is not None:
         from bimrobot.lbd.package import pick_up_positions
 

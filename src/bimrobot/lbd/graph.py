@@ -42,6 +42,7 @@ from __future__ import annotations
 
 import functools
 import itertools
+import json
 import logging
 import os
 import re
@@ -217,6 +218,14 @@ class ConstructionGraph:
         raise InputError(f"no element or connection node {global_id!r} in the graph")
 
     # ---------------------------------------------------------------------------------- queries
+    def run_site(self):
+        """The site the graph's run used, with the building placed on it (:class:`bimrobot.site.Site`), or
+        None when the graph does not hold one (``brc:siteDescription``)."""
+        from bimrobot.site import site_from_dict
+
+        rows = self.store.select(f"SELECT ?d WHERE {{ ?site <{BRC.siteDescription}> ?d }} LIMIT 1")
+        return site_from_dict(json.loads(str(rows[0]["d"])), "the construction graph's site") if rows else None
+
     def query(self, query: str, **bindings: Any) -> list[dict[str, Any]]:
         """Run a SPARQL SELECT/ASK: a query name from ``lbd/queries`` (e.g. ``"ready_activities"``), a
         ``.rq`` path, or SPARQL text. ``bindings`` fix variables (``globalId="2O2Fr$t4X7Zf8NOew3FLOH"``).
@@ -331,6 +340,7 @@ def build_graph(
     assemblies: bool = True,
     smart: SmartModel | None = None,
     pick_up: dict[str, tuple[float, float, float]] | None = None,
+    site=None,
 ) -> ConstructionGraph:
     """The construction graph of ``model`` and, when given, its ``schedule``.
 
@@ -346,7 +356,10 @@ def build_graph(
     and its prebuilt components start in their own state (PositionFixed, Assembled) instead of OnYard.
     ``pick_up``: GlobalId -> where the component waits on the yard (m, world; see
     :func:`bimrobot.lbd.components.pick_up_positions`), written as ``brc:pickUpPosition`` of the
-    components that start OnYard.
+    components that start OnYard. ``site``: the run's site with the building placed on it
+    (:func:`bimrobot.site.site_for`), written as ``brc:modelOffsetX/Y`` (model -> site translation, m) and
+    ``brc:siteDescription`` (the site file's keys as JSON) of the ``bot:Site``, so that RCAN run from the
+    graph alone has the robot homes and the placement `simulate` had.
 
     The triples go to the store in one stream (one bulk load on Oxigraph); a progress bar on stderr
     counts the elements, joints and activities written when the work is long (see :mod:`.progress`).
@@ -354,7 +367,7 @@ def build_graph(
     from bimrobot.sco.build import gc_paused
 
     graph = ConstructionGraph(open_store(store, path), base)
-    writer = _GraphWriter(graph, model, properties, assemblies, smart, pick_up)
+    writer = _GraphWriter(graph, model, properties, assemblies, smart, pick_up, site)
     # The cyclic garbage collector's full passes over every live term made the time grow faster than
     # the graph (bench/graph.py); millions of short-lived terms, no cycles: pause it meanwhile.
     with progress_bar(writer.items(schedule), "graph", unit=" items") as bar, gc_paused():
@@ -372,8 +385,10 @@ class _GraphWriter:
     """Yields the triples of one model (and schedule), in the order of fig. 5.5."""
 
     def __init__(self, graph: ConstructionGraph, model: BuildingModel, properties: bool = True, assemblies: bool = True,
-                 smart: SmartModel | None = None, pick_up: dict[str, tuple[float, float, float]] | None = None):
+                 smart: SmartModel | None = None, pick_up: dict[str, tuple[float, float, float]] | None = None,
+                 site=None):
         self.graph, self.model, self.properties, self.smart = graph, model, properties, smart
+        self.run_site = site
         self.pick_up = pick_up or {}
         self.assemblies = dict(getattr(model, "assemblies", {})) if assemblies else {}
         self.site = graph.iri("site", "site")
@@ -414,6 +429,12 @@ class _GraphWriter:
         yield self.site, RDF.type, BOT.Site
         yield self.site, RDFS.label, Literal(model.site_name or "site")
         yield self.site, BOT.hasBuilding, self.building
+        if self.run_site is not None and self.run_site.model_offset is not None:
+            from bimrobot.site import site_to_dict
+
+            yield self.site, BRC.modelOffsetX, _literal(float(self.run_site.model_offset[0]))
+            yield self.site, BRC.modelOffsetY, _literal(float(self.run_site.model_offset[1]))
+            yield self.site, BRC.siteDescription, Literal(json.dumps(site_to_dict(self.run_site)))
         yield self.building, RDF.type, BOT.Building
         yield self.building, RDFS.label, Literal(model.project_name or "building")
         for storey in model.storeys:

@@ -109,7 +109,7 @@ def write_scene(package_dir: Path, converted: list, options, ground_z: float, ya
     """Write ``mujoco/`` into the package folder being written (``converted``: the package's elements,
     with ``element``, ``name``, ``pose``, ``mass``, ``body`` and ``geometry``); return the report entry
     {"scene": path, "collision": {GlobalId: method}, "free_bodies": n, ...}."""
-    from bimrobot.site import default_site
+    from bimrobot.site import site_for
     from bimrobot.world.layout import site_offset
 
     folder = package_dir / "mujoco"
@@ -117,7 +117,7 @@ def write_scene(package_dir: Path, converted: list, options, ground_z: float, ya
     meshes_dir.mkdir(parents=True)
     elements = [item.element for item in converted]
     root, asset, world = scene_root("construction_site", ground_z)
-    site = options.site or default_site()
+    site = site_for(options.site, elements)
     offset = site_offset(elements, site)  # site frame -> model frame: subtract
     (x0, y0), (x1, y1) = site.construction_area
     add_mark(world, "site/construction_area", np.array([x0, y0]) - offset, np.array([x1, y1]) - offset,

@@ -140,7 +140,8 @@ def _common(parser: argparse.ArgumentParser) -> None:
 def _site_options(parser: argparse.ArgumentParser) -> None:
     """--site and --model-offset: where a fleet's robots start (its homes are site positions)."""
     parser.add_argument("--site", help="with a fleet as --capabilities: the site YAML whose robot_home the fleet's "
-                                       "robots start at (default: the thesis' fig. 4.11), as `simulate --site`")
+                                       "robots start at (default: the graph's site, or with --model the one `simulate` uses; else fig. 4.11), "
+                                       "as `simulate --site`")
     parser.add_argument("--model-offset", type=float, nargs=2, metavar=("DX", "DY"),
                         help="with a fleet: model -> site translation in metres, to place the site's homes in the "
                              "model frame (default: the site's model_offset; `rcan run` otherwise centres its "
@@ -149,14 +150,16 @@ def _site_options(parser: argparse.ArgumentParser) -> None:
 
 
 def _fleet_capabilities(args, activities=None):
-    """The capability table of ``--capabilities``; a fleet's homes go from ``--site`` into the model frame
-    with ``--model-offset``, else the site's model_offset, else the offset that centres ``activities``'
-    installs in the construction area (no plan: none)."""
+    """The capability table of ``--capabilities``; a fleet's homes go from the run's site into the model
+    frame with ``--model-offset``, else the site's model_offset, else the offset that centres
+    ``activities``' installs in the construction area (no plan: none). The run's site is the one the
+    graph holds (``--graph``), or the one `simulate` uses for ``--model`` (:func:`bimrobot.site.site_for`),
+    else ``--site`` (default fig. 4.11)."""
     from bimrobot.rcan.fleet import model_offset_of
     from bimrobot.rcan.generation import load_capabilities
     from bimrobot.site import OFFSET_LIMIT_M, load_site
 
-    site = load_site(args.site)
+    site = getattr(args, "run_site", None) or load_site(args.site)
     if args.model_offset is not None:
         if not all(math.isfinite(v) and abs(v) <= OFFSET_LIMIT_M for v in args.model_offset):
             raise InputError(f"--model-offset must be two finite numbers within +-{OFFSET_LIMIT_M:g} m, "
@@ -242,6 +245,8 @@ def _load_plan(args):
         from bimrobot.lbd.graph import ConstructionGraph
 
         graph = ConstructionGraph.open(args.graph)
+        if args.site is None:  # the site the graph's run used (homes, placement), when the graph holds it
+            args.run_site = graph.run_site()
         return plan_from_graph(graph, tuple(args.yard), standoff_m=args.standoff), graph, None
     from bimrobot.lbd.schedule import load_schedule
 
@@ -256,10 +261,9 @@ def _load_plan(args):
         weights = apply_unknown_weight_rule(model.elements.values(), args.unknown_weight, str(source))
         if weights.message():
             print(weights.message(), flush=True)
-        if args.model_offset is None:  # the building placed on the site as `simulate` and `convert` place it
-            from bimrobot.site import load_site
+        from bimrobot.site import site_for
 
-            args.model_offset = list(load_site(args.site).placed(model.elements.values()).model_offset)
+        args.run_site = site_for(args.site, model.elements.values())  # as `simulate` and `convert` place it
     schedule = load_schedule(args.schedule, model)
     graph = None
     if args.graph_out:

@@ -124,8 +124,6 @@ def plan_from_schedule(schedule, model=None, yard: tuple[float, float, float] = 
         if gid not in slots:
             slots[gid] = Pose(*fact.pick_up) if fact.pick_up is not None else \
                 Pose(yard[0] + yard_spacing_m * len(slots), yard[1], yard[2])
-        if row.activity == Task.TRANSPORT and row.work_from is not None:
-            slots[gid] = Pose(*row.work_from)  # where the schedule's robot picked it up: the site's yard
         where = "drop-off" if gid in dropped else "yard" if gid in on_yard else "in place"
         installs = row.activity == Task.ASSEMBLE or (row.activity == Task.POSITION and gid not in assembled_later)
         kinds, goals, lifts = _row_activities(row.activity, slots[gid], Pose(*target), standoff_m, where, installs,
@@ -171,7 +169,9 @@ def _work_points(row, slot: Pose, installed: Pose, where: str) -> dict[ActivityK
     if row.activity == Task.TRANSPORT:
         if row.work_from is None:
             return {}
-        return {K.MOVE_TO_COMPONENT: slot, K.TRANSPORT: Pose(*row.work_to) if row.work_to else installed}
+        # the time model's pick-up is the schedule's (the site's yard position); the component itself
+        # lies at ``slot`` (the world package's yard pose, where a physical robot grips it)
+        return {K.MOVE_TO_COMPONENT: Pose(*row.work_from), K.TRANSPORT: Pose(*row.work_to) if row.work_to else installed}
     if row.work_from is None or where == "yard":
         return {}
     return {K.MOVE_TO_COMPONENT: Pose(*row.work_from)}

@@ -56,7 +56,8 @@ def register(subparsers) -> None:
                         "pick-up positions on the site's yard (--site)")
     parser.add_argument("--site", type=Path,
                         help="site YAML (yard, construction_area, model_offset; docs/conventions.md) for --layout yard; "
-                        "default: the thesis' fig. 4.11, as `simulate` and `rcan` use")
+                        "default: fig. 4.11 when the building fits its 7.5 x 6.5 m area, else a site derived from the "
+                        "building ('thesis' forces fig. 4.11), as `simulate` and `rcan` use")
     parser.add_argument("--collision", choices=["convex", "decimated"], default="convex",
                         help="collision mesh: convex hull (default) or the body decimated to --max-triangles")
     parser.add_argument("--max-triangles", type=int, default=500, metavar="N",
@@ -119,7 +120,7 @@ def convert_command(args: argparse.Namespace) -> int:
             require_extra(module, "physics")
     if args.site and args.layout != "yard":
         raise InputError("--site places the yard, so it needs --layout yard")
-    site = load_site(args.site)
+    site = load_site(args.site) if args.site else None  # a bad file is refused now; None: from the building
     options = ConvertOptions(
         target=args.target,
         static=args.static,

@@ -38,7 +38,7 @@ from bimrobot.bim.unknown_weight import UnknownWeightRule, UnknownWeights, apply
 from bimrobot.cores import frozen_heap
 from bimrobot.errors import InputError
 from bimrobot.io import printable
-from bimrobot.site import Site, default_site
+from bimrobot.site import Site, site_for
 from bimrobot.world import launch, layout, merge, meshes, navmap, physics, pool, sdf
 from bimrobot.world.names import ros_package_name, safe_name, slug
 from bimrobot.world.render import PREVIEW_MAX_TRIANGLES, draw_preview, render_preview
@@ -79,7 +79,7 @@ class ConvertOptions:
     keep_separate: tuple[str, ...] = ()
     workers: int | None = None
     preview: bool = True  # skipped above render.PREVIEW_MAX_TRIANGLES visual triangles
-    site: Site | None = None  # where the yard is (--layout yard); None: the thesis' fig. 4.11
+    site: Site | None = None  # where the yard is (--layout yard); None: bimrobot.site.site_for decides
 
     def validate(self) -> None:
         """Raise InputError naming the first option that is out of range."""
@@ -199,8 +199,8 @@ def build_package(
     """
     options = options or ConvertOptions()
     options.validate()
-    if options.layout == "yard":  # the one placement of the building on the site, written in report.json
-        options = replace(options, site=(options.site or default_site()).placed(model.elements.values()))
+    # the site (given, fig. 4.11, or derived) and the one placement of the building on it, in report.json
+    options = replace(options, site=site_for(options.site, model.elements.values()))
     started = time.perf_counter()
     source = printable(str(model.source)) if model.source else "an in-memory BuildingModel"
     if not model.elements:
