@@ -223,3 +223,54 @@ def test_web_viewer_shows_the_structure_growing(browser, frame_pair_replay, tmp_
     assert grown.sum() > 2000, f"the end of the build shows no more assembled (green) structure than its start; see {tmp_path}"
     # where the picture changed, it is mostly because the structure grew there
     assert (grown & changed).sum() > 0.3 * grown.sum()
+
+
+@pytest.fixture(scope="module")
+def prefab_replay(tmp_path_factory):
+    """(rrd, summary) of MULTICOM-Prefab (the shared model with the most elements: 507, 301 with a body)
+    built by the site crane: its `convert --layout yard` package and `simulate` folder, replayed."""
+    from pathlib import Path
+
+    from bimrobot.cli import main
+    from bimrobot.replay import write_replay
+
+    model = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "ifc" / "MULTICOM-Prefab.ifc"
+    if not model.is_file():
+        pytest.skip(f"{model} is absent: the shared test data lives beside the repository, not in it")
+    root = tmp_path_factory.mktemp("prefab")
+    assert main(["convert", str(model), "-o", str(root / "pkg"), "--layout", "yard", "--no-progress", "--no-preview",
+                 "--no-maps", "--unknown-weight", "2400"]) == 0
+    assert main(["simulate", str(model), "--fleet", "site-crane", "-o", str(root / "sim"), "--no-progress", "--no-gantt",
+                 "--prebuilt", "IfcFooting,IfcPile", "--unknown-weight", "2400"]) == 0
+    summary = write_replay(root / "pkg", root / "prefab.rrd", simulation=root / "sim")
+    return root / "prefab.rrd", summary
+
+
+@pytest.mark.slow
+def test_the_largest_shared_model_opens_framed_and_ghosted(browser, prefab_replay, tmp_path):
+    """MULTICOM-Prefab in the web viewer: within 2 minutes of opening the page the 3D view shows the
+    building (not a blank canvas) with the unbuilt work ghosted in grey at the start, and the Gantt's
+    bars are drawn; the whole build is then reachable on the timeline (it keeps loading meanwhile)."""
+    from PIL import Image
+
+    from bimrobot.replay.serve import serve_web
+
+    rrd, summary = prefab_replay
+    assert summary["pieces"] == 301 and summary["components"] > 100
+    with serve_web(rrd) as viewer:
+        browser.get(viewer.url + "&persist=0")
+        deadline = time.monotonic() + 120
+        while time.monotonic() < deadline and (_state(browser, 3, 2, 3, 2) or 0) <= 0:
+            time.sleep(2.0)
+        assert (_state(browser, 3, 2, 3, 2) or 0) > 0, "the viewer received nothing of the replay in 120 s"
+        time.sleep(10.0)
+        first = _screenshot(browser)
+    Image.fromarray(first.astype(np.uint8)).save(tmp_path / "prefab.png")
+    view = _view(first)
+    assert view.std() > 12, f"blank 3D view (pixel std {view.std():.1f}); see {tmp_path}"
+    r, g, b = view[..., 0], view[..., 1], view[..., 2]
+    grey = (abs(r - g) < 12) & (abs(g - b) < 12) & (r < 225) & (r > 60)
+    assert grey.mean() > 0.01, f"no ghosted (grey) building in the 3D view; see {tmp_path}"
+    gantt = first[90:210, 780:1270]  # the Gantt panel, right of the 3D view
+    coloured = (np.abs(gantt[..., 0] - gantt[..., 2]) > 60)  # the activity colours, not grey or white
+    assert coloured.mean() > 0.02, f"no Gantt bars; see {tmp_path}"

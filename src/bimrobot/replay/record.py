@@ -98,7 +98,8 @@ def write_rrd(record: BuildRecord, rrd: Path, start: dt.datetime | None = None, 
     from bimrobot.replay.layout import blueprint
 
     record, simplified = simplified_record(record)
-    rec = rr.RecordingStream(APPLICATION_ID, recording_id=f"bimrobot-replay-{name or Path(rrd).stem}")
+    rec = rr.RecordingStream(APPLICATION_ID, recording_id=f"bimrobot-replay-{name or Path(rrd).stem}",
+                             batcher_config=_batcher(rr))
     rec.set_log_time_enabled(False)  # a replay is the same whenever it is written
     # The signature near the file's start lets bimrobot replace its own .rrd (docs/conventions.md): sent
     # before the file sink exists, it is buffered and written first, ahead of the blueprint (after it,
@@ -131,6 +132,12 @@ def write_rrd(record: BuildRecord, rrd: Path, start: dt.datetime | None = None, 
     rec.flush()
     rec.disconnect()
     return summary
+
+
+def _batcher(rr):
+    """Few large chunks rather than many small ones (the SDK flushes every 8 ms by default): the web
+    viewer takes a recording in chunk by chunk between frames, so fewer chunks load in fewer frames."""
+    return rr.ChunkBatcherConfig(flush_tick=3600.0, flush_num_bytes=32 << 20, flush_num_rows=1 << 20)
 
 
 def element_paths(record: BuildRecord) -> dict[str, str]:
@@ -210,12 +217,13 @@ def _log_properties(rec, record: BuildRecord, paths: dict[str, str]) -> None:
 
 
 def ghost_pieces(record: BuildRecord) -> list[str]:
-    """The elements the replay builds: the pieces of every component that is not in place at its start,
-    the bolts, plates and welds of the joints it assembles, and the pieces of RCAN's components."""
+    """The elements the replay builds: the pieces of every component that is not in place at its start
+    and the bolts, plates and welds of the joints it assembles; for an RCAN run replayed alone (no
+    schedule), the pieces of RCAN's components."""
     built = {gid for component, history in record.states.items() if history and not _in_place(history[0][1])
              for gid in record.parts.get(component, [])}
     built |= {r for node in record.nodes.values() for r in node.realizing}
-    if record.rcan is not None:
+    if record.rcan is not None and not record.schedule:
         from bimrobot.replay.record_rcan import component_pieces
 
         built |= {g for a in record.rcan.activities for g in component_pieces(record, a.component_id)}

@@ -1,0 +1,141 @@
+"""What a planner sees when the replay opens: the building framed, labels hidden, the unbuilt work
+ghosted, a Gantt of bars, elements named by storey / class / name, one panel set per timeline."""
+
+from __future__ import annotations
+
+import csv
+import json
+
+import numpy as np
+import pytest
+
+rr = pytest.importorskip("rerun")
+pytest.importorskip("datafusion", reason="Rerun's dataframe API needs rerun-sdk[catalog] (datafusion)")
+
+
+@pytest.fixture(scope="module")
+def frame_record(frame_build):
+    from bimrobot.replay.inputs import load_build
+
+    return load_build([frame_build])
+
+
+@pytest.fixture(scope="module")
+def frame_static(frame_replay):
+    """(entity paths, the static columns of the whole recording as one row)."""
+    from rerun.server import Server
+
+    server = Server(host="127.0.0.1", datasets={"build": [str(frame_replay[0])]})
+    with server:
+        client = server.client()  # kept: the dataset's queries run through it
+        dataset = client.get_dataset("build")
+        paths = {c.entity_path for c in dataset.schema().component_columns()}
+        static = dataset.filter_contents(["/building/**", "/ghost", "/gantt/**"]).reader(index=None).to_pandas()
+    return paths, static
+
+
+def test_elements_are_named_by_storey_class_and_name_with_the_global_id_as_a_property(frame_build, frame_static):
+    paths, static = frame_static
+    report = json.loads((frame_build / "package" / "report.json").read_text())
+    by_id = {e["global_id"]: e for e in report["converted"]}
+    building = sorted(p for p in paths if p.startswith("/building/"))
+    assert len(building) == len(by_id) == 88
+    seen = set()
+    for path in building:
+        gid = static[f"{path}:global_id"].iloc[0][0]
+        storey, ifc_class, name = [part.replace("\\ ", " ") for part in path.split("/")[2:]]
+        assert ifc_class == by_id[gid]["ifc_class"] and storey in ("Level 1", "Level 2")
+        assert name.split(" (")[0] == (by_id[gid]["name"] or gid) and gid not in path
+        seen.add(gid)
+    assert seen == set(by_id)
+
+
+def test_robots_and_nodes_record_their_labels_hidden(frame_replay):
+    from rerun.server import Server
+
+    server = Server(host="127.0.0.1", datasets={"build": [str(frame_replay[0])]})
+    with server:
+        client = server.client()
+        frame = client.get_dataset("build").filter_contents(["/robots/**", "/nodes/**"]).reader(
+            index="sim_time").to_pandas()
+    shows = [c for c in frame.columns if c.endswith(":show_labels")]
+    labels = [c for c in frame.columns if c.endswith(":labels")]
+    assert len(shows) == len(labels) > 6  # every robot and node that has a label hides it
+    values = {bool(v[0]) for c in shows for v in frame[c].dropna()}
+    assert values == {False}
+
+
+def test_the_unbuilt_work_is_ghosted_from_the_start(frame_record, frame_static):
+    """/ghost: one static translucent mesh of every element the build places (the prebuilt footings
+    stand in their own colour instead), each a little inside its installed body."""
+    from bimrobot.replay.record import GHOST_RGBA, ghost_pieces, simplified_record
+
+    paths, static = frame_static
+    assert "/ghost" in paths
+    vertices = np.array([list(v) for v in static["/ghost:Mesh3D:vertex_positions"].iloc[0]])
+    albedo = int(static["/ghost:Mesh3D:albedo_factor"].iloc[0][0])
+    assert (albedo & 0xFF) == GHOST_RGBA[3] < 255  # RGBA packed: the alpha makes it translucent
+    record, _ = simplified_record(frame_record)
+    ghosted = ghost_pieces(record)
+    footings = [g for g, p in record.pieces.items() if p.ifc_class == "IfcFooting"]
+    assert footings and not set(footings) & set(ghosted)
+    assert len(vertices) == 3 * sum(len(record.pieces[g].triangles) for g in ghosted)
+    boxes = np.array([record.pieces[g].world_bounds(record.pieces[g].installed_pose) for g in ghosted])
+    assert np.all(vertices.min(axis=0) >= boxes[:, 0].min(axis=0) - 1e-4)
+    assert np.all(vertices.max(axis=0) <= boxes[:, 1].max(axis=0) + 1e-4)
+
+
+def test_the_gantt_has_one_bar_per_activity_at_its_times(frame_build, frame_record, frame_static):
+    from bimrobot.replay.gantt import chart_width
+
+    paths, static = frame_static
+    rows = list(csv.DictReader((frame_build / "simulation" / "schedule.csv").open()))
+    makespan = max(float(r["Finish"]) for r in rows)
+    scale = chart_width(len(frame_record.robots)) / makespan
+    total = 0
+    for row_index, robot in enumerate(frame_record.robots):
+        path = "/gantt/" + rr.escape_entity_path_part(robot)
+        mine = sorted((float(r["Start"]), float(r["Finish"])) for r in rows if r["Robot"] == robot)
+        if not mine:
+            continue
+        halves = np.array([list(v) for v in static[f"{path}:Boxes2D:half_sizes"].iloc[0]])
+        centres = np.array([list(v) for v in static[f"{path}:Boxes2D:centers"].iloc[0]])
+        starts = sorted((centres[:, 0] - halves[:, 0]) / scale)
+        assert len(starts) == len(mine)
+        assert starts == pytest.approx([s for s, _ in mine], abs=0.01)
+        assert np.allclose(centres[:, 1], row_index)  # the robot's row
+        total += len(mine)
+    assert total == len(rows) > 12  # every activity of the schedule, on its robot
+
+
+def test_the_eye_frames_the_building_and_the_panels_follow_the_timeline(frame_record):
+    """Every corner of the building is inside the 3D view's field of view (55 degrees), the eye looks
+    at its centre; the schedule's panels come first for a build, RCAN's alone for an RCAN run."""
+    from bimrobot.replay.layout import FIELD_OF_VIEW_DEG, building_bounds, building_eye, main_timeline
+
+    eye = building_eye(frame_record)
+    position = np.array(eye.position.as_arrow_array().to_pylist()[0])
+    target = np.array(eye.look_target.as_arrow_array().to_pylist()[0])
+    low, high = building_bounds(frame_record)
+    assert np.allclose(target, (low + high) / 2)
+    corners = np.array([[x, y, z] for x in (low[0], high[0]) for y in (low[1], high[1]) for z in (low[2], high[2])])
+    axis = (target - position) / np.linalg.norm(target - position)
+    rays = (corners - position) / np.linalg.norm(corners - position, axis=1, keepdims=True)
+    angles = np.degrees(np.arccos(rays @ axis))
+    assert angles.max() < FIELD_OF_VIEW_DEG / 2
+    assert angles.max() > FIELD_OF_VIEW_DEG / 8  # and fills a good part of it
+    assert main_timeline(frame_record) == "sim_time"
+
+
+def test_large_meshes_are_simplified_within_their_bounds():
+    import trimesh
+
+    from bimrobot.replay.record import simplify
+
+    sphere = trimesh.creation.icosphere(subdivisions=5, radius=2.0)  # 20,480 triangles
+    triangles = sphere.vertices[sphere.faces]
+    small = simplify(triangles, 400)
+    assert len(small) <= 420 < len(triangles)
+    assert np.allclose(small.reshape(-1, 3).min(axis=0), triangles.reshape(-1, 3).min(axis=0), atol=0.05)
+    assert np.allclose(small.reshape(-1, 3).max(axis=0), triangles.reshape(-1, 3).max(axis=0), atol=0.05)
+    assert simplify(triangles[:100], 400) is not None and len(simplify(triangles[:100], 400)) == 100
