@@ -603,7 +603,9 @@ class ConstructionSimulation:
             self._event("floor_complete", floor=self.current_floor + 1)
             if self.current_floor + 1 >= len(self.smart.floors):
                 return
-            last = next((a.id for a in reversed(self.activities) if a.activity == Task.ASSEMBLE and not a.aborted), None)
+            # the activity that completed the floor (an assembly, or the positioning of a part without
+            # nodes) gates the next floor's transports: the schedule says so, and RCAN waits for it too
+            last = next((a.id for a in reversed(self.activities) if not a.aborted), None)
             self.floor_gate[self.current_floor + 1] = last
             self.current_floor += 1
             self._say(f"Floor {self.current_floor + 1} ({self.smart.floor_names[self.current_floor]}) starts")
