@@ -71,3 +71,27 @@ def test_a_bad_site_file_is_one_sentence_with_its_line(tmp_path):
     site.write_text("yard: [[40.0, -5.0]]\nidle_robots: sometimes\n")
     with pytest.raises(Exception, match=r"site.yaml line 2.*idle_robots"):
         load_site(site)
+
+
+def test_a_real_building_gets_a_site_of_its_own_and_the_frame_keeps_fig_4_11(tmp_path, shared_ifc):
+    """With no site file: the thesis' frame fits fig. 4.11's 7.5 x 6.5 m area and keeps it; a house of
+    13 x 11 m gets a derived site whose yard and robot homes lie off its footprint."""
+    from bimrobot.bim import load_model
+    from bimrobot.bim.examples import steel_frame
+    from bimrobot.site import derive_site, footprint, on_the_building, site_for
+
+    frame = load_model(steel_frame(tmp_path / "frame.ifc"))
+    assert site_for(None, frame.elements.values()).source == default_site().source
+    house = load_model(shared_ifc("AC20-FZK-Haus.ifc")).elements.values()
+    site = site_for(None, house)
+    assert site == derive_site(house) and "derived from the building" in site.source
+    low, high = (corner + np.asarray(site.model_offset) for corner in footprint(house))
+    (ax0, ay0), (ax1, ay1) = site.construction_area
+    assert ax0 <= low[0] - 2.99 and ax1 >= high[0] + 2.99 and ay0 <= low[1] - 2.99 and ay1 >= high[1] + 2.99
+    for x, y in (*site.yard, *site.robot_home):  # none on the construction area, let alone the building
+        assert not (ax0 <= x <= ax1 and ay0 <= y <= ay1), (x, y)
+    assert on_the_building(site, house) is None
+    # fig. 4.11 forced on the house puts its yard inside the building: said in one sentence
+    thesis = site_for("thesis", house)
+    warning = on_the_building(thesis, house)
+    assert warning and "lie on the building" in warning and "yard position (12.5, 4)" in warning
