@@ -6,11 +6,16 @@ output folder (written atomically and resumable, :func:`bimrobot.io.resumable_ou
 ========== ============================================================== ===========================
 stage      what                                                           sub-command
 ========== ============================================================== ===========================
+simulation market-based build by the fleet: schedule, log, Gantt, states,  ``simulate``
+           and the site with the building placed on it (``site.yaml``)
 package    Gazebo package of the model, components on the site's yard     ``convert --layout yard``
-simulation market-based build by the fleet: schedule, log, Gantt, states   ``simulate``
 graph      BOT + DiCon knowledge graph of the model and the schedule      ``graph --schedule``
 rcan       the schedule executed through RCAN nodes (sim robots)          ``rcan run --state-db``
+replay     the 4D replay (Rerun recording)                                ``replay``
 ========== ============================================================== ===========================
+
+The simulation comes first: a fleet that cannot build the model is refused before the package is
+written. Every stage after it reads the site from ``site.yaml``.
 
 A stage that finished is recorded in ``.stages.json``; a build killed (SIGKILL, Ctrl-C) and run again
 with the same inputs and options skips the finished stages and resumes RCAN from its state database,
@@ -81,8 +86,9 @@ def _site(args) -> list[str]:
     return ["--site", str(args.site)] if args.site else []
 
 
-#: The build's site with the building placed on it (``model_offset`` set), written after the package stage
-#: from the package's report and given to every later stage: one placement, read back, never recomputed.
+#: The build's site with the building placed on it (``model_offset`` set), written by the simulation stage
+#: (the given site, fig. 4.11 or derived) and given to every later stage: one placement, read back, never
+#: recomputed.
 PLACED_SITE = "site.yaml"
 
 
@@ -92,36 +98,28 @@ def _placed_site(folder: Path) -> list[str]:
 
 def _site_source(folder: Path) -> str:
     """Where the build's site came from (a site file, fig. 4.11, or derived from the building), as the
-    package stage recorded it."""
+    simulation stage recorded it."""
     try:
-        report = json.loads((folder / "package" / "report.json").read_text(encoding="utf-8"))
-        return str(report["options"]["site"]["source"])
+        return str(json.loads((folder / "simulation" / "summary.json").read_text(encoding="utf-8"))["site"])
     except (OSError, ValueError, KeyError, TypeError):
         return "unknown"
 
 
 def _write_placed_site(folder: Path) -> None:
-    """``site.yaml``: the site the package stage placed the building on (its report's ``options.site``)."""
-    import yaml
-
-    report = json.loads((folder / "package" / "report.json").read_text(encoding="utf-8"))
-    site = dict(report["options"]["site"])
-    source = site.pop("source", "the default site")
-    text = (f"# The site of this build ({source}) with the building placed on it: model_offset [dx, dy] m takes the\n"
-            "# model frame to the site frame. Written by bimrobot build; every later stage reads this file.\n")
+    """``site.yaml``: the site the simulation stage placed the building on (``simulation/site.yaml``)."""
     tmp = folder / (PLACED_SITE + ".tmp")
-    tmp.write_text(text + yaml.safe_dump(json.loads(json.dumps(site)), sort_keys=False), encoding="utf-8")
+    tmp.write_bytes((folder / "simulation" / PLACED_SITE).read_bytes())
     tmp.replace(folder / PLACED_SITE)
 
 
-STAGES = (
-    Stage("package", "Gazebo package (components on the yard)",
-          lambda a, d: ["convert", str(a.model), "-o", str(d / "package"), "--layout", "yard", "--no-progress",
-                        "--package-name", _package_name(a), *_site(a), *_selection(a), *_weights(a)]),
+STAGES = (  # the simulation first: it refuses a fleet that cannot build the model before the package is written
     Stage("simulation", "build simulation (market, SimPy)",
           lambda a, d: ["simulate", str(a.model), "--fleet", str(a.fleet), "-o", str(d / "simulation"), "--no-progress",
                         "--prebuilt", a.prebuilt, *(["--by-element"] if a.by_element else []),
-                        *_placed_site(d), *_selection(a), *_weights(a)]),
+                        *_site(a), *_selection(a), *_weights(a)]),
+    Stage("package", "Gazebo package (components on the yard)",
+          lambda a, d: ["convert", str(a.model), "-o", str(d / "package"), "--layout", "yard", "--no-progress",
+                        "--package-name", _package_name(a), *_placed_site(d), *_selection(a), *_weights(a)]),
     Stage("graph", "knowledge graph (BOT + DiCon + schedule, joints, pick-up positions) and the IFC work schedule",
           lambda a, d: ["graph", str(a.model), "--schedule", str(d / "simulation" / "schedule.csv"),
                         "-o", str(d / "graph.ttl"), "--package", str(d / "package"), "--prebuilt", a.prebuilt,
@@ -161,7 +159,7 @@ def _check_schedule_out(args) -> None:
 
 def register(subparsers) -> None:
     """Add ``bimrobot build`` to the bimrobot parser."""
-    from bimrobot.bim.selection import add_selection_options
+    from bimrobot.bim.selection import add_prebuilt_option, add_selection_options
     from bimrobot.bim.unknown_weight import add_unknown_weight_option
 
     parser = subparsers.add_parser(
@@ -182,8 +180,7 @@ def register(subparsers) -> None:
     parser.add_argument("--site", type=Path,
                         help="site YAML: yard, robot_home, construction_area, model_offset, idle_robots "
                         "(default: fig. 4.11 when the building fits its 7.5 x 6.5 m area, else a site derived from the building; 'thesis' forces fig. 4.11)")
-    parser.add_argument("--prebuilt", default="IfcFooting,IfcPile", metavar="CLASSES",
-                        help="IFC classes that are work of others (default IfcFooting,IfcPile); see `simulate --help`")
+    add_prebuilt_option(parser)
     parser.add_argument("--by-element", action="store_true",
                         help="build element by element even when the model groups them into assemblies")
     parser.add_argument("--start", metavar="ISO",
@@ -239,7 +236,10 @@ def _fingerprint(args) -> dict:
 
 
 def _check_inputs(args) -> None:
-    """Refuse what the stages would refuse, before anything is written (a missing model, fleet or site)."""
+    """Refuse what the stages would refuse, before anything is written: a missing model, fleet or site,
+    a selector or prebuilt class the model cannot match (parsed without geometry: seconds, not the
+    minutes the stages take). A fleet that cannot build the model is refused by the first stage."""
+    from bimrobot.bim.selection import check_selection
     from bimrobot.coordination.fleet import load_fleet, load_site
 
     if not args.model.is_file():
@@ -247,6 +247,7 @@ def _check_inputs(args) -> None:
     load_fleet(args.fleet)
     load_site(args.site)
     _check_schedule_out(args)
+    check_selection(args.model, args.include, args.exclude, args.prebuilt)
 
 
 def _run_stage(stage: Stage, args, folder: Path) -> int:
@@ -302,7 +303,7 @@ def build_command(args: argparse.Namespace) -> int:
                 continue
             stage_started = time.monotonic()
             codes[stage.name] = _run_stage(stage, args, folder)
-            if stage.name == "package":
+            if stage.name == "simulation":
                 _write_placed_site(folder)
             done[stage.name] = {"exit": codes[stage.name], "seconds": round(time.monotonic() - stage_started, 2)}
             _write_stages(folder, done)
@@ -385,7 +386,7 @@ Fleet: `{args.fleet}`; site: {_site_source(folder)} (`site.yaml`). Units: metres
 | path | what | open it with |
 |---|---|---|
 {_report_rows(folder)}| `package/` | Gazebo Sim package: `worlds/`, one model per element (`models/<GlobalId>/`), the components on the yard, `launch/`, `maps/` (Nav2 occupancy maps), `report.json` | `ros2 launch package/launch/gz_sim.launch.py`; `package/README.md` |
-| `site.yaml` | the site (yard, robot homes, construction area, work calendar) with the building placed on it (`model_offset`): every stage after the package used this one placement | a text editor; `--site` of any command |
+| `site.yaml` | the site (yard, robot homes, construction area, work calendar) with the building placed on it (`model_offset`): the simulation chose it, every later stage used this one placement | a text editor; `--site` of any command |
 | `simulation/schedule.csv` | the simulated schedule: one row per activity (transport, position, assemble), robot, start, finish, predecessors (docs/conventions.md) | a spreadsheet; `bimrobot rcan run --schedule` |
 | `simulation/events.log` | the build step by step, in the thesis' Listing 4.2 words | a text editor |
 | `simulation/gantt.png` | Gantt chart of the robots' work | an image viewer |

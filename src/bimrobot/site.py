@@ -13,6 +13,8 @@ Keys of a site YAML (each optional; a missing one takes fig. 4.11's value):
 ``construction_area`` [[xmin, ymin], [xmax, ymax]]: where the building stands
 ``model_offset``      [dx, dy]: model frame -> site frame (default: centre the building in the area)
 ``idle_robots``       ``stay`` (default) or ``yard``: a robot without work drives back to the nearest yard position
+``assembly_points_per_joint`` bolts or welds assumed for a joint the model gives no fasteners for (default 4,
+                      :data:`bimrobot.sco.build.ASSUMED_POINTS_PER_JOINT`; reported as assumed)
 ``work_calendar``     {days: [Monday, ...], hours: ["07:00", "16:00"]}: when the site works (default Monday-Friday
                       07:00-16:00); the IFC work schedule lays the simulated work onto these hours
 
@@ -45,7 +47,8 @@ log = logging.getLogger(__name__)
 SITE_COORDINATE_LIMIT_M = 1e6
 OFFSET_LIMIT_M = 2e7
 #: The keys of a site file (module docstring).
-SITE_KEYS = ("yard", "robot_home", "construction_area", "model_offset", "idle_robots", "work_calendar")
+SITE_KEYS = ("yard", "robot_home", "construction_area", "model_offset", "idle_robots", "work_calendar",
+             "assembly_points_per_joint")
 
 
 def number_in(value, label: str, low: float, high: float, unit: str, low_inclusive: bool = False) -> float:
@@ -90,6 +93,8 @@ class Site:
     idle_robots: str = "stay"
     source: str = "default site (thesis fig. 4.11)"
     work_calendar: WorkCalendar = WorkCalendar()
+    #: fastening points assumed for a joint the model gives none for (None: bimrobot.sco.build's default)
+    assembly_points_per_joint: int | None = None
 
     def placed(self, elements) -> "Site":
         """This site with the building placed on it: ``model_offset`` set, once, from the footprint of
@@ -214,7 +219,18 @@ def site_to_dict(site: Site) -> dict:
             "work_calendar": {"days": list(site.work_calendar.days), "hours": list(site.work_calendar.hours)}}
     if site.model_offset is not None:
         data["model_offset"] = list(site.model_offset)
+    if site.assembly_points_per_joint is not None:
+        data["assembly_points_per_joint"] = site.assembly_points_per_joint
     return data
+
+
+def site_yaml(site: Site, what: str) -> str:
+    """The site as a site file (YAML), with a header saying where it came from; ``what`` names the run."""
+    import yaml
+
+    header = (f"# The site of {what} ({site.source}), with the building placed on it: model_offset [dx, dy] m takes\n"
+              "# the model frame to the site frame. Give it to any command with --site to use the same site.\n")
+    return header + yaml.safe_dump(site_to_dict(site), sort_keys=False)
 
 
 def site_from_dict(data, source: str) -> Site:
@@ -247,6 +263,12 @@ def site_from_dict(data, source: str) -> Site:
         if data["idle_robots"] not in ("stay", "yard"):
             raise InputError(f"{source}{line_of(data, 'idle_robots')}: key 'idle_robots' must be 'stay' or 'yard', got {data['idle_robots']!r}")
         values["idle_robots"] = data["idle_robots"]
+    if "assembly_points_per_joint" in data:
+        points = data["assembly_points_per_joint"]
+        if isinstance(points, bool) or not isinstance(points, int) or not 1 <= points <= 1000:
+            raise InputError(f"{source}{line_of(data, 'assembly_points_per_joint')}: key 'assembly_points_per_joint' must be "
+                             f"a whole number of bolts or welds from 1 to 1000, got {points!r}")
+        values["assembly_points_per_joint"] = points
     if "work_calendar" in data:
         values["work_calendar"] = work_calendar_from(data["work_calendar"], source, line_of(data, "work_calendar"))
     return Site(**values, source=source)

@@ -241,8 +241,9 @@ def _prepare(args):
     prebuilt_rule(model, prebuilt)  # an unknown class name is refused now, with the model's classes
     weights = apply_unknown_weight_rule(model.elements.values(), args.unknown_weight, str(model.source or args.model))
     site = site_for(args.site, model.elements.values())  # given, fig. 4.11 or derived; placed on the building
+    points = {"assembly_points_per_joint": site.assembly_points_per_joint} if site.assembly_points_per_joint else {}
     return model, elevations, fleet, site, weights, lambda: build_smart_model(
-        model, prebuilt_classes=prebuilt, inferred_tolerance_m=args.tolerance, by_element=args.by_element
+        model, prebuilt_classes=prebuilt, inferred_tolerance_m=args.tolerance, by_element=args.by_element, **points
     )
 
 
@@ -250,6 +251,7 @@ def run_simulate(args) -> int:
     from bimrobot.coordination.report import format_robot_table, write_outputs
     from bimrobot.coordination.simulation import simulate
     from bimrobot.io import atomic_output_dir
+    from bimrobot.site import site_yaml
 
     from tqdm import tqdm
 
@@ -265,6 +267,7 @@ def run_simulate(args) -> int:
                           on_assembled=lambda _: bar.update(1), per_node=not args.per_joint)
     with atomic_output_dir(args.output, kind="simulate", inputs=_inputs(args)) as tmp:
         write_outputs(result, tmp, gantt=not args.no_gantt, unknown_weight=weights.as_dict())
+        (tmp / "site.yaml").write_text(site_yaml(site, "this simulation"), encoding="utf-8")
     info = smart.summary()
     units = f", {info['assembly_units']} of them assembly units" if info["assembly_units"] else ""
     later = f", {len(info['prebuilt_after_supports'])} made once what they rest on is placed" if info["prebuilt_after_supports"] else ""

@@ -149,11 +149,12 @@ def graph_command(args) -> int:
         schedule = load_schedule(args.schedule, model=model)
     elif args.ifc_schedule:
         schedule = load_schedule_ifc(args.model, model=model)
-    smart = _smart_model(model, args)
-    options = {"base": base, "properties": not args.no_properties, "assemblies": not args.by_element, "smart": smart}
     from bimrobot.site import site_for
 
-    options["site"] = site_for(args.site, model.elements.values())  # the run's site, held by the graph
+    site = site_for(args.site, model.elements.values())  # the run's site, held by the graph
+    smart = _smart_model(model, args, site.assembly_points_per_joint)
+    options = {"base": base, "properties": not args.no_properties, "assemblies": not args.by_element, "smart": smart,
+               "site": site}
     if args.package is not None:
         from bimrobot.lbd.package import pick_up_positions
 
@@ -245,7 +246,7 @@ def _oxigraph_installed() -> bool:
     return importlib.util.find_spec("pyoxigraph") is not None
 
 
-def _smart_model(model, args):
+def _smart_model(model, args, points_per_joint: int | None = None):
     """The joints and connection nodes the simulation would use (same options as `bimrobot simulate`), or
     None with a note when the model has nothing robots build."""
     from bimrobot.sco.build import build_smart_model, prebuilt_rule
@@ -253,7 +254,8 @@ def _smart_model(model, args):
     prebuilt = tuple(c.strip() for c in args.prebuilt.split(",") if c.strip())
     prebuilt_rule(model, prebuilt)  # an unknown class name is refused with the model's classes
     try:
-        return build_smart_model(model, prebuilt_classes=prebuilt, by_element=args.by_element)
+        points = {"assembly_points_per_joint": points_per_joint} if points_per_joint else {}
+        return build_smart_model(model, prebuilt_classes=prebuilt, by_element=args.by_element, **points)
     except InputError as exc:
         print(f"bimrobot graph: no joints in the graph: {exc}", file=sys.stderr)
         return None

@@ -81,7 +81,16 @@ def rcan_text(facts: BuildFacts) -> tuple[str, str]:
     if rcan is None:
         return UNKNOWN, "no rcan/report.json"
     done, escalated, blocked = (len(rcan.get(k) or []) for k in ("done", "escalations", "blocked"))
-    return str(rcan.get("status", UNKNOWN)), f"{done} activities done, {escalated} escalated, {blocked} blocked"
+    detail = f"{done} activities done, {escalated} escalated, {blocked} blocked"
+    executed, planned = rcan.get("makespan_s"), (facts.summary or {}).get("makespan_s")
+    if executed is not None and planned:
+        # one time model (bimrobot.sco.timing): RCAN's sim robots take the schedule's time, or say why not
+        same = abs(float(executed) - float(planned)) <= 0.005 * float(planned)
+        detail += (f"; executed in {float(executed):,.3f} s, the schedule's makespan" if same else
+                   f"; executed in {float(executed):,.3f} s against the schedule's {float(planned):,.3f} s"
+                   + (" (escalated or blocked work)" if escalated or blocked else
+                      " (another RCAN backend, or a site rule the schedule does not hold, e.g. idle robots driving to the yard)"))
+    return str(rcan.get("status", UNKNOWN)), detail
 
 
 def markdown(facts: BuildFacts, picture: str | None = None, page: str | None = "report.html") -> str:
