@@ -128,7 +128,8 @@ def parse_yaml(text: str, source: str, *, loader: type | None = None) -> Any:
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f" line {mark.line + 1}" if mark else ""
-        raise InputError(f"{source}{where}: not valid YAML ({getattr(exc, 'problem', None) or exc})") from None
+        problem = " ".join(str(getattr(exc, "problem", None) or exc).split())  # one line (a ReaderError has several)
+        raise InputError(f"{source}{where}: not valid YAML ({problem})") from None
     finally:
         reader.dispose()
 

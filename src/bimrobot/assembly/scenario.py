@@ -408,7 +408,7 @@ class _Parser:
         return node1, node2
 
     def component_type(self, value: Any, where: str, line: str) -> str:
-        if value not in COMPONENT_LENGTHS:
+        if not isinstance(value, str) or value not in COMPONENT_LENGTHS:
             raise self.fail(where, f"unknown component type {value!r} (expected one of {', '.join(COMPONENT_LENGTHS)})", line)
         return value
 

@@ -107,11 +107,12 @@ def _robot(entry, source: str, index: int) -> RobotSpec:
     if not isinstance(entry, dict):
         raise InputError(f"{source}: {where} must be a mapping with name, kind, speed, ..., got {entry!r}")
     name = entry.get("name")
-    if not isinstance(name, str) or not name.strip():
-        raise InputError(f"{source}{line_of(entry, 'name')}: {where}: key 'name' must be a non-empty string")
+    if not isinstance(name, str) or not name.strip() or not name.isprintable():  # it goes into schedules and logs
+        raise InputError(f"{source}{line_of(entry, 'name')}: {where}: key 'name' must be a non-empty string of printable "
+                         f"characters, got {name!r}"[:400])
     where = f"{where} ({name})"
     kind = entry.get("kind")
-    if kind not in KIND_ACTIVITIES:
+    if not isinstance(kind, str) or kind not in KIND_ACTIVITIES:
         raise InputError(f"{source}{line_of(entry, 'kind')}: {where}: key 'kind' must be one of {', '.join(KIND_ACTIVITIES)}, got {kind!r}")
     needed = {key for activity in KIND_ACTIVITIES[kind] for key in ACTIVITY_KEYS[activity]}
     allowed = needed | set(OPTIONAL_KEYS) | {"name", "kind"}

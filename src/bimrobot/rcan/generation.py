@@ -171,6 +171,8 @@ def _coordinates(entry: dict, key: str, source: str, robot: str, line: str, coun
     default. ``line``: the robot's line, used when the key's own is unknown."""
     value = entry.get(key, default)
     if value is None:
+        value = default  # 'home:' with nothing after it: as if absent
+    if value is None:
         return None
     label = f"{source}{line_of(entry, key) or line}: robot '{robot}': key '{key}'"
     if not (isinstance(value, list) and len(value) == count
@@ -188,7 +190,7 @@ def _parse_robot(name: str, entry: object, robot_types: dict, source: str, line:
     types = entry.get("types")
     if not isinstance(types, list) or not types:
         raise InputError(f"{where}.types must list the robot types it integrates")
-    unknown = [t for t in types if t not in robot_types]
+    unknown = [t for t in types if not isinstance(t, str) or t not in robot_types]
     if unknown:
         raise InputError(f"{where}.types names unknown robot type {unknown[0]!r} (known: {', '.join(robot_types)})")
     robot = f"robot '{name}'"
