@@ -79,6 +79,24 @@ def add_mark(world: ET.Element, name: str, lower_xy, upper_xy, z: float, rgba: s
                   size=_num([*half, 0.001]), rgba=rgba, contype="0", conaffinity="0", group="0")
 
 
+def mjcf_text(root: ET.Element, what: str) -> str:
+    """The MJCF document of ``root`` as well-formed XML 1.0: a header comment with the bimrobot
+    signature (``what`` says what wrote it; a comment may not hold ``--``, so it is replaced), and every
+    attribute value and text with its control characters written as escapes (``\\x0d``): XML 1.0 cannot
+    hold most of them even as character references. A GlobalId or name from a damaged IFC file is thus
+    kept legible, not dropped; lookups by such an id fail, as its schedule is refused before."""
+    from bimrobot.io import printable, signature
+
+    for element in root.iter():
+        for key, value in element.attrib.items():
+            element.set(key, printable(value))
+        if element.text and not element.text.isspace():
+            element.text = printable(element.text)
+    ET.indent(root)
+    comment = signature(what).replace("--", "- -")
+    return f"<!-- {comment} -->\n{ET.tostring(root, encoding='unicode')}\n"
+
+
 def write_mesh(path: Path, vertices: np.ndarray, faces: np.ndarray) -> None:
     trimesh.Trimesh(vertices, faces, process=False).export(path, file_type="stl")
 
@@ -138,9 +156,7 @@ def write_scene(package_dir: Path, converted: list, options, ground_z: float, ya
         methods[item.element.global_id] = collision.method
         add_element_body(world, asset, meshes_dir, item.element.global_id, item.name, item.pose, item.mass,
                          item.body, item.element.ifc_class, free, collision.pieces)
-    ET.indent(root)
-    text = f"<!-- written by bimrobot (convert --target mujoco) -->\n{ET.tostring(root, encoding='unicode')}\n"
-    (folder / "scene.xml").write_text(text, encoding="utf-8")
+    (folder / "scene.xml").write_text(mjcf_text(root, "convert, MuJoCo target"), encoding="utf-8")
     counts: dict[str, int] = {}
     for method in methods.values():
         kind = method.split(" (")[0]
