@@ -293,7 +293,8 @@ def test_an_error_in_a_geometry_process_is_raised_in_the_caller(steel_frame_ifc,
         load_model(steel_frame_ifc, processes=2)
 
 
-def test_a_crashed_geometry_process_names_the_file(steel_frame_ifc, monkeypatch):
+@pytest.mark.parametrize("processes", [1, 2])  # 1: the kernel runs in a child all the same (issue 35)
+def test_a_crashed_geometry_process_names_the_file(steel_frame_ifc, monkeypatch, processes):
     import faulthandler
     import os
     import signal
@@ -310,7 +311,7 @@ def test_a_crashed_geometry_process_names_the_file(steel_frame_ifc, monkeypatch)
 
     monkeypatch.setattr(reader._ShareReader, "__call__", crashing_in_child)
     with pytest.raises(InputError, match=r"steel_frame\.ifc: IfcOpenShell's geometry kernel crashed \(exit code -11\)"):
-        load_model(steel_frame_ifc, processes=2)
+        load_model(steel_frame_ifc, processes=processes)
 
 
 def _alive(pid: int) -> bool:
@@ -323,16 +324,16 @@ def _alive(pid: int) -> bool:
 
 
 _HANGING_READ = """
-import multiprocessing, os, sys, time
+import multiprocessing, os, sys, threading, time
 from bimrobot.bim import reader
-caller, read = os.getpid(), reader._ShareReader.__call__
 def hanging(self, products, threads, bar=None):
-    found = read(self, products, threads, bar)
-    if os.getpid() == caller:  # the parent names its geometry processes, then never reads their findings
-        print(" ".join(str(child.pid) for child in multiprocessing.active_children()), flush=True)
-    time.sleep(600)  # parent and children alike: only a kill ends them
-    return found
+    time.sleep(600)  # the geometry processes: only a kill ends them
 reader._ShareReader.__call__ = hanging
+def name_them():  # the reader names its geometry processes once they all run
+    while len(multiprocessing.active_children()) < 3:
+        time.sleep(0.01)
+    print(" ".join(str(child.pid) for child in multiprocessing.active_children()), flush=True)
+threading.Thread(target=name_them, daemon=True).start()
 reader.load_model(sys.argv[1], processes=3)
 """
 
@@ -349,7 +350,7 @@ def test_geometry_processes_die_with_the_reader(steel_frame_ifc, signum):
     reader = subprocess.Popen([sys.executable, "-c", _HANGING_READ, str(steel_frame_ifc)], stdout=subprocess.PIPE, text=True)
     try:
         children = [int(pid) for pid in reader.stdout.readline().split()]
-        assert len(children) == 2 and all(_alive(pid) for pid in children)
+        assert len(children) == 3 and all(_alive(pid) for pid in children)
         reader.send_signal(getattr(signal, signum))
         reader.wait(timeout=60)
         for _ in range(100):  # the kernel kills them with their parent: at once, but allow 10 s under load

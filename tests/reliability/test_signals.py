@@ -272,3 +272,34 @@ def test_a_killed_external_robot_node_leaves_no_shared_memory(tmp_path):
         node.wait()
         node.stdout.close()
     tally("signals")
+
+
+_HOLDING_A_TEMP_FILE = """
+import tempfile, time
+from bimrobot.cores import private_temp_folder
+with private_temp_folder() as folder:
+    with open(tempfile.mkstemp()[1], "w") as held:  # a temporary file, open, as a command holds one
+        print(folder, flush=True)
+        time.sleep(600)
+"""
+
+
+def test_the_temporary_folder_of_a_killed_command_is_removed(tmp_path):
+    # SIGKILL runs no cleanup in the command: its watcher removes the folder once the command is gone
+    run = subprocess.Popen([sys.executable, "-c", _HOLDING_A_TEMP_FILE], stdout=subprocess.PIPE, text=True,
+                           env=dict(os.environ, TMPDIR=str(tmp_path)))
+    try:
+        folder = Path(run.stdout.readline().strip())
+        assert folder.parent == tmp_path and len(list(folder.iterdir())) == 1
+        run.kill()
+        run.wait(timeout=60)
+        for _ in range(100):  # the watcher wakes at once; allow 10 s under load
+            if not folder.exists():
+                break
+            time.sleep(0.1)
+        assert not folder.exists() and not list(tmp_path.iterdir())
+    finally:
+        run.kill()
+        run.wait()
+        run.stdout.close()
+    tally("signals")

@@ -226,20 +226,22 @@ def _shares(candidates: list, processes: int | None, threads: int | None) -> lis
 
 
 def _read_shares(read: _ShareReader, shares: list[list], progress: bool, threads: int | None) -> _Found:
-    """Read the first share here and every other one in a forked process at the same time (the parsed
-    file is inherited, not reread); the children's findings come back pickled. Errors in a child are
-    raised here."""
+    """Read every share in a forked process of its own, all at the same time (the parsed file is
+    inherited, not reread); their findings come back pickled and errors in a child are raised here.
+    The geometry kernel never runs in this process: where it crashes on a malformed product (a
+    reference of the wrong type, say: SIGSEGV or SIGFPE in its C++), the child dies and this process
+    raises InputError naming the file. Where fork is unsafe, the one share is read here."""
     import multiprocessing
     import pickle
 
-    from bimrobot.cores import frozen_heap
+    from bimrobot.cores import can_fork, frozen_heap
 
     bar = None
     if progress:
         from tqdm import tqdm
 
         bar = tqdm(total=sum(len(share) for share in shares), unit="element", desc="geometry")
-    if len(shares) == 1:
+    if not can_fork():
         try:
             return read(shares[0], threads, bar)
         finally:
@@ -247,19 +249,20 @@ def _read_shares(read: _ShareReader, shares: list[list], progress: bool, threads
                 bar.close()
     context = multiprocessing.get_context("fork")
     children = []
+    child_threads = threads if len(shares) == 1 else (threads or 1)  # one share: the iterator's own threads
     try:
         with frozen_heap():  # the children's collections do not copy every page of the file they inherit
-            for share in shares[1:]:
+            for share in shares:
                 receiving, sending = context.Pipe(duplex=False)
                 # the child closes the read ends it inherits (its own, earlier children's): a child whose
                 # parent is gone then fails to write instead of blocking forever on a pipe it holds open
                 read_ends = [*(end for _, end in children), receiving]
                 child = context.Process(target=_read_in_child, daemon=True,
-                                        args=(read, share, threads or 1, sending, os.getpid(), read_ends))
+                                        args=(read, share, child_threads, sending, os.getpid(), read_ends))
                 child.start()
                 sending.close()
                 children.append((child, receiving))
-        found = read(shares[0], threads or 1, bar)
+        found = _Found()
         for child, receiving in children:
             try:
                 outcome, payload = pickle.loads(receiving.recv_bytes())
@@ -267,8 +270,8 @@ def _read_shares(read: _ShareReader, shares: list[list], progress: bool, threads
                 child.join()
                 raise InputError(
                     f"{read.shown}: IfcOpenShell's geometry kernel crashed (exit code {child.exitcode}) on one of "
-                    f"{len(children) + 1} shares of its {sum(len(share) for share in shares)} products; "
-                    "exclude products (--exclude) to find the one it cannot mesh"
+                    f"its {sum(len(share) for share in shares)} products (read in {len(children)} share(s)); the "
+                    "file may be malformed (validate it), or exclude products (--exclude) to find the one it cannot mesh"
                 ) from None
             if outcome == "error":
                 raise payload
