@@ -123,6 +123,7 @@ STAGES = (  # the simulation first: it refuses a fleet that cannot build the mod
     Stage("graph", "knowledge graph (BOT + DiCon + schedule, joints, pick-up positions) and the IFC work schedule",
           lambda a, d: ["graph", str(a.model), "--schedule", str(d / "simulation" / "schedule.csv"),
                         "-o", str(d / "graph.ttl"), "--package", str(d / "package"), "--prebuilt", a.prebuilt,
+                        "--fleet", str(a.fleet),
                         *(["--by-element"] if a.by_element else []), *_work_schedule(a, d), *_selection(a), *_weights(a)]),
     Stage("rcan", "RCAN run generated from the graph (the fleet's robots, simulated)",
           lambda a, d: ["rcan", "run", "--graph", str(d / "graph.ttl"), "--backend", a.backend,

@@ -41,9 +41,9 @@ def frame_run(tmp_path_factory):
     return folder
 
 
-def _rcan(folder, name: str, *source: str) -> dict:
+def _rcan(folder, name: str, *source: str, fleet: bool = True) -> dict:
     report = folder / f"{name}.json"
-    code = main(["rcan", "run", *source, "--capabilities", "fleet2", "-q", "--report", str(report)])
+    code = main(["rcan", "run", *source, *(["--capabilities", "fleet2"] if fleet else []), "-q", "--report", str(report)])
     assert code == 0
     return json.loads(report.read_text())
 
@@ -55,8 +55,10 @@ def test_rcan_executes_the_simulated_schedule_in_its_time(frame_run, source):
     if source == "schedule":
         report = _rcan(folder, "from-schedule", "--schedule", str(schedule), "--model", str(folder / "frame.ifc"))
     else:
-        assert main(["graph", str(folder / "frame.ifc"), "--schedule", str(schedule), "-o", str(folder / "graph.ttl")]) == 0
-        report = _rcan(folder, "from-graph", "--graph", str(folder / "graph.ttl"))
+        assert main(["graph", str(folder / "frame.ifc"), "--schedule", str(schedule), "-o", str(folder / "graph.ttl"),
+                     "--fleet", "fleet2"]) == 0
+        # the graph alone: it holds the fleet (brc:fleetDescription) and the site, so no --capabilities
+        report = _rcan(folder, "from-graph", "--graph", str(folder / "graph.ttl"), fleet=False)
     rows = _rows_by_id(schedule)
     simulated = json.loads((folder / "sim" / "summary.json").read_text())["makespan_s"]
     assert report["makespan_s"] == pytest.approx(simulated, rel=0.005)

@@ -160,6 +160,23 @@ def fleet_from_dict(data, source: str) -> Fleet:
     return Fleet(name=str(data.get("name") or Path(source).stem), robots=specs, source=source)
 
 
+def fleet_to_dict(fleet: Fleet) -> dict:
+    """The fleet as the keys of a fleet file (JSON- and YAML-safe): :func:`fleet_from_dict` reads it back
+    to the same robots. The construction graph holds it, so RCAN runs from the graph alone."""
+    robots = []
+    for robot in fleet.robots:
+        keys = sorted({key for task in KIND_ACTIVITIES[robot.kind] for key in ACTIVITY_KEYS[task]})
+        entry = {"name": robot.name, "kind": robot.kind}
+        entry.update({key: list(getattr(robot, key)) if key == "platform_size" else getattr(robot, key) for key in keys})
+        entry.update({key: getattr(robot, key) for key in ("load_time", "unload_time") if getattr(robot, key)})
+        if Task.ASSEMBLE in KIND_ACTIVITIES[robot.kind]:
+            entry["methods"] = list(robot.methods)
+        if robot.home is not None:
+            entry["home"] = list(robot.home)
+        robots.append(entry)
+    return {"name": fleet.name, "robots": robots}
+
+
 def load_fleet(spec: str | Path) -> Fleet:
     """A built-in fleet ("fleet1", "fleet2", "site-crane") or a fleet YAML file, validated."""
     if str(spec) in BUILTIN_FLEETS:

@@ -82,8 +82,14 @@ def register(subparsers) -> None:
     )
     graph.add_argument(
         "--site", type=Path,
-        help="site YAML whose work_calendar (working days and hours) the --ifc-out / --schedule-out times are laid "
-        "onto (default Monday-Friday 07:00-16:00)",
+        help="site YAML of the run: held by the graph (robot homes, the building's placement) and its work_calendar "
+        "(working days and hours) the --ifc-out / --schedule-out times are laid onto (default: as `simulate` "
+        "chooses; Monday-Friday 07:00-16:00)",
+    )
+    graph.add_argument(
+        "--fleet", metavar="FLEET",
+        help="the fleet that built the schedule (fleet1, fleet2, site-crane or a fleet YAML file): the graph holds its "
+        "robots and what they do, so `bimrobot rcan run --graph` needs no --capabilities",
     )
     graph.add_argument(
         "--package", type=Path, metavar="DIR",
@@ -155,6 +161,10 @@ def graph_command(args) -> int:
     smart = _smart_model(model, args, site.assembly_points_per_joint)
     options = {"base": base, "properties": not args.no_properties, "assemblies": not args.by_element, "smart": smart,
                "site": site}
+    if args.fleet:
+        from bimrobot.coordination.fleet import load_fleet
+
+        options["fleet"] = load_fleet(args.fleet)
     if args.package is not None:
         from bimrobot.lbd.package import pick_up_positions
 

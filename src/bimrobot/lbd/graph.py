@@ -218,6 +218,11 @@ class ConstructionGraph:
         raise InputError(f"no element or connection node {global_id!r} in the graph")
 
     # ---------------------------------------------------------------------------------- queries
+    def fleet_data(self) -> dict | None:
+        """The fleet file's keys of the fleet the graph's run used (``brc:fleetDescription``), or None."""
+        rows = self.store.select(f"SELECT ?d WHERE {{ ?site <{BRC.fleetDescription}> ?d }} LIMIT 1")
+        return json.loads(str(rows[0]["d"])) if rows else None
+
     def run_site(self):
         """The site the graph's run used, with the building placed on it (:class:`bimrobot.site.Site`), or
         None when the graph does not hold one (``brc:siteDescription``)."""
@@ -341,6 +346,7 @@ def build_graph(
     smart: SmartModel | None = None,
     pick_up: dict[str, tuple[float, float, float]] | None = None,
     site=None,
+    fleet=None,
 ) -> ConstructionGraph:
     """The construction graph of ``model`` and, when given, its ``schedule``.
 
@@ -359,7 +365,10 @@ def build_graph(
     components that start OnYard. ``site``: the run's site with the building placed on it
     (:func:`bimrobot.site.site_for`), written as ``brc:modelOffsetX/Y`` (model -> site translation, m) and
     ``brc:siteDescription`` (the site file's keys as JSON) of the ``bot:Site``, so that RCAN run from the
-    graph alone has the robot homes and the placement `simulate` had.
+    graph alone has the robot homes and the placement `simulate` had. ``fleet``: the run's fleet
+    (:class:`bimrobot.coordination.fleet.Fleet`): each robot a ``dice:Device`` with its kind and the tasks
+    it does (``brc:robotKind``, ``brc:performs``), the whole as ``brc:fleetDescription`` (the fleet file's
+    keys as JSON), so that `rcan run --graph` needs no ``--capabilities``.
 
     The triples go to the store in one stream (one bulk load on Oxigraph); a progress bar on stderr
     counts the elements, joints and activities written when the work is long (see :mod:`.progress`).
@@ -367,7 +376,7 @@ def build_graph(
     from bimrobot.sco.build import gc_paused
 
     graph = ConstructionGraph(open_store(store, path), base)
-    writer = _GraphWriter(graph, model, properties, assemblies, smart, pick_up, site)
+    writer = _GraphWriter(graph, model, properties, assemblies, smart, pick_up, site, fleet)
     # The cyclic garbage collector's full passes over every live term made the time grow faster than
     # the graph (bench/graph.py); millions of short-lived terms, no cycles: pause it meanwhile.
     with progress_bar(writer.items(schedule), "graph", unit=" items") as bar, gc_paused():
@@ -386,9 +395,9 @@ class _GraphWriter:
 
     def __init__(self, graph: ConstructionGraph, model: BuildingModel, properties: bool = True, assemblies: bool = True,
                  smart: SmartModel | None = None, pick_up: dict[str, tuple[float, float, float]] | None = None,
-                 site=None):
+                 site=None, fleet=None):
         self.graph, self.model, self.properties, self.smart = graph, model, properties, smart
-        self.run_site = site
+        self.run_site, self.fleet = site, fleet
         self.pick_up = pick_up or {}
         self.assemblies = dict(getattr(model, "assemblies", {})) if assemblies else {}
         self.site = graph.iri("site", "site")
@@ -435,6 +444,8 @@ class _GraphWriter:
             yield self.site, BRC.modelOffsetX, _literal(float(self.run_site.model_offset[0]))
             yield self.site, BRC.modelOffsetY, _literal(float(self.run_site.model_offset[1]))
             yield self.site, BRC.siteDescription, Literal(json.dumps(site_to_dict(self.run_site)))
+        if self.fleet is not None:
+            yield from self.fleet_triples()
         yield self.building, RDF.type, BOT.Building
         yield self.building, RDFS.label, Literal(model.project_name or "building")
         for storey in model.storeys:
@@ -593,6 +604,19 @@ class _GraphWriter:
                 yield robot, RDF.type, DICE.Device
                 yield robot, RDF.type, DICP.Resource
                 yield robot, RDFS.label, Literal(activity.robot)
+
+    def fleet_triples(self) -> Iterator[Triple]:
+        """The fleet's robots, what each does, and the fleet file itself (``brc:fleetDescription``)."""
+        from bimrobot.coordination.fleet import fleet_to_dict
+
+        yield self.site, BRC.fleetDescription, Literal(json.dumps(fleet_to_dict(self.fleet)))
+        for spec in self.fleet.robots:
+            robot = self.graph.iri("robot", spec.name)
+            yield robot, RDF.type, DICE.Device
+            yield robot, RDFS.label, Literal(spec.name)
+            yield robot, BRC.robotKind, Literal(spec.kind)
+            for task in spec.activities:
+                yield robot, BRC.performs, Literal(str(task))
 
     def activity(self, activity: Activity, interfaces: set[str]) -> Iterator[Triple]:
         g = self.graph

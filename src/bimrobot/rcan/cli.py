@@ -169,6 +169,12 @@ def _fleet_capabilities(args, activities=None):
         offset = model_offset_of(activities, site)
     else:
         offset = site.model_offset or (0.0, 0.0)
+    graph_fleet = getattr(args, "graph_fleet", None)
+    if args.capabilities is None and graph_fleet is not None:
+        from bimrobot.rcan.fleet import load_fleet_capabilities
+
+        name = str(graph_fleet.get("name") or "fleet")
+        return load_fleet_capabilities(name, graph_fleet, f"the construction graph's fleet {name}", site, offset), offset
     return load_capabilities(args.capabilities, site=site, model_offset=offset), offset
 
 
@@ -247,6 +253,8 @@ def _load_plan(args):
         graph = ConstructionGraph.open(args.graph)
         if args.site is None:  # the site the graph's run used (homes, placement), when the graph holds it
             args.run_site = graph.run_site()
+        if args.capabilities is None:  # the fleet the graph's run used, when the graph holds it
+            args.graph_fleet = graph.fleet_data()
         return plan_from_graph(graph, tuple(args.yard), standoff_m=args.standoff), graph, None
     from bimrobot.lbd.schedule import load_schedule
 
