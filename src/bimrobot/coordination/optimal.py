@@ -58,8 +58,8 @@ def task_graph(smart: SmartModel, sim: ConstructionSimulation) -> list[_Task]:
         # a prebuilt supporter made later stands once its own robot-built supporters do
         preds = [f"position:{s}" for s in smart.robot_supporters(component.id)]
         preds += [key for floor, keys in joints_by_floor.items() if floor < component.floor for key in keys]
-        tasks.append(_Task(f"transport:{component.id}", Task.TRANSPORT, sim._request(Task.TRANSPORT, component), preds))
-        tasks.append(_Task(f"position:{component.id}", Task.POSITION, sim._request(Task.POSITION, component), [f"transport:{component.id}"]))
+        tasks.append(_Task(f"transport:{component.id}", Task.TRANSPORT, sim.request_for(Task.TRANSPORT, component), preds))
+        tasks.append(_Task(f"position:{component.id}", Task.POSITION, sim.request_for(Task.POSITION, component), [f"transport:{component.id}"]))
     for joint in smart.joints.values():
         members = [components[g] for g in joint.component_ids]
         preds = [f"position:{m.id}" for m in members if not m.prebuilt]
@@ -67,7 +67,7 @@ def task_graph(smart: SmartModel, sim: ConstructionSimulation) -> list[_Task]:
         preds = list(dict.fromkeys(preds))
         if not preds:
             continue  # foundations only: nothing for robots to wait for, but still assembled
-        tasks.append(_Task(f"assemble:{joint.id}", Task.ASSEMBLE, sim._request(Task.ASSEMBLE, members[0], joint), preds))
+        tasks.append(_Task(f"assemble:{joint.id}", Task.ASSEMBLE, sim.request_for(Task.ASSEMBLE, members[0], joint), preds))
     return tasks
 
 

@@ -242,10 +242,12 @@ class ConstructionSimulation:
         z = float(joint.position[2])
         return z - _storey_base(z, self.elevations)
 
-    def _request(self, activity: Task, component: Component, joint: Joint | None = None, node=None) -> TaskRequest:
-        """The task request for ``activity``; with ``node`` a per-node positioning or assembly task."""
+    def request_for(self, activity: Task, component: Component, joint: Joint | None = None, node=None) -> TaskRequest:
+        """The task request for ``activity`` of ``component`` (or ``joint``): where the work is on the site,
+        what it weighs, the reach, nodes and points it needs; with ``node`` a per-node positioning or assembly
+        task. The market, the thesis loop and the exact planner all ask here, so a task is described once."""
         if node is not None:
-            request = self._request(activity, component, self.smart.joints[node.joint_id] if activity == Task.ASSEMBLE else None)
+            request = self.request_for(activity, component, self.smart.joints[node.joint_id] if activity == Task.ASSEMBLE else None)
             request.start = request.end = self.site_xy(node.position)
             request.node_ids = (node.id,)
             if activity == Task.ASSEMBLE:  # with the prebuilt nodes of its joint (e.g. a footing's anchor bolts)
@@ -317,7 +319,7 @@ class ConstructionSimulation:
         to_build = [c for c in self.smart.components.values() if not c.prebuilt]
         for component in to_build:
             for activity in (Task.TRANSPORT, Task.POSITION):
-                request = self._request(activity, component)
+                request = self.request_for(activity, component)
                 if not impossible(request):
                     continue
                 need = by_class.setdefault(component.what, {"ids": set(), Task.TRANSPORT: None, Task.POSITION: None})
@@ -334,7 +336,7 @@ class ConstructionSimulation:
         failing_joints, joint_reach, joint_methods = [], 0.0, set()
         for joint in joints:
             owner = self.smart.components[joint.component_ids[0]]
-            request = self._request(Task.ASSEMBLE, owner, joint)
+            request = self.request_for(Task.ASSEMBLE, owner, joint)
             if impossible(request):
                 failing_joints.append(joint.id)
                 joint_reach = max(joint_reach, request.reach_needed)
@@ -545,7 +547,7 @@ class ConstructionSimulation:
                 self.on_assembled(component.id)
 
     def _publish(self, activity: Task, component: Component, joint: Joint | None = None, predecessors=(), node=None) -> None:
-        request = self._request(activity, component, joint, node)
+        request = self.request_for(activity, component, joint, node)
         self.sequence += 1
         request.priority = (request.floor, ACTIVITY_RANK[activity], round(component.bottom_z, 3), self.sequence)
         request.id = f"R{self.sequence:05d}"

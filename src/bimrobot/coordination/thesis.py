@@ -183,15 +183,15 @@ class ThesisSimulation:
         """Add a request to the pending list of its kind and log it (with its ACC / RCC rule)."""
         base = self.base
         if kind == Task.TRANSPORT:
-            request = base._request(Task.TRANSPORT, component)
+            request = base.request_for(Task.TRANSPORT, component)
             floor = component.floor
         elif node is None:  # a component without nodes is positioned as a whole
-            request = base._request(Task.POSITION, component)
+            request = base.request_for(Task.POSITION, component)
             request.nodes = 1
             floor = component.floor
         else:
             joint = self.smart.joints[node.joint_id]
-            request = base._request(Task.ASSEMBLE, component, joint)
+            request = base.request_for(Task.ASSEMBLE, component, joint)
             request.activity = kind
             request.start = request.end = base.site_xy(node.position)
             request.node_ids = (node.id,)
