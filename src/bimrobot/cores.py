@@ -74,9 +74,10 @@ def bind_to_parent(parent: int) -> None:
       so they print no traceback of their own), and SIGTERM and SIGHUP are back to their default
       action (end at once), whatever handlers the parent had installed.
     """
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    for signum in (signal.SIGTERM, signal.SIGHUP):
-        signal.signal(signum, signal.SIG_DFL)
+    with contextlib.suppress(ValueError):  # not Python's main thread (cannot be, after a fork)
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+        for signum in (signal.SIGTERM, signal.SIGHUP):
+            signal.signal(signum, signal.SIG_DFL)
     if not _kill_with_parent():
         threading.Thread(target=_watch_parent, args=(parent,), name="bimrobot-parent-watch", daemon=True).start()
     if os.getppid() != parent:  # the parent died before the kernel was told to watch it
@@ -111,9 +112,13 @@ def private_temp_folder():
     The watcher is forked first thing (a few MB, no library loaded), ignores the signals a terminal
     sends, waits for end-of-file on a pipe whose write end only the command and its forked children
     hold, removes the folder and exits. Where fork is unsafe, the folder is removed at the end of the
-    block only.
+    block only. Yields None (and changes nothing) where no temporary folder can be made.
     """
-    folder = tempfile.mkdtemp(prefix=f"bimrobot-{os.getpid()}-")
+    try:
+        folder = tempfile.mkdtemp(prefix=f"bimrobot-{os.getpid()}-")
+    except OSError:  # no writable temporary folder: the command says so if it needs one
+        yield None
+        return
     watcher = None
     if can_fork():
         read_end, write_end = os.pipe()
@@ -142,8 +147,9 @@ def _remove_when_closed(read_end: int, folder: str) -> None:
     """The watcher of :func:`private_temp_folder` (in the forked process): wait until every write end
     of the pipe is closed, remove ``folder``, exit. Holds no other file of the command."""
     try:
-        for signum in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
-            signal.signal(signum, signal.SIG_IGN)
+        with contextlib.suppress(ValueError):  # forked by a thread other than the main one
+            for signum in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+                signal.signal(signum, signal.SIG_IGN)
         devnull = os.open(os.devnull, os.O_RDWR)
         for fd in (0, 1, 2):
             os.dup2(devnull, fd)
