@@ -67,7 +67,7 @@ def _with(text: str, old: str, new: str) -> str:
          "{path} line 4: robots[0] (T1): key 'speed' must be >= 0.01 and <= 50 m/s, got 90"),
         ("site.yaml", "yard: [[1, 2]]\nrobot_home: [[3, 4]]\nparking: [[0, 0]]\n",
          ["simulate", "generated:2x1x1", "--site", "{path}"],
-         "{path} line 3: unknown key 'parking' (allowed: construction_area, idle_robots, model_offset, robot_home, yard)"),
+         "{path} line 3: unknown key 'parking' (allowed: assembly_points_per_joint, construction_area, idle_robots, model_offset, robot_home, work_calendar, yard)"),
         ("site.yaml", "yard: [[1, 2]]\nconstruction_area: [[0, 0], [1e7, 1]]\n", ["simulate", "generated:2x1x1", "--site", "{path}"],
          "{path} line 2: key 'construction_area[1]' must be >= -1e+06 and <= 1e+06 m, got 1e+07"),
         ("caps.yaml", CAPABILITIES + "    colour: red\n", ["rcan", "capabilities", "--capabilities", "{path}"],
