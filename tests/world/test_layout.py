@@ -39,3 +39,19 @@ def test_rigid_removes_scale_and_round_off():
     matrix = np.diag([1.0000001, 0.9999999, 1.0, 1.0])
     np.testing.assert_allclose(rigid(matrix)[:3, :3], np.eye(3), atol=1e-12)
     assert pytest.approx(np.linalg.det(rigid(matrix)[:3, :3])) == 1.0
+
+
+def test_the_far_away_warning_names_the_yard_when_only_the_yard_is_far(tmp_path, capsys):
+    """A site whose yard lies 3 km out is the site's doing, not the model's: the warning says so."""
+    from bimrobot.bim.examples import steel_frame
+    from bimrobot.cli import main
+
+    frame = steel_frame(tmp_path / "frame.ifc")
+    site = tmp_path / "far.yaml"
+    site.write_text("yard: [[3000, 0], [3000, 2]]\n")
+    assert main(["convert", str(frame), "-o", str(tmp_path / "pkg"), "--layout", "yard", "--site", str(site),
+                 "--no-progress", "--no-maps", "--no-preview"]) == 0
+    printed = capsys.readouterr()
+    text = printed.out + printed.err
+    assert "the yard lies up to 3003 m from the world origin" in text and "the building stands within 4 m" in text
+    assert "the model lies" not in text

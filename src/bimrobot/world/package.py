@@ -695,11 +695,20 @@ def _warnings(converted: list[_Converted], options: ConvertOptions, ground_z: fl
             f"{printable(item.element.name)!r} ({item.element.global_id}): {reason}; their masses are as the model "
             "says (report.json: weight_suspect; correct the model's weights, or --exclude them)"
         )
+    # say what is far out: the building itself (its IFC coordinates), or only the yard the site puts it on
+    installed = max(float(np.abs(item.element.world_bounds).max()) for item in converted)
     distance = float(np.abs(extent).max())
-    if distance > FAR_FROM_ORIGIN_M:
+    if installed > FAR_FROM_ORIGIN_M:
         warnings.append(
-            f"the model lies up to {distance:.0f} m from the world origin; Gazebo's single-precision meshes and "
+            f"the model lies up to {installed:.0f} m from the world origin; Gazebo's single-precision meshes and "
             "physics lose accuracy that far out: move the IFC project origin near the building"
+        )
+    elif distance > FAR_FROM_ORIGIN_M:
+        source = options.site.source if options.site is not None else "the site"
+        warnings.append(
+            f"the yard lies up to {distance:.0f} m from the world origin while the building stands within "
+            f"{installed:.0f} m of it; Gazebo's single-precision meshes and physics lose accuracy that far out: "
+            f"give a --site whose yard is near the building ({source})"
         )
     return warnings
 
