@@ -18,7 +18,7 @@ ACTIVITY_COLOURS = {"transport": (76, 114, 176), "position": (221, 132, 82), "as
 OTHER_COLOUR = (120, 120, 120)
 #: Half height of a bar (row units) and the width of the robot-name column left of x = 0.
 BAR_HALF_HEIGHT = 0.35
-NAME_COLUMN = 4.0
+NAME_COLUMN = 6.0
 #: Most positions of the time cursor (it is drawn at each activity start and finish, thinned to this).
 MAX_CURSOR_STEPS = 2000
 
@@ -31,7 +31,7 @@ def chart_width(rows: int) -> float:
 def bounds(record: BuildRecord) -> tuple[list[float], list[float]]:
     """(x range, y range) of the whole chart, names column and time labels included (chart units)."""
     rows = max(len(record.robots), 1)
-    return [-NAME_COLUMN - 0.2, chart_width(rows) + 0.5], [-1.2, rows + 0.2]
+    return [-NAME_COLUMN - 0.2, chart_width(rows) + 0.5], [-1.6, rows + 0.2]
 
 
 def time_label(seconds: float) -> str:
@@ -54,9 +54,10 @@ def log_gantt(rec, record: BuildRecord) -> int:
     bars = 0
     for row, name in enumerate(robots):
         mine = [r for r in record.schedule if r["Robot"] == name]
-        rec.log(entity("gantt", "names", name), rr.Boxes2D(
-            mins=[[-NAME_COLUMN, row - BAR_HALF_HEIGHT]], sizes=[[NAME_COLUMN - 0.2, 2 * BAR_HALF_HEIGHT]],
-            colors=[(235, 235, 235)], labels=[name], show_labels=True), static=True)
+        # a label is drawn below its point: the point a little above the row's middle
+        rec.log(entity("gantt", "names", name), rr.Points2D(
+            [[-0.55 * NAME_COLUMN, row - 0.3]], radii=[0.01], colors=[(255, 255, 255)], labels=[name],
+            show_labels=True), static=True)
         if not mine:
             continue
         starts = np.array([r["Start"] for r in mine]) * scale
@@ -70,7 +71,7 @@ def log_gantt(rec, record: BuildRecord) -> int:
         bars += len(mine)
     ticks = np.linspace(0.0, end, 5)
     rec.log(entity("gantt", "axis"), rr.Points2D(
-        [[t * scale, -0.8] for t in ticks], radii=[0.05], colors=[(90, 90, 90)],
+        [[t * scale, -1.4] for t in ticks], radii=[0.05], colors=[(90, 90, 90)],
         labels=[time_label(t) for t in ticks], show_labels=True), static=True)
     times = cursor_times(record)
     strips = [[[t * scale, -0.6], [t * scale, len(robots) - 0.4]] for t in times]

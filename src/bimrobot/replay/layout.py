@@ -1,7 +1,7 @@
 """The replay's blueprint: what the viewer shows when a recording opens (Rerun's ``rerun.blueprint``).
 
-- the 3D view, left, looks at the building (not the whole site) from the south-east and above, at a
-  distance at which the whole building fits the view (:func:`building_eye`);
+- the 3D view, left, looks at the building (not the whole site) from the south-east and above, as
+  close as lets the whole building fit the view (:func:`building_eye`);
 - on the right one set of panels per timeline the recording has, as tabs: the schedule's
   (``sim_time``: the Gantt of bars, components per state, the activities) and RCAN's (``rcan_time``
   and ``physics_time``: RCAN's Gantt, activities done, RCAN's activities); the tab of the timeline
@@ -19,8 +19,8 @@ from bimrobot.replay.inputs import BuildRecord
 #: field of view the distance is chosen for (degrees; Rerun's default eye).
 EYE_DIRECTION = np.array([0.55, -0.7, 0.45])
 FIELD_OF_VIEW_DEG = 55.0
-#: Margin around the building in the view (1.0: its bounding sphere touches the view's edges).
-MARGIN = 1.15
+#: Share of the half field of view the building's farthest corner may take (1.0: at the view's edge).
+FILL = 0.8
 SCHEDULE_TAB = "Schedule (sim_time)"
 RCAN_TAB = "RCAN (rcan_time, physics_time)"
 
@@ -67,8 +67,9 @@ def _schedule_panels(record: BuildRecord | None):
     return rrb.Vertical(
         rrb.Spatial2DView(name="Gantt: robots' activities (hover a bar)", origin="/gantt", visual_bounds=bounds,
                           background=[255, 255, 255]),
-        rrb.TimeSeriesView(name="Components per state", origin="/progress", axis_x=axis,
-                           plot_legend=rrb.PlotLegend(corner=rrb.Corner2D.LeftBottom)),
+        # no legend over the lines: the colours are the 3D view's state colours; hover a line for its state
+        rrb.TimeSeriesView(name="Components per state (colours as in 3D; hover a line)", origin="/progress",
+                           axis_x=axis, plot_legend=rrb.PlotLegend(visible=False)),
         rrb.TextLogView(name="Activities", origin="/events"),
         name=SCHEDULE_TAB,
     )
@@ -92,16 +93,28 @@ def building_bounds(record: BuildRecord) -> tuple[np.ndarray, np.ndarray]:
 
 
 def building_eye(record: BuildRecord):
-    """The 3D eye framing the building: looking at its centre from :data:`EYE_DIRECTION`, at a distance
-    at which its bounding sphere (times :data:`MARGIN`) fits the field of view; z up."""
+    """The 3D eye framing the building: looking at its centre from :data:`EYE_DIRECTION`, as close as
+    lets every corner of its bounding box lie within :data:`FILL` of the half field of view; z up."""
     import rerun.blueprint as rrb
 
     low, high = building_bounds(record)
     centre = (low + high) / 2
-    radius = max(float(np.linalg.norm(high - low)) / 2, 0.5)
-    distance = MARGIN * radius / np.sin(np.radians(FIELD_OF_VIEW_DEG) / 2)
+    corners = np.array([[x, y, z] for x in (low[0], high[0]) for y in (low[1], high[1]) for z in (low[2], high[2])])
     direction = EYE_DIRECTION / np.linalg.norm(EYE_DIRECTION)
-    return rrb.EyeControls3D(position=centre + distance * direction, look_target=centre, eye_up=[0.0, 0.0, 1.0])
+    limit = FILL * np.radians(FIELD_OF_VIEW_DEG) / 2
+    near, far = 0.01, 100.0 * max(float(np.linalg.norm(high - low)), 1.0)
+    for _ in range(60):  # bisection: the corners' largest angle from the view axis falls with distance
+        distance = (near + far) / 2
+        near, far = (distance, far) if corner_angle(centre + distance * direction, centre, corners) > limit else (near, distance)
+    return rrb.EyeControls3D(position=centre + far * direction, look_target=centre, eye_up=[0.0, 0.0, 1.0])
+
+
+def corner_angle(eye: np.ndarray, target: np.ndarray, corners: np.ndarray) -> float:
+    """The largest angle (radians) between the view axis (eye -> target) and a ray to a corner."""
+    axis = (target - eye) / np.linalg.norm(target - eye)
+    rays = corners - eye
+    rays = rays / np.maximum(np.linalg.norm(rays, axis=1, keepdims=True), 1e-12)
+    return float(np.arccos(np.clip(rays @ axis, -1.0, 1.0)).max())
 
 
 def main_timeline(record: BuildRecord | None) -> str:

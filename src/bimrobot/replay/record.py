@@ -85,7 +85,7 @@ class _Clock:
 #: many, so that a model of thousands of elements opens in the web viewer in seconds (docs/replay.md).
 MAX_TRIANGLES = 400
 #: The unbuilt work: translucent grey (RGBA), each element shrunk about its centre by this factor.
-GHOST_RGBA = (150, 150, 150, 70)
+GHOST_RGBA = (150, 150, 150, 100)
 GHOST_SHRINK = 0.99
 
 
