@@ -303,7 +303,7 @@ def test_a_beam_carried_low_over_its_props_place_is_installed_and_the_prop_appea
         backend._to_carry("positioner")
         prop_xy, prop_half = (2.85, 1.75), (0.09, 0.5)  # under the beam's middle third
         reach = np.linalg.norm(site.tcp_pose("positioner")[:2, 3] - site.base_xy_yaw("positioner")[:2])
-        way = site.plan_poses("positioner", (2.85 - reach, 1.75), 0.0, seconds=5.0)  # the beam over the prop's place
+        way = site.plan_poses("positioner", (2.85 - reach, 1.75), 0.0, iterations=250)  # the beam over the prop's place
         site.drive("positioner", way.end, path=way)
         assert site.arm_within("positioner", prop_xy, prop_half, 3.7)
         for activity in plan[5:]:

@@ -10,7 +10,8 @@ Two searches, both RRT-Connect followed by OMPL's path simplifier (run to its en
   as it is held while driving) counts, not a circle around it, so a robot holding a long member can
   get out of a tight spot by driving along its heading.
 
-Each returns ``None`` when it finds no path within its time budget (wall seconds).
+Each returns ``None`` when it finds no path within its budget of planner iterations (a count, never
+seconds: :data:`BASE_ITERATIONS`, :data:`ARM_ITERATIONS`).
 """
 
 from __future__ import annotations
@@ -21,6 +22,13 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 SEED = 20261124
+
+#: Iterations of RRT-Connect's loop a base path may take. One iteration extends both trees as far as
+#: they go, checking the whole robot every 2 cm of the way: 20 to 100 ms on the test machine, so 50 is
+#: about the 1 s wall-clock budget this replaced; the paths the tests find take 1 to 8.
+BASE_ITERATIONS = 50
+#: Iterations an arm's joint-space path may take (the replaced budget was 2 s).
+ARM_ITERATIONS = 100
 
 
 def _ompl():
@@ -45,13 +53,24 @@ def _seed() -> None:
     ou.setLogLevel(ou.LogLevel.LOG_ERROR)
 
 
-def _solve(setup, og, seconds: float) -> bool:
-    """RRT-Connect, stopped at its first exact solution (or after ``seconds``: then False), whose path
-    is then simplified as far as OMPL's simplifier goes: not for a time, as OMPL's default, so that
-    a run's paths do not depend on how busy the machine is (a replay reaches the same state)."""
+def _solve(setup, og, iterations: int) -> bool:
+    """RRT-Connect, stopped at its first exact solution or after ``iterations`` turns of its loop (then
+    False), whose path is then simplified as far as OMPL's simplifier goes. Both are bounded by counts,
+    not by time, and the generators are seeded (:func:`_seed`): a plan depends on its inputs only, not
+    on how busy the machine is (a planner with a wall-clock budget found a corridor's way out when run
+    alone and not under load), and a replay reaches the same state."""
+    import ompl.base as ob
+
     _seed()
     setup.setPlanner(og.RRTConnect(setup.getSpaceInformation()))
-    solved = setup.solve(seconds)
+    turns = 0
+
+    def spent() -> bool:
+        nonlocal turns
+        turns += 1
+        return turns > iterations
+
+    solved = setup.solve(ob.PlannerTerminationCondition(spent))
     if not solved or not setup.haveExactSolutionPath():
         return False
     setup.getPathSimplifier().simplifyMax(setup.getSolutionPath())
@@ -60,7 +79,7 @@ def _solve(setup, og, seconds: float) -> bool:
 
 def joint_path(valid: Callable[[np.ndarray], bool], start: Sequence[float], goal: Sequence[float],
                lower: Sequence[float], upper: Sequence[float], resolution_rad: float = 0.01,
-               seconds: float = 2.0) -> list[np.ndarray] | None:
+               iterations: int = ARM_ITERATIONS) -> list[np.ndarray] | None:
     """Joint vectors (rad) from ``start`` to ``goal`` (both included), every straight joint-space
     segment between them valid when checked every ``resolution_rad`` (the largest joint step
     between checks); ``lower``/``upper``: joint limits (rad)."""
@@ -79,7 +98,7 @@ def joint_path(valid: Callable[[np.ndarray], bool], start: Sequence[float], goal
     for i in range(n):
         a[i], b[i] = float(start[i]), float(goal[i])
     setup.setStartAndGoalStates(a, b)
-    if not _solve(setup, og, seconds):
+    if not _solve(setup, og, iterations):
         return None
     path = setup.getSolutionPath()
     return [np.array([path.getState(k)[i] for i in range(n)]) for k in range(path.getStateCount())]
@@ -87,7 +106,7 @@ def joint_path(valid: Callable[[np.ndarray], bool], start: Sequence[float], goal
 
 def base_path(valid: Callable[[float, float, float], bool], start: Sequence[float], goal: Sequence[float],
               lower_xy: Sequence[float], upper_xy: Sequence[float], turning_radius_m: float = 0.1,
-              resolution_m: float = 0.02, seconds: float = 2.0) -> list[np.ndarray] | None:
+              resolution_m: float = 0.02, iterations: int = BASE_ITERATIONS) -> list[np.ndarray] | None:
     """Poses (x, y, yaw; m, rad) from ``start`` to ``goal``, both (x, y, yaw), every ``resolution_m``
     of the way valid, on Reeds-Shepp curves of ``turning_radius_m`` within the box ``lower_xy`` -
     ``upper_xy``; densely sampled (about every 2 cm of travel) so that a controller can track it."""
@@ -110,7 +129,7 @@ def base_path(valid: Callable[[float, float, float], bool], start: Sequence[floa
         space.enforceBounds(state)
         ends.append(state)
     setup.setStartAndGoalStates(ends[0], ends[1])
-    if not _solve(setup, og, seconds):
+    if not _solve(setup, og, iterations):
         return None
     path = setup.getSolutionPath()
     path.interpolate(max(2, int(math.ceil(path.length() / 0.02)) + 1))

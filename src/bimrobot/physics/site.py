@@ -601,7 +601,7 @@ class MujocoSite:
         return r.q_ref.copy() if r.holding else self._stowed_posture(robot)
 
     def plan_poses(self, robot: str, goal_xy, goal_yaw: float | None = None, keep_out=(),
-                   seconds: float = 1.0) -> PosePath | None:
+                   iterations: int = planning.BASE_ITERATIONS) -> PosePath | None:
         """A path in the plane (OMPL, Reeds-Shepp curves: forward and backward, see
         :mod:`bimrobot.physics.planning`) to ``goal_xy`` heading ``goal_yaw`` (any of eight headings
         when None), checked on the MuJoCo scene with the robot's whole body as it drives (chassis and
@@ -610,8 +610,8 @@ class MujocoSite:
         to touch on the way). What it is nearer than that to at its start it may stay as near to,
         never nearer (it has just worked beside it). For where the
         grid planner, which lets the robot turn anywhere, finds no way: a robot holding a beam
-        between columns sweeps metres when it turns. None when no path is found in ``seconds`` per
-        heading (wall time)."""
+        between columns sweeps metres when it turns. None when no path is found within ``iterations``
+        of the planner per heading (a count, not a time: the same answer on a busy machine)."""
         x, y, yaw = self.base_xy_yaw(robot)
         start = np.array([x, y, yaw])
         valid = self._pose_check(robot, start)
@@ -628,7 +628,7 @@ class MujocoSite:
             goal = np.array([*goal_xy, heading])
             if not valid(*goal) or not self._footprint_clear(robot, goal[:2], heading, keep_out):
                 continue
-            poses = planning.base_path(valid, start, goal, lower, upper, TURNING_RADIUS_M, resolution, seconds)
+            poses = planning.base_path(valid, start, goal, lower, upper, TURNING_RADIUS_M, resolution, iterations)
             if poses is not None:
                 return PosePath(poses)
         return None
@@ -1228,12 +1228,12 @@ class MujocoSite:
                     return seconds + self._move_arm(robot, q_goal, True, onto_seat)
         return self._move_arm(robot, q_goal, check_contacts, onto_seat)
 
-    def plan_arm(self, robot: str, q_goal: np.ndarray, seconds: float = 2.0) -> list[np.ndarray] | None:
+    def plan_arm(self, robot: str, q_goal: np.ndarray, iterations: int = planning.ARM_ITERATIONS) -> list[np.ndarray] | None:
         """Joint vectors (rad) from the arm's joints to ``q_goal`` along which the arm keeps 2 cm from
         everything, its links above the ground (OMPL's RRT-Connect in joint space, checked on
         positions every 0.01 rad; see :mod:`bimrobot.physics.planning`). What it is nearer than
-        that to at its start it may stay as near to, never nearer. None when none is found in
-        ``seconds``."""
+        that to at its start it may stay as near to, never nearer. None when none is found within
+        ``iterations`` of the planner (a count, not a time)."""
         r = self.robots[robot]
         start = r.q_ref.copy()
         scratch = self.scratch_state()
@@ -1254,7 +1254,7 @@ class MujocoSite:
         upper = np.where(limited, ranges[:, 1], np.maximum(start, q_goal) + 2 * math.pi)
         if not valid(np.asarray(q_goal, float)):
             return None
-        return planning.joint_path(valid, start, q_goal, lower, upper, resolution_rad=0.01, seconds=seconds)
+        return planning.joint_path(valid, start, q_goal, lower, upper, resolution_rad=0.01, iterations=iterations)
 
     def _path_contacts(self, robot: str, q_from: np.ndarray, q_to: np.ndarray, already: set) -> list[str]:
         """What the arm would newly touch on the straight joint-space path (24 samples, positions only)."""
