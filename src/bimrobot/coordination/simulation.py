@@ -899,13 +899,14 @@ class ConstructionSimulation:
         if all(node.state == State.ASSEMBLED for node in component.connection_nodes):
             component.state = State.ASSEMBLED
         self._note_state(component)
-        for node in component.connection_nodes:  # per node: the robot-built node it waited for
-            if node.id in self.attached_to:
-                self._maybe_publish_node_assembly(self.smart.nodes[self.attached_to[node.id]])
         supporters = self.smart.supporters[component.id]
+        # what put it in place, known before the work that waited for it is published (its predecessors)
         self.position_activity[component.id] = tuple(
             dict.fromkeys(a for s in supporters for a in self.position_activity.get(s, ()))
         )
+        for node in component.connection_nodes:  # per node: the robot-built node it waited for
+            if node.id in self.attached_to:
+                self._maybe_publish_node_assembly(self.smart.nodes[self.attached_to[node.id]])
         self._say(
             f"Component: {component.id} (prebuilt, work of others) is in place: what it rests on "
             f"({', '.join(supporters)}) has its position fixed"
