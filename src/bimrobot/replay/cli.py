@@ -29,9 +29,11 @@ def register(subparsers) -> None:
         "replay",
         help="4D replay of a simulated build in Rerun: the structure growing, robots, Gantt, states",
         description="Turn a `bimrobot build` output folder (or a `simulate` folder and a `convert --layout yard` "
-        "package) into a Rerun recording: every element a mesh named by its GlobalId, components travelling "
-        "from the yard with their transport robots into place, coloured by the thesis' states, robots labelled "
-        "with their activity, a per-robot Gantt and the number of components per state over time.",
+        "package) into a Rerun recording that opens framed on the building: every element a mesh named by storey, "
+        "class and name (its GlobalId a property), the work still to be built ghosted in grey, components "
+        "travelling from the yard with their transport robots into place, coloured by the thesis' states, a "
+        "per-robot Gantt of bars and the number of components per state over time. With --serve and an existing "
+        ".rrd, serve that recording as it is.",
         epilog=REPLAY_EXAMPLES,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )

@@ -111,14 +111,11 @@ def write_rrd(record: BuildRecord, rrd: Path, start: dt.datetime | None = None, 
     _log_properties(rec, record, paths)
     _log_ghost(rec, record)
     if record.schedule:  # a build: the simulated schedule on sim_time
-        from bimrobot.replay.gantt import log_gantt
-
         tracks = robot_tracks(record)
         poses = component_poses(record, tracks)
         _log_pieces(rec, clock, record, poses, paths)
         _log_robots(rec, clock, record, tracks)
         _log_nodes(rec, clock, record)
-        log_gantt(rec, record)
     summary = _log_progress(rec, clock, record)
     summary["simplified"] = simplified
     if record.rcan is not None:  # what RCAN executed, and the physics bodies, on their own clocks
@@ -129,6 +126,10 @@ def write_rrd(record: BuildRecord, rrd: Path, start: dt.datetime | None = None, 
         summary["rcan_done"] = len(record.rcan.done)
         if record.rcan.bodies:
             summary.update(log_physics(rec, record, record.rcan))
+    if record.schedule:  # last: its time cursor reaches the end of the build, so the viewer's timeline
+        from bimrobot.replay.gantt import log_gantt  # ends there only once everything before is in
+
+        log_gantt(rec, record)
     rec.flush()
     rec.disconnect()
     return summary
