@@ -131,7 +131,6 @@ def id_problem(text: str, *, spaces: bool) -> str | None:
     return None
 
 
-
 @dataclass(frozen=True)
 class Activity:
     """One construction activity.
