@@ -217,11 +217,12 @@ def _inputs(args) -> list[str]:
     return files
 
 
-def _prepare(args):
+def _prepare(args, kind: str):
     """Check the output path, read fleet, site and model, apply the unknown-weight rule.
 
     Returns (model, elevations, fleet, site, unknown-weight report, a function building a fresh
-    SmartModel). Everything a user can get wrong is refused here, before the long work starts.
+    SmartModel). Everything a user can get wrong is refused here, before the long work starts, an output
+    folder another kind of command wrote included (``kind``: ``simulate`` or ``allocators``).
     """
     from bimrobot.bim.unknown_weight import apply_unknown_weight_rule
     from bimrobot.coordination.fleet import load_fleet, load_site
@@ -229,7 +230,7 @@ def _prepare(args):
     from bimrobot.sco.build import build_smart_model, prebuilt_rule
     from bimrobot.site import site_for
 
-    check_output(args.output, folder=True, inputs=_inputs(args))
+    check_output(args.output, folder=True, inputs=_inputs(args), kind=kind)  # an output of another kind: refused now
     fleet = load_fleet(args.fleet)
     site = load_site(args.site)
     names = {r.name for r in fleet.robots}
@@ -259,7 +260,7 @@ def run_simulate(args) -> int:
         return run_thesis(args)
     if args.step_time is not None:
         raise InputError("--step-time applies to --mode thesis only (the event mode times every task as it happens)")
-    model, elevations, fleet, site, weights, smart_model = _prepare(args)
+    model, elevations, fleet, site, weights, smart_model = _prepare(args, "simulate")
     smart = smart_model()
     to_build = sum(1 for c in smart.components.values() if not c.prebuilt)
     with tqdm(total=to_build, desc="components assembled", unit="", disable=True if args.no_progress else None, leave=False) as bar:
@@ -307,7 +308,7 @@ def run_thesis(args) -> int:
     if args.evaluator != "least-cost":
         raise InputError(f"--mode thesis awards to the lowest bid (least-cost) only, got --evaluator {args.evaluator}")
     step_time = args.step_time or DEFAULT_STEP_TIME
-    model, elevations, fleet, site, weights, smart_model = _prepare(args)
+    model, elevations, fleet, site, weights, smart_model = _prepare(args, "simulate")
     smart = smart_model()
     result = simulate_thesis(smart, fleet, site, step_time, elevations)
     with atomic_output_dir(args.output, kind="simulate", inputs=_inputs(args)) as tmp:
@@ -330,7 +331,7 @@ def run_allocators(args) -> int:
     from bimrobot.coordination.compare import compare_allocators, format_markdown, write_outputs
     from bimrobot.io import atomic_output_dir
 
-    model, elevations, fleet, site, weights, smart_model = _prepare(args)
+    model, elevations, fleet, site, weights, smart_model = _prepare(args, "allocators")
     message = weights.message()
     if message:
         print(message)

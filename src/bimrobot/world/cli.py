@@ -114,7 +114,7 @@ def convert_command(args: argparse.Namespace) -> int:
 
     from bimrobot.site import load_site
 
-    io.check_output(args.output, folder=True, inputs=[args.ifc, args.site])  # before the long read and conversion
+    io.check_output(args.output, folder=True, inputs=[args.ifc, args.site], kind="convert")  # before the long read and conversion
     if args.target == "mujoco":  # the MJCF scene needs the physics extra: say so before the geometry work
         for module in ("mujoco", "coacd"):
             require_extra(module, "physics")
