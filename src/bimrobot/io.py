@@ -137,7 +137,7 @@ def describe_folder(folder: Path) -> str:
         return "bimrobot output"
 
 
-def _digest(path: Path) -> str:
+def file_digest(path: Path) -> str:
     """SHA-256 of a file's bytes (hex), read in 1 MiB blocks."""
     sha = hashlib.sha256()
     with open(path, "rb") as stream:
@@ -164,7 +164,7 @@ def manifest(folder: Path) -> dict[str, dict]:
             elif path.is_dir():
                 entries[key] = {"dir": True}
             else:
-                entries[key] = {"size": path.stat().st_size, "sha256": _digest(path)}
+                entries[key] = {"size": path.stat().st_size, "sha256": file_digest(path)}
     return entries
 
 
@@ -200,7 +200,7 @@ def _matches(path: Path, want: dict) -> bool:
     if path.is_dir():
         return want.get("dir") is True
     try:
-        return path.stat().st_size == want.get("size") and _digest(path) == want.get("sha256")
+        return path.stat().st_size == want.get("size") and file_digest(path) == want.get("sha256")
     except OSError:
         return False
 

@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import hashlib
 import json
 import shlex
 import sys
@@ -223,12 +222,7 @@ def _inputs(args) -> list[Path]:
 
 def _fingerprint(args) -> dict:
     """What makes two builds the same: the options and the inputs' contents (SHA-256)."""
-    def digest(path: Path) -> str:
-        hasher = hashlib.sha256()
-        with open(path, "rb") as stream:
-            for block in iter(lambda: stream.read(1 << 20), b""):
-                hasher.update(block)
-        return hasher.hexdigest()
+    from bimrobot.io import file_digest as digest
 
     options = {key: str(getattr(args, key)) for key in
                ("fleet", "site", "prebuilt", "by_element", "include", "exclude", "unknown_weight_text", "start",
