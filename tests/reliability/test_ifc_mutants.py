@@ -160,20 +160,44 @@ def test_mutated_ifc_files_give_exit_status_0_or_2_and_no_traceback():
     assert not failures, f"{len(failures)} of {trials} mutants failed:\n" + "\n".join(failures[:20])
 
 
-def test_a_placement_at_1e20_is_refused_in_one_sentence(tmp_path):
-    # issue 35: the occupancy map was sized from it (OverflowError after the "far from origin" warning)
+def _one_wall_moved(tmp_path, x: str) -> Path:
+    """construction-scheduling-task.ifc with wall #1's placement ``x`` inches along x (skips when absent)."""
     source = SHARED_IFC / "construction-scheduling-task.ifc"
     if not source.exists():
         pytest.skip(f"{source} is absent: the shared test data lives beside the repository, not in it")
     text = source.read_text(encoding="latin-1")
-    far = tmp_path / "far.ifc"  # wall #1's placement 1e20 inches (2.54e18 m) along x, the rest where it was
-    far.write_text(text.replace("#359= IFCCARTESIANPOINT((0.,0.,6.));", "#359= IFCCARTESIANPOINT((1.E20,0.,6.));"),
-                   encoding="latin-1")
-    assert far.read_text(encoding="latin-1") != text
-    status, stderr = _convert(far, tmp_path / "pkg")
+    moved = text.replace("#359= IFCCARTESIANPOINT((0.,0.,6.));", f"#359= IFCCARTESIANPOINT(({x},0.,6.));")
+    assert moved != text
+    path = tmp_path / "moved.ifc"
+    path.write_text(moved, encoding="latin-1")
+    return path
+
+
+@pytest.mark.parametrize("x, sentence", [
+    # issue 35: the occupancy map was sized from it (OverflowError after the "far from origin" warning)
+    ("1.E20", "IfcWall 'Wall #1' (26tmERtwL8G8UQn5BoglEh) lies 2.54e+18 m from the origin, farther than the 2e+07 m"),
+    # 10 km away: on Earth, but no site is that large (the site layout and maps would be sized from it)
+    ("4.E5", "the elements span 1.02e+04 m, more than the 10000 m a site may: IfcWall 'Wall #1' (26tmERtwL8G8UQn5BoglEh) lies farthest"),
+])
+def test_an_element_placed_absurdly_far_is_refused_in_one_sentence(tmp_path, x, sentence):
+    path = _one_wall_moved(tmp_path, x)
+    status, stderr = _convert(path, tmp_path / "pkg")
     assert status == 2, stderr
     line = stderr.strip().splitlines()[-1]
-    assert line.startswith("bimrobot convert: error: the occupancy maps would be 5.08e+19 x 141 cells")
-    assert "2.54e+18 m" in line and "--no-maps" in line and "Traceback" not in stderr
-    assert not (tmp_path / "pkg").exists()
+    assert line.startswith(f"bimrobot convert: error: {path}: {sentence}"), line
+    assert "Traceback" not in stderr and not (tmp_path / "pkg").exists()
+    tally("ifc mutants")
+
+
+def test_an_occupancy_map_too_large_to_draw_is_refused_in_one_sentence():
+    # the maps' own guard, for extents the reader lets through (a 10 km site at 5 cm: 4e10 cells)
+    from bimrobot.errors import InputError
+    from bimrobot.world.navmap import grid_frame
+
+    with pytest.raises(InputError, match=r"the occupancy maps would be 2e\+05 x 2e\+05 cells \(x 0 \.\. 10000 m, "
+                                         r"y 0 \.\. 10000 m plus 1 m around it, at 0\.05 m per cell\), more than the 1e\+08"):
+        grid_frame([[0.0, 0.0], [10_000.0, 10_000.0]], 1.0, 0.05)
+    with pytest.raises(InputError, match="not finite"):
+        grid_frame([[0.0, 0.0], [float("inf"), 1.0]], 1.0, 0.05)
+    assert grid_frame([[0.0, 0.0], [10.0, 5.0]], 1.0, 0.05) == ((-1.0, -1.0), (140, 240))
     tally("ifc mutants")

@@ -117,6 +117,7 @@ def load_model(
 
     order = {product_key(p, keys): i for i, p in enumerate(candidates)}
     elements = dict(sorted(elements.items(), key=lambda item: order[item[0]]))
+    check_plausible_geometry(elements, _shown(path))
     model = BuildingModel(
         source=path,
         schema=ifc.schema_identifier,
@@ -135,6 +136,60 @@ def load_model(
         assemblies=_assemblies(ifc, elements, storey_cache, keys),
     )
     return _finish(model, ifc, keys, prebuilt, unknown_weight)
+
+
+MAX_ELEMENT_SIZE_M = 10_000.0
+"""The largest an element may be across (metres): a body larger than this comes from a broken profile,
+extrusion depth or unit (issue 35: a profile point at 1e20 made an element 2.5e18 m long)."""
+MAX_SITE_SIZE_M = 10_000.0
+"""The largest the elements together may span (metres): beyond it an element is misplaced."""
+MAX_DISTANCE_M = 2.0e7
+"""The farthest an element may lie from the origin (metres): half the Earth's circumference, beyond any
+projected coordinate system."""
+
+
+def check_plausible_geometry(elements: dict[str, Element], shown: str) -> None:
+    """InputError, in one sentence naming the element, when an element's world geometry is not finite,
+    larger than :data:`MAX_ELEMENT_SIZE_M`, farther than :data:`MAX_DISTANCE_M` from the origin, or when
+    the elements span more than :data:`MAX_SITE_SIZE_M` (naming the one farthest from the others).
+    Everything downstream (site layout, maps, meshes, physics) sizes its work from these numbers."""
+    centres, keys = [], []
+    for key, element in elements.items():
+        local = np.array([element.vertices.min(axis=0), element.vertices.max(axis=0)]) if len(element.vertices) else np.zeros((2, 3))
+        with np.errstate(over="ignore", invalid="ignore"):
+            corners = np.array([[x, y, z] for x in local[:, 0] for y in local[:, 1] for z in local[:, 2]])
+            world = corners @ element.placement[:3, :3].T + element.placement[:3, 3]
+            size = float(np.max(world.max(axis=0) - world.min(axis=0)))
+        what = f"{shown}: {element.ifc_class} {printable_name(element)} ({key})"
+        if not (np.isfinite(world).all() and np.isfinite(size)):
+            raise InputError(f"{what} has coordinates that are not finite numbers (a value overflows): check its geometry and placement")
+        if size > MAX_ELEMENT_SIZE_M:
+            raise InputError(f"{what} is {size:.3g} m across, more than the {MAX_ELEMENT_SIZE_M:g} m an element may be: "
+                             "check its profile, extrusion and the file's length unit, or --exclude it")
+        distance = float(np.abs(world).max())
+        if distance > MAX_DISTANCE_M:
+            raise InputError(f"{what} lies {distance:.3g} m from the origin, farther than the {MAX_DISTANCE_M:g} m any "
+                             "place on Earth may: check its placement and the file's length unit, or --exclude it")
+        centres.append(world.mean(axis=0))
+        keys.append(key)
+    if len(centres) > 1:
+        centres = np.array(centres)
+        span = float(np.max(centres.max(axis=0) - centres.min(axis=0)))
+        if span > MAX_SITE_SIZE_M:
+            stray = keys[int(np.argmax(np.abs(centres - np.median(centres, axis=0)).max(axis=1)))]
+            element = elements[stray]
+            raise InputError(
+                f"{shown}: the elements span {span:.3g} m, more than the {MAX_SITE_SIZE_M:g} m a site may: "
+                f"{element.ifc_class} {printable_name(element)} ({stray}) lies farthest from the others; check its "
+                "placement, or --exclude it"
+            )
+
+
+def printable_name(element: Element) -> str:
+    """The element's name, quoted, with control characters escaped (or 'unnamed')."""
+    from bimrobot.io import printable
+
+    return repr(printable(element.name)) if element.name else "(unnamed)"
 
 
 MIN_PRODUCTS_TO_SHARE = 32
