@@ -104,7 +104,7 @@ def register(subparsers) -> None:
 
 def _output(parser: argparse.ArgumentParser, default, help: str) -> None:
     """``-o/--output`` as every bimrobot command takes it; ``--out``, the old spelling, still works (hidden)."""
-    parser.add_argument("-o", "--output", dest="out", default=default, help=help)
+    parser.add_argument("-o", "--output", dest="out", default=default, metavar="PATH", help=help)
     parser.add_argument("--out", dest="out", default=default, help=argparse.SUPPRESS)
 
 
