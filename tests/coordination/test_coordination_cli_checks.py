@@ -90,7 +90,7 @@ def test_a_folder_bimrobot_wrote_is_replaced_and_the_schedule_still_loads(projec
         (["--breakdown", "AssemblyRobot31@inf"], "the breakdown time must be >= 0 and <= 1e+09 s, got 'inf'"),
         (["--breakdown", "AssemblyRobot31@60+0"], "the repair time must be > 0 and <= 1e+09 s, got '0'"),
         (["--breakdown", "AssemblyRobot31@60+-5"], "the repair time must be > 0 and <= 1e+09 s, got '-5'"),
-        (["--unknown-weight", "-2400"], "argument --unknown-weight: expected 'refuse' or a density in kg/m3"),
+        (["--unknown-weight", "-2400"], "argument --unknown-weight: expected 'auto', 'refuse' or a density in kg/m3"),
     ],
 )
 def test_impossible_simulate_options_are_refused(tmp_path, capsys, argv, message):

@@ -76,6 +76,7 @@ def test_simulate_cli_writes_every_output(tmp_path, capsys):
     assert "makespan" in printed and "AssemblyRobot31" in printed
     assert {p.name for p in out.iterdir()} == {
         "events.log", "events.jsonl", "robots.csv", "robots.txt", "summary.json", "states.json", "schedule.csv", "gantt.png",
+        "site.yaml",  # the site the run used, placed on the building: --site of any later command
         "requests.csv", ".bimrobot-output.json",  # the marker that lets a later run replace the folder
     }
     summary = json.loads((out / "summary.json").read_text())
