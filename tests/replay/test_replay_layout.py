@@ -138,3 +138,26 @@ def test_large_meshes_are_simplified_within_their_bounds():
     assert np.allclose(small.reshape(-1, 3).min(axis=0), triangles.reshape(-1, 3).min(axis=0), atol=0.05)
     assert np.allclose(small.reshape(-1, 3).max(axis=0), triangles.reshape(-1, 3).max(axis=0), atol=0.05)
     assert simplify(triangles[:100], 400) is not None and len(simplify(triangles[:100], 400)) == 100
+
+
+def test_a_unit_that_skips_position_fixed_ends_at_its_installed_place():
+    """A precast unit's history can go from WorkingInPositioning straight to Assembled (no PositionFixed):
+    its pieces still end at their installed poses (found on MULTICOM-trappen_bordessen, where 50 of 150
+    pieces stayed where they had been set down)."""
+    from bimrobot.replay.inputs import BuildRecord, Piece, Robot
+    from bimrobot.replay.motion import component_poses, robot_tracks
+
+    cube = np.array([[[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 0, 1], [1, 0, 1], [0, 1, 1]]], dtype=float)
+    installed, yard = np.eye(4), np.eye(4)
+    installed[:3, 3], yard[:3, 3] = (5.0, 5.0, 3.0), (-5.0, 0.0, 0.0)
+    piece = Piece("P", "IfcSlab", "landing", None, cube, np.ones(4), yard, installed)
+    schedule = [{"Identification": "A1", "Name": "Transport U", "Activity": "transport", "GlobalId": "U",
+                 "Robot": "T", "Start": 0.0, "Finish": 10.0, "TargetX": 5.0, "TargetY": 5.0, "TargetZ": 0.0},
+                {"Identification": "A2", "Name": "Position U", "Activity": "position", "GlobalId": "U",
+                 "Robot": "T", "Start": 10.0, "Finish": 20.0, "TargetX": 5.0, "TargetY": 5.0, "TargetZ": 3.0}]
+    states = {"U": [(0.0, "OnYard"), (1.0, "InTransit"), (10.0, "Arrived"), (12.0, "WorkingInPositioning"),
+                    (20.0, "Assembled")]}
+    record = BuildRecord("t", {"P": piece}, {"U": ["P"]}, states, schedule,
+                         {"T": Robot("T", "transport", np.zeros(2), 1.0)}, {})
+    t, pose = component_poses(record, robot_tracks(record))["P"][-1]
+    assert t == 20.0 and np.allclose(pose, installed)

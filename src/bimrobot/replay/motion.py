@@ -186,7 +186,9 @@ def component_poses(record: BuildRecord, tracks: dict[str, RobotTrack]) -> dict[
         else:
             down = None
         lift = first_time(record, component, "WorkingInPositioning")
-        fixed = first_time(record, component, "PositionFixed")
+        # in place from PositionFixed, or from the first later state when the history skips it
+        # (a precast unit goes from WorkingInPositioning straight to Assembled)
+        fixed = next((t for t, s in history if STATE_INDEX[s] >= STATE_INDEX["PositionFixed"]), None)
         installed = {g: record.pieces[g].installed_pose for g in gids}
         if lift is not None and fixed is not None and down is not None:
             for t in sample_times(lift, fixed):
