@@ -52,6 +52,39 @@ _SI_PREFIX = {
 }  # fmt: skip
 
 
+_WRONG_TYPE = re.compile(r"entity instance of type '([^']*)' has no attribute '([^']*)'")
+
+
+def _refused_wrong_type(shown: str, exc: AttributeError, product=None) -> InputError:
+    """The InputError for IfcOpenShell's AttributeError on an entity of the wrong type (a reference of
+    a malformed file: IfcOpenShell does not check the types of references), naming the file and, where
+    known, the product whose data holds it."""
+    found = _WRONG_TYPE.search(str(exc))
+    where = f"{product.is_a()} #{product.id()}" if product is not None else "an entity"
+    return InputError(
+        f"{shown}: {where} refers to an {found.group(1).split('.')[-1]} where an entity with '{found.group(2)}' "
+        "belongs (a reference of the wrong type: the file is malformed; validate it, or --exclude that product)"
+    )
+
+
+def _names_wrong_types(function):
+    """Decorator of :func:`load_model`: IfcOpenShell's AttributeError on a reference of the wrong type,
+    wherever it comes from, becomes an InputError naming the file."""
+    import functools
+
+    @functools.wraps(function)
+    def reading(path, *args, **kwargs):
+        try:
+            return function(path, *args, **kwargs)
+        except AttributeError as exc:
+            if not _WRONG_TYPE.search(str(exc)):
+                raise
+            raise _refused_wrong_type(_shown(path), exc) from None
+
+    return reading
+
+
+@_names_wrong_types
 def load_model(
     path: str | os.PathLike,
     include: Iterable[str] | str | None = None,
@@ -261,8 +294,13 @@ class _ShareReader:
                 continue
             placement = np.asarray(ifcopenshell.util.shape.get_shape_matrix(shape), dtype=np.float64)
             volume = _lazy_volume(volumes, geometry_id, vertices, faces)
-            element = _element(product, placement, vertices, faces, volume, self.mass_scale,
-                               (found.storeys, type_cache, self.materials), self.properties)
+            try:
+                element = _element(product, placement, vertices, faces, volume, self.mass_scale,
+                                   (found.storeys, type_cache, self.materials), self.properties)
+            except AttributeError as exc:  # a reference of the wrong type in the product's data
+                if not _WRONG_TYPE.search(str(exc)):
+                    raise
+                raise _refused_wrong_type(self.shown, exc, product) from None
             element.global_id = product_key(product, self.keys)
             found.elements[element.global_id] = element
             found.geometry_ids[element.global_id] = geometry_id
