@@ -44,14 +44,21 @@ def _refused(capsys, argv: list[str], message: str, folder: Path) -> None:
 # ------------------------------------------------------------------------------------------ rl train -o
 
 
-def test_train_refuses_a_run_dir_that_is_not_bimrobots(workspace, capsys):
-    """-o is the parent folder; the run dir <parent>/E1S1-ppo-s0 follows the policy."""
+def test_train_never_touches_a_run_dir_that_is_not_bimrobots(workspace, capsys):
+    """-o is the parent folder; a folder (or link) of the run's name that is not bimrobot's is kept as it is
+    and the run is written beside it (E1S1-ppo-s0-2); a file as the parent is refused."""
     (workspace / "runs" / "E1S1-ppo-s0").mkdir(parents=True)
     (workspace / "runs" / "E1S1-ppo-s0" / "my.txt").write_text("mine\n")
-    _refused(capsys, TRAIN + ["-o", "runs"], "-o runs/E1S1-ppo-s0 is a folder that bimrobot did not write", workspace)
+    assert main(TRAIN + ["-o", "runs"]) == 0
+    assert (workspace / "runs" / "E1S1-ppo-s0" / "my.txt").read_text() == "mine\n"
+    assert sorted(p.name for p in (workspace / "runs" / "E1S1-ppo-s0").iterdir()) == ["my.txt"]
+    assert json.loads((workspace / "runs" / "E1S1-ppo-s0-2" / MARKER).read_text())["kind"] == "rl train run"
     (workspace / "linked").mkdir()
     (workspace / "linked" / "E1S1-ppo-s0").symlink_to(workspace / "mine", target_is_directory=True)
-    _refused(capsys, TRAIN + ["-o", "linked"], "-o linked/E1S1-ppo-s0 is a folder that bimrobot did not write", workspace)
+    before = snapshot(workspace / "mine")
+    assert main(TRAIN + ["-o", "linked"]) == 0
+    assert snapshot(workspace / "mine") == before and (workspace / "linked" / "E1S1-ppo-s0-2").is_dir()
+    capsys.readouterr()
     _refused(capsys, TRAIN + ["-o", "photo.png"], "photo.png is a file, not a folder, so nothing can be written under it",
              workspace)
     _refused(capsys, TRAIN + ["-o", "photo.png/runs"], "photo.png is a file, not a folder", workspace)
@@ -83,7 +90,7 @@ def test_bad_training_options_are_one_sentence_and_write_nothing(workspace, caps
 
 
 @pytest.mark.slow
-def test_train_into_the_current_directory_writes_only_its_run_dir_and_replaces_it_saying_so(workspace, capsys):
+def test_train_into_the_current_directory_writes_only_its_run_dirs_and_keeps_the_earlier_run(workspace, capsys):
     before = snapshot(workspace)
     assert main(TRAIN + ["-o", "."]) == 0
     run = workspace / "E1S1-ppo-s0"
@@ -92,8 +99,9 @@ def test_train_into_the_current_directory_writes_only_its_run_dir_and_replaces_i
     stamp = (run / "model.zip").stat().st_mtime_ns
     capsys.readouterr()
     assert main(TRAIN + ["-o", "."]) == 0
-    assert "bimrobot: replacing E1S1-ppo-s0 (rl train run output of no input file, written " in capsys.readouterr().err
-    assert (run / "model.zip").stat().st_mtime_ns != stamp
+    assert "E1S1-ppo-s0 holds an earlier run of this setting, algorithm and seed: kept" in capsys.readouterr().out
+    assert (run / "model.zip").stat().st_mtime_ns == stamp  # the earlier run is kept as it was
+    assert json.loads((workspace / "E1S1-ppo-s0-2" / MARKER).read_text())["kind"] == "rl train run"
     assert {k: v for k, v in snapshot(workspace).items() if not k.startswith("E1S1-ppo-s0")} == before
 
 

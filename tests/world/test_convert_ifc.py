@@ -190,13 +190,16 @@ def test_cli_refuses_the_folder_holding_the_input_before_reading_it(tmp_path, cl
 def test_cli_replaces_its_own_package_and_says_so(tmp_path, cli):
     examples.greenhouse(tmp_path / "gh.ifc")
     assert cli("convert", "gh.ifc", "-o", "pkg", "--no-maps", cwd=tmp_path)[0] == 0
-    (tmp_path / "pkg" / "stale.txt").write_text("from the last run")
+    (tmp_path / "pkg" / "notes.txt").write_text("the user's own")
+    status, _, err = cli("convert", "gh.ifc", "-o", "pkg", "--no-maps", "--include", "IfcColumn", cwd=tmp_path)
+    assert status == 2 and "notes.txt" in err  # a file added since is the user's: the folder is not replaced
+    assert (tmp_path / "pkg" / "notes.txt").read_text() == "the user's own"
+    (tmp_path / "pkg" / "notes.txt").unlink()
     status, _, err = cli("convert", "gh.ifc", "-o", "pkg", "--no-maps", "--include", "IfcColumn", cwd=tmp_path)
     assert status == 0
     (line,) = err.strip().splitlines()
     assert line.startswith("bimrobot: replacing pkg (convert output of gh.ifc, written ")
     assert line.endswith("the new one is from gh.ifc")
-    assert not (tmp_path / "pkg" / "stale.txt").exists()
     assert len(list((tmp_path / "pkg" / "models").iterdir())) == 9
 
 
