@@ -349,6 +349,10 @@ class RcanSystem:
         for a in activities:
             for p in set(a.after) - set(a.predecessors):
                 self._soft_successors.setdefault(p, []).append(a.activity_id)
+        self._hard_successors: dict[str, list[str]] = {}
+        for a in activities:
+            for p in set(a.predecessors):
+                self._hard_successors.setdefault(p, []).append(a.activity_id)
         self._settled: set[str] = set()
         self._newly_settled = [r.activity_id for r in self._escalations]
         ready = {i for i, n in unmet.items() if n == 0 and i not in published}
@@ -401,17 +405,9 @@ class RcanSystem:
                 continue
             self._settled.add(activity_id)
             met += self._soft_successors.get(activity_id, ())
-            stack += [s for s in self._successors_of(activity_id) if s not in self._settled]
+            # what lists it as a predecessor cannot run once it failed
+            stack += [s for s in self._hard_successors.get(activity_id, ()) if s not in self._settled]
         return met
-
-    def _successors_of(self, activity_id: str) -> list[str]:
-        """The activities that list ``activity_id`` as a predecessor (they cannot run once it failed)."""
-        if not hasattr(self, "_hard_successors") or self._hard_successors_plan is not self._plan:
-            self._hard_successors, self._hard_successors_plan = {}, self._plan
-            for a in self._plan.values():
-                for p in set(a.predecessors):
-                    self._hard_successors.setdefault(p, []).append(a.activity_id)
-        return self._hard_successors.get(activity_id, [])
 
     def _check_plan(self, activities: list[RcanActivity]) -> None:
         ids = set(self._plan)
