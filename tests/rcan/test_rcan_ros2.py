@@ -164,7 +164,9 @@ def test_a_dead_robot_node_is_detected_and_its_activity_retried_on_another_robot
     assert retried[0] - kill_time[0] < 10.0  # detected and retried within 10 s of the kill
     print(f"\ndead robot node: detected {out_of_service[0] - kill_time[0]:.1f} s after the kill, "
           f"retried on crane_b after {retried[0] - kill_time[0]:.1f} s")
-    assert any("stopped answering" in line for _, line in lines)
+    # the node died either while driving (no heartbeat) or, on a loaded machine, before it took the goal
+    why = [line for _, line in lines if "robot crane_a is out of service" in line]
+    assert any("stopped answering" in line or "did not answer" in line for line in why), why
 
 
 def test_ctrl_c_stops_a_ros2_run_cleanly(ros2_robots, tmp_path):
