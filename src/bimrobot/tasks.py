@@ -20,11 +20,15 @@ assemble  NeedToAssemble     CONSTRUCTION   assembly          PositionFixed,    
 ``mobile_manipulator`` does all three); *ready states*: the states of the component or node in which
 the task can be given to a robot; *log word*: the noun of the chapter-4 log ("Publish positioning
 requirements to robot").
+
+One row of a schedule, whoever makes or reads it (the simulation, the schedule CSV and IFC work
+schedules of :mod:`bimrobot.lbd.schedule`, RCAN's plans), is an :class:`Activity`.
 """
 
 from __future__ import annotations
 
 import enum
+from dataclasses import dataclass
 
 from bimrobot.sco.states import Requirement, State
 
@@ -109,4 +113,52 @@ KIND_TASKS: dict[str, tuple[Task, ...]] = {
     "mobile_manipulator": TASKS,
 }
 
-__all__ = ["KIND_TASKS", "TASKS", "Task"]
+
+
+@dataclass(frozen=True)
+class Activity:
+    """One schedule row: a construction activity done by one robot.
+
+    ``id``: unique id (the CSV's Identification, the IfcTask's GlobalId, or the simulation's A0001...).
+    ``name``: what the row says (``Transport <GlobalId>``...). ``activity``: a :class:`Task`, or ``""``
+    for an IfcTask of another type that outputs nothing. ``global_id``: the component it acts on (None
+    for a task without one). ``robot``: the robot (fleet name) that performs it, or None.
+    ``start``/``finish``: seconds from the start of the build. ``predecessors``: ids that must finish
+    first (FINISH_START). ``target``: installed position (x, y, z) of the component's origin, metres,
+    model (world) frame, z up, or None. ``storey``: storey GlobalId, or None or ``""`` when there is
+    none. ``predefined_type``: the IfcTaskTypeEnum value it is written with (``""``: the task's own,
+    :attr:`Task.ifc_task_type`). ``node_id``: for ``assemble`` on a connection node, the node id
+    ``<relating GlobalId>:<related GlobalId>``. ``parent``: id of the summary task it belongs to (IFC
+    work schedules only). ``work_from``: where the robot begins the work (x, y, z metres, model frame:
+    the yard pick-up of a transport, the node, joint or component otherwise), ``work_to``: where it
+    ends it (the drop-off of a transport); ``nodes``: connection nodes positioned, ``points``: assembly
+    points made; each None when the schedule does not say. ``aborted``: the simulation's robot broke
+    down during it (never written to a schedule file).
+    """
+
+    id: str
+    name: str
+    activity: Task | str
+    global_id: str | None
+    robot: str | None
+    start: float
+    finish: float
+    predecessors: tuple[str, ...] = ()
+    target: tuple[float, float, float] | None = None
+    storey: str | None = None
+    predefined_type: str = ""
+    node_id: str | None = None
+    parent: str | None = None
+    work_from: tuple[float, float, float] | None = None
+    work_to: tuple[float, float, float] | None = None
+    nodes: int | None = None
+    points: int | None = None
+    aborted: bool = False
+
+    @property
+    def duration(self) -> float:
+        """``finish - start`` in seconds."""
+        return self.finish - self.start
+
+
+__all__ = ["KIND_TASKS", "TASKS", "Activity", "Task"]

@@ -43,3 +43,15 @@ def test_a_task_reads_and_writes_as_its_plain_name():
 def test_every_robot_kind_of_a_fleet_bids_for_its_own_task():
     assert KIND_TASKS == {"transport": (Task.TRANSPORT,), "positioning": (Task.POSITION,),
                           "assembly": (Task.ASSEMBLE,), "mobile_manipulator": TASKS}
+
+
+def test_the_simulation_and_the_schedule_file_share_one_activity_record():
+    # One schedule row type: a row the simulation records is the row the CSV reader gives back, so
+    # every field (aborted included) and the duration mean the same everywhere.
+    from bimrobot.coordination import simulation
+    from bimrobot.lbd import schedule
+    from bimrobot.tasks import Activity
+
+    assert simulation.Activity is schedule.Activity is Activity
+    row = Activity("A1", "Transport C1", Task.TRANSPORT, "C1", "crane", 2.0, 7.5, target=(1.0, 0.0, 3.0))
+    assert row.duration == 5.5 and not row.aborted and row.predefined_type == ""

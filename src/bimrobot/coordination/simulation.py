@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import heapq
 import logging
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import simpy
@@ -40,7 +40,7 @@ from bimrobot.sco import timing
 from bimrobot.sco.build import SmartModel, gc_paused
 from bimrobot.sco.component import Component, Joint
 from bimrobot.sco.states import Event, State, at_least
-from bimrobot.tasks import TASKS, Task
+from bimrobot.tasks import TASKS, Activity, Task  # Activity: the one schedule row, re-exported here
 
 log = logging.getLogger(__name__)
 
@@ -48,32 +48,6 @@ ACTIVITY_RANK = {task: task.rank for task in TASKS}  # assemble first: the work 
 #: A yard or robot home farther than this from the building (metres) is a mistake in the site file
 #: (e.g. a georeferenced model_offset), not a site: robots would drive for days.
 MAX_SITE_DISTANCE_M = 10_000.0
-
-
-@dataclass
-class Activity:
-    """One row of the schedule: an activity done by one robot (times s, target in the model frame, m)."""
-
-    id: str
-    activity: Task
-    global_id: str
-    name: str
-    robot: str
-    start: float
-    finish: float
-    target: tuple[float, float, float]
-    storey: str
-    predecessors: tuple[str, ...] = ()
-    aborted: bool = False
-    #: where the robot began the work (model frame, m), and the nodes and points it did (schedule columns)
-    work_from: tuple[float, float, float] | None = None
-    work_to: tuple[float, float, float] | None = None
-    nodes: int | None = None
-    points: int | None = None
-
-    @property
-    def duration(self) -> float:
-        return self.finish - self.start
 
 
 @dataclass
@@ -514,9 +488,8 @@ class ConstructionSimulation:
         self.activities.sort(key=lambda a: (a.start, a.finish, a.id))
         width = max(4, len(str(len(self.activities))))
         new_id = {a.id: f"A{i:0{width}d}" for i, a in enumerate(self.activities, start=1)}
-        for a in self.activities:
-            a.id = new_id[a.id]
-            a.predecessors = tuple(new_id[p] for p in a.predecessors)
+        self.activities[:] = [replace(a, id=new_id[a.id], predecessors=tuple(new_id[p] for p in a.predecessors))
+                              for a in self.activities]
 
     def _stall_reason(self, unfinished: list[str]) -> str:
         waiting = [t for pool in self.pending.values() for t in pool]

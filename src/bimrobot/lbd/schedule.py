@@ -22,7 +22,7 @@ from bimrobot.errors import InputError
 from bimrobot.io import atomic_output_file
 from bimrobot.lbd import components
 from bimrobot.lbd.components import is_component
-from bimrobot.tasks import TASKS, Task
+from bimrobot.tasks import TASKS, Activity, Task
 
 if TYPE_CHECKING:  # pragma: no cover
     from bimrobot.bim.model import BuildingModel
@@ -129,49 +129,6 @@ def id_problem(text: str, *, spaces: bool) -> str | None:
     if not spaces and any(c.isspace() for c in text):
         return "contains white space"
     return None
-
-
-@dataclass(frozen=True)
-class Activity:
-    """One construction activity.
-
-    ``id``: unique id (the CSV's Identification, or the IfcTask's GlobalId). ``activity``: a
-    :class:`~bimrobot.tasks.Task` (transport, position, assemble), or ``""`` for an IfcTask of another
-    type that outputs nothing. ``global_id``: the component it acts on (None for a task without
-    one). ``robot``: the robot (fleet name) that performs it, or None. ``start``/``finish``: seconds from
-    the start of the build. ``predecessors``: ids that must finish first (FINISH_START). ``target``:
-    installed position (x, y, z) of the component's origin, metres, world frame, or None. ``storey``:
-    storey GlobalId or None. ``node_id``: for ``assemble`` on a connection node, the node id
-    ``<relating GlobalId>:<related GlobalId>``. ``parent``: id of the summary task it belongs to (IFC
-    work schedules only). ``work_from``: where the robot begins the work (x, y, z metres, world frame:
-    the yard pick-up of a transport, the node, joint or component otherwise), ``work_to``: where it ends
-    it (the drop-off of a transport), ``nodes``: connection nodes
-    positioned, ``points``: assembly points made; each None when the schedule does not say
-    (:data:`WORK_COLUMNS`).
-    """
-
-    id: str
-    name: str
-    activity: Task | str
-    global_id: str | None
-    robot: str | None
-    start: float
-    finish: float
-    predecessors: tuple[str, ...] = ()
-    target: tuple[float, float, float] | None = None
-    storey: str | None = None
-    predefined_type: str = ""
-    node_id: str | None = None
-    parent: str | None = None
-    work_from: tuple[float, float, float] | None = None
-    work_to: tuple[float, float, float] | None = None
-    nodes: int | None = None
-    points: int | None = None
-
-    @property
-    def duration(self) -> float:
-        """``finish - start`` in seconds."""
-        return self.finish - self.start
 
 
 @dataclass
