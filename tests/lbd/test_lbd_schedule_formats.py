@@ -186,6 +186,19 @@ def test_successors_and_topological_order_on_a_long_chain():
     assert [a.id for a in schedule.successors("A41")] == ["A42"]
 
 
+def test_a_schedule_built_by_hand_names_its_cycle_or_its_unknown_predecessor():
+    # Earliest start first, ties by id; a cycle is named by its activities in execution order.
+    rows = [Activity("B", "x", "position", "C", None, 0.0, 1.0), Activity("A", "x", "transport", "C", None, 0.0, 1.0),
+            Activity("C", "x", "assemble", "C", None, 0.0, 1.0, ("B",))]
+    assert [a.id for a in Schedule(rows).topological_order()] == ["A", "B", "C"]
+    looped = [Activity("A1", "x", "transport", "C", None, 0, 0, ("A3",)), Activity("A2", "x", "position", "C", None, 0, 0, ("A1",)),
+              Activity("A3", "x", "assemble", "C", None, 0, 0, ("A2",)), Activity("A4", "x", "assemble", "C", None, 0, 0)]
+    with pytest.raises(InputError, match=r"^the activities of the schedule form a cycle A1 -> A2 -> A3 -> A1$"):
+        Schedule(looped).topological_order()
+    with pytest.raises(InputError, match=r"^activity A2 of the schedule has the predecessor 'A9', which is not one of its"):
+        Schedule([looped[3], Activity("A2", "x", "position", "C", None, 0, 0, ("A9",))]).topological_order()
+
+
 def test_two_microsoft_project_tasks_with_one_uid_are_refused_not_merged(tmp_path):
     path = msp(tmp_path, task(2, "a", "2026-01-01T08:00:00", "2026-01-01T09:00:00")
                + task(2, "b", "2026-01-01T09:00:00", "2026-01-01T10:00:00"))

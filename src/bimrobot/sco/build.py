@@ -728,25 +728,26 @@ def _duplicates_of_connected(model, components, nodes) -> list[str]:
     return sorted(duplicates)
 
 
+def _connector_groups(connectors: set[str], connections) -> dict[str, str]:
+    """Connector -> its group: connectors related to each other (connector to connector) form one
+    group, named by its smallest GlobalId (networkx's union-find)."""
+    from networkx.utils import UnionFind
+
+    groups = UnionFind(connectors)
+    for c in connections:
+        if c.relating_id in connectors and c.related_id in connectors:
+            groups.union(c.relating_id, c.related_id)
+    return {k: min(members) for members in groups.to_sets() for k in members}
+
+
 def _joints_from_relations(model, connections, components, connectors: set[str]):
     """Joints from IfcRelConnectsWithRealizingElements: one per connector group."""
-    parent: dict[str, str] = {k: k for k in connectors}
-
-    def find(k: str) -> str:
-        while parent[k] != k:
-            parent[k] = parent[parent[k]]
-            k = parent[k]
-        return k
+    group_of = _connector_groups(connectors, connections)
 
     group_realizing: dict[str, set[str]] = {}
     for c in connections:
-        if c.relating_id in connectors and c.related_id in connectors:  # connector to connector: one group
-            a, b = find(c.relating_id), find(c.related_id)
-            if a != b:
-                parent[max(a, b)] = min(a, b)
-    for c in connections:
         if c.relating_id in connectors and c.related_id in connectors:
-            group_realizing.setdefault(find(c.related_id), set()).update(c.realizing_ids)
+            group_realizing.setdefault(group_of[c.related_id], set()).update(c.realizing_ids)
 
     nodes: dict[str, ConnectionNode] = {}
     group_nodes: dict[str, list[str]] = {}
@@ -758,7 +759,7 @@ def _joints_from_relations(model, connections, components, connectors: set[str])
         else:
             continue
         node_id = f"{c.relating_id}:{c.related_id}"
-        group = find(connector_id)
+        group = group_of[connector_id]
         if node_id in nodes:  # the same pair related twice: more fastening points on one node
             node = nodes[node_id]
             node.assembly_point_number += max(1, len(c.realizing_ids))
@@ -784,7 +785,7 @@ def _joints_from_relations(model, connections, components, connectors: set[str])
 
     members_of_group: dict[str, list[str]] = {}
     for k in connectors:
-        members_of_group.setdefault(find(k), []).append(k)
+        members_of_group.setdefault(group_of[k], []).append(k)
     joints: dict[str, Joint] = {}
     for group, node_ids in group_nodes.items():
         member_ids = tuple(dict.fromkeys(nodes[n].component_id for n in node_ids))
