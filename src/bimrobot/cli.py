@@ -25,6 +25,7 @@ PART_CLIS = [
     "bimrobot.bim.cli",
     "bimrobot.world.cli",
     "bimrobot.coordination.cli",
+    "bimrobot.coordination.fleet_cli",
     "bimrobot.lbd.cli",
     "bimrobot.rcan.cli",
     "bimrobot.assembly.cli",

@@ -13,11 +13,11 @@ def test_builtin_fleets_are_table_4_1():
     assert [r.name for r in fleet1.robots] == ["TransportRobot11", "PositioningRobot21", "AssemblyRobot31"]
     assert len(fleet2.robots) == 6
     robots = {r.name: r for r in fleet2.robots}
-    assert (robots["TransportRobot11"].speed, robots["TransportRobot12"].speed) == (0.5, 0.8)
-    assert robots["TransportRobot12"].carry_load == 300 and robots["TransportRobot12"].platform_size == (4.0, 1.0)
-    assert (robots["PositioningRobot21"].time_per_node, robots["PositioningRobot22"].time_per_node) == (120, 60)
-    assert robots["PositioningRobot22"].payload == 300 and robots["PositioningRobot22"].reach == 4.0
-    assert (robots["AssemblyRobot31"].time_per_point, robots["AssemblyRobot32"].time_per_point) == (60, 30)
+    assert (robots["TransportRobot11"].speed_m_s, robots["TransportRobot12"].speed_m_s) == (0.5, 0.8)
+    assert robots["TransportRobot12"].carry_kg == 300 and robots["TransportRobot12"].platform_m == (4.0, 1.0)
+    assert (robots["PositioningRobot21"].time_per_node_s, robots["PositioningRobot22"].time_per_node_s) == (120, 60)
+    assert robots["PositioningRobot22"].lift_kg == 300 and robots["PositioningRobot22"].reach_m == 4.0
+    assert (robots["AssemblyRobot31"].time_per_point_s, robots["AssemblyRobot32"].time_per_point_s) == (60, 30)
     assert [r.name for r in fleet2.by_activity("assemble")] == ["AssemblyRobot31", "AssemblyRobot32"]
 
 
@@ -103,14 +103,14 @@ def test_site_crane_fleet_handles_20_t_and_15_m():
     fleet = load_fleet("site-crane")
     assert {r.kind for r in fleet.robots} == {"transport", "positioning", "assembly"}
     for robot in fleet.by_activity("transport"):
-        assert robot.carry_load == 20000 and robot.platform_size == (15.0, 15.0)
+        assert robot.carry_kg == 20000 and robot.platform_m == (15.0, 15.0)
         assert incapability(robot, _request(weight_kg=20000, size=(15.0, 3.0))) is None
     for robot in fleet.by_activity("position"):
         assert incapability(robot, _request(activity="position", weight_kg=20000, reach_needed=15.0)) is None
     for robot in fleet.by_activity("assemble"):
         assert incapability(robot, _request(activity="assemble", reach_needed=15.0, methods=frozenset({"bolt", "weld"}))) is None
     # cranes and crews are slower than Table 4.1's robots: walking pace with a suspended load
-    assert all(r.speed <= 1.0 for r in fleet.robots)
+    assert all(r.speed_m_s <= 1.0 for r in fleet.robots)
 
 
 def test_unknown_fleet_name_is_refused():
@@ -177,3 +177,87 @@ def test_evaluators_pick_by_cost_finish_distance_or_seeded_chance():
     assert picks[0] == picks[1]
     with pytest.raises(InputError, match="unknown evaluator 'cheapest'"):
         make_evaluator("cheapest")
+
+
+# ---------------------------------------------------------------- one fleet format (issue 34)
+V1_FLEET2 = """name: fleet2
+robots:
+  - {name: TransportRobot11, kind: transport, speed: 0.5, carry_load: 300, platform_size: [4.0, 1.0]}
+  - {name: TransportRobot12, kind: transport, speed: 0.8, carry_load: 300, platform_size: [4.0, 1.0]}
+  - {name: PositioningRobot21, kind: positioning, speed: 1.0, payload: 300, reach: 4.0, time_per_node: 120}
+  - {name: PositioningRobot22, kind: positioning, speed: 1.0, payload: 300, reach: 4.0, time_per_node: 60}
+  - {name: AssemblyRobot31, kind: assembly, speed: 1.0, reach: 4.0, time_per_point: 60}
+  - {name: AssemblyRobot32, kind: assembly, speed: 1.0, reach: 4.0, time_per_point: 30}
+"""
+
+
+def test_a_version_1_fleet_reads_as_the_same_robots_with_one_warning(tmp_path, caplog):
+    path = tmp_path / "old.yaml"
+    path.write_text(V1_FLEET2)
+    with caplog.at_level("WARNING", logger="bimrobot.coordination.fleet"):
+        old = load_fleet(path)
+    assert old.robots == load_fleet("fleet2").robots  # every number the same, so every makespan
+    [warning] = [r.getMessage() for r in caplog.records]
+    assert str(path) in warning and "version-1 fleet" in warning
+    assert "carry_load -> carry_kg" in warning and "speed -> speed_m_s" in warning and "time_per_node -> time_per_node_s" in warning
+
+
+@pytest.mark.parametrize(
+    "robot, message",
+    [
+        ("{name: T, kind: transport, speed_m_s: 1, carry_kg: 300}", r"robots\[0\] \(T\): missing key 'platform_m' \(a transport robot needs carry_kg, platform_m, speed_m_s\)"),
+        ("{name: T, kind: transport, speed: 1, carry_kg: 300, platform_m: [4, 1]}", r"line 3: robots\[0\] \(T\): unknown key 'speed' for a transport robot"),
+        ("{name: P, kind: positioning, speed_m_s: 1, lift_kg: 0, reach_m: 4, time_per_node_s: 60}", r"key 'lift_kg' must be >= 1 and <= 1e\+06 kg, got 0"),
+        ("{name: A, kind: assembly, speed_m_s: 1, reach_m: 4, time_per_point_s: 30, rcan_activities: [weld]}", r"key 'rcan_activities': unknown construction activity 'weld'"),
+        ("{name: A, kind: assembly, speed_m_s: 1, reach_m: 4, time_per_point_s: 30, gripper_opening_m: [0.3, 0.1]}", r"key 'gripper_opening_m' must be \[min, max\] with min <= max"),
+        ("{name: A, kind: assembly, speed_m_s: 1, reach_m: 4, time_per_point_s: 30, home_m: [1, 2, 3, 4]}", r"key 'home_m' must be \[x, y\] or \[x, y, z\] in metres"),
+    ],
+)
+def test_version_2_fleet_files_are_validated_naming_the_key(tmp_path, robot, message):
+    path = tmp_path / "fleet.yaml"
+    path.write_text(f"version: 2\nrobots:\n  - {robot}\n")
+    with pytest.raises(InputError, match=message) as error:
+        load_fleet(path)
+    assert str(path) in str(error.value) and "\n" not in str(error.value)
+
+
+def test_one_robot_type_for_simulate_and_rcan(tmp_path, caplog):
+    """RCAN's robots are the fleet's robots: the built-in rcan-robots, a fleet and an older RCAN capability
+    table all read as bimrobot.coordination.fleet.RobotSpec, with RCAN's views derived from it."""
+    import bimrobot.rcan.generation as generation
+    from bimrobot.coordination.fleet import RobotSpec
+    from bimrobot.rcan.activities import ActivityKind as K
+    from bimrobot.rcan.generation import load_capabilities
+
+    assert not hasattr(generation, "CapabilityTable") and getattr(generation, "RobotSpec", RobotSpec) is RobotSpec
+    husky = load_capabilities().by_name["husky_ur5"]
+    assert isinstance(husky, RobotSpec) and husky.home_m == (-3.0, 0.0, 0.0)
+    assert (husky.payload_kg, husky.reach_m, husky.arm_speed, husky.handling_s) == (5.0, 0.85, 0.5, {"pick_up": 3.0, "install": 5.0})
+    assert husky.can_grip((0.05, 0.1)) and not husky.can_grip((0.2, 0.3))
+    carrier = load_capabilities("fleet2").by_name["TransportRobot11"]
+    assert (carrier.payload_kg, carrier.reach_m, carrier.arm_speed) == (300.0, 2.0, 0.5)  # loads over its 4 m platform
+    assert carrier.times.arm_speed_m_s == float("inf")  # Table 4.1's handling times include the arm's motions
+    table = tmp_path / "capabilities.yaml"
+    table.write_text("robot_types:\n  base: {activities: [move_to_component, transport]}\n"
+                     "robots:\n  cart: {types: [base], payload_kg: 50, speed_m_s: 0.4, home: [1, 2, 0]}\n")
+    with caplog.at_level("WARNING", logger="bimrobot.coordination.fleet"):
+        cart = load_capabilities(table, model_offset=(100.0, 100.0)).by_name["cart"]
+    assert "RCAN capability table" in caplog.text and "payload_kg -> carry_kg" in caplog.text
+    assert cart.home_m == (1.0, 2.0, 0.0)  # a capability table's homes are in the model frame already
+    assert cart.performs(K.TRANSPORT) and not cart.performs(K.PICK_UP) and cart.payload_kg == 50.0
+
+
+def test_fleet_list_and_convert(tmp_path, capsys):
+    from bimrobot.cli import main
+
+    assert main(["fleet", "list"]) == 0
+    out = capsys.readouterr().out
+    assert [line.split()[0] for line in out.splitlines()] == ["fleet1", "fleet2", "rcan-robots", "site-crane"]
+    old = tmp_path / "old.yaml"
+    old.write_text(V1_FLEET2)
+    new = tmp_path / "new.yaml"
+    assert main(["fleet", "convert", str(old), "-o", str(new)]) == 0
+    assert "version: 2" in new.read_text() and "carry_kg: 300.0" in new.read_text()
+    assert load_fleet(new).robots == load_fleet("fleet2").robots
+    assert main(["fleet", "convert", str(old), "-o", str(old)]) == 2  # never overwrites a user's file
+    assert "speed: 0.5" in old.read_text()

@@ -66,7 +66,7 @@ def test_bad_input_exits_2_with_one_sentence_and_no_report(tmp_path, capsys):
         (["--experiment", "1", "--failure-probability", "2"], "--failure-probability must be between 0 and 1"),
         (["--experiment", "1", "--no-local-executors"], "--no-local-executors needs --redis"),
         (["--schedule", str(tmp_path / "none.csv")], "none.csv"),
-        (["--experiment", "1", "--capabilities", str(tmp_path / "none.yaml")], "capability table"),
+        (["--experiment", "1", "--capabilities", str(tmp_path / "none.yaml")], "neither a built-in fleet"),
         (["--experiment", "1", "--max-attempts", "0"], "--max-attempts must be at least 1"),
         (["--experiment", "1", "--redis", "redis://127.0.0.1:1/0"], "cannot reach Redis at redis://127.0.0.1:1/0"),
         (["--experiment", "1", "--redis", "http://nope"], "cannot reach Redis at http://nope"),

@@ -1,4 +1,4 @@
-"""Capability table (Table 5.2), task allocator and node generator."""
+"""The fleet RCAN runs with (Table 5.2), task allocator and node generator."""
 
 from __future__ import annotations
 
@@ -11,13 +11,15 @@ from bimrobot.rcan.generation import NodeGenerator, TaskAllocator, load_capabili
 
 
 def test_builtin_table_is_table_5_2():
-    table = load_capabilities()
-    assert table.robot_types["mobile_base"] == {K.MOVE_TO_COMPONENT, K.TRANSPORT}
-    assert table.robot_types["manipulator"] == {K.POSITION_FOR_PICKING_UP, K.POSITION_FOR_INSTALLING}
-    assert table.robot_types["gripper"] == {K.PICK_UP, K.INSTALL}
-    husky = table.robots["husky_ur5"]
+    from bimrobot.rcan.fleet import TABLE_5_2, activities_of
+
+    assert TABLE_5_2["mobile_base"] == {K.MOVE_TO_COMPONENT, K.TRANSPORT}
+    assert TABLE_5_2["manipulator"] == {K.POSITION_FOR_PICKING_UP, K.POSITION_FOR_INSTALLING}
+    assert TABLE_5_2["gripper"] == {K.PICK_UP, K.INSTALL}
+    husky = load_capabilities().by_name["husky_ur5"]
     assert husky.payload_kg == 5.0 and husky.reach_m == 0.85
-    assert husky.activities == set(K)
+    assert activities_of(husky) == set(K)
+    assert husky.times.load_s == 3.0 and husky.times.per_point_s == 5.0 and husky.times.arm_speed_m_s == 0.5
 
 
 def test_allocator_matches_type_and_payload(table_5_2):
@@ -95,7 +97,7 @@ def test_bad_capability_table_names_the_key(data, message):
 
 
 def test_capability_yaml_file_errors(tmp_path):
-    with pytest.raises(InputError, match="does not exist"):
+    with pytest.raises(InputError, match="neither a built-in fleet .* nor a file"):
         load_capabilities(tmp_path / "none.yaml")
     bad = tmp_path / "bad.yaml"
     bad.write_text("robot_types: [unclosed\n")
@@ -147,10 +149,10 @@ def test_capability_file_numbers_in_range_are_read_with_units(tmp_path):
         " position_for_installing, install]}\n"
         "robots:\n  crane: {types: [all], payload_kg: 2e4, reach_m: 15, speed_m_s: 0.8, handling_s: {Pick up: 300},"
         " home: [155000.0, 463000.0, 0], gripper_opening_m: [0, 2]}\n")
-    crane = load_capabilities(path).robots["crane"]
+    crane = load_capabilities(path).by_name["crane"]
     assert (crane.payload_kg, crane.reach_m, crane.speed_m_s) == (20000.0, 15.0, 0.8)
-    assert crane.handling_s == {"pick_up": 300.0}  # the activity name normalised, as Table 5.2 spells it
-    assert crane.home.as_tuple() == (155000.0, 463000.0, 0.0)  # georeferenced coordinates are fine
+    assert crane.load_s == 300.0 and crane.handling_s["pick_up"] == 300.0  # "Pick up" read as Table 5.2 spells it
+    assert crane.home_m == (155000.0, 463000.0, 0.0)  # georeferenced coordinates are fine (the model frame)
 
 
 def test_a_fleets_site_homes_are_placed_in_the_model_frame(tmp_path):
@@ -163,7 +165,7 @@ def test_a_fleets_site_homes_are_placed_in_the_model_frame(tmp_path):
     site_file.write_text("robot_home: [[100.0, 50.0], [104.0, 50.0]]\nconstruction_area: [[0, 0], [20, 10]]\n")
     site = load_site(site_file)
     table = load_capabilities("fleet2", site=site, model_offset=(-154_990.0, -462_995.0))
-    homes = [robot.home.as_tuple() for robot in table.robots.values()]
+    homes = [robot.home_m for robot in table.robots]
     assert homes[:3] == [(155_090.0, 463_045.0, 0.0), (155_094.0, 463_045.0, 0.0), (155_090.0, 463_045.0, 0.0)]
     # a plan whose installs span x 155,000-155,004, y 463,000-463,002 is centred in the area (10, 5)
     installs = [RcanActivity(f"A{i}", "C", K.INSTALL, Pose(x, y, 0.0)) for i, (x, y) in

@@ -195,7 +195,7 @@ def test_unknown_weights_follow_the_one_rule(tmp_path, shared_ifc, monkeypatch, 
 
 
 def test_simulated_schedule_robots_and_selection(site, capsys):
-    """The schedule `simulate` writes names fleet robots the built-in capability table does not have: the
+    """The schedule `simulate` writes names fleet robots the built-in rcan-robots fleet does not have: the
     run is refused in one sentence unless --reallocate gives the work to the table's robots (one line says
     so); with the schedule's own fleet it runs on the robots the schedule assigned. --include/--exclude
     choose the model's elements as everywhere else."""
@@ -204,13 +204,13 @@ def test_simulated_schedule_robots_and_selection(site, capsys):
     args = ["rcan", "run", "--schedule", "sim/schedule.csv", "--model", str(site["model"]), "-q"]
     assert main(args) == 2
     err = capsys.readouterr().err
-    assert "which built-in capabilities.yaml does not have" in err and "--capabilities fleet2" in err
+    assert "which built-in fleet rcan-robots does not have" in err and "--fleet fleet2" in err
     assert err.count("\n") == 1
     assert main([*args, "--reallocate"]) == 0
     out = capsys.readouterr().out
     notice = [line for line in out.splitlines() if line.startswith("the schedule names robot(s)")]
-    assert len(notice) == 1 and "which are not in built-in capabilities.yaml" in notice[0]
-    args += ["--capabilities", "fleet2"]
+    assert len(notice) == 1 and "which are not in built-in fleet rcan-robots" in notice[0]
+    args += ["--capabilities", "fleet2"]  # the older name of --fleet, kept for users' scripts
     assert main([*args, "--state-db", "fleet.db"]) == 0
     assigned = {row["Identification"]: row["Robot"] for row in csv.DictReader(open("sim/schedule.csv", encoding="utf-8"))}
     with sqlite3.connect("fleet.db") as db:

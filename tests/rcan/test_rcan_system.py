@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import pytest
 
 from bimrobot.errors import InputError
@@ -98,7 +100,7 @@ def test_schedule_plan_runs_two_robots_in_parallel(schedule_csv, cranes):
     assert report.status == "completed"
     assert set(report.component_states.values()) == {"Assembled"}
     # two robots share the work: the makespan is well below one robot doing everything in sequence
-    one_robot = run_plan(plan, cranes.__class__(cranes.robot_types, {"crane_a": cranes.robots["crane_a"]}, "one"))
+    one_robot = run_plan(plan, replace(cranes, robots=(cranes.by_name["crane_a"],), source="one"))
     assert one_robot.status == "completed"
     assert report.makespan_s < 0.8 * one_robot.makespan_s
 
@@ -126,7 +128,7 @@ def test_escalation_isolates_the_component_and_independent_work_runs_to_completi
     from rcan_helpers import frame_schedule
 
     plan = plan_from_schedule(load_schedule_csv(frame_schedule(tmp_path / "s.csv", components=10)))
-    one = cranes.__class__(cranes.robot_types, {"crane_a": cranes.robots["crane_a"]}, "one crane")
+    one = replace(cranes, robots=(cranes.by_name["crane_a"],), source="one crane")
     report = run_plan(plan, one, max_attempts=1, backend_options={"failure_probability": 0.1, "seed": 1})
     assert report.status == "escalated"
     # seed 1: a transport fails while the robot holds the column; the robot sets it down and goes on

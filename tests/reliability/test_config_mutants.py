@@ -166,10 +166,10 @@ def _check_fleet(path: Path) -> None:
     for robot in fleet.robots:
         for key, (low, high, _) in RANGES.items():
             value = getattr(robot, key)
-            if value or key in ("speed",):  # keys a kind does not use stay 0
+            if value or key in ("speed_m_s",):  # keys a kind does not use stay 0
                 assert low <= value <= high, f"{robot.name}.{key} = {value!r} outside [{low}, {high}]"
-        for size in robot.platform_size:
-            assert size == 0 or PLATFORM_RANGE_M[0] <= size <= PLATFORM_RANGE_M[1], robot.platform_size
+        for size in robot.platform_m:
+            assert size == 0 or PLATFORM_RANGE_M[0] <= size <= PLATFORM_RANGE_M[1], robot.platform_m
 
 
 def _check_site(path: Path) -> None:
@@ -184,7 +184,7 @@ def _check_capabilities(path: Path) -> None:
     from bimrobot.rcan.generation import load_capabilities
 
     table = load_capabilities(path)
-    for robot in table.robots.values():  # payload and reach default to 0 (none), the speed to 1 m/s
+    for robot in table.robots:  # payload and reach default to 0 (none), the speed to 1 m/s
         assert all(math.isfinite(v) and v >= 0 for v in (robot.payload_kg, robot.reach_m)), robot
         assert math.isfinite(robot.speed_m_s) and robot.speed_m_s > 0, robot
 
@@ -207,7 +207,7 @@ def _check_schedule(path: Path) -> None:
 FAMILIES = {
     "fleet": (lambda: _builtin("bimrobot.coordination", "fleets/site-crane.yaml"), "fleet.yaml", mutate_yaml, _check_fleet),
     "site": (lambda: SITE, "site.yaml", mutate_yaml, _check_site),
-    "capabilities": (lambda: _builtin("bimrobot.rcan", "capabilities.yaml"), "robots.yaml", mutate_yaml, _check_capabilities),
+    "capabilities": (lambda: _builtin("bimrobot.coordination", "fleets/rcan-robots.yaml"), "robots.yaml", mutate_yaml, _check_capabilities),
     "scenario": (lambda: _builtin("bimrobot.assembly", "settings/E1S1.yaml"), "E1S1.yaml", mutate_yaml, _check_scenario),
     "schedule": (lambda: SCHEDULE, "schedule.csv", mutate_csv, _check_schedule),
 }

@@ -25,7 +25,6 @@ import numpy as np
 from bimrobot.coordination.fleet import RobotSpec
 from bimrobot.errors import InputError
 from bimrobot.sco import timing
-from bimrobot.sco.timing import RobotTimes
 from bimrobot.tasks import Task
 
 TOLERANCE_M = 1e-6
@@ -94,21 +93,21 @@ def incapability(spec: RobotSpec, request: TaskRequest) -> str | None:
     if not spec.can(request.activity):
         return f"a {spec.kind} robot does not {request.activity}"
     if request.activity == Task.TRANSPORT:
-        if request.weight_kg > spec.carry_load + TOLERANCE_M:
-            return f"carry load {spec.carry_load:g} kg < {request.weight_kg:.1f} kg"
-        if request.size[0] > spec.platform_size[0] + TOLERANCE_M or request.size[1] > spec.platform_size[1] + TOLERANCE_M:
+        if request.weight_kg > spec.carry_kg + TOLERANCE_M:
+            return f"carry load {spec.carry_kg:g} kg < {request.weight_kg:.1f} kg"
+        if request.size[0] > spec.platform_m[0] + TOLERANCE_M or request.size[1] > spec.platform_m[1] + TOLERANCE_M:
             return (
-                f"platform {spec.platform_size[0]:g} x {spec.platform_size[1]:g} m < "
+                f"platform {spec.platform_m[0]:g} x {spec.platform_m[1]:g} m < "
                 f"component {request.size[0]:.2f} x {request.size[1]:.2f} m"
             )
     elif request.activity == Task.POSITION:
-        if request.weight_kg > spec.payload + TOLERANCE_M:
-            return f"payload {spec.payload:g} kg < {request.weight_kg:.1f} kg"
-        if request.reach_needed > spec.reach + TOLERANCE_M:
-            return f"reach {spec.reach:g} m < {request.reach_needed:.2f} m"
+        if request.weight_kg > spec.lift_kg + TOLERANCE_M:
+            return f"payload {spec.lift_kg:g} kg < {request.weight_kg:.1f} kg"
+        if request.reach_needed > spec.reach_m + TOLERANCE_M:
+            return f"reach {spec.reach_m:g} m < {request.reach_needed:.2f} m"
     elif request.activity == Task.ASSEMBLE:
-        if request.reach_needed > spec.reach + TOLERANCE_M:
-            return f"reach {spec.reach:g} m < {request.reach_needed:.2f} m"
+        if request.reach_needed > spec.reach_m + TOLERANCE_M:
+            return f"reach {spec.reach_m:g} m < {request.reach_needed:.2f} m"
         missing = request.methods - set(spec.methods)
         if missing:
             return f"cannot {'/'.join(sorted(missing))}"
@@ -118,7 +117,7 @@ def incapability(spec: RobotSpec, request: TaskRequest) -> str | None:
 def handling_time(spec: RobotSpec, request: TaskRequest) -> float:
     """Seconds of work once the robot is at ``request.start`` (for transport: load, drive, unload), from
     the one time model (:mod:`bimrobot.sco.timing`)."""
-    times = RobotTimes.of_fleet_robot(spec)
+    times = spec.times
     if request.activity == Task.TRANSPORT:
         return timing.transport_s(times, float(np.hypot(*(request.end - request.start))))
     if request.activity == Task.POSITION:
@@ -129,7 +128,7 @@ def handling_time(spec: RobotSpec, request: TaskRequest) -> float:
 def propose(spec: RobotSpec, position: np.ndarray, available_at: float, idle: bool, request: TaskRequest) -> BidProposal:
     """The robot's proposal: travel (``distance`` metres) from ``position`` to the work, then handling."""
     distance = float(np.hypot(*(request.start - position)))
-    travel = timing.travel_s(RobotTimes.of_fleet_robot(spec), distance)
+    travel = timing.travel_s(spec.times, distance)
     handling = handling_time(spec, request)
     return BidProposal(spec.name, request.id, distance, travel, handling, available_at + travel + handling, idle)
 

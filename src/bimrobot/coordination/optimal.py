@@ -88,7 +88,7 @@ def solve_optimal(
         raise InputError(f"the build has {len(tasks)} tasks; the CP-SAT comparison is limited to {max_tasks}")
     homes = {}
     for index, spec in enumerate(fleet.robots):
-        homes[spec.name] = np.array(spec.home if spec.home else sim.site.robot_home[index % len(sim.site.robot_home)], dtype=float)
+        homes[spec.name] = np.array(fleet.home_on_site(spec, sim.offset) or sim.site.robot_home[index % len(sim.site.robot_home)], dtype=float)
 
     def ticks(seconds: float) -> int:
         return int(math.ceil(seconds * SCALE - 1e-9))
@@ -98,7 +98,7 @@ def solve_optimal(
     capable = {t.key: [r for r in fleet.robots if not incapability(r, t.request)] for t in tasks}
     for t in tasks:
         worst = max(handling_time(r, t.request) for r in capable[t.key])
-        horizon += ticks(worst) + ticks(200.0 / min(r.speed for r in fleet.robots))
+        horizon += ticks(worst) + ticks(200.0 / min(r.speed_m_s for r in fleet.robots))
     horizon += ticks(3600)
     depart = {t.key: model.NewIntVar(0, horizon, f"depart[{t.key}]") for t in tasks}
     start = {t.key: model.NewIntVar(0, horizon, f"start[{t.key}]") for t in tasks}
@@ -132,7 +132,7 @@ def solve_optimal(
             arcs.append((index[t.key], index[t.key], lit.Not()))
             first = model.NewBoolVar(f"first[{r.name},{t.key}]")
             arcs.append((0, index[t.key], first))
-            travel = ticks(float(np.hypot(*(t.request.start - homes[r.name]))) / r.speed)
+            travel = ticks(float(np.hypot(*(t.request.start - homes[r.name]))) / r.speed_m_s)
             model.Add(start[t.key] >= depart[t.key] + travel).OnlyEnforceIf(first)
             last = model.NewBoolVar(f"last[{r.name},{t.key}]")
             arcs.append((index[t.key], 0, last))
@@ -141,7 +141,7 @@ def solve_optimal(
                     continue
                 follow = model.NewBoolVar(f"next[{r.name},{t.key},{u.key}]")
                 arcs.append((index[t.key], index[u.key], follow))
-                travel = ticks(float(np.hypot(*(u.request.start - t.request.end))) / r.speed)
+                travel = ticks(float(np.hypot(*(u.request.start - t.request.end))) / r.speed_m_s)
                 model.Add(depart[u.key] >= end[t.key]).OnlyEnforceIf(follow)
                 model.Add(start[u.key] >= depart[u.key] + travel).OnlyEnforceIf(follow)
         model.AddCircuit(arcs)

@@ -77,7 +77,7 @@ class _Robot:
     @property
     def times(self) -> timing.RobotTimes:
         """The robot's speeds and handling times in the one time model."""
-        return timing.RobotTimes.of_fleet_robot(self.spec)
+        return self.spec.times
 
 
 @dataclass
@@ -188,7 +188,8 @@ class ConstructionSimulation:
         building = (centres.min(axis=0) + centres.max(axis=0)) / 2 + self.offset
         places = [("yard position", p, self.site.source) for p in self.site.yard]
         places += [("robot home", p, self.site.source) for p in self.site.robot_home]
-        places += [(f"home of robot {r.name}", r.home, self.fleet.source) for r in self.fleet.robots if r.home]
+        places += [(f"home of robot {r.name}", self.fleet.home_on_site(r, self.offset), self.fleet.source)
+                   for r in self.fleet.robots if r.home_m]
         for what, point, source in places:
             distance = float(np.hypot(*(np.asarray(point, dtype=float) - building)))
             if distance > MAX_SITE_DISTANCE_M:
@@ -283,7 +284,7 @@ class ConstructionSimulation:
         for activity in ACTIVITIES:
             seen = {}
             for r in self.fleet.by_activity(activity):
-                seen.setdefault((r.kind, r.carry_load, r.platform_size, r.payload, r.reach, r.methods), r)
+                seen.setdefault((r.kind, r.carry_kg, r.platform_m, r.lift_kg, r.reach_m, r.methods), r)
             distinct[activity] = list(seen.values())
 
         def impossible(request: TaskRequest) -> bool:
@@ -355,21 +356,21 @@ class ConstructionSimulation:
         words = []
         carriers, positioners, assemblers = distinct[Task.TRANSPORT], distinct[Task.POSITION], distinct[Task.ASSEMBLE]
         if carriers:
-            length = max(r.platform_size[0] for r in carriers)
-            width = max(r.platform_size[1] for r in carriers)
-            words.append(f"carries at most {max(r.carry_load for r in carriers):,.0f} kg on up to {length:g} x {width:g} m")
+            length = max(r.platform_m[0] for r in carriers)
+            width = max(r.platform_m[1] for r in carriers)
+            words.append(f"carries at most {max(r.carry_kg for r in carriers):,.0f} kg on up to {length:g} x {width:g} m")
         else:
             words.append("has no transport robot")
         if positioners:
             words.append(
-                f"positions at most {max(r.payload for r in positioners):,.0f} kg with up to "
-                f"{max(r.reach for r in positioners):g} m reach"
+                f"positions at most {max(r.lift_kg for r in positioners):,.0f} kg with up to "
+                f"{max(r.reach_m for r in positioners):g} m reach"
             )
         else:
             words.append("has no positioning robot")
         if assemblers:
             methods = sorted({m for r in assemblers for m in r.methods})
-            words.append(f"assembles with up to {max(r.reach for r in assemblers):g} m reach ({', '.join(methods)})")
+            words.append(f"assembles with up to {max(r.reach_m for r in assemblers):g} m reach ({', '.join(methods)})")
         else:
             words.append("has no assembly robot")
         return ", ".join(words[:-1]) + " and " + words[-1]
@@ -379,7 +380,7 @@ class ConstructionSimulation:
         self.env = simpy.Environment()
         self.robots: dict[str, _Robot] = {}
         for index, spec in enumerate(self.fleet.robots):
-            home = np.array(spec.home if spec.home else self.site.robot_home[index % len(self.site.robot_home)], dtype=float)
+            home = np.array(self.fleet.home_on_site(spec, self.offset) or self.site.robot_home[index % len(self.site.robot_home)], dtype=float)
             self.robots[spec.name] = _Robot(spec, home.copy(), RobotStats(spec.name, spec.kind), end_position=home.copy())
         self.robots_per_activity = {a: len(self.fleet.by_activity(a)) for a in ACTIVITIES}
         self.idle: dict[str, set[str]] = {a: {r.spec.name for r in self.robots.values() if r.spec.can(a)} for a in ACTIVITIES}
@@ -764,11 +765,11 @@ class ConstructionSimulation:
                 component.update_state(Event.START_TRANSPORT)
                 self._note_state(component)
                 self.lines.append(f"[{self.env.now:9.2f} s] Current progress: {spec.name} is loading {component.id}")
-                yield self.env.timeout(spec.load_time)
+                yield self.env.timeout(spec.load_s)
                 yield from self._drive(robot, request.end)
-                yield self.env.timeout(spec.unload_time)
+                yield self.env.timeout(spec.unload_s)
                 component.position = np.array([*request.end, component.target_position[2]])
-                robot.stats.handling_time += spec.load_time + spec.unload_time
+                robot.stats.handling_time += spec.load_s + spec.unload_s
             elif request.activity == Task.POSITION:
                 if request.node_ids:  # per node
                     self._node_step(self.smart.nodes[request.node_ids[0]], Event.START_POSITIONING)

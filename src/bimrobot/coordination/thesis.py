@@ -218,7 +218,7 @@ class ThesisSimulation:
 
     def _phases(self, robot: ThesisRobot, task: ThesisTask) -> list[tuple[str, float]]:
         """The task's phases for this robot: [(name, seconds)]; their sum is its bid."""
-        times, request = timing.RobotTimes.of_fleet_robot(robot.spec), task.request
+        times, request = robot.spec.times, task.request
         come = timing.travel_s(times, float(np.hypot(*(request.start - robot.position))))
         if task.kind == Task.TRANSPORT:
             carry = timing.travel_s(times, float(np.hypot(*(request.end - request.start))))
@@ -232,7 +232,7 @@ class ThesisSimulation:
         smart = self.smart
         self.robots = {}
         for index, spec in enumerate(self.fleet.robots):
-            home = spec.home if spec.home else self.site.robot_home[index % len(self.site.robot_home)]
+            home = self.fleet.home_on_site(spec, self.base.offset) or self.site.robot_home[index % len(self.site.robot_home)]
             self.robots[spec.name] = ThesisRobot(spec, np.array(home, dtype=float))
         self.pending = {k: [] for k in KINDS}
         self.tasks: list[ThesisTask] = []
@@ -364,7 +364,7 @@ class ThesisSimulation:
         # The task is done.
         robot.tasks += 1
         robot.time_s += task.time_s
-        travel = robot.phases[0][1] + (robot.phases[1][1] - robot.spec.load_time if task.kind == Task.TRANSPORT else 0.0)
+        travel = robot.phases[0][1] + (robot.phases[1][1] - robot.spec.load_s if task.kind == Task.TRANSPORT else 0.0)
         robot.travel_s += travel
         robot.handling_s += task.time_s - travel
         robot.task, robot.phases, robot.phase = None, [], 0

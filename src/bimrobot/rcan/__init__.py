@@ -2,7 +2,8 @@
 (thesis chapter 5). See docs/rcan.md.
 
 - :mod:`~bimrobot.rcan.activities`: the six robot construction activities, poses, :class:`RcanActivity`
-- :mod:`~bimrobot.rcan.generation`: capability table (Table 5.2), task allocator, node generator
+- :mod:`~bimrobot.rcan.fleet`: the fleet placed in the model frame, Table 5.2
+- :mod:`~bimrobot.rcan.generation`: task allocator, node generator
 - :mod:`~bimrobot.rcan.node`: the RCAN node
 - :mod:`~bimrobot.rcan.broker`: receiver, sender, router; in-process and Redis streams
 - :mod:`~bimrobot.rcan.executor`: the robot executor service
@@ -17,7 +18,7 @@ import importlib
 
 _EXPORTS = {
     "ActivityKind": "activities", "Pose": "activities", "RcanActivity": "activities",
-    "CapabilityTable": "generation", "NodeGenerator": "generation", "TaskAllocator": "generation",
+    "NodeGenerator": "generation", "TaskAllocator": "generation",
     "load_capabilities": "generation", "RcanNode": "node", "experiment": "plans",
     "plan_from_schedule": "plans", "RcanSystem": "system", "RunReport": "system", "run_plan": "system",
 }

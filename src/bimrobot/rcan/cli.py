@@ -85,10 +85,10 @@ def register(subparsers) -> None:
                           help="worker threads: robots executed at the same time (default min(16, robots))")
     executor.set_defaults(func=_executor)
 
-    caps = commands.add_parser("capabilities", help="print the capability table (Table 5.2) and robots",
-                               epilog="example:\n  bimrobot rcan capabilities --capabilities my.yaml",
+    caps = commands.add_parser("capabilities", help="print Table 5.2 and the fleet's robots (what each performs)",
+                               epilog="example:\n  bimrobot rcan capabilities --fleet my.yaml",
                                formatter_class=argparse.RawDescriptionHelpFormatter)
-    caps.add_argument("--capabilities", help="capability YAML (default: the built-in one)")
+    _fleet_option(caps)
     caps.set_defaults(func=_capabilities)
 
     node = commands.add_parser("robot-node", help="run the shipped ROS 2 robot node (kinematic robots)",
@@ -96,7 +96,7 @@ def register(subparsers) -> None:
                                            "in the capability table, executing activities on kinematic robots.",
                                epilog="example:\n  bimrobot rcan robot-node --time-scale 0.01",
                                formatter_class=argparse.RawDescriptionHelpFormatter)
-    node.add_argument("--capabilities", help="capability YAML (default: the built-in one)")
+    _fleet_option(node)
     _site_options(node)
     node.add_argument("--time-scale", type=float, default=0.0, help="real seconds per simulated second (default 0)")
     node.add_argument("--failure-probability", type=float, default=0.0, help="chance an activity fails (default 0)")
@@ -109,7 +109,7 @@ def register(subparsers) -> None:
 
 def _common(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--backend", choices=tuple(BACKENDS), default="sim", help="executor backend (default sim)")
-    parser.add_argument("--capabilities", help="capability YAML (default: the built-in Table 5.2 and robots)")
+    _fleet_option(parser)
     _site_options(parser)
     parser.add_argument("--state-db", default=":memory:",
                         help="SQLite file for the journal and the simulated site, new or from an earlier run, "
@@ -137,9 +137,17 @@ def _common(parser: argparse.ArgumentParser) -> None:
                              "for dead; its activity goes to another capable robot (default 4 s)")
 
 
+def _fleet_option(parser: argparse.ArgumentParser) -> None:
+    """--fleet (alias --capabilities, the older name): the robots RCAN runs with."""
+    parser.add_argument("--fleet", "--capabilities", dest="capabilities", metavar="FLEET",
+                        help="a built-in fleet (`bimrobot fleet list`: fleet2, site-crane, rcan-robots, ...) or a fleet "
+                             "YAML file, an older RCAN capability table too (default: the graph's fleet, else "
+                             "the built-in rcan-robots)")
+
+
 def _site_options(parser: argparse.ArgumentParser) -> None:
     """--site and --model-offset: where a fleet's robots start (its homes are site positions)."""
-    parser.add_argument("--site", help="with a fleet as --capabilities: the site YAML whose robot_home the fleet's "
+    parser.add_argument("--site", help="with a fleet whose homes are on the site: the site YAML whose robot_home the fleet's "
                                        "robots start at (default: the graph's site, or with --model the one `simulate` uses; else fig. 4.11), "
                                        "as `simulate --site`")
     parser.add_argument("--model-offset", type=float, nargs=2, metavar=("DX", "DY"),
@@ -150,7 +158,7 @@ def _site_options(parser: argparse.ArgumentParser) -> None:
 
 
 def _fleet_capabilities(args, activities=None):
-    """The capability table of ``--capabilities``; a fleet's homes go from the run's site into the model
+    """The placed fleet of ``--fleet``; a fleet's homes go from the run's site into the model
     frame with ``--model-offset``, else the site's model_offset, else the offset that centres
     ``activities``' installs in the construction area (no plan: none). The run's site is the one the
     graph holds (``--graph``), or the one `simulate` uses for ``--model`` (:func:`bimrobot.site.site_for`),
@@ -171,10 +179,11 @@ def _fleet_capabilities(args, activities=None):
         offset = site.model_offset or (0.0, 0.0)
     graph_fleet = getattr(args, "graph_fleet", None)
     if args.capabilities is None and graph_fleet is not None:
-        from bimrobot.rcan.fleet import load_fleet_capabilities
+        from bimrobot.rcan.fleet import load_rcan_fleet
 
         name = str(graph_fleet.get("name") or "fleet")
-        return load_fleet_capabilities(name, graph_fleet, f"the construction graph's fleet {name}", site, offset), offset
+        source = f"the construction graph's fleet {name}"
+        return load_rcan_fleet(name, graph_fleet, source, site, offset), offset
     return load_capabilities(args.capabilities, site=site, model_offset=offset), offset
 
 
@@ -284,15 +293,15 @@ def _load_plan(args):
 def _check_robots(activities, capabilities, reallocate: bool) -> None:
     """A schedule that assigns robots the capability table does not have is refused (its fleet is another
     one), unless --reallocate gives every activity to capable robots of the table."""
-    unknown = sorted({a.robot for a in activities if a.robot and a.robot not in capabilities.robots})
+    unknown = sorted({a.robot for a in activities if a.robot and a.robot not in capabilities.by_name})
     if not unknown:
         return
     shown = ", ".join(unknown[:5]) + (f" and {len(unknown) - 5} more" if len(unknown) > 5 else "")
-    robots = list(capabilities.robots)
+    robots = list(capabilities.names)
     table = ", ".join(robots[:5]) + (f" and {len(robots) - 5} more" if len(robots) > 5 else "")
     if not reallocate:
         raise InputError(f"the schedule assigns robot(s) {shown}, which {capabilities.source} does not have ({table}): "
-                         "give the schedule's fleet with --capabilities (e.g. --capabilities fleet2), or --reallocate")
+                         "give the schedule's fleet with --fleet (e.g. --fleet fleet2), or --reallocate")
     print(f"the schedule names robot(s) {shown}, which are not in {capabilities.source}: with --reallocate their "
           f"activities go to capable robots of the table ({table})", flush=True)
 
@@ -448,11 +457,11 @@ def _executor(args) -> int:
 
         check_output(args.state_db, folder=False, inputs=_inputs(args), option="--state-db", recognise=is_state_db)
     capabilities, _ = _fleet_capabilities(args)
-    robots = args.robot or list(capabilities.robots)
-    unknown = [r for r in robots if r not in capabilities.robots]
+    robots = args.robot or list(capabilities.names)
+    unknown = [r for r in robots if r not in capabilities.by_name]
     if unknown:
         raise InputError(f"--robot {unknown[0]!r} is not a robot of {capabilities.source} "
-                         f"(its robots: {', '.join(capabilities.robots)})")
+                         f"(its robots: {', '.join(capabilities.names)})")
     options = _backend_options(args)
     if args.backend == "sim":
         options["db_path"] = args.state_db
@@ -475,13 +484,17 @@ def _executor(args) -> int:
 def _capabilities(args) -> int:
     from bimrobot.rcan.generation import load_capabilities
 
-    table = load_capabilities(args.capabilities)
-    print(f"Robot types and their construction activities ({table.source}):")
-    for name, kinds in table.robot_types.items():
+    from bimrobot.rcan.fleet import TABLE_5_2, activities_of
+
+    fleet = load_capabilities(args.capabilities)
+    print("Robot types and their construction activities (thesis Table 5.2):")
+    for name, kinds in TABLE_5_2.items():
         print(f"  {name:14s} {', '.join(sorted(k.label for k in kinds))}")
-    print("Robots:")
-    for robot in table.robots.values():
-        print(f"  {robot.name:26s} types {'+'.join(robot.types)}; payload {robot.payload_kg:g} kg, "
+    print(f"Robots ({fleet.source}):")
+    for robot in fleet.robots:
+        doing = activities_of(robot)
+        types = "+".join(name for name, kinds in TABLE_5_2.items() if kinds <= doing) or "part of a type"
+        print(f"  {robot.name:26s} types {types}; payload {robot.payload_kg:g} kg, "
               f"reach {robot.reach_m:g} m, speed {robot.speed_m_s:g} m/s")
     return 0
 
@@ -496,10 +509,10 @@ def _robot_node(args) -> int:
 
         check_output(args.state_db, folder=False, inputs=_inputs(args), option="--state-db", recognise=is_state_db)
     capabilities, _ = _fleet_capabilities(args)
-    unknown = [r for r in args.robot or () if r not in capabilities.robots]
+    unknown = [r for r in args.robot or () if r not in capabilities.by_name]
     if unknown:
         raise InputError(f"--robot {unknown[0]!r} is not a robot of {capabilities.source} "
-                         f"(its robots: {', '.join(list(capabilities.robots)[:10])})")
+                         f"(its robots: {', '.join(capabilities.names[:10])})")
     return serve_robot_node(capabilities, time_scale=args.time_scale, failure_probability=args.failure_probability,
                             seed=args.seed, db_path=args.state_db, robots=args.robot)
 

@@ -17,12 +17,13 @@ import uuid
 from dataclasses import dataclass, field
 from typing import Callable, Iterable
 
+from bimrobot.coordination.fleet import Fleet
 from bimrobot.errors import InputError
 from bimrobot.rcan.activities import ActivityKind, RcanActivity
 from bimrobot.rcan.backends.interfaces import ActivityResult
 from bimrobot.rcan.broker import (ACTIVITY_TOPIC, DEAD_LETTER_TOPIC, RESULT_TOPIC, STATE_TOPIC, Broker, Message, Router,
                                   robot_topic)
-from bimrobot.rcan.generation import CapabilityTable, NodeGenerator, TaskAllocator
+from bimrobot.rcan.generation import NodeGenerator, TaskAllocator
 from bimrobot.rcan.node import RcanNode
 from bimrobot.rcan.state_manager import DONE, ESCALATED, STARTED, EscalationReport, StateManager
 
@@ -73,7 +74,7 @@ class RcanSystem:
     robot executes, result, new state).
     """
 
-    def __init__(self, broker: Broker, capabilities: CapabilityTable, state_manager: StateManager,
+    def __init__(self, broker: Broker, capabilities: Fleet, state_manager: StateManager,
                  backend_name: str = "sim", log: Callable[[str], None] | None = None):
         self.broker = broker
         self.capabilities = capabilities
@@ -330,9 +331,9 @@ class RcanSystem:
         reconnections = getattr(self.broker, "reconnections", 0)
         self._held, self._groups, self._recheck, self._newly_done, self._down = {}, {}, set(), [], set()
         self._order = order = {a.activity_id: n for n, a in enumerate(activities)}
-        self._robot_order = {name: n for n, name in enumerate(self.capabilities.robots)}
-        self._idle = set(self.capabilities.robots)
-        self._idle_heap = [(0, n, name) for n, name in enumerate(self.capabilities.robots)]  # (load, order, robot)
+        self._robot_order = {name: n for n, name in enumerate(self.capabilities.names)}
+        self._idle = set(self.capabilities.names)
+        self._idle_heap = [(0, n, name) for n, name in enumerate(self.capabilities.names)]  # (load, order, robot)
         resumed, queued = self._restore(activities)
         published = set(self._done) | queued | {n.activity_id for n, _ in self._in_flight.values()}
         published |= {r.activity_id for r in self._escalations}
@@ -521,7 +522,7 @@ def _dependents(activities: list[RcanActivity], roots: list[str]) -> dict[str, s
 
 def run_plan(
     activities: Iterable[RcanActivity],
-    capabilities: CapabilityTable,
+    capabilities: Fleet,
     backend: str = "sim",
     state_db: str = ":memory:",
     redis_url: str | None = None,
@@ -588,8 +589,8 @@ def _run_plan(activities, capabilities, backend, state_db, redis_url, spawn_exec
                                if redis_url else broker)
             # a backend that acts in turns (mujoco) needs every robot's node at hand: a thread per robot
             in_turns = hasattr(backend_instance, "attach_coordinator")
-            executor = RobotExecutor(executor_broker, backend_instance, capabilities.robots,
-                                     workers=len(capabilities.robots) if in_turns else None)
+            executor = RobotExecutor(executor_broker, backend_instance, capabilities.names,
+                                     workers=len(capabilities.names) if in_turns else None)
             executors.append(executor)
             threads.append(executor.start_thread())
         system = RcanSystem(broker, capabilities, manager, backend, log)

@@ -301,23 +301,24 @@ def _robots(schedule: list[dict], summary: dict, site, offset: np.ndarray) -> di
     names = [r["robot"] for r in summary.get("robots", [])]
     kinds = {r["robot"]: r.get("kind", "") for r in summary.get("robots", [])}
     names += sorted({row["Robot"] for row in schedule} - set(names))
-    specs = {}
+    specs, fleet = {}, None
     fleet_name = summary.get("fleet")
     if fleet_name:
         try:
-            specs = {spec.name: spec for spec in load_fleet(fleet_name).robots}
+            fleet = load_fleet(fleet_name)
+            specs = fleet.by_name
         except InputError as exc:  # the fleet file moved: robots drive at an assumed 1 m/s
             log.warning("replay: fleet %s not readable (%s); robots drive at 1 m/s in the replay", fleet_name, exc)
     robots = {}
     for index, name in enumerate(names):
         spec = specs.get(name)
-        home_site = spec.home if spec is not None and spec.home else site.robot_home[index % len(site.robot_home)]
+        home_site = (fleet.home_on_site(spec, offset) if spec is not None else None) or site.robot_home[index % len(site.robot_home)]
         robots[name] = Robot(
             name=name, kind=kinds.get(name) or (spec.kind if spec else ""),
             home=site.to_model(np.asarray(home_site, float), offset),
-            speed=spec.speed if spec is not None and spec.speed > 0 else 1.0,
-            load_time=spec.load_time if spec is not None else 0.0,
-            unload_time=spec.unload_time if spec is not None else 0.0,
+            speed=spec.speed_m_s if spec is not None else 1.0,
+            load_time=spec.load_s if spec is not None else 0.0,
+            unload_time=spec.unload_s if spec is not None else 0.0,
         )
     return robots
 

@@ -32,7 +32,7 @@ class RobotTimes:
     """A robot's speeds and handling times: metres per second and seconds.
 
     ``arm_speed_m_s`` is ``math.inf`` when the handling times already include the arm's motions (every
-    chapter-4 fleet robot)."""
+    chapter-4 fleet robot). A robot's are :attr:`bimrobot.coordination.fleet.RobotSpec.times`."""
 
     speed_m_s: float
     load_s: float = 0.0
@@ -40,11 +40,6 @@ class RobotTimes:
     per_node_s: float = 0.0
     per_point_s: float = 0.0
     arm_speed_m_s: float = math.inf
-
-    @classmethod
-    def of_fleet_robot(cls, robot) -> "RobotTimes":
-        """The times of a fleet robot (:class:`bimrobot.coordination.fleet.RobotSpec`, Table 4.1 keys)."""
-        return cls(robot.speed, robot.load_time, robot.unload_time, robot.time_per_node, robot.time_per_point)
 
 
 def travel_s(times: RobotTimes, distance_m: float) -> float:

@@ -67,9 +67,9 @@ from pathlib import Path
 
 import numpy as np
 
+from bimrobot.coordination.fleet import Fleet
 from bimrobot.rcan.activities import ActivityKind, RcanActivity
 from bimrobot.rcan.backends.interfaces import ActivityResult, DispatchingBackend
-from bimrobot.rcan.generation import CapabilityTable
 from bimrobot.rcan.node import RcanNode
 
 POSITION_TOLERANCE_M = 0.010
@@ -328,7 +328,7 @@ class MujocoBackend(DispatchingBackend):
 
     name = "mujoco"
 
-    def __init__(self, capabilities: CapabilityTable, db_path: str | Path = ":memory:",
+    def __init__(self, capabilities: Fleet, db_path: str | Path = ":memory:",
                  trajectory_path: str | Path | None = None, shapes: dict | None = None, plan=None, **_options):
         from bimrobot.physics.robot import robot_model
         from bimrobot.physics.site import MujocoSite
@@ -336,10 +336,10 @@ class MujocoBackend(DispatchingBackend):
         self.capabilities = capabilities
         self.shapes = {**experiment_shapes(), **(shapes or {})}
         robots = {}
-        for spec in capabilities.robots.values():
+        for spec in capabilities.robots:
             opening = spec.gripper_opening_m[1] if spec.gripper_opening_m else None
             model = robot_model(spec.name, spec.payload_kg, spec.reach_m, opening, spec.footprint_m)
-            robots[spec.name] = (model, spec.speed_m_s, spec.arm_speed_m_s, (spec.home.x, spec.home.y))
+            robots[spec.name] = (model, spec.speed_m_s, spec.arm_speed, spec.home_m[:2])
         targets = [(a.target.x, a.target.y) for a in plan or () if a.target is not None]
         starts = starts_apart({name: (r[3], r[0].footprint) for name, r in robots.items()},
                               np.mean(targets, axis=0) if targets else (0.0, 0.0), yard_footprints(plan or (), self.shapes))
@@ -639,7 +639,7 @@ class MujocoBackend(DispatchingBackend):
             site.open_gripper(robot)
             site.step(1.0)
             mass = site.components[gid].mass
-            payload = self.capabilities.robots[robot].payload_kg
+            payload = self.capabilities.by_name[robot].payload_kg
             raise MotionFailed(f"{gid} weighs {mass:.1f} kg: the arm of {robot} (rated payload {payload:.1f} kg, "
                                f"{self.families[robot].family} model) cannot lift it: {failure}") from None
         return f"{node.kind.label} {gid}: held and lifted {LIFT_M:.2f} m"

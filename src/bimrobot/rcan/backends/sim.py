@@ -37,9 +37,9 @@ from pathlib import Path
 
 import numpy as np
 
+from bimrobot.coordination.fleet import Fleet, RobotSpec
 from bimrobot.rcan.activities import ActivityKind, Pose
 from bimrobot.rcan.backends.interfaces import ActivityResult, DispatchingBackend
-from bimrobot.rcan.generation import CapabilityTable, RobotSpec
 from bimrobot.rcan.node import RcanNode
 from bimrobot.rcan.state_manager import connect_state_db, write_lock
 from bimrobot.sco import timing
@@ -65,7 +65,7 @@ class KinematicSite:
 
     def __init__(
         self,
-        capabilities: CapabilityTable,
+        capabilities: Fleet,
         db_path: str | Path = ":memory:",
         time_scale: float = 0.0,
         failure_probability: float = 0.0,
@@ -78,8 +78,8 @@ class KinematicSite:
         self._lock = threading.Lock()
         self._db = connect_state_db(db_path, schema=SCHEMA)  # the run's state database, or its own; never a foreign file
         self._write_lock = write_lock(db_path)
-        for robot in capabilities.robots.values():
-            h = robot.home
+        for robot in capabilities.robots:
+            h = Pose(*robot.home_m)  # the model frame (:func:`bimrobot.rcan.fleet.place_fleet`)
             self._db.execute(
                 "INSERT OR IGNORE INTO sim_robot VALUES (?, ?, ?, ?, NULL, NULL, 0.0)", (robot.name, h.x, h.y, h.z)
             )
@@ -114,7 +114,7 @@ class KinematicSite:
             recorded = self._recorded(node.activity_id, attempt)
         if recorded:
             return recorded
-        spec = self.capabilities.robots.get(node.robot)
+        spec = self.capabilities.by_name.get(node.robot)
         if spec is None:
             raise KeyError(f"robot {node.robot!r} is not in {self.capabilities.source}")
         with self._lock:
@@ -156,7 +156,7 @@ class KinematicSite:
     def _plan(self, spec: RobotSpec, state: dict, node: RcanNode) -> tuple[float, str | None, dict]:
         """(duration s, error or None, state changes) of ``node`` on robot ``spec`` in ``state``."""
         kind, target, base = node.kind, node.target, state["base"]
-        if not spec.can(kind):
+        if not spec.performs(kind):
             return 0.0, f"robot {spec.name} cannot {kind.label.lower()} (capability table)", {}
         if state["holding"] and state["holding"] != node.component_id:
             # RCAN released this robot from a component it still holds (its activity was escalated):
@@ -164,7 +164,7 @@ class KinematicSite:
             duration, error, effect = self._plan(spec, {**state, "holding": None}, node)
             effect = {**effect, "set_down": (state["holding"], state["arm"] or base)}
             return duration, error, effect
-        times, activity = spec.time_model(), node.activity
+        times, activity = spec.times, node.activity
         if kind in (ActivityKind.MOVE_TO_COMPONENT, ActivityKind.TRANSPORT):
             if kind is ActivityKind.TRANSPORT and state["holding"] != node.component_id:
                 return 0.0, f"robot {spec.name} does not hold {node.component_id} to transport it", {}
@@ -285,7 +285,7 @@ class SimBackend(DispatchingBackend):
 
     name = "sim"
 
-    def __init__(self, capabilities: CapabilityTable, db_path: str | Path = ":memory:", time_scale: float = 0.0,
+    def __init__(self, capabilities: Fleet, db_path: str | Path = ":memory:", time_scale: float = 0.0,
                  failure_probability: float = 0.0, seed: int = 0):
         self.site = KinematicSite(capabilities, db_path, time_scale, failure_probability, seed)
 

@@ -11,10 +11,10 @@ import os
 import threading
 import time
 
-from bimrobot.rcan.activities import ActivityKind
+from bimrobot.coordination.fleet import Fleet
+from bimrobot.rcan.activities import ActivityKind, Pose
 from bimrobot.rcan.backends.interfaces import ActivityResult, DispatchingBackend
 from bimrobot.rcan.backends.ros2.environment import HEARTBEAT, action_name, load_ros2
-from bimrobot.rcan.generation import CapabilityTable
 from bimrobot.rcan.node import RcanNode
 
 
@@ -46,7 +46,7 @@ class Ros2Backend(DispatchingBackend):
 
     name = "ros2"
 
-    def __init__(self, capabilities: CapabilityTable, server_timeout_s: float = 10.0,
+    def __init__(self, capabilities: Fleet, server_timeout_s: float = 10.0,
                  result_timeout_s: float | None = None, deadline_factor: float = 3.0, deadline_min_s: float = 30.0,
                  time_scale: float = 1.0, liveness_s: float = 4.0):
         rclpy, self._action = load_ros2()
@@ -68,7 +68,7 @@ class Ros2Backend(DispatchingBackend):
         self.server_timeout_s, self.result_timeout_s = server_timeout_s, result_timeout_s
         self.deadline_factor, self.deadline_min_s = deadline_factor, deadline_min_s
         self.time_scale, self.liveness_s = time_scale, liveness_s
-        self._base = {name: robot.home for name, robot in capabilities.robots.items()}  # last base goal sent
+        self._base = {robot.name: Pose(*robot.home_m) for robot in capabilities.robots}  # last base goal sent
         # one thread spins every callback (goal responses, feedback, results: each is short); rclpy's
         # multi-threaded executor hands each callback to a thread pool, which made a round trip about
         # three times slower here (bench/rcan.py --references)
@@ -90,13 +90,13 @@ class Ros2Backend(DispatchingBackend):
 
     def expected_s(self, node: RcanNode) -> float:
         """The robot seconds ``node``'s activity should take (0 for a robot not in the table)."""
-        spec = self.capabilities.robots.get(node.robot)
+        spec = self.capabilities.by_name.get(node.robot)
         if spec is None:
             return 0.0
         if node.kind in (ActivityKind.MOVE_TO_COMPONENT, ActivityKind.TRANSPORT):
-            return self._base.get(node.robot, spec.home).distance_xy(node.target) / spec.speed_m_s
+            return self._base.get(node.robot, Pose(*spec.home_m)).distance_xy(node.target) / spec.speed_m_s
         if node.kind in (ActivityKind.POSITION_FOR_PICKING_UP, ActivityKind.POSITION_FOR_INSTALLING):
-            return (2 * spec.reach_m + 1.0) / spec.arm_speed_m_s  # at most across the reach and up from stowed
+            return (2 * spec.reach_m + 1.0) / spec.arm_speed  # at most across the reach and up from stowed
         return spec.handling_s.get(node.kind.value, 0.0)
 
     def deadline_s(self, node: RcanNode) -> float:

@@ -14,10 +14,10 @@ import sys
 import threading
 import time
 
+from bimrobot.coordination.fleet import Fleet
 from bimrobot.rcan.activities import ActivityKind
 from bimrobot.rcan.backends.ros2.environment import (HEARTBEAT, HEARTBEAT_S, action_name, cleanup_fastdds,
                                                      fastdds_files, load_ros2)
-from bimrobot.rcan.generation import CapabilityTable
 from bimrobot.rcan.node import RcanNode
 
 
@@ -61,7 +61,7 @@ class _Heartbeat:
         self._thread.join(timeout=2)
 
 
-def serve_robot_node(capabilities: CapabilityTable, time_scale: float = 0.0, failure_probability: float = 0.0,
+def serve_robot_node(capabilities: Fleet, time_scale: float = 0.0, failure_probability: float = 0.0,
                      seed: int = 0, db_path: str = ":memory:", ready: threading.Event | None = None,
                      stop: threading.Event | None = None, robots: list[str] | None = None) -> int:
     """Serve ``/bimrobot/<robot>/<activity>`` for every robot of ``capabilities`` (or only ``robots``)
@@ -118,8 +118,8 @@ def serve_robot_node(capabilities: CapabilityTable, time_scale: float = 0.0, fai
 
     servers = [
         ActionServer(node, action, action_name(robot, kind), make_callback(robot, kind), callback_group=group)
-        for robot, spec in capabilities.robots.items() for kind in ActivityKind
-        if spec.can(kind) and (robots is None or robot in robots)
+        for robot, spec in capabilities.by_name.items() for kind in ActivityKind
+        if spec.performs(kind) and (robots is None or robot in robots)
     ]
     executor = MultiThreadedExecutor(num_threads=4, context=context)
     executor.add_node(node)
@@ -128,7 +128,7 @@ def serve_robot_node(capabilities: CapabilityTable, time_scale: float = 0.0, fai
         for sig in (signal.SIGINT, signal.SIGTERM):
             signal.signal(sig, lambda *_: stop.set())
     print(f"bimrobot robot node: {len(servers)} ConstructionActivity action servers for "
-          f"{', '.join(robots or capabilities.robots)}", flush=True)
+          f"{', '.join(robots or capabilities.names)}", flush=True)
     if ready:
         ready.set()
     try:

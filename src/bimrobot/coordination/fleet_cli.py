@@ -1,0 +1,57 @@
+"""``bimrobot fleet list`` and ``bimrobot fleet convert``: the built-in fleets, and older fleet files
+rewritten in the one fleet format (:mod:`bimrobot.coordination.fleet`)."""
+
+from __future__ import annotations
+
+import argparse
+
+EXAMPLES = """examples:
+  bimrobot fleet list                            # the built-in fleets and their robots
+  bimrobot fleet convert old.yaml -o fleet.yaml  # a version-1 fleet or RCAN capability table, as version 2
+"""
+
+
+def register(subparsers) -> None:
+    """Add ``fleet list`` and ``fleet convert`` to the bimrobot parser."""
+    fleet = subparsers.add_parser("fleet", help="list the built-in fleets; convert an older fleet file",
+                                  epilog=EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter)
+    commands = fleet.add_subparsers(dest="fleet_command", metavar="COMMAND", required=True)
+    listing = commands.add_parser("list", help="the built-in fleets (`--fleet NAME`) and their robots",
+                                  epilog="example:\n  bimrobot fleet list",
+                                  formatter_class=argparse.RawDescriptionHelpFormatter)
+    listing.set_defaults(func=_list)
+    convert = commands.add_parser("convert", help="rewrite a fleet file of any version in the version-2 keys",
+                                  epilog="example:\n  bimrobot fleet convert capabilities.yaml -o fleet.yaml",
+                                  formatter_class=argparse.RawDescriptionHelpFormatter)
+    convert.add_argument("fleet", help="a fleet YAML file (version 1, 2, or an RCAN capability table) or a built-in name")
+    convert.add_argument("-o", "--output", required=True, help="the version-2 fleet file to write (never a user's file)")
+    convert.set_defaults(func=_convert)
+
+
+def _list(args) -> int:
+    from bimrobot.coordination.fleet import BUILTIN_FLEETS, load_fleet
+
+    for name in BUILTIN_FLEETS:
+        fleet = load_fleet(name)
+        kinds: dict[str, int] = {}
+        for robot in fleet.robots:
+            kinds[robot.kind] = kinds.get(robot.kind, 0) + 1
+        shown = ", ".join(f"{count} {kind}" for kind, count in kinds.items())
+        print(f"{name:12s} {len(fleet.robots)} robots ({shown}): {', '.join(fleet.names)}")
+    return 0
+
+
+def _convert(args) -> int:
+    import yaml
+
+    from bimrobot.coordination.fleet import BUILTIN_FLEETS, fleet_to_dict, load_fleet
+    from bimrobot.io import atomic_output_file, signature
+
+    fleet = load_fleet(args.fleet)
+    inputs = [] if args.fleet in BUILTIN_FLEETS else [args.fleet]
+    text = f"# {signature('fleet convert')}, from {fleet.source}\n"
+    text += yaml.safe_dump(fleet_to_dict(fleet), sort_keys=False, default_flow_style=None)
+    with atomic_output_file(args.output, inputs=inputs) as tmp:
+        tmp.write_text(text)
+    print(f"{args.output}: fleet {fleet.name}, {len(fleet.robots)} robots, version 2")
+    return 0
