@@ -235,6 +235,26 @@ def test_void_entries_lose_to_a_solid_material_named_beside_them():
 # ---- plausibility ---------------------------------------------------------------------------------
 
 
+def test_weights_in_pounds_and_tonnes_are_read_in_kilograms(tmp_path):
+    # The project's mass unit is the pound; one quantity names its own unit, the tonne.
+    ifc = _Model()
+    assignment = ifc.file.by_type("IfcUnitAssignment")[0]
+    pound = ifcopenshell.api.unit.add_conversion_based_unit(ifc.file, name="pound")
+    assignment.Units = [u for u in assignment.Units if u.UnitType != "MASSUNIT"] + [pound]
+    concrete = ifc.material("Concrete")
+    ifc.wall("pounds", 0.2, concrete, net_weight=12_000.0)
+    tonnes = ifc.wall("tonnes", 0.2, concrete, net_weight=5.5)
+    quantity = next(q for r in tonnes.IsDefinedBy for q in r.RelatingPropertyDefinition.Quantities)
+    quantity.Unit = ifcopenshell.api.unit.add_conversion_based_unit(ifc.file, name="tonne")
+    _, walls, model = ifc.load(tmp_path)
+
+    # ifcopenshell.api writes the pound as 0.454 kg (0.45359237 exactly)
+    assert model.units["mass"] == "POUND" and model.units["mass_scale_to_kg"] == pytest.approx(0.4536, abs=1e-3)
+    assert walls["pounds"].weight_kg == pytest.approx(12_000.0 * 0.4536, rel=1e-3)
+    assert walls["tonnes"].weight_kg == pytest.approx(5_500.0)
+    assert walls["pounds"].weight_source is walls["tonnes"].weight_source is WeightSource.QUANTITY
+
+
 def test_inspect_lists_implausible_weights_as_suspect_not_found(tmp_path, capsys):
     ifc = _Model()
     concrete = ifc.material("Concrete")

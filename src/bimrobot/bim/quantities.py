@@ -357,7 +357,8 @@ class MaterialDensities:
         import ifcopenshell.util.unit
 
         self.ifc = ifc
-        self.mm_per_unit = ifcopenshell.util.unit.calculate_unit_scale(ifc) * 1000.0
+        metres_per_unit = ifcopenshell.util.unit.calculate_unit_scale(ifc)
+        self.mm_per_unit = ifcopenshell.util.unit.convert(metres_per_unit, None, "METRE", "MILLI", "METRE")
         self._cache: dict[int, MaterialDensity] = {}
 
     def of(self, product) -> MaterialDensity:

@@ -45,11 +45,6 @@ _CURVE_ONLY_TYPES = {
     "Curve", "Curve2D", "Curve3D", "GeometricCurveSet", "GeometricSet", "Point", "PointCloud", "Annotation2D",
 }  # fmt: skip
 _WEIGHT_NAMES = frozenset(WEIGHT_PROPERTY_NAMES)
-_SI_PREFIX = {
-    "EXA": 1e18, "PETA": 1e15, "TERA": 1e12, "GIGA": 1e9, "MEGA": 1e6, "KILO": 1e3, "HECTO": 1e2, "DECA": 1e1,
-    "DECI": 1e-1, "CENTI": 1e-2, "MILLI": 1e-3, "MICRO": 1e-6, "NANO": 1e-9, "PICO": 1e-12, "FEMTO": 1e-15,
-    "ATTO": 1e-18,
-}  # fmt: skip
 
 
 _WRONG_TYPE = re.compile(r"entity instance of type '([^']*)' has no attribute '([^']*)'")
@@ -1003,39 +998,28 @@ def _storeys(ifc: ifcopenshell.file, length_scale: float) -> list[Storey]:
     return sorted(storeys, key=lambda s: s.elevation)
 
 
-def _project_units(ifc: ifcopenshell.file) -> list:
-    projects = ifc.by_type("IfcProject")
-    if not projects or projects[0].UnitsInContext is None:
-        return []
-    return list(projects[0].UnitsInContext.Units or ())
-
-
 def _length_unit_name(ifc: ifcopenshell.file) -> str:
-    for unit in _project_units(ifc):
-        if getattr(unit, "UnitType", None) == "LENGTHUNIT":
-            if unit.is_a("IfcSIUnit"):
-                return f"{unit.Prefix or ''}{unit.Name}"
-            return str(unit.Name).upper()
-    return "METRE"
+    """The project's length unit as IFC names it (``MILLIMETRE``, ``INCH``); METRE when undeclared."""
+    unit = ifcopenshell.util.unit.get_project_unit(ifc, "LENGTHUNIT")
+    return ifcopenshell.util.unit.get_full_unit_name(unit) if unit is not None else "METRE"
 
 
 def _unit_scale_to_kg(unit) -> float:
-    """Factor from a mass unit (IfcSIUnit GRAM with prefix, or a conversion-based unit) to kg."""
-    if unit.is_a("IfcSIUnit"):
-        return _SI_PREFIX.get(unit.Prefix, 1.0) / 1000.0 if unit.Name == "GRAM" else 1.0
-    if unit.is_a("IfcConversionBasedUnit"):
-        factor = unit.ConversionFactor
-        return float(factor.ValueComponent.wrappedValue) * _unit_scale_to_kg(factor.UnitComponent)
-    return 1.0
+    """Kilograms in one ``unit`` of mass: an IfcSIUnit (GRAM with its prefix) or an
+    IfcConversionBasedUnit (a pound, a tonne: its chain of factors), scaled by ifcopenshell.util.unit,
+    whose SI mass unit is the gram; a unit of neither kind (context dependent) is taken as kilograms."""
+    if not (unit.is_a("IfcSIUnit") or unit.is_a("IfcConversionBasedUnit")):
+        return 1.0
+    grams = ifcopenshell.util.unit.get_named_unit_scale(unit)
+    return ifcopenshell.util.unit.convert(grams, None, "GRAM", "KILO", "GRAM")
 
 
 def _mass_unit(ifc: ifcopenshell.file) -> tuple[float, str]:
-    """(factor to kg, unit name) of the project's mass unit; kilograms when the file declares none."""
-    for unit in _project_units(ifc):
-        if getattr(unit, "UnitType", None) == "MASSUNIT":
-            name = f"{unit.Prefix or ''}{unit.Name}" if unit.is_a("IfcSIUnit") else str(unit.Name).upper()
-            return _unit_scale_to_kg(unit), name
-    return 1.0, "KILOGRAM (not declared)"
+    """(kilograms per unit, unit name) of the project's mass unit; kilograms when the file declares none."""
+    unit = ifcopenshell.util.unit.get_project_unit(ifc, "MASSUNIT")
+    if unit is None:
+        return 1.0, "KILOGRAM (not declared)"
+    return _unit_scale_to_kg(unit), ifcopenshell.util.unit.get_full_unit_name(unit)
 
 
 def _name_of_first(ifc: ifcopenshell.file, ifc_class: str) -> str:
