@@ -1,7 +1,7 @@
 """``bimrobot build``: the main job in one command, from an IFC model to a robot-built structure.
 
-Stages, each one existing sub-command run in this process on the output of the stage before, into one
-output folder (written atomically and resumable, :func:`bimrobot.io.resumable_output_dir`):
+Stages, each one existing sub-command's function called in this process on the output of the stage before,
+into one output folder (written atomically and resumable, :func:`bimrobot.io.resumable_output_dir`):
 
 ========== ============================================================== ===========================
 stage      what                                                           sub-command
@@ -16,6 +16,17 @@ replay     the 4D replay (Rerun recording)                                ``repl
 
 The simulation comes first: a fleet that cannot build the model is refused before the package is
 written. Every stage after it reads the site from ``site.yaml``.
+
+One model, read once (issue 34): the IFC file is parsed once, when the build starts (its selectors are
+checked on that parse, in seconds), and the :class:`~bimrobot.bim.model.BuildingModel` is read from that
+parse once, with its geometry, selection, assembly units, prebuilt selector and unknown-weight rule, when
+the first stage needs it (:class:`BuildModel`). Each stage is its sub-command's own function (``simulate``
+``run_simulate``, ``convert`` ``convert_command``, ``graph`` ``graph_command``, ``replay``
+``replay_command``) given that model instead of reading the file: the options are the sub-command's, parsed
+from the line the build prints, so a sub-command run alone with that line writes the same output. The
+graph stage writes the work schedule into the parse itself (``model-with-schedule.ifc``); nothing reads
+it afterwards. ``build.json`` records how often the file was parsed and its geometry read (``ifc_reads``,
+``geometry_passes``: 1 and 1 for a build that ran every stage).
 
 A stage that finished is recorded in ``.stages.json``; a build killed (SIGKILL, Ctrl-C) and run again
 with the same inputs and options skips the finished stages and resumes RCAN from its state database,
@@ -50,13 +61,82 @@ STAGES_FILE = ".stages.json"
 WORK_SCHEDULE_IFC = "model-with-schedule.ifc"
 
 
+class BuildModel:
+    """The build's model, read once: ``ifc`` the IFC file parsed when the build starts (its selectors are
+    checked on it), :meth:`model` the BuildingModel read from that parse (geometry, selection, assembly
+    units, ``--prebuilt``, ``--unknown-weight``) the first time a stage asks for it. Lengths in metres, z up,
+    kg."""
+
+    def __init__(self, args: argparse.Namespace):
+        from bimrobot.bim.reader import READS, open_ifc
+
+        self.args = args
+        self.reads_before = READS.of(args.model)  # (parses, geometry passes) of the file before the build
+        self.ifc = open_ifc(args.model)  # the one parse of the file
+        self._model = None
+
+    def model(self):
+        """The BuildingModel, read from the one parse on the first call."""
+        if self._model is None:
+            from bimrobot.bim import load_model
+            from bimrobot.sco.build import prebuilt_selector
+
+            args = self.args
+            if self.ifc is None:
+                raise RuntimeError("the build's model is read after its parse was given to the graph stage")
+            self._model = load_model(args.model, include=args.include, exclude=args.exclude,
+                                     prebuilt=prebuilt_selector(args.prebuilt), unknown_weight=args.unknown_weight,
+                                     ifc=self.ifc)
+        return self._model
+
+    def reads(self) -> dict[str, int]:
+        """How often the build parsed the file and read its geometry: ``{"ifc_reads", "geometry_passes"}``."""
+        from bimrobot.bim.reader import READS
+
+        parses, geometry = READS.of(self.args.model)
+        return {"ifc_reads": parses - self.reads_before[0], "geometry_passes": geometry - self.reads_before[1]}
+
+
+def _simulate(sub_args: argparse.Namespace, shared: BuildModel) -> int:
+    from bimrobot.coordination.cli import run_simulate
+
+    return run_simulate(sub_args, shared.model())
+
+
+def _convert(sub_args: argparse.Namespace, shared: BuildModel) -> int:
+    from bimrobot.world.cli import convert_command
+
+    return convert_command(sub_args, shared.model())
+
+
+def _graph(sub_args: argparse.Namespace, shared: BuildModel) -> int:
+    """The graph and the IFC work schedule, written into the build's parse of the file (the last reader)."""
+    from bimrobot.lbd.cli import graph_command
+
+    model = shared.model()
+    ifc, shared.ifc = shared.ifc, None
+    return graph_command(sub_args, model, ifc)
+
+
+def _rcan(sub_args: argparse.Namespace, shared: BuildModel) -> int:
+    return int(sub_args.func(sub_args) or 0)  # RCAN runs from the graph alone: no model
+
+
+def _replay(sub_args: argparse.Namespace, shared: BuildModel) -> int:
+    from bimrobot.replay.cli import replay_command
+
+    return replay_command(sub_args, shared.model())
+
+
 @dataclass(frozen=True)
 class Stage:
-    """One step of the build: ``name`` (its output in the folder), ``title``, the sub-command line."""
+    """One step of the build: ``name`` (its output in the folder), ``title``, the sub-command line (its
+    options, printed), and ``run``: the sub-command's function called on the parsed line and the build's model."""
 
     name: str
     title: str
     argv: Callable[[argparse.Namespace, Path], list[str]]
+    run: Callable[[argparse.Namespace, BuildModel], int]
     #: exit codes of the sub-command that still finish the stage (rcan: 1 = something escalated)
     accepted: tuple[int, ...] = (0,)
 
@@ -115,24 +195,26 @@ STAGES = (  # the simulation first: it refuses a fleet that cannot build the mod
     Stage("simulation", "build simulation (market, SimPy)",
           lambda a, d: ["simulate", str(a.model), "--fleet", str(a.fleet), "-o", str(d / "simulation"), "--no-progress",
                         "--prebuilt", a.prebuilt, *(["--by-element"] if a.by_element else []),
-                        *_site(a), *_selection(a), *_weights(a)]),
+                        *_site(a), *_selection(a), *_weights(a)], _simulate),
     Stage("package", "Gazebo package (components on the yard)",
           lambda a, d: ["convert", str(a.model), "-o", str(d / "package"), "--layout", "yard", "--no-progress",
-                        "--package-name", _package_name(a), *_placed_site(d), *_selection(a), *_weights(a)]),
+                        "--package-name", _package_name(a), *_placed_site(d), *_selection(a), *_weights(a)],
+          _convert),
     Stage("graph", "knowledge graph (BOT + DiCon + schedule, joints, pick-up positions) and the IFC work schedule",
           lambda a, d: ["graph", str(a.model), "--schedule", str(d / "simulation" / "schedule.csv"),
                         "-o", str(d / "graph.ttl"), "--package", str(d / "package"), "--prebuilt", a.prebuilt,
                         "--fleet", str(a.fleet),
-                        *(["--by-element"] if a.by_element else []), *_work_schedule(a, d), *_selection(a), *_weights(a)]),
+                        *(["--by-element"] if a.by_element else []), *_work_schedule(a, d), *_selection(a), *_weights(a)],
+          _graph),
     Stage("rcan", "RCAN run generated from the graph (the fleet's robots, simulated)",
           lambda a, d: ["rcan", "run", "--graph", str(d / "graph.ttl"), "--backend", a.backend,
                         "--capabilities", str(a.fleet), "--state-db", str(d / "rcan" / "state.db"), "-q",
                         "--report", str(d / "rcan" / "report.json"), "--graph-out", str(d / "rcan" / "graph-after-rcan.ttl"),
                         "--time-scale", repr(a.time_scale), *_placed_site(d)],
-          accepted=(0, 1)),
+          _rcan, accepted=(0, 1)),
     Stage("replay", "4D replay of the build in Rerun (build.rrd)",
           lambda a, d: ["replay", str(d), "-o", str(d / "build.rrd"), "--model", str(a.model),
-                        *(["--start", a.start] if a.start else [])]),
+                        *(["--start", a.start] if a.start else [])], _replay),
 )
 
 
@@ -230,10 +312,11 @@ def _fingerprint(args) -> dict:
     return {"options": options, "inputs": {str(p.resolve()): digest(p) for p in _inputs(args)}}
 
 
-def _check_inputs(args) -> None:
+def _check_inputs(args) -> BuildModel:
     """Refuse what the stages would refuse, before anything is written: a missing model, fleet or site,
     a selector or prebuilt class the model cannot match (parsed without geometry: seconds, not the
-    minutes the stages take). A fleet that cannot build the model is refused by the first stage."""
+    minutes the stages take). A fleet that cannot build the model is refused by the first stage.
+    Returns the build's model: the one parse of the file, which the stages' BuildingModel is read from."""
     from bimrobot.bim.selection import check_selection
     from bimrobot.coordination.fleet import load_fleet, load_site
 
@@ -242,11 +325,14 @@ def _check_inputs(args) -> None:
     load_fleet(args.fleet)
     load_site(args.site)
     _check_schedule_out(args)
-    check_selection(args.model, args.include, args.exclude, args.prebuilt)
+    shared = BuildModel(args)
+    check_selection(args.model, args.include, args.exclude, args.prebuilt, ifc=shared.ifc)
+    return shared
 
 
-def _run_stage(stage: Stage, args, folder: Path) -> int:
-    """Run one stage's sub-command in this process; its exit code (InputError propagates)."""
+def _run_stage(stage: Stage, args, folder: Path, shared: BuildModel) -> int:
+    """Run one stage's sub-command function in this process on the build's model; its exit code
+    (InputError propagates)."""
     from bimrobot import io
     from bimrobot.cli import build_parser
 
@@ -257,7 +343,7 @@ def _run_stage(stage: Stage, args, folder: Path) -> int:
     # The stage writes into the build's partial folder, renamed to the output at the end: its lines name
     # the output folder, where the user will find the files.
     with contextlib.redirect_stdout(_Renaming(sys.stdout, str(folder), str(args.output).rstrip("/"))):
-        code = int(sub_args.func(sub_args) or 0)
+        code = int(stage.run(sub_args, shared) or 0)
     if code not in stage.accepted:
         raise InputError(f"stage {stage.name} ({stage.title}) failed with exit code {code}; see its output above")
     return code
@@ -284,7 +370,7 @@ def build_command(args: argparse.Namespace) -> int:
     from bimrobot import io
 
     args.unknown_weight_text = _unknown_weight_text(args)
-    _check_inputs(args)
+    shared = _check_inputs(args)
     started = time.monotonic()
     codes: dict[str, int] = {}
     with io.resumable_output_dir(args.output, kind="build", fingerprint=_fingerprint(args),
@@ -297,17 +383,22 @@ def build_command(args: argparse.Namespace) -> int:
                 codes[stage.name] = done[stage.name]["exit"]
                 continue
             stage_started = time.monotonic()
-            codes[stage.name] = _run_stage(stage, args, folder)
+            codes[stage.name] = _run_stage(stage, args, folder, shared)
             if stage.name == "simulation":
                 _write_placed_site(folder)
             done[stage.name] = {"exit": codes[stage.name], "seconds": round(time.monotonic() - stage_started, 2)}
             _write_stages(folder, done)
         (folder / STAGES_FILE).unlink()
+        building = shared.model()  # read already unless every stage was kept from an earlier run; the report draws it
+        reads = shared.reads()
+        print(f"\nmodel: {io.printable(args.model.name)} parsed {_times(reads['ifc_reads'])} and its geometry read "
+              f"{_times(reads['geometry_passes'])} for the {len(STAGES)} stages and the report (build.json ifc_reads)",
+              flush=True)
         (folder / "build.json").write_text(json.dumps({
             "generator": io.signature("build"), "model": str(args.model.resolve()), "fleet": str(args.fleet),
             "site": _site_source(folder), "backend": args.backend, "stages": done,
-            "resumed": resumed, "start": _start_text(args)}, indent=2), encoding="utf-8")
-        figures = _build_report(folder)
+            "resumed": resumed, "start": _start_text(args), **reads}, indent=2), encoding="utf-8")
+        figures = _build_report(folder, building)
         (folder / "README.md").write_text(readme(args, folder, done, figures), encoding="utf-8")
     print(f"\nbuild: {io.printable(str(args.output))}/ in {time.monotonic() - started:.1f} s"
           f"{' (resumed)' if resumed else ''}; README.md says what each file is; "
@@ -316,6 +407,10 @@ def build_command(args: argparse.Namespace) -> int:
         print("build: RCAN escalated activities; see rcan/report.json", file=sys.stderr)
         return 1
     return 0
+
+
+def _times(count: int) -> str:
+    return {0: "never", 1: "once", 2: "twice"}.get(count, f"{count} times")
 
 
 def _unknown_weight_text(args) -> str:
@@ -391,7 +486,7 @@ Fleet: `{args.fleet}`; site: {_site_source(folder)} (`site.yaml`). Units: metres
 | `rcan/state.db` | RCAN's state database (journal, component states); the build resumes from it | `sqlite3` |
 | `rcan/graph-after-rcan.ttl` | the graph with the states after the RCAN run | `bimrobot query` |
 {_trajectory_row(folder)}{_work_schedule_row(args)}| `build.rrd` | 4D replay: the structure growing, components travelling from the yard with their robots, states, a Gantt you can scrub (docs/replay.md) | `rerun build.rrd`, or `bimrobot replay out/ -o view.rrd --serve` for the web viewer |
-| `build.json` | the inputs, options and the time of each stage | `jq` |
+| `build.json` | the inputs, options, the time of each stage, and how often the build parsed the IFC file and read its geometry (`ifc_reads`, `geometry_passes`: once each) | `jq` |
 """
 
 
@@ -407,17 +502,18 @@ def _start_text(args) -> str:
         return str(args.start)
 
 
-def _build_report(folder: Path) -> str:
-    """Write ``report.html`` and ``building.png`` into the build folder; return the key figures as Markdown
-    for the README. Without the report extra (plotly, jinja2) the page is left out, with a line saying so."""
+def _build_report(folder: Path, building=None) -> str:
+    """Write ``report.html`` and ``building.png`` (drawn from the build's model) into the build folder;
+    return the key figures as Markdown for the README. Without the report extra (plotly, jinja2) the page
+    is left out, with a line saying so."""
     from bimrobot import report
 
     print("\n== report: report.html (key figures, Gantt, states over time, the building assembled)", flush=True)
     if report.missing_packages():
         print(f"report: report.html not written: {report.INSTALL_HINT}", file=sys.stderr, flush=True)
-        return report.readme_figures(folder)
+        return report.readme_figures(folder, building=building)
     started = time.monotonic()
-    figures = report.write_build_report(folder)
+    figures = report.write_build_report(folder, building=building)
     print(f"report.html, building.png and the README's key figures in {time.monotonic() - started:.1f} s", flush=True)
     return figures
 

@@ -27,10 +27,33 @@ def frame(tmp_path_factory) -> Path:
     return path
 
 
+#: What the `built` fixture's build read: the files ifcopenshell parsed, the geometry passes over them.
+READS: dict[str, list] = {"parsed": [], "geometry": []}
+
+
 @pytest.fixture(scope="module")
 def built(frame, tmp_path_factory) -> Path:
+    """The frame built with the defaults, every parse of an IFC file and every geometry pass counted
+    (the real ifcopenshell.open and geometry pass, wrapped by a counter)."""
+    import ifcopenshell
+
+    import bimrobot.bim.reader as reader
+
     out = tmp_path_factory.mktemp("build") / "out"
-    assert main(["build", str(frame), "-o", str(out), "--schedule-out", "plan.xml"]) == 0
+    real_open, real_pass = ifcopenshell.open, reader._read_shares
+
+    def counted_open(path, *args, **kwargs):
+        READS["parsed"].append(Path(path).name)
+        return real_open(path, *args, **kwargs)
+
+    def counted_pass(read, *args, **kwargs):
+        READS["geometry"].append(Path(str(read.shown)).name)
+        return real_pass(read, *args, **kwargs)
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(ifcopenshell, "open", counted_open)
+        patch.setattr(reader, "_read_shares", counted_pass)
+        assert main(["build", str(frame), "-o", str(out), "--schedule-out", "plan.xml"]) == 0
     return out
 
 
@@ -51,6 +74,28 @@ def test_build_writes_every_stage_and_says_what_each_file_is(built):
         assert f"`{path}`" in readme
     assert not list(built.parent.glob(".out.*")), "no staging folder is left behind"
     assert not (built / ".stages.json").exists()
+
+
+def test_build_reads_the_ifc_once_and_says_so(frame, built):
+    """One model, read once (issue 34): the build parses the IFC file once and reads its geometry once for
+    all its stages and the report, and build.json records it."""
+    assert READS == {"parsed": [frame.name], "geometry": [frame.name]}
+    record = json.loads((built / "build.json").read_text())
+    assert (record["ifc_reads"], record["geometry_passes"]) == (1, 1)
+
+
+def test_a_stage_run_as_its_sub_command_writes_what_the_build_wrote(frame, built, tmp_path):
+    """The stages are the sub-commands' own functions: `simulate` and `convert --layout yard` run alone
+    (each reading the file itself) give the build's schedule and the build's package components."""
+    from bimrobot.world.names import ros_package_name
+
+    assert main(["simulate", str(frame), "--fleet", "fleet2", "-o", str(tmp_path / "sim"), "--no-progress"]) == 0
+    assert (tmp_path / "sim" / "schedule.csv").read_text() == (built / "simulation" / "schedule.csv").read_text()
+    assert main(["convert", str(frame), "-o", str(tmp_path / "pkg"), "--layout", "yard", "--no-progress", "--no-preview",
+                 "--site", str(built / "site.yaml"), "--package-name", ros_package_name(built.name)]) == 0
+    alone = json.loads((tmp_path / "pkg" / "report.json").read_text())
+    in_build = json.loads((built / "package" / "report.json").read_text())
+    assert alone["converted"] == in_build["converted"] and alone["counts"] == in_build["counts"]
 
 
 def test_build_executes_the_simulated_schedule_through_rcan(built):

@@ -13,12 +13,12 @@ from bimrobot.bim.model import BuildingModel, Connection, Element, SkippedProduc
 
 
 def load_model(path, include=None, exclude=None, progress=False, threads=None, properties=True,
-               processes=None, prebuilt=None, unknown_weight=None) -> BuildingModel:
+               processes=None, prebuilt=None, unknown_weight=None, ifc=None) -> BuildingModel:
     """Read an IFC file into a BuildingModel (see :func:`bimrobot.bim.reader.load_model`)."""
     from bimrobot.bim.reader import load_model as _load_model
 
     return _load_model(path, include=include, exclude=exclude, progress=progress, threads=threads,
-                       properties=properties, processes=processes, prebuilt=prebuilt, unknown_weight=unknown_weight)
+                       properties=properties, processes=processes, prebuilt=prebuilt, unknown_weight=unknown_weight, ifc=ifc)
 
 
 __all__ = ["BuildingModel", "Connection", "Element", "SkippedProduct", "Storey", "WeightSource", "load_model"]

@@ -50,6 +50,31 @@ _WEIGHT_NAMES = frozenset(WEIGHT_PROPERTY_NAMES)
 _WRONG_TYPE = re.compile(r"entity instance of type '([^']*)' has no attribute '([^']*)'")
 
 
+class ReadCounts:
+    """How many times this process parsed each IFC file (:func:`open_ifc`) and read its geometry
+    (:func:`load_model`'s geometry pass), by resolved path. Counting only: ``bimrobot build`` records the
+    counts of its model in ``build.json`` (``ifc_reads``, ``geometry_passes``) to show it read it once."""
+
+    def __init__(self) -> None:
+        from collections import Counter
+
+        self.parses: Counter = Counter()
+        self.geometry: Counter = Counter()
+
+    @staticmethod
+    def key(path) -> str:
+        """The counters' key of ``path``: its resolved path as text."""
+        return str(Path(path).resolve())
+
+    def of(self, path) -> tuple[int, int]:
+        """(parses, geometry passes) of ``path`` so far."""
+        key = self.key(path)
+        return self.parses[key], self.geometry[key]
+
+
+READS = ReadCounts()
+
+
 def _refused_wrong_type(shown: str, exc: AttributeError, product=None) -> InputError:
     """The InputError for IfcOpenShell's AttributeError on an entity of the wrong type (a reference of
     a malformed file: IfcOpenShell does not check the types of references), naming the file and, where
@@ -90,6 +115,7 @@ def load_model(
     processes: int | None = None,
     prebuilt: str | None = None,
     unknown_weight=None,
+    ifc: ifcopenshell.file | None = None,
 ) -> BuildingModel:
     """Read ``path`` (IFC2X3, IFC4 or IFC4X3_ADD2) into a BuildingModel (metres, z up, kg).
 
@@ -113,11 +139,14 @@ def load_model(
     An element whose local placement lies away from its body (Revit's stair flights, columns and slabs
     placed at (0, 0, 0) with their bodies metres away) gets its origin moved onto the body
     (:func:`anchor_to_bodies`; ``model.relocated`` lists them), so every consumer reads the body's place.
+    ``ifc``: the file ``path`` already parsed by :func:`open_ifc` (``bimrobot build`` parses it once to
+    check its selectors, then reads the model from that parse); None parses it here.
     Raises :class:`~bimrobot.errors.InputError` naming the file when it is missing, not IFC, truncated,
     of an unsupported schema, or holds no element with solid geometry.
     """
     path = Path(path)
-    ifc = open_ifc(path)
+    ifc = open_ifc(path) if ifc is None else ifc
+    READS.geometry[READS.key(path)] += 1
     length_scale = ifcopenshell.util.unit.calculate_unit_scale(ifc)
     mass_scale, mass_name = _mass_unit(ifc)
     candidates = select_products(ifc, as_selector(include), as_selector(exclude), path)
@@ -426,6 +455,7 @@ def open_ifc(path: str | os.PathLike) -> ifcopenshell.file:
         raise InputError(f"{shown}: no such file")
     if not path.is_file():
         raise InputError(f"{shown} is not a file")
+    READS.parses[READS.key(path)] += 1
     try:
         with open(path, "rb") as stream:
             head = stream.read(4096)

@@ -201,19 +201,21 @@ def select_ids(ifc, selector: str, source: Path, option: str) -> set[int]:
 
 
 def check_selection(model_path, include: str | None = None, exclude: str | None = None,
-                    prebuilt: str | None = None) -> dict[str, int]:
+                    prebuilt: str | None = None, ifc=None) -> dict[str, int]:
     """Refuse a bad ``--include``, ``--exclude`` or ``--prebuilt`` before any geometry is read.
 
     Parses ``model_path`` (no geometry: seconds, not minutes, on a large model) and evaluates each
     selector against it. Returns how many products each selects (``{"include": n, "exclude": n,
     "prebuilt": n, "products": n}``, products being what the build would read). Raises InputError, one
     sentence, for an unreadable file, a selector IfcOpenShell cannot parse, a class the schema does not
-    have (listing the model's element classes), or a selection that leaves no product.
+    have (listing the model's element classes), or a selection that leaves no product. ``ifc``: the file
+    already parsed (:func:`bimrobot.bim.reader.open_ifc`), which ``bimrobot build`` then reads the model
+    from; None parses it here.
     """
     from bimrobot.bim.reader import open_ifc
 
     path = Path(model_path)
-    ifc = open_ifc(path)
+    ifc = open_ifc(path) if ifc is None else ifc
     counts: dict[str, int] = {}
     for option, selector in (("--include", include), ("--exclude", _without_none(exclude)), ("--prebuilt", prebuilt)):
         if selector and selector.strip():

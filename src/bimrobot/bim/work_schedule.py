@@ -413,7 +413,7 @@ def write_scheduled_ifc(ifc, ifc_out: Path, *, inputs, option: str = "--ifc-out"
 
 
 def scheduled_model(ifc_in: str | os.PathLike, schedule, *, epoch: str | None = None,
-                    calendar: WorkCalendar | None = None, name: str = "bimrobot simulated build"):
+                    calendar: WorkCalendar | None = None, name: str = "bimrobot simulated build", parsed=None):
     """``(ifc, figures)``: an in-memory copy of ``ifc_in`` with ``schedule`` as an IfcWorkSchedule (a Bonsai
     user sees the build in 4D) and its :class:`ScheduleFigures`.
 
@@ -440,6 +440,10 @@ def scheduled_model(ifc_in: str | os.PathLike, schedule, *, epoch: str | None = 
     ``epoch``: ISO date-time of t = 0 s; default the schedule's own (``Schedule.epoch``), else today at
     08:00; outside working time the work starts at the next working period. An IFC2X3 model is
     migrated to IFC4 (IFC2X3 has no IfcTaskTime).
+
+    ``parsed``: ``ifc_in`` already parsed (``bimrobot build`` parses its model once); the schedule is
+    written into that file itself (an IFC2X3 one into its IFC4 copy), so give one nothing reads afterwards.
+    None parses ``ifc_in`` here.
     """
     import ifcopenshell.api.sequence as sequence
 
@@ -449,7 +453,7 @@ def scheduled_model(ifc_in: str | os.PathLike, schedule, *, epoch: str | None = 
     if not activities:
         raise InputError(f"the schedule for {ifc_in} has no activity to write into the model")
     origin = _origin(epoch or getattr(schedule, "epoch", None))
-    ifc = _open(ifc_in)
+    ifc = _open(ifc_in) if parsed is None else parsed
     if ifc.schema == "IFC2X3":  # no IfcTaskTime in IFC2X3: the copy is migrated to IFC4 first
         ifc = migrated_to_ifc4(ifc, ifc_in)
     clock = _Clock(calendar, origin, calendar_time=bool(getattr(schedule, "epoch", None)))

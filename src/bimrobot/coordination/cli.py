@@ -180,10 +180,13 @@ def register(subparsers) -> None:
     allocators.set_defaults(func=run_allocators)
 
 
-def load_building(spec: str, include: str | None = None, exclude: str | None = None):
+def load_building(spec: str, include: str | None = None, exclude: str | None = None, prebuilt: str | None = None,
+                  unknown_weight=None):
     """(BuildingModel, storey elevations in metres) from an IFC path or ``generated:NXxNYxF``.
 
-    ``include`` / ``exclude``: IfcOpenShell selectors (:mod:`bimrobot.bim.selection`), for IFC files.
+    ``include`` / ``exclude`` / ``prebuilt``: IfcOpenShell selectors (:mod:`bimrobot.bim.selection`), for
+    IFC files. ``unknown_weight``: the :class:`~bimrobot.bim.unknown_weight.UnknownWeightRule`, applied once
+    when the model is read (``model.unknown_weights``; a generated frame gives every element its weight).
     """
     match = GENERATED.match(spec)
     if match:
@@ -195,13 +198,17 @@ def load_building(spec: str, include: str | None = None, exclude: str | None = N
         if nx * ny * floors > 1_000_000:
             raise InputError(f"{spec}: at most 1,000,000 columns (NX x NY x FLOORS), got {nx * ny * floors:,}")
         model = generated_frame(nx, ny, floors)
+        if unknown_weight is not None:
+            from bimrobot.bim.unknown_weight import UnknownWeights
+
+            model.unknown_weights = UnknownWeights(unknown_weight)  # every generated element has its weight
     else:
         path = Path(spec)
         if not path.is_file():
             raise InputError(f"model file {spec!r} does not exist")
         from bimrobot.bim import load_model
 
-        model = load_model(path, include=include, exclude=exclude)
+        model = load_model(path, include=include, exclude=exclude, prebuilt=prebuilt, unknown_weight=unknown_weight)
     return model, [s.elevation for s in model.storeys]
 
 
@@ -217,17 +224,18 @@ def _inputs(args) -> list[str]:
     return files
 
 
-def _prepare(args, kind: str):
-    """Check the output path, read fleet, site and model, apply the unknown-weight rule.
+def _prepare(args, kind: str, model=None):
+    """Check the output path, read fleet, site and model (the unknown-weight rule applied as it is read).
 
     Returns (model, elevations, fleet, site, unknown-weight report, a function building a fresh
     SmartModel). Everything a user can get wrong is refused here, before the long work starts, an output
-    folder another kind of command wrote included (``kind``: ``simulate`` or ``allocators``).
+    folder another kind of command wrote included (``kind``: ``simulate`` or ``allocators``). ``model``:
+    the BuildingModel of ``args.model`` already read with the same selection, prebuilt selector and
+    unknown-weight rule (``bimrobot build`` reads it once for every stage); None reads it here.
     """
-    from bimrobot.bim.unknown_weight import apply_unknown_weight_rule
     from bimrobot.coordination.fleet import load_fleet, load_site
     from bimrobot.io import check_output
-    from bimrobot.sco.build import build_smart_model, prebuilt_rule
+    from bimrobot.sco.build import build_smart_model, prebuilt_rule, prebuilt_selector
     from bimrobot.site import site_for
 
     check_output(args.output, folder=True, inputs=_inputs(args), kind=kind)  # an output of another kind: refused now
@@ -237,10 +245,14 @@ def _prepare(args, kind: str):
     for robot, *_ in getattr(args, "breakdown", []):
         if robot not in names:
             raise InputError(f"--breakdown names robot {robot!r}, which is not in fleet {fleet.name} ({', '.join(sorted(names))})")
-    model, elevations = load_building(args.model, args.include, args.exclude)
     prebuilt = args.prebuilt  # a selector; the old comma list of classes is one too
+    if model is None:
+        model, elevations = load_building(args.model, args.include, args.exclude, prebuilt_selector(prebuilt),
+                                          args.unknown_weight)
+    else:
+        elevations = [s.elevation for s in model.storeys]
     prebuilt_rule(model, prebuilt)  # an unknown class name is refused now, with the model's classes
-    weights = apply_unknown_weight_rule(model.elements.values(), args.unknown_weight, str(model.source or args.model))
+    weights = model.unknown_weights  # the rule, applied once when the model was read
     site = site_for(args.site, model.elements.values())  # given, fig. 4.11 or derived; placed on the building
     points = {"assembly_points_per_joint": site.assembly_points_per_joint} if site.assembly_points_per_joint else {}
     return model, elevations, fleet, site, weights, lambda: build_smart_model(
@@ -248,7 +260,9 @@ def _prepare(args, kind: str):
     )
 
 
-def run_simulate(args) -> int:
+def run_simulate(args, model=None) -> int:
+    """``bimrobot simulate``: the build simulated into ``args.output``. ``model``: the BuildingModel of
+    ``args.model`` already read (see :func:`_prepare`); None reads it."""
     from bimrobot.coordination.report import format_robot_table, write_outputs
     from bimrobot.coordination.simulation import simulate
     from bimrobot.io import atomic_output_dir
@@ -257,10 +271,10 @@ def run_simulate(args) -> int:
     from tqdm import tqdm
 
     if args.mode == "thesis":
-        return run_thesis(args)
+        return run_thesis(args, model)
     if args.step_time is not None:
         raise InputError("--step-time applies to --mode thesis only (the event mode times every task as it happens)")
-    model, elevations, fleet, site, weights, smart_model = _prepare(args, "simulate")
+    model, elevations, fleet, site, weights, smart_model = _prepare(args, "simulate", model)
     smart = smart_model()
     to_build = sum(1 for c in smart.components.values() if not c.prebuilt)
     with tqdm(total=to_build, desc="components assembled", unit="", disable=True if args.no_progress else None, leave=False) as bar:
@@ -296,7 +310,7 @@ def run_simulate(args) -> int:
     return 0
 
 
-def run_thesis(args) -> int:
+def run_thesis(args, model=None) -> int:
     """``simulate --mode thesis``: the thesis' step loop, Table 4.2 and Listing 4.2 outputs."""
     from bimrobot.coordination.thesis import DEFAULT_STEP_TIME, format_thesis_table, simulate_thesis, write_thesis_outputs
     from bimrobot.io import atomic_output_dir
@@ -308,7 +322,7 @@ def run_thesis(args) -> int:
     if args.evaluator != "least-cost":
         raise InputError(f"--mode thesis awards to the lowest bid (least-cost) only, got --evaluator {args.evaluator}")
     step_time = args.step_time or DEFAULT_STEP_TIME
-    model, elevations, fleet, site, weights, smart_model = _prepare(args, "simulate")
+    model, elevations, fleet, site, weights, smart_model = _prepare(args, "simulate", model)
     smart = smart_model()
     result = simulate_thesis(smart, fleet, site, step_time, elevations)
     with atomic_output_dir(args.output, kind="simulate", inputs=_inputs(args)) as tmp:

@@ -129,7 +129,11 @@ def _check_outputs(args, inputs: list) -> None:
             raise InputError(f"-o {args.output} is inside the --store-path folder {args.store_path}; write the graph file elsewhere")
 
 
-def graph_command(args) -> int:
+def graph_command(args, model=None, ifc=None) -> int:
+    """``bimrobot graph``: the construction graph of ``args.model`` into ``args.output``. ``model``: the
+    BuildingModel of that file already read with the same selection and unknown-weight rule, and ``ifc``
+    its parse, which ``--ifc-out`` writes the schedule into (``bimrobot build`` reads the file once for
+    every stage); None reads them here."""
     from bimrobot import io
     from bimrobot.bim import load_model
     from bimrobot.lbd.graph import DEFAULT_BASE, build_graph, checked_base
@@ -146,7 +150,8 @@ def graph_command(args) -> int:
     format_for(args.output, args.format)  # fail on a bad suffix before the slow work
     base = checked_base(args.base or DEFAULT_BASE)
     started = time.perf_counter()
-    model = load_model(args.model, include=args.include, exclude=args.exclude, unknown_weight=args.unknown_weight)
+    if model is None:
+        model = load_model(args.model, include=args.include, exclude=args.exclude, unknown_weight=args.unknown_weight)
     weights = model.unknown_weights  # the rule, applied once when the model was read
     if weights.message():
         print(weights.message(), flush=True)
@@ -206,7 +211,7 @@ def graph_command(args) -> int:
     if args.store != "memory":
         print(f"{'Oxigraph store' if args.store == 'oxigraph' else 'SPARQL endpoint'}: {args.store_path}")
     if args.ifc_out is not None or args.schedule_out is not None:
-        _write_work_schedule(args, schedule, calendar, inputs)
+        _write_work_schedule(args, schedule, calendar, inputs, ifc)
     return 0
 
 
@@ -234,13 +239,14 @@ def _check_work_schedule_outputs(args, inputs: list):
     return load_site(args.site).work_calendar
 
 
-def _write_work_schedule(args, schedule, calendar, inputs: list) -> None:
-    """The model with the schedule as an IfcWorkSchedule (--ifc-out) and its scheduler export (--schedule-out)."""
+def _write_work_schedule(args, schedule, calendar, inputs: list, ifc=None) -> None:
+    """The model with the schedule as an IfcWorkSchedule (--ifc-out) and its scheduler export (--schedule-out).
+    ``ifc``: the model's file already parsed, which the schedule is written into (None: parsed here)."""
     from bimrobot.bim.work_schedule import (
         SCHEDULE_EXPORTS, schedule_export_kind, scheduled_model, write_schedule_export, write_scheduled_ifc)
 
     inputs = [*inputs, args.site]
-    ifc, figures = scheduled_model(args.model, schedule, epoch=args.start, calendar=calendar)
+    ifc, figures = scheduled_model(args.model, schedule, epoch=args.start, calendar=calendar, parsed=ifc)
     if args.ifc_out is not None:
         write_scheduled_ifc(ifc, args.ifc_out, inputs=inputs)
         print(f"{args.ifc_out}: {args.model.name} with an IfcWorkSchedule of {figures.describe()}")

@@ -271,11 +271,10 @@ def _load_plan(args):
     from_ifc = _is_ifc(args.schedule)
     if args.model or from_ifc:
         from bimrobot.bim import load_model
-        from bimrobot.bim.unknown_weight import apply_unknown_weight_rule
 
         source = args.model or args.schedule  # an IFC work schedule usually sits in its model
-        model = load_model(source, include=args.include, exclude=args.exclude)
-        weights = apply_unknown_weight_rule(model.elements.values(), args.unknown_weight, str(source))
+        model = load_model(source, include=args.include, exclude=args.exclude, unknown_weight=args.unknown_weight)
+        weights = model.unknown_weights  # the rule, applied once when the model was read
         if weights.message():
             print(weights.message(), flush=True)
         from bimrobot.site import site_for

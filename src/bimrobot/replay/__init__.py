@@ -16,13 +16,15 @@ from pathlib import Path
 
 
 def write_replay(out_dir, rrd_path, *, model=None, start: dt.datetime | None = None,
-                 simulation=None) -> dict:
+                 simulation=None, building=None) -> dict:
     """Write the replay of the build in ``out_dir`` to ``rrd_path`` (through bimrobot.io's output policy).
 
     ``out_dir``: a `bimrobot build` output folder, a `convert` package folder when ``simulation``
     (the `simulate` output folder) is given, or an `rcan run` folder (report.json, state database,
     trajectory CSV; ``model`` then names the IFC file). ``model``: the IFC file when it moved since the build.
     ``start``: calendar date-time of the build's second 0 (adds a ``calendar`` timeline).
+    ``building``: the BuildingModel of the build's IFC file, already read (``bimrobot build`` reads it once
+    for every stage); None reads the file.
     Returns a summary: pieces, components, robots, nodes, installed, last_installation_s, makespan_s.
     """
     from bimrobot import io
@@ -38,7 +40,7 @@ def write_replay(out_dir, rrd_path, *, model=None, start: dt.datetime | None = N
 
         record = load_rcan_alone(folders[0], Path(model) if model is not None else None)
     else:
-        record = load_build(folders, Path(model) if model is not None else None)
+        record = load_build(folders, Path(model) if model is not None else None, building)
     with io.atomic_output_file(rrd_path, inputs=record.inputs) as tmp:
         summary = write_rrd(record, tmp, start=start, name=Path(rrd_path).stem)
     return summary

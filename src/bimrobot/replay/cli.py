@@ -62,7 +62,9 @@ def _date_time(text: str) -> dt.datetime:
         raise argparse.ArgumentTypeError(f"expected an ISO date-time such as 2026-03-02T07:00, got {text!r}") from None
 
 
-def replay_command(args) -> int:
+def replay_command(args, model=None) -> int:
+    """``bimrobot replay``. ``model``: the BuildingModel of the build's IFC file, already read (``bimrobot
+    build`` reads it once for every stage); None reads the file the package names."""
     from bimrobot.errors import require_extra
 
     require_extra("rerun", "replay")  # before any work: the recording and the viewer are Rerun's
@@ -80,7 +82,8 @@ def replay_command(args) -> int:
     if not 0 <= args.web_port <= 65535:
         raise InputError(f"--web-port {args.web_port} is not a port number (0-65535; 0 picks a free one)")
     simulation = args.folders[1] if len(args.folders) == 2 else None
-    summary = write_replay(args.folders[0], args.output, model=args.model, start=args.start, simulation=simulation)
+    summary = write_replay(args.folders[0], args.output, model=args.model, start=args.start, simulation=simulation,
+                           building=model)
     last = summary["last_installation_s"]
     if summary["components"]:
         print(f"{args.output}: {summary['pieces']} elements, {summary['components']} components "

@@ -172,10 +172,11 @@ def read_states(path: Path) -> dict[str, list[tuple[float, str]]]:
     return out
 
 
-def load_build(folders: list[Path], model_path: Path | None = None) -> BuildRecord:
+def load_build(folders: list[Path], model_path: Path | None = None, building=None) -> BuildRecord:
     """Read a build output folder (or a package + simulation pair) into a :class:`BuildRecord`.
 
-    ``model_path``: the IFC file, when it is no longer where the package's report says it was."""
+    ``model_path``: the IFC file, when it is no longer where the package's report says it was.
+    ``building``: that file's BuildingModel, already read (``bimrobot build``); None reads it here."""
     from bimrobot.bim import load_model
     from bimrobot.site import site_from_dict
 
@@ -192,7 +193,7 @@ def load_build(folders: list[Path], model_path: Path | None = None) -> BuildReco
     schedule = read_schedule(simulation / "schedule.csv")
     states = read_states(simulation / "states.json")
     summary = read_json(simulation / "summary.json") if (simulation / "summary.json").is_file() else {}
-    model = load_model(model_path)
+    model = building if building is not None else load_model(model_path)
     layout_yard = report.get("options", {}).get("layout") == "yard"
     site_data = dict(report.get("options", {}).get("site") or {})
     site_source = site_data.pop("source", "the package's site")

@@ -46,17 +46,18 @@ def write_report(build_folder: str | Path, output: str | Path | None = None, *, 
     return output
 
 
-def write_build_report(build_folder: str | Path) -> str:
+def write_build_report(build_folder: str | Path, building=None) -> str:
     """For `bimrobot build`: write ``report.html`` and ``building.png`` into the build folder and return
-    the key figures as Markdown for its README (one reading of the build for both)."""
+    the key figures as Markdown for its README (one reading of the build for both). ``building``: the
+    build's BuildingModel, already read (None: read from the build's IFC file)."""
     from bimrobot.report.figures import markdown
 
     folder = Path(build_folder)
-    facts = _write(folder, folder / REPORT_HTML, None, None, "-o")
+    facts = _write(folder, folder / REPORT_HTML, None, None, "-o", building=building)
     return markdown(facts, BUILDING_PNG if (folder / BUILDING_PNG).is_file() else None)
 
 
-def _write(folder: Path, output: Path, start, calendar, option: str, model=None):
+def _write(folder: Path, output: Path, start, calendar, option: str, model=None, building=None):
     """Read the build, draw the building, write the page; the build's :class:`~bimrobot.report.facts.BuildFacts`."""
     from bimrobot import io
     from bimrobot.errors import InputError
@@ -68,7 +69,7 @@ def _write(folder: Path, output: Path, start, calendar, option: str, model=None)
     if missing:
         raise InputError(f"the build report needs {', '.join(missing)}: {INSTALL_HINT}")
     io.check_output(output, folder=False, option=option)
-    facts = read_build(folder, start=start, calendar=calendar, model=model)
+    facts = read_build(folder, start=start, calendar=calendar, model=model, building=building)
     in_build = output.resolve().parent == folder.resolve()
     with tempfile.TemporaryDirectory(prefix="bimrobot-report-") as scratch:
         png = Path(scratch) / BUILDING_PNG
@@ -84,14 +85,15 @@ def _write(folder: Path, output: Path, start, calendar, option: str, model=None)
 
 
 def readme_figures(build_folder: str | Path, *, start: str | dt.datetime | None = None,
-                   calendar=None) -> str:
+                   calendar=None, building=None) -> str:
     """The key figures of the build as Markdown for the top of README.md (the same numbers as the page's),
-    for a build without the page (the report extra missing)."""
+    for a build without the page (the report extra missing). ``building``: the build's BuildingModel,
+    already read (None: read from the build's IFC file)."""
     from bimrobot.report.facts import read_build
     from bimrobot.report.figures import markdown
 
     folder = Path(build_folder)
-    facts = read_build(folder, start=start, calendar=calendar)
+    facts = read_build(folder, start=start, calendar=calendar, building=building)
     page = REPORT_HTML if (folder / REPORT_HTML).is_file() else None
     return markdown(facts, BUILDING_PNG if (folder / BUILDING_PNG).is_file() else None, page)
 

@@ -112,14 +112,14 @@ class BuildFacts:
 
 def read_build(folder: str | Path, start: str | dt.datetime | None = None,
                calendar: WorkCalendar | None = None, with_model: bool = True,
-               model: str | Path | None = None) -> BuildFacts:
+               model: str | Path | None = None, building=None) -> BuildFacts:
     """Read a build output folder into :class:`BuildFacts`.
 
     ``start``: date-time of t = 0 s (ISO text or datetime); default the build's (``build.json``'s
     ``start``), else today 08:00. ``calendar``: default the site's (:func:`site_calendar`).
     ``with_model``: read the IFC model the build was made from (when it is still there) for the names,
     classes and storeys of assemblies and the building's picture; ``model``: that file, when it moved
-    since the build. Raises InputError when ``folder`` is not a build output folder or ``model`` is
+    since the build; ``building``: its BuildingModel, already read (``bimrobot build``). Raises InputError when ``folder`` is not a build output folder or ``model`` is
     not a file."""
     folder = Path(folder)
     if not folder.is_dir():
@@ -143,7 +143,10 @@ def read_build(folder: str | Path, start: str | dt.datetime | None = None,
     model_path = Path(str(model or build.get("model") or summary.get("model") or package.get("source") or "unknown model"))
     if model is not None and not model_path.is_file():
         raise InputError(f"--model {model}: no such file")
-    building_model, model_note = _building_model(model_path) if with_model else (None, "not read")
+    if building is not None:
+        building_model, model_note = building, ""
+    else:
+        building_model, model_note = _building_model(model_path) if with_model else (None, "not read")
     facts = BuildFacts(
         folder=folder, model=model_path.name, project=package.get("project"),
         fleet=str(build.get("fleet") or summary.get("fleet") or "unknown"),

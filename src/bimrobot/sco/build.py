@@ -435,6 +435,14 @@ class PrebuiltRule:
         return False
 
 
+def prebuilt_selector(text: str | None) -> str | None:
+    """The ``--prebuilt`` text when it is a selector that is evaluated on the IFC file (give it to
+    ``load_model(prebuilt=...)``, which evaluates it on the one parse of the file), or None when it is a
+    comma list of IFC class names, which :func:`prebuilt_rule` reads without the file."""
+    names = [name.strip() for name in (text or "").split(",") if name.strip()]
+    return None if all(_CLASS_NAME.match(name) for name in names) else text
+
+
 def prebuilt_rule(model: BuildingModel, classes: Iterable[str] | str) -> PrebuiltRule:
     """The :class:`PrebuiltRule` of a ``--prebuilt`` selector (or of IFC class names).
 

@@ -107,10 +107,13 @@ class _DeprecatedDensity(argparse.Action):
         setattr(namespace, self.dest, values)
 
 
-def convert_command(args: argparse.Namespace) -> int:
-    """``bimrobot convert``: read the IFC file, write the package, print what it holds."""
+def convert_command(args: argparse.Namespace, model=None) -> int:
+    """``bimrobot convert``: read the IFC file, write the package, print what it holds. ``model``: the
+    BuildingModel of ``args.ifc`` already read with the same selection and unknown-weight rule (``bimrobot
+    build`` reads it once for every stage); None reads it here."""
     from bimrobot import io
-    from bimrobot.world.package import ConvertOptions, convert
+    from bimrobot.cores import frozen_heap
+    from bimrobot.world.package import ConvertOptions, build_package, convert
 
     from bimrobot.site import load_site
 
@@ -139,14 +142,12 @@ def convert_command(args: argparse.Namespace) -> int:
         keep_separate=args.keep_separate,
     )
     options.validate()
-    report = convert(
-        args.ifc,
-        args.output,
-        options,
-        include=args.include,
-        exclude=args.exclude,
-        progress=not args.no_progress and sys.stderr.isatty(),
-    )
+    progress = not args.no_progress and sys.stderr.isatty()
+    if model is None:
+        report = convert(args.ifc, args.output, options, include=args.include, exclude=args.exclude, progress=progress)
+    else:
+        with frozen_heap():  # as convert() does around its own read
+            report = build_package(model, args.output, options, progress)
     print(summary(report, args.output))
     return validate_package(args.output, report) if args.validate else 0
 

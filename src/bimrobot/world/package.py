@@ -180,7 +180,8 @@ def convert(
     with frozen_heap():  # no full garbage collections through every library object on the way
         started = time.perf_counter()
         # Element.properties is not needed to convert: only what the weights need is read.
-        model = load_model(ifc_path, include=include, exclude=exclude, progress=progress, properties=False)
+        model = load_model(ifc_path, include=include, exclude=exclude, progress=progress, properties=False,
+                           unknown_weight=options.unknown_weight)
         load_seconds = time.perf_counter() - started
         return build_package(model, out_dir, options, progress, load_seconds)
 
@@ -194,8 +195,9 @@ def build_package(
 ) -> dict:
     """Write the Gazebo package of ``model`` to ``out_dir`` atomically; return the report dict.
 
-    Elements of unknown weight first get their mass by ``options.unknown_weight`` (in place; the
-    refusal lists them by class); ``report["unknown_weight"]`` says what was assumed.
+    Elements of unknown weight get their mass by ``options.unknown_weight`` when the model was read
+    (``load_model(unknown_weight=...)``, the refusal listing them by class); a model read without the rule
+    (or built in memory) gets it here, in place. ``report["unknown_weight"]`` says what was assumed.
     """
     options = options or ConvertOptions()
     options.validate()
@@ -211,7 +213,9 @@ def build_package(
     package = options.package_name or ros_package_name(out_dir.name)
     world_name = world_name_of(model)
     timings: dict[str, float] = {"load": load_seconds} if load_seconds is not None else {}
-    unknown = apply_unknown_weight_rule(model.elements.values(), options.unknown_weight, source)
+    unknown = model.unknown_weights  # the rule, applied once when the model was read
+    if unknown is None or unknown.rule != options.unknown_weight:
+        unknown = apply_unknown_weight_rule(model.elements.values(), options.unknown_weight, source)
     _refuse_weightless(model, options, source)
     with io.atomic_output_dir(out_dir, kind="convert", inputs=inputs) as tmp:
         tick = time.perf_counter()
