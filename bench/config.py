@@ -21,7 +21,6 @@ from __future__ import annotations
 import argparse
 import statistics
 import sys
-from importlib import resources
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -29,9 +28,13 @@ from schedule import timed  # noqa: E402  (bench/schedule.py, as bench/graph.py 
 
 
 def capability_yaml(robots: int) -> str:
-    """A capability table with the built-in robot types and ``robots`` generated robots."""
-    builtin = resources.files("bimrobot.rcan").joinpath("capabilities.yaml").read_text()
-    lines = [builtin.split("\nrobots:")[0], "\nrobots:\n"]
+    """An (older-format) RCAN capability table with Table 5.2's robot types and ``robots`` generated robots."""
+    from bimrobot.rcan.fleet import TABLE_5_2
+
+    lines = ["robot_types:\n"]
+    lines += [f"  {name}: {{activities: [{', '.join(sorted(kind.value for kind in kinds))}]}}\n"
+              for name, kinds in TABLE_5_2.items()]
+    lines.append("robots:\n")
     for i in range(robots):
         lines.append(
             f"  robot_{i:05d}:\n"

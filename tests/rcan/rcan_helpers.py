@@ -1,4 +1,4 @@
-"""Helpers shared by the RCAN tests: capability tables and schedules built in the test, journal probes."""
+"""Helpers shared by the RCAN tests: fleets (and older capability tables) and schedules built in the test, journal probes."""
 
 from __future__ import annotations
 
@@ -14,12 +14,21 @@ TABLE_5_2 = {
 }
 
 
+#: A mobile manipulator that carries and lifts 1000 kg, reaches 5 m, picks up in 10 s and installs in 20 s
+#: (the one fleet format; homes in the model frame).
+CRANE = {"kind": "mobile_manipulator", "speed_m_s": 1.0, "carry_kg": 1000, "lift_kg": 1000, "platform_m": [5.0, 1.0],
+         "reach_m": 5.0, "arm_speed_m_s": 0.5, "load_s": 10, "time_per_node_s": 20, "time_per_point_s": 20}
+
+
+def two_cranes() -> dict:
+    """The two-crane fleet file's keys: crane_a at the origin, crane_b 5 m along x."""
+    return {"version": 2, "name": "two-cranes", "home_frame": "model", "robots": [
+        {"name": "crane_a", **CRANE, "home_m": [0.0, 0.0, 0.0]}, {"name": "crane_b", **CRANE, "home_m": [5.0, 0.0, 0.0]}]}
+
+
 def two_crane_capabilities():
     """Two identical mobile manipulators that carry 1000 kg and reach 5 m."""
-    robot = {"types": ["mobile_base", "manipulator", "gripper"], "payload_kg": 1000, "reach_m": 5.0,
-             "speed_m_s": 1.0, "arm_speed_m_s": 0.5, "handling_s": {"pick_up": 10, "install": 20}}
-    return parse_capabilities({"robot_types": TABLE_5_2, "robots": {
-        "crane_a": {**robot, "home": [0.0, 0.0, 0.0]}, "crane_b": {**robot, "home": [5.0, 0.0, 0.0]}}}, "test table")
+    return parse_capabilities(two_cranes(), "test table")
 
 
 def frame_schedule(path: Path, components: int = 4) -> Path:
@@ -42,13 +51,10 @@ def frame_schedule(path: Path, components: int = 4) -> Path:
 
 
 def write_capabilities(path: Path) -> Path:
-    """The two-crane capability table as a YAML file (for CLI runs in subprocesses)."""
+    """The two-crane fleet as a YAML file (for CLI runs in subprocesses)."""
     import yaml
 
-    robot = {"types": ["mobile_base", "manipulator", "gripper"], "payload_kg": 1000, "reach_m": 5.0,
-             "speed_m_s": 1.0, "arm_speed_m_s": 0.5, "handling_s": {"pick_up": 10, "install": 20}}
-    path.write_text(yaml.safe_dump({"robot_types": TABLE_5_2, "robots": {
-        "crane_a": {**robot, "home": [0.0, 0.0, 0.0]}, "crane_b": {**robot, "home": [5.0, 0.0, 0.0]}}}))
+    path.write_text(yaml.safe_dump(two_cranes()))
     return path
 
 
