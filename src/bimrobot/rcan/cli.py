@@ -93,7 +93,7 @@ def register(subparsers) -> None:
 
     node = commands.add_parser("robot-node", help="run the shipped ROS 2 robot node (kinematic robots)",
                                description="A ROS 2 node serving the ConstructionActivity action for every robot "
-                                           "in the capability table, executing activities on kinematic robots.",
+                                           "of the fleet (--fleet), executing activities on kinematic robots.",
                                epilog="example:\n  bimrobot rcan robot-node --time-scale 0.01",
                                formatter_class=argparse.RawDescriptionHelpFormatter)
     _fleet_option(node)
@@ -222,7 +222,7 @@ def _is_ifc(path: str | None) -> bool:
 
 
 def _inputs(args) -> list:
-    """Every file ``rcan run`` reads: the schedule or graph, the model, the capability table."""
+    """Every file ``rcan run`` reads: the schedule or graph, the model, the fleet file."""
     return [p for p in (getattr(args, "schedule", None), getattr(args, "graph", None), getattr(args, "model", None),
                         args.capabilities) if p]
 
@@ -290,8 +290,8 @@ def _load_plan(args):
 
 
 def _check_robots(activities, capabilities, reallocate: bool) -> None:
-    """A schedule that assigns robots the capability table does not have is refused (its fleet is another
-    one), unless --reallocate gives every activity to capable robots of the table."""
+    """A schedule that assigns robots the fleet does not have is refused (its fleet is another
+    one), unless --reallocate gives every activity to capable robots of the fleet."""
     unknown = sorted({a.robot for a in activities if a.robot and a.robot not in capabilities.by_name})
     if not unknown:
         return
@@ -302,7 +302,7 @@ def _check_robots(activities, capabilities, reallocate: bool) -> None:
         raise InputError(f"the schedule assigns robot(s) {shown}, which {capabilities.source} does not have ({table}): "
                          "give the schedule's fleet with --fleet (e.g. --fleet fleet2), or --reallocate")
     print(f"the schedule names robot(s) {shown}, which are not in {capabilities.source}: with --reallocate their "
-          f"activities go to capable robots of the table ({table})", flush=True)
+          f"activities go to capable robots of the fleet ({table})", flush=True)
 
 
 def _unknown_weight_notice(activities, model_given: bool) -> list[str]:

@@ -1,4 +1,4 @@
-"""RCAN generation system: capability table, task allocator and node generator (thesis 5.2.1-5.2.2).
+"""RCAN generation system: the fleet, task allocator and node generator (thesis 5.2.1-5.2.2).
 
 1. The fleet (:mod:`bimrobot.coordination.fleet`, one robot description for `simulate` and RCAN) says
    which robots are on site and which activities each performs (Table 5.2: :mod:`bimrobot.rcan.fleet`).

@@ -313,7 +313,7 @@ def experiment(number: int) -> Experiment:
     thesis' Husky + UR5, ``husky_ur5``) make a construction graph with the component's pick-up position
     on the yard, and RCAN's activities are selected from the graph (:func:`plan_from_graph`). Whether the
     robot has to transport the component follows from the positions, not from the experiment's number.
-    Poses in metres, world frame; the robot's home is (-3, 0, 0) (the capability table)."""
+    Poses in metres, world frame; the robot's home is (-3, 0, 0) (the built-in rcan-robots fleet)."""
     import tempfile
     from pathlib import Path
 

@@ -1,6 +1,6 @@
 """The ``mujoco`` backend: the six activities executed physically in MuJoCo (bimrobot.physics).
 
-Each robot of the capability table becomes a mobile manipulator of the family of
+Each robot of the fleet becomes a mobile manipulator of the family of
 :mod:`bimrobot.physics.robot` (``ur5`` for payload <= 5 kg and reach <= 0.85 m, else ``heavy``; its
 base ``footprint_m`` when the table gives one) at its home, or beside it when a robot listed before it
 starts there (:func:`starts_apart`). Components are boxes:

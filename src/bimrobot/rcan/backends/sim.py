@@ -157,7 +157,7 @@ class KinematicSite:
         """(duration s, error or None, state changes) of ``node`` on robot ``spec`` in ``state``."""
         kind, target, base = node.kind, node.target, state["base"]
         if not spec.performs(kind):
-            return 0.0, f"robot {spec.name} cannot {kind.label.lower()} (capability table)", {}
+            return 0.0, f"robot {spec.name} cannot {kind.label.lower()} (its rcan_activities in the fleet)", {}
         if state["holding"] and state["holding"] != node.component_id:
             # RCAN released this robot from a component it still holds (its activity was escalated):
             # the robot sets that component down where its gripper is; it waits there for a technician

@@ -35,7 +35,7 @@ class Ros2Backend(DispatchingBackend):
     - a *deadline* from the activity's expected duration: ``deadline_min_s + deadline_factor x expected
       robot seconds x time_scale`` (``time_scale``: real seconds per robot second of the robots;
       expected: travel at the robot's speeds from where this backend last sent it, or its gripper's
-      handling time, from the capability table); a goal past it is cancelled and fails;
+      handling time, from the fleet); a goal past it is cancelled and fails;
       ``result_timeout_s`` replaces the rule by one fixed deadline;
     - *liveness*: the robot's server must appear in the ROS graph within ``server_timeout_s`` (looked
       up once per action client), answer a goal request within it (the request is sent again every
