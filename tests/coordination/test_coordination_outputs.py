@@ -77,10 +77,12 @@ def test_simulate_cli_writes_every_output(tmp_path, capsys):
     assert {p.name for p in out.iterdir()} == {
         "events.log", "events.jsonl", "robots.csv", "robots.txt", "summary.json", "states.json", "schedule.csv", "gantt.png",
         "site.yaml",  # the site the run used, placed on the building: --site of any later command
+        "fleet.yaml",  # the fleet that built the schedule, in the one fleet format: --fleet of any later command
         "requests.csv", ".bimrobot-output.json",  # the marker that lets a later run replace the folder
     }
     summary = json.loads((out / "summary.json").read_text())
     assert summary["fleet"] == "fleet1" and summary["evaluator"] == "least-cost"
+    assert load_fleet(out / "fleet.yaml").robots == load_fleet("fleet1").robots
     assert summary["smart_components"]["connection_nodes"] == 24
     # per node (the default): 8 transports (RCC), 20 node positionings released once their joint's partners
     # have arrived (ACC), 20 node assemblies once the node's position is fixed

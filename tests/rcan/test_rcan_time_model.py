@@ -55,9 +55,9 @@ def test_rcan_executes_the_simulated_schedule_in_its_time(frame_run, source):
     if source == "schedule":
         report = _rcan(folder, "from-schedule", "--schedule", str(schedule), "--model", str(folder / "frame.ifc"))
     else:
-        assert main(["graph", str(folder / "frame.ifc"), "--schedule", str(schedule), "-o", str(folder / "graph.ttl"),
-                     "--fleet", "fleet2"]) == 0
-        # the graph alone: it holds the fleet (brc:fleetDescription) and the site, so no --capabilities
+        assert main(["graph", str(folder / "frame.ifc"), "--schedule", str(schedule), "-o", str(folder / "graph.ttl")]) == 0
+        # the graph alone: it holds the fleet (brc:fleetDescription: the fleet.yaml simulate wrote beside the
+        # schedule) and the site, so no --fleet
         report = _rcan(folder, "from-graph", "--graph", str(folder / "graph.ttl"), fleet=False)
     rows = _rows_by_id(schedule)
     simulated = json.loads((folder / "sim" / "summary.json").read_text())["makespan_s"]

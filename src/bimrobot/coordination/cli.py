@@ -263,6 +263,7 @@ def _prepare(args, kind: str, model=None):
 def run_simulate(args, model=None) -> int:
     """``bimrobot simulate``: the build simulated into ``args.output``. ``model``: the BuildingModel of
     ``args.model`` already read (see :func:`_prepare`); None reads it."""
+    from bimrobot.coordination.fleet import RUN_FLEET_FILE, fleet_yaml
     from bimrobot.coordination.report import format_robot_table, write_outputs
     from bimrobot.coordination.simulation import simulate
     from bimrobot.io import atomic_output_dir
@@ -283,6 +284,7 @@ def run_simulate(args, model=None) -> int:
     with atomic_output_dir(args.output, kind="simulate", inputs=_inputs(args)) as tmp:
         write_outputs(result, tmp, gantt=not args.no_gantt, unknown_weight=weights.as_dict())
         (tmp / "site.yaml").write_text(site_yaml(site, "this simulation"), encoding="utf-8")
+        (tmp / RUN_FLEET_FILE).write_text(fleet_yaml(fleet, "this simulation"), encoding="utf-8")  # the schedule's fleet
     info = smart.summary()
     units = f", {info['assembly_units']} of them assembly units" if info["assembly_units"] else ""
     later = f", {len(info['prebuilt_after_supports'])} made once what they rest on is placed" if info["prebuilt_after_supports"] else ""

@@ -390,6 +390,26 @@ def fleet_to_dict(fleet: Fleet) -> dict:
     return data
 
 
+#: The name of the fleet file `simulate` writes beside its schedule: the fleet that built it.
+RUN_FLEET_FILE = "fleet.yaml"
+
+
+def fleet_yaml(fleet: Fleet, what: str) -> str:
+    """The fleet as a version-2 fleet file (YAML), with a header saying where it came from; ``what``
+    names the run."""
+    import yaml
+
+    header = (f"# The fleet of {what} ({fleet.source}), in the one fleet format. Give it to any command with\n"
+              "# --fleet to use the same robots (`bimrobot graph` finds it beside the schedule).\n")
+    return header + yaml.safe_dump(fleet_to_dict(fleet), sort_keys=False, default_flow_style=None)
+
+
+def schedule_fleet(schedule: str | Path) -> Fleet | None:
+    """The fleet that built a schedule CSV: the :data:`RUN_FLEET_FILE` `simulate` wrote beside it, or None."""
+    path = Path(schedule).parent / RUN_FLEET_FILE
+    return fleet_from_dict(read_yaml_file(path, "fleet file"), str(path)) if path.is_file() else None
+
+
 def builtin_fleets() -> tuple[str, ...]:
     """The names of the built-in fleets (the files of the ``fleets`` folder), sorted."""
     folder = resources.files("bimrobot.coordination").joinpath(FLEETS_FOLDER)

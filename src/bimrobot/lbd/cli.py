@@ -88,8 +88,9 @@ def register(subparsers) -> None:
     )
     graph.add_argument(
         "--fleet", metavar="FLEET",
-        help="the fleet that built the schedule (fleet1, fleet2, site-crane or a fleet YAML file): the graph holds its "
-        "robots and what they do, so `bimrobot rcan run --graph` needs no --capabilities",
+        help="the fleet that built the schedule (fleet1, fleet2, site-crane or a fleet YAML file; default: the "
+        "fleet.yaml `simulate` wrote beside the schedule): the graph holds its robots and what they do, so "
+        "`bimrobot rcan run --graph` needs no --fleet",
     )
     graph.add_argument(
         "--package", type=Path, metavar="DIR",
@@ -166,10 +167,11 @@ def graph_command(args, model=None, ifc=None) -> int:
     smart = _smart_model(model, args, site.assembly_points_per_joint)
     options = {"base": base, "properties": not args.no_properties, "assemblies": not args.by_element, "smart": smart,
                "site": site}
-    if args.fleet:
-        from bimrobot.coordination.fleet import load_fleet
+    from bimrobot.coordination.fleet import load_fleet, schedule_fleet
 
-        options["fleet"] = load_fleet(args.fleet)
+    fleet = load_fleet(args.fleet) if args.fleet else schedule_fleet(args.schedule) if args.schedule else None
+    if fleet is not None:
+        options["fleet"] = fleet  # given, else the one `simulate` wrote beside the schedule
     if args.package is not None:
         from bimrobot.lbd.package import pick_up_positions
 
