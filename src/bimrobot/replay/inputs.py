@@ -202,7 +202,7 @@ def load_build(folders: list[Path], model_path: Path | None = None, building=Non
     pieces = _pieces(package, report, model, layout_yard)
     parts = _component_parts(states, pieces, model)
     offset = _model_offset(pieces, site)
-    robots = _robots(schedule, summary, site, offset)
+    robots = _robots(schedule, summary, site, offset, simulation / "schedule.csv")
     nodes = _nodes(schedule, pieces, model)
     rcan_folder = Path(folders[0]) / "rcan"
     rcan = load_rcan_run(rcan_folder) if len(folders) == 1 and is_rcan_folder(rcan_folder) else None
@@ -294,10 +294,11 @@ def _model_offset(pieces: dict[str, Piece], site) -> np.ndarray:
     return site.offset_for_points(centres)
 
 
-def _robots(schedule: list[dict], summary: dict, site, offset: np.ndarray) -> dict[str, Robot]:
+def _robots(schedule: list[dict], summary: dict, site, offset: np.ndarray, schedule_path: Path) -> dict[str, Robot]:
     """The robots that work in the schedule, in the fleet's order, with homes as `simulate` gives them
-    (their own home, else the site's homes in turn) and their speeds from the fleet file."""
-    from bimrobot.coordination.fleet import load_fleet
+    (their own home, else the site's homes in turn) and their speeds from the fleet file: the one
+    `simulate` wrote beside the schedule (``fleet.yaml``), else the fleet its summary names."""
+    from bimrobot.coordination.fleet import load_fleet, schedule_fleet
 
     names = [r["robot"] for r in summary.get("robots", [])]
     kinds = {r["robot"]: r.get("kind", "") for r in summary.get("robots", [])}
@@ -306,7 +307,7 @@ def _robots(schedule: list[dict], summary: dict, site, offset: np.ndarray) -> di
     fleet_name = summary.get("fleet")
     if fleet_name:
         try:
-            fleet = load_fleet(fleet_name)
+            fleet = schedule_fleet(schedule_path) or load_fleet(fleet_name)
             specs = fleet.by_name
         except InputError as exc:  # the fleet file moved: robots drive at an assumed 1 m/s
             log.warning("replay: fleet %s not readable (%s); robots drive at 1 m/s in the replay", fleet_name, exc)
