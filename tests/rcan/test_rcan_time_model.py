@@ -43,7 +43,7 @@ def frame_run(tmp_path_factory):
 
 def _rcan(folder, name: str, *source: str, fleet: bool = True) -> dict:
     report = folder / f"{name}.json"
-    code = main(["rcan", "run", *source, *(["--capabilities", "fleet2"] if fleet else []), "-q", "--report", str(report)])
+    code = main(["rcan", "run", *source, *(["--fleet", "fleet2"] if fleet else []), "-q", "--report", str(report)])
     assert code == 0
     return json.loads(report.read_text())
 
