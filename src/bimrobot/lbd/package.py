@@ -13,9 +13,9 @@ import json
 from pathlib import Path
 
 import numpy as np
-import trimesh.transformations as tf
 
 from bimrobot.errors import InputError
+from bimrobot.frames import sdf_pose_matrix
 
 
 def pick_up_positions(package: Path, model, model_path: Path | None = None) -> dict[str, tuple[float, float, float]]:
@@ -35,8 +35,7 @@ def pick_up_positions(package: Path, model, model_path: Path | None = None) -> d
         gid = entry.get("global_id")
         if gid in model.elements and entry.get("pose_xyz_rpy") and entry.get("center_of_mass_m"):
             x, y, z, roll, pitch, yaw = (float(v) for v in entry["pose_xyz_rpy"])
-            pose = tf.euler_matrix(roll, pitch, yaw, "sxyz")
-            pose[:3, 3] = (x, y, z)
+            pose = sdf_pose_matrix(x, y, z, roll, pitch, yaw)
             centres[gid] = (pose @ np.append(np.asarray(entry["center_of_mass_m"], dtype=float), 1.0))[:3]
             masses[gid] = float(entry.get("mass_kg") or 0.0)
     if not centres:

@@ -7,31 +7,13 @@ import math
 
 import numpy as np
 
+from bimrobot.frames import planar_transform as planar  # poses and turns are bimrobot.frames', by their old names
+from bimrobot.frames import tool_down
+from bimrobot.frames import transform as pose
 from bimrobot.physics.robot import RobotModel, arm_only_xml
 
 IK_POSITION_TOLERANCE_M = 1e-3
 IK_ANGLE_TOLERANCE_RAD = math.radians(0.5)
-
-
-def tool_down(yaw: float) -> np.ndarray:
-    """Gripper orientation with its approach axis (z) pointing down and its fingers' closing axis (y)
-    across ``yaw``: the jaws close across a component lying or standing at that yaw."""
-    c, s = math.cos(yaw), math.sin(yaw)
-    x = np.array([c, s, 0.0])
-    z = np.array([0.0, 0.0, -1.0])
-    return np.column_stack([x, np.cross(z, x), z])
-
-
-def pose(rotation: np.ndarray, position) -> np.ndarray:
-    out = np.eye(4)
-    out[:3, :3] = rotation
-    out[:3, 3] = position
-    return out
-
-
-def planar(x: float, y: float, yaw: float, z: float = 0.0) -> np.ndarray:
-    c, s = math.cos(yaw), math.sin(yaw)
-    return pose(np.array([[c, -s, 0], [s, c, 0], [0, 0, 1.0]]), (x, y, z))
 
 
 def angle_between(a: np.ndarray, b: np.ndarray) -> float:

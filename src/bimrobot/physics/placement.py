@@ -28,6 +28,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from bimrobot.frames import yaw_matrix as yaw_frame  # Rz(yaw), said in bimrobot.frames
+
 MEMBER_RATIO = 2.5  # L >= 2.5 b: a linear member (column, beam)
 # how far outside another component's box (horizontally, vertically) a member's end may lie and still
 # be "in" it: a beam's end section stops a joint gap short of its column's face
@@ -62,11 +64,6 @@ class InstalledBox:
         local = self.frame.T @ (np.asarray(point, float) - self.centre)
         margin = np.array([tolerance[0], tolerance[0], tolerance[1]])
         return bool(np.all(np.abs(local) <= self.extents / 2 + margin))
-
-
-def yaw_frame(yaw: float) -> np.ndarray:
-    c, s = math.cos(yaw), math.sin(yaw)
-    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
 def body_size(size_sorted) -> tuple[float, float, float]:

@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
+from bimrobot.frames import quat_wxyz as quaternion  # MuJoCo's (w, x, y, z), said in bimrobot.frames
 from bimrobot.physics.collision import DEFAULT_BUDGET, collision_pieces
 
 TIMESTEP_S = 0.002
@@ -38,15 +39,6 @@ DEFAULT_RGBA = "0.7 0.7 0.7 1"
 
 def _num(values) -> str:
     return " ".join(f"{float(v):.9g}" for v in np.ravel(values))
-
-
-def quaternion(rotation: np.ndarray) -> np.ndarray:
-    """(w, x, y, z) of a 3x3 rotation matrix (MuJoCo's order)."""
-    import mujoco
-
-    quat = np.zeros(4)
-    mujoco.mju_mat2Quat(quat, np.ascontiguousarray(rotation, dtype=float).ravel())
-    return quat
 
 
 def scene_root(name: str, ground_z: float, extent_xy: np.ndarray | None = None) -> tuple[ET.Element, ET.Element, ET.Element]:

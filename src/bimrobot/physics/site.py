@@ -24,6 +24,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from bimrobot.frames import quat_wxyz, yaw_of
 from bimrobot.physics import motion, planning
 from bimrobot.physics.robot import JOINT_NAMES, RobotModel, add_robot
 from bimrobot.physics.scene import scene_root
@@ -201,9 +202,7 @@ class MujocoSite:
         each robot's gripper, off until a grasp."""
         mj = self.mj
         w, d, h = component.size
-        quat = np.zeros(4)
-        mj.mju_mat2Quat(quat, np.ascontiguousarray(placement[:3, :3]).ravel())
-        body = self.spec.worldbody.add_body(name=component.global_id, pos=placement[:3, 3], quat=quat)
+        body = self.spec.worldbody.add_body(name=component.global_id, pos=placement[:3, 3], quat=quat_wxyz(placement[:3, :3]))
         body.add_freejoint(name=f"{component.global_id}/free")
         body.explicitinertial = True
         body.mass = component.mass
@@ -1413,7 +1412,7 @@ class MujocoSite:
         down, jaws across its x axis (4x4 world; ``placement``: the component's pose, default where it is)."""
         pose = self.body_pose(component) if placement is None else placement
         height = self.components[component].size[2]
-        yaw = math.atan2(pose[1, 0], pose[0, 0])
+        yaw = yaw_of(pose)
         point = pose[:3, 3] + pose[:3, 2] * (height - FINGER_DEPTH_M)
         return motion.pose(motion.tool_down(yaw), point)
 
@@ -1476,11 +1475,9 @@ class MujocoSite:
     def _weld(self, robot: str, component: str, relative: np.ndarray) -> None:
         """Switch on the weld holding ``component`` at ``relative`` (4x4, in the gripper's frame)."""
         equality = self.model.equality(f"{robot}/grasp/{component}")
-        quat = np.zeros(4)
-        self.mj.mju_mat2Quat(quat, np.ascontiguousarray(relative[:3, :3]).ravel())
         self.model.eq_data[equality.id, 0:3] = 0.0
         self.model.eq_data[equality.id, 3:6] = relative[:3, 3]
-        self.model.eq_data[equality.id, 6:10] = quat
+        self.model.eq_data[equality.id, 6:10] = quat_wxyz(relative[:3, :3])
         self.model.eq_data[equality.id, 10] = 1.0
         self.data.eq_active[equality.id] = 1
 

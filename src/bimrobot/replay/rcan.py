@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from bimrobot.errors import InputError
+from bimrobot.frames import matrix_of_quat_wxyz, transform
 
 TRAJECTORY_SUFFIX = ".trajectory.csv"
 TRAJECTORY_COLUMNS = ("time_s", "body", "x", "y", "z", "qw", "qx", "qy", "qz")
@@ -36,13 +37,7 @@ class BodyTrack:
 
     def pose(self, index: int = -1) -> np.ndarray:
         """The 4x4 pose of sample ``index`` (default: the last)."""
-        from scipy.spatial.transform import Rotation
-
-        out = np.eye(4)
-        w, x, y, z = self.quat_wxyz[index]
-        out[:3, :3] = Rotation.from_quat([x, y, z, w]).as_matrix()
-        out[:3, 3] = self.xyz[index]
-        return out
+        return transform(matrix_of_quat_wxyz(self.quat_wxyz[index]), self.xyz[index])
 
 
 @dataclass

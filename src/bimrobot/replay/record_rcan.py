@@ -23,6 +23,7 @@ import logging
 
 import numpy as np
 
+from bimrobot.frames import xyzw_of_wxyz
 from bimrobot.replay.inputs import STATES, BuildRecord
 from bimrobot.replay.rcan import RcanRun
 
@@ -109,7 +110,7 @@ def log_physics(rec, record: BuildRecord, run: RcanRun) -> dict:
                 rec.set_time(PHYSICS_TIME, duration=t)
                 rec.log(path, rr.Mesh3D.from_fields(albedo_factor=[*STATE_COLOURS[state], 255]), rr.AnyValues(state=state))
             rec.send_columns(path, indexes=[rr.TimeColumn(PHYSICS_TIME, duration=track.times)],
-                             columns=rr.Transform3D.columns(translation=track.xyz, quaternion=track.quat_wxyz[:, [1, 2, 3, 0]]))
+                             columns=rr.Transform3D.columns(translation=track.xyz, quaternion=xyzw_of_wxyz(track.quat_wxyz)))
             moved.add(gid)
     _log_unmoved(rec, record, run, moved)
     robots = run.robot_links()
@@ -151,7 +152,7 @@ def _log_robot_bodies(rec, run: RcanRun, robot: str, links: list[str]) -> None:
         else:
             rec.log(path, rr.Points3D([[0.0, 0.0, 0.0]], radii=[0.03], colors=[ROBOT_COLOUR]), static=True)
         rec.send_columns(path, indexes=[rr.TimeColumn(PHYSICS_TIME, duration=track.times)],
-                         columns=rr.Transform3D.columns(translation=track.xyz, quaternion=track.quat_wxyz[:, [1, 2, 3, 0]]))
+                         columns=rr.Transform3D.columns(translation=track.xyz, quaternion=xyzw_of_wxyz(track.quat_wxyz)))
     chain = [run.bodies.get(f"{robot}/{link}") for link in ARM_CHAIN]
     if any(track is None for track in chain) or len({len(track.times) for track in chain}) != 1:
         return  # not a robot of bimrobot.physics (or its links were not recorded together): no arm line

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from bimrobot.bim.model import Element
+from bimrobot.frames import rpy_of  # SDF's roll, pitch, yaw, said in bimrobot.frames
 from bimrobot.site import Site, default_site
 
 
@@ -50,19 +51,6 @@ def pose_xyz_rpy(matrix: np.ndarray) -> tuple[float, float, float, float, float,
     roll, pitch, yaw = rpy_of(matrix[:3, :3])
     x, y, z = matrix[:3, 3]
     return float(x), float(y), float(z), float(roll), float(pitch), float(yaw)
-
-
-def rpy_of(rotation: np.ndarray) -> tuple[float, float, float]:
-    """(roll, pitch, yaw) in radians with rotation = Rz(yaw) Ry(pitch) Rx(roll)."""
-    sin_pitch = -float(np.clip(rotation[2, 0], -1.0, 1.0))
-    pitch = float(np.arcsin(sin_pitch))
-    if abs(sin_pitch) < 1 - 1e-12:
-        roll = float(np.arctan2(rotation[2, 1], rotation[2, 2]))
-        yaw = float(np.arctan2(rotation[1, 0], rotation[0, 0]))
-    else:  # gimbal lock: only yaw - roll (or yaw + roll) is defined; put it all in yaw
-        roll = 0.0
-        yaw = float(np.arctan2(-rotation[0, 1], rotation[1, 1]))
-    return roll, pitch, yaw
 
 
 def format_pose(matrix: np.ndarray) -> str:

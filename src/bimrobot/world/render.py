@@ -12,24 +12,12 @@ from pathlib import Path
 import numpy as np
 
 from bimrobot import io
+from bimrobot.frames import sdf_pose_matrix as pose_matrix  # the SDF pose's transform, said in bimrobot.frames
 from bimrobot.world.check import read_models
 
 
 def _pose_matrix(text: str) -> np.ndarray:
     return pose_matrix(*(float(v) for v in text.split()))
-
-
-def pose_matrix(x: float, y: float, z: float, roll: float, pitch: float, yaw: float) -> np.ndarray:
-    """4x4 local-to-world matrix of an SDF pose (metres, radians; rotation = Rz(yaw) Ry(pitch) Rx(roll))."""
-    cr, sr, cp, sp, cy, sy = np.cos(roll), np.sin(roll), np.cos(pitch), np.sin(pitch), np.cos(yaw), np.sin(yaw)
-    matrix = np.eye(4)
-    matrix[:3, :3] = [
-        [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-        [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-        [-sp, cp * sr, cp * cr],
-    ]
-    matrix[:3, 3] = (x, y, z)
-    return matrix
 
 
 def world_triangles(package: Path, world_file: str | None = None) -> tuple[np.ndarray, np.ndarray]:

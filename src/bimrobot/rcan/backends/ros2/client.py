@@ -12,6 +12,7 @@ import threading
 import time
 
 from bimrobot.coordination.fleet import Fleet
+from bimrobot.frames import quat_xyzw_of_yaw
 from bimrobot.rcan.activities import ActivityKind, Pose
 from bimrobot.rcan.backends.interfaces import ActivityResult, DispatchingBackend
 from bimrobot.rcan.backends.ros2.environment import HEARTBEAT, action_name, load_ros2
@@ -20,10 +21,6 @@ from bimrobot.rcan.node import RcanNode
 
 #: Seconds without an answer to a goal request before it is sent again (a server accepts a goal at once).
 GOAL_RESEND_S = 2.0
-
-
-def _quaternion_yaw(yaw: float) -> tuple[float, float, float, float]:
-    return (0.0, 0.0, math.sin(yaw / 2), math.cos(yaw / 2))
 
 
 class Ros2Backend(DispatchingBackend):
@@ -121,7 +118,7 @@ class Ros2Backend(DispatchingBackend):
         t = node.target
         goal.target_pose.position.x, goal.target_pose.position.y, goal.target_pose.position.z = t.x, t.y, t.z
         (goal.target_pose.orientation.x, goal.target_pose.orientation.y,
-         goal.target_pose.orientation.z, goal.target_pose.orientation.w) = _quaternion_yaw(t.yaw)
+         goal.target_pose.orientation.z, goal.target_pose.orientation.w) = quat_xyzw_of_yaw(t.yaw)
         weight = node.activity.weight_kg
         goal.weight_kg = math.nan if weight is None else float(weight)  # NaN: unknown (a float field)
         goal.ready_at_s = float(ready_at_s)

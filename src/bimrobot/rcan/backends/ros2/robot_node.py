@@ -15,6 +15,7 @@ import threading
 import time
 
 from bimrobot.coordination.fleet import Fleet
+from bimrobot.frames import yaw_of_quat_xyzw
 from bimrobot.rcan.activities import ActivityKind
 from bimrobot.rcan.backends.ros2.environment import (HEARTBEAT, HEARTBEAT_S, action_name, cleanup_fastdds,
                                                      fastdds_files, load_ros2)
@@ -93,7 +94,7 @@ def serve_robot_node(capabilities: Fleet, time_scale: float = 0.0, failure_proba
         def execute(goal_handle):
             g = goal_handle.request
             q = g.target_pose.orientation
-            yaw = math.atan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y**2 + q.z**2))
+            yaw = yaw_of_quat_xyzw(q.x, q.y, q.z, q.w)  # ROS's order
             p = g.target_pose.position
             activity = RcanActivity(g.activity_id, g.component_id, kind, Pose(p.x, p.y, p.z, yaw),
                                     None if math.isnan(g.weight_kg) else g.weight_kg,
