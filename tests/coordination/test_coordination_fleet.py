@@ -261,3 +261,18 @@ def test_fleet_list_and_convert(tmp_path, capsys):
     assert load_fleet(new).robots == load_fleet("fleet2").robots
     assert main(["fleet", "convert", str(old), "-o", str(old)]) == 2  # never overwrites a user's file
     assert "speed: 0.5" in old.read_text()
+    capsys.readouterr()
+    table = tmp_path / "caps.yaml"  # an RCAN gripper that lifts nothing: no version-2 robot carries 0 kg
+    table.write_text("robot_types:\n  g: {activities: [pick_up, install]}\nrobots:\n  arm: {types: [g], reach_m: 1}\n")
+    assert main(["fleet", "convert", str(table), "-o", str(tmp_path / "caps2.yaml")]) == 2
+    assert "cannot be written in the version-2 keys" in capsys.readouterr().err and not (tmp_path / "caps2.yaml").exists()
+
+
+def test_a_mobile_manipulator_without_a_platform_carries_what_it_holds(tmp_path):
+    path = tmp_path / "mm.yaml"
+    path.write_text("version: 2\nrobots:\n  - {name: M, kind: mobile_manipulator, speed_m_s: 1, carry_kg: 500, lift_kg: 500,"
+                    " reach_m: 6, time_per_node_s: 60, time_per_point_s: 30}\n")
+    robot = load_fleet(path).robots[0]
+    assert robot.platform_m is None
+    assert incapability(robot, _request(weight_kg=400, size=(12.0, 0.5))) is None  # any length, in its gripper
+    assert incapability(robot, _request(weight_kg=600, size=(1.0, 0.5))) == "carry load 500 kg < 600.0 kg"

@@ -168,7 +168,7 @@ def _check_fleet(path: Path) -> None:
             value = getattr(robot, key)
             if value or key in ("speed_m_s",):  # keys a kind does not use stay 0
                 assert low <= value <= high, f"{robot.name}.{key} = {value!r} outside [{low}, {high}]"
-        for size in robot.platform_m:
+        for size in robot.platform_m or ():
             assert size == 0 or PLATFORM_RANGE_M[0] <= size <= PLATFORM_RANGE_M[1], robot.platform_m
 
 

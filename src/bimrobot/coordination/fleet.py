@@ -17,7 +17,8 @@ kind               tasks and the keys it needs
 transport          transport: speed_m_s, carry_kg, platform_m [length, width]
 positioning        position: speed_m_s, lift_kg, reach_m, time_per_node_s
 assembly           assemble: speed_m_s, reach_m, time_per_point_s (methods: [bolt, weld] by default)
-mobile_manipulator all three: every key above
+mobile_manipulator all three: every key above; without ``platform_m`` it carries what it holds in its
+                   gripper, of any size
 ================== =========================================================================
 
 Optional keys: ``load_s`` and ``unload_s`` (transport: hooking on, setting down), ``methods`` (assembly),
@@ -118,8 +119,8 @@ class RobotSpec:
     """One robot: what it can do and how fast. Metres, seconds, kg, m/s; ``home_m`` in the fleet's
     ``home_frame`` (the site's, z up, unless the fleet says model); None: the site's robot homes in turn.
 
-    ``carry_kg`` is what it carries on its platform (``platform_m`` = length, width), ``lift_kg`` what it
-    lifts into place within ``reach_m``; ``arm_speed_m_s`` None: the handling times include the arm's
+    ``carry_kg`` is what it carries on its platform (``platform_m`` = length, width; None: no deck, it
+    carries what it holds in its gripper, of any size), ``lift_kg`` what it lifts into place within ``reach_m``; ``arm_speed_m_s`` None: the handling times include the arm's
     motions (every chapter-4 robot); ``rcan_activities`` None: all six RCAN activities.
     """
 
@@ -128,7 +129,7 @@ class RobotSpec:
     speed_m_s: float
     carry_kg: float = 0.0
     lift_kg: float = 0.0
-    platform_m: tuple[float, float] = (0.0, 0.0)
+    platform_m: tuple[float, float] | None = None
     reach_m: float = 0.0
     time_per_node_s: float = 0.0
     time_per_point_s: float = 0.0
@@ -253,7 +254,10 @@ def _robot(entry, source: str, index: int, keys: _Keys, home_limit: float) -> Ro
     if not isinstance(kind, str) or kind not in KIND_ACTIVITIES:
         raise InputError(f"{source}{line_of(entry, 'kind')}: {where}: key 'kind' must be one of {', '.join(KIND_ACTIVITIES)}, got {kind!r}")
     needed = {key for activity in KIND_ACTIVITIES[kind] for key in ACTIVITY_KEYS[activity]}
-    optional = V1_OPTIONAL if keys.v1 else OPTIONAL_KEYS
+    optional = set(V1_OPTIONAL if keys.v1 else OPTIONAL_KEYS)
+    if kind == "mobile_manipulator" and not keys.v1:  # it may carry what it holds in its gripper
+        needed.discard("platform_m")
+        optional.add("platform_m")
     check_keys(entry, {keys(k) for k in needed | set(optional)} | {"name", "kind"}, source, where, detail=f" for a {kind} robot")
     for key in sorted(keys(k) for k in needed):
         if key not in entry:
@@ -264,10 +268,10 @@ def _robot(entry, source: str, index: int, keys: _Keys, home_limit: float) -> Ro
     for key in sorted((needed | present) & set(RANGES)):
         low, high, unit = RANGES[key]
         values[key] = number(entry, keys(key), source, low=low, high=high, low_inclusive=True, unit=unit, where=where)
-    if "platform_m" in needed:
+    if "platform_m" in needed | present:
         size = _pair(entry, keys("platform_m"), source, where, *PLATFORM_RANGE_M, "[length, width]")
         values["platform_m"] = (max(size), min(size))
-        values.setdefault("reach_m", values["platform_m"][0] / 2)  # it loads over its platform
+        values.setdefault("reach_m", values["platform_m"][0] / 2)  # a transport robot loads over its platform
     if "methods" in present:
         methods = entry["methods"]
         if not isinstance(methods, list) or not methods or any(m not in METHODS for m in methods):
@@ -369,7 +373,7 @@ def fleet_to_dict(fleet: Fleet) -> dict:
         needed = {key for task in KIND_ACTIVITIES[robot.kind] for key in ACTIVITY_KEYS[task]}
         entry: dict = {"name": robot.name, "kind": robot.kind}
         for key in ("speed_m_s", "carry_kg", "lift_kg", "platform_m", "reach_m", "time_per_node_s", "time_per_point_s"):
-            if key in needed or (key == "reach_m" and robot.reach_m):
+            if (key in needed and getattr(robot, key) is not None) or (key == "reach_m" and robot.reach_m):
                 value = getattr(robot, key)
                 entry[key] = list(value) if isinstance(value, tuple) else value
         entry.update({key: getattr(robot, key) for key in ("load_s", "unload_s") if getattr(robot, key)})

@@ -44,13 +44,19 @@ def _list(args) -> int:
 def _convert(args) -> int:
     import yaml
 
-    from bimrobot.coordination.fleet import BUILTIN_FLEETS, fleet_to_dict, load_fleet
+    from bimrobot.config import parse_yaml
+    from bimrobot.coordination.fleet import BUILTIN_FLEETS, fleet_from_dict, fleet_to_dict, load_fleet
+    from bimrobot.errors import InputError
     from bimrobot.io import atomic_output_file, signature
 
     fleet = load_fleet(args.fleet)
     inputs = [] if args.fleet in BUILTIN_FLEETS else [args.fleet]
     text = f"# {signature('fleet convert')}, from {fleet.source}\n"
     text += yaml.safe_dump(fleet_to_dict(fleet), sort_keys=False, default_flow_style=None)
+    try:  # what it writes must read back: an older file's value outside version 2's ranges is named
+        fleet_from_dict(parse_yaml(text, args.output), args.output)
+    except InputError as exc:
+        raise InputError(f"{args.fleet} cannot be written in the version-2 keys: {exc}") from None
     with atomic_output_file(args.output, inputs=inputs) as tmp:
         tmp.write_text(text)
     print(f"{args.output}: fleet {fleet.name}, {len(fleet.robots)} robots, version 2")

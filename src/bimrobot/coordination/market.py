@@ -95,7 +95,8 @@ def incapability(spec: RobotSpec, request: TaskRequest) -> str | None:
     if request.activity == Task.TRANSPORT:
         if request.weight_kg > spec.carry_kg + TOLERANCE_M:
             return f"carry load {spec.carry_kg:g} kg < {request.weight_kg:.1f} kg"
-        if request.size[0] > spec.platform_m[0] + TOLERANCE_M or request.size[1] > spec.platform_m[1] + TOLERANCE_M:
+        platform = spec.platform_m  # None: it carries what it holds in its gripper, of any size
+        if platform is not None and (request.size[0] > platform[0] + TOLERANCE_M or request.size[1] > platform[1] + TOLERANCE_M):
             return (
                 f"platform {spec.platform_m[0]:g} x {spec.platform_m[1]:g} m < "
                 f"component {request.size[0]:.2f} x {request.size[1]:.2f} m"

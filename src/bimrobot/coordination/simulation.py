@@ -356,9 +356,10 @@ class ConstructionSimulation:
         words = []
         carriers, positioners, assemblers = distinct[Task.TRANSPORT], distinct[Task.POSITION], distinct[Task.ASSEMBLE]
         if carriers:
-            length = max(r.platform_m[0] for r in carriers)
-            width = max(r.platform_m[1] for r in carriers)
-            words.append(f"carries at most {max(r.carry_kg for r in carriers):,.0f} kg on up to {length:g} x {width:g} m")
+            decks = [r.platform_m for r in carriers if r.platform_m is not None]
+            size = ("of any size in a gripper" if len(decks) < len(carriers) else
+                    f"on up to {max(d[0] for d in decks):g} x {max(d[1] for d in decks):g} m")
+            words.append(f"carries at most {max(r.carry_kg for r in carriers):,.0f} kg {size}")
         else:
             words.append("has no transport robot")
         if positioners:

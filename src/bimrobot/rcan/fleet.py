@@ -14,7 +14,7 @@ what only RCAN needs:
 - :func:`fleet_from_capability_table`: RCAN's older capability table (``robot_types`` and ``robots`` with
   ``payload_kg``, ``reach_m``, ``speed_m_s``, ``arm_speed_m_s``, ``handling_s``, ``gripper_opening_m``,
   ``home``, ``footprint_m``) read as a fleet, with one warning: each robot becomes a mobile manipulator
-  that carries and lifts its ``payload_kg``, loads in ``handling_s.pick_up`` and installs a node or point
+  that carries (in its gripper, no platform) and lifts its ``payload_kg``, loads in ``handling_s.pick_up`` and installs a node or point
   in ``handling_s.install``, performing the activities of its types; its home stays in the model frame.
 """
 
@@ -199,7 +199,7 @@ def _table_robot(name: str, entry: object, robot_types: dict, source: str, line:
     footprint = _coordinates(entry, "footprint_m", source, name, line, 2, *FOOTPRINT_RANGE_M)
     return RobotSpec(
         name=name, kind="mobile_manipulator", speed_m_s=number("speed_m_s", 1.0), carry_kg=payload, lift_kg=payload,
-        platform_m=footprint or (0.0, 0.0), reach_m=number("reach_m", 0.0), time_per_node_s=install,
+        reach_m=number("reach_m", 0.0), time_per_node_s=install,
         time_per_point_s=install, load_s=handling_s.get(ActivityKind.PICK_UP, 0.0),
         arm_speed_m_s=number("arm_speed_m_s", 0.5), gripper_opening_m=opening, footprint_m=footprint, home_m=home,
         rcan_activities=None if activities == frozenset(ActivityKind) else frozenset(k.value for k in activities),
