@@ -152,7 +152,10 @@ def graph_command(args, model=None, ifc=None) -> int:
     base = checked_base(args.base or DEFAULT_BASE)
     started = time.perf_counter()
     if model is None:
-        model = load_model(args.model, include=args.include, exclude=args.exclude, unknown_weight=args.unknown_weight)
+        from bimrobot.sco.build import prebuilt_selector
+
+        model = load_model(args.model, include=args.include, exclude=args.exclude,
+                           prebuilt=prebuilt_selector(args.prebuilt), unknown_weight=args.unknown_weight)
     weights = model.unknown_weights  # the rule, applied once when the model was read
     if weights.message():
         print(weights.message(), flush=True)
@@ -269,7 +272,7 @@ def _smart_model(model, args, points_per_joint: int | None = None):
     None with a note when the model has nothing robots build."""
     from bimrobot.sco.build import build_smart_model, prebuilt_rule
 
-    prebuilt = tuple(c.strip() for c in args.prebuilt.split(",") if c.strip())
+    prebuilt = args.prebuilt  # a selector (evaluated when the model was read), or IFC class names
     prebuilt_rule(model, prebuilt)  # an unknown class name is refused with the model's classes
     try:
         points = {"assembly_points_per_joint": points_per_joint} if points_per_joint else {}
