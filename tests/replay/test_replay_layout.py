@@ -31,18 +31,26 @@ def frame_static(frame_replay):
         dataset = client.get_dataset("build")
         paths = {c.entity_path for c in dataset.schema().component_columns()}
         static = dataset.filter_contents(["/building/**", "/ghost", "/gantt/**"]).reader(index=None).to_pandas()
-    return paths, static
+        timed = dataset.filter_contents(["/building/**"]).reader(index="sim_time").to_pandas()
+    return paths, static, timed
+
+
+def first_value(frame, column):
+    """The first value logged in ``column`` (its first instance)."""
+    return frame[column].dropna().iloc[0][0]
 
 
 def test_elements_are_named_by_storey_class_and_name_with_the_global_id_as_a_property(frame_build, frame_static):
-    paths, static = frame_static
+    """Each element's GlobalId, class, name and storey come with its mesh (the element's one chunk)."""
+    paths, _, timed = frame_static
     report = json.loads((frame_build / "package" / "report.json").read_text())
     by_id = {e["global_id"]: e for e in report["converted"]}
     building = sorted(p for p in paths if p.startswith("/building/"))
     assert len(building) == len(by_id) == 88
     seen = set()
     for path in building:
-        gid = static[f"{path}:global_id"].iloc[0][0]
+        gid = first_value(timed, f"{path}:global_id")
+        assert first_value(timed, f"{path}:ifc_class") == by_id[gid]["ifc_class"]
         storey, ifc_class, name = [part.replace("\\ ", " ") for part in path.split("/")[2:]]
         assert ifc_class == by_id[gid]["ifc_class"] and storey in ("Level 1", "Level 2")
         assert name.split(" (")[0] == (by_id[gid]["name"] or gid) and gid not in path
@@ -70,7 +78,7 @@ def test_the_unbuilt_work_is_ghosted_from_the_start(frame_record, frame_static):
     stand in their own colour instead), each a little inside its installed body."""
     from bimrobot.replay.record import GHOST_RGBA, ghost_pieces, simplified_record
 
-    paths, static = frame_static
+    paths, static, _ = frame_static
     assert "/ghost" in paths
     vertices = np.array([list(v) for v in static["/ghost:Mesh3D:vertex_positions"].iloc[0]])
     albedo = int(static["/ghost:Mesh3D:albedo_factor"].iloc[0][0])
@@ -88,7 +96,7 @@ def test_the_unbuilt_work_is_ghosted_from_the_start(frame_record, frame_static):
 def test_the_gantt_has_one_bar_per_activity_at_its_times(frame_build, frame_record, frame_static):
     from bimrobot.replay.gantt import chart_width
 
-    paths, static = frame_static
+    paths, static, _ = frame_static
     rows = list(csv.DictReader((frame_build / "simulation" / "schedule.csv").open()))
     makespan = max(float(r["Finish"]) for r in rows)
     scale = chart_width(len(frame_record.robots)) / makespan
@@ -137,7 +145,30 @@ def test_large_meshes_are_simplified_within_their_bounds():
     assert len(small) <= 420 < len(triangles)
     assert np.allclose(small.reshape(-1, 3).min(axis=0), triangles.reshape(-1, 3).min(axis=0), atol=0.05)
     assert np.allclose(small.reshape(-1, 3).max(axis=0), triangles.reshape(-1, 3).max(axis=0), atol=0.05)
-    assert simplify(triangles[:100], 400) is not None and len(simplify(triangles[:100], 400)) == 100
+    few = triangles[:100]
+    assert simplify(few, 400, tiny_m=0.0) is few  # small enough: drawn as it is
+
+
+def test_tiny_parts_are_drawn_as_their_oriented_box():
+    """A bolt (2 cm x 10 cm, 128 triangles, turned in its local frame) becomes the 12 triangles of the
+    smallest box around it: every vertex inside, no bigger than the bolt's own box."""
+    import trimesh
+    from scipy.spatial.transform import Rotation
+
+    from bimrobot.replay.record import MAX_TRIANGLES, simplify
+
+    bolt = trimesh.creation.cylinder(radius=0.01, height=0.1, sections=32)
+    turned = bolt.vertices @ Rotation.from_euler("xyz", [30, 40, 50], degrees=True).as_matrix().T
+    triangles = turned[bolt.faces]
+    box = simplify(triangles, MAX_TRIANGLES)
+    assert box.shape == (12, 3, 3) and len(triangles) > 12
+    normals = np.cross(box[:, 1] - box[:, 0], box[:, 2] - box[:, 0])
+    centre = box.reshape(-1, 3).mean(axis=0)
+    assert np.all(np.einsum("ij,ij->i", normals, box.mean(axis=1) - centre) > 0)  # outward, counter-clockwise
+    outside = np.einsum("fk,vfk->vf", normals, turned[:, None, :] - box[None, :, 0])  # > 0: beyond a face
+    assert outside.max() < 1e-9
+    volume = trimesh.Trimesh(box.reshape(-1, 3), np.arange(36).reshape(-1, 3)).convex_hull.volume
+    assert volume == pytest.approx(0.02 * 0.02 * 0.1, rel=0.05)  # oriented: the axis-aligned box is 5x larger
 
 
 def test_a_unit_that_skips_position_fixed_ends_at_its_installed_place():

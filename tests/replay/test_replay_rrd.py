@@ -5,6 +5,7 @@ from __future__ import annotations
 import csv
 import json
 
+import numpy as np
 import pytest
 
 from bimrobot.cli import main
@@ -36,13 +37,18 @@ def test_replay_holds_every_element_robot_and_node(frame_build, frame_replay):
     server, dataset = read_back(rrd)
     with server:
         paths = {c.entity_path for c in dataset.schema().component_columns()}
+        nodes = dataset.filter_contents(["/nodes"]).reader(index="sim_time").to_pandas()
     building = {p for p in paths if p.startswith("/building/")}
     assert len(building) == len(elements) == summary["pieces"] == 88
     assert COLUMN_C1 in building
     robots = {p.split("/")[2] for p in paths if p.startswith("/robots/")}
     assert robots == {"TransportRobot11", "TransportRobot12", "PositioningRobot21", "PositioningRobot22",
                       "AssemblyRobot31", "AssemblyRobot32"}
-    assert len({p for p in paths if p.startswith("/nodes/")}) == summary["nodes"] > 0
+    # the connection nodes: one entity, a point per node (hover a point for its node)
+    labels = nodes["/nodes:Points3D:labels"].dropna().iloc[0]
+    assert len(labels) == len(set(labels)) == summary["nodes"] > 0
+    colours = nodes["/nodes:Points3D:colors"].dropna()
+    assert all(len(row) == summary["nodes"] for row in colours)  # every row colours every node
 
 
 def test_installed_count_and_last_installation_match_the_schedule(frame_build, frame_replay):
@@ -68,11 +74,8 @@ def test_component_state_and_properties_are_read_back(frame_replay):
     server, dataset = read_back(rrd)
     with server:
         frame = dataset.filter_contents([column_gid]).reader(index="sim_time").to_pandas()
-        static = dataset.filter_contents([column_gid]).reader(index=None).to_pandas()
-    assert static[f"{column_gid}:ifc_class"].iloc[0][0] == "IfcColumn"
-    assert static[f"{column_gid}:name"].iloc[0][0] == "Column C1"
-    assert static[f"{column_gid}:global_id"].iloc[0][0] == "3Ua8LTHWPNNemz8Gs8JfMy"
-    assert static[f"{column_gid}:storey"].iloc[0][0] == "Level 1"
+    first = {key: frame[f"{column_gid}:{key}"].dropna().iloc[0][0] for key in ("ifc_class", "name", "global_id", "storey")}
+    assert first == {"ifc_class": "IfcColumn", "name": "Column C1", "global_id": "3Ua8LTHWPNNemz8Gs8JfMy", "storey": "Level 1"}
     states = [v[0] for v in frame[f"{column_gid}:state"].dropna()]
     assert states[0] == "OnYard" and states[-1] == "Assembled"
     assert "InTransit" in states and "WorkingInPositioning" in states
@@ -123,33 +126,40 @@ def test_the_builds_rcan_run_is_on_rcan_time(frame_build, frame_replay):
 
 
 def test_the_rcan_gantt_has_a_bar_per_done_activity_at_the_reports_times(frame_build, frame_replay):
-    """Per robot on rcan_time, a Gantt bar from each done activity's start to its finish: as many bars
-    as the RCAN report has done activities, each on its robot at the report's times (start <= finish),
-    and the robot's line raised from the start of each bar that lasts."""
+    """RCAN's Gantt is drawn as bars, as the schedule's: one bar per done activity of the RCAN report, on
+    its robot's row, from the report's start to its finish, and a time cursor on rcan_time."""
+    from bimrobot.replay.gantt import chart_width
+
     rrd, _ = frame_replay
     report = json.loads((frame_build / "rcan" / "report.json").read_text())
     server, dataset = read_back(rrd)
     with server:
-        frame = dataset.filter_contents(["/rcan_gantt/**"]).reader(index="rcan_time").to_pandas()
-    bars = []
-    for name in frame.columns:
-        if not name.endswith(":activity_id"):
+        static = dataset.filter_contents(["/rcan_gantt/**"]).reader(index=None).to_pandas()
+        cursor = dataset.filter_contents(["/rcan_gantt/now"]).reader(index="rcan_time").to_pandas()
+    robots = sorted({report["robots"][a] for a in report["activities"]} | set(report["robots"].values()))
+    end = max(entry["finished_s"] for entry in report["activities"].values() if entry["result"] == "done")
+    scale = chart_width(len(robots)) / end
+    bars = {}
+    for row, robot in enumerate(robots):
+        path = "/rcan_gantt/" + rr.escape_entity_path_part(robot)
+        if f"{path}:Boxes2D:centers" not in static:
             continue
-        robot = name.split("/")[2].split(":")[0]
-        scalars = frame[name.replace(":activity_id", ":Scalars:scalars")]
-        baseline = min(v[0] for v in scalars.dropna())
-        rows = frame[["rcan_time", name, name.replace(":activity_id", ":finish_s")]].join(scalars).dropna()
-        for time_, ids, finishes, value in rows.itertuples(index=False):
-            start = time_.total_seconds()
-            bars += [(a, robot, start, finish) for a, finish in zip(ids, finishes)]
-            if any(finish > start for finish in finishes):
-                assert value[0] == pytest.approx(baseline + 0.6)
+        centres = np.array([list(v) for v in static[f"{path}:Boxes2D:centers"].iloc[0]])
+        halves = np.array([list(v) for v in static[f"{path}:Boxes2D:half_sizes"].iloc[0]])
+        labels = static[f"{path}:Boxes2D:labels"].iloc[0]
+        assert np.allclose(centres[:, 1], row)  # the robot's row
+        for label, centre, half in zip(labels, centres, halves):
+            activity = label.split(": ", 1)[1].split()[0]
+            bars[activity] = (robot, (centre[0] - half[0]) / scale, (centre[0] + half[0]) / scale)
     assert len(bars) == len(report["done"]) == 160
-    for activity, robot, start, finish in bars:
+    for activity, (robot, start, finish) in bars.items():
         entry = report["activities"][activity]
         assert entry["result"] == "done" and robot == entry["robot"] == report["robots"][activity]
-        assert start <= finish + 1e-9  # rcan_time counts whole nanoseconds
-        assert (start, finish) == (pytest.approx(entry["started_s"], abs=1e-6), pytest.approx(entry["finished_s"], abs=1e-6))
+        assert start == pytest.approx(entry["started_s"], abs=0.01)
+        # a bar shorter than 0.1 % of the chart is drawn that wide, to be seen
+        assert finish == pytest.approx(max(entry["finished_s"], entry["started_s"] + 1e-3 * end), abs=0.01)
+    times = cursor["rcan_time"].map(lambda t: t.total_seconds())
+    assert times.min() == 0.0 and times.max() == pytest.approx(end, abs=1e-6)
 
 
 def test_the_web_viewer_is_served_on_127_0_0_1_and_stopped_with_every_process_it_started(frame_pair_replay):

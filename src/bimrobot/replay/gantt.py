@@ -1,13 +1,19 @@
-"""The schedule's Gantt chart in the replay: one row of bars per robot, a time cursor over it.
+"""Gantt charts in the replay: one row of bars per robot, a time cursor over them.
 
 Drawn as 2D boxes (Rerun's ``Boxes2D`` in a 2D view), so that each activity is a bar from its start
 to its finish, coloured by what the robot does, with its text on hover: x is time, scaled so that the
-whole build spans :func:`chart_width` units; y is the robot's row (first robot on top, 1 unit per
-row). The bars are static (the whole plan at a glance); ``/gantt/now``, a vertical line on
-``sim_time``, marks the current time.
+whole chart spans :func:`chart_width` units; y is the robot's row (first robot on top, 1 unit per
+row). The bars are static (the whole plan at a glance); ``<root>/now``, a vertical line on the
+chart's timelines, marks the current time.
+
+Two charts use it: the simulated schedule's (``/gantt`` on ``sim_time``, :func:`log_gantt`) and what
+RCAN executed (``/rcan_gantt`` on ``rcan_time``, and ``physics_time`` with the mujoco backend, whose
+activity times are the scene's seconds; bimrobot.replay.record_rcan).
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -23,15 +29,32 @@ NAME_COLUMN = 6.0
 MAX_CURSOR_STEPS = 2000
 
 
+@dataclass(frozen=True)
+class Bar:
+    """One activity of a robot: ``start_s`` to ``finish_s`` (seconds on the chart's timeline),
+    ``activity`` one of :data:`ACTIVITY_COLOURS`' keys (else drawn grey), ``text`` shown on hover."""
+
+    robot: str
+    start_s: float
+    finish_s: float
+    activity: str
+    text: str
+
+
 def chart_width(rows: int) -> float:
     """Width of the time axis in chart units: wide enough to read, for any number of rows."""
     return max(16.0, 3.0 * rows)
 
 
-def bounds(record: BuildRecord) -> tuple[list[float], list[float]]:
-    """(x range, y range) of the whole chart, names column and time labels included (chart units)."""
-    rows = max(len(record.robots), 1)
+def chart_bounds(rows: int) -> tuple[list[float], list[float]]:
+    """(x range, y range) of a chart of ``rows`` robots, names column and time labels included (chart units)."""
+    rows = max(rows, 1)
     return [-NAME_COLUMN - 0.2, chart_width(rows) + 0.5], [-1.6, rows + 0.2]
+
+
+def bounds(record: BuildRecord) -> tuple[list[float], list[float]]:
+    """(x range, y range) of the schedule's chart (chart units)."""
+    return chart_bounds(len(record.robots))
 
 
 def time_label(seconds: float) -> str:
@@ -42,49 +65,64 @@ def time_label(seconds: float) -> str:
     return f"{seconds:,.0f} s"
 
 
+def schedule_bars(record: BuildRecord) -> list[Bar]:
+    """The simulated schedule's rows as bars, in schedule order."""
+    return [Bar(r["Robot"], r["Start"], r["Finish"], r["Activity"],
+                f"{r['Robot']}: {r['Activity']} {r['Name']} ({r['Start']:,.1f}-{r['Finish']:,.1f} s)")
+            for r in record.schedule]
+
+
 def log_gantt(rec, record: BuildRecord) -> int:
-    """Log the bars, the robot names, the time ticks and the cursor; returns the number of bars."""
+    """The schedule's chart, ``/gantt`` on ``sim_time``; returns the number of bars."""
+    from bimrobot.replay.record import TIMELINE
+
+    return log_chart(rec, "gantt", list(record.robots), schedule_bars(record), record.makespan, (TIMELINE,))
+
+
+def log_chart(rec, root: str, robots: list[str], bars: list[Bar], end_s: float, timelines: tuple[str, ...]) -> int:
+    """Log a chart under ``/<root>``: per robot its bars (``/<root>/<robot>``), the robots' names
+    (``/<root>/names``, one point per row), the time ticks (``/<root>/axis``), all static, and the cursor
+    (``/<root>/now``) on each of ``timelines``. ``end_s``: the time at the chart's right edge (s).
+    Returns the number of bars."""
     import rerun as rr
 
-    from bimrobot.replay.record import TIMELINE, entity
+    from bimrobot.replay.record import entity
 
-    robots = list(record.robots)
-    width, end = chart_width(len(robots)), max(record.makespan, 1e-9)
+    width, end = chart_width(len(robots)), max(end_s, 1e-9)
     scale = width / end
-    bars = 0
+    count = 0
+    # a label is drawn below its point: each point a little above its row's middle
+    rec.log(entity(root, "names"), rr.Points2D(
+        [[-0.55 * NAME_COLUMN, row - 0.3] for row in range(len(robots))], radii=[0.01], colors=[(255, 255, 255)],
+        labels=robots, show_labels=True), static=True)
     for row, name in enumerate(robots):
-        mine = [r for r in record.schedule if r["Robot"] == name]
-        # a label is drawn below its point: the point a little above the row's middle
-        rec.log(entity("gantt", "names", name), rr.Points2D(
-            [[-0.55 * NAME_COLUMN, row - 0.3]], radii=[0.01], colors=[(255, 255, 255)], labels=[name],
-            show_labels=True), static=True)
+        mine = [b for b in bars if b.robot == name]
         if not mine:
             continue
-        starts = np.array([r["Start"] for r in mine]) * scale
-        finishes = np.array([r["Finish"] for r in mine]) * scale
-        rec.log(entity("gantt", name), rr.Boxes2D(
+        starts = np.array([b.start_s for b in mine]) * scale
+        finishes = np.array([b.finish_s for b in mine]) * scale
+        rec.log(entity(root, name), rr.Boxes2D(
             mins=np.column_stack([starts, np.full(len(mine), row - BAR_HALF_HEIGHT)]),
             sizes=np.column_stack([np.maximum(finishes - starts, 1e-3 * width), np.full(len(mine), 2 * BAR_HALF_HEIGHT)]),
-            colors=[ACTIVITY_COLOURS.get(r["Activity"], OTHER_COLOUR) for r in mine],
-            labels=[f"{name}: {r['Activity']} {r['Name']} ({r['Start']:,.1f}-{r['Finish']:,.1f} s)" for r in mine],
-            show_labels=False), static=True)
-        bars += len(mine)
+            colors=[ACTIVITY_COLOURS.get(b.activity, OTHER_COLOUR) for b in mine],
+            labels=[b.text for b in mine], show_labels=False), static=True)
+        count += len(mine)
     ticks = np.linspace(0.0, end, 5)
-    rec.log(entity("gantt", "axis"), rr.Points2D(
+    rec.log(entity(root, "axis"), rr.Points2D(
         [[t * scale, -1.4] for t in ticks], radii=[0.05], colors=[(90, 90, 90)],
         labels=[time_label(t) for t in ticks], show_labels=True), static=True)
-    times = cursor_times(record)
+    times = cursor_times([0.0, end_s] + [b.start_s for b in bars] + [b.finish_s for b in bars])
     strips = [[[t * scale, -0.6], [t * scale, len(robots) - 0.4]] for t in times]
-    rec.send_columns(entity("gantt", "now"), indexes=[rr.TimeColumn(TIMELINE, duration=times)],
+    rec.send_columns(entity(root, "now"), indexes=[rr.TimeColumn(timeline, duration=times) for timeline in timelines],
                      columns=rr.LineStrips2D.columns(strips=strips, colors=[(20, 20, 20)] * len(times),
                                                      radii=[0.04] * len(times)).partition([1] * len(times)))
-    return bars
+    return count
 
 
-def cursor_times(record: BuildRecord) -> np.ndarray:
-    """Where the time cursor is drawn (s): every activity start and finish, 0 and the end, at most
-    :data:`MAX_CURSOR_STEPS` of them (evenly thinned)."""
-    times = np.unique([0.0, record.makespan] + [r["Start"] for r in record.schedule] + [r["Finish"] for r in record.schedule])
+def cursor_times(times) -> np.ndarray:
+    """Where the time cursor is drawn (s): the given times (every activity start and finish, 0 and the
+    end), at most :data:`MAX_CURSOR_STEPS` of them (evenly thinned, the last kept)."""
+    times = np.unique(np.asarray(times, dtype=float))
     if len(times) > MAX_CURSOR_STEPS:
         times = np.unique(np.concatenate([times[np.linspace(0, len(times) - 1, MAX_CURSOR_STEPS).astype(int)], [times[-1]]]))
     return times

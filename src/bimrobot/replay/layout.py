@@ -78,11 +78,16 @@ def _schedule_panels(record: BuildRecord | None):
 def _rcan_panels(record: BuildRecord):
     import rerun.blueprint as rrb
 
+    from bimrobot.replay import gantt
+    from bimrobot.replay.record_rcan import timed_activities
+
     panels = [rrb.TimeSeriesView(name="RCAN: activities done per robot", origin="/rcan_done"),
               rrb.TextLogView(name="RCAN activities", origin="/rcan")]
-    if any(a.start_s is not None for a in record.rcan.activities):
-        panels.insert(0, rrb.TimeSeriesView(name="RCAN: raised while working", origin="/rcan_gantt",
-                                            plot_legend=rrb.PlotLegend(visible=False)))
+    if timed_activities(record.rcan.activities):
+        x_range, y_range = gantt.chart_bounds(len({a.robot for a in record.rcan.activities if a.robot}))
+        panels.insert(0, rrb.Spatial2DView(name="RCAN Gantt: what each robot executed (hover a bar)",
+                                           origin="/rcan_gantt", background=[255, 255, 255],
+                                           visual_bounds=rrb.VisualBounds2D(x_range=x_range, y_range=y_range)))
     return rrb.Vertical(*panels, name=RCAN_TAB)
 
 

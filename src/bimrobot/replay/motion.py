@@ -191,9 +191,11 @@ def component_poses(record: BuildRecord, tracks: dict[str, RobotTrack]) -> dict[
         fixed = next((t for t, s in history if STATE_INDEX[s] >= STATE_INDEX["PositionFixed"]), None)
         installed = {g: record.pieces[g].installed_pose for g in gids}
         if lift is not None and fixed is not None and down is not None:
-            for t in sample_times(lift, fixed):
-                fraction = 0.0 if fixed <= lift else (t - lift) / (fixed - lift)
-                timeline.append((float(t), {g: _blend(down[g], installed[g], fraction) for g in gids}))
+            times = sample_times(lift, fixed)
+            fractions = np.zeros(len(times)) if fixed <= lift else (times - lift) / (fixed - lift)
+            lifted = {g: _blend(down[g], installed[g], fractions) for g in gids}
+            for index, t in enumerate(times):
+                timeline.append((float(t), {g: lifted[g][index] for g in gids}))
         if fixed is not None:
             timeline.append((fixed, installed))
         for t, pose_of in sorted(timeline, key=lambda item: item[0]):
@@ -227,12 +229,14 @@ def _placed(rest: dict[str, np.ndarray], x: float, y: float, z: float) -> dict[s
     return {g: move @ pose for g, pose in rest.items()}
 
 
-def _blend(a: np.ndarray, b: np.ndarray, fraction: float) -> np.ndarray:
-    """The pose a fraction of the way from a to b: straight line for the origin, slerp for the turn."""
+def _blend(a: np.ndarray, b: np.ndarray, fractions: np.ndarray) -> np.ndarray:
+    """The poses (k, 4, 4) the given fractions of the way from pose a to pose b: a straight line for
+    the origin, slerp for the turn."""
     from scipy.spatial.transform import Rotation, Slerp
 
-    out = np.eye(4)
-    out[:3, 3] = (1 - fraction) * a[:3, 3] + fraction * b[:3, 3]
+    fractions = np.asarray(fractions, dtype=float)
+    out = np.repeat(np.eye(4)[None], len(fractions), axis=0)
+    out[:, :3, 3] = (1 - fractions)[:, None] * a[:3, 3] + fractions[:, None] * b[:3, 3]
     turns = Rotation.from_matrix(np.stack([a[:3, :3], b[:3, :3]]))
-    out[:3, :3] = Slerp([0.0, 1.0], turns)([fraction]).as_matrix()[0]
+    out[:, :3, :3] = Slerp([0.0, 1.0], turns)(fractions).as_matrix()
     return out

@@ -82,8 +82,11 @@ class _Clock:
 
 
 #: Most triangles one element is drawn with: a larger mesh is simplified (quadric decimation) to this
-#: many, so that a model of thousands of elements opens in the web viewer in seconds (docs/replay.md).
-MAX_TRIANGLES = 400
+#: many, so that a model of hundreds of elements opens in the web viewer in seconds (docs/replay.md).
+MAX_TRIANGLES = 200
+#: An element whose mesh spans less than this in every direction (m; bolts, anchors, inserts) is drawn
+#: as its oriented bounding box (12 triangles): at a building's scale it is a few pixels wide.
+TINY_M = 0.3
 #: The unbuilt work: translucent grey (RGBA), each element shrunk about its centre by this factor.
 GHOST_RGBA = (150, 150, 150, 100)
 GHOST_SHRINK = 0.99
@@ -108,7 +111,6 @@ def write_rrd(record: BuildRecord, rrd: Path, start: dt.datetime | None = None, 
     rec.save(str(rrd), default_blueprint=blueprint(record))
     clock = _Clock(rec, start)
     paths = element_paths(record)
-    _log_properties(rec, record, paths)
     _log_ghost(rec, record)
     if record.schedule:  # a build: the simulated schedule on sim_time
         tracks = robot_tracks(record)
@@ -129,6 +131,7 @@ def write_rrd(record: BuildRecord, rrd: Path, start: dt.datetime | None = None, 
     if record.schedule:  # last: its time cursor reaches the end of the build, so the viewer's timeline
         from bimrobot.replay.gantt import log_gantt  # ends there only once everything before is in
 
+        rec.flush()  # the rows still batched go to the file first (send_columns chunks are written at once)
         log_gantt(rec, record)
     rec.flush()
     rec.disconnect()
@@ -160,27 +163,28 @@ def element_paths(record: BuildRecord) -> dict[str, str]:
 
 
 def simplified_record(record: BuildRecord, max_triangles: int = MAX_TRIANGLES) -> tuple[BuildRecord, int]:
-    """``record`` with every element mesh over ``max_triangles`` simplified to about that many (quadric
-    decimation; the bounds stay those of the full mesh within millimetres), and how many were."""
+    """``record`` with every element mesh lightened for the viewer (:func:`simplify`), and how many were."""
     import dataclasses
 
     pieces, count = {}, 0
     for gid, piece in record.pieces.items():
         triangles = simplify(piece.triangles, max_triangles)
-        count += len(triangles) < len(piece.triangles)
-        pieces[gid] = dataclasses.replace(piece, triangles=triangles) if len(triangles) < len(piece.triangles) else piece
+        count += triangles is not piece.triangles
+        pieces[gid] = dataclasses.replace(piece, triangles=triangles) if triangles is not piece.triangles else piece
     return dataclasses.replace(record, pieces=pieces), count
 
 
-def simplify(triangles: np.ndarray, max_triangles: int) -> np.ndarray:
-    """Triangles (k, 3, 3) reduced to at most about ``max_triangles`` (trimesh's quadric decimation on
-    the welded mesh); the mesh as it is when it is small enough or the decimator refuses it."""
+def simplify(triangles: np.ndarray, max_triangles: int, tiny_m: float = TINY_M) -> np.ndarray:
+    """Triangles (k, 3, 3), local frame (m), lightened: a tiny part (:data:`TINY_M`) becomes its oriented
+    bounding box (12 triangles), a mesh of more than ``max_triangles`` is reduced to about that many
+    (trimesh's quadric decimation, through fast-simplification, on the welded mesh). The mesh itself
+    (the same array) when it is small enough or the decimator refuses it."""
+    span = np.ptp(triangles.reshape(-1, 3), axis=0) if len(triangles) else np.zeros(3)
+    if len(triangles) > 12 and span.max() < tiny_m:
+        return oriented_box(triangles)
     if len(triangles) <= max_triangles:
         return triangles
-    import trimesh
-
-    soup = triangles.reshape(-1, 3)
-    mesh = trimesh.Trimesh(soup, np.arange(len(soup)).reshape(-1, 3), process=True)  # welds shared corners
+    mesh = _welded(triangles)
     try:
         small = mesh.simplify_quadric_decimation(face_count=max_triangles)
     except Exception:  # noqa: BLE001 - the decimator refuses some degenerate meshes: keep the full one
@@ -190,31 +194,60 @@ def simplify(triangles: np.ndarray, max_triangles: int) -> np.ndarray:
     return np.asarray(small.vertices)[np.asarray(small.faces)]
 
 
-def _mesh(rr, triangles: np.ndarray, rgb, alpha: int = 255) -> object:
-    """A flat-shaded mesh: every triangle its own three vertices with the face normal."""
+def _welded(triangles: np.ndarray):
+    import trimesh
+
+    soup = triangles.reshape(-1, 3)
+    return trimesh.Trimesh(soup, np.arange(len(soup)).reshape(-1, 3), process=True)  # welds shared corners
+
+
+def oriented_box(triangles: np.ndarray) -> np.ndarray:
+    """The 12 triangles (outward, counter-clockwise) of a box around ``triangles`` along their principal
+    axes (the eigenvectors of the vertices' covariance: a bolt's box follows the bolt, however it is
+    turned in its local frame)."""
+    points = np.unique(triangles.reshape(-1, 3), axis=0)
+    centre = points.mean(axis=0)
+    _, axes = np.linalg.eigh(np.cov((points - centre).T) if len(points) > 1 else np.eye(3))
+    if np.linalg.det(axes) < 0:  # a right-handed frame keeps the faces' winding outward
+        axes[:, 0] = -axes[:, 0]
+    local = (points - centre) @ axes
+    low, high = local.min(axis=0), local.max(axis=0)
+    corners = np.array([[(low, high)[i >> k & 1][k] for k in range(3)] for i in range(8)]) @ axes.T + centre
+    return corners[BOX_FACES]
+
+
+#: The box's 12 triangles as corner indices (corner i has bit k set where it is at the high end of axis k),
+#: counter-clockwise seen from outside.
+BOX_FACES = np.array([[0, 2, 1], [1, 2, 3], [4, 5, 6], [5, 7, 6], [0, 1, 4], [1, 5, 4],
+                      [2, 6, 3], [3, 6, 7], [0, 4, 2], [2, 4, 6], [1, 3, 5], [3, 7, 5]])
+
+
+def _mesh_arrays(triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(vertices, triangle indices, normals) of a flat-shaded mesh: every triangle its own three
+    vertices with the face normal (float32 / uint32)."""
     vertices = triangles.reshape(-1, 3)
     normals = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
     normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-12)
-    return rr.Mesh3D(
-        vertex_positions=vertices.astype(np.float32),
-        triangle_indices=np.arange(len(vertices), dtype=np.uint32).reshape(-1, 3),
-        vertex_normals=np.repeat(normals, 3, axis=0).astype(np.float32),
-        albedo_factor=[*rgb, alpha],
-    )
+    return (vertices.astype(np.float32), np.arange(len(vertices), dtype=np.uint32).reshape(-1, 3),
+            np.repeat(normals, 3, axis=0).astype(np.float32))
+
+
+def _mesh(rr, triangles: np.ndarray, rgb, alpha: int = 255) -> object:
+    """A flat-shaded mesh (:func:`_mesh_arrays`) of one colour (RGB 0-255, ``alpha`` 0-255)."""
+    vertices, indices, normals = _mesh_arrays(triangles)
+    return rr.Mesh3D(vertex_positions=vertices, triangle_indices=indices, vertex_normals=normals,
+                     albedo_factor=[*rgb, alpha])
 
 
 def _transform(rr, pose: np.ndarray):
     return rr.Transform3D(translation=pose[:3, 3].astype(np.float32), mat3x3=pose[:3, :3].astype(np.float32))
 
 
-def _log_properties(rec, record: BuildRecord, paths: dict[str, str]) -> None:
-    """Each element's GlobalId, IFC class, name and storey (static: on every timeline)."""
-    import rerun as rr
-
-    for gid, piece in record.pieces.items():
-        rec.log(paths[gid], rr.AnyValues(global_id=gid, ifc_class=piece.ifc_class, name=piece.name,
-                                         storey=record.storeys.get(piece.storey_id or "", piece.storey_id or "")),
-                static=True)
+def element_properties(record: BuildRecord, gid: str) -> dict[str, str]:
+    """An element's properties shown on hover and selection: GlobalId, IFC class, name, storey."""
+    piece = record.pieces[gid]
+    return {"global_id": gid, "ifc_class": piece.ifc_class, "name": piece.name,
+            "storey": record.storeys.get(piece.storey_id or "", piece.storey_id or "")}
 
 
 def ghost_pieces(record: BuildRecord) -> list[str]:
@@ -262,39 +295,88 @@ def _state_changes(record: BuildRecord) -> dict[str, list[tuple[float, str]]]:
 
 
 def _log_pieces(rec, clock: _Clock, record: BuildRecord, poses: dict, paths: dict[str, str]) -> None:
-    import rerun as rr
-
+    """Each element's mesh (at 0 s, or when its joint is assembled), pose and state over time: one
+    chunk per element (:func:`_send_rows`), so that the viewer takes a large model in few pieces."""
     changes = _state_changes(record)
     realizing = {r: node for node in record.nodes.values() for r in node.realizing}
     node_times = _node_times(record)
     for gid, piece in record.pieces.items():
-        path = paths[gid]
         own_rgb = tuple(int(round(255 * c)) for c in piece.colour[:3])
         if gid in changes:
             history = changes[gid]
-            clock.at(0.0)
-            rec.log(path, _mesh(rr, piece.triangles, STATE_COLOURS[history[0][1]]))
-            times = [t for t, _ in history]
-            rec.send_columns(path, indexes=clock.columns(times), columns=[
-                *rr.Mesh3D.columns(albedo_factor=[[*STATE_COLOURS[state], 255] for _, state in history]),
-                *rr.AnyValues.columns(state=[state for _, state in history])])
-            if poses.get(gid):
-                matrices = np.array([pose for _, pose in poses[gid]], dtype=np.float32)
-                rec.send_columns(path, indexes=clock.columns([t for t, _ in poses[gid]]),
-                                 columns=rr.Transform3D.columns(translation=matrices[:, :3, 3], mat3x3=matrices[:, :3, :3]))
+            moves = poses.get(gid) or []
+            rows = [(0.0, "mesh", STATE_COLOURS[history[0][1]])] + [(t, "pose", pose) for t, pose in moves]
+            rows += [(t, "colour", STATE_COLOURS[state]) for t, state in history] + [(t, "state", s) for t, s in history]
         elif gid in realizing and realizing[gid].node_id in node_times:
             # a bolt, plate or weld of a joint: brought by the assembly robot, shown from the joint's assembly
             begin, end = node_times[realizing[gid].node_id]
-            clock.at(begin)
-            rec.log(path, _mesh(rr, piece.triangles, NODE_COLOURS["assembling"]), _transform(rr, piece.installed_pose),
-                    rr.AnyValues(state="WorkingInAssembly"))
-            clock.at(end)
-            rec.log(path, rr.Mesh3D.from_fields(albedo_factor=[*own_rgb, 255]), rr.AnyValues(state=INSTALLED))
+            rows = [(begin, "mesh", NODE_COLOURS["assembling"]), (begin, "pose", piece.installed_pose),
+                    (begin, "state", "WorkingInAssembly"), (end, "colour", own_rgb), (end, "state", INSTALLED)]
         else:
             # not built by the fleet (work of others, or not in the simulated selection): as the model has it
-            clock.at(0.0)
-            rec.log(path, _mesh(rr, piece.triangles, own_rgb), _transform(rr, piece.installed_pose),
-                    rr.AnyValues(state="not in the schedule"))
+            rows = [(0.0, "mesh", own_rgb), (0.0, "pose", piece.installed_pose), (0.0, "state", "not in the schedule")]
+        _send_rows(rec, clock, paths[gid], piece.triangles, rows, element_properties(record, gid))
+
+
+def _send_rows(rec, clock: _Clock, path: str, triangles: np.ndarray, rows: list[tuple], properties: dict) -> None:
+    """Send an element's history as one chunk: ``rows`` of (time s, what, value), in time order (rows
+    of one time in the given order), where ``what`` is "mesh" (its geometry, coloured RGB ``value``),
+    "colour" (RGB), "state" (the ``state`` property) or "pose" (4x4, model frame). A row sets only its
+    own components; the others are null there. ``properties`` (:func:`element_properties`) go with the mesh."""
+    import rerun as rr
+
+    rows = sorted(rows, key=lambda row: row[0])  # stable: a time's rows keep their order
+    n = len(rows)
+    which = {kind: [i for i, row in enumerate(rows) if row[1] == kind] for kind in ("mesh", "colour", "state", "pose")}
+    columns = []
+    for i in which["mesh"]:
+        columns += [_Sparse(c, [i], n) for c in _geometry_columns(rr, triangles)]
+        columns += [_Sparse(c, [i], n) for c in _one_row(rr.AnyValues.columns(**{k: [v] for k, v in properties.items()}))]
+    colours = sorted(which["mesh"] + which["colour"])
+    if colours:
+        rgba = [[*rows[i][2], 255] for i in colours]
+        columns += [_Sparse(c, colours, n) for c in rr.Mesh3D.columns(albedo_factor=rgba)]
+    if which["state"]:
+        columns += [_Sparse(c, which["state"], n) for c in rr.AnyValues.columns(state=[rows[i][2] for i in which["state"]])]
+    if which["pose"]:
+        matrices = np.array([rows[i][2] for i in which["pose"]], dtype=np.float32)
+        columns += [_Sparse(c, which["pose"], n) for c in
+                    rr.Transform3D.columns(translation=matrices[:, :3, 3], mat3x3=matrices[:, :3, :3])]
+    rec.send_columns(path, indexes=clock.columns([row[0] for row in rows]), columns=columns)
+
+
+class _Sparse:
+    """A component column over some rows of a chunk (``rows`` of ``n``; null, i.e. not logged, in the
+    others), for ``send_columns``: Rerun's chunks are sparse, so one chunk carries what an element's
+    rows set at different times (geometry once, colours at state changes, poses while moving)."""
+
+    def __init__(self, column, rows: list[int], n: int):
+        self.column, self.rows, self.n = column, np.asarray(rows, dtype=int), n
+
+    def component_descriptor(self):
+        return self.column.component_descriptor()
+
+    def as_arrow_array(self):
+        import pyarrow as pa
+
+        dense = self.column.as_arrow_array()  # a list array, one entry per row in self.rows
+        lengths = np.zeros(self.n, dtype=np.int32)
+        lengths[self.rows] = np.diff(dense.offsets.to_numpy())
+        offsets = np.concatenate([[0], np.cumsum(lengths)]).astype(np.int32)
+        null = np.ones(self.n, dtype=bool)
+        null[self.rows] = False
+        return pa.ListArray.from_arrays(pa.array(offsets), dense.flatten(), mask=pa.array(null))
+
+
+def _geometry_columns(rr, triangles: np.ndarray) -> list:
+    """The mesh of :func:`_mesh` (without its colour) as columns of one row each."""
+    vertices, indices, normals = _mesh_arrays(triangles)
+    return _one_row(rr.Mesh3D.columns(vertex_positions=vertices, triangle_indices=indices, vertex_normals=normals))
+
+
+def _one_row(columns) -> list:
+    """Columns (``Archetype.columns(...)``) each as a single row holding all its values."""
+    return [c.partition([len(c.component_batch.as_arrow_array())]) for c in columns]
 
 
 def _node_times(record: BuildRecord) -> dict[str, tuple[float, float]]:
@@ -330,16 +412,26 @@ def _log_robots(rec, clock: _Clock, record: BuildRecord, tracks: dict) -> None:
 
 
 def _log_nodes(rec, clock: _Clock, record: BuildRecord) -> None:
+    """``/nodes``: every connection node a point (one entity: hover a point for its node), grey while
+    waiting, orange while assembled, green once assembled; one row per time a node changes."""
     import rerun as rr
 
+    if not record.nodes:
+        return
     times = _node_times(record)
-    for node_id, node in record.nodes.items():
-        path = entity("nodes", node_id)
-        begin, end = times[node_id]
-        for t, phase in ((0.0, "waiting"), (begin, "assembling"), (end, "assembled")):
-            clock.at(t)
-            rec.log(path, rr.Points3D([node.position], radii=[0.08], colors=[NODE_COLOURS[phase]],
-                                      labels=[f"node {node_id}: {phase}"], show_labels=False))
+    ids = list(record.nodes)
+    steps = sorted({0.0} | {t for node in ids for t in times[node]})
+    colours = [[NODE_COLOURS[_node_phase(times[node], t)] for node in ids] for t in steps]
+    columns = [_Sparse(c, [0], len(steps)) for c in _one_row(rr.Points3D.columns(
+        positions=[record.nodes[node].position for node in ids], radii=[0.08] * len(ids),
+        labels=[f"node {node}" for node in ids], show_labels=[False]))]
+    columns += list(rr.Points3D.columns(colors=[c for row in colours for c in row]).partition([len(ids)] * len(steps)))
+    rec.send_columns("/nodes", indexes=clock.columns(steps), columns=columns)
+
+
+def _node_phase(times: tuple[float, float], t: float) -> str:
+    begin, end = times
+    return "assembled" if t >= end else "assembling" if t >= begin else "waiting"
 
 
 def _log_progress(rec, clock: _Clock, record: BuildRecord) -> dict:

@@ -9,7 +9,8 @@ Timelines (each its own clock, so that none is mistaken for the simulated schedu
   line through the arm's links. Elements the physics run did not move stand at their installed pose.
 - ``rcan_time``: the RCAN run's own clock (the backend's simulated seconds; with the mujoco backend the
   same clock as ``physics_time``): ``/rcan/<robot>`` one text line per activity the robot finished,
-  ``/rcan_gantt/<robot>`` a Gantt bar per done activity, from its recorded start to its finish,
+  ``/rcan_gantt/<robot>`` a Gantt bar per done activity, from its recorded start to its finish (2D
+  boxes, static, as the schedule's ``/gantt``; ``/rcan_gantt/now`` the time cursor),
   ``/rcan_progress/done`` the number of activities done.
 
 Data logged on one timeline is not shown on another: ``/building`` carries the schedule's travel on
@@ -87,7 +88,7 @@ def log_physics(rec, record: BuildRecord, run: RcanRun) -> dict:
     """Log the recorded bodies on ``physics_time``; returns {components, robots} moved by the physics."""
     import rerun as rr
 
-    from bimrobot.replay.record import STATE_COLOURS, _mesh, element_paths
+    from bimrobot.replay.record import STATE_COLOURS, _mesh, element_paths, element_properties
 
     rec.reset_time()
     paths = element_paths(record)
@@ -105,7 +106,8 @@ def log_physics(rec, record: BuildRecord, run: RcanRun) -> dict:
             offset = mesh_offset(record, run, component, gid)
             triangles = record.pieces[gid].triangles @ offset[:3, :3].T + offset[:3, 3]
             rec.set_time(PHYSICS_TIME, duration=changes[0][0])
-            rec.log(path, _mesh(rr, triangles, STATE_COLOURS[changes[0][1]]), rr.AnyValues(state=changes[0][1]))
+            rec.log(path, _mesh(rr, triangles, STATE_COLOURS[changes[0][1]]),
+                    rr.AnyValues(state=changes[0][1], **element_properties(record, gid)))
             for t, state in changes[1:]:
                 rec.set_time(PHYSICS_TIME, duration=t)
                 rec.log(path, rr.Mesh3D.from_fields(albedo_factor=[*STATE_COLOURS[state], 255]), rr.AnyValues(state=state))
@@ -125,7 +127,7 @@ def _log_unmoved(rec, record: BuildRecord, run: RcanRun, moved: set[str]) -> Non
     pieces of RCAN's components, which the physics would have brought (not drawn without a body)."""
     import rerun as rr
 
-    from bimrobot.replay.record import _mesh, _transform, element_paths
+    from bimrobot.replay.record import _mesh, _transform, element_paths, element_properties
 
     paths = element_paths(record)
     rcan_pieces = {g for a in run.activities for g in component_pieces(record, a.component_id)}
@@ -134,7 +136,8 @@ def _log_unmoved(rec, record: BuildRecord, run: RcanRun, moved: set[str]) -> Non
         if gid in moved or gid in rcan_pieces:
             continue
         own = tuple(int(round(255 * c)) for c in piece.colour[:3])
-        rec.log(paths[gid], _mesh(rr, piece.triangles, own), _transform(rr, piece.installed_pose))
+        rec.log(paths[gid], _mesh(rr, piece.triangles, own), _transform(rr, piece.installed_pose),
+                rr.AnyValues(**element_properties(record, gid)))
 
 
 def _log_robot_bodies(rec, run: RcanRun, robot: str, links: list[str]) -> None:
@@ -164,7 +167,7 @@ def _log_robot_bodies(rec, run: RcanRun, robot: str, links: list[str]) -> None:
 
 def log_rcan(rec, run: RcanRun) -> None:
     """Log what the RCAN run executed on ``rcan_time`` (module docstring): per robot a line per finished
-    activity, the count it has done (a staircase) and, where starts were recorded, a Gantt line."""
+    activity, the count it has done (a staircase) and, where starts were recorded, its Gantt bars."""
     import rerun as rr
 
     from bimrobot.replay.record import entity
@@ -173,7 +176,7 @@ def log_rcan(rec, run: RcanRun) -> None:
     # the mujoco backend's activity times are the seconds of its scene: shown on physics_time as well
     timelines = (RCAN_TIME, PHYSICS_TIME) if run.bodies else (RCAN_TIME,)
     robots = sorted({a.robot for a in run.activities if a.robot})
-    for index, robot in enumerate(robots):
+    for robot in robots:
         mine = sorted((a for a in run.activities if a.robot == robot and a.finish_s is not None),
                       key=lambda a: (a.finish_s, a.activity_id))
         lines, done = entity("rcan", robot), entity("rcan_done", robot)
@@ -191,8 +194,8 @@ def log_rcan(rec, run: RcanRun) -> None:
                     rr.AnyValues(activity_id=[a.activity_id for a in group], status=[a.status for a in group]))
             count += sum(1 for a in group if a.status == "done")
             rec.log(done, rr.Scalars(float(count)))
-        _log_rcan_gantt(rec, robot, float(len(robots) - index), mine, timelines)
     rec.reset_time()
+    log_rcan_gantt(rec, run, timelines)
 
 
 def _at(rec, seconds: float, timelines) -> None:
@@ -200,42 +203,29 @@ def _at(rec, seconds: float, timelines) -> None:
         rec.set_time(timeline, duration=float(seconds))
 
 
-def gantt_bars(activities) -> list[tuple[float, list]]:
-    """[(time s, [activities starting then])] for the Gantt: the done activities with a recorded start
-    and finish, grouped by start, in time order (every start or finish of a bar is one of the times)."""
-    timed = sorted((a for a in activities if a.status == "done" and a.start_s is not None and a.finish_s is not None),
-                   key=lambda a: (a.start_s, a.finish_s, a.activity_id))
-    starts = {t: list(group) for t, group in itertools.groupby(timed, key=lambda a: a.start_s)}
-    return [(t, starts.get(t, [])) for t in sorted(set(starts) | {a.finish_s for a in timed})]
+def timed_activities(activities) -> list:
+    """The done activities with a recorded start and finish, by start (then finish, id): RCAN's Gantt bars."""
+    return sorted((a for a in activities if a.status == "done" and a.start_s is not None and a.finish_s is not None),
+                  key=lambda a: (a.start_s, a.finish_s, a.activity_id))
 
 
-def _log_rcan_gantt(rec, robot: str, level: float, activities, timelines) -> None:
-    """The robot's Gantt bars, as the schedule's ``/gantt`` is drawn: the line is raised (level + 0.6)
-    from each done activity's recorded start to its finish. It drops to ``level`` and rises again where
-    one activity ends as the next begins, so that back-to-back activities stay separate bars (an activity
-    of no duration is a spike). Each time a bar begins carries ``activity_id`` and ``finish_s`` (s) of
-    the bars that begin then. Nothing is drawn when no start was recorded (an older state database)."""
-    import rerun as rr
+#: The schedule activity (bar colour of :mod:`bimrobot.replay.gantt`) of each RCAN activity kind.
+GANTT_ACTIVITY = {"move_to_component": "transport", "position_for_picking_up": "transport", "pick_up": "transport",
+                  "transport": "transport", "position_for_installing": "position", "install": "assemble"}
 
-    from bimrobot.replay.record import entity
 
-    bars = gantt_bars(activities)
-    if not bars:
-        return
-    path, raised = entity("rcan_gantt", robot), level + 0.6
-    rec.log(path, rr.SeriesLines(names=robot), static=True)
-    _at(rec, 0.0, timelines)
-    rec.log(path, rr.Scalars(level))
-    working: list = []  # the activities running just before the current time
-    for t, starting in bars:
-        _at(rec, t, timelines)
-        working = [a for a in working if a.finish_s > t]
-        if not working:  # a bar (or several) ended here, or the robot was idle: down to the baseline
-            rec.log(path, rr.Scalars(level))
-        if not working and any(a.finish_s == t for a in starting):  # no duration: a spike
-            rec.log(path, rr.Scalars(raised))
-            rec.log(path, rr.Scalars(level))
-        working += [a for a in starting if a.finish_s > t]
-        if starting:
-            rec.log(path, rr.Scalars(raised if working else level),
-                    rr.AnyValues(activity_id=[a.activity_id for a in starting], finish_s=[a.finish_s for a in starting]))
+def log_rcan_gantt(rec, run: RcanRun, timelines) -> int:
+    """RCAN's Gantt chart, drawn as the schedule's (:mod:`bimrobot.replay.gantt`): per robot a bar per
+    done activity from its recorded start to its finish (s on ``rcan_time``), coloured by kind (moving
+    and picking up as transport, positioning, installing as assembly), its id, kind, component and
+    times on hover; ``/rcan_gantt/now`` the time cursor on ``timelines``. Nothing is drawn when no start
+    was recorded (an older state database). Returns the number of bars."""
+    from bimrobot.replay.gantt import Bar, log_chart
+
+    timed = timed_activities(run.activities)
+    if not timed:
+        return 0
+    robots = sorted({a.robot for a in run.activities if a.robot})
+    bars = [Bar(a.robot, a.start_s, a.finish_s, GANTT_ACTIVITY.get(a.kind, a.kind),
+                f"{a.robot}: {a.label} ({a.start_s:,.1f}-{a.finish_s:,.1f} s)") for a in timed]
+    return log_chart(rec, "rcan_gantt", robots, bars, max(a.finish_s for a in timed), tuple(timelines))
