@@ -94,6 +94,40 @@ def test_the_building_is_built_and_converted(pipeline):
     assert rcan_states and {gid: final[gid] for gid in rcan_states} == rcan_states, runs["rcan"].stdout
 
 
+def test_the_package_is_valid_and_names_nothing_generic(pipeline):
+    """convert's package (default options) says what it wrote, passes bimrobot's own checks, and gives
+    no world, model or map a tool-default name ("Undefined", "Default", "Topography : Surface")."""
+    from bimrobot.world.check import problems
+    from bimrobot.world.package import GENERIC_SITE_NAMES
+
+    out = pipeline["work"] / "pkg"
+    report = json.loads((out / "report.json").read_text())
+    assert report["counts"]["converted"] > 0
+    assert problems(out) == []
+    assert report["world"] not in GENERIC_SITE_NAMES
+    assert not [p.name for p in out.rglob("*") if p.stem.lower() in {"undefined", "default", "topography_surface"}]
+    if pipeline["model"].name == "MULTICOM-trappen_bordessen.ifc":  # Tekla: site and storey "Undefined"
+        assert report["world_files"] == {"sim": "worlds/multicom_trappen_bordessen.sdf"}
+        assert [(m["yaml"], m["storey_name"]) for m in report["maps"]] == [("maps/storey_1.yaml", "Undefined")]
+    for entry in report["maps"]:
+        assert (out / entry["image"]).stat().st_size > 0
+
+
+@pytest.mark.sdf
+def test_the_package_passes_the_sdformat_validator(pipeline):
+    """The world and every distinct model of the package through `ign sdf -k` (SDF 1.6 is checked on the
+    synthetic frame in tests/world)."""
+    from bimrobot.world.check import sdf_validator, validate_world
+
+    if sdf_validator() is None:
+        pytest.skip("`ign sdf` is not installed (ignition-tools)")
+    out = pipeline["work"] / "pkg"
+    report = json.loads((out / "report.json").read_text())
+    for world in report["world_files"].values():
+        result = validate_world(out / world, out / "models")
+        assert result.valid, f"{pipeline['model'].name} {world}: {result.errors}"
+
+
 def test_no_output_lands_outside_the_named_folders(pipeline):
     """Commands write only where they were told: the model's own folder is untouched."""
     assert not list(pipeline["model"].parent.glob(".*.tmp"))

@@ -18,7 +18,6 @@ from output_checks import snapshot
 SHARED_IFC = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "ifc"
 
 needs_ign = pytest.mark.skipif(sdf_validator() is None, reason="`ign sdf` is not installed (ignition-tools)")
-SHARED_FILES = sorted(p.name for p in SHARED_IFC.glob("*.ifc*")) if SHARED_IFC.exists() else []
 
 
 @pytest.fixture(scope="module")
@@ -62,29 +61,6 @@ def test_ifc_unit_beam_mass_comes_from_revit_exact_weight(tmp_path, shared_ifc):
     welds = [s for s in report["skipped"] if s["ifc_class"] == "IfcFastener"]
     assert len(welds) == 4 and all("curve" in s["reason"] for s in welds)
     assert problems(out) == []
-
-
-@pytest.mark.slow
-@pytest.mark.sdf
-@needs_ign
-@pytest.mark.parametrize("name", SHARED_FILES or ["(no shared data)"])
-def test_every_shared_ifc_file_converts_to_a_valid_package(tmp_path, shared_ifc, name):
-    out = tmp_path / "pkg"
-    report = convert(shared_ifc(name), out, ConvertOptions())  # SDF 1.6 is checked on the synthetic frame
-    assert report["counts"]["converted"] > 0
-    assert report["counts"]["converted"] == len(list((out / "models").iterdir()))  # what it says it wrote
-    assert problems(out) == []
-    # Tool-default site and storey names ("Undefined", "Default", "Topography : Surface") name nothing.
-    assert report["world"] not in GENERIC_SITE_NAMES
-    assert not [p.name for p in out.rglob("*") if p.stem.lower() in {"undefined", "default", "topography_surface"}]
-    if name == "MULTICOM-trappen_bordessen.ifc":  # Tekla: site and storey "Undefined"
-        assert report["world_files"] == {"sim": "worlds/multicom_trappen_bordessen.sdf"}
-        assert [(m["yaml"], m["storey_name"]) for m in report["maps"]] == [("maps/storey_1.yaml", "Undefined")]
-    for world in report["world_files"].values():  # the world and every distinct model through ign sdf -k
-        result = validate_world(out / world, out / "models")
-        assert result.valid, f"{name} {world}: {result.errors}"
-    for entry in report["maps"]:
-        assert (out / entry["image"]).stat().st_size > 0
 
 
 @pytest.fixture
