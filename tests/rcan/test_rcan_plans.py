@@ -83,10 +83,12 @@ def test_an_assembly_is_planned_as_one_unit_with_the_weight_of_its_parts(shared_
     plan = plan_from_schedule(Schedule(rows), model)
     parts = [model.elements[p] for p in assembly.part_ids]
     assert plan[0].weight_kg == pytest.approx(sum(e.weight_kg for e in parts))
-    lowest = min(e.world_bounds[0][2] for e in parts)
     # no assemble row fixes the unit: its positioning installs it (Assembled, as the simulation counts it)
     assert [a.kind for a in plan[-2:]] == [K.POSITION_FOR_INSTALLING, K.INSTALL]
-    assert plan[-1].target.z == pytest.approx(lowest)  # an assembly goes where its parts' bottom is
+    # an assembly goes where the simulated unit goes: its main part's origin (the schedule's target)
+    from bimrobot.sco.build import main_part
+
+    assert [plan[-1].target.x, plan[-1].target.y, plan[-1].target.z] == pytest.approx(main_part(parts).position)
     assert min(plan[0].section_m) > 0
 
 

@@ -57,14 +57,13 @@ def world_bounds(model: BuildingModel, global_id: str) -> np.ndarray | None:
 
 def position(model: BuildingModel, global_id: str) -> np.ndarray:
     """Where the component is installed, metres, world frame: an element's placement origin; for an
-    assembly (which has no body of its own) the bottom centre of its parts' bounds."""
+    assembly, the origin of its main part (:func:`bimrobot.sco.build.main_part`, the heaviest), which
+    is the origin of the unit the simulation lifts and the schedule's ``TargetX/Y/Z``."""
     if global_id in model.elements:
         return model.elements[global_id].position
-    bounds = world_bounds(model, global_id)
-    if bounds is None:
-        return parts(model, global_id)[0].position
-    centre = bounds.mean(axis=0)
-    return np.array([centre[0], centre[1], bounds[0][2]])
+    from bimrobot.sco.build import main_part
+
+    return main_part(parts(model, global_id)).position
 
 
 def extents(model: BuildingModel, global_id: str) -> np.ndarray | None:

@@ -13,7 +13,8 @@ the few ``brc:`` terms of ``vocabulary.ttl``):
 * precast assemblies: an outermost ``IfcElementAssembly`` (the unit a crane lifts in Tekla precast and
   steel exports) is a ``bot:Element`` of its own, contained in its storey, with ``bot:hasSubElement``
   each of its parts (which stay elements of their storey too); its weight is the sum of its parts'
-  (left out when one is unknown), its position the bottom centre and its size the extents along the
+  (left out when one is unknown), its position the origin of its main part (the heaviest, whose
+  placement the simulated unit takes: the schedule's target) and its size the extents along the
   world axes of the union of its parts. A state set on the assembly is set on its parts too: they
   travel and are placed together. ``build_graph(..., assemblies=False)`` leaves assemblies out.
 * element properties: ``brc:globalId``, ``brc:ifcClass``, ``brc:weightKg`` (kg), ``rdfs:label`` (name),

@@ -502,7 +502,7 @@ def assembly_units(model: BuildingModel) -> tuple[BuildingModel, dict[str, str],
         parts = [model.elements[p] for p in assembly.part_ids if p in model.elements]
         if not parts:
             continue
-        main = max(parts, key=_mass_proxy)
+        main = main_part(parts)
         whole_class = getattr(assembly, "ifc_class", ASSEMBLY_CLASS)
         to_main = np.linalg.inv(main.placement)
         vertices, faces, offset = [], [], 0
@@ -682,6 +682,12 @@ def _centre(ids, model: BuildingModel) -> np.ndarray | None:
     if not boxes:
         return None
     return np.mean([box.mean(axis=0) for box in boxes], axis=0)
+
+
+def main_part(parts: list[Element]) -> Element:
+    """The part whose placement an assembly unit takes (the heaviest; the first of equals): the unit's
+    origin, where the schedule, the graph and RCAN install it (issue 34: one position per component)."""
+    return max(parts, key=_mass_proxy)
 
 
 def _mass_proxy(element: Element) -> float:
