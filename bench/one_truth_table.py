@@ -113,6 +113,7 @@ def run(args: argparse.Namespace) -> None:
     """Every model of the folder, smallest first; the rows go to ``--out`` after each model."""
     models = sorted((p for p in Path(args.models).iterdir() if p.suffix in (".ifc", ".ifczip")),
                     key=lambda p: (p.stat().st_size, p.name))
+    order = {p.name: k for k, p in enumerate(models)}
     if args.only:
         models = [p for p in models if p.name in args.only]
     out = Path(args.out)
@@ -121,7 +122,7 @@ def run(args: argparse.Namespace) -> None:
         rows = [r for r in rows if r["model"] != model.name]
         with tempfile.TemporaryDirectory(prefix="one-truth-") as work:
             row = one_model(model, Path(work), args.timeout)
-        rows.append(row)
+        rows = sorted([*rows, row], key=lambda r: order.get(r["model"], len(order)))  # smallest file first
         print(json.dumps(row), flush=True)
         out.write_text(json.dumps({"label": args.label, "rows": rows}, indent=1) + "\n")
 
@@ -129,12 +130,14 @@ def run(args: argparse.Namespace) -> None:
 def cell(row: dict | None, what: str) -> str:
     """One version's figure of ``what`` for a row, as it goes into the table."""
     if row is None or "simulate_makespan_s" not in row:
-        return "-" if row is None or what not in ("build",) else row["status"]
+        if row is None or what != "build":
+            return "-"
+        return "refused" if row["status"].startswith("simulate refused") else row["status"]
     if what == "build":
-        return f"{row['components']} / {row['units']}" + (" (prebuilt slabs, walls)" if row.get("prebuilt") else "")
+        return f"{row['components']} / {row['units']}"
     if what == "points":
         p = row["points"]
-        return f"{p['model']} / {p['assumed']}"
+        return f"{p['model']:,} / {p['assumed']:,}"
     if what == "bolting":
         return f"{100 * row['bolting_share']:.0f} %"
     if what == "simulate":
@@ -156,7 +159,8 @@ def table(args: argparse.Namespace) -> None:
         b, a = before.get(name), after.get(name)
         unit = next((f"{r['length_unit']}, {r['mass_unit']}" for r in (a, b) if r and r.get("length_unit")), "?")
         cells = [f"{cell(b, w)} -> {cell(a, w)}" for w in ("build", "points", "bolting", "simulate", "rcan")]
-        print(f"| {name} | {unit.lower()} | " + " | ".join(cells) + " |")
+        prebuilt = " (prebuilt slabs, walls)" if any(r and r.get("prebuilt") for r in (a, b)) else ""
+        print(f"| {name}{prebuilt} | {unit.lower()} | " + " | ".join(cells).replace("- -> -", "-") + " |")
 
 
 def main() -> None:

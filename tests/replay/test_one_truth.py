@@ -95,7 +95,7 @@ def package_poses(package: Path) -> tuple[dict[str, np.ndarray], dict[str, np.nd
 def replay_positions(rrd: Path) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """GlobalId -> (first, last) translation (m, model frame) of each element's Transform3D on sim_time,
     read back with Rerun's dataframe API."""
-    rr = pytest.importorskip("rerun")
+    pytest.importorskip("rerun")
     pytest.importorskip("datafusion", reason="Rerun's dataframe API needs rerun-sdk[catalog] (datafusion)")
     from rerun.server import Server
 
@@ -113,7 +113,6 @@ def replay_positions(rrd: Path) -> dict[str, tuple[np.ndarray, np.ndarray]]:
         gid = str(frame[column].dropna().iloc[0][0])
         moves = frame[f"{entity}:Transform3D:translation"].dropna()
         found[gid] = (np.asarray(moves.iloc[0][0], float), np.asarray(moves.iloc[-1][0], float))
-    del rr
     return found
 
 
@@ -122,11 +121,15 @@ def installed_scene(model, components, tmp_path: Path) -> tuple[dict[str, np.nda
     ``components`` of ``model`` (a BuildingModel, changed: only they are kept): (from scene.xml's
     bodies, from the package's report.json)."""
     pytest.importorskip("mujoco")
+    import bimrobot.physics.scene as scene
     from bimrobot.world.package import ConvertOptions, build_package
 
     model.elements = {gid: e for gid, e in model.elements.items() if gid in components}
     model.connections, model.assemblies = [], {}
-    build_package(model, tmp_path / "scene", ConvertOptions(target="mujoco", maps=False, preview=False))
+    real = scene.collision_pieces
+    with pytest.MonkeyPatch.context() as patch:  # one convex hull per body: the poses do not depend on it,
+        patch.setattr(scene, "collision_pieces", lambda body, budget: real(body, 1))  # CoACD takes seconds
+        build_package(model, tmp_path / "scene", ConvertOptions(target="mujoco", maps=False, preview=False))
     bodies = {b.get("name"): np.array([float(v) for v in b.get("pos").split()])
               for b in ET.parse(tmp_path / "scene" / "mujoco" / "scene.xml").getroot().iter("body")}
     poses, _ = package_poses(tmp_path / "scene")
