@@ -26,6 +26,14 @@ STAND_OFF_M = 1.0
 #: Longest time step between two samples of a movement (s), and the most samples of one movement.
 SAMPLE_STEP_S = 2.0
 MAX_SAMPLES = 24
+#: A long build is sampled more coarsely: the step is at least the build's length divided by this
+#: (the steel frame: 2 s, Prefab's 8-hour build: 29 s), so that the recording's time points stay few.
+STEPS_PER_BUILD = 1000
+
+
+def sample_step(record: BuildRecord) -> float:
+    """The longest time step between two samples of a movement in this build (s)."""
+    return max(SAMPLE_STEP_S, record.makespan / STEPS_PER_BUILD)
 
 
 @dataclass
@@ -34,18 +42,20 @@ class RobotTrack:
 
     positions: list[tuple[float, float, float]] = field(default_factory=list)
     activities: list[tuple[float, str, bool]] = field(default_factory=list)
+    #: the longest time step between two samples of its movements (s)
+    step_s: float = SAMPLE_STEP_S
 
 
-def sample_times(t0: float, t1: float) -> np.ndarray:
-    """Times from t0 to t1 (both included) at most SAMPLE_STEP_S apart, at most MAX_SAMPLES + 1."""
+def sample_times(t0: float, t1: float, step_s: float = SAMPLE_STEP_S) -> np.ndarray:
+    """Times from t0 to t1 (both included) at most ``step_s`` apart, at most MAX_SAMPLES + 1."""
     if t1 <= t0:
         return np.array([t0])
-    count = int(min(MAX_SAMPLES, max(1, np.ceil((t1 - t0) / SAMPLE_STEP_S))))
+    count = int(min(MAX_SAMPLES, max(1, np.ceil((t1 - t0) / step_s))))
     return np.linspace(t0, t1, count + 1)
 
 
 def _leg(track: RobotTrack, t0: float, t1: float, p0: np.ndarray, p1: np.ndarray) -> None:
-    for t in sample_times(t0, t1):
+    for t in sample_times(t0, t1, track.step_s):
         fraction = 0.0 if t1 <= t0 else (t - t0) / (t1 - t0)
         x, y = p0 + fraction * (p1 - p0)
         track.positions.append((float(t), float(x), float(y)))
@@ -82,7 +92,7 @@ def robot_tracks(record: BuildRecord) -> dict[str, RobotTrack]:
     """Each robot's path and activity labels over the build (see the module docstring)."""
     tracks = {}
     for name, robot in record.robots.items():
-        track = RobotTrack()
+        track = RobotTrack(step_s=sample_step(record))
         position = robot.home.copy()
         track.positions.append((0.0, float(position[0]), float(position[1])))
         track.activities.append((0.0, "idle", False))
@@ -191,7 +201,7 @@ def component_poses(record: BuildRecord, tracks: dict[str, RobotTrack]) -> dict[
         fixed = next((t for t, s in history if STATE_INDEX[s] >= STATE_INDEX["PositionFixed"]), None)
         installed = {g: record.pieces[g].installed_pose for g in gids}
         if lift is not None and fixed is not None and down is not None:
-            times = sample_times(lift, fixed)
+            times = sample_times(lift, fixed, sample_step(record))
             fractions = np.zeros(len(times)) if fixed <= lift else (times - lift) / (fixed - lift)
             lifted = {g: _blend(down[g], installed[g], fractions) for g in gids}
             for index, t in enumerate(times):

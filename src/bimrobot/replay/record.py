@@ -3,16 +3,17 @@ a planner can read (:func:`blueprint`).
 
 Entities (paths are Rerun entity paths; each part escaped):
 
-- ``/building/<storey>/<IFC class>/<name>``: the element's mesh (local frame, simplified to at most
-  :data:`MAX_TRIANGLES` triangles) with a Transform3D over time, coloured by its component's state;
-  properties ``global_id``, ``ifc_class``, ``name``, ``storey`` (static) and ``state`` (over time).
-  Elements of the same storey, class and name are told apart by `` (2)``, `` (3)``, ... in file order
-  (:func:`element_paths`); the GlobalId is the ``global_id`` property;
+- ``/building/<storey>/<IFC class>/<name>``: the element's mesh (local frame, lightened by
+  :func:`simplify`) with a Transform3D over time, coloured by its component's state; properties
+  ``global_id``, ``ifc_class``, ``name``, ``storey`` (with the mesh) and ``state`` (over time), all in
+  one chunk per element (:func:`_send_rows`). Elements of the same storey, class and name are told
+  apart by `` (2)``, `` (3)``, ... in file order (:func:`element_paths`);
 - ``/ghost``: the work still to be built, translucent grey at its installed place from the start
   (static: on every timeline), as 4D tools show it; each element drawn 1 % smaller about its centre,
   so that the built element, once in place, hides it;
 - ``/robots/<name>``: a box per robot, moved over time, with its current activity as its label;
-- ``/nodes/<relating:related>``: a point per connection node, grey -> orange while assembled -> green;
+- ``/nodes``: a point per connection node (hover: ``node <relating:related>``), grey -> orange while
+  assembled -> green;
 - ``/gantt/<robot>``: the robot's activities as bars of a Gantt chart (2D: x = time, one row per
   robot, coloured by activity), static; ``/gantt/now`` the time cursor over it, on ``sim_time``;
 - ``/progress/<state>``: how many components are in each state (``Assembled``: installed);
