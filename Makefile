@@ -13,8 +13,15 @@ setup: $(VENV)/.installed
 demo: setup
 	VENV=$(VENV) DEMO_OUT=$(DEMO_OUT) scripts/demo.sh
 
+# The suite in two runs: most tests on TEST_WORKERS processes (one test file per worker: a file's
+# module fixtures are computed once), then the tests whose robots, services or browser keep real time
+# alone, so a loaded machine cannot make them late.
+TEST_WORKERS ?= 2
+SERIAL_TESTS := ros or redis or browser or chaos
+
 test: setup
-	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q -n $(TEST_WORKERS) --dist loadfile -m "not ($(SERIAL_TESTS))"
+	$(BIN)/python -m pytest -q -m "$(SERIAL_TESTS)"
 
 clean:
 	[ ! -f $(DEMO_OUT)/.bimrobot-demo ] || rm -rf $(DEMO_OUT)
