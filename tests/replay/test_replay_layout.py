@@ -192,3 +192,21 @@ def test_a_unit_that_skips_position_fixed_ends_at_its_installed_place():
                          {"T": Robot("T", "transport", np.zeros(2), 1.0)}, {})
     t, pose = component_poses(record, robot_tracks(record))["P"][-1]
     assert t == 20.0 and np.allclose(pose, installed)
+
+
+def test_long_builds_are_sampled_more_coarsely():
+    """Movements are sampled every 2 s on a build of up to 2,000 s (the steel frame's 1,639 s: as
+    before), and every 1/1,000 of the build on a longer one (Prefab's 29,098 s: 29.1 s), at most 24
+    samples per movement, both ends kept."""
+    from bimrobot.replay.inputs import BuildRecord
+    from bimrobot.replay.motion import MAX_SAMPLES, sample_step, sample_times
+
+    def build(makespan_s):
+        row = {"Robot": "T", "Activity": "transport", "Start": 0.0, "Finish": makespan_s}
+        return BuildRecord("t", {}, {}, {}, [row], {}, {})
+
+    assert sample_step(build(1639.0)) == 2.0
+    assert sample_step(build(29098.0)) == pytest.approx(29.098)
+    times = sample_times(100.0, 400.0, sample_step(build(29098.0)))
+    assert times[0] == 100.0 and times[-1] == 400.0 and len(times) == 12  # 300 s in 11 steps of <= 29.1 s
+    assert len(sample_times(0.0, 10_000.0, 2.0)) == MAX_SAMPLES + 1
