@@ -33,6 +33,7 @@ PART_CLIS = [
     "bimrobot.pipeline",
     "bimrobot.replay.cli",
     "bimrobot.report.cli",
+    "bimrobot.planning.cli",
 ]
 
 EPILOG = """examples:

@@ -1,0 +1,198 @@
+"""The planning problem as data: the instance ``bimrobot plan export`` writes (docs/planning.md).
+
+The instance is built from the simulation's own pieces, so it is the problem ``simulate --per-joint``
+runs and :func:`bimrobot.coordination.optimal.solve_optimal` solves: the tasks and precedences of
+:func:`~bimrobot.coordination.optimal.task_graph`, every task's request from
+:meth:`~bimrobot.coordination.simulation.ConstructionSimulation.request_for` (where the work is, what it
+weighs, its nodes and points), handling times from the one time model (:mod:`bimrobot.sco.timing`, via
+:func:`bimrobot.coordination.market.handling_time`) and robot homes as the simulation places them.
+
+Units: metres, seconds, kg, m/s. Positions of components are in the model frame (the IFC's world
+frame, z up); positions robots drive between are in the site frame (x, y), model frame + ``model_offset``.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from bimrobot.errors import InputError
+
+#: The instance format's version; :func:`load_instance` refuses any other.
+VERSION = 1
+
+UNITS = {"length": "m", "time": "s", "mass": "kg", "speed": "m/s"}
+
+#: Why one task must finish before another starts (``precedences[].rule``).
+RULES = {
+    "support": "a component is transported once every robot-built component it rests on is positioned",
+    "floor_gate": "a component is transported once every joint of the floors below it is assembled",
+    "own_order": "a component is positioned after its own transport",
+    "joint_members": "a joint is assembled once every component it joins is positioned",
+}
+
+RELEASE = (
+    "a task is published when all its predecessors have finished; a robot leaves for a task only once it "
+    "is published; each robot does one task at a time and drives straight (site frame, x and y) from where "
+    "its last task ended (its home before its first) to the task's start"
+)
+
+DURATION = (
+    "a task on robot r takes travel + handling_s[r]: travel = horizontal distance from the robot's position "
+    "to start_site_m / speed_m_s; handling_s (bimrobot.sco.timing): transport = load_s + "
+    "|end_site_m - start_site_m| / speed_m_s + unload_s, position = max(1, nodes) x per_node_s, assemble = "
+    "points x per_point_s"
+)
+
+KINDS = ("transport", "position", "assemble")
+
+
+def _xy(point) -> list[float]:
+    return [round(float(point[0]), 4), round(float(point[1]), 4)]
+
+
+def _xyz(point) -> list[float]:
+    return [round(float(v), 4) for v in point[:3]]
+
+
+def _rule(task_kind: str, predecessor: str) -> str:
+    """The rule that makes ``predecessor`` come before a task of ``task_kind``."""
+    if task_kind == "transport":
+        return "support" if predecessor.startswith("position:") else "floor_gate"
+    return "own_order" if task_kind == "position" else "joint_members"
+
+
+def build_instance(smart, fleet, site, storey_elevations=None) -> dict:
+    """The planning instance (a JSON-ready dict) of ``smart`` (a SmartModel) built by ``fleet`` on ``site``
+    (placed on the building, :func:`bimrobot.site.site_for`); ``storey_elevations`` in metres."""
+    from bimrobot.coordination.market import handling_time, incapability
+    from bimrobot.coordination.optimal import task_graph
+    from bimrobot.coordination.simulation import ConstructionSimulation
+
+    sim = ConstructionSimulation(smart, fleet, site, storey_elevations=storey_elevations)
+    graph = task_graph(sim.smart, sim)
+    known = {t.key for t in graph}
+    tasks, precedences = [], []
+    for t in graph:
+        kind = str(t.activity)
+        request = t.request
+        component = sim.smart.components[request.component_id]
+        joint = sim.smart.joints[request.joint_id] if request.joint_id else None
+        capable = [r for r in fleet.robots if not incapability(r, request)]
+        tasks.append({
+            "id": t.key,
+            "kind": kind,
+            "component": component.id,
+            "joint": joint.id if joint else None,
+            "joint_components": list(joint.component_ids) if joint else None,
+            "floor": int(request.floor),
+            "mass_kg": None if component.weight_kg is None else round(float(component.weight_kg), 3),
+            "position_m": _xyz(joint.position if joint else component.target_position),
+            "nodes": int(request.nodes) if kind == "position" else None,
+            "points": int(request.points) if kind == "assemble" else None,
+            "reach_m": round(float(request.reach_needed), 4),
+            "start_site_m": _xy(request.start),
+            "end_site_m": _xy(request.end),
+            "handling_s": {r.name: round(handling_time(r, request), 6) for r in capable},
+        })
+        for p in t.predecessors:
+            if p in known:  # a foundation-only joint is made with the prebuilt parts: no task
+                precedences.append({"before": p, "after": t.key, "rule": _rule(kind, p)})
+    robots = []
+    for index, spec in enumerate(fleet.robots):
+        home = fleet.home_on_site(spec, sim.offset) or sim.site.robot_home[index % len(sim.site.robot_home)]
+        robots.append({
+            "name": spec.name,
+            "kind": spec.kind,
+            "capabilities": [str(a) for a in spec.activities],
+            "speed_m_s": spec.speed_m_s,
+            "load_s": spec.load_s,
+            "unload_s": spec.unload_s,
+            "per_node_s": spec.time_per_node_s,
+            "per_point_s": spec.time_per_point_s,
+            "carry_kg": spec.carry_kg,
+            "lift_kg": spec.lift_kg,
+            "reach_m": spec.reach_m,
+            "methods": list(spec.methods),
+            "home_site_m": _xy(home),
+        })
+    return {
+        "bimrobot": _signature(),
+        "version": VERSION,
+        "units": {**UNITS, "model_frame": "the IFC's world frame, z up", "site_frame": "model frame + model_offset (x, y), z up"},
+        "model": str(smart.source),
+        "fleet": fleet.name,
+        "mode": "per-joint",
+        "release": RELEASE,
+        "duration": DURATION,
+        "rules": RULES,
+        "site": {
+            "source": sim.site.source,
+            "model_offset": _xy(sim.offset),
+            "yard_site_m": [_xy(p) for p in sim.site.yard],
+            "robot_home_site_m": [_xy(p) for p in sim.site.robot_home],
+            "idle_robots": sim.site.idle_robots,
+        },
+        "robots": robots,
+        "tasks": tasks,
+        "precedences": precedences,
+    }
+
+
+def _signature() -> str:
+    from bimrobot.io import signature
+
+    return signature("planning instance")
+
+
+def dumps(instance: dict) -> str:
+    """The instance as JSON text: sorted keys, so the same problem gives the same bytes."""
+    return json.dumps(instance, sort_keys=True, indent=1, ensure_ascii=False) + "\n"
+
+
+def load_instance(path: str | Path) -> dict:
+    """Read and check an instance file; InputError (one sentence) when it is not one this version reads."""
+    try:
+        instance = json.loads(Path(path).read_text(encoding="utf-8"))
+    except OSError as exc:
+        raise InputError(f"{path}: cannot read the planning instance ({exc.strerror})") from None
+    except ValueError as exc:
+        raise InputError(f"{path}: not a JSON planning instance ({exc})") from None
+    problem = check_instance(instance)
+    if problem:
+        raise InputError(f"{path}: {problem}")
+    return instance
+
+
+def check_instance(instance) -> str | None:
+    """What is wrong with ``instance`` (one sentence), or None when it is a valid version-1 instance."""
+    if not isinstance(instance, dict):
+        return "a planning instance is a JSON object"
+    if instance.get("version") != VERSION:
+        return f"planning instance version {instance.get('version')!r}, this bimrobot reads version {VERSION}"
+    for key in ("robots", "tasks", "precedences"):
+        if not isinstance(instance.get(key), list):
+            return f"the instance has no list {key!r}"
+    robots = {r.get("name") for r in instance["robots"] if isinstance(r, dict)}
+    ids = set()
+    for task in instance["tasks"]:
+        if not isinstance(task, dict) or task.get("kind") not in KINDS:
+            return f"task {task.get('id') if isinstance(task, dict) else task!r} has no kind among {', '.join(KINDS)}"
+        if task.get("id") in ids:
+            return f"task {task['id']!r} is listed twice"
+        ids.add(task.get("id"))
+        handling = task.get("handling_s")
+        if not isinstance(handling, dict) or not handling:
+            return f"task {task['id']!r} has no capable robot (handling_s)"
+        for name, seconds in handling.items():
+            if name not in robots:
+                return f"task {task['id']!r} names robot {name!r}, which is not in robots"
+            if not isinstance(seconds, (int, float)) or seconds < 0:
+                return f"task {task['id']!r}: handling time of {name} must be a number >= 0 s, got {seconds!r}"
+    for edge in instance["precedences"]:
+        for end in ("before", "after"):
+            if not isinstance(edge, dict) or edge.get(end) not in ids:
+                return f"precedence {edge!r} names a task that is not in tasks ({end})"
+        if edge.get("rule") not in RULES:
+            return f"precedence {edge['before']} -> {edge['after']} has an unknown rule {edge.get('rule')!r}"
+    return None

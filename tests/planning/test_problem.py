@@ -1,0 +1,102 @@
+"""The planning instance (`bimrobot plan export`) is the problem `simulate --per-joint` runs."""
+
+import json
+
+import numpy as np
+import pytest
+
+from bimrobot.bim.examples import steel_frame
+from bimrobot.bim.selection import DEFAULT_PREBUILT
+from bimrobot.cli import main
+from bimrobot.coordination.cli import load_building
+from bimrobot.coordination.fleet import load_fleet
+from bimrobot.coordination.simulation import simulate
+from bimrobot.errors import InputError
+from bimrobot.planning.problem import build_instance, dumps, load_instance
+from bimrobot.sco import build_smart_model
+from bimrobot.site import site_for
+
+
+@pytest.fixture(scope="module")
+def frame(tmp_path_factory):
+    """The thesis' steel frame, read as `simulate` reads it, with fleet2 on its site."""
+    path = steel_frame(tmp_path_factory.mktemp("frame") / "frame.ifc")
+    model, elevations = load_building(str(path))
+    site = site_for(None, model.elements.values())
+    smart = build_smart_model(model, prebuilt_classes=DEFAULT_PREBUILT)
+    return path, smart, load_fleet("fleet2"), site, elevations
+
+
+def _task_of(row, smart) -> str:
+    """The instance task a schedule row belongs to (a joint's assembly is written one row per node)."""
+    kind, subject = str(row.activity), row.name.split(" ", 1)[1]
+    return f"assemble:{smart.nodes[subject].joint_id}" if kind == "assemble" else f"{kind}:{subject}"
+
+
+def test_the_instance_is_the_problem_simulate_runs(frame):
+    """Same tasks, same precedences, and every task takes, on the robot simulate chose, the travel from
+    where that robot was plus the instance's handling time: the row's duration."""
+    _, smart, fleet, site, elevations = frame
+    instance = build_instance(smart, fleet, site, elevations)
+    result = simulate(smart, fleet, site, storey_elevations=elevations, per_node=False)
+    task_of = {row.id: _task_of(row, smart) for row in result.activities}
+    rows: dict[str, list] = {}
+    for row in result.activities:
+        rows.setdefault(task_of[row.id], []).append(row)
+    tasks = {t["id"]: t for t in instance["tasks"]}
+    assert sorted(tasks) == sorted(rows)
+    assert len(tasks) == 28
+
+    before = {key: {} for key in tasks}
+    for edge in instance["precedences"]:
+        before[edge["after"]][edge["before"]] = edge["rule"]
+    for key, group in rows.items():
+        scheduled = {task_of[p] for row in group for p in row.predecessors} - {key}
+        assert scheduled <= set(before[key])  # the floor gate: the row that closed the floor, one of the joints below
+        assert {p for p, rule in before[key].items() if rule != "floor_gate"} == {p for p in scheduled if not p.startswith("assemble:") or not key.startswith("transport:")}
+
+    robots = {r["name"]: r for r in instance["robots"]}
+    where = {name: np.array(r["home_site_m"]) for name, r in robots.items()}
+    for key, group in sorted(rows.items(), key=lambda item: min(r.start for r in item[1])):
+        task, robot = tasks[key], group[0].robot
+        assert {r.robot for r in group} == {robot} and robot in task["handling_s"]
+        travel = float(np.hypot(*(np.array(task["start_site_m"]) - where[robot]))) / robots[robot]["speed_m_s"]
+        duration = max(r.finish for r in group) - min(r.start for r in group)
+        assert duration == pytest.approx(travel + task["handling_s"][robot], abs=1e-4)
+        where[robot] = np.array(task["end_site_m"])
+
+
+def test_the_instance_file_is_deterministic_and_read_back(frame, tmp_path):
+    path, *_ = frame
+    out = tmp_path / "instance.json"
+    assert main(["plan", "export", str(path), "--fleet", "fleet2", "-o", str(out)]) == 0
+    first = out.read_bytes()
+    assert main(["plan", "export", str(path), "--fleet", "fleet2", "-o", str(out)]) == 0  # its own file: replaced
+    assert out.read_bytes() == first
+    instance = load_instance(out)
+    assert instance["version"] == 1 and instance["units"]["length"] == "m"
+    assert {t["kind"] for t in instance["tasks"]} == {"transport", "position", "assemble"}
+
+
+def test_a_broken_instance_is_refused_in_one_sentence(frame, tmp_path):
+    _, smart, fleet, site, elevations = frame
+    instance = json.loads(dumps(build_instance(smart, fleet, site, elevations)))
+    path = tmp_path / "broken.json"
+    instance["precedences"][0]["before"] = "transport:nothing"
+    path.write_text(json.dumps(instance), encoding="utf-8")
+    with pytest.raises(InputError, match="names a task that is not in tasks"):
+        load_instance(path)
+    instance["version"] = 99
+    path.write_text(json.dumps(instance), encoding="utf-8")
+    with pytest.raises(InputError, match="version 99, this bimrobot reads version 1"):
+        load_instance(path)
+
+
+def test_a_bad_fleet_or_a_foreign_file_exits_2(frame, tmp_path, capsys):
+    path, *_ = frame
+    assert main(["plan", "export", str(path), "--fleet", str(tmp_path / "none.yaml"), "-o", str(tmp_path / "i.json")]) == 2
+    assert "none.yaml" in capsys.readouterr().err
+    foreign = tmp_path / "mine.json"
+    foreign.write_text("{}", encoding="utf-8")
+    assert main(["plan", "export", str(path), "-o", str(foreign)]) == 2
+    assert foreign.read_text(encoding="utf-8") == "{}"
