@@ -27,6 +27,7 @@ OPTIONS = [
     ("simulate -o", ["simulate", "{model}", "-o", "{out}", "--no-progress"], CASES),
     ("allocators -o", ["allocators", "{model}", "-o", "{out}", "--no-optimal", "--seeds", "1"], CASES),
     ("graph -o", ["graph", "{model}", "-o", "{out}"], CASES),
+    ("plan export -o", ["plan", "export", "{model}", "-o", "{out}"], CASES),
     ("graph --store-path", ["graph", "{model}", "--store", "oxigraph", "--store-path", "{out}", "-o", "fresh.ttl"], CASES),
     ("rcan run --report", ["rcan", "run", "--schedule", "{schedule}", "--model", "{model}", "--reallocate", "-q", "--report", "{out}"], CASES),
     ("rcan run --graph-out", ["rcan", "run", "--schedule", "{schedule}", "--model", "{model}", "--reallocate", "-q", "--graph-out", "{out}"], CASES),
