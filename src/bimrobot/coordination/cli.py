@@ -224,7 +224,7 @@ def _inputs(args) -> list[str]:
     return files
 
 
-def _prepare(args, kind: str, model=None):
+def _prepare(args, kind: str | None, model=None, folder: bool = True):
     """Check the output path, read fleet, site and model (the unknown-weight rule applied as it is read).
 
     Returns (model, elevations, fleet, site, unknown-weight report, a function building a fresh
@@ -232,13 +232,14 @@ def _prepare(args, kind: str, model=None):
     folder another kind of command wrote included (``kind``: ``simulate`` or ``allocators``). ``model``:
     the BuildingModel of ``args.model`` already read with the same selection, prebuilt selector and
     unknown-weight rule (``bimrobot build`` reads it once for every stage); None reads it here.
+    ``folder``: the output is a folder (simulate, allocators), else one file (``plan export``, kind None).
     """
     from bimrobot.coordination.fleet import load_fleet, load_site
     from bimrobot.io import check_output
     from bimrobot.sco.build import build_smart_model, prebuilt_rule, prebuilt_selector
     from bimrobot.site import site_for
 
-    check_output(args.output, folder=True, inputs=_inputs(args), kind=kind)  # an output of another kind: refused now
+    check_output(args.output, folder=folder, inputs=_inputs(args), kind=kind)  # an output of another kind: refused now
     fleet = load_fleet(args.fleet)
     site = load_site(args.site)
     names = {r.name for r in fleet.robots}

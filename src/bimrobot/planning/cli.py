@@ -47,25 +47,15 @@ def register(subparsers) -> None:
 
 def run_export(args) -> int:
     """``bimrobot plan export``: read model, fleet and site as ``simulate`` does; write the instance."""
-    from bimrobot.coordination.cli import _inputs, load_building
-    from bimrobot.coordination.fleet import load_fleet
-    from bimrobot.io import atomic_output_file, check_output
+    from bimrobot.coordination.cli import _inputs, _prepare
+    from bimrobot.io import atomic_output_file
     from bimrobot.planning.problem import build_instance, dumps
-    from bimrobot.sco.build import build_smart_model, prebuilt_rule, prebuilt_selector
-    from bimrobot.site import load_site, site_for
 
-    inputs = _inputs(args)
-    check_output(args.output, folder=False, inputs=inputs)  # refused before the long work
-    fleet = load_fleet(args.fleet)
-    load_site(args.site)
-    model, elevations = load_building(args.model, args.include, args.exclude, prebuilt_selector(args.prebuilt), args.unknown_weight)
-    prebuilt_rule(model, args.prebuilt)
-    site = site_for(args.site, model.elements.values())
-    points = {"assembly_points_per_joint": site.assembly_points_per_joint} if site.assembly_points_per_joint else {}
-    smart = build_smart_model(model, prebuilt_classes=args.prebuilt, inferred_tolerance_m=args.tolerance,
-                              by_element=args.by_element, **points)
+    # simulate's own checks and readers: output refused before the long work, fleet, site, model, prebuilt
+    _, elevations, fleet, site, _, smart_model = _prepare(args, None, folder=False)
+    smart = smart_model()
     instance = build_instance(smart, fleet, site, elevations)
-    with atomic_output_file(args.output, inputs=inputs) as tmp:
+    with atomic_output_file(args.output, inputs=_inputs(args)) as tmp:
         tmp.write_text(dumps(instance), encoding="utf-8")
     print(f"{args.output}: {len(instance['tasks'])} tasks, {len(instance['precedences'])} precedences, "
           f"{len(instance['robots'])} robots (fleet {fleet.name}); the problem of `simulate --per-joint`")
