@@ -96,6 +96,11 @@ class Site:
     #: fastening points assumed for a joint the model gives none for (None: bimrobot.sco.build's default)
     assembly_points_per_joint: int | None = None
 
+    def robot_start(self, index: int, own_home=None) -> tuple[float, ...]:
+        """Where robot number ``index`` of a fleet starts (m, site frame): its ``own_home`` as given ((x, y)
+        or (x, y, z), site frame) when it has one, else the site's robot homes (x, y) in turn."""
+        return own_home or self.robot_home[index % len(self.robot_home)]
+
     def placed(self, elements) -> "Site":
         """This site with the building placed on it: ``model_offset`` set, once, from the footprint of
         ``elements`` (:class:`bimrobot.bim.model.Element`, their bodies' world bounding boxes) unless the

@@ -88,7 +88,7 @@ def solve_optimal(
         raise InputError(f"the build has {len(tasks)} tasks; the CP-SAT comparison is limited to {max_tasks}")
     homes = {}
     for index, spec in enumerate(fleet.robots):
-        homes[spec.name] = np.array(fleet.home_on_site(spec, sim.offset) or sim.site.robot_home[index % len(sim.site.robot_home)], dtype=float)
+        homes[spec.name] = np.array(sim.site.robot_start(index, fleet.home_on_site(spec, sim.offset)), dtype=float)
 
     def ticks(seconds: float) -> int:
         return int(math.ceil(seconds * SCALE - 1e-9))

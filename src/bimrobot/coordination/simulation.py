@@ -381,7 +381,7 @@ class ConstructionSimulation:
         self.env = simpy.Environment()
         self.robots: dict[str, _Robot] = {}
         for index, spec in enumerate(self.fleet.robots):
-            home = np.array(self.fleet.home_on_site(spec, self.offset) or self.site.robot_home[index % len(self.site.robot_home)], dtype=float)
+            home = np.array(self.site.robot_start(index, self.fleet.home_on_site(spec, self.offset)), dtype=float)
             self.robots[spec.name] = _Robot(spec, home.copy(), RobotStats(spec.name, spec.kind), end_position=home.copy())
         self.robots_per_activity = {a: len(self.fleet.by_activity(a)) for a in ACTIVITIES}
         self.idle: dict[str, set[str]] = {a: {r.spec.name for r in self.robots.values() if r.spec.can(a)} for a in ACTIVITIES}

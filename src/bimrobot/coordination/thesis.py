@@ -232,7 +232,7 @@ class ThesisSimulation:
         smart = self.smart
         self.robots = {}
         for index, spec in enumerate(self.fleet.robots):
-            home = self.fleet.home_on_site(spec, self.base.offset) or self.site.robot_home[index % len(self.site.robot_home)]
+            home = self.site.robot_start(index, self.fleet.home_on_site(spec, self.base.offset))
             self.robots[spec.name] = ThesisRobot(spec, np.array(home, dtype=float))
         self.pending = {k: [] for k in KINDS}
         self.tasks: list[ThesisTask] = []

@@ -100,7 +100,7 @@ def build_instance(smart, fleet, site, storey_elevations=None) -> dict:
                 precedences.append({"before": p, "after": t.key, "rule": _rule(kind, p)})
     robots = []
     for index, spec in enumerate(fleet.robots):
-        home = fleet.home_on_site(spec, sim.offset) or sim.site.robot_home[index % len(sim.site.robot_home)]
+        home = sim.site.robot_start(index, fleet.home_on_site(spec, sim.offset))
         robots.append({
             "name": spec.name,
             "kind": spec.kind,

@@ -68,7 +68,7 @@ def place_fleet(fleet: Fleet, site: Site | None = None, model_offset=(0.0, 0.0))
     offset = np.asarray(model_offset, dtype=float)
     robots = []
     for index, robot in enumerate(fleet.robots):
-        home = robot.home_m or site.robot_home[index % len(site.robot_home)]
+        home = site.robot_start(index, robot.home_m)
         x, y = site.to_model(np.asarray(home[:2], dtype=float), offset)
         z = float(home[2]) if len(home) > 2 else 0.0
         robots.append(replace(robot, home_m=(float(x), float(y), z)))

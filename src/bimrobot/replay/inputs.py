@@ -314,7 +314,7 @@ def _robots(schedule: list[dict], summary: dict, site, offset: np.ndarray, sched
     robots = {}
     for index, name in enumerate(names):
         spec = specs.get(name)
-        home_site = (fleet.home_on_site(spec, offset) if spec is not None else None) or site.robot_home[index % len(site.robot_home)]
+        home_site = site.robot_start(index, fleet.home_on_site(spec, offset) if spec is not None else None)
         robots[name] = Robot(
             name=name, kind=kinds.get(name) or (spec.kind if spec else ""),
             home=site.to_model(np.asarray(home_site, float), offset),
