@@ -8,14 +8,15 @@ from bimrobot.errors import InputError
 from bimrobot.sco import State, build_smart_model
 
 LONG_PLATFORM_FLEET = """\
+version: 2
 name: fleet2-long
 robots:
-  - {name: TransportRobot11, kind: transport, speed: 0.5, carry_load: 300, platform_size: [5.0, 1.0]}
-  - {name: TransportRobot12, kind: transport, speed: 0.8, carry_load: 300, platform_size: [5.0, 1.0]}
-  - {name: PositioningRobot21, kind: positioning, speed: 1.0, payload: 300, reach: 4.0, time_per_node: 120}
-  - {name: PositioningRobot22, kind: positioning, speed: 1.0, payload: 300, reach: 4.0, time_per_node: 60}
-  - {name: AssemblyRobot31, kind: assembly, speed: 1.0, reach: 4.0, time_per_point: 60}
-  - {name: AssemblyRobot32, kind: assembly, speed: 1.0, reach: 4.0, time_per_point: 30}
+  - {name: TransportRobot11, kind: transport, speed_m_s: 0.5, carry_kg: 300, platform_m: [5.0, 1.0]}
+  - {name: TransportRobot12, kind: transport, speed_m_s: 0.8, carry_kg: 300, platform_m: [5.0, 1.0]}
+  - {name: PositioningRobot21, kind: positioning, speed_m_s: 1.0, lift_kg: 300, reach_m: 4.0, time_per_node_s: 120}
+  - {name: PositioningRobot22, kind: positioning, speed_m_s: 1.0, lift_kg: 300, reach_m: 4.0, time_per_node_s: 60}
+  - {name: AssemblyRobot31, kind: assembly, speed_m_s: 1.0, reach_m: 4.0, time_per_point_s: 60}
+  - {name: AssemblyRobot32, kind: assembly, speed_m_s: 1.0, reach_m: 4.0, time_per_point_s: 30}
 """
 
 
