@@ -17,6 +17,7 @@ Positions are (x, y) in metres in the site frame; times in seconds.
 
 from __future__ import annotations
 
+import heapq
 from dataclasses import dataclass
 from typing import ClassVar
 
@@ -197,3 +198,92 @@ def make_evaluator(name: str, seed: int = 0) -> Evaluator:
     if name not in EVALUATOR_CLASSES:
         raise InputError(f"unknown evaluator {name!r}: choose one of {', '.join(EVALUATORS)}")
     return RandomChoice(seed) if name == RandomChoice.name else EVALUATOR_CLASSES[name]()
+
+
+# ---------------------------------------------------------------- dispatchers
+@dataclass(frozen=True)
+class Award:
+    """One decision: ``request`` goes to ``robot`` (a name) on its ``proposal``; ``bidders``: how many
+    robots proposed (for the event log)."""
+
+    request: TaskRequest
+    robot: str
+    proposal: BidProposal
+    bidders: int
+
+
+class Dispatcher:
+    """Who decides at a decision point of the event simulation (a robot free with ready work it can do,
+    or ready work with a free capable robot): the market, or an agent
+    (:class:`bimrobot.planning.dispatch.DispatchEnv`).
+
+    :meth:`awards` is called once per allocation round, at simulation time ``sim.env.now``; it changes
+    nothing, and the simulation then applies the awards in order. ``None`` means the driver of the
+    simulation decides (``ConstructionSimulation.award`` and ``end_round``)."""
+
+    name: ClassVar[str] = "agent"
+
+    def awards(self, sim) -> list[Award] | None:
+        return None
+
+
+class MarketDispatcher(Dispatcher):
+    """The thesis' market as a dispatcher: every pending request, highest priority first (assembly, then
+    positioning, then transport), goes out as a bid notice to the capable robots, and ``evaluator``
+    awards it to one proposal. A request nobody can take now stays pending; after ``4 x robots + 4`` of
+    those in a row, an activity's round stops. With ``quickest-finish`` a request may wait for a busy
+    robot that would finish it sooner; later requests of the round then queue behind it."""
+
+    def __init__(self, evaluator: Evaluator):
+        self.evaluator = evaluator
+        self.name = evaluator.name
+
+    def awards(self, sim) -> list[Award]:
+        chosen: list[Award] = []
+        # robot -> (free at s, where it will stand): awarded in this round, or waited for (quickest finish)
+        taken: dict[str, tuple[float, np.ndarray]] = {}
+        promised: dict[str, tuple[float, np.ndarray]] = {}
+        for activity in (Task.ASSEMBLE, Task.POSITION, Task.TRANSPORT):
+            idle = set(sim.idle[activity]) - taken.keys()
+            pool = list(sim.pending[activity])  # a copy of the heap: popped in priority order
+            deferred, scan_limit = 0, 4 * sim.robots_per_activity[activity] + 4
+            while pool and idle and deferred < scan_limit:
+                request = heapq.heappop(pool)
+                proposals = self._proposals(sim, BidNotice(request, sim.env.now), idle, taken, promised)
+                if not proposals:
+                    deferred += 1
+                    continue
+                winner = self.evaluator.choose(proposals)
+                if not winner.idle:  # quickest finish: wait for the busy robot that finishes sooner
+                    promised[winner.robot] = (winner.finish_time, request.end)
+                    deferred += 1
+                    continue
+                chosen.append(Award(request, winner.robot, winner, len(proposals)))
+                taken[winner.robot] = (winner.finish_time, request.end)
+                idle.discard(winner.robot)
+        return chosen
+
+    def _proposals(self, sim, notice: BidNotice, idle: set[str], taken: dict, promised: dict) -> list[BidProposal]:
+        """The proposals of the capable robots: idle ones from where they are now; with
+        ``quickest-finish`` busy ones too, from where and when their current (or promised) task ends."""
+        request, now = notice.request, notice.time
+        if self.evaluator.idle_only:
+            candidates = [sim.robots[name] for name in idle]
+        else:
+            candidates = [r for r in sim.robots.values() if r.spec.can(request.activity) and not r.broken]
+        proposals = []
+        for robot in candidates:
+            if incapability(robot.spec, request):
+                continue
+            name = robot.spec.name
+            if name in promised:  # already waited for by an earlier request
+                (available, position), free = promised[name], False
+            elif name in taken:
+                (finish, position), free = taken[name], False
+                available = max(now, finish)
+            elif robot.task is None:
+                available, position, free = now, sim.position_now(robot), True
+            else:
+                available, position, free = max(now, robot.free_at), robot.end_position, False
+            proposals.append(propose(robot.spec, position, available, free, request))
+        return proposals

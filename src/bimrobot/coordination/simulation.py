@@ -29,7 +29,9 @@ import simpy
 
 from bimrobot.coordination.fleet import ACTIVITIES, Fleet, RobotSpec, Site, default_site
 from bimrobot.coordination.market import (
-    BidNotice,
+    Award,
+    Dispatcher,
+    MarketDispatcher,
     TaskRequest,
     incapability,
     make_evaluator,
@@ -141,6 +143,9 @@ class ConstructionSimulation:
     node of its joint (the column's foot): that node's assembly task carries both nodes' points and is
     published once the prebuilt node is in place, so every assembly point is some robot's work. Default
     True; False (``--per-joint``): positioning per component, assembly per joint.
+    ``dispatcher``: who awards the tasks at each allocation round (:class:`~bimrobot.coordination.market.Dispatcher`);
+    default the market with ``evaluator``. An agent drives the run itself: :meth:`start`, then
+    :meth:`advance` to each decision point, :meth:`award` and :meth:`end_round`, and :meth:`result`.
     Raises InputError before simulating when a component cannot be handled by any robot of the fleet.
     """
 
@@ -155,6 +160,7 @@ class ConstructionSimulation:
         storey_elevations: list[float] | None = None,
         on_assembled=None,
         per_node: bool = False,
+        dispatcher: Dispatcher | None = None,
     ):
         # A run moves and advances its components: it works on a copy, so the caller's model stays as
         # built and can be simulated again (another fleet, evaluator or seed).
@@ -164,6 +170,7 @@ class ConstructionSimulation:
         self.fleet = fleet
         self.site = site or default_site()
         self.evaluator = make_evaluator(evaluator, seed)
+        self.dispatcher = dispatcher or MarketDispatcher(self.evaluator)
         self.breakdowns = [(b[0], float(b[1]), float(b[2]) if len(b) > 2 and b[2] is not None else None) for b in breakdowns]
         self.elevations = sorted(storey_elevations or [0.0])
         names = {r.name for r in fleet.robots}
@@ -378,7 +385,27 @@ class ConstructionSimulation:
 
     # ---------------------------------------------------------------- run
     def run(self) -> SimulationResult:
+        """Build the whole structure with the market (or the given dispatcher) and return the result."""
+        self.start()
+        with gc_paused():
+            self.env.run()
+        return self.result()
+
+    def advance(self) -> bool:
+        """Run the events until an agent's decision is due (True) or nothing is left to happen (False).
+        Only with a dispatcher whose ``awards`` returns None (an agent)."""
+        while not self.awaiting_decision:
+            if self.env.peek() == float("inf"):
+                return False
+            self.env.step()
+        return True
+
+    def start(self) -> None:
+        """Set up the run: robots at their homes, the first floor's requests published, breakdowns
+        scheduled; the first allocation round is due at t = 0."""
         self.env = simpy.Environment()
+        self.awaiting_decision = False
+        self._round_awarded = False
         self.robots: dict[str, _Robot] = {}
         for index, spec in enumerate(self.fleet.robots):
             home = np.array(self.site.robot_start(index, self.fleet.home_on_site(spec, self.offset)), dtype=float)
@@ -453,22 +480,22 @@ class ConstructionSimulation:
         for joint in self._joints_to_build() if not self.per_node else ():  # e.g. a footing joint of prebuilt parts only
             self._maybe_publish_assembly(joint)
         self._open_floor(0)
-        for robot, when, repair in self.breakdowns:
-            self.env.process(self._breakdown(robot, when, repair))
+        self._repairs = [self.env.process(self._breakdown(robot, when, repair)) for robot, when, repair in self.breakdowns]
         self._request_dispatch()
-        with gc_paused():
-            self.env.run()
 
+    def result(self) -> SimulationResult:
+        """The finished run. Raises BimrobotError when the build stalled with components unfinished."""
+        components = self.smart.components
         unfinished = [c.id for c in components.values() if c.state != State.ASSEMBLED]
         if unfinished:
             raise BimrobotError(self._stall_reason(unfinished))
         makespan = max((a.finish for a in self.activities if not a.aborted), default=0.0)
         self._number_by_start()
-        log.info("%s built by %s (%s): makespan %.1f s, %d allocation rounds", self.smart.source, self.fleet.name, self.evaluator.name, makespan, self.steps)
+        log.info("%s built by %s (%s): makespan %.1f s, %d allocation rounds", self.smart.source, self.fleet.name, self.dispatcher.name, makespan, self.steps)
         return SimulationResult(
             model=self.smart.source,
             fleet=self.fleet.name,
-            evaluator=self.evaluator.name,
+            evaluator=self.dispatcher.name,
             makespan=makespan,
             steps=self.steps,
             activities=self.activities,
@@ -614,9 +641,26 @@ class ConstructionSimulation:
             self.env.process(self._dispatch_soon())
 
     def _dispatch_soon(self):
+        """One allocation round, once the events of this instant have published their requests: the
+        dispatcher's awards, then (``idle_robots: yard``) idle robots drive back to the yard. With an
+        agent as dispatcher the round stays open (``awaiting_decision``) until its driver calls
+        :meth:`end_round`, and nothing else happens in between."""
         yield self.env.timeout(0)
         self.dispatch_scheduled = False
-        self._dispatch()
+        self._round_awarded = False
+        awards = self.dispatcher.awards(self)
+        if awards is None:  # an agent decides
+            if self.decision_candidates():
+                self.awaiting_decision = True
+                return
+        else:
+            for award in awards:
+                self.apply_award(award)
+        self.end_round()
+
+    def end_round(self) -> None:
+        """Close the allocation round: robots left without a task drive to the yard (``idle_robots: yard``)."""
+        self.awaiting_decision = False
         if self.site.idle_robots == "yard":
             self._send_idle_robots_to_yard()
 
@@ -651,55 +695,55 @@ class ConstructionSimulation:
             self._event("return_stopped", robot=robot.spec.name, x=round(float(robot.position[0]), 3), y=round(float(robot.position[1]), 3))
         robot.returning = None
 
-    def _dispatch(self) -> None:
-        """One allocation round: award pending requests, highest priority first, to the best proposals."""
-        awarded_any = False
-        # quickest finish: tasks left waiting for a busy robot queue up behind each other in this round
-        promised: dict[str, tuple[float, np.ndarray]] = {}
+    # ---------------------------------------------------------------- decisions (any dispatcher)
+    def decision_candidates(self) -> list[tuple[TaskRequest, str]]:
+        """Every (pending request, idle robot name) pair that could be awarded now, in the market's order:
+        assembly, positioning, transport; each pool by priority; robots by name."""
+        pairs = []
         for activity in (Task.ASSEMBLE, Task.POSITION, Task.TRANSPORT):
-            pool = self.pending[activity]
-            if not pool or not self.idle[activity]:
+            names = sorted(self.idle[activity])
+            if not names:
                 continue
-            deferred = []
-            scan_limit = 4 * self.robots_per_activity[activity] + 4
-            while pool and self.idle[activity] and len(deferred) < scan_limit:
-                request = heapq.heappop(pool)
-                notice = BidNotice(request, self.env.now)
-                proposals = self._collect_proposals(notice, promised)
-                if not proposals:
-                    deferred.append(request)
-                    continue
-                winner = self.evaluator.choose(proposals)
-                if not winner.idle:  # quickest finish: wait for the busy robot that finishes sooner
-                    promised[winner.robot] = (winner.finish_time, request.end)
-                    deferred.append(request)
-                    continue
-                if not awarded_any:
-                    awarded_any = True
-                    self.steps += 1
-                    self._step_header()
-                self._award(request, self.robots[winner.robot], winner, len(proposals))
-            for request in deferred:
-                heapq.heappush(pool, request)
+            for request in sorted(self.pending[activity]):
+                pairs += [(request, name) for name in names if not incapability(self.robots[name].spec, request)]
+        return pairs
 
-    def _collect_proposals(self, notice: BidNotice, promised: dict | None = None):
-        request = notice.request
-        proposals = []
-        if self.evaluator.idle_only:
-            candidates = [self.robots[name] for name in self.idle[request.activity]]
-        else:
-            candidates = [r for r in self.robots.values() if r.spec.can(request.activity) and not r.broken]
-        for robot in candidates:
-            if incapability(robot.spec, request):
-                continue
-            idle = robot.task is None
-            position = (self._position_now(robot) if robot.returning else robot.position) if idle else robot.end_position
-            available = notice.time if idle else max(notice.time, robot.free_at)
-            if promised and robot.spec.name in promised:  # already waited for by an earlier request
-                available, position = promised[robot.spec.name]
-                idle = False
-            proposals.append(propose(robot.spec, position, available, idle, request))
-        return proposals
+    def can_wait(self) -> bool:
+        """Whether leaving the ready work pending can lead anywhere: a robot is at work (it will finish and
+        open a new round) or a broken one will be repaired. Otherwise waiting would stall the build."""
+        return any(r.task is not None for r in self.robots.values()) or any(p.is_alive for p in self._repairs)
+
+    def award(self, request: TaskRequest, robot_name: str) -> Award:
+        """Award ``request`` (pending) to the idle robot ``robot_name`` now, as the market would: the
+        robot's proposal from where it is now. Raises ValueError when the pair is not a candidate."""
+        robot = self.robots.get(robot_name)
+        if (robot is None or robot_name not in self.idle[request.activity] or request not in self.pending[request.activity]
+                or incapability(robot.spec, request)):
+            raise ValueError(f"{robot_name} cannot take request {request.id} now")
+        bidders = sum(1 for name in self.idle[request.activity] if not incapability(self.robots[name].spec, request))
+        proposal = propose(robot.spec, self.position_now(robot), self.env.now, True, request)
+        award = Award(request, robot_name, proposal, bidders)
+        self.apply_award(award)
+        return award
+
+    def apply_award(self, award: Award) -> None:
+        """Take the awarded request out of its pool and send the robot (the first award of a round opens
+        a construction step in the log)."""
+        pool = self.pending[award.request.activity]
+        passed = []
+        while (request := heapq.heappop(pool)) is not award.request:
+            passed.append(request)
+        for request in passed:
+            heapq.heappush(pool, request)
+        if not self._round_awarded:
+            self._round_awarded = True
+            self.steps += 1
+            self._step_header()
+        self._award(award.request, self.robots[award.robot], award.proposal, award.bidders)
+
+    def position_now(self, robot: _Robot) -> np.ndarray:
+        """Where ``robot`` is now (site frame x, y, metres): part way along its drive back to the yard."""
+        return self._position_now(robot) if robot.returning else robot.position
 
     def _step_header(self) -> None:
         self.lines.append("-" * 48)
@@ -1131,7 +1175,9 @@ def simulate(
     storey_elevations: list[float] | None = None,
     on_assembled=None,
     per_node: bool = False,
+    dispatcher: Dispatcher | None = None,
 ) -> SimulationResult:
     """Run one build; see :class:`ConstructionSimulation`. ``smart`` is left as it was (the run works on
     a copy, returned in its final states as ``result.built``), so it can be simulated again."""
-    return ConstructionSimulation(smart, fleet, site, evaluator, seed, breakdowns, storey_elevations, on_assembled, per_node).run()
+    return ConstructionSimulation(smart, fleet, site, evaluator, seed, breakdowns, storey_elevations, on_assembled, per_node,
+                                  dispatcher).run()
