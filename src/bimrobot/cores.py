@@ -95,6 +95,27 @@ def _kill_with_parent() -> bool:
         return False
 
 
+def dies_with_this_process():
+    """A ``preexec_fn`` for :class:`subprocess.Popen`: the program started gets SIGKILL from the kernel
+    when this process ends, however it ends (SIGKILL included), as :func:`bind_to_parent` does for a
+    forked child. For a program that starts no processes of its own. None (nothing bound) off Linux and
+    outside the main thread: Linux watches the *thread* that started the program, which may end first."""
+    if not sys.platform.startswith("linux") or threading.current_thread() is not threading.main_thread():
+        return None
+    try:
+        prctl = ctypes.CDLL(None, use_errno=True).prctl  # looked up here: the child only calls it
+    except (OSError, AttributeError):
+        return None
+    parent = os.getpid()
+
+    def bind() -> None:
+        prctl(PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0)
+        if os.getppid() != parent:  # this process ended before the kernel was told to watch it
+            os._exit(1)
+
+    return bind
+
+
 def _watch_parent(parent: int) -> None:
     """The fallback of :func:`bind_to_parent`: end this process once ``parent`` is no longer its parent."""
     while os.getppid() == parent:

@@ -55,6 +55,21 @@ def session_processes(session: int) -> list[int]:
     return found
 
 
+def processes_with_environment(text: str) -> list[int]:
+    """The live processes (not zombies) other than this one whose environment holds ``text`` (a run's own
+    TMPDIR: found even when they left the run's session)."""
+    found = []
+    needle = text.encode()
+    for pid in os.listdir("/proc"):
+        if pid.isdigit() and int(pid) != os.getpid():
+            fields = _stat_fields(pid)
+            with contextlib.suppress(OSError):
+                with open(f"/proc/{pid}/environ", "rb") as environ:
+                    if fields and fields[0] != "Z" and needle in environ.read():
+                        found.append(int(pid))
+    return found
+
+
 def shm_in_use() -> set[str]:
     """Names of /dev/shm files that a live process has mapped or open."""
     used = set()

@@ -2,9 +2,10 @@
 leave nothing behind: no process of the run, no /dev/shm file, nothing in the run's temporary folder.
 
 Each run is a ``bimrobot`` subprocess in its own session (so that every process it starts can be found by
-its session id, and Ctrl-C reaches its whole process group as a terminal's would), with its own TMPDIR.
-SIGTERM, SIGHUP and SIGKILL go to the command's process alone, as ``kill $!`` or ``timeout`` send them.
-CI runs 15 trials (5 commands, each with 3 of the 4 signals); BIMROBOT_CHAOS_LONG=1 runs 60.
+its session id, and Ctrl-C reaches its whole process group as a terminal's would), with its own TMPDIR (so
+that a process started in a session of its own, as Rerun's web viewer server is, is found by its
+environment). SIGTERM, SIGHUP and SIGKILL go to the command's process alone, as ``kill $!`` or ``timeout``
+send them. CI runs 18 trials (6 commands, each with 3 of the 4 signals); BIMROBOT_CHAOS_LONG=1 runs 72.
 """
 
 from __future__ import annotations
@@ -21,12 +22,12 @@ from pathlib import Path
 
 import pytest
 
-from .conftest import CHAOS_LONG, SHARED_IFC, session_processes, shm_files, shm_in_use, tally
+from .conftest import CHAOS_LONG, SHARED_IFC, processes_with_environment, session_processes, shm_files, shm_in_use, tally
 
 pytestmark = pytest.mark.chaos
 
 SEED = 35
-TRIALS = 60 if CHAOS_LONG else 15
+TRIALS = 72 if CHAOS_LONG else 18
 SIGNALS = ("SIGINT", "SIGTERM", "SIGHUP", "SIGKILL")
 STOPPED_STATUS = {"SIGINT": 130, "SIGTERM": 143, "SIGHUP": 129, "SIGKILL": -9}
 
@@ -40,14 +41,33 @@ def _commands(work: Path) -> dict[str, tuple[list[str], tuple[float, float]]]:
         "simulate": (["simulate", str(work.parent / "frame.ifc"), "--fleet", "fleet2", "-o", str(work / "sim")], (0.5, 6.0)),
         "rl train": (["rl", "train", "--setting", "E3S2", "--algo", "ppo", "--timesteps", "500", "-o", str(work / "runs")],
                      (0.5, 10.0)),
+        # starting (about 3 s on an idle machine) or serving: it serves until stopped
+        "replay --serve": (["replay", "--serve", str(work.parent / "tiny.rrd")], (0.5, 8.0)),
     }
 
 
+COMMANDS = ("convert", "build", "rcan run", "rl train", "simulate", "replay --serve")
+
+
 def _trials() -> list[tuple[str, str, float]]:
-    """(command, signal, fraction of its window) per trial: every command meets every signal in turn."""
+    """(command, signal, fraction of its window) per trial: in each round of 6 trials every command
+    meets the signal after the one it met in the round before (4 rounds, 24 trials: every pair)."""
     rng = random.Random(SEED)
-    names = ["convert", "build", "rcan run", "rl train", "simulate"]
-    return [(names[i % 5], SIGNALS[i % 4], rng.random()) for i in range(TRIALS)]  # 20 trials: every pair
+    n = len(COMMANDS)
+    return [(COMMANDS[i % n], SIGNALS[(i % n + i // n) % len(SIGNALS)], rng.random()) for i in range(TRIALS)]
+
+
+@pytest.fixture(scope="module")
+def tiny_rrd(tmp_path_factory) -> Path:
+    """A Rerun recording of one point, written with the rerun-sdk (what `replay --serve` serves)."""
+    rr = pytest.importorskip("rerun")
+    path = tmp_path_factory.mktemp("chaos-rrd") / "tiny.rrd"
+    recording = rr.RecordingStream("bimrobot-chaos")
+    recording.save(str(path))
+    recording.log("point", rr.Points3D([[0.0, 0.0, 0.0]]))
+    recording.flush()
+    recording.disconnect()
+    return path
 
 
 @pytest.fixture(scope="module")
@@ -65,13 +85,15 @@ def _environment(tmp: Path) -> dict[str, str]:
 
 @pytest.mark.slow
 @pytest.mark.parametrize("trial", range(TRIALS))
-def test_a_stopped_command_leaves_nothing_behind(trial, frame_ifc, tmp_path):
+def test_a_stopped_command_leaves_nothing_behind(trial, frame_ifc, tmp_path, request):
     command, signame, fraction = _trials()[trial]
     if command == "convert" and not (SHARED_IFC / "AC20-FZK-Haus.ifc").exists():
         pytest.skip(f"{SHARED_IFC}/AC20-FZK-Haus.ifc is absent: the shared test data lives beside the repository")
     work = tmp_path / "work"
     work.mkdir()
     (work.parent / "frame.ifc").write_bytes(frame_ifc.read_bytes())
+    if command == "replay --serve":
+        (work.parent / "tiny.rrd").write_bytes(request.getfixturevalue("tiny_rrd").read_bytes())
     tmp = tmp_path / "tmp"
     tmp.mkdir()
     arguments, (earliest, latest) = _commands(work)[command]
@@ -94,7 +116,7 @@ def test_a_stopped_command_leaves_nothing_behind(trial, frame_ifc, tmp_path):
                 os.kill(run.pid, signum)
         status = run.wait(timeout=180)
         reader.join(timeout=30)
-        left = _left_processes(run.pid)
+        left = _left_processes(run.pid, tmp)
         shm_left = sorted(name for name in shm_files() - shm_before if name not in shm_in_use())
         tmp_left = sorted(p.name for p in tmp.iterdir())
         stderr = "".join(errors)
@@ -110,16 +132,17 @@ def test_a_stopped_command_leaves_nothing_behind(trial, frame_ifc, tmp_path):
         assert not tmp_left, f"{what}: {tmp_left} remain in its temporary folder"
         failed = False
     finally:
-        for pid in session_processes(run.pid):  # nothing is left to the next test, whatever happened
+        for pid in session_processes(run.pid) + processes_with_environment(str(tmp)):  # nothing is left to the next test
             with_suppressed_kill(pid)
         tally("signals", 1, int(failed))
 
 
-def _left_processes(session: int) -> list[int]:
-    """The processes of ``session`` still alive after a short grace (the kernel kills orphaned children
-    at once, but a loaded machine may take a moment), up to 100 polls."""
+def _left_processes(session: int, tmp: Path) -> list[int]:
+    """The processes of ``session``, or whose environment names the run's temporary folder ``tmp``, still
+    alive after a short grace (the kernel kills orphaned children at once, but a loaded machine may take a
+    moment), up to 100 polls."""
     for _ in range(100):
-        left = session_processes(session)
+        left = sorted(set(session_processes(session) + processes_with_environment(str(tmp))))
         if not left:
             return []
         time.sleep(0.1)
@@ -302,5 +325,35 @@ def test_the_temporary_folder_of_a_killed_command_is_removed(tmp_path):
     finally:
         run.kill()
         run.wait()
+        run.stdout.close()
+    tally("signals")
+
+
+def test_a_killed_replay_server_leaves_no_viewer_serving(tiny_rrd, tmp_path):
+    # issue 35: `replay --serve` stopped with SIGKILL left Rerun's viewer server serving, with parent 1
+    # (it runs in a session of its own); it dies with bimrobot now
+    tmp = tmp_path / "tmp"
+    tmp.mkdir()
+    run = subprocess.Popen([sys.executable, "-m", "bimrobot", "replay", "--serve", str(tiny_rrd)], env=_environment(tmp),
+                           stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, start_new_session=True)
+    try:
+        url = None
+        for line in run.stdout:  # the URL, once Rerun's server listens
+            if line.startswith("web viewer: "):
+                url = line.split(": ", 1)[1].strip()
+                break
+        assert url, "no URL printed"
+        assert len(processes_with_environment(str(tmp))) >= 2  # bimrobot and Rerun's server
+        run.kill()
+        assert run.wait(timeout=60) == -signal.SIGKILL
+        assert _left_processes(run.pid, tmp) == []
+        for _ in range(100):  # the watcher removes the temporary folder once the command is gone
+            if not list(tmp.iterdir()):
+                break
+            time.sleep(0.1)
+        assert list(tmp.iterdir()) == []
+    finally:
+        for pid in session_processes(run.pid) + processes_with_environment(str(tmp)):
+            with_suppressed_kill(pid)
         run.stdout.close()
     tally("signals")

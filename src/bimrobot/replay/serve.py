@@ -27,6 +27,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from bimrobot.cores import dies_with_this_process
 from bimrobot.errors import InputError
 
 URL_PATTERN = re.compile(r"connect at (http://127\.0\.0\.1:\d+\S*)")
@@ -39,6 +40,19 @@ def rerun_program() -> str:
     if not found:
         raise InputError("the `rerun` program is not installed: pip install rerun-sdk (see scripts/setup.sh)")
     return found
+
+
+def _viewer_binary() -> str:
+    """The viewer binary that the rerun-sdk's ``rerun`` launcher (a Python script) runs, so that the
+    process bimrobot starts is the server itself; the launcher where the binary is not found."""
+    import importlib.util
+
+    spec = importlib.util.find_spec("rerun_cli")
+    for folder in (spec.submodule_search_locations or []) if spec else []:
+        binary = Path(folder) / ("rerun.exe" if sys.platform.startswith("win") else "rerun")
+        if binary.is_file() and os.access(binary, os.X_OK):
+            return str(binary)
+    return rerun_program()
 
 
 def quiet_environment(home: Path) -> dict[str, str]:
@@ -229,12 +243,13 @@ def _start_rerun(rrd: Path, grpc_port: int, timeout_s: float) -> WebViewer:
     process = None
     try:
         env = quiet_environment(Path(home.name))
-        command = [rerun_program(), "--serve-web", "--bind", "127.0.0.1", "--web-viewer-port", "0",
+        command = [_viewer_binary(), "--serve-web", "--bind", "127.0.0.1", "--web-viewer-port", "0",
                    "--port", str(grpc_port), str(Path(rrd).resolve())]
-        # Its own process group: `rerun` is a Python launcher that starts the viewer binary as a child, which
-        # stopping the launcher alone would leave serving (and busy) after we are gone.
+        # Its own process group, stopped as one (the `rerun` launcher, where the binary is not found, starts it
+        # as a child); the binary itself dies with bimrobot even when bimrobot is SIGKILLed (issue 35: it was
+        # left serving, with parent 1).
         process = subprocess.Popen(command, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-                                   start_new_session=True)
+                                   start_new_session=True, preexec_fn=dies_with_this_process())
         deadline = time.monotonic() + timeout_s
         seen = []
         while time.monotonic() < deadline:
