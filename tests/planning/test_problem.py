@@ -33,6 +33,41 @@ def _task_of(row, smart) -> str:
     return f"assemble:{smart.nodes[subject].joint_id}" if kind == "assemble" else f"{kind}:{subject}"
 
 
+def _predecessors(instance) -> dict[str, dict[str, str]]:
+    """task -> {task that must finish before it: rule}, the floor gates opened up into the joints they wait for."""
+    direct: dict[str, dict[str, str]] = {}
+    for edge in instance["precedences"]:
+        direct.setdefault(edge["after"], {})[edge["before"]] = edge["rule"]
+    gates = {g["id"] for g in instance["gates"]}
+
+    def tasks_before(key):
+        found = {}
+        for p, rule in direct.get(key, {}).items():
+            found.update({q: "floor_gate" for q in tasks_before(p)} if p in gates else {p: rule})
+        return found
+
+    return {t["id"]: tasks_before(t["id"]) for t in instance["tasks"]}
+
+
+def test_one_gate_per_floor_says_what_every_lower_joint_said(frame):
+    """Version 2: the frame's transports of floor 2 wait for the one gate of floor 1, which waits for every
+    joint assembly of floor 1: the same order as task_graph's full list, in far fewer edges."""
+    from bimrobot.coordination.optimal import task_graph
+    from bimrobot.coordination.simulation import ConstructionSimulation
+
+    _, smart, fleet, site, elevations = frame
+    instance = build_instance(smart, fleet, site, elevations)
+    assert instance["gates"] == [{"id": "gate:0", "floor": 0}]
+    sim = ConstructionSimulation(smart, fleet, site, storey_elevations=elevations)
+    tasks = {t["id"] for t in instance["tasks"]}
+    full = {t.key: {p for p in t.predecessors if p in tasks} for t in task_graph(sim.smart, sim)}
+    assert {key: set(found) for key, found in _predecessors(instance).items()} == full
+    gate_edges = [e for e in instance["precedences"] if e["rule"] == "floor_gate"]
+    upper = sum(1 for t in instance["tasks"] if t["kind"] == "transport" and t["floor"] == 1)
+    lower = sum(1 for t in instance["tasks"] if t["kind"] == "assemble" and t["floor"] == 0)
+    assert len(gate_edges) == upper + lower  # not upper x lower
+
+
 def test_the_instance_is_the_problem_simulate_runs(frame):
     """Same tasks, same precedences, and every task takes, on the robot simulate chose, the travel from
     where that robot was plus the instance's handling time: the row's duration."""
@@ -47,9 +82,7 @@ def test_the_instance_is_the_problem_simulate_runs(frame):
     assert sorted(tasks) == sorted(rows)
     assert len(tasks) == 28
 
-    before = {key: {} for key in tasks}
-    for edge in instance["precedences"]:
-        before[edge["after"]][edge["before"]] = edge["rule"]
+    before = _predecessors(instance)
     for key, group in rows.items():
         scheduled = {task_of[p] for row in group for p in row.predecessors} - {key}
         assert scheduled <= set(before[key])  # the floor gate: the row that closed the floor, one of the joints below
@@ -74,7 +107,7 @@ def test_the_instance_file_is_deterministic_and_read_back(frame, tmp_path):
     assert main(["plan", "export", str(path), "--fleet", "fleet2", "-o", str(out)]) == 0  # its own file: replaced
     assert out.read_bytes() == first
     instance = load_instance(out)
-    assert instance["version"] == 1 and instance["units"]["length"] == "m"
+    assert instance["version"] == 2 and instance["units"]["length"] == "m"
     assert {t["kind"] for t in instance["tasks"]} == {"transport", "position", "assemble"}
 
 
@@ -84,11 +117,11 @@ def test_a_broken_instance_is_refused_in_one_sentence(frame, tmp_path):
     path = tmp_path / "broken.json"
     instance["precedences"][0]["before"] = "transport:nothing"
     path.write_text(json.dumps(instance), encoding="utf-8")
-    with pytest.raises(InputError, match="names a task that is not in tasks"):
+    with pytest.raises(InputError, match="names a task or gate that is not in tasks or gates"):
         load_instance(path)
     instance["version"] = 99
     path.write_text(json.dumps(instance), encoding="utf-8")
-    with pytest.raises(InputError, match="version 99, this bimrobot reads version 1"):
+    with pytest.raises(InputError, match="version 99, this bimrobot reads version 2"):
         load_instance(path)
 
 

@@ -11,7 +11,7 @@ EXPORT_EXAMPLES = """examples:
   bimrobot plan export frame.ifc --fleet fleet2 -o frame_fleet2.json
   bimrobot plan export house.ifc --fleet site-crane --prebuilt IfcFooting,IfcSlab,IfcWall -o house.json
 
-The instance (JSON, version 1, docs/planning.md) is the problem `bimrobot simulate --per-joint` runs:
+The instance (JSON, version 2, docs/planning.md) is the problem `bimrobot simulate --per-joint` runs:
 tasks, precedences and the rule behind each, release rule, robots with capabilities, speeds and handling
 times, each task's handling time on each capable robot, the site (model_offset, yard, homes).
 """
@@ -43,6 +43,7 @@ def register(subparsers) -> None:
     add_selection_options(export, built=True)
     add_unknown_weight_option(export)
     export.set_defaults(func=run_export)
+    _register_generate(commands)  # issue 38: generated buildings (block at the end of this file)
 
 
 def run_export(args) -> int:
@@ -60,4 +61,69 @@ def run_export(args) -> int:
     print(f"{args.output}: {len(instance['tasks'])} tasks, {len(instance['precedences'])} precedences, "
           f"{len(instance['robots'])} robots (fleet {fleet.name}); the problem of `simulate --per-joint`")
     print(f"output: {Path(args.output).resolve()}")
+    return 0
+
+
+# --- issue 38: `plan generate`, generated buildings for training (bimrobot.planning.generator) -------------
+
+GENERATE_EXAMPLES = """examples:
+  bimrobot plan generate --kind precast --grid 4x3x5 --seed 7 -o precast_7/
+  bimrobot plan generate --kind steel --components 1000 --seed 3 -o steel_1000/
+  bimrobot simulate steel_1000/building.ifc --fleet steel_1000/fleet.yaml --site steel_1000/site.yaml -o sim/
+  bimrobot simulate generated:panel:3x2x2:seed=1 --fleet site-crane -o sim_panel/   # the same building, no folder
+
+Writes building.ifc (IFC4, written with ifcopenshell.api: a steel frame, a precast column-beam-slab frame
+or a panel building), fleet.yaml (a random fleet varied from a built-in one), site.yaml (the site derived
+from the building) and generated.json (spec, layout, counts). The same kind, size and seed always give the
+same building. Real IFC models are the test set: never generate them, never train on them.
+"""
+
+
+def _register_generate(commands) -> None:
+    """Add ``plan generate``."""
+    from bimrobot.planning.generator import KINDS, MAX_COMPONENTS
+
+    generate = commands.add_parser(
+        "generate", help="write a generated building (IFC), its random fleet and its site",
+        epilog=GENERATE_EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    generate.add_argument("--kind", choices=KINDS, default="steel", help="steel frame, precast frame or panel building (default steel)")
+    size = generate.add_mutually_exclusive_group(required=True)
+    size.add_argument("--components", type=int, help=f"about this many components (1 to {MAX_COMPONENTS:,}); the grid is drawn from the seed")
+    size.add_argument("--grid", help="NXxNYxFLOORS: grid lines (bays for panel) and floors")
+    generate.add_argument("--seed", type=int, default=0, help="seed of the layout, fleet and site (default 0)")
+    generate.add_argument("--bolts", type=int, help="fasteners per connection node, 1 to 12 (default drawn from the seed)")
+    generate.add_argument("-o", "--output", required=True, help="output folder (new, or one `plan generate` wrote)")
+    generate.set_defaults(func=run_generate)
+
+
+def run_generate(args) -> int:
+    """``bimrobot plan generate``: the building, its fleet and its site in one folder."""
+    import json
+    import time
+
+    from bimrobot.coordination.fleet import fleet_yaml
+    from bimrobot.errors import InputError
+    from bimrobot.io import atomic_output_dir, signature
+    from bimrobot.planning.generator import generate, parse_spec, summary
+    from bimrobot.site import site_yaml
+
+    if args.seed < 0:
+        raise InputError(f"--seed must be a whole number >= 0, got {args.seed}")
+    size = args.grid if args.grid is not None else str(args.components)
+    spec = parse_spec(f"generated:{args.kind}:{size}:seed={args.seed}" + (f":bolts={args.bolts}" if args.bolts is not None else ""))
+    with atomic_output_dir(args.output, kind="plan-generate") as tmp:
+        started = time.perf_counter()
+        made = generate(spec, tmp / "building.ifc")
+        seconds = time.perf_counter() - started
+        (tmp / "fleet.yaml").write_text(fleet_yaml(made.fleet, spec.text()), encoding="utf-8")
+        (tmp / "site.yaml").write_text(site_yaml(made.site, spec.text()), encoding="utf-8")
+        info = {"bimrobot": signature("generated building"), **summary(made),
+                "ifc_bytes": (tmp / "building.ifc").stat().st_size}
+        (tmp / "generated.json").write_text(json.dumps(info, indent=2, sort_keys=True) + "\n", encoding="utf-8")
+    layout = made.layout
+    print(f"{spec.text()}: {made.components:,} components ({layout.nx} x {layout.ny} x {layout.floors} floors, "
+          f"bays {layout.bay_x} x {layout.bay_y} m, storeys {layout.storey_height} m, {layout.bolts_per_node} fasteners "
+          f"per node), {len(made.fleet.robots)} robots; written in {seconds:.1f} s")
+    print(f"output: {Path(args.output).resolve()}/ (building.ifc, fleet.yaml, site.yaml, generated.json)")
     return 0
