@@ -203,6 +203,11 @@ def load_building(spec: str, include: str | None = None, exclude: str | None = N
 
             model.unknown_weights = UnknownWeights(unknown_weight)  # every generated element has its weight
     else:
+        # issue 38: generated:KIND:... is a generated IFC file (bimrobot.planning.generator), read as a user's
+        if spec.startswith("generated:"):
+            from bimrobot.planning.generator import model_path
+
+            spec = str(model_path(spec))
         path = Path(spec)
         if not path.is_file():
             raise InputError(f"model file {spec!r} does not exist")
