@@ -9,7 +9,8 @@ needs several pieces or its hull closes the gaps between flanges. The rule:
   the gaps the hull closes are millimetres, and CoACD spends up to 30 s on a cleat with bolt holes;
 - any other closed body is *concave*: decomposed by CoACD (approximate convex decomposition, Wei et
   al. 2022, ``coacd`` on PyPI) into at most ``budget`` pieces (default :data:`DEFAULT_BUDGET`) within
-  :data:`TIME_BUDGET_S` seconds (a forked process; over time, the hull);
+  :data:`TIME_BUDGET_S` seconds of CPU time (a forked process on one OpenMP thread; over budget, the
+  hull): CPU time, not wall time, so that the pieces do not depend on how loaded the machine is;
 - a body CoACD cannot take (open, flat, degenerate) falls back to its hull, and says so.
 
 :func:`collision_pieces` returns the pieces and the method in words, for the scene's report.
@@ -17,7 +18,9 @@ needs several pieces or its hull closes the gaps between flanges. The rule:
 
 from __future__ import annotations
 
+import ctypes
 import os
+import resource
 from dataclasses import dataclass
 
 import numpy as np
@@ -31,8 +34,14 @@ CONVEX_RATIO = 0.9
 SMALL_PART_M = 0.3
 """Largest extent (m) below which a concave body keeps its convex hull."""
 
-TIME_BUDGET_S = 5.0
-"""Seconds CoACD may take on one element (measured: 0.5-2 s for the W sections of the shared models)."""
+TIME_BUDGET_S = 5
+"""CPU seconds CoACD may take on one element (whole seconds: the kernel's RLIMIT_CPU; measured: 0.3-0.5 s
+for the W sections of the steel frame). CPU time does not stretch with the load of other processes, as
+wall time does (on a loaded 2-core machine a 0.3 s decomposition took 5.3 s of wall time)."""
+
+HANG_GUARD_S = 600.0
+"""Wall seconds after which a CoACD process that neither answers nor uses up its CPU budget is given up
+(a hang guard only: a decomposition within its CPU budget finishes long before, however loaded)."""
 
 DEFAULT_BUDGET = 8
 """Convex pieces per element at most: an I section takes 3 (two flanges, a web), an angle 2."""
@@ -69,7 +78,7 @@ def collision_pieces(body: Body, budget: int = DEFAULT_BUDGET) -> Collision:
         return Collision([hull], f"convex hull (small part, {size:.2f} m)", hull_volume / volume)
     parts = _coacd(body, budget)
     if parts is None:
-        return Collision([hull], f"convex hull (CoACD over its {TIME_BUDGET_S:g} s budget)", hull_volume / volume)
+        return Collision([hull], f"convex hull (CoACD over its {TIME_BUDGET_S:g} s CPU budget)", hull_volume / volume)
     pieces = [piece for piece in (convex_hull(np.asarray(v, float)) for v in parts) if piece is not None]
     if not pieces:
         return Collision([hull], "convex hull (CoACD found no piece)", hull_volume / volume)
@@ -78,7 +87,7 @@ def collision_pieces(body: Body, budget: int = DEFAULT_BUDGET) -> Collision:
 
 
 def _coacd(body: Body, budget: int) -> list[np.ndarray] | None:
-    """CoACD's pieces (vertex arrays) of ``body``, or None when it needs more than TIME_BUDGET_S."""
+    """CoACD's pieces (vertex arrays) of ``body``, or None when it needs more than TIME_BUDGET_S of CPU."""
     import multiprocessing
 
     receiver, sender = multiprocessing.get_context("fork").Pipe(duplex=False)
@@ -87,10 +96,10 @@ def _coacd(body: Body, budget: int) -> list[np.ndarray] | None:
     worker.start()
     sender.close()
     try:
-        if not receiver.poll(TIME_BUDGET_S):
+        if not receiver.poll(HANG_GUARD_S):
             return None
         return receiver.recv()
-    except EOFError:  # the worker died (CoACD crashed on this mesh)
+    except EOFError:  # the worker died: over its CPU budget (SIGXCPU), or CoACD crashed on this mesh
         return None
     finally:
         if worker.is_alive():
@@ -106,8 +115,21 @@ def _decompose(vertices: np.ndarray, faces: np.ndarray, budget: int, sender, par
 
     bind_to_parent(parent)  # dies with the command, however it ends
     receiver.close()  # only the parent reads: a write to a parent that is gone fails instead of blocking
+    hard = resource.getrlimit(resource.RLIMIT_CPU)[1]
+    resource.setrlimit(resource.RLIMIT_CPU, (TIME_BUDGET_S if hard == resource.RLIM_INFINITY else min(TIME_BUDGET_S, hard), hard))
+    _one_openmp_thread()
 
     coacd.set_log_level("error")
     parts = coacd.run_coacd(coacd.Mesh(vertices, faces), max_convex_hull=budget, **COACD_SETTINGS)
     sender.send([np.asarray(v, float) for v, _ in parts])
     sender.close()
+
+
+def _one_openmp_thread() -> None:
+    """CoACD cuts the parts of each round on OpenMP threads and keeps them in the order the threads
+    finish them; on one thread its pieces depend on the mesh and the seed alone. (OMP_NUM_THREADS is
+    read when OpenMP loads, which may be in the parent, before this fork: set it through the library.)"""
+    with open("/proc/self/maps", encoding="utf-8", errors="replace") as maps:
+        libraries = {line.split(maxsplit=5)[-1].strip() for line in maps if "libgomp" in line}
+    for library in sorted(libraries):
+        ctypes.CDLL(library).omp_set_num_threads(1)
