@@ -183,3 +183,23 @@ def test_each_model_still_builds_as_pinned(pipeline):
     built = summary["smart_components"]
     assert (built["components"], built["assembly_units"]) == (components, units)
     assert 0.75 * makespan <= summary["makespan_s"] <= 1.25 * makespan, summary["makespan_s"]
+
+
+def test_the_market_played_in_the_dispatching_environment_is_the_schedule_simulate_wrote(pipeline):
+    """Issue 38: the dispatching environment, driven by the market's own awards, gives the schedule that
+    simulate wrote above, row for row (identification, robot, start, finish); the model is read once more
+    in this process, nothing is simulated again by the CLI."""
+    import csv
+
+    from bimrobot.planning.dispatch import DispatchEnv, MarketPolicy, play, simulate_problem
+
+    schedule = pipeline["work"] / "sim" / "schedule.csv"
+    if not schedule.exists():
+        pytest.skip(f"{pipeline['model'].name}: nothing was simulated (the fleet cannot build it)")
+    prebuilt = ["--prebuilt", PREBUILT] if "simulate prebuilt" in pipeline["runs"] else []
+    problem = simulate_problem([str(pipeline["model"]), "--fleet", "site-crane", *prebuilt])
+    total, result = play(DispatchEnv(problem, max_tasks=4096, max_edges=16384), MarketPolicy())
+    with schedule.open(newline="", encoding="utf-8") as handle:
+        written = [(r["Identification"], r["Robot"], float(r["Start"]), float(r["Finish"])) for r in csv.DictReader(handle)]
+    assert written == [(a.id, a.robot, round(a.start, 3), round(a.finish, 3)) for a in result.activities]
+    assert total == pytest.approx(-result.makespan, abs=1e-6)
