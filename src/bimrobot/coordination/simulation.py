@@ -650,7 +650,7 @@ class ConstructionSimulation:
         self._round_awarded = False
         awards = self.dispatcher.awards(self)
         if awards is None:  # an agent decides
-            if self.decision_candidates():
+            if self.has_decision():
                 self.awaiting_decision = True
                 return
         else:
@@ -707,6 +707,14 @@ class ConstructionSimulation:
             for request in sorted(self.pending[activity]):
                 pairs += [(request, name) for name in names if not incapability(self.robots[name].spec, request)]
         return pairs
+
+    def has_decision(self) -> bool:
+        """Whether some pending request has an idle robot that can do it (a decision point)."""
+        for activity, pool in self.pending.items():
+            names = self.idle[activity]
+            if pool and names and any(not incapability(self.robots[n].spec, r) for r in pool for n in names):
+                return True
+        return False
 
     def can_wait(self) -> bool:
         """Whether leaving the ready work pending can lead anywhere: a robot is at work (it will finish and

@@ -221,7 +221,7 @@ class DispatchEnv(gym.Env):
     | ``node_mask`` | (max_tasks,) int8 | 1 for a real node |
     | ``robot_features`` | (max_robots, 9) float32 | columns :data:`ROBOT_FEATURES`: where it is now (x, y site frame, m), speed m/s, capabilities (transport, position, assemble), busy, seconds until its current task ends, broken |
     | ``robot_mask`` | (max_robots,) int8 | 1 for a real robot |
-    | ``precedence`` | (max_edges, 2) int64 | edge (before, after) between nodes: ``after`` waits for ``before`` |
+    | ``precedence`` | (max_edges, 2) int32 | edge (before, after) between nodes: ``after`` waits for ``before`` |
     | ``precedence_mask`` | (max_edges,) int8 | 1 for a real edge |
     | ``precedence_any`` | (max_edges,) int8 | 1 for one of several alternative edges into a node: the first of them to finish releases it (per node: a component stands, and carries what rests on it, once its first node is positioned) |
     | ``compatibility`` | (max_tasks, max_robots) int8 | 1 where the robot can do the task (payload, platform, reach, method) |
@@ -281,7 +281,7 @@ class DispatchEnv(gym.Env):
             "node_mask": spaces.MultiBinary(n),
             "robot_features": spaces.Box(-BOUND, BOUND, (r, len(ROBOT_FEATURES)), np.float32),
             "robot_mask": spaces.MultiBinary(r),
-            "precedence": spaces.Box(0, n - 1, (e, 2), np.int64),
+            "precedence": spaces.Box(0, n - 1, (e, 2), np.int32),
             "precedence_mask": spaces.MultiBinary(e),
             "precedence_any": spaces.MultiBinary(e),
             "compatibility": spaces.MultiBinary((n, r)),
@@ -314,10 +314,10 @@ class DispatchEnv(gym.Env):
     def step(self, action):
         if self.sim is None or self.result is not None:
             raise BimrobotError("call reset() before step(): the episode has ended")
-        action, invalid = int(action), False
-        mask = self.action_masks()
-        if not (0 <= action < mask.size and mask[action]):
-            invalid = True
+        action = int(action)
+        invalid = not self._valid(action)
+        if invalid:
+            mask = self.action_masks()
             action = self.wait_action if mask[self.wait_action] else int(np.flatnonzero(mask)[0])
         self.decisions += 1
         if action == self.wait_action:
@@ -326,7 +326,7 @@ class DispatchEnv(gym.Env):
         else:
             node, robot = divmod(action, self.max_robots)
             self.sim.award(self._pending_request(node), self.robot_names[robot])
-            if self.sim.decision_candidates():
+            if self.sim.has_decision():
                 done, info = False, {"time_s": float(self.sim.env.now)}
             else:
                 self.sim.end_round()
@@ -340,7 +340,7 @@ class DispatchEnv(gym.Env):
         """Run the simulation to the next decision point (False) or to its end (True)."""
         while self.sim.advance():
             self.round_id += 1
-            if self.sim.decision_candidates():
+            if self.sim.has_decision():
                 return False, {"time_s": float(self.sim.env.now)}
             self.sim.end_round()  # pragma: no cover - advance stops only with candidates
         try:
@@ -367,6 +367,19 @@ class DispatchEnv(gym.Env):
         mask[self.wait_action] = self.sim.can_wait()
         return mask
 
+    def _valid(self, action: int) -> bool:
+        """Whether ``action`` is valid now (one entry of :meth:`action_masks`, without building the mask)."""
+        if action == self.wait_action:
+            return self.sim.can_wait()
+        if not 0 <= action < self.wait_action:
+            return False
+        node, index = divmod(action, self.max_robots)
+        if index >= len(self.robot_names):
+            return False
+        request, name = self._pending_request(node), self.robot_names[index]
+        return (request is not None and name in self.sim.idle[request.activity]
+                and not incapability(self.sim.robots[name].spec, request))
+
     def action_of(self, request, robot: str) -> int:
         """The action that gives ``request`` (pending) to ``robot`` (a name)."""
         return self._node_of(request) * self.max_robots + self.robot_index[robot]
@@ -379,11 +392,12 @@ class DispatchEnv(gym.Env):
         return self._request_node[request.id]
 
     def _pending_request(self, node: int):
+        """The pending request of graph node ``node``, or None when it is not ready."""
         for pool in self.sim.pending.values():
             for request in pool:
                 if self._node_of(request) == node:
                     return request
-        raise BimrobotError(f"task {self.graph.keys[node]} is not ready")  # excluded by the mask
+        return None
 
     # ---------------------------------------------------------------- observation
     def _set_up_arrays(self, fleet: Fleet) -> None:
@@ -426,7 +440,7 @@ class DispatchEnv(gym.Env):
             self.robot_static[j, 2] = spec.speed_m_s
             self.robot_static[j, 3:6] = [spec.can(a) for a in (Task.TRANSPORT, Task.POSITION, Task.ASSEMBLE)]
         self.speeds = np.array([spec.speed_m_s for spec in fleet.robots])
-        self.precedence = np.zeros((self.max_edges, 2), np.int64)
+        self.precedence = np.zeros((self.max_edges, 2), np.int32)
         self.precedence[: len(graph.edges)] = graph.edges
         self.precedence_any = np.zeros(self.max_edges, np.int8)
         self.precedence_any[: len(graph.edges)] = graph.any_of
@@ -512,12 +526,12 @@ class DispatchEnv(gym.Env):
     def _earliest_starts(self, now: float, running_until: np.ndarray, gates: np.ndarray) -> np.ndarray:
         """Earliest start (s) of every node: now for ready, running and done work; for waiting work the
         latest earliest finish of what it waits for (shortest handling, no travel; a gate takes none)."""
-        finish = np.where(self.state == 3, self._finished_at, np.nan)
-        finish = np.where(self.state == 2, running_until, finish)
-        start = np.where(self.state >= 2, now, np.nan)
+        # waiting nodes: overwritten level by level before anything after them reads them
+        finish = np.where(self.state == 3, self._finished_at, now)
+        finish = np.where(self.state == 2, np.nan_to_num(running_until, nan=now), finish)
         ready = self.state == 1
-        start[ready] = now
         finish[ready] = now + self.shortest[ready]
+        start = np.full(len(self.state), now)
         bound = np.full(len(self.state), now)
         first = np.full(len(self.group_after), np.inf)  # per group: the first of its alternatives to finish
         for level, into in self.levels:
@@ -525,7 +539,7 @@ class DispatchEnv(gym.Env):
             if todo.size == 0:
                 continue
             groups = self.graph.groups[into]
-            np.minimum.at(first, groups, np.nan_to_num(finish[self.graph.edges[into, 0]], nan=now))
+            np.minimum.at(first, groups, finish[self.graph.edges[into, 0]])
             np.maximum.at(bound, self.group_after[groups], first[groups])
             start[todo] = bound[todo]
             finish[todo] = bound[todo] + np.where(gates[todo], 0.0, self.shortest[todo])
