@@ -197,6 +197,31 @@ def _redeliver(hook, unraisable) -> None:
         hook(unraisable)
 
 
+def _stopped(stop: KeyboardInterrupt, command: str | None) -> int:
+    """Main's exit status for a command stopped by ``stop`` (128 + the signal's number), said in one line
+    unless it was Ctrl-C (the user knows)."""
+    signum = getattr(stop, "signum", signal.SIGINT)
+    if isinstance(stop, Stopped):
+        stop.seen["by_main"] = True
+    if signum != signal.SIGINT:
+        print(f"bimrobot{f' {command}' if command else ''}: stopped by {signal.Signals(signum).name}", file=sys.stderr)
+    return 128 + signum
+
+
+def _stop_behind(error: BaseException) -> KeyboardInterrupt | None:
+    """The stop that caused ``error``, or None. Issue 35: a Ctrl-C that lands while IfcOpenShell's SWIG
+    code calls back into Python leaves it set there, and Python reports "SystemError: <built-in function
+    entity_instance__get_inverse> returned a result with an exception set", the stop as its cause (1 of
+    10 Ctrl-C into `simulate MULTICOM-Prefab.ifc`: exit 1 and a traceback)."""
+    seen = set()
+    while error is not None and id(error) not in seen:
+        if isinstance(error, KeyboardInterrupt):
+            return error
+        seen.add(id(error))
+        error = error.__cause__ or error.__context__
+    return None
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run one command; the exit status: 0 done, 1 no command, 2 bad input (one sentence, no traceback),
     130 / 143 / 129 stopped by SIGINT (Ctrl-C) / SIGTERM / SIGHUP, 141 output pipe closed.
@@ -228,12 +253,14 @@ def main(argv: list[str] | None = None) -> int:
         print(f"bimrobot {command}: error: {exc}", file=sys.stderr)
         return 2
     except Stopped as stop:
-        stop.seen["by_main"] = True
-        if stop.signum != signal.SIGINT:  # Ctrl-C: the user knows
-            print(f"bimrobot{f' {command}' if command else ''}: stopped by {signal.Signals(stop.signum).name}", file=sys.stderr)
-        return 128 + stop.signum
+        return _stopped(stop, command)
     except KeyboardInterrupt:
         return 130
+    except SystemError as error:  # a stop raised inside a C extension's call back into Python
+        stop = _stop_behind(error)
+        if stop is None:
+            raise
+        return _stopped(stop, command)
     except BrokenPipeError:
         # The reader of our output went away (e.g. `| head`): stop quietly, as Unix tools do.
         devnull = os.open(os.devnull, os.O_WRONLY)

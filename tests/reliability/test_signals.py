@@ -230,6 +230,37 @@ def test_a_stop_caught_by_a_broad_except_is_delivered_again(monkeypatch):
     tally("signals")
 
 
+@pytest.mark.parametrize("signame", ["SIGINT", "SIGTERM"])
+def test_a_stop_left_set_inside_a_c_extension_stops_the_command(monkeypatch, capsys, signame):
+    # issue 35: 1 of 10 Ctrl-C into `simulate MULTICOM-Prefab.ifc` landed while IfcOpenShell's SWIG code
+    # called back into Python, and Python raised "SystemError: <built-in function
+    # entity_instance__get_inverse> returned a result with an exception set" (the stop as its cause):
+    # exit 1 and a traceback. It is the stop: 128 + the signal, no traceback.
+    from bimrobot import cli
+
+    signum = getattr(signal, signame)
+
+    def stopped_in_c(args):
+        try:
+            os.kill(os.getpid(), signum)
+            _spin()
+        except cli.Stopped as stop:  # what CPython does when a C function returns with the stop set
+            raise SystemError("<built-in function entity_instance__get_inverse> returned a result with an "
+                              "exception set") from stop
+        return 0
+
+    def a_real_system_error(args):
+        raise SystemError("a defect of a C extension, nothing to do with a stop")
+
+    monkeypatch.setattr("bimrobot.assembly.cli.cmd_optimum", stopped_in_c)
+    assert cli.main(["assembly", "optimum", "--setting", "E1S1"]) == 128 + signum
+    assert "Traceback" not in capsys.readouterr().err
+    monkeypatch.setattr("bimrobot.assembly.cli.cmd_optimum", a_real_system_error)
+    with pytest.raises(SystemError, match="a defect"):  # anything else is not hidden
+        cli.main(["assembly", "optimum", "--setting", "E1S1"])
+    tally("signals")
+
+
 def test_a_stop_during_an_import_waits_for_the_import_to_finish(monkeypatch, tmp_path):
     # trimesh imports SciPy under `except BaseException` for seconds: a stop raised there was lost and
     # left trimesh half imported; it is delivered once the import is over
