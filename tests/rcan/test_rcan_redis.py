@@ -171,16 +171,14 @@ def test_a_node_nobody_can_execute_is_escalated_through_the_dead_letter_stream(r
     acknowledgement): after 2 deliveries the node is dead-lettered and its activity escalated."""
     from bimrobot.rcan.backends.sim import SimBackend
 
-    original = SimBackend._run
+    original = SimBackend.execute
 
-    def dying(self, node, attempt, ready_at_s, feedback):
+    def dying(self, node, attempt=1, ready_at_s=0.0, feedback=None):
         if node.activity_id == "E2.4":
             raise SystemExit  # what a crashing robot driver does to its worker
         return original(self, node, attempt, ready_at_s, feedback)
 
-    for feature in ("move_to_component", "position_for_picking_up", "pick_up", "transport",
-                    "position_for_installing", "install"):
-        monkeypatch.setattr(SimBackend, feature, dying)
+    monkeypatch.setattr(SimBackend, "execute", dying)
     report = run_plan(experiment(2).activities, load_capabilities(), redis_url=redis_url,
                       redis_options={"claim_idle_s": 0.2, "max_deliveries": 2}, timeout_s=60)
     assert report.status == "escalated" and report.escalated == ["E2.4"]

@@ -60,9 +60,7 @@ def register(subparsers) -> None:
                      help="first yard slot of a schedule's components, metres (default -10 -10 0)")
     run.add_argument("--standoff", type=float, default=0.6,
                      help="base stand-off from pick/install poses, m (default 0.6, within every built-in robot's reach)")
-    run.add_argument("--robot-node", choices=("spawn", "external"), default="spawn",
-                     help="ros2: start the shipped robot node for the run (spawn, default) or use robots that "
-                          "already serve /bimrobot/<robot>/<activity> (external)")
+    _backend_run_options(run)
     run.add_argument("--report", help="also write the run report (JSON) to this new file (or one bimrobot wrote)")
     run.add_argument("--graph-out", help="with --graph, or --schedule and --model: write the construction graph (BOT + "
                                          "DiCon + live states; Turtle, or JSON-LD for .jsonld) as it stands after the "
@@ -108,7 +106,10 @@ def register(subparsers) -> None:
 
 
 def _common(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--backend", choices=tuple(BACKENDS), default="sim", help="executor backend (default sim)")
+    from bimrobot.rcan.backends import DEFAULT_BACKEND
+
+    parser.add_argument("--backend", choices=tuple(BACKENDS), default=DEFAULT_BACKEND,
+                        help=f"executor backend (default {DEFAULT_BACKEND})")
     _fleet_option(parser)
     _site_options(parser)
     parser.add_argument("--state-db", default=":memory:",
@@ -123,18 +124,17 @@ def _common(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--max-deliveries", type=int, default=5, metavar="N",
                         help="Redis: a message delivered more often goes to the dead-letter stream and its "
                              "activity is escalated (default 5)")
-    parser.add_argument("--time-scale", type=float, default=0.0,
-                        help="sim: real seconds slept per simulated second (default 0, as fast as possible)")
-    parser.add_argument("--failure-probability", type=float, default=0.0, help="sim: chance an activity fails (default 0)")
-    parser.add_argument("--seed", type=int, default=0, help="sim: seed of the failure draws (default 0)")
-    parser.add_argument("--deadline-factor", type=float, default=3.0, metavar="F",
-                        help="ros2: a goal is cancelled after --deadline-min + F x its expected duration "
-                             "(robot seconds x the robots' time scale; default 3)")
-    parser.add_argument("--deadline-min", type=float, default=30.0, metavar="S",
-                        help="ros2: the least time a goal gets, seconds (default 30)")
-    parser.add_argument("--liveness", type=float, default=4.0, metavar="S",
-                        help="ros2: a robot whose server sends no feedback for this long while it works is taken "
-                             "for dead; its activity goes to another capable robot (default 4 s)")
+    _backend_run_options(parser, run_only=False)
+
+
+def _backend_run_options(parser: argparse.ArgumentParser, run_only: bool = True) -> None:
+    """The options every registered backend declares (bimrobot.rcan.backends), those of ``rcan run`` alone
+    (``run_only``) or the others."""
+    from bimrobot.rcan.backends import backend_options
+
+    for option in backend_options():
+        if option.run_only == run_only:
+            option.add_to(parser)
 
 
 def _fleet_option(parser: argparse.ArgumentParser) -> None:
@@ -187,11 +187,13 @@ def _fleet_capabilities(args, activities=None):
     return load_capabilities(args.capabilities, site=site, model_offset=offset), offset
 
 
-def _check_sim_options(args) -> None:
-    if not 0.0 <= args.failure_probability <= 1.0:
-        raise InputError(f"--failure-probability must be between 0 and 1, got {args.failure_probability}")
-    if not (math.isfinite(args.time_scale) and 0 <= args.time_scale <= 1000):
-        raise InputError(f"--time-scale must be between 0 and 1000 real seconds per simulated second, got {args.time_scale}")
+def _check_backend_options(args) -> None:
+    """Every backend option the command has is checked, whichever backend runs (one sentence naming it)."""
+    from bimrobot.rcan.backends import backend_options
+
+    for option in backend_options():
+        if hasattr(args, option.dest):
+            option.check(getattr(args, option.dest))
 
 
 def _redis_options(args) -> dict:
@@ -204,17 +206,11 @@ def _redis_options(args) -> dict:
 
 
 def _backend_options(args) -> dict:
-    _check_sim_options(args)
-    if args.backend == "sim":
-        return {"time_scale": args.time_scale, "failure_probability": args.failure_probability, "seed": args.seed}
-    for option, value, low in (("--deadline-factor", args.deadline_factor, 0.0), ("--deadline-min", args.deadline_min, 0.1),
-                               ("--liveness", args.liveness, 0.1)):
-        if not (math.isfinite(value) and low <= value <= 86400):
-            raise InputError(f"{option} must be between {low:g} and 86400, got {value}")
-    # the shipped robot node runs at --time-scale; robots of your own run in real time
-    spawned = getattr(args, "robot_node", "external") == "spawn" and not getattr(args, "no_local_executors", False)
-    return {"deadline_factor": args.deadline_factor, "deadline_min_s": args.deadline_min, "liveness_s": args.liveness,
-            "time_scale": args.time_scale if spawned else 1.0}
+    """The chosen backend's options from the command line, after every backend option was checked."""
+    from bimrobot.rcan.backends import backend_class
+
+    _check_backend_options(args)
+    return backend_class(args.backend).options_from(args)
 
 
 def _is_ifc(path: str | None) -> bool:
@@ -349,7 +345,9 @@ def _run(args) -> int:
 
         observers.append(GraphStateObserver(graph, activities))
     log = None if args.quiet else (lambda line: print(line, flush=True))
-    with removed_unless_used(args.state_db), _robots(args, offset):
+    from bimrobot.rcan.backends import backend_class
+
+    with removed_unless_used(args.state_db), backend_class(args.backend).around_run(args, offset):
         report = run_plan(activities, capabilities, backend=args.backend, state_db=args.state_db,
                           redis_url=args.redis, spawn_executors=not args.no_local_executors,
                           max_attempts=args.max_attempts, log=log, backend_options=options,
@@ -381,9 +379,9 @@ def _run(args) -> int:
 
 
 def _print_physics(summary: dict) -> None:
-    """The mujoco backend's measures, in one line: the worst placement error, and how long robots'
-    chassis overlapped (robots collide and plan round each other: any overlap says something went
-    wrong, or that the fleet has more robots than collision bits)."""
+    """A physical backend's measures (its summary's ``placement_error`` and ``chassis_overlap_s``), in one
+    line: the worst placement error, and how long robots' chassis overlapped (robots collide and plan round
+    each other: any overlap says something went wrong, or that the fleet has more robots than collision bits)."""
     placed, overlaps = summary.get("placement_error"), summary.get("chassis_overlap_s")
     if placed is None:
         return
@@ -425,26 +423,9 @@ def _print_outcome(report) -> None:
           + (f" ({_listed(report.done)})" if report.done else ""), flush=True)
 
 
-def _robots(args, model_offset):
-    """For ``--backend ros2 --robot-node spawn``: the shipped ROS 2 robot node, started and stopped here,
-    with the robots' homes where this run put them (``model_offset``, m)."""
-    import contextlib
-    import os
-
-    if args.backend != "ros2" or args.robot_node != "spawn" or getattr(args, "no_local_executors", False):
-        return contextlib.nullcontext()
-    from bimrobot.rcan.backends.ros2 import load_ros2, robot_node_process
-
-    load_ros2()  # fails early with the setup hint when ROS 2 is absent
-    os.environ.setdefault("FASTDDS_BUILTIN_TRANSPORTS", "SHM")  # both processes are on this machine
-    placement = [*(["--site", str(args.site)] if args.site else []), "--model-offset", *map(repr, model_offset)]
-    return robot_node_process(args.capabilities, args.time_scale, args.failure_probability, args.seed,
-                              state_db=args.state_db, participants_closed=True,  # run_plan closes its backend first
-                              extra_args=placement)
-
-
 def _executor(args) -> int:
-    from bimrobot.rcan.backends import create_backend
+    from bimrobot.rcan.backends import backend_class
+    from bimrobot.rcan.backends.info import RunContext
     from bimrobot.rcan.broker import RedisBroker
     from bimrobot.rcan.executor import RobotExecutor
 
@@ -462,9 +443,8 @@ def _executor(args) -> int:
         raise InputError(f"--robot {unknown[0]!r} is not a robot of {capabilities.source} "
                          f"(its robots: {', '.join(capabilities.names)})")
     options = _backend_options(args)
-    if args.backend == "sim":
-        options["db_path"] = args.state_db
-    backend = create_backend(args.backend, capabilities, **options)
+    # what a backend needs that this process has: the state database (no plan: the coordinator has it)
+    backend = backend_class(args.backend).create(capabilities, RunContext(state_db=args.state_db), **options)
     import socket
 
     # one consumer name per process: what a killed executor left unacknowledged is claimed by the others
@@ -501,7 +481,7 @@ def _capabilities(args) -> int:
 def _robot_node(args) -> int:
     from bimrobot.rcan.backends.ros2 import serve_robot_node
 
-    _check_sim_options(args)
+    _check_backend_options(args)
     if args.state_db != ":memory:":
         from bimrobot.io import check_output
         from bimrobot.rcan.state_manager import is_state_db

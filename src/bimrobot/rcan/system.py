@@ -555,18 +555,16 @@ def run_plan(
 
 def _run_plan(activities, capabilities, backend, state_db, redis_url, spawn_executors, max_attempts, observers,
               log, backend_options, timeout_s, retry_escalated, redis_options, reallocate=False) -> RunReport:
-    from bimrobot.rcan.backends import create_backend
+    from bimrobot.rcan.backends import backend_class
+    from bimrobot.rcan.backends.info import RunContext
     from bimrobot.rcan.broker import InProcessBroker, RedisBroker
     from bimrobot.rcan.executor import RobotExecutor
     from bimrobot.rcan.state_manager import RetryPolicy, StateStore
 
-    options = dict(backend_options or {})
-    if backend in ("sim", "mujoco"):  # mujoco: its trajectory file goes beside the state database
-        options.setdefault("db_path", state_db)
-    if backend == "mujoco":  # its scene starts with every component of the plan where it waits
-        activities = list(activities)
-        options.setdefault("plan", activities)
     activities = list(activities)
+    backend_type = backend_class(backend)
+    _check_features(backend, backend_type, activities)
+    info = backend_type.backend_info()
     store = StateStore(state_db, plan=plan_signature(activities))  # another plan's database: refused, unwritten
     try:
         store.lock()  # one run per state database
@@ -583,12 +581,14 @@ def _run_plan(activities, capabilities, backend, state_db, redis_url, spawn_exec
     executors, threads, backend_instance, in_turns = [], [], None, False
     try:
         if spawn_executors:
-            backend_instance = create_backend(backend, capabilities, **options)
+            # what it needs from the run (the state database, the plan, where its trajectory goes), then its options
+            backend_instance = backend_type.create(capabilities, RunContext.of_run(state_db, activities),
+                                                   **dict(backend_options or {}))
             # one executor for every robot, on a bounded pool of threads: robots work in parallel
             executor_broker = (RedisBroker(redis_url, group="executor", consumer="executor-local", **redis_options)
                                if redis_url else broker)
-            # a backend that acts in turns (mujoco) needs every robot's node at hand: a thread per robot
-            in_turns = hasattr(backend_instance, "attach_coordinator")
+            # a backend that acts in turns needs every robot's node at hand: a thread per robot
+            in_turns = info.acts_in_turns
             executor = RobotExecutor(executor_broker, backend_instance, capabilities.names,
                                      workers=len(capabilities.names) if in_turns else None)
             executors.append(executor)
@@ -599,7 +599,7 @@ def _run_plan(activities, capabilities, backend, state_db, redis_url, spawn_exec
             system.on_settled = backend_instance.coordinator_settled
         system.allocator.reallocate = reallocate
         report = system.run(activities, timeout_s=timeout_s, retry_escalated=retry_escalated)
-        if hasattr(backend_instance, "summary"):  # what the backend measured (mujoco: placement errors)
+        if backend_instance is not None:  # what the backend measured, if it says (e.g. placement errors)
             report.backend_summary = backend_instance.summary()
         return report
     finally:
@@ -616,3 +616,13 @@ def _run_plan(activities, capabilities, backend, state_db, redis_url, spawn_exec
             backend_instance.close()
         broker.close()
         store.close()
+
+
+def _check_features(name: str, backend_type, activities: list[RcanActivity]) -> None:
+    """InputError when the plan has an activity the backend does not implement (its features), naming
+    the first such activity and what the backend implements."""
+    missing = next((a for a in activities if a.kind not in backend_type.features), None)
+    if missing is not None:
+        kinds = [kind.label for kind in ActivityKind if kind in backend_type.features]
+        raise InputError(f"the {name} backend does not implement '{missing.kind.label}' (activity "
+                         f"{missing.activity_id}); it implements: {', '.join(kinds) or 'nothing'}")

@@ -14,7 +14,8 @@ import time
 from bimrobot.coordination.fleet import Fleet
 from bimrobot.frames import quat_xyzw_of_yaw
 from bimrobot.rcan.activities import ActivityKind, Pose
-from bimrobot.rcan.backends.interfaces import ActivityResult, DispatchingBackend
+from bimrobot.rcan.backends.interfaces import ActivityResult, ExecutorBackend
+from bimrobot.rcan.backends.ros2 import INFO
 from bimrobot.rcan.backends.ros2.environment import HEARTBEAT, action_name, load_ros2
 from bimrobot.rcan.node import RcanNode
 
@@ -23,9 +24,12 @@ from bimrobot.rcan.node import RcanNode
 GOAL_RESEND_S = 2.0
 
 
-class Ros2Backend(DispatchingBackend):
+class Ros2Backend(ExecutorBackend):
     """Executor backend over ROS 2 actions (see the module docstring). Thread-safe: RCAN's executor
     calls :meth:`execute` from its worker threads while a background thread spins the node.
+
+    Its six features are the robot's: each is the robot's action server of that activity
+    (``/bimrobot/<robot>/<activity>``), and :meth:`execute` sends the node's goal to it.
 
     ROS 2 gives no callback when an action server dies, so each goal is watched:
 
@@ -42,6 +46,30 @@ class Ros2Backend(DispatchingBackend):
     """
 
     name = "ros2"
+    info = INFO
+    features = frozenset(ActivityKind)  # each one the robot's action server of that activity
+
+    @classmethod
+    def options_from(cls, args) -> dict:
+        """The goals' deadlines and liveness; the robots' time scale: ``--time-scale`` for the shipped robot
+        node this run starts, real time (1) for robots of your own."""
+        spawned = getattr(args, "robot_node", "external") == "spawn" and not getattr(args, "no_local_executors", False)
+        return {**super().options_from(args), "time_scale": args.time_scale if spawned else 1.0}
+
+    @classmethod
+    def around_run(cls, args, model_offset):
+        """With ``--robot-node spawn`` (and local executors): the shipped ROS 2 robot node, started and stopped
+        around the run, with the robots' homes where this run put them (``model_offset``, m)."""
+        if args.robot_node != "spawn" or getattr(args, "no_local_executors", False):
+            return contextlib.nullcontext()
+        from bimrobot.rcan.backends.ros2.robot_node import robot_node_process
+
+        load_ros2()  # fails early with the setup hint when ROS 2 is absent
+        os.environ.setdefault("FASTDDS_BUILTIN_TRANSPORTS", "SHM")  # both processes are on this machine
+        placement = [*(["--site", str(args.site)] if args.site else []), "--model-offset", *map(repr, model_offset)]
+        return robot_node_process(args.capabilities, args.time_scale, args.failure_probability, args.seed,
+                                  state_db=args.state_db, participants_closed=True,  # run_plan closes its backend first
+                                  extra_args=placement)
 
     def __init__(self, capabilities: Fleet, server_timeout_s: float = 10.0,
                  result_timeout_s: float | None = None, deadline_factor: float = 3.0, deadline_min_s: float = 30.0,
@@ -102,7 +130,9 @@ class Ros2Backend(DispatchingBackend):
             return self.result_timeout_s
         return self.deadline_min_s + self.deadline_factor * self.expected_s(node) * self.time_scale
 
-    def _run(self, node: RcanNode, attempt: int, ready_at_s: float, feedback) -> ActivityResult:
+    def execute(self, node: RcanNode, attempt: int = 1, ready_at_s: float = 0.0, feedback=None) -> ActivityResult:
+        """Send ``node``'s goal to its robot's action server of its activity and wait for the result,
+        watched by the deadline and the liveness (class docstring)."""
         client = self._client(node.robot, node.kind)
         failed = lambda message, lost=False: ActivityResult(  # noqa: E731
             node.activity_id, attempt, node.robot, False, message, robot_lost=lost)
@@ -170,7 +200,6 @@ class Ros2Backend(DispatchingBackend):
             if self._closed.is_set() or time.monotonic() > deadline:
                 return None
         return future.result()
-
 
     def stop(self) -> None:
         self._closed.set()  # goals still waited for end now, so no thread outlives the run

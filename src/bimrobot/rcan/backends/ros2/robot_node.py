@@ -79,9 +79,9 @@ def serve_robot_node(capabilities: Fleet, time_scale: float = 0.0, failure_proba
     from rclpy.executors import MultiThreadedExecutor
 
     from bimrobot.rcan.activities import Pose, RcanActivity
-    from bimrobot.rcan.backends.sim import KinematicSite
+    from bimrobot.rcan.backends.sim import SimBackend
 
-    site = KinematicSite(capabilities, db_path, time_scale, failure_probability, seed)
+    robots_here = SimBackend(capabilities, db_path, time_scale, failure_probability, seed)  # the sim backend's features
     context = rclpy.Context()
     from rclpy.signals import SignalHandlerOptions
 
@@ -108,7 +108,7 @@ def serve_robot_node(capabilities: Fleet, time_scale: float = 0.0, failure_proba
                     goal_handle.publish_feedback(message)
 
             with heart.beating(publish_feedback):  # liveness for the client while the robot works
-                outcome = site.execute(rcan_node, int(g.attempt), float(g.ready_at_s), publish_feedback)
+                outcome = robots_here.execute(rcan_node, int(g.attempt), float(g.ready_at_s), publish_feedback)
             goal_handle.succeed()  # the action completed; success/failure of the activity is in the result
             result = action.Result()
             result.success, result.message = outcome.success, outcome.message
@@ -142,7 +142,7 @@ def serve_robot_node(capabilities: Fleet, time_scale: float = 0.0, failure_proba
         heart.close()
         node.destroy_node()
         rclpy.shutdown(context=context)
-        site.close()
+        robots_here.close()
     return 0
 
 

@@ -1,30 +1,8 @@
-"""The ``sim`` backend: built-in kinematic robots that take travel and handling time.
-
-Each robot has a mobile base (moves at ``speed_m_s`` in the xy plane), a manipulator (reaches
-``reach_m`` horizontally from the base, moves the gripper at ``arm_speed_m_s``) and a gripper (takes
-``handling_s[activity]`` to pick up or install). Robots check what a real robot would refuse: a target
-out of the arm's reach, a pick-up without the gripper at the grasp pose, a component heavier than the
-payload, transporting a component it does not hold, touching a component another robot holds. A
-transport whose node releases the robot sets the component down at the drop-off point (the transport's
-goal) and lets go; a later pick-up there takes it again. Any activity can also fail at random with
-``failure_probability``; the draw is seeded by ``(seed, activity id, attempt)`` so a resumed run sees
-the same failures as an uninterrupted one.
-
-Time: every robot keeps its own clock in simulated seconds; an activity starts at
-``max(robot clock, ready_at_s)`` (its predecessors' finish and its planned start). How long it takes is
-the one time model's (:mod:`bimrobot.sco.timing`), the same as `simulate`'s: a drive (move to component,
-transport) takes the distance between the points the robot works at (the activity's ``work_point``; the
-base stands beside them) over its speed, a transport that sets the component down adds the unload time,
-a pick-up from the yard the load time, a positioning the time per node, an install the time per
-assembly point; arm motions take their distance over the arm's speed (nothing for a fleet robot, whose
-handling times include them). Nothing here depends on the wall clock or on the order in which threads
-run, so the same plan gives the same times. ``time_scale`` real seconds are slept per simulated second
-(0: no sleeping, the default; 1: real time).
-
-The world (robot poses, components, executed goals) lives in SQLite, in memory by default or in the
-run's state database, so it survives a crash like a real site does. Executed goals are recorded in the
-same transaction as their effect, keyed by activity id: a goal sent twice runs once, and a goal
-whose activity already succeeded (any attempt) is refused with the earlier result.
+"""The ``sim`` backend's site: kinematic robots and components with persistent state (SQLite), and what
+every activity feature shares: the goal journal (a goal runs once), the robot's clock, seeded failures,
+the feedback and the one transaction that records a goal with its effect. What an activity takes and
+does is its feature's *step* (:mod:`.drive`, :mod:`.arm`, :mod:`.gripper`); the package docstring says
+what the robots do.
 """
 
 from __future__ import annotations
@@ -34,19 +12,19 @@ import threading
 import time
 import zlib
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 
 from bimrobot.coordination.fleet import Fleet, RobotSpec
-from bimrobot.rcan.activities import ActivityKind, Pose
-from bimrobot.rcan.backends.interfaces import ActivityResult, DispatchingBackend
+from bimrobot.rcan.activities import Pose
+from bimrobot.rcan.backends.interfaces import ActivityResult
 from bimrobot.rcan.node import RcanNode
 from bimrobot.rcan.state_manager import connect_state_db, write_lock
-from bimrobot.sco import timing
-from bimrobot.tasks import Task
 
-GRASP_TOLERANCE_M = 0.05
-ARM_STOW_HEIGHT_M = 0.5
+#: A feature's step: (site, robot spec, robot state (:meth:`KinematicSite.robot_state`), node) ->
+#: (duration s, error or None, the robot's and the component's state changes)
+Step = Callable[["KinematicSite", RobotSpec, dict, RcanNode], tuple[float, "str | None", dict]]
 
 SCHEMA = """
 CREATE TABLE IF NOT EXISTS sim_robot (
@@ -108,8 +86,9 @@ class KinematicSite:
         return [(a, n, bool(s)) for a, n, s in rows]
 
     # --- execution ---------------------------------------------------------------------------------
-    def execute(self, node: RcanNode, attempt: int, ready_at_s: float = 0.0, feedback=None) -> ActivityResult:
-        """Execute one goal; a goal already executed returns its recorded result (no second run)."""
+    def execute(self, node: RcanNode, attempt: int, ready_at_s: float, feedback, step: Step) -> ActivityResult:
+        """Execute one goal with its feature's ``step``; a goal already executed returns its recorded
+        result (no second run)."""
         with self._lock:
             recorded = self._recorded(node.activity_id, attempt)
         if recorded:
@@ -120,7 +99,7 @@ class KinematicSite:
         with self._lock:
             state = self.robot_state(node.robot)
         start = max(state["clock_s"], ready_at_s)
-        duration, error, effect = self._plan(spec, state, node)
+        duration, error, effect = self._plan(spec, state, node, step)
         if error is None and self._random_failure(node.activity_id, attempt):
             error = f"{node.kind.label} failed (simulated fault, p={self.failure_probability:g})"
         if feedback:
@@ -153,77 +132,22 @@ class KinematicSite:
         rng = np.random.default_rng([self.seed, zlib.crc32(activity_id.encode()), attempt])
         return bool(rng.random() < self.failure_probability)
 
-    def _plan(self, spec: RobotSpec, state: dict, node: RcanNode) -> tuple[float, str | None, dict]:
-        """(duration s, error or None, state changes) of ``node`` on robot ``spec`` in ``state``."""
-        kind, target, base = node.kind, node.target, state["base"]
+    def _plan(self, spec: RobotSpec, state: dict, node: RcanNode, step: Step) -> tuple[float, str | None, dict]:
+        """(duration s, error or None, state changes) of ``node`` on robot ``spec`` in ``state``: what every
+        activity checks first, then its feature's ``step``."""
+        kind = node.kind
         if not spec.performs(kind):
             return 0.0, f"robot {spec.name} cannot {kind.label.lower()} (its rcan_activities in the fleet)", {}
         if state["holding"] and state["holding"] != node.component_id:
             # RCAN released this robot from a component it still holds (its activity was escalated):
             # the robot sets that component down where its gripper is; it waits there for a technician
-            duration, error, effect = self._plan(spec, {**state, "holding": None}, node)
-            effect = {**effect, "set_down": (state["holding"], state["arm"] or base)}
+            duration, error, effect = self._plan(spec, {**state, "holding": None}, node, step)
+            effect = {**effect, "set_down": (state["holding"], state["arm"] or state["base"])}
             return duration, error, effect
-        times, activity = spec.times, node.activity
-        if kind in (ActivityKind.MOVE_TO_COMPONENT, ActivityKind.TRANSPORT):
-            if kind is ActivityKind.TRANSPORT and state["holding"] != node.component_id:
-                return 0.0, f"robot {spec.name} does not hold {node.component_id} to transport it", {}
-            work_point = activity.work_point or target
-            effect = {"base": Pose(target.x, target.y, base.z), "arm": None, "work_point": work_point}
-            duration = timing.travel_s(times, state["work_point"].distance_xy(work_point))
-            if kind is ActivityKind.TRANSPORT and activity.releases_robot:
-                # sets the component down at the drop-off point (the stand pose) and lets go of it
-                effect.update(holding=None, component=(target, None))
-                if activity.task is Task.TRANSPORT:
-                    duration += times.unload_s
-            return duration, None, effect
-        if kind in (ActivityKind.POSITION_FOR_PICKING_UP, ActivityKind.POSITION_FOR_INSTALLING):
-            reach = base.distance_xy(target)
-            if reach > spec.reach_m + 1e-9:
-                return 0.0, (
-                    f"target ({target.x:.2f}, {target.y:.2f}, {target.z:.2f}) is {reach:.2f} m from the base of "
-                    f"{spec.name}, beyond its {spec.reach_m:.2f} m reach: transport the component first"
-                ), {}
-            if kind is ActivityKind.POSITION_FOR_INSTALLING and self._held_by_other(node.component_id, spec.name):
-                return 0.0, f"{node.component_id} is held by another robot", {}
-            arm_from = state["arm"] or Pose(base.x, base.y, base.z + ARM_STOW_HEIGHT_M)
-            effect = {"arm": target}
-            if state["holding"] == node.component_id:
-                # the held component comes along; a positioning that frees the robot leaves it fixed there
-                released = kind is ActivityKind.POSITION_FOR_INSTALLING and node.activity.releases_robot
-                effect["component"] = (target, None if released else spec.name)
-                if released:
-                    effect["holding"] = None
-            duration = timing.arm_s(times, arm_from.distance(target))
-            if kind is ActivityKind.POSITION_FOR_INSTALLING and activity.task is Task.POSITION:
-                duration += timing.position_s(times, activity.nodes or 1)
-            return duration, None, effect
-        arm = state["arm"]
-        if arm is None or arm.distance(target) > GRASP_TOLERANCE_M:
-            return 0.0, f"gripper of {spec.name} is not at the {kind.label.lower()} pose of {node.component_id}", {}
-        if kind is ActivityKind.PICK_UP:
-            if state["holding"]:
-                return 0.0, f"robot {spec.name} already holds {state['holding']}", {}
-            if self._held_by_other(node.component_id, spec.name):
-                return 0.0, f"{node.component_id} is held by another robot", {}
-            if not spec.can_grip(node.activity.section_m):
-                w, d = node.activity.section_m
-                return 0.0, f"the {w:.3f} x {d:.3f} m section of {node.component_id} does not fit the gripper of {spec.name}", {}
-            if node.activity.weight_kg is not None and node.activity.weight_kg > spec.payload_kg:
-                return 0.0, f"{node.component_id} weighs {node.activity.weight_kg:.1f} kg, over the {spec.payload_kg:.1f} kg payload of {spec.name}", {}
-            handling = times.load_s if activity.loads else 0.0  # a re-grip is part of the positioning
-            return handling, None, {"holding": node.component_id, "component": (target, spec.name)}
-        # install: place the held component, or fix a component already in place (a further connection)
-        if state["holding"] != node.component_id and self._held_by_other(node.component_id, spec.name):
-            return 0.0, f"{node.component_id} is held by another robot", {}
-        effect = {"arm": None, "component": (target, None)}
-        if state["holding"] == node.component_id:
-            effect["holding"] = None
-        # the install of a positioning row lets go of the component: its positioning took the time
-        handling = 0.0 if activity.task is Task.POSITION else timing.assemble_s(times, activity.points)
-        return handling, None, effect
+        return step(self, spec, state, node)
 
-    def _held_by_other(self, component_id: str, robot: str) -> bool:
+    def held_by_other(self, component_id: str, robot: str) -> bool:
+        """Whether a robot other than ``robot`` holds ``component_id``."""
         with self._lock:
             row = self._db.execute("SELECT holder FROM sim_component WHERE global_id=?", (component_id,)).fetchone()
         return bool(row and row[0] and row[0] != robot)
@@ -278,20 +202,3 @@ class KinematicSite:
 
     def close(self) -> None:
         self._db.close()
-
-
-class SimBackend(DispatchingBackend):
-    """Executor backend on the built-in :class:`KinematicSite` (see the module docstring)."""
-
-    name = "sim"
-
-    def __init__(self, capabilities: Fleet, db_path: str | Path = ":memory:", time_scale: float = 0.0,
-                 failure_probability: float = 0.0, seed: int = 0):
-        self.site = KinematicSite(capabilities, db_path, time_scale, failure_probability, seed)
-
-    def _run(self, node, attempt, ready_at_s, feedback) -> ActivityResult:
-        return self.site.execute(node, attempt, ready_at_s, feedback)
-
-
-    def close(self) -> None:
-        self.site.close()
