@@ -118,11 +118,11 @@ def test_a_robot_whose_corner_is_where_a_component_is_about_to_be_laid_does_not_
     husky = robot_model("husky_ur5", 5.0, 0.85, 0.12)
     site = MujocoSite({"husky_ur5": (husky, 1.0, 0.5, (0.0, 0.0))})
     about_to_appear = (np.array([0.4, 0.46]), np.array([0.08, 0.14]))  # off the chassis' front left corner
-    assert not site._blocked(np.zeros(2), [about_to_appear], husky.footprint[1] / 2)  # the circle misses it
-    assert not site._footprint_clear("husky_ur5", np.zeros(2), 0.0, [about_to_appear], 0.0)  # the corner does not
+    assert not site.near_box(np.zeros(2), [about_to_appear], husky.footprint[1] / 2)  # the circle misses it
+    assert not site.footprint_clear("husky_ur5", np.zeros(2), 0.0, [about_to_appear], 0.0)  # the corner does not
     site.approach("husky_ur5", (0.6, 0.0), low_keep_out=[about_to_appear])
     x, y, yaw = site.base_xy_yaw("husky_ur5")
-    assert site._footprint_clear("husky_ur5", (x, y), yaw, [about_to_appear], 0.0)
+    assert site.footprint_clear("husky_ur5", (x, y), yaw, [about_to_appear], 0.0)
 
 
 def test_heavy_variant_for_heavy_payloads_and_torque_limits_from_the_payload():

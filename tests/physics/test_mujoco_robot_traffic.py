@@ -46,7 +46,7 @@ def test_a_robot_drives_round_another_that_stands_on_its_straight_way(tmp_path):
         assert np.linalg.norm(site.base_xy_yaw("walker")[:2] - (3.0, 0.0)) < 0.05
         assert chassis_overlaps(site.frames, _footprints(backend)) == {}
         assert np.linalg.norm(site.base_xy_yaw("stander")[:2]) < 0.005  # not pushed
-        ys = [pose[site._names.index("walker/base"), 1] for _, _, pose in site.frames]
+        ys = [pose[names.index("walker/base"), 1] for _, names, pose in site.frames]
         assert max(np.abs(ys)) > 0.67  # it went round: the two chassis' half widths and more
     finally:
         backend.close()

@@ -187,7 +187,7 @@ def test_a_4_m_arm_reaches_a_column_side_at_shoulder_height_with_its_elbow_up(tm
         goal = motion.pose(level, shoulder + [2.76, -0.11, 0.0])
         q = site.solve("assembler", goal)
         assert arm_base[2, 3] + robot.ik.lowest_link(q) >= site.ground_z + 0.06 * robot.model.scale
-        assert np.linalg.norm(site._tcp_of("assembler", q) - goal[:3, 3]) < 0.002
+        assert np.linalg.norm(site.tcp_position_at("assembler", q) - goal[:3, 3]) < 0.002
     finally:
         backend.close()
 
@@ -218,7 +218,7 @@ def test_a_prebuilt_column_stands_on_its_footing_while_a_4_m_arm_works_on_the_fo
             reach[activity.activity_id] = float(np.linalg.norm(site.tcp_pose("assembler")[:2, 3]
                                                                - site.base_xy_yaw("assembler")[:2]))
         assert "arm was left out" not in result.message
-        assert np.abs(site.arm_q("assembler") - site._stowed_posture("assembler")).max() < 0.05
+        assert np.abs(site.arm_q("assembler") - site.stowed_posture("assembler")).max() < 0.05
         assert reach["F2"] > 2.0 and reach["F3"] < min(site.robots["assembler"].model.footprint) / 2  # over its chassis
         assert site.robot_contacts("assembler") == []
         column = backend.site.body_pose(COLUMNS[0])
@@ -348,10 +348,10 @@ def test_a_robot_that_cannot_turn_where_it_stands_backs_straight_out_of_a_suppor
         for name, y in (("north", 1.3), ("south", -1.3)):  # a corridor narrower than its turning circle
             site.add_support(f"wall/{name}", (0.0, y), 2.0, (6.0, 0.1))
         prop = (np.array([0.5, 0.0]), np.array([0.14, 0.14]))
-        assert not site._footprint_clear("positioner", (0.0, 0.0), 0.0, [prop])
+        assert not site.footprint_clear("positioner", (0.0, 0.0), 0.0, [prop])
         site.make_room("positioner", *prop)
         x, y, yaw = site.base_xy_yaw("positioner")
-        assert site._footprint_clear("positioner", (x, y), yaw, [prop])
+        assert site.footprint_clear("positioner", (x, y), yaw, [prop])
         assert abs(y) < 0.05 and abs(yaw) < 0.05 and x < 0.0  # straight back, not turned
         assert site.robot_contacts("positioner") == []
     finally:
@@ -398,11 +398,11 @@ def test_an_arm_plans_its_way_round_a_pillar_its_straight_joint_path_would_hit(t
         site.robots["arm"].q_ref = left.copy()
         site.step(1.0)
         assert site.robot_contacts("arm") == []
-        assert site._path_contacts("arm", left, right, set())  # the straight way sweeps through the pillar
+        assert site.path_contacts("arm", left, right, set())  # the straight way sweeps through the pillar
         path = site.plan_arm("arm", right)
         assert path is not None and np.allclose(path[-1], right)
         for a, b in zip(path, path[1:]):
-            assert site._path_contacts("arm", a, b, set()) == []
+            assert site.path_contacts("arm", a, b, set()) == []
             site.move_arm("arm", b)
         assert site.robot_contacts("arm") == []
         assert np.abs(site.arm_q("arm") - right).max() < 0.02
@@ -453,7 +453,7 @@ def test_a_component_another_robot_holds_is_an_obstacle_to_drive_around(tmp_path
         path = [site.base_xy_yaw("walker")[:2]] + site.plan_path("walker", (3.0, 0.0))
         low, tall = site.obstacles("walker", split=True)
         samples = [a + (b - a) * t for a, b in zip(path, path[1:]) for t in np.linspace(0.0, 1.0, 20)]
-        assert all(site._clear("walker", p, low, tall) for p in samples[3:])  # around the block, not through it
+        assert all(site.stand_clear("walker", p, low, tall) for p in samples[3:])  # around the block, not through it
     finally:
         backend.close()
 
@@ -468,9 +468,9 @@ def test_a_robot_near_a_column_is_not_sent_to_a_spot_where_it_cannot_turn(tmp_pa
         site.add_support("column", (0.0, 0.0), 4.0, (0.13, 0.13))
         low, tall = site.obstacles("worker", split=True)
         goal = np.array([-0.6, 0.4])
-        assert not site._clear("worker", goal, low, tall)
+        assert not site.stand_clear("worker", goal, low, tall)
         stop = site.plan_path("worker", goal)[-1]
-        assert site._clear("worker", stop, low, tall)
+        assert site.stand_clear("worker", stop, low, tall)
         assert np.linalg.norm(stop - goal) < 1.5
     finally:
         backend.close()
