@@ -135,3 +135,29 @@ def test_a_building_larger_than_the_padding_is_refused_in_one_sentence():
     with pytest.raises(InputError, match=r"the build has 49 tasks and floor gates, 6 robots and \d+ precedences; "
                                          r"this environment takes at most 16, 16 and 2048"):
         env.reset()
+
+
+def test_one_environment_takes_buildings_of_any_size_drawn_at_reset():
+    """A problem drawn from np_random at each reset: frames of different sizes in the same padded arrays;
+    the same seed draws the same building."""
+    def draw(rng):
+        return frame_problem(size=(int(rng.integers(1, 4)), 2, int(rng.integers(1, 3))))
+
+    env = DispatchEnv(draw, max_tasks=256, max_edges=1024)
+    sizes = {seed: int(env.reset(seed=seed)[0]["node_mask"].sum()) for seed in range(6)}
+    assert len(set(sizes.values())) > 1
+    assert int(env.reset(seed=3)[0]["node_mask"].sum()) == sizes[3]
+    total, result = play(env, MarketPolicy(), seed=3)
+    assert total == pytest.approx(-result.makespan, abs=1e-6) and result.makespan > 0
+
+
+def test_a_fleet_left_without_carriers_ends_the_episode_as_stalled():
+    """Both transport robots break down for good: the build cannot finish, the episode ends and says why."""
+    problem = replace(frame_problem(), breakdowns=(("TransportRobot11", 10.0), ("TransportRobot12", 10.0)))
+    env = DispatchEnv(problem)
+    env.reset(seed=0)
+    done, info = False, {}
+    while not done:
+        _, _, done, truncated, info = env.step(int(np.flatnonzero(env.action_masks())[0]))
+        assert not truncated
+    assert "no working robot can transport" in info["stalled"] and env.result is None

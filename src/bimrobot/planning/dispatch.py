@@ -62,13 +62,14 @@ class DispatchProblem:
     breakdowns: tuple = ()
 
 
-def frame_problem(fleet: str = "fleet2", per_node: bool = True) -> DispatchProblem:
-    """The thesis' chapter-4 steel frame (generated, no IFC file), built by ``fleet`` on its site."""
+def frame_problem(fleet: str = "fleet2", per_node: bool = True, size: tuple[int, int, int] = (2, 2, 1)) -> DispatchProblem:
+    """A generated steel frame (no IFC file) of ``size`` = (columns along x, along y, storeys), built by
+    ``fleet`` on its site; the default is the thesis' chapter-4 frame."""
     from bimrobot.coordination.generate import generated_frame
     from bimrobot.sco.build import build_smart_model
     from bimrobot.site import site_for
 
-    model = generated_frame()
+    model = generated_frame(*size)
     return DispatchProblem(build_smart_model(model), load_fleet(fleet), site_for(None, model.elements.values()),
                            [s.elevation for s in model.storeys], per_node)
 
