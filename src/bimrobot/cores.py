@@ -123,6 +123,21 @@ def _watch_parent(parent: int) -> None:
     os._exit(1)
 
 
+UNIX_SOCKET_PATH_MAX = 107
+"""Bytes a Unix socket's path may have (Linux: 108 with the final NUL)."""
+
+
+def socket_folder(room: int) -> str:
+    """A new, empty folder for a program that makes Unix sockets up to ``room`` bytes below it: in the
+    temporary folder (the command's own, removed however the command ends) where the paths fit
+    :data:`UNIX_SOCKET_PATH_MAX`, else in /tmp (the caller removes it). The caller owns the folder."""
+    folder = tempfile.mkdtemp(prefix="r")  # a short name: /tmp/bimrobot-<pid>-<8>/r<8> is 38 bytes
+    if len(os.fsencode(folder)) + room <= UNIX_SOCKET_PATH_MAX:
+        return folder
+    os.rmdir(folder)
+    return tempfile.mkdtemp(prefix="bimrobot-", dir="/tmp")
+
+
 @contextlib.contextmanager
 def private_temp_folder():
     """While inside, the temporary files of this process and of every process it starts go into one

@@ -359,6 +359,11 @@ def _sigterm_stops_the_pool():
         signal.signal(signal.SIGTERM, previous)
 
 
+RAY_SOCKET_ROOM = 66
+"""Bytes Ray adds to its temporary folder for a socket: ``/session_<date>_<time>_<us>_<pid>/sockets/plasma_store``
+(63 with a 5-digit pid, 65 with a 7-digit one; a byte of margin)."""
+
+
 @contextlib.contextmanager
 def _pool(workers: int, ray_address: str | None):
     if ray_address is None:
@@ -378,7 +383,11 @@ def _pool(workers: int, ray_address: str | None):
         return
     # "local" starts a Ray instance on this machine: its session folder (logs, sockets) goes to a temporary
     # folder of this benchmark, removed when the instance stops, not to <tmp>/ray where it would stay
-    folder = tempfile.mkdtemp(prefix="bimrobot-ray-")
+    # (issue 35: in the command's own temporary folder, one level deeper than /tmp, Ray's plasma_store socket
+    # took 112 bytes, over the 107 a Unix socket's path may have, and `--ray local` failed)
+    from bimrobot.cores import socket_folder
+
+    folder = socket_folder(RAY_SOCKET_ROOM)
     try:
         ray.init(_temp_dir=folder, include_dashboard=False, log_to_driver=False)
         with RayPool(processes=workers) as pool:
