@@ -127,7 +127,7 @@ def test_an_invalid_action_waits_or_takes_the_first_valid_award():
     first = int(np.flatnonzero(env.action_masks())[0])
     _, _, _, _, info = env.step(env.wait_action)  # nobody works yet: waiting is not allowed
     assert info["invalid_action"]
-    assert env.sim.robots[env.robot_names[first % env.max_robots]].task is not None
+    assert env.sim.build.robots[env.robot_names[first % env.max_robots]].task is not None
 
 
 def test_a_building_larger_than_the_padding_is_refused_in_one_sentence():

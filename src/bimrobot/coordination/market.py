@@ -217,7 +217,7 @@ class Dispatcher:
     or ready work with a free capable robot): the market, or an agent
     (:class:`bimrobot.planning.dispatch.DispatchEnv`).
 
-    :meth:`awards` is called once per allocation round, at simulation time ``sim.env.now``; it changes
+    :meth:`awards` is called once per allocation round, at simulation time ``sim.build.env.now``; it changes
     nothing, and the simulation then applies the awards in order. ``None`` means the driver of the
     simulation decides (``ConstructionSimulation.award`` and ``end_round``)."""
 
@@ -244,12 +244,12 @@ class MarketDispatcher(Dispatcher):
         taken: dict[str, tuple[float, np.ndarray]] = {}
         promised: dict[str, tuple[float, np.ndarray]] = {}
         for activity in (Task.ASSEMBLE, Task.POSITION, Task.TRANSPORT):
-            idle = set(sim.idle[activity]) - taken.keys()
-            pool = list(sim.pending[activity])  # a copy of the heap: popped in priority order
-            deferred, scan_limit = 0, 4 * sim.robots_per_activity[activity] + 4
+            idle = set(sim.build.idle[activity]) - taken.keys()
+            pool = list(sim.build.pending[activity])  # a copy of the heap: popped in priority order
+            deferred, scan_limit = 0, 4 * sim.build.robots_per_activity[activity] + 4
             while pool and idle and deferred < scan_limit:
                 request = heapq.heappop(pool)
-                proposals = self._proposals(sim, BidNotice(request, sim.env.now), idle, taken, promised)
+                proposals = self._proposals(sim, BidNotice(request, sim.build.env.now), idle, taken, promised)
                 if not proposals:
                     deferred += 1
                     continue
@@ -268,9 +268,9 @@ class MarketDispatcher(Dispatcher):
         ``quickest-finish`` busy ones too, from where and when their current (or promised) task ends."""
         request, now = notice.request, notice.time
         if self.evaluator.idle_only:
-            candidates = [sim.robots[name] for name in idle]
+            candidates = [sim.build.robots[name] for name in idle]
         else:
-            candidates = [r for r in sim.robots.values() if r.spec.can(request.activity) and not r.broken]
+            candidates = [r for r in sim.build.robots.values() if r.spec.can(request.activity) and not r.broken]
         proposals = []
         for robot in candidates:
             if incapability(robot.spec, request):

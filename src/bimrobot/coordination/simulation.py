@@ -82,6 +82,48 @@ class _Robot:
         return self.spec.times
 
 
+@dataclass(eq=False)
+class BuildState:
+    """What one run changes as the build goes on, set up by :meth:`ConstructionSimulation.start` (the
+    simulation's other attributes are its inputs). Times in seconds since the build started; ids are
+    component GlobalIds, joint and node ids, request ids ``R00001`` and schedule ids ``A0001``."""
+
+    env: simpy.Environment
+    robots: dict[str, _Robot]  # name -> the robot, in fleet order
+    robots_per_activity: dict[str, int]
+    idle: dict[str, set[str]]  # activity -> the idle, working robots that do it
+    pending: dict[str, list[TaskRequest]]  # activity -> heap of published requests not yet awarded
+    history: dict[str, list[tuple[float, str]]]  # component -> (time, state) changes
+    open_on_floor: list[int]  # floor -> work left before it closes (joints, or nodes per node)
+    activities: list[Activity] = field(default_factory=list)  # schedule rows, in finish order until numbered
+    events: list[dict] = field(default_factory=list)
+    lines: list[str] = field(default_factory=list)  # the log, as events.log
+    steps: int = 0  # allocation rounds that awarded a task
+    sequence: int = 0  # requests published
+    activity_counter: int = 0
+    dispatch_scheduled: bool = False
+    awaiting_decision: bool = False  # an agent's allocation round is open
+    round_awarded: bool = False  # the current round awarded a task
+    repairs: list = field(default_factory=list)  # the breakdown processes
+    floor_finish: list[float] = field(default_factory=list)
+    current_floor: int = 0
+    floor_gate: dict[int, str] = field(default_factory=dict)  # floor -> the activity that closed the one below
+    # component -> the activities after which its position is fixed (its own positioning; for a prebuilt
+    # component made later, the positioning of the robot-built parts it rests on)
+    position_activity: dict[str, tuple[str, ...]] = field(default_factory=dict)
+    missing_supporters: dict[str, int] = field(default_factory=dict)  # component -> supporters not yet fixed
+    dependants: dict[str, list[str]] = field(default_factory=dict)  # component -> what rests on it
+    ready_by_floor: dict[int, list[str]] = field(default_factory=dict)  # floor -> components ready to carry
+    assembly_published: set[str] = field(default_factory=set)  # joints
+    transport_activity: dict[str, str] = field(default_factory=dict)  # per node: component -> its transport
+    node_position_activity: dict[str, str] = field(default_factory=dict)
+    node_position_published: set[str] = field(default_factory=set)
+    node_assembly_published: set[str] = field(default_factory=set)
+    # per node: robot-built node -> the prebuilt nodes of its joint assembled with it; and back
+    attached_nodes: dict[str, list[str]] = field(default_factory=dict)
+    attached_to: dict[str, str] = field(default_factory=dict)
+
+
 @dataclass
 class SimulationResult:
     """Everything a run produced. ``steps``: allocation rounds that awarded at least one task."""
@@ -179,6 +221,8 @@ class ConstructionSimulation:
                 raise InputError(f"breakdown names robot {robot!r}, which is not in fleet {fleet.name} ({', '.join(sorted(names))})")
             if when < 0 or (repair is not None and repair <= 0):
                 raise InputError(f"breakdown of {robot}: time must be >= 0 s and repair > 0 s, got {when} and {repair}")
+        self._rests_memo: dict[tuple[str, str], bool] = {}
+        self._anchor_memo: dict[str, bool] = {}
         self._place_on_site()
         self._check_capabilities()
 
@@ -233,7 +277,7 @@ class ConstructionSimulation:
             request.start = request.end = self.site_xy(node.position)
             request.node_ids = (node.id,)
             if activity == Task.ASSEMBLE:  # with the prebuilt nodes of its joint (e.g. a footing's anchor bolts)
-                request.node_ids += tuple(self.attached_nodes.get(node.id, ()))
+                request.node_ids += tuple(self.build.attached_nodes.get(node.id, ()))
             request.floor = node.level
             z = float(node.position[2])
             request.reach_needed = z - _storey_base(z, self.elevations)
@@ -388,99 +432,72 @@ class ConstructionSimulation:
         """Build the whole structure with the market (or the given dispatcher) and return the result."""
         self.start()
         with gc_paused():
-            self.env.run()
+            self.build.env.run()
         return self.result()
 
     def advance(self) -> bool:
         """Run the events until an agent's decision is due (True) or nothing is left to happen (False).
         Only with a dispatcher whose ``awards`` returns None (an agent)."""
-        while not self.awaiting_decision:
-            if self.env.peek() == float("inf"):
+        while not self.build.awaiting_decision:
+            if self.build.env.peek() == float("inf"):
                 return False
-            self.env.step()
+            self.build.env.step()
         return True
 
     def start(self) -> None:
         """Set up the run: robots at their homes, the first floor's requests published, breakdowns
         scheduled; the first allocation round is due at t = 0."""
-        self.env = simpy.Environment()
-        self.awaiting_decision = False
-        self._round_awarded = False
-        self.robots: dict[str, _Robot] = {}
+        robots: dict[str, _Robot] = {}
         for index, spec in enumerate(self.fleet.robots):
             home = np.array(self.site.robot_start(index, self.fleet.home_on_site(spec, self.offset)), dtype=float)
-            self.robots[spec.name] = _Robot(spec, home.copy(), RobotStats(spec.name, spec.kind), end_position=home.copy())
-        self.robots_per_activity = {a: len(self.fleet.by_activity(a)) for a in ACTIVITIES}
-        self.idle: dict[str, set[str]] = {a: {r.spec.name for r in self.robots.values() if r.spec.can(a)} for a in ACTIVITIES}
-        self.pending: dict[str, list[TaskRequest]] = {a: [] for a in ACTIVITIES}
-        self.activities: list[Activity] = []
-        self.events: list[dict] = []
-        self.lines: list[str] = []
-        self.history: dict[str, list[tuple[float, str]]] = {
-            c.id: [(0.0, str(c.state))] for c in self.smart.components.values()
-        }
-        self.steps = 0
-        self.sequence = 0
-        self.activity_counter = 0
-        self.dispatch_scheduled = False
-        self.floor_finish: list[float] = []
-        # component id -> the schedule activities after which its position is fixed (its own positioning;
-        # for a prebuilt component made later, the positioning of the robot-built parts it rests on)
-        self.position_activity: dict[str, tuple[str, ...]] = {}
-        self.floor_gate: dict[int, str] = {}
-        self.current_floor = 0
-
+            robots[spec.name] = _Robot(spec, home.copy(), RobotStats(spec.name, spec.kind), end_position=home.copy())
+        self.build = BuildState(
+            env=simpy.Environment(),
+            robots=robots,
+            robots_per_activity={a: len(self.fleet.by_activity(a)) for a in ACTIVITIES},
+            idle={a: {r.spec.name for r in robots.values() if r.spec.can(a)} for a in ACTIVITIES},
+            pending={a: [] for a in ACTIVITIES},
+            history={c.id: [(0.0, str(c.state))] for c in self.smart.components.values()},
+            open_on_floor=[0] * len(self.smart.floors),
+        )
         components = self.smart.components
         later = set(self.smart.prebuilt_later)
         # Everything not in place yet waits for its supporters: robot-built components and prebuilt ones
         # that rest on robot-built ones (made by others once those are fixed).
-        self.missing_supporters = {
+        self.build.missing_supporters = {
             gid: sum(1 for s in self.smart.supporters[gid] if not at_least(components[s].state, State.POSITION_FIXED))
             for gid, c in components.items()
             if not c.prebuilt or gid in later
         }
-        self.dependants: dict[str, list[str]] = {}
         for gid, supporters in self.smart.supporters.items():
             for s in supporters:
-                self.dependants.setdefault(s, []).append(gid)
-        self.open_on_floor = [0] * len(self.smart.floors)
-        self.node_position_activity: dict[str, str] = {}
-        self.transport_activity: dict[str, str] = {}
-        self.node_position_published: set[str] = set()
-        self.node_assembly_published: set[str] = set()
-        self._rests_memo: dict[tuple[str, str], bool] = {}
-        self._anchor_memo: dict[str, bool] = {}
-        # per node: robot-built node -> the prebuilt nodes of its joint assembled with it; and back
-        self.attached_nodes: dict[str, list[str]] = {}
-        self.attached_to: dict[str, str] = {}
+                self.build.dependants.setdefault(s, []).append(gid)
         if self.per_node:
             for joint in self.smart.joints.values():
                 robot_nodes = [n for n in joint.node_ids if not components[self.smart.nodes[n].component_id].prebuilt]
                 for node_id in joint.node_ids:
                     if robot_nodes and node_id not in robot_nodes and self.smart.nodes[node_id].state != State.ASSEMBLED:
-                        self.attached_nodes.setdefault(robot_nodes[0], []).append(node_id)
-                        self.attached_to[node_id] = robot_nodes[0]
+                        self.build.attached_nodes.setdefault(robot_nodes[0], []).append(node_id)
+                        self.build.attached_to[node_id] = robot_nodes[0]
             for component in components.values():
                 if component.prebuilt and gid_on_site(component, later):
                     self._prebuilt_nodes_done(component)
             for node in self.smart.nodes.values():
-                if (not components[node.component_id].prebuilt or node.id in self.attached_to) and node.state != State.ASSEMBLED:
-                    self.open_on_floor[node.level] += 1
+                if (not components[node.component_id].prebuilt or node.id in self.build.attached_to) and node.state != State.ASSEMBLED:
+                    self.build.open_on_floor[node.level] += 1
         else:
             for joint in self._joints_to_build():
-                self.open_on_floor[joint.floor] += 1
+                self.build.open_on_floor[joint.floor] += 1
         for component in components.values():
             if not component.connection_nodes and not component.prebuilt:
-                self.open_on_floor[component.floor] += 1
-        self.assembly_published: set[str] = set()
-        self.ready_by_floor: dict[int, list[str]] = {}
-        for gid, missing in self.missing_supporters.items():
+                self.build.open_on_floor[component.floor] += 1
+        for gid, missing in self.build.missing_supporters.items():
             if missing == 0 and gid not in later:
-                self.ready_by_floor.setdefault(components[gid].floor, []).append(gid)
+                self.build.ready_by_floor.setdefault(components[gid].floor, []).append(gid)
         for joint in self._joints_to_build() if not self.per_node else ():  # e.g. a footing joint of prebuilt parts only
             self._maybe_publish_assembly(joint)
         self._open_floor(0)
-        self._repairs = [self.env.process(self._breakdown(robot, when, repair)) for robot, when, repair in self.breakdowns]
+        self.build.repairs = [self.build.env.process(self._breakdown(robot, when, repair)) for robot, when, repair in self.breakdowns]
         self._request_dispatch()
 
     def result(self) -> SimulationResult:
@@ -489,21 +506,21 @@ class ConstructionSimulation:
         unfinished = [c.id for c in components.values() if c.state != State.ASSEMBLED]
         if unfinished:
             raise BimrobotError(self._stall_reason(unfinished))
-        makespan = max((a.finish for a in self.activities if not a.aborted), default=0.0)
+        makespan = max((a.finish for a in self.build.activities if not a.aborted), default=0.0)
         self._number_by_start()
-        log.info("%s built by %s (%s): makespan %.1f s, %d allocation rounds", self.smart.source, self.fleet.name, self.dispatcher.name, makespan, self.steps)
+        log.info("%s built by %s (%s): makespan %.1f s, %d allocation rounds", self.smart.source, self.fleet.name, self.dispatcher.name, makespan, self.build.steps)
         return SimulationResult(
             model=self.smart.source,
             fleet=self.fleet.name,
             evaluator=self.dispatcher.name,
             makespan=makespan,
-            steps=self.steps,
-            activities=self.activities,
-            robots=[r.stats for r in self.robots.values()],
-            events=self.events,
-            log_lines=self.lines,
-            state_history=self.history,
-            floor_finish=self.floor_finish,
+            steps=self.build.steps,
+            activities=self.build.activities,
+            robots=[r.stats for r in self.build.robots.values()],
+            events=self.build.events,
+            log_lines=self.build.lines,
+            state_history=self.build.history,
+            floor_finish=self.build.floor_finish,
             smart_summary=self.smart.summary(),
             breakdowns=self.breakdowns,
             per_node=self.per_node,
@@ -514,48 +531,48 @@ class ConstructionSimulation:
 
     def _number_by_start(self) -> None:
         """Identifications A0001... in start order (they were given in finish order)."""
-        self.activities.sort(key=lambda a: (a.start, a.finish, a.id))
-        width = max(4, len(str(len(self.activities))))
-        new_id = {a.id: f"A{i:0{width}d}" for i, a in enumerate(self.activities, start=1)}
-        self.activities[:] = [replace(a, id=new_id[a.id], predecessors=tuple(new_id[p] for p in a.predecessors))
-                              for a in self.activities]
+        self.build.activities.sort(key=lambda a: (a.start, a.finish, a.id))
+        width = max(4, len(str(len(self.build.activities))))
+        new_id = {a.id: f"A{i:0{width}d}" for i, a in enumerate(self.build.activities, start=1)}
+        self.build.activities[:] = [replace(a, id=new_id[a.id], predecessors=tuple(new_id[p] for p in a.predecessors))
+                              for a in self.build.activities]
 
     def _stall_reason(self, unfinished: list[str]) -> str:
-        waiting = [t for pool in self.pending.values() for t in pool]
-        alive = [r.spec for r in self.robots.values() if not r.broken]
+        waiting = [t for pool in self.build.pending.values() for t in pool]
+        alive = [r.spec for r in self.build.robots.values() if not r.broken]
         for task in waiting:
             if all(incapability(spec, task) for spec in alive):
-                broken = ", ".join(r.spec.name for r in self.robots.values() if r.broken) or "none"
+                broken = ", ".join(r.spec.name for r in self.build.robots.values() if r.broken) or "none"
                 what = f"joint {task.joint_id}" if task.activity == Task.ASSEMBLE else f"component {task.component_id}"
                 return (
-                    f"the build stalled at t = {self.env.now:.1f} s: no working robot can {task.activity} "
+                    f"the build stalled at t = {self.build.env.now:.1f} s: no working robot can {task.activity} "
                     f"{what} (broken down: {broken}); {len(unfinished)} components unfinished"
                 )
-        return f"the build stalled at t = {self.env.now:.1f} s with {len(unfinished)} components unfinished, e.g. {unfinished[0]}"
+        return f"the build stalled at t = {self.build.env.now:.1f} s with {len(unfinished)} components unfinished, e.g. {unfinished[0]}"
 
     # ---------------------------------------------------------------- bookkeeping
     def _event(self, kind: str, **data) -> None:
-        self.events.append({"time": round(self.env.now, 3), "step": self.steps, "event": kind, **data})
+        self.build.events.append({"time": round(self.build.env.now, 3), "step": self.build.steps, "event": kind, **data})
 
     def _say(self, text: str) -> None:
-        self.lines.append(f"[{self.env.now:9.2f} s] {text}")
+        self.build.lines.append(f"[{self.build.env.now:9.2f} s] {text}")
 
     def _note_state(self, component: Component) -> None:
-        history = self.history[component.id]
+        history = self.build.history[component.id]
         if history[-1][1] != str(component.state):
-            history.append((self.env.now, str(component.state)))
+            history.append((self.build.env.now, str(component.state)))
             self._event("state", component=component.id, state=str(component.state))
             if component.state == State.ASSEMBLED and self.on_assembled is not None:
                 self.on_assembled(component.id)
 
     def _publish(self, activity: Task, component: Component, joint: Joint | None = None, predecessors=(), node=None) -> None:
         request = self.request_for(activity, component, joint, node)
-        self.sequence += 1
-        request.priority = (request.floor, ACTIVITY_RANK[activity], round(component.bottom_z, 3), self.sequence)
-        request.id = f"R{self.sequence:05d}"
-        request.published_at = self.env.now
+        self.build.sequence += 1
+        request.priority = (request.floor, ACTIVITY_RANK[activity], round(component.bottom_z, 3), self.build.sequence)
+        request.id = f"R{self.build.sequence:05d}"
+        request.published_at = self.build.env.now
         request.predecessors = tuple(p for p in predecessors if p)
-        heapq.heappush(self.pending[activity], request)
+        heapq.heappush(self.build.pending[activity], request)
         self._event(
             "task_request",
             request=request.id,
@@ -581,10 +598,10 @@ class ConstructionSimulation:
 
     def _open_floor(self, floor: int) -> None:
         """Make ``floor`` current and request the components whose supporters are in place."""
-        self.current_floor = floor
+        self.build.current_floor = floor
         self._say(f"Floor {floor + 1} ({self.smart.floor_names[floor]}) starts")
         self._event("floor_start", floor=floor + 1, storey=self.smart.floors[floor])
-        for gid in sorted(self.ready_by_floor.pop(floor, []), key=lambda g: (self.smart.components[g].bottom_z, g)):
+        for gid in sorted(self.build.ready_by_floor.pop(floor, []), key=lambda g: (self.smart.components[g].bottom_z, g)):
             self._publish_transport(gid)
         self._maybe_close_floor()
 
@@ -596,62 +613,62 @@ class ConstructionSimulation:
                 f"Component: {gid} is a required connection component (RCC) of {', '.join(supporters)}, "
                 f"whose position is fixed: publish its transport"
             )
-        predecessors = [a for s in supporters for a in self.position_activity.get(s, ())]
-        predecessors.append(self.floor_gate.get(component.floor))
+        predecessors = [a for s in supporters for a in self.build.position_activity.get(s, ())]
+        predecessors.append(self.build.floor_gate.get(component.floor))
         self._publish(Task.TRANSPORT, component, predecessors=list(dict.fromkeys(predecessors)))
 
     def _maybe_close_floor(self) -> None:
-        while self.open_on_floor[self.current_floor] == 0:
-            self.floor_finish.append(self.env.now)
-            self._say(f"Floor {self.current_floor + 1} is complete")
-            self._event("floor_complete", floor=self.current_floor + 1)
-            if self.current_floor + 1 >= len(self.smart.floors):
+        while self.build.open_on_floor[self.build.current_floor] == 0:
+            self.build.floor_finish.append(self.build.env.now)
+            self._say(f"Floor {self.build.current_floor + 1} is complete")
+            self._event("floor_complete", floor=self.build.current_floor + 1)
+            if self.build.current_floor + 1 >= len(self.smart.floors):
                 return
             # the activity that completed the floor (an assembly, or the positioning of a part without
             # nodes) gates the next floor's transports: the schedule says so, and RCAN waits for it too
-            last = next((a.id for a in reversed(self.activities) if not a.aborted), None)
-            self.floor_gate[self.current_floor + 1] = last
-            self.current_floor += 1
-            self._say(f"Floor {self.current_floor + 1} ({self.smart.floor_names[self.current_floor]}) starts")
-            self._event("floor_start", floor=self.current_floor + 1, storey=self.smart.floors[self.current_floor])
-            for gid in sorted(self.ready_by_floor.pop(self.current_floor, []), key=lambda g: (self.smart.components[g].bottom_z, g)):
+            last = next((a.id for a in reversed(self.build.activities) if not a.aborted), None)
+            self.build.floor_gate[self.build.current_floor + 1] = last
+            self.build.current_floor += 1
+            self._say(f"Floor {self.build.current_floor + 1} ({self.smart.floor_names[self.build.current_floor]}) starts")
+            self._event("floor_start", floor=self.build.current_floor + 1, storey=self.smart.floors[self.build.current_floor])
+            for gid in sorted(self.build.ready_by_floor.pop(self.build.current_floor, []), key=lambda g: (self.smart.components[g].bottom_z, g)):
                 self._publish_transport(gid)
 
     def _maybe_publish_assembly(self, joint: Joint) -> None:
-        if joint.id in self.assembly_published:
+        if joint.id in self.build.assembly_published:
             return
         if all(self.smart.nodes[n].state == State.ASSEMBLED for n in joint.node_ids):
             return  # made with the prebuilt parts it joins
         members = [self.smart.components[g] for g in joint.component_ids]
         if not all(at_least(m.state, State.POSITION_FIXED) for m in members):
             return
-        self.assembly_published.add(joint.id)
+        self.build.assembly_published.add(joint.id)
         for node_id in joint.node_ids:
             node = self.smart.nodes[node_id]
             component = self.smart.components[node.component_id]
             component.node_event(node, Event.PUBLISH_ASSEMBLY)
             self._note_state(component)
-        predecessors = [a for m in members for a in self.position_activity.get(m.id, ())]
+        predecessors = [a for m in members for a in self.build.position_activity.get(m.id, ())]
         self._publish(Task.ASSEMBLE, members[0], joint, list(dict.fromkeys(predecessors)))
 
     # ---------------------------------------------------------------- market
     def _request_dispatch(self) -> None:
-        if not self.dispatch_scheduled:
-            self.dispatch_scheduled = True
-            self.env.process(self._dispatch_soon())
+        if not self.build.dispatch_scheduled:
+            self.build.dispatch_scheduled = True
+            self.build.env.process(self._dispatch_soon())
 
     def _dispatch_soon(self):
         """One allocation round, once the events of this instant have published their requests: the
         dispatcher's awards, then (``idle_robots: yard``) idle robots drive back to the yard. With an
         agent as dispatcher the round stays open (``awaiting_decision``) until its driver calls
         :meth:`end_round`, and nothing else happens in between."""
-        yield self.env.timeout(0)
-        self.dispatch_scheduled = False
-        self._round_awarded = False
+        yield self.build.env.timeout(0)
+        self.build.dispatch_scheduled = False
+        self.build.round_awarded = False
         awards = self.dispatcher.awards(self)
         if awards is None:  # an agent decides
             if self.has_decision():
-                self.awaiting_decision = True
+                self.build.awaiting_decision = True
                 return
         else:
             for award in awards:
@@ -660,19 +677,19 @@ class ConstructionSimulation:
 
     def end_round(self) -> None:
         """Close the allocation round: robots left without a task drive to the yard (``idle_robots: yard``)."""
-        self.awaiting_decision = False
+        self.build.awaiting_decision = False
         if self.site.idle_robots == "yard":
             self._send_idle_robots_to_yard()
 
     def _send_idle_robots_to_yard(self) -> None:
         """Robots left without a task after working drive to the nearest yard position (thesis 4.5.3)."""
         yard = np.array(self.site.yard, dtype=float)
-        for robot in self.robots.values():
+        for robot in self.build.robots.values():
             if robot.task is not None or robot.broken or robot.returning is not None or robot.stats.steps == 0:
                 continue
             target = yard[int(np.argmin(np.hypot(*(yard - robot.position).T)))]
             if np.hypot(*(target - robot.position)) > 1e-6:
-                robot.returning = self.env.process(self._return_to_yard(robot, target))
+                robot.returning = self.build.env.process(self._return_to_yard(robot, target))
 
     def _return_to_yard(self, robot: _Robot, target: np.ndarray):
         self._say(f"{robot.spec.name} has no task and returns to the yard at ({target[0]:.2f}, {target[1]:.2f})")
@@ -687,9 +704,9 @@ class ConstructionSimulation:
         if robot.returning is None:
             return
         if robot.returning.is_alive:
-            t0 = robot.leg[0] if robot.leg else self.env.now
+            t0 = robot.leg[0] if robot.leg else self.build.env.now
             robot.position = self._position_now(robot)
-            robot.stats.travel_time += self.env.now - t0
+            robot.stats.travel_time += self.build.env.now - t0
             robot.leg = None
             robot.returning.interrupt("new task")
             self._event("return_stopped", robot=robot.spec.name, x=round(float(robot.position[0]), 3), y=round(float(robot.position[1]), 3))
@@ -701,35 +718,35 @@ class ConstructionSimulation:
         assembly, positioning, transport; each pool by priority; robots by name."""
         pairs = []
         for activity in (Task.ASSEMBLE, Task.POSITION, Task.TRANSPORT):
-            names = sorted(self.idle[activity])
+            names = sorted(self.build.idle[activity])
             if not names:
                 continue
-            for request in sorted(self.pending[activity]):
-                pairs += [(request, name) for name in names if not incapability(self.robots[name].spec, request)]
+            for request in sorted(self.build.pending[activity]):
+                pairs += [(request, name) for name in names if not incapability(self.build.robots[name].spec, request)]
         return pairs
 
     def has_decision(self) -> bool:
         """Whether some pending request has an idle robot that can do it (a decision point)."""
-        for activity, pool in self.pending.items():
-            names = self.idle[activity]
-            if pool and names and any(not incapability(self.robots[n].spec, r) for r in pool for n in names):
+        for activity, pool in self.build.pending.items():
+            names = self.build.idle[activity]
+            if pool and names and any(not incapability(self.build.robots[n].spec, r) for r in pool for n in names):
                 return True
         return False
 
     def can_wait(self) -> bool:
         """Whether leaving the ready work pending can lead anywhere: a robot is at work (it will finish and
         open a new round) or a broken one will be repaired. Otherwise waiting would stall the build."""
-        return any(r.task is not None for r in self.robots.values()) or any(p.is_alive for p in self._repairs)
+        return any(r.task is not None for r in self.build.robots.values()) or any(p.is_alive for p in self.build.repairs)
 
     def award(self, request: TaskRequest, robot_name: str) -> Award:
         """Award ``request`` (pending) to the idle robot ``robot_name`` now, as the market would: the
         robot's proposal from where it is now. Raises ValueError when the pair is not a candidate."""
-        robot = self.robots.get(robot_name)
-        if (robot is None or robot_name not in self.idle[request.activity] or request not in self.pending[request.activity]
+        robot = self.build.robots.get(robot_name)
+        if (robot is None or robot_name not in self.build.idle[request.activity] or request not in self.build.pending[request.activity]
                 or incapability(robot.spec, request)):
             raise ValueError(f"{robot_name} cannot take request {request.id} now")
-        bidders = sum(1 for name in self.idle[request.activity] if not incapability(self.robots[name].spec, request))
-        proposal = propose(robot.spec, self.position_now(robot), self.env.now, True, request)
+        bidders = sum(1 for name in self.build.idle[request.activity] if not incapability(self.build.robots[name].spec, request))
+        proposal = propose(robot.spec, self.position_now(robot), self.build.env.now, True, request)
         award = Award(request, robot_name, proposal, bidders)
         self.apply_award(award)
         return award
@@ -737,46 +754,46 @@ class ConstructionSimulation:
     def apply_award(self, award: Award) -> None:
         """Take the awarded request out of its pool and send the robot (the first award of a round opens
         a construction step in the log)."""
-        pool = self.pending[award.request.activity]
+        pool = self.build.pending[award.request.activity]
         passed = []
         while (request := heapq.heappop(pool)) is not award.request:
             passed.append(request)
         for request in passed:
             heapq.heappush(pool, request)
-        if not self._round_awarded:
-            self._round_awarded = True
-            self.steps += 1
+        if not self.build.round_awarded:
+            self.build.round_awarded = True
+            self.build.steps += 1
             self._step_header()
-        self._award(award.request, self.robots[award.robot], award.proposal, award.bidders)
+        self._award(award.request, self.build.robots[award.robot], award.proposal, award.bidders)
 
     def position_now(self, robot: _Robot) -> np.ndarray:
         """Where ``robot`` is now (site frame x, y, metres): part way along its drive back to the yard."""
         return self._position_now(robot) if robot.returning else robot.position
 
     def _step_header(self) -> None:
-        self.lines.append("-" * 48)
-        self.lines.append(f"Start a new construction step, NO.{self.steps}, in floor {self.current_floor + 1} (t = {self.env.now:.2f} s)")
-        self.lines.append("-" * 48)
-        self.lines.append("Get components requirement from site")
+        self.build.lines.append("-" * 48)
+        self.build.lines.append(f"Start a new construction step, NO.{self.build.steps}, in floor {self.build.current_floor + 1} (t = {self.build.env.now:.2f} s)")
+        self.build.lines.append("-" * 48)
+        self.build.lines.append("Get components requirement from site")
 
     def _award(self, request: TaskRequest, robot: _Robot, proposal, bidders: int) -> None:
         for activity in robot.spec.activities:
-            self.idle[activity].discard(robot.spec.name)
+            self.build.idle[activity].discard(robot.spec.name)
         self._stop_return(robot)
         robot.task = request
         robot.free_at = proposal.finish_time
         robot.end_position = request.end
-        self.lines.append(f"Publish {Task(request.activity).word} requirements to robot")
+        self.build.lines.append(f"Publish {Task(request.activity).word} requirements to robot")
         cost = proposal.cost
         if request.activity == Task.TRANSPORT:
-            self.lines.append(f"{robot.spec.name} is working for component: {request.component_id}, total work time is {cost:.2f}s")
+            self.build.lines.append(f"{robot.spec.name} is working for component: {request.component_id}, total work time is {cost:.2f}s")
         elif request.activity == Task.POSITION:
             nodes = [n.id for n in self.smart.components[request.component_id].connection_nodes]
-            self.lines.append(
+            self.build.lines.append(
                 f"{robot.spec.name} is positioning component: {request.component_id} with nodes: {', '.join(nodes) or '(none)'}, total work time is {cost:.2f}s"
             )
         else:
-            self.lines.append(f"{robot.spec.name} is finding nodes: {' and '.join(request.node_ids)}, total work time is {cost:.2f}s")
+            self.build.lines.append(f"{robot.spec.name} is finding nodes: {' and '.join(request.node_ids)}, total work time is {cost:.2f}s")
         self._event(
             "award",
             request=request.id,
@@ -788,14 +805,14 @@ class ConstructionSimulation:
             estimated_finish=round(proposal.finish_time, 3),
             bidders=bidders,
         )
-        robot.process = self.env.process(self._execute(robot, request))
+        robot.process = self.build.env.process(self._execute(robot, request))
 
     # ---------------------------------------------------------------- robots
     def _drive(self, robot: _Robot, target: np.ndarray):
         distance = float(np.hypot(*(target - robot.position)))
         duration = timing.travel_s(robot.times, distance)
-        robot.leg = (self.env.now, robot.position.copy(), self.env.now + duration, np.array(target, dtype=float))
-        yield self.env.timeout(duration)
+        robot.leg = (self.build.env.now, robot.position.copy(), self.build.env.now + duration, np.array(target, dtype=float))
+        yield self.build.env.timeout(duration)
         robot.position = np.array(target, dtype=float)
         robot.leg = None
         robot.stats.travel_time += duration
@@ -804,11 +821,11 @@ class ConstructionSimulation:
         if robot.leg is None:
             return robot.position.copy()
         t0, p0, t1, p1 = robot.leg
-        fraction = 1.0 if t1 <= t0 else min(1.0, max(0.0, (self.env.now - t0) / (t1 - t0)))
+        fraction = 1.0 if t1 <= t0 else min(1.0, max(0.0, (self.build.env.now - t0) / (t1 - t0)))
         return p0 + fraction * (p1 - p0)
 
     def _execute(self, robot: _Robot, request: TaskRequest):
-        started = self.env.now
+        started = self.build.env.now
         component = self.smart.components[request.component_id]
         spec = robot.spec
         node_windows = None
@@ -817,10 +834,10 @@ class ConstructionSimulation:
             if request.activity == Task.TRANSPORT:
                 component.update_state(Event.START_TRANSPORT)
                 self._note_state(component)
-                self.lines.append(f"[{self.env.now:9.2f} s] Current progress: {spec.name} is loading {component.id}")
-                yield self.env.timeout(spec.load_s)
+                self.build.lines.append(f"[{self.build.env.now:9.2f} s] Current progress: {spec.name} is loading {component.id}")
+                yield self.build.env.timeout(spec.load_s)
                 yield from self._drive(robot, request.end)
-                yield self.env.timeout(spec.unload_s)
+                yield self.build.env.timeout(spec.unload_s)
                 component.position = np.array([*request.end, component.target_position[2]])
                 robot.stats.handling_time += spec.load_s + spec.unload_s
             elif request.activity == Task.POSITION:
@@ -830,7 +847,7 @@ class ConstructionSimulation:
                     component.start_positioning()
                 self._note_state(component)
                 duration = timing.position_s(robot.times, request.nodes)
-                yield self.env.timeout(duration)
+                yield self.build.env.timeout(duration)
                 robot.stats.handling_time += duration
             else:
                 nodes = [self.smart.nodes[n] for n in request.node_ids]
@@ -838,16 +855,16 @@ class ConstructionSimulation:
                     self._node_step(node, Event.START_ASSEMBLY)
                 node_windows = []
                 for node in nodes:
-                    begin = self.env.now
+                    begin = self.build.env.now
                     duration = timing.assemble_s(robot.times, node.assembly_point_number)
-                    yield self.env.timeout(duration)
+                    yield self.build.env.timeout(duration)
                     robot.stats.handling_time += duration
-                    node_windows.append((node, begin, self.env.now))
+                    node_windows.append((node, begin, self.build.env.now))
         except simpy.Interrupt:
             self._abort(robot, request, started)
             return
         robot.stats.steps += 1
-        robot.stats.busy_time += self.env.now - started
+        robot.stats.busy_time += self.build.env.now - started
         self._finish(robot, request, started, node_windows)
 
     def _finish(self, robot: _Robot, request: TaskRequest, started: float, node_windows) -> None:
@@ -861,7 +878,7 @@ class ConstructionSimulation:
         name = robot.spec.name
         robot.task = None
         for activity_name in robot.spec.activities:
-            self.idle[activity_name].add(name)
+            self.build.idle[activity_name].add(name)
         self._event("finish", request=request.id, activity=request.activity, component=request.component_id, robot=name)
         self._maybe_close_floor()
         self._request_dispatch()
@@ -876,7 +893,7 @@ class ConstructionSimulation:
         component.publish_positioning()
         self._note_state(component)
         if self.per_node and component.connection_nodes:
-            self.transport_activity[component.id] = activity.id
+            self.build.transport_activity[component.id] = activity.id
             for joint in self.smart.joints_of(component.id):
                 for node_id in joint.node_ids:
                     self._maybe_publish_node_positioning(self.smart.nodes[node_id])
@@ -893,26 +910,26 @@ class ConstructionSimulation:
         self._say(f"Component: {component.id} position is fixed, {name} is free for next work")
         activity = self._record(Task.POSITION, component, f"{Task.POSITION.title} {component.id}", name, started,
                                 request.predecessors, work=self._work(request, component.target_position[2], nodes=request.nodes))
-        self.position_activity[component.id] = (activity.id,)
+        self.build.position_activity[component.id] = (activity.id,)
         if component.state == State.ASSEMBLED:  # no nodes to fasten
-            self.open_on_floor[component.floor] -= 1
+            self.build.open_on_floor[component.floor] -= 1
         self._position_fixed(component)
 
     def _position_fixed(self, component: Component, joints: bool = True) -> None:
         """``component`` stands in place: release what it carries and (``joints``) the joints it completes."""
-        for dependant in self.dependants.get(component.id, []):  # components it carries
-            if dependant not in self.missing_supporters:
+        for dependant in self.build.dependants.get(component.id, []):  # components it carries
+            if dependant not in self.build.missing_supporters:
                 continue  # prebuilt and on site from the start
-            self.missing_supporters[dependant] -= 1
-            if self.missing_supporters[dependant] == 0:
+            self.build.missing_supporters[dependant] -= 1
+            if self.build.missing_supporters[dependant] == 0:
                 carried = self.smart.components[dependant]
                 if carried.prebuilt:
                     self._prebuilt_in_place(carried)
                     continue
-                if carried.floor <= self.current_floor:
+                if carried.floor <= self.build.current_floor:
                     self._publish_transport(dependant)
                 else:
-                    self.ready_by_floor.setdefault(carried.floor, []).append(dependant)
+                    self.build.ready_by_floor.setdefault(carried.floor, []).append(dependant)
         for node in component.connection_nodes if joints and not self.per_node else ():
             self._maybe_publish_assembly(self.smart.joints[node.joint_id])
 
@@ -921,19 +938,19 @@ class ConstructionSimulation:
         component.state = State.POSITION_FIXED
         for node in component.connection_nodes:
             if node.state != State.ASSEMBLED:
-                done = self.per_node and node.id not in self.attached_to  # per node: no robot node assembles it
+                done = self.per_node and node.id not in self.build.attached_to  # per node: no robot node assembles it
                 node.state = State.ASSEMBLED if done else State.POSITION_FIXED
         if all(node.state == State.ASSEMBLED for node in component.connection_nodes):
             component.state = State.ASSEMBLED
         self._note_state(component)
         supporters = self.smart.supporters[component.id]
         # what put it in place, known before the work that waited for it is published (its predecessors)
-        self.position_activity[component.id] = tuple(
-            dict.fromkeys(a for s in supporters for a in self.position_activity.get(s, ()))
+        self.build.position_activity[component.id] = tuple(
+            dict.fromkeys(a for s in supporters for a in self.build.position_activity.get(s, ()))
         )
         for node in component.connection_nodes:  # per node: the robot-built node it waited for
-            if node.id in self.attached_to:
-                self._maybe_publish_node_assembly(self.smart.nodes[self.attached_to[node.id]])
+            if node.id in self.build.attached_to:
+                self._maybe_publish_node_assembly(self.smart.nodes[self.build.attached_to[node.id]])
         self._say(
             f"Component: {component.id} (prebuilt, work of others) is in place: what it rests on "
             f"({', '.join(supporters)}) has its position fixed"
@@ -949,7 +966,7 @@ class ConstructionSimulation:
             owner = self.smart.components[node.component_id]
             self._node_step(node, Event.FINISH_ASSEMBLY)
             if self.per_node:
-                self.open_on_floor[node.level] -= 1
+                self.build.open_on_floor[node.level] -= 1
             row_start = started if previous is None else begin
             predecessors = tuple(request.predecessors) + ((previous,) if previous else ())
             work = self._work(request, node.position[2], points=node.assembly_point_number)
@@ -958,7 +975,7 @@ class ConstructionSimulation:
             previous = activity.id
         self._say(f"Nodes: {' and '.join(request.node_ids)} are assembled, {name} is free for next work")
         if not self.per_node:
-            self.open_on_floor[joint.floor] -= 1
+            self.build.open_on_floor[joint.floor] -= 1
 
     # ---------------------------------------------------------------- per-node work
     def _node_step(self, node, event: Event) -> None:
@@ -975,16 +992,16 @@ class ConstructionSimulation:
         """Per node: a prebuilt component on site has nothing of its own to do (as the footings in Table 4.2);
         its nodes joined to robot-built ones (anchor bolts) are assembled with those nodes."""
         for node in component.connection_nodes:
-            if node.id not in self.attached_to:
+            if node.id not in self.build.attached_to:
                 node.state = State.ASSEMBLED
         if all(node.state == State.ASSEMBLED for node in component.connection_nodes):
             component.state = State.ASSEMBLED
-            self.history[component.id].append((0.0, str(State.ASSEMBLED)))
+            self.build.history[component.id].append((0.0, str(State.ASSEMBLED)))
 
     def _maybe_publish_node_positioning(self, node) -> None:
         """Per node: position ``node`` once its component and every partner of its joint have arrived (ACC)."""
         component = self.smart.components[node.component_id]
-        if node.id in self.node_position_published or component.prebuilt or not at_least(component.state, State.ARRIVED):
+        if node.id in self.build.node_position_published or component.prebuilt or not at_least(component.state, State.ARRIVED):
             return
         partners = [self.smart.components[p] for p in self.smart.joints[node.joint_id].component_ids if p != component.id]
         if not self._has_anchor(component):
@@ -995,19 +1012,19 @@ class ConstructionSimulation:
             return
         if self._in_hands(component, node):
             return  # one robot handles a component at a time: its other nodes follow its first positioning
-        self.node_position_published.add(node.id)
+        self.build.node_position_published.add(node.id)
         names = ", ".join(p.id for p in partners)
         self._say(f"Node: {node.id} asks to be positioned: its connection components have arrived (ACC){': ' + names if names else ''}")
-        predecessors = [self.transport_activity.get(c.id) for c in (component, *partners)]
-        predecessors += self.position_activity.get(component.id, ())[:1]  # the row that put it in place
+        predecessors = [self.build.transport_activity.get(c.id) for c in (component, *partners)]
+        predecessors += self.build.position_activity.get(component.id, ())[:1]  # the row that put it in place
         self._publish(Task.POSITION, component, predecessors=predecessors, node=node)
 
     def _in_hands(self, component: Component, node) -> bool:
         """Whether another node of ``component`` is being positioned and none is fixed yet: the robot doing
         it holds the component, so ``node`` waits until the component stands in place (RCAN's robots hold
         a component one at a time; the schedule says so, and RCAN executes it in the same time)."""
-        return component.id not in self.position_activity and any(
-            other.id != node.id and other.id in self.node_position_published for other in component.connection_nodes)
+        return component.id not in self.build.position_activity and any(
+            other.id != node.id and other.id in self.build.node_position_published for other in component.connection_nodes)
 
     def _rests_on(self, upper: str, lower: str) -> bool:
         """Does ``upper`` rest on ``lower``, directly or through what it rests on (so it cannot arrive first)?"""
@@ -1036,9 +1053,9 @@ class ConstructionSimulation:
         self._say(f"Node: {node.id} position is fixed, {name} is free for next work")
         activity = self._record(Task.POSITION, component, f"{Task.POSITION.title} {node.id}", name, started,
                                 request.predecessors, work=self._work(request, node.position[2], nodes=1))
-        self.node_position_activity[node.id] = activity.id
-        first = component.id not in self.position_activity
-        self.position_activity[component.id] = self.position_activity.get(component.id, ()) + (activity.id,)
+        self.build.node_position_activity[node.id] = activity.id
+        first = component.id not in self.build.position_activity
+        self.build.position_activity[component.id] = self.build.position_activity.get(component.id, ()) + (activity.id,)
         if first:
             self._position_fixed(component, joints=False)
             for other in component.connection_nodes:  # they waited for the component to stand in place
@@ -1049,17 +1066,17 @@ class ConstructionSimulation:
     def _maybe_publish_node_assembly(self, node) -> None:
         """Per node: assemble ``node`` once its position is fixed and the prebuilt nodes assembled with it
         (a footing's anchors) are in place; the task carries their points too."""
-        if node.id in self.node_assembly_published or node.id not in self.node_position_activity:
+        if node.id in self.build.node_assembly_published or node.id not in self.build.node_position_activity:
             return
-        attached = [self.smart.nodes[n] for n in self.attached_nodes.get(node.id, ())]
+        attached = [self.smart.nodes[n] for n in self.build.attached_nodes.get(node.id, ())]
         if not all(at_least(n.state, State.POSITION_FIXED) for n in attached):
             return  # a prebuilt component made later is not in place yet
-        self.node_assembly_published.add(node.id)
+        self.build.node_assembly_published.add(node.id)
         component = self.smart.components[node.component_id]
-        predecessors = [self.node_position_activity[node.id]]
+        predecessors = [self.build.node_position_activity[node.id]]
         for other in attached:
             self._node_step(other, Event.PUBLISH_ASSEMBLY)
-            predecessors += self.position_activity.get(other.component_id, ())
+            predecessors += self.build.position_activity.get(other.component_id, ())
         self._node_step(node, Event.PUBLISH_ASSEMBLY)
         self._publish(Task.ASSEMBLE, component, self.smart.joints[node.joint_id], predecessors=list(dict.fromkeys(predecessors)), node=node)
 
@@ -1077,23 +1094,23 @@ class ConstructionSimulation:
 
     def _record(self, activity, component, name, robot, start, predecessors, finish=None, aborted=False,
                 work: dict | None = None) -> Activity:
-        self.activity_counter += 1
+        self.build.activity_counter += 1
         origin = self.smart_origin(component)
         row = Activity(
-            id=f"A{self.activity_counter:04d}",
+            id=f"A{self.build.activity_counter:04d}",
             activity=activity,
             global_id=component.id,
             name=name,
             robot=robot,
             start=start,
-            finish=self.env.now if finish is None else finish,
+            finish=self.build.env.now if finish is None else finish,
             target=origin,
             storey=component.storey_id or "",
             predecessors=tuple(p for p in predecessors if p),
             aborted=aborted,
             **(work or {}),
         )
-        self.activities.append(row)
+        self.build.activities.append(row)
         return row
 
     @staticmethod
@@ -1103,23 +1120,23 @@ class ConstructionSimulation:
         return (float(point[0]), float(point[1]), float(point[2]))
 
     def _breakdown(self, name: str, when: float, repair: float | None):
-        yield self.env.timeout(when)
-        robot = self.robots[name]
+        yield self.build.env.timeout(when)
+        robot = self.build.robots[name]
         self._stop_return(robot)
         robot.broken = True
-        robot.stats.broken_at = self.env.now
+        robot.stats.broken_at = self.build.env.now
         for activity in ACTIVITIES:
-            self.idle[activity].discard(name)
+            self.build.idle[activity].discard(name)
         self._say(f"{name} broke down")
         self._event("breakdown", robot=name, request=robot.task.id if robot.task else None)
         if robot.task is not None and robot.process is not None and robot.process.is_alive:
             robot.process.interrupt("breakdown")
         if repair is None:
             return
-        yield self.env.timeout(repair)
+        yield self.build.env.timeout(repair)
         robot.broken = False
         for activity in robot.spec.activities:
-            self.idle[activity].add(name)
+            self.build.idle[activity].add(name)
         self._say(f"{name} is repaired after {repair:g} s and back in the market")
         self._event("repaired", robot=name)
         self._request_dispatch()
@@ -1128,10 +1145,10 @@ class ConstructionSimulation:
         """Roll the interrupted task back and auction it again; nothing is lost."""
         component = self.smart.components[request.component_id]
         if robot.leg is not None:  # stopped while driving: count the part of the drive it made
-            robot.stats.travel_time += self.env.now - robot.leg[0]
+            robot.stats.travel_time += self.build.env.now - robot.leg[0]
         robot.position = self._position_now(robot)
         robot.leg = None
-        robot.stats.busy_time += self.env.now - started
+        robot.stats.busy_time += self.build.env.now - started
         robot.task = None
         if request.activity == Task.TRANSPORT and component.state == State.IN_TRANSIT:
             component.update_state(Event.ABORT)
@@ -1160,7 +1177,7 @@ class ConstructionSimulation:
         else:
             request.start = self.yard_of[component.id] if request.activity == Task.TRANSPORT else request.start
         request.attempts += 1
-        heapq.heappush(self.pending[request.activity], request)
+        heapq.heappush(self.build.pending[request.activity], request)
         where = f"({robot.position[0]:.2f}, {robot.position[1]:.2f})"
         if request.activity == Task.ASSEMBLE:
             what = f"assembly of nodes {' and '.join(request.node_ids)}: nodes are {State.WAIT_FOR_ASSEMBLY}"

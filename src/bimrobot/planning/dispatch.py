@@ -328,7 +328,7 @@ class DispatchEnv(gym.Env):
             node, robot = divmod(action, self.max_robots)
             self.sim.award(self._pending_request(node), self.robot_names[robot])
             if self.sim.has_decision():
-                done, info = False, {"time_s": float(self.sim.env.now)}
+                done, info = False, {"time_s": float(self.sim.build.env.now)}
             else:
                 self.sim.end_round()
                 done, info = self._to_next_decision()
@@ -342,17 +342,17 @@ class DispatchEnv(gym.Env):
         while self.sim.advance():
             self.round_id += 1
             if self.sim.has_decision():
-                return False, {"time_s": float(self.sim.env.now)}
+                return False, {"time_s": float(self.sim.build.env.now)}
             self.sim.end_round()  # pragma: no cover - advance stops only with candidates
         try:
             self.result = self.sim.result()
         except BimrobotError as exc:
-            return True, {"time_s": float(self.sim.env.now), "stalled": str(exc)}
-        return True, {"time_s": float(self.sim.env.now), "makespan_s": self.result.makespan}
+            return True, {"time_s": float(self.sim.build.env.now), "stalled": str(exc)}
+        return True, {"time_s": float(self.sim.build.env.now), "makespan_s": self.result.makespan}
 
     def _reward(self, done: bool, info: dict) -> float:
         """Minus the seconds since the last decision (at the end: up to the end of the last activity)."""
-        now = info.get("makespan_s", float(self.sim.env.now))
+        now = info.get("makespan_s", float(self.sim.build.env.now))
         reward, self._clock = -(now - self._clock), now
         return float(reward)
 
@@ -378,8 +378,8 @@ class DispatchEnv(gym.Env):
         if index >= len(self.robot_names):
             return False
         request, name = self._pending_request(node), self.robot_names[index]
-        return (request is not None and name in self.sim.idle[request.activity]
-                and not incapability(self.sim.robots[name].spec, request))
+        return (request is not None and name in self.sim.build.idle[request.activity]
+                and not incapability(self.sim.build.robots[name].spec, request))
 
     def action_of(self, request, robot: str) -> int:
         """The action that gives ``request`` (pending) to ``robot`` (a name)."""
@@ -394,7 +394,7 @@ class DispatchEnv(gym.Env):
 
     def _pending_request(self, node: int):
         """The pending request of graph node ``node``, or None when it is not ready."""
-        for pool in self.sim.pending.values():
+        for pool in self.sim.build.pending.values():
             for request in pool:
                 if self._node_of(request) == node:
                     return request
@@ -459,7 +459,7 @@ class DispatchEnv(gym.Env):
 
     def _follow_events(self) -> None:
         """Node states from the simulation's event log since the last look."""
-        events = self.sim.events
+        events = self.sim.build.events
         for event in events[self._seen_events:]:
             kind = event["event"]
             if kind == "task_request":
@@ -478,8 +478,8 @@ class DispatchEnv(gym.Env):
 
     def _observation(self) -> dict:
         self._follow_events()
-        n, now = len(self.graph.keys), float(self.sim.env.now)
-        robots = [self.sim.robots[name] for name in self.robot_names]
+        n, now = len(self.graph.keys), float(self.sim.build.env.now)
+        robots = [self.sim.build.robots[name] for name in self.robot_names]
         running_until = np.full(n, np.nan)
         for robot in robots:
             if robot.task is not None:
@@ -550,7 +550,7 @@ class DispatchEnv(gym.Env):
         if self.render_mode != "ansi" or self.sim is None:
             return None
         counts = {s: int(np.sum(self.state == i)) for i, s in enumerate(STATES)}
-        return f"t = {self.sim.env.now:.1f} s, decision {self.decisions}: " + ", ".join(f"{v} {k}" for k, v in counts.items())
+        return f"t = {self.sim.build.env.now:.1f} s, decision {self.decisions}: " + ", ".join(f"{v} {k}" for k, v in counts.items())
 
 
 def _mask(size: int, real: int) -> np.ndarray:
