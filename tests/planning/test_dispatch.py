@@ -11,7 +11,7 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 from bimrobot.coordination.simulation import simulate
-from bimrobot.errors import InputError
+from bimrobot.errors import BimrobotError, InputError
 from bimrobot.planning.dispatch import ENV_ID, NODE_FEATURES, DispatchEnv, MarketPolicy, frame_problem, play, task_key
 from bimrobot.sco.states import State
 
@@ -161,3 +161,5 @@ def test_a_fleet_left_without_carriers_ends_the_episode_as_stalled():
         _, _, done, truncated, info = env.step(int(np.flatnonzero(env.action_masks())[0]))
         assert not truncated
     assert "no working robot can transport" in info["stalled"] and env.result is None
+    with pytest.raises(BimrobotError, match="call reset"):
+        env.step(env.wait_action)

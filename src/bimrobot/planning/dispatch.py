@@ -292,6 +292,7 @@ class DispatchEnv(gym.Env):
         })
         self.sim: ConstructionSimulation | None = None
         self.result: SimulationResult | None = None
+        self._ended = True
 
     # ---------------------------------------------------------------- episode
     def reset(self, *, seed: int | None = None, options: dict | None = None):
@@ -310,11 +311,12 @@ class DispatchEnv(gym.Env):
         done, info = self._to_next_decision()
         if done:
             raise BimrobotError(f"{problem.smart.source}: nothing to decide, the build needs no robot")
+        self._ended = False
         return self._observation(), info
 
     def step(self, action):
-        if self.sim is None or self.result is not None:
-            raise BimrobotError("call reset() before step(): the episode has ended")
+        if self.sim is None or self._ended:
+            raise BimrobotError("call reset() before step(): no episode is running")
         action = int(action)
         invalid = not self._valid(action)
         if invalid:
@@ -334,6 +336,7 @@ class DispatchEnv(gym.Env):
                 done, info = self._to_next_decision()
         reward = self._reward(done, info)
         truncated = not done and self.decisions >= self._decision_limit
+        self._ended = done or truncated
         info.update(invalid_action=invalid, decisions=self.decisions)
         return self._observation(), reward, done, truncated, info
 
@@ -360,7 +363,7 @@ class DispatchEnv(gym.Env):
     def action_masks(self) -> np.ndarray:
         """Valid actions (bool, ``action_space.n``): ready task x idle capable robot, and waiting."""
         mask = np.zeros(self.action_space.n, dtype=bool)
-        if self.sim is None or self.result is not None:
+        if self.sim is None or self._ended:
             mask[self.wait_action] = True
             return mask
         for request, robot in self.sim.decision_candidates():
