@@ -1,5 +1,5 @@
 """Sub-commands of the rcan part (registered by bimrobot.cli): ``rcan run``, ``rcan executor``,
-``rcan capabilities`` and ``rcan robot-node`` (ROS 2)."""
+``rcan capabilities``, and those the backends declare (``rcan robot-node``: the ros2 backend's)."""
 
 from __future__ import annotations
 
@@ -89,20 +89,10 @@ def register(subparsers) -> None:
     _fleet_option(caps)
     caps.set_defaults(func=_capabilities)
 
-    node = commands.add_parser("robot-node", help="run the shipped ROS 2 robot node (kinematic robots)",
-                               description="A ROS 2 node serving the ConstructionActivity action for every robot "
-                                           "of the fleet (--fleet), executing activities on kinematic robots.",
-                               epilog="example:\n  bimrobot rcan robot-node --time-scale 0.01",
-                               formatter_class=argparse.RawDescriptionHelpFormatter)
-    _fleet_option(node)
-    _site_options(node)
-    node.add_argument("--time-scale", type=float, default=0.0, help="real seconds per simulated second (default 0)")
-    node.add_argument("--failure-probability", type=float, default=0.0, help="chance an activity fails (default 0)")
-    node.add_argument("--seed", type=int, default=0, help="seed of the failure draws (default 0)")
-    node.add_argument("--state-db", default=":memory:",
-                      help="SQLite file for the robots' world, new or bimrobot's (default in memory)")
-    node.add_argument("--robot", action="append", help="serve only this robot (repeatable; default: all)")
-    node.set_defaults(func=_robot_node)
+    from bimrobot.rcan.backends import backend_commands
+
+    for register_commands in backend_commands():  # e.g. ros2's robot-node
+        register_commands(commands)
 
 
 def _common(parser: argparse.ArgumentParser) -> None:
@@ -476,24 +466,6 @@ def _capabilities(args) -> int:
         print(f"  {robot.name:26s} types {types}; payload {robot.payload_kg:g} kg, "
               f"reach {robot.reach_m:g} m, speed {robot.speed_m_s:g} m/s")
     return 0
-
-
-def _robot_node(args) -> int:
-    from bimrobot.rcan.backends.ros2 import serve_robot_node
-
-    _check_backend_options(args)
-    if args.state_db != ":memory:":
-        from bimrobot.io import check_output
-        from bimrobot.rcan.state_manager import is_state_db
-
-        check_output(args.state_db, folder=False, inputs=_inputs(args), option="--state-db", recognise=is_state_db)
-    capabilities, _ = _fleet_capabilities(args)
-    unknown = [r for r in args.robot or () if r not in capabilities.by_name]
-    if unknown:
-        raise InputError(f"--robot {unknown[0]!r} is not a robot of {capabilities.source} "
-                         f"(its robots: {', '.join(capabilities.names[:10])})")
-    return serve_robot_node(capabilities, time_scale=args.time_scale, failure_probability=args.failure_probability,
-                            seed=args.seed, db_path=args.state_db, robots=args.robot)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -20,6 +20,7 @@ from typing import Callable, Iterable
 from bimrobot.coordination.fleet import Fleet
 from bimrobot.errors import InputError
 from bimrobot.rcan.activities import ActivityKind, RcanActivity
+from bimrobot.rcan.backends import DEFAULT_BACKEND
 from bimrobot.rcan.backends.interfaces import ActivityResult
 from bimrobot.rcan.broker import (ACTIVITY_TOPIC, DEAD_LETTER_TOPIC, RESULT_TOPIC, STATE_TOPIC, Broker, Message, Router,
                                   robot_topic)
@@ -75,7 +76,7 @@ class RcanSystem:
     """
 
     def __init__(self, broker: Broker, capabilities: Fleet, state_manager: StateManager,
-                 backend_name: str = "sim", log: Callable[[str], None] | None = None):
+                 backend_name: str = DEFAULT_BACKEND, log: Callable[[str], None] | None = None):
         self.broker = broker
         self.capabilities = capabilities
         self.state = state_manager
@@ -523,7 +524,7 @@ def _dependents(activities: list[RcanActivity], roots: list[str]) -> dict[str, s
 def run_plan(
     activities: Iterable[RcanActivity],
     capabilities: Fleet,
-    backend: str = "sim",
+    backend: str = DEFAULT_BACKEND,
     state_db: str = ":memory:",
     redis_url: str | None = None,
     spawn_executors: bool = True,

@@ -19,7 +19,7 @@ from bimrobot.rcan.backends.info import BackendInfo, BackendOption
 BACKENDS: dict[str, str] = {
     "sim": "bimrobot.rcan.backends.sim",  # built-in kinematic robots (the default)
     "ros2": "bimrobot.rcan.backends.ros2",  # an rclpy action client on ConstructionActivity
-    "mujoco": "bimrobot.rcan.backends.mujoco:MujocoBackend",  # physical robots in MuJoCo (bimrobot.physics)
+    "mujoco": "bimrobot.rcan.backends.mujoco",  # physical robots in MuJoCo (bimrobot.physics)
 }
 
 #: the backend a run uses unless told otherwise
@@ -54,3 +54,14 @@ def backend_options() -> tuple[BackendOption, ...]:
         for option in declaration(name).options:
             options.setdefault(option.flags[0], option)
     return tuple(options.values())
+
+
+def backend_commands() -> list:
+    """The functions that add the registered backends' own ``bimrobot rcan`` sub-commands (each called
+    with the sub-parsers), in registry order."""
+    functions = []
+    for name in BACKENDS:
+        for entry in declaration(name).commands:
+            module, _, function = entry.partition(":")
+            functions.append(getattr(importlib.import_module(module), function))
+    return functions

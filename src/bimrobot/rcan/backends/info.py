@@ -68,13 +68,16 @@ class BackendInfo:
     database, ``plan`` it sees the whole plan at the start, ``trajectory_path`` it records a trajectory
     there); ``acts_in_turns``: its robots share one world and act one at a time, so every robot needs its
     own executor thread and the coordinator reports each of its turns (``attach_coordinator``,
-    ``coordinator_settled``); ``options``: the command-line options it adds.
+    ``coordinator_settled``); ``options``: the command-line options it adds; ``commands``: sub-commands of
+    ``bimrobot rcan`` it adds, each ``"module:function"`` called with the argparse sub-parsers (a light
+    module: it is imported whenever ``bimrobot rcan`` builds its parser).
     """
 
     backend: str
     needs: tuple[str, ...] = ()
     acts_in_turns: bool = False
     options: tuple[BackendOption, ...] = ()
+    commands: tuple[str, ...] = ()
 
     def __post_init__(self):
         unknown = [n for n in self.needs if n not in CONTEXT_KEYWORDS]

@@ -11,8 +11,8 @@ Three modules, and only they import ROS (each only when called):
   action names, Fast DDS shared-memory cleanup (:func:`stale_fastdds_files`, :func:`cleanup_fastdds`);
 - :mod:`~bimrobot.rcan.backends.ros2.client`: :class:`Ros2Backend`, the executor backend (action client);
 - :mod:`~bimrobot.rcan.backends.ros2.robot_node`: the shipped robot node (:func:`serve_robot_node`, on
-  the kinematic robots of :class:`~bimrobot.rcan.backends.sim.KinematicSite`) and
-  :func:`robot_node_process`, which runs it in a subprocess.
+  the kinematic robots of the ``sim`` backend) and :func:`robot_node_process`, which runs it in a
+  subprocess; :mod:`~bimrobot.rcan.backends.ros2.commands` its command, ``bimrobot rcan robot-node``.
 
 The names are re-exported here, so ``from bimrobot.rcan.backends.ros2 import X`` works for each; this
 module declares the backend (:data:`INFO`) and imports none of them until a name is asked for.
@@ -41,6 +41,7 @@ INFO = BackendInfo(
                       "that already serve /bimrobot/<robot>/<activity> (external)", type=str,
                       choices=("spawn", "external"), default="spawn", run_only=True),
     ),
+    commands=("bimrobot.rcan.backends.ros2.commands:register",),  # bimrobot rcan robot-node
 )
 
 #: name -> the module of this package that defines it (imported when first asked for)
