@@ -52,10 +52,27 @@ def test_the_backend_uses_only_public_names_of_the_site():
     assert private == []
 
 
-def test_the_backend_declares_one_feature_module_per_activity():
-    from bimrobot.rcan.activities import ActivityKind
-    from bimrobot.rcan.backends.mujoco import FEATURES, MujocoBackend
+def test_the_backend_declares_its_six_features_one_module_each_and_what_it_needs_without_importing_them():
+    import subprocess
+    import sys
 
-    assert set(FEATURES) == set(ActivityKind) and MujocoBackend.features is FEATURES
-    modules = {getattr(MujocoBackend, method).__module__.rsplit(".", 1)[1] for method in FEATURES.values()}
+    from bimrobot.rcan.activities import ActivityKind
+    from bimrobot.rcan.backends.features import ActivityFeature
+    from bimrobot.rcan.backends.interfaces import DispatchingBackend
+    from bimrobot.rcan.backends.mujoco import FEATURES, INFO, MujocoBackend
+
+    assert set(MujocoBackend.features) == set(ActivityKind) == set(FEATURES)
+    assert not issubclass(MujocoBackend, DispatchingBackend)
+    feature_classes = {base.kind: base for base in MujocoBackend.__mro__
+                       if issubclass(base, ActivityFeature) and base.__module__.startswith("bimrobot.rcan.backends.mujoco")}
+    # each activity's physical work lives in the feature class (module) that declares it
+    for kind, method in FEATURES.items():
+        assert method in vars(feature_classes[kind]), (kind, method)
+    modules = {cls.__module__.rsplit(".", 1)[1] for cls in feature_classes.values()}
     assert modules == {"move", "pick", "transport", "position", "install"}
+    assert INFO.needs == ("plan", "trajectory_path") and INFO.acts_in_turns and MujocoBackend.backend_info() is INFO
+    # the declaration is read (rcan --help lists every backend's options) without numpy or MuJoCo
+    code = ("import sys; from bimrobot.rcan.backends import declaration; declaration('mujoco'); "
+            "print('numpy' in sys.modules, 'mujoco' in sys.modules)")
+    assert subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split() == \
+        ["False", "False"]

@@ -62,23 +62,37 @@ Layout (compas_fab's backend features): :mod:`.backend` holds :class:`MujocoBack
 picking up*, *pick up*), :mod:`.transport`, :mod:`.position` (*position for installing*),
 :mod:`.install`; :mod:`.scene` puts components and supports into the scene, :mod:`.layout` says
 where robots and components start. The physics (:mod:`bimrobot.physics.site`) knows nothing of RCAN;
-this package uses its public methods only.
+this package uses its public methods only. This module declares the backend (:data:`INFO`) and
+imports none of it (nor numpy, nor MuJoCo) until a name is asked for.
 """
 
 from __future__ import annotations
 
-from bimrobot.rcan.backends.mujoco.backend import FEATURES, MujocoBackend
-from bimrobot.rcan.backends.mujoco.common import (ANGLE_TOLERANCE_DEG, LIFT_M, MAKE_WAY_M, POSITION_TOLERANCE_M,
-                                                   RESEAT_LIFT_M, RESEAT_TRIES, SETTLE_S, SUPPORT_MIN_Z_M)
-from bimrobot.rcan.backends.mujoco.layout import (START_GAP_M, START_STEP_M, experiment_shapes, starting_activities,
-                                                   starts_apart, yard_footprints)
-from bimrobot.rcan.backends.mujoco.trajectory import (TRAJECTORY_POSITION_M, TRAJECTORY_QUATERNION, chassis_overlaps,
-                                                       trajectory_rows)
-from bimrobot.rcan.backends.mujoco.turns import BLOCKED_WAIT_S, BLOCKED_WAITS, IDLE_WAIT_S
+import importlib
 
-__all__ = [
-    "MujocoBackend", "FEATURES", "chassis_overlaps", "trajectory_rows", "starts_apart", "starting_activities",
-    "yard_footprints", "experiment_shapes", "ANGLE_TOLERANCE_DEG", "LIFT_M", "MAKE_WAY_M", "POSITION_TOLERANCE_M",
-    "RESEAT_LIFT_M", "RESEAT_TRIES", "SETTLE_S", "SUPPORT_MIN_Z_M", "START_GAP_M", "START_STEP_M",
-    "TRAJECTORY_POSITION_M", "TRAJECTORY_QUATERNION", "BLOCKED_WAIT_S", "BLOCKED_WAITS", "IDLE_WAIT_S",
-]
+from bimrobot.rcan.backends.info import BackendInfo
+
+#: the mujoco backend: it sees the whole plan at the start (every component starts in the scene), writes
+#: its trajectory where the run says, and its robots share one world, acting in turns
+INFO = BackendInfo(backend="bimrobot.rcan.backends.mujoco.backend:MujocoBackend", needs=("plan", "trajectory_path"),
+                   acts_in_turns=True)
+
+#: name -> the module of this package that defines it (imported when first asked for)
+_NAMES = {
+    "MujocoBackend": "backend", "FEATURES": "backend",
+    **dict.fromkeys(("ANGLE_TOLERANCE_DEG", "LIFT_M", "MAKE_WAY_M", "POSITION_TOLERANCE_M", "RESEAT_LIFT_M",
+                     "RESEAT_TRIES", "SETTLE_S", "SUPPORT_MIN_Z_M"), "common"),
+    **dict.fromkeys(("START_GAP_M", "START_STEP_M", "experiment_shapes", "starting_activities", "starts_apart",
+                     "yard_footprints"), "layout"),
+    **dict.fromkeys(("TRAJECTORY_POSITION_M", "TRAJECTORY_QUATERNION", "chassis_overlaps", "trajectory_rows"),
+                    "trajectory"),
+    **dict.fromkeys(("BLOCKED_WAIT_S", "BLOCKED_WAITS", "IDLE_WAIT_S"), "turns"),
+}
+
+__all__ = ["INFO", *_NAMES]
+
+
+def __getattr__(name: str):
+    if name in _NAMES:
+        return getattr(importlib.import_module(f"{__name__}.{_NAMES[name]}"), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -12,12 +12,13 @@ import numpy as np
 
 from bimrobot.coordination.fleet import Fleet
 from bimrobot.rcan.activities import ActivityKind
-from bimrobot.rcan.backends.interfaces import ActivityResult, DispatchingBackend
+from bimrobot.rcan.backends.interfaces import ActivityResult, ExecutorBackend
+from bimrobot.rcan.backends.mujoco import INFO
 from bimrobot.rcan.backends.mujoco.common import MAKE_WAY_M, ArmWork
 from bimrobot.rcan.backends.mujoco.install import Install
 from bimrobot.rcan.backends.mujoco.layout import experiment_shapes, starts_apart, yard_footprints
 from bimrobot.rcan.backends.mujoco.move import MoveToComponent
-from bimrobot.rcan.backends.mujoco.pick import PickingUp
+from bimrobot.rcan.backends.mujoco.pick import PickUp, PositionForPickingUp
 from bimrobot.rcan.backends.mujoco.position import PositionForInstalling
 from bimrobot.rcan.backends.mujoco.scene import SceneParts
 from bimrobot.rcan.backends.mujoco.trajectory import chassis_overlaps, trajectory_rows
@@ -25,7 +26,8 @@ from bimrobot.rcan.backends.mujoco.transport import Transport
 from bimrobot.rcan.backends.mujoco.turns import BLOCKED_WAIT_S, BLOCKED_WAITS, IDLE_WAIT_S, _Turns
 from bimrobot.rcan.node import RcanNode
 
-#: the activity features this backend implements: activity -> its method (each in its feature module)
+#: the activity features this backend implements (its feature classes, one module each) -> the method
+#: that does the activity's physical work, in its turn (:meth:`MujocoBackend._attempt`)
 FEATURES: dict[ActivityKind, str] = {
     ActivityKind.MOVE_TO_COMPONENT: "_move_to_component",  # move.py
     ActivityKind.POSITION_FOR_PICKING_UP: "_position_for_picking_up",  # pick.py
@@ -36,13 +38,13 @@ FEATURES: dict[ActivityKind, str] = {
 }
 
 
-class MujocoBackend(MoveToComponent, PickingUp, Transport, PositionForInstalling, Install, SceneParts, ArmWork,
-                    DispatchingBackend):
-    """Executor backend on a MuJoCo scene (see the package docstring): the features of its
-    :data:`FEATURES`, one module each, on one site."""
+class MujocoBackend(MoveToComponent, PositionForPickingUp, PickUp, Transport, PositionForInstalling, Install,
+                    SceneParts, ArmWork, ExecutorBackend):
+    """Executor backend on a MuJoCo scene (see the package docstring): the six activity features, one
+    module each (:data:`FEATURES`), on one site; declared by :data:`~bimrobot.rcan.backends.mujoco.INFO`."""
 
     name = "mujoco"
-    features = FEATURES
+    info = INFO
 
     def __init__(self, capabilities: Fleet, db_path: str | Path = ":memory:",
                  trajectory_path: str | Path | None = None, shapes: dict | None = None, plan=None, **_options):
@@ -286,9 +288,6 @@ class MujocoBackend(MoveToComponent, PickingUp, Transport, PositionForInstalling
             self.at_work[node.robot] = node.component_id
         else:
             self.at_work.pop(node.robot, None)
-
-    def _run(self, node, attempt, ready_at_s, feedback) -> ActivityResult:
-        return self.execute(node, attempt, ready_at_s, feedback)
 
     def summary(self) -> dict:
         """What the run measured: each installed component's placement error (position of its centre,

@@ -10,11 +10,18 @@ import numpy as np
 
 from bimrobot.rcan.backends.mujoco.common import (ANGLE_TOLERANCE_DEG, POSITION_TOLERANCE_M, RESEAT_LIFT_M,
                                                    RESEAT_TRIES, SETTLE_S)
+from bimrobot.rcan.backends import features
+from bimrobot.rcan.backends.interfaces import ActivityResult
 from bimrobot.rcan.node import RcanNode
 
 
-class Install:
+class Install(features.Install):
     """The *install* feature (see the module docstring)."""
+
+    def install(self, node: RcanNode, attempt: int = 1, ready_at_s: float = 0.0,
+                feedback=None) -> ActivityResult:
+        """*Install* in the one physical world, in its turn (:meth:`MujocoBackend.execute`)."""
+        return self.execute(node, attempt, ready_at_s, feedback)
 
     def _install(self, node: RcanNode) -> str:
         from bimrobot.physics.site import MotionFailed

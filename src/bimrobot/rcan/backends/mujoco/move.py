@@ -5,11 +5,18 @@ from __future__ import annotations
 
 import numpy as np
 
+from bimrobot.rcan.backends import features
+from bimrobot.rcan.backends.interfaces import ActivityResult
 from bimrobot.rcan.node import RcanNode
 
 
-class MoveToComponent:
+class MoveToComponent(features.MoveToComponent):
     """The *move to component* feature (see the module docstring)."""
+
+    def move_to_component(self, node: RcanNode, attempt: int = 1, ready_at_s: float = 0.0,
+                          feedback=None) -> ActivityResult:
+        """*Move to component* in the one physical world, in its turn (:meth:`MujocoBackend.execute`)."""
+        return self.execute(node, attempt, ready_at_s, feedback)
 
     def _move_to_component(self, node: RcanNode) -> str:
         goal = np.array([node.target.x, node.target.y])

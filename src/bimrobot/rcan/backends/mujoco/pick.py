@@ -7,11 +7,18 @@ from __future__ import annotations
 import numpy as np
 
 from bimrobot.rcan.backends.mujoco.common import LIFT_M
+from bimrobot.rcan.backends import features
+from bimrobot.rcan.backends.interfaces import ActivityResult
 from bimrobot.rcan.node import RcanNode
 
 
-class PickingUp:
-    """The *position for picking up* and *pick up* features (see the module docstring)."""
+class PositionForPickingUp(features.PositionForPickingUp):
+    """The *position for picking up* feature (see the module docstring)."""
+
+    def position_for_picking_up(self, node: RcanNode, attempt: int = 1, ready_at_s: float = 0.0,
+                                feedback=None) -> ActivityResult:
+        """*Position for picking up* in the one physical world, in its turn (:meth:`MujocoBackend.execute`)."""
+        return self.execute(node, attempt, ready_at_s, feedback)
 
     def _position_for_picking_up(self, node: RcanNode) -> str:
         from bimrobot.physics.placement import lying_pose
@@ -38,6 +45,15 @@ class PickingUp:
         if np.linalg.norm(site.tcp_pose(robot)[:3, 3] - grasp[:3, 3]) > 0.002:  # it moved as the arm came: once more
             site.move_tcp_through(robot, [grasp])
         return f"{node.kind.label} {gid}: gripper at the grasp pose"
+
+
+class PickUp(features.PickUp):
+    """The *pick up* feature (see the module docstring)."""
+
+    def pick_up(self, node: RcanNode, attempt: int = 1, ready_at_s: float = 0.0,
+                feedback=None) -> ActivityResult:
+        """*Pick up* in the one physical world, in its turn (:meth:`MujocoBackend.execute`)."""
+        return self.execute(node, attempt, ready_at_s, feedback)
 
     def _pick_up(self, node: RcanNode) -> str:
         from bimrobot.physics.site import MotionFailed

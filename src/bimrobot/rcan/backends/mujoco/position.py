@@ -9,11 +9,18 @@ import math
 import numpy as np
 
 from bimrobot.rcan.backends.mujoco.common import LIFT_M, SUPPORT_MIN_Z_M
+from bimrobot.rcan.backends import features
+from bimrobot.rcan.backends.interfaces import ActivityResult
 from bimrobot.rcan.node import RcanNode
 
 
-class PositionForInstalling:
+class PositionForInstalling(features.PositionForInstalling):
     """The *position for installing* feature (see the module docstring)."""
+
+    def position_for_installing(self, node: RcanNode, attempt: int = 1, ready_at_s: float = 0.0,
+                                feedback=None) -> ActivityResult:
+        """*Position for installing* in the one physical world, in its turn (:meth:`MujocoBackend.execute`)."""
+        return self.execute(node, attempt, ready_at_s, feedback)
 
     def _position_for_installing(self, node: RcanNode) -> str:
         from bimrobot.physics.site import Blocked, MotionFailed

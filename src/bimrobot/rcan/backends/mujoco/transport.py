@@ -8,11 +8,18 @@ import math
 
 import numpy as np
 
+from bimrobot.rcan.backends import features
+from bimrobot.rcan.backends.interfaces import ActivityResult
 from bimrobot.rcan.node import RcanNode
 
 
-class Transport:
+class Transport(features.Transport):
     """The *transport* feature (see the module docstring)."""
+
+    def transport(self, node: RcanNode, attempt: int = 1, ready_at_s: float = 0.0,
+                  feedback=None) -> ActivityResult:
+        """*Transport* in the one physical world, in its turn (:meth:`MujocoBackend.execute`)."""
+        return self.execute(node, attempt, ready_at_s, feedback)
 
     def _transport(self, node: RcanNode) -> str:
         from bimrobot.physics.site import MotionFailed
