@@ -1,0 +1,97 @@
+"""CP-SAT at scale (issue 38): proof or gap on generated frames of growing size, and the cost of
+generating buildings.
+
+For each generated steel frame (``generated:NXxNYxFLOORS``, the chapter-4 shape) and fleet it prints the
+tasks, how CP-SAT solved it (whole model, or floor by floor above ``--whole-tasks``), whether it proved
+the optimum, the best makespan found and the lower bound with the gap between them, the least-cost
+market's makespan (CP-SAT's first solution) and how far above the bound it is, and the wall and CPU
+time. Ratios are against the market measured in the same run (best / market) and against the time
+limit (time / limit). Wall time on a shared 2-core machine is disturbed by other processes; the CPU
+time is the solver's own work (``--workers`` threads).
+
+    .venv/bin/python bench/planning_cpsat.py                      # the default ladder, 600 s per instance
+    .venv/bin/python bench/planning_cpsat.py --time-limit 120 --only 2x2x1:fleet1 4x3x2:fleet2
+    .venv/bin/python bench/planning_cpsat.py --generate           # generation time and size, 10 to 10,000 components
+
+Goal (issue 38): where CP-SAT proves the optimum, up to at least 200 tasks within 10 minutes on a
+2-core machine; beyond, a bound and a gap.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import tempfile
+import time
+
+#: (frame NXxNYxFLOORS, fleet): 10, 28, 28, 46, 92, 150, 208, 432 and 1,392 tasks
+LADDER = ["2x1x1:fleet2", "2x2x1:fleet1", "2x2x1:fleet2", "3x2x1:fleet2", "3x2x2:fleet2", "3x3x2:fleet2",
+          "4x3x2:fleet2", "4x4x3:fleet2", "6x6x4:fleet2"]
+
+
+def solve(item: str, time_limit: float, workers: int, whole_tasks: int) -> dict:
+    from bimrobot.bim.selection import DEFAULT_PREBUILT
+    from bimrobot.coordination.cli import load_building
+    from bimrobot.coordination.fleet import load_fleet
+    from bimrobot.coordination.optimal import solve_optimal
+    from bimrobot.sco import build_smart_model
+
+    frame, fleet = item.split(":")
+    model, elevations = load_building(f"generated:{frame}")
+    smart = build_smart_model(model, prebuilt_classes=DEFAULT_PREBUILT)
+    wall, cpu = time.perf_counter(), time.process_time()
+    schedule = solve_optimal(smart, load_fleet(fleet), storey_elevations=elevations, time_limit_s=time_limit,
+                             workers=workers, whole_tasks=whole_tasks)
+    return {"frame": frame, "fleet": fleet, "tasks": schedule.tasks, "method": schedule.method,
+            "proved": schedule.status == "OPTIMAL", "best_s": schedule.makespan, "bound_s": schedule.lower_bound,
+            "gap_pct": 100 * schedule.gap, "market_s": schedule.hinted_s,
+            "market_over_bound_pct": 100 * (schedule.hinted_s - schedule.lower_bound) / schedule.hinted_s,
+            "wall_s": time.perf_counter() - wall, "cpu_s": time.process_time() - cpu}
+
+
+def run_ladder(args) -> None:
+    print(f"CP-SAT, {args.workers} workers, {args.time_limit:g} s per instance, whole model up to {args.whole_tasks} tasks")
+    print("| frame | fleet | tasks | method | proved | best (s) | bound (s) | gap | market (s) | market over bound | best / market | wall (s) | wall / limit | CPU (s) |")
+    print("|---|---|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+    for item in args.only or LADDER:
+        r = solve(item, args.time_limit, args.workers, args.whole_tasks)
+        print(f"| {r['frame']} | {r['fleet']} | {r['tasks']} | {r['method']} | {'yes' if r['proved'] else 'no'} | "
+              f"{r['best_s']:.1f} | {r['bound_s']:.1f} | {r['gap_pct']:.2f} % | {r['market_s']:.1f} | "
+              f"{r['market_over_bound_pct']:.2f} % | {r['best_s'] / r['market_s']:.4f} | {r['wall_s']:.1f} | "
+              f"{r['wall_s'] / args.time_limit:.2f} | {r['cpu_s']:.1f} |", flush=True)
+
+
+def run_generate(args) -> None:
+    from bimrobot.planning.generator import generate
+
+    print("| kind | asked | components | grid | wall (s) | CPU (s) | IFC (MB) | CPU per component (ms) |")
+    print("|---|---:|---:|---|---:|---:|---:|---:|")
+    with tempfile.TemporaryDirectory() as folder:
+        for kind in ("steel", "precast", "panel"):
+            for count in args.components:
+                wall, cpu = time.perf_counter(), time.process_time()
+                made = generate(f"generated:{kind}:{count}", os.path.join(folder, f"{kind}-{count}.ifc"))
+                wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
+                size = made.path.stat().st_size / 1e6
+                lay = made.layout
+                print(f"| {kind} | {count:,} | {made.components:,} | {lay.nx} x {lay.ny} x {lay.floors} | {wall:.1f} | "
+                      f"{cpu:.1f} | {size:.2f} | {1000 * cpu / made.components:.1f} |", flush=True)
+                made.path.unlink()
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--time-limit", type=float, default=600.0, help="seconds per instance (default 600)")
+    parser.add_argument("--workers", type=int, default=2, help="CP-SAT threads (default 2: this machine's cores)")
+    parser.add_argument("--whole-tasks", type=int, default=400, help="above this many tasks, solve floor by floor")
+    parser.add_argument("--only", nargs="*", help="instances FRAME:FLEET, e.g. 4x3x2:fleet2")
+    parser.add_argument("--generate", action="store_true", help="measure generated buildings instead")
+    parser.add_argument("--components", type=int, nargs="*", default=[10, 100, 1000, 10000])
+    args = parser.parse_args(argv)
+    run_generate(args) if args.generate else run_ladder(args)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

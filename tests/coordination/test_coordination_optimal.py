@@ -1,0 +1,82 @@
+"""The CP-SAT schedule (bimrobot.coordination.optimal) at scale: deterministic limits, never longer than the
+market it starts from, a lower bound and its gap, and floor-by-floor solving for large builds."""
+
+import pytest
+
+from bimrobot.bim.selection import DEFAULT_PREBUILT
+from bimrobot.coordination.fleet import load_fleet
+from bimrobot.coordination.generate import generated_frame
+from bimrobot.coordination.market import handling_time
+from bimrobot.coordination.simulation import ConstructionSimulation, simulate
+from bimrobot.errors import InputError
+from bimrobot.sco import build_smart_model
+
+pytest.importorskip("ortools")
+
+from bimrobot.coordination.optimal import solve_optimal, task_graph  # noqa: E402
+
+#: CP-SAT's deterministic time per solve (its own work units, the same on every machine), one worker
+LIMITS = dict(workers=1, deterministic_limit=0.5, time_limit_s=600.0)
+
+
+def _frame(nx: int, ny: int, floors: int):
+    model = generated_frame(nx, ny, floors)
+    return build_smart_model(model, prebuilt_classes=DEFAULT_PREBUILT), [s.elevation for s in model.storeys]
+
+
+def _check_feasible(schedule, smart, fleet, elevations) -> None:
+    """Every task starts after its predecessors end, and no robot does two things at once (seconds)."""
+    sim = ConstructionSimulation(smart, fleet, storey_elevations=elevations)
+    robots = {r.name: r for r in fleet.robots}
+    tasks = task_graph(smart, sim)
+    end = {t.key: schedule.start[t.key] + handling_time(robots[schedule.assignment[t.key]], t.request) for t in tasks}
+    for t in tasks:
+        for p in t.predecessors:
+            assert schedule.start[t.key] >= end[p] - 0.011, (p, t.key)
+    for name in robots:
+        spans = sorted((schedule.start[k], end[k]) for k, r in schedule.assignment.items() if r == name)
+        assert all(b[0] >= a[1] - 0.011 for a, b in zip(spans, spans[1:])), name
+    assert max(end.values()) == pytest.approx(schedule.makespan, abs=0.02)
+
+
+def test_best_found_is_a_schedule_no_longer_than_the_market_with_a_bound_and_its_gap():
+    """The thesis' frame shape (2 x 2 columns, 4 beams: 28 tasks) with fleet2, within a deterministic limit."""
+    smart, elevations = _frame(2, 2, 1)
+    fleet = load_fleet("fleet2")
+    schedule = solve_optimal(smart, fleet, storey_elevations=elevations, **LIMITS)
+    market = simulate(smart, fleet, None, "least-cost", 0, (), elevations, per_node=False).makespan
+    assert schedule.tasks == 28 and schedule.method == "whole"
+    assert schedule.hinted_s == pytest.approx(market)
+    assert schedule.makespan <= market + 0.05  # it starts from the market's own schedule
+    # 144 bolts between a 60 s and a 30 s robot: at least 144 x 20 s of assembly, floor after floor
+    assert 144 * 20 <= schedule.lower_bound <= schedule.makespan
+    assert schedule.gap == pytest.approx((schedule.makespan - schedule.lower_bound) / schedule.makespan)
+    _check_feasible(schedule, smart, fleet, elevations)
+
+
+def test_the_same_limits_give_the_same_schedule():
+    smart, elevations = _frame(2, 1, 1)
+    fleet = load_fleet("fleet2")
+    runs = [solve_optimal(smart, fleet, storey_elevations=elevations, hint=False, **{**LIMITS, "deterministic_limit": 0.3})
+            for _ in range(2)]
+    assert runs[0].makespan == runs[1].makespan and runs[0].assignment == runs[1].assignment
+
+
+def test_a_large_build_is_solved_floor_by_floor_with_a_valid_bound():
+    """Above ``whole_tasks`` the floors are solved one after the other; the bound is the sum of each
+    floor's bound (floors never overlap), which no schedule, the market's included, can beat."""
+    smart, elevations = _frame(2, 1, 2)
+    fleet = load_fleet("fleet1")
+    floors = solve_optimal(smart, fleet, storey_elevations=elevations, whole_tasks=10,
+                           **{**LIMITS, "deterministic_limit": 0.2})
+    assert floors.method == "by floor" and [row["floor"] for row in floors.floors] == [0, 1, 2]
+    assert sum(row["tasks"] for row in floors.floors) == floors.tasks == 20
+    assert floors.lower_bound == pytest.approx(sum(row["bound_s"] for row in floors.floors))
+    assert 0 < floors.lower_bound <= floors.hinted_s and floors.lower_bound <= floors.makespan
+    _check_feasible(floors, smart, fleet, elevations)
+
+
+def test_too_many_tasks_are_refused_in_one_sentence():
+    smart, elevations = _frame(2, 1, 1)
+    with pytest.raises(InputError, match="the build has 10 tasks; the CP-SAT comparison is limited to 5"):
+        solve_optimal(smart, load_fleet("fleet2"), storey_elevations=elevations, max_tasks=5)
