@@ -317,7 +317,7 @@ class ConstructionSimulation:
             request.reach_needed = self._reach_for_joint(joint)
         return request
 
-    def _joints_to_build(self) -> list[Joint]:
+    def joints_to_build(self) -> list[Joint]:
         """Joints with at least one node still to assemble (joints among prebuilt parts are done)."""
         return [
             joint for joint in self.smart.joints.values()
@@ -358,7 +358,7 @@ class ConstructionSimulation:
                 worst["width"] = max(worst["width"], request.size[1])
                 worst["reach"] = max(worst["reach"], request.reach_needed)
                 need[activity] = worst
-        joints = self._joints_to_build()
+        joints = self.joints_to_build()
         failing_joints, joint_reach, joint_methods = [], 0.0, set()
         for joint in joints:
             owner = self.smart.components[joint.component_ids[0]]
@@ -486,7 +486,7 @@ class ConstructionSimulation:
                 if (not components[node.component_id].prebuilt or node.id in self.build.attached_to) and node.state != State.ASSEMBLED:
                     self.build.open_on_floor[node.level] += 1
         else:
-            for joint in self._joints_to_build():
+            for joint in self.joints_to_build():
                 self.build.open_on_floor[joint.floor] += 1
         for component in components.values():
             if not component.connection_nodes and not component.prebuilt:
@@ -494,7 +494,7 @@ class ConstructionSimulation:
         for gid, missing in self.build.missing_supporters.items():
             if missing == 0 and gid not in later:
                 self.build.ready_by_floor.setdefault(components[gid].floor, []).append(gid)
-        for joint in self._joints_to_build() if not self.per_node else ():  # e.g. a footing joint of prebuilt parts only
+        for joint in self.joints_to_build() if not self.per_node else ():  # e.g. a footing joint of prebuilt parts only
             self._maybe_publish_assembly(joint)
         self._open_floor(0)
         self.build.repairs = [self.build.env.process(self._breakdown(robot, when, repair)) for robot, when, repair in self.breakdowns]
@@ -767,8 +767,13 @@ class ConstructionSimulation:
         self._award(award.request, self.build.robots[award.robot], award.proposal, award.bidders)
 
     def position_now(self, robot: _Robot) -> np.ndarray:
-        """Where ``robot`` is now (site frame x, y, metres): part way along its drive back to the yard."""
+        """Where an idle ``robot`` bids from (site frame x, y, metres): part way along its drive back to
+        the yard, else where it stands."""
         return self._position_now(robot) if robot.returning else robot.position
+
+    def where(self, robot: _Robot) -> np.ndarray:
+        """Where ``robot`` is now (site frame x, y, metres), part way along any drive."""
+        return self._position_now(robot)
 
     def _step_header(self) -> None:
         self.build.lines.append("-" * 48)
@@ -1007,7 +1012,7 @@ class ConstructionSimulation:
         if not self._has_anchor(component):
             # every node of it waits for something that rests on it: waiting would deadlock, so its nodes
             # wait only for the partners that can come before it is fixed
-            partners = [p for p in partners if not self._rests_on(p.id, component.id)]
+            partners = [p for p in partners if not self.rests_on(p.id, component.id)]
         if not all(p.prebuilt or at_least(p.state, State.ARRIVED) for p in partners):
             return
         if self._in_hands(component, node):
@@ -1026,12 +1031,12 @@ class ConstructionSimulation:
         return component.id not in self.build.position_activity and any(
             other.id != node.id and other.id in self.build.node_position_published for other in component.connection_nodes)
 
-    def _rests_on(self, upper: str, lower: str) -> bool:
+    def rests_on(self, upper: str, lower: str) -> bool:
         """Does ``upper`` rest on ``lower``, directly or through what it rests on (so it cannot arrive first)?"""
         key = (upper, lower)
         if key not in self._rests_memo:
             supporters = self.smart.supporters.get(upper, ())
-            self._rests_memo[key] = lower in supporters or any(self._rests_on(s, lower) for s in supporters)
+            self._rests_memo[key] = lower in supporters or any(self.rests_on(s, lower) for s in supporters)
         return self._rests_memo[key]
 
     def _has_anchor(self, component: Component) -> bool:
@@ -1039,7 +1044,7 @@ class ConstructionSimulation:
         that node is fixed the component carries what rests on it, so its other nodes can wait for those."""
         if component.id not in self._anchor_memo:
             self._anchor_memo[component.id] = any(
-                not any(self._rests_on(p, component.id) for p in self.smart.joints[n.joint_id].component_ids if p != component.id)
+                not any(self.rests_on(p, component.id) for p in self.smart.joints[n.joint_id].component_ids if p != component.id)
                 for n in component.connection_nodes
             )
         return self._anchor_memo[component.id]

@@ -156,10 +156,10 @@ def task_graph(sim: ConstructionSimulation) -> TaskGraph:
                     closes.setdefault(n.level, []).append(f"assemble:{n.id}")
                     joint = smart.joints[n.joint_id]
                     for partner in joint.component_ids:
-                        if partner != c.id and not smart.components[partner].prebuilt and not sim._rests_on(partner, c.id):
+                        if partner != c.id and not smart.components[partner].prebuilt and not sim.rests_on(partner, c.id):
                             edges.append((f"transport:{partner}", f"position:{n.id}"))
     else:
-        for joint in sim._joints_to_build():
+        for joint in sim.joints_to_build():
             members = [smart.components[g] for g in joint.component_ids]
             add(f"assemble:{joint.id}", "assemble", sim.request_for(Task.ASSEMBLE, members[0], joint))
             closes.setdefault(joint.floor, []).append(f"assemble:{joint.id}")
@@ -497,7 +497,7 @@ class DispatchEnv(gym.Env):
         where = np.zeros((self.max_robots, 2))
         for j, robot in enumerate(robots):
             busy = robot.task is not None
-            here = self.sim._position_now(robot)
+            here = self.sim.where(robot)
             where[j] = robot.end_position if busy else here
             robot_features[j, 0:2] = here
             robot_features[j, 6:9] = (busy, max(0.0, robot.free_at - now) if busy else 0.0, robot.broken)
