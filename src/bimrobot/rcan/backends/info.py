@@ -46,7 +46,8 @@ class BackendOption:
 
     def add_to(self, parser) -> None:
         """Add the option to an argparse parser."""
-        extra = {key: value for key, value in (("metavar", self.metavar), ("choices", self.choices)) if value is not None}
+        extra = {key: value for key, value in (("metavar", self.metavar), ("choices", self.choices))
+                 if value is not None}
         kind = {} if self.choices is not None else {"type": self.type}
         parser.add_argument(*self.flags, **kind, default=self.default, help=self.help, **extra)
 
@@ -104,7 +105,8 @@ class RunContext:
     def of_run(cls, state_db: str, plan) -> "RunContext":
         """The context of a whole run on ``state_db`` (its trajectory file: ``<state db>.trajectory.csv``;
         none for a state database in memory)."""
-        path = None if str(state_db) == ":memory:" else Path(state_db).with_name(Path(state_db).name + ".trajectory.csv")
+        db = Path(state_db)
+        path = None if str(state_db) == ":memory:" else db.with_name(db.name + ".trajectory.csv")
         return cls(str(state_db), tuple(plan), path)
 
     def arguments(self, needs: tuple[str, ...]) -> dict:

@@ -29,17 +29,20 @@ from bimrobot.rcan.backends.info import BackendInfo, BackendOption
 INFO = BackendInfo(
     backend="bimrobot.rcan.backends.ros2.client:Ros2Backend",
     options=(
-        BackendOption(("--deadline-factor",), "ros2: a goal is cancelled after --deadline-min + F x its expected duration "
-                      "(robot seconds x the robots' time scale; default 3)", keyword="deadline_factor", default=3.0,
-                      metavar="F", low=0.0, high=86400.0),
+        BackendOption(("--deadline-factor",),
+                      "ros2: a goal is cancelled after --deadline-min + F x its expected duration "
+                      "(robot seconds x the robots' time scale; default 3)",
+                      keyword="deadline_factor", default=3.0, metavar="F", low=0.0, high=86400.0),
         BackendOption(("--deadline-min",), "ros2: the least time a goal gets, seconds (default 30)",
                       keyword="deadline_min_s", default=30.0, metavar="S", low=0.1, high=86400.0),
-        BackendOption(("--liveness",), "ros2: a robot whose server sends no feedback for this long while it works is "
-                      "taken for dead; its activity goes to another capable robot (default 4 s)", keyword="liveness_s",
-                      default=4.0, metavar="S", low=0.1, high=86400.0),
-        BackendOption(("--robot-node",), "ros2: start the shipped robot node for the run (spawn, default) or use robots "
-                      "that already serve /bimrobot/<robot>/<activity> (external)", type=str,
-                      choices=("spawn", "external"), default="spawn", run_only=True),
+        BackendOption(("--liveness",),
+                      "ros2: a robot whose server sends no feedback for this long while it works is "
+                      "taken for dead; its activity goes to another capable robot (default 4 s)",
+                      keyword="liveness_s", default=4.0, metavar="S", low=0.1, high=86400.0),
+        BackendOption(("--robot-node",),
+                      "ros2: start the shipped robot node for the run (spawn, default) or use robots "
+                      "that already serve /bimrobot/<robot>/<activity> (external)",
+                      type=str, choices=("spawn", "external"), default="spawn", run_only=True),
     ),
     commands=("bimrobot.rcan.backends.ros2.commands:register",),  # bimrobot rcan robot-node
 )

@@ -46,8 +46,10 @@ INFO = BackendInfo(
     backend="bimrobot.rcan.backends.sim.backend:SimBackend",
     needs=("state_db",),
     options=(
-        BackendOption(("--time-scale",), "sim: real seconds slept per simulated second (default 0, as fast as possible)",
-                      keyword="time_scale", default=0.0, low=0.0, high=1000.0, unit="real seconds per simulated second"),
+        BackendOption(("--time-scale",),
+                      "sim: real seconds slept per simulated second (default 0, as fast as possible)",
+                      keyword="time_scale", default=0.0, low=0.0, high=1000.0,
+                      unit="real seconds per simulated second"),
         BackendOption(("--failure-probability",), "sim: chance an activity fails (default 0)",
                       keyword="failure_probability", default=0.0, low=0.0, high=1.0),
         BackendOption(("--seed",), "sim: seed of the failure draws (default 0)", keyword="seed", type=int, default=0),
