@@ -2,7 +2,8 @@
 
 The instance is built from the simulation's own pieces, so it is the problem ``simulate --per-joint``
 runs and :func:`bimrobot.coordination.optimal.solve_optimal` solves: the tasks and precedences of
-:func:`~bimrobot.coordination.optimal.task_graph`, every task's request from
+:func:`~bimrobot.coordination.optimal.task_graph` (its floor gate written as one gate per floor,
+:func:`floor_gates`), every task's request from
 :meth:`~bimrobot.coordination.simulation.ConstructionSimulation.request_for` (where the work is, what it
 weighs, its nodes and points), handling times from the one time model (:mod:`bimrobot.sco.timing`, via
 :func:`bimrobot.coordination.market.handling_time`) and robot homes as the simulation places them.
