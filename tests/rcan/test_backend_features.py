@@ -155,7 +155,7 @@ def test_the_built_in_backends_declare_what_they_need():
     assert backend_class("sim").backend_info().needs == ("state_db",)  # its world lives in the state database
     assert [o.flags[0] for o in declaration("ros2").options] == ["--deadline-factor", "--deadline-min", "--liveness",
                                                                   "--robot-node"]
-    mujoco = backend_class("mujoco")  # not yet declared: its old hooks say it
+    mujoco = backend_class("mujoco")  # physical robots: the plan at the start, a trajectory, turns
     assert set(mujoco.features) == set(features.ActivityKind)
     assert mujoco.backend_info().needs == ("plan", "trajectory_path") and mujoco.backend_info().acts_in_turns
     assert issubclass(backend_class("sim"), ExecutorBackend)
