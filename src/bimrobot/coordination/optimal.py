@@ -337,7 +337,36 @@ def _floor_loads(model, tasks, gates, ancestors, capable, busy_min, assigned) ->
             work = [t for t in counted if (t.key, name) in assigned]
             lead = min(head[t.key] for t in work) + min(tail[t.key] for t in work)
             model.Add(sum(assigned[t.key, name] * busy_min[t.key, name] for t in work) <= gate - opening - lead)
+        pairs: dict[tuple[str, ...], list[_Task]] = {}
+        for t in counted:
+            pairs.setdefault(tuple(r.name for r in capable[t.key]), []).append(t)
+        for pair, work in pairs.items():
+            if len(pair) == 2 and len(work) > 1:
+                lead = min(head[t.key] for t in work) + min(tail[t.key] for t in work)
+                model.Add(gate - opening - lead >= _two_robot_bound(work, pair, busy_min))
     del order
+
+
+def _two_robot_bound(work: list[_Task], pair: tuple[str, str], busy_min) -> int:
+    """The least time (ticks) two robots need for ``work`` that only they can do, each task on one of
+    them with its least busy time there: min over splits of the larger load (subset sums, in whole
+    seconds rounded down, so never above the true least). The relaxation splits tasks in fractions;
+    this cut keeps each task whole."""
+    a, b = pair
+    cost_a = [busy_min[t.key, a] // SCALE for t in work]
+    cost_b = [busy_min[t.key, b] // SCALE for t in work]
+    size = sum(cost_a) + 1
+    if size * len(work) > 5e7:
+        return 0  # too large to enumerate; the linear loads still hold
+    best_b = np.full(size, np.iinfo(np.int64).max // 4, dtype=np.int64)  # load on a -> least load on b
+    best_b[0] = 0
+    for ca, cb in zip(cost_a, cost_b):
+        on_b = best_b + cb
+        on_a = np.full(size, np.iinfo(np.int64).max // 4, dtype=np.int64)
+        on_a[ca:] = best_b[:size - ca] if ca else best_b
+        best_b = np.minimum(on_a, on_b)
+    loads = np.maximum(np.arange(size), best_b)
+    return int(loads.min()) * SCALE
 
 
 def _add_hint(model, hint: dict, problem: _Problem, handling, drive, first_drive, ready, v: dict) -> None:
