@@ -23,7 +23,7 @@ Where the whole model is too big (more than ``whole_tasks`` tasks), the build is
 (the floor gate makes floors follow each other): each floor starts when the one below is done, with
 every robot where it stopped. The lower bound is then the sum of each floor's bound with its robots
 free to start anywhere at once (valid because floors cannot overlap), or the largest of them where a
-floor has work that no joint of that floor waits for.
+floor has work that no joint of that floor waits for or that the floor gate does not hold.
 
 Determinism: ``workers=1`` with ``deterministic_limit`` (CP-SAT's deterministic time, not wall time)
 and a fixed ``seed`` gives the same result on every machine; tests use that.
@@ -90,8 +90,9 @@ def task_graph(smart: SmartModel, sim: ConstructionSimulation) -> list[_Task]:
     tasks: list[_Task] = []
     components = smart.components
     joints_by_floor: dict[int, list[str]] = {}
-    for joint in smart.joints.values():
-        joints_by_floor.setdefault(joint.floor, []).append(f"assemble:{joint.id}")
+    for joint in smart.joints.values():  # a joint of prebuilt parts only is no task: it gates nothing
+        if any(not components[g].prebuilt for g in joint.component_ids):
+            joints_by_floor.setdefault(joint.floor, []).append(f"assemble:{joint.id}")
     for component in components.values():
         if component.prebuilt:
             continue
@@ -504,7 +505,7 @@ def _by_floor(tasks, fleet, homes, given, hinted, time_limit_s, started, limits)
         mine = [t for t in tasks if t.floor == floor]
         keys = {t.key for t in mine}
         local = [_Task(t.key, t.activity, t.request, [p for p in t.predecessors if p in keys], None, t.floor) for t in mine]
-        disjoint &= _all_feed_a_joint(local)
+        disjoint &= _all_feed_a_joint(local) and (floor == floors[0] or _all_after_the_gate(mine))
         budget = max(1.0, (time_limit_s - (time.perf_counter() - started)) * len(mine) / max(1, sum(
             1 for t in tasks if t.floor >= floor)))
         release = {name: max(ready[name], clock) for name in ready}
@@ -528,6 +529,21 @@ def _by_floor(tasks, fleet, homes, given, hinted, time_limit_s, started, limits)
     bound = sum(bounds) if disjoint else max(bounds)
     return OptimalSchedule(clock, min(bound, clock), "FEASIBLE", assignment, start, len(tasks), "by floor",
                            time.perf_counter() - started, hinted, rows)
+
+
+def _all_after_the_gate(tasks: list[_Task]) -> bool:
+    """Whether every task of a floor waits, through the floor's own precedences, for a transport held
+    by the floor gate (then nothing of this floor can start before the floors below are done)."""
+    keys = {t.key for t in tasks}
+    gated = {t.key for t in tasks if t.gate_floor is not None}
+    changed = True
+    while changed:
+        changed = False
+        for t in tasks:
+            if t.key not in gated and any(p in gated for p in t.predecessors if p in keys):
+                gated.add(t.key)
+                changed = True
+    return len(gated) == len(tasks)
 
 
 def _all_feed_a_joint(tasks: list[_Task]) -> bool:
