@@ -6,8 +6,9 @@ The one reader of fleet (:mod:`bimrobot.coordination.fleet`), site (:mod:`bimrob
 - :func:`read_yaml_file` / :func:`parse_yaml` read YAML keeping line numbers (every mapping is a
   :class:`LineDict`, which knows the line of each key) and refuse, before any loader sees them, numbers
   that no physical quantity can take: NaN, infinities and magnitudes above :data:`MAX_MAGNITUDE`;
-- :func:`check_keys` refuses a key a mapping may not have, at every level of a file;
-- :func:`number` checks a key's own physical range.
+- :func:`check_keys` refuses a key a mapping may not have, at every level of a file.
+
+What each key may hold (its type, physical range and unit) is declared once, in :mod:`bimrobot.schema`.
 
 Every message is one sentence naming the file, the line, the key and what was expected.
 """
@@ -155,7 +156,7 @@ class _Builder:
                 return node.value
             value = (self.scalars.get(node.tag) or self.scalars[None])(self.loader, node)
             if isinstance(value, (int, float)) and not isinstance(value, bool):
-                _check_finite(value, f"{self.source}{line}: key '{key_path or '(top level)'}'")
+                check_finite(value, f"{self.source}{line}: key '{key_path or '(top level)'}'")
             return value
         if id(node) in self.built:
             return self.built[id(node)]
@@ -192,7 +193,8 @@ class _Builder:
         return mapping
 
 
-def _check_finite(value: int | float, where: str) -> None:
+def check_finite(value: int | float, where: str) -> None:
+    """Refuse NaN, infinities and magnitudes beyond :data:`MAX_MAGNITUDE`; ``where`` names the value."""
     if isinstance(value, float) and math.isnan(value):
         raise InputError(f"{where} is NaN; expected a finite number")
     if isinstance(value, float) and math.isinf(value):
@@ -200,38 +202,3 @@ def _check_finite(value: int | float, where: str) -> None:
     if abs(value) > MAX_MAGNITUDE:
         shown = f"{value:.3g}" if isinstance(value, float) else (str(value) if value < 10**20 else f"a {len(str(abs(value)))}-digit number")
         raise InputError(f"{where} is {shown}, beyond any physical value (at most {MAX_MAGNITUDE:g} in magnitude)")
-
-
-def number(
-    mapping: Any,
-    key: Any,
-    source: str,
-    *,
-    low: float | None = None,
-    high: float | None = None,
-    low_inclusive: bool = True,
-    unit: str = "",
-    default: float | None = None,
-    where: str = "",
-) -> float:
-    """``mapping[key]`` as a finite float in ``[low, high]`` (or ``(low, high]``), else an InputError.
-
-    The message names ``source``, ``where`` (e.g. ``robot 'Crane1'``), the key, its line, the range and
-    the unit. A missing key gives ``default`` when one is given.
-    """
-    label = f"{source}{line_of(mapping, key)}: {where + ': ' if where else ''}key '{key}'"
-    if key not in mapping:
-        if default is not None:
-            return float(default)
-        raise InputError(f"{label} is missing")
-    value = mapping[key]
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise InputError(f"{label} must be a number{' in ' + unit if unit else ''}, got {value!r}")
-    _check_finite(value, label)
-    too_low = low is not None and (value < low if low_inclusive else value <= low)
-    if too_low or (high is not None and value > high):
-        lower = "" if low is None else f"{'>=' if low_inclusive else '>'} {low:g}"
-        upper = "" if high is None else f"<= {high:g}"
-        bounds = " and ".join(b for b in (lower, upper) if b)
-        raise InputError(f"{label} must be {bounds}{' ' + unit if unit else ''}, got {value:g}")
-    return float(value)

@@ -30,15 +30,15 @@ homes lie on the building's footprint is used as given, with a warning naming th
 from __future__ import annotations
 
 import logging
-import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
 from bimrobot.bim.work_schedule import WorkCalendar, work_calendar_from
-from bimrobot.config import check_keys, line_of, read_yaml_file
+from bimrobot.config import read_yaml_file
 from bimrobot.errors import InputError
+from bimrobot.schema import At, Choice, Custom, Integer, Points, Quantity, Rule, Vector, keys_of, read_keys, rule
 
 log = logging.getLogger(__name__)
 
@@ -46,32 +46,25 @@ log = logging.getLogger(__name__)
 #: model offset may be as large as projected map coordinates (UTM northings reach 1e7 m).
 SITE_COORDINATE_LIMIT_M = 1e6
 OFFSET_LIMIT_M = 2e7
-#: The keys of a site file (module docstring).
-SITE_KEYS = ("yard", "robot_home", "construction_area", "model_offset", "idle_robots", "work_calendar",
-             "assembly_points_per_joint")
+#: One site position: [x, y] metres, each within +-SITE_COORDINATE_LIMIT_M (the model offset: OFFSET_LIMIT_M).
+POINT = Vector(Quantity(-SITE_COORDINATE_LIMIT_M, SITE_COORDINATE_LIMIT_M, "m"), "a pair of numbers [x, y] in metres")
 
 
-def number_in(value, label: str, low: float, high: float, unit: str, low_inclusive: bool = False) -> float:
-    """``value`` as a finite float in (low, high] (or [low, high]); ``label`` names file, key and line."""
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise InputError(f"{label} must be a number in {unit}, got {value!r}")
-    if not math.isfinite(value):
-        raise InputError(f"{label} must be a finite number in {unit}, got {value!r}")
-    if (value < low if low_inclusive else value <= low) or value > high:
-        raise InputError(f"{label} must be {'>=' if low_inclusive else '>'} {low:g} and <= {high:g} {unit}, got {value:g}")
-    return float(value)
+@dataclass(frozen=True)
+class _Area(Rule):
+    """``construction_area``: [[xmin, ymin], [xmax, ymax]] site positions with xmin < xmax and ymin < ymax."""
+
+    def read(self, value, at: At) -> tuple[tuple[float, float], tuple[float, float]]:
+        if not isinstance(value, list) or len(value) != 2:
+            raise at.fail("must be [[xmin, ymin], [xmax, ymax]] in metres")
+        low, high = (POINT.read(v, at.item(i)) for i, v in enumerate(value))
+        if not (low[0] < high[0] and low[1] < high[1]):
+            raise at.fail(f"must have xmin < xmax and ymin < ymax, got {value!r}")
+        return (low, high)
 
 
-def point(mapping, key, source: str, where: str = "", limit: float = SITE_COORDINATE_LIMIT_M, item: int | None = None) -> tuple[float, float]:
-    """``mapping[key]`` (or its item ``item``) as [x, y] metres, each within +-``limit``."""
-    shown = key if item is None else f"{key}[{item}]"
-    label = f"{source}{line_of(mapping, key)}: {where + ': ' if where else ''}key '{shown}'"
-    value = mapping[key] if item is None else mapping[key][item]
-    if not isinstance(value, (list, tuple)) or len(value) != 2:
-        raise InputError(f"{label} must be a pair of numbers [x, y] in metres, got {value!r}")
-    x, y = (number_in(v, label, -limit, limit, "m", low_inclusive=True) for v in value)
-    return (x, y)
-
+def _calendar(value, at: At) -> WorkCalendar:
+    return work_calendar_from(value, at.source, at.line)
 
 
 @dataclass(frozen=True)
@@ -86,15 +79,16 @@ class Site:
     ``work_calendar``: working days and hours (:class:`bimrobot.bim.work_schedule.WorkCalendar`).
     """
 
-    yard: tuple[tuple[float, float], ...]
-    robot_home: tuple[tuple[float, float], ...]
-    construction_area: tuple[tuple[float, float], tuple[float, float]]
-    model_offset: tuple[float, float] | None = None
-    idle_robots: str = "stay"
+    yard: tuple[tuple[float, float], ...] = field(metadata=rule(Points(POINT, "[x, y] positions in metres")))
+    robot_home: tuple[tuple[float, float], ...] = field(metadata=rule(Points(POINT, "[x, y] positions in metres")))
+    construction_area: tuple[tuple[float, float], tuple[float, float]] = field(metadata=rule(_Area()))
+    model_offset: tuple[float, float] | None = field(default=None, metadata=rule(POINT.within(OFFSET_LIMIT_M)))
+    idle_robots: str = field(default="stay", metadata=rule(Choice(("stay", "yard"), "'stay' or 'yard'")))
     source: str = "default site (thesis fig. 4.11)"
-    work_calendar: WorkCalendar = WorkCalendar()
     #: fastening points assumed for a joint the model gives none for (None: bimrobot.sco.build's default)
-    assembly_points_per_joint: int | None = None
+    assembly_points_per_joint: int | None = field(
+        default=None, metadata=rule(Integer(1, 1000, "a whole number of bolts or welds")))
+    work_calendar: WorkCalendar = field(default=WorkCalendar(), metadata=rule(Custom(_calendar)))
 
     def robot_start(self, index: int, own_home=None) -> tuple[float, ...]:
         """Where robot number ``index`` of a fleet starts (m, site frame): its ``own_home`` as given ((x, y)
@@ -239,44 +233,17 @@ def site_yaml(site: Site, what: str) -> str:
 
 
 def site_from_dict(data, source: str) -> Site:
+    """A validated Site from a parsed site file (:data:`SITE_KEYS`; a missing key takes fig. 4.11's
+    value); a refusal names ``source``, the key and its line."""
     if not isinstance(data, dict):
         raise InputError(f"{source}: expected a mapping with yard, robot_home and construction_area")
-    check_keys(data, SITE_KEYS, source)
     default = default_site()
-    values = {}
-    for key in ("yard", "robot_home"):
-        if key in data:
-            points = data[key]
-            if not isinstance(points, list) or not points:
-                raise InputError(f"{source}{line_of(data, key)}: key '{key}' must be a non-empty list of [x, y] positions in metres")
-            values[key] = tuple(point(data, key, source, item=i) for i in range(len(points)))
-        else:
-            values[key] = getattr(default, key)
-    if "construction_area" in data:
-        area = data["construction_area"]
-        if not isinstance(area, list) or len(area) != 2:
-            raise InputError(f"{source}{line_of(data, 'construction_area')}: key 'construction_area' must be [[xmin, ymin], [xmax, ymax]] in metres")
-        low, high = (point(data, "construction_area", source, item=i) for i in range(2))
-        if not (low[0] < high[0] and low[1] < high[1]):
-            raise InputError(f"{source}{line_of(data, 'construction_area')}: key 'construction_area' must have xmin < xmax and ymin < ymax, got {area!r}")
-        values["construction_area"] = (low, high)
-    else:
-        values["construction_area"] = default.construction_area
-    if "model_offset" in data:
-        values["model_offset"] = point(data, "model_offset", source, limit=OFFSET_LIMIT_M)
-    if "idle_robots" in data:
-        if data["idle_robots"] not in ("stay", "yard"):
-            raise InputError(f"{source}{line_of(data, 'idle_robots')}: key 'idle_robots' must be 'stay' or 'yard', got {data['idle_robots']!r}")
-        values["idle_robots"] = data["idle_robots"]
-    if "assembly_points_per_joint" in data:
-        points = data["assembly_points_per_joint"]
-        if isinstance(points, bool) or not isinstance(points, int) or not 1 <= points <= 1000:
-            raise InputError(f"{source}{line_of(data, 'assembly_points_per_joint')}: key 'assembly_points_per_joint' must be "
-                             f"a whole number of bolts or welds from 1 to 1000, got {points!r}")
-        values["assembly_points_per_joint"] = points
-    if "work_calendar" in data:
-        values["work_calendar"] = work_calendar_from(data["work_calendar"], source, line_of(data, "work_calendar"))
-    return Site(**values, source=source)
+    values = {key: getattr(default, key) for key in ("yard", "robot_home", "construction_area")}
+    return Site(**{**values, **read_keys(data, Site, At(source))}, source=source)
+
+
+#: The keys of a site file (module docstring), declared by :class:`Site`'s fields.
+SITE_KEYS = keys_of(Site)
 
 
 def default_site() -> Site:

@@ -15,6 +15,7 @@ from bimrobot.assembly.scenario import (
     benchmark_scenario,
     load_scenario,
     parse_scenario,
+    setting_time_limit,
 )
 from bimrobot.errors import InputError
 
@@ -32,12 +33,12 @@ def write(tmp_path: Path, data: dict, name: str = "site.yaml") -> Path:
 def test_sixteen_settings_match_the_specification():
     counts = {"E1": (2, 1), "E2": (3, 0), "E3": (8, 0), "E4": (13, 0)}
     limits = {"E1": 100, "E2": 100, "E3": 300, "E4": 600}
-    assert len(SETTINGS) == 16
+    assert len(SETTINGS) == 16 and SETTINGS == sorted(p.stem for p in SETTINGS_DIR.glob("*.yaml"))  # the folder is the registry
     for setting in SETTINGS:
         sc = benchmark_scenario(setting)
         env, scen = setting[:2], setting[2:]
         assert (len(sc.handled), len(sc.prebuilt)) == counts[env]
-        assert sc.time_limit == limits[env]
+        assert sc.time_limit == limits[env] == setting_time_limit(setting)  # what Gymnasium's TimeLimit is given
         assert sc.layout == ("random" if scen in ("S1", "S3") else "fixed")
         assert bool(sc.interchangeable) == (scen != "S1")
         assert bool(sc.obstacles) == (scen == "S4")

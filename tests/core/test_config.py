@@ -4,8 +4,9 @@ from pathlib import Path
 
 import pytest
 
-from bimrobot.config import line_of, number, parse_yaml
+from bimrobot.config import line_of, parse_yaml
 from bimrobot.errors import InputError
+from bimrobot.schema import At, Quantity
 
 
 @pytest.mark.parametrize(
@@ -21,17 +22,37 @@ def test_impossible_numbers_are_refused_with_file_key_and_line(value, words):
     assert len(message) < 200
 
 
-def test_mappings_know_their_lines_and_number_checks_ranges():
+def test_mappings_know_their_lines_and_quantities_check_their_ranges():
     data = parse_yaml("a: 1\nspeed: -2\n", "site.yaml")
     assert line_of(data, "speed") == " line 2"
-    with pytest.raises(InputError, match=r"site.yaml line 2: robot 'x': key 'speed' must be > 0 m/s, got -2"):
-        number(data, "speed", "site.yaml", low=0, low_inclusive=False, unit="m/s", where="robot 'x'")
-    assert number(data, "a", "site.yaml", low=0, high=10) == 1.0
-    assert number(data, "missing", "site.yaml", default=3) == 3.0
-    with pytest.raises(InputError, match="key 'missing' is missing"):
-        number(data, "missing", "site.yaml")
-    with pytest.raises(InputError, match="must be a number"):
-        number(parse_yaml("a: fast\n", "f.yaml"), "a", "f.yaml")
+    at = At("site.yaml", where="robot 'x'")
+    with pytest.raises(InputError, match=r"^site.yaml line 2: robot 'x': key 'speed' must be > 0 m/s, got -2$"):
+        Quantity(0, None, "m/s", low_open=True).read(data["speed"], at.of(data, "speed"))
+    assert Quantity(0, 10).read(data["a"], at.of(data, "a")) == 1.0
+    with pytest.raises(InputError, match=r"^f.yaml line 1: key 'a' must be a number in kg, got 'fast'$"):
+        Quantity(0, 10, "kg").read("fast", At("f.yaml").of(parse_yaml("a: fast\n", "f.yaml"), "a"))
+
+
+def test_every_declared_robot_range_is_the_range_a_fleet_file_is_held_to():
+    """RANGES is read from RobotSpec's declarations: a value at each bound loads, one just beyond is
+    refused naming the key, its line, the bound and the unit."""
+    from bimrobot.coordination.fleet import RANGES, fleet_from_dict
+
+    assert RANGES["speed_m_s"] == (0.01, 50.0, "m/s") and RANGES["carry_kg"] == (1.0, 1e6, "kg")
+    robot = {"speed_m_s": 1, "carry_kg": 5, "lift_kg": 5, "reach_m": 1, "time_per_node_s": 5, "time_per_point_s": 5}
+    for key, (low, high, unit) in RANGES.items():
+        for value, ok in ((low, True), (high, True), (high * 1.001, False), (low - max(abs(low), 1) * 0.001, False)):
+            entry = {**robot, key: value}
+            text = "version: 2\nrobots:\n  - name: M\n    kind: mobile_manipulator\n" + "".join(
+                f"    {k}: {v!r}\n" for k, v in entry.items())
+            line = 5 + list(entry).index(key)
+            if ok:
+                assert getattr(fleet_from_dict(parse_yaml(text, "f.yaml"), "f.yaml").robots[0], key) == value
+                continue
+            with pytest.raises(InputError) as error:
+                fleet_from_dict(parse_yaml(text, "f.yaml"), "f.yaml")
+            assert str(error.value) == (f"f.yaml line {line}: robots[0] (M): key '{key}' must be >= {low:g} and "
+                                        f"<= {high:g} {unit}, got {value:g}")
 
 
 def test_syntax_errors_name_the_line():

@@ -1,7 +1,8 @@
 """DRL assembly-planning benchmark: 16 Gymnasium environments, a batched simulator and an exact planner.
 
-``import bimrobot.assembly`` registers ``bimrobot/Assembly-E{1..4}S{1..4}-v0`` (time limits 100, 100, 300,
-600 steps through Gymnasium's TimeLimit). See ``docs/assembly.md``.
+``import bimrobot.assembly`` registers ``bimrobot/Assembly-E{1..4}S{1..4}-v0``, one per file of
+``assembly/settings`` (time limits from the files: 100, 100, 300, 600 steps for E1-E4, through
+Gymnasium's TimeLimit). See ``docs/assembly.md``.
 """
 
 from __future__ import annotations
@@ -9,9 +10,7 @@ from __future__ import annotations
 import gymnasium as gym
 
 from bimrobot.assembly.env import AssemblyEnv
-from bimrobot.assembly.scenario import SETTINGS, Scenario, benchmark_scenario, load_scenario
-
-TIME_LIMITS = {"E1": 100, "E2": 100, "E3": 300, "E4": 600}
+from bimrobot.assembly.scenario import SETTINGS, Scenario, benchmark_scenario, load_scenario, setting_time_limit
 
 __all__ = ["SETTINGS", "AssemblyEnv", "Scenario", "benchmark_scenario", "load_scenario", "make_env", "env_id"]
 
@@ -35,7 +34,7 @@ def _register() -> None:
             id=env_id(setting),
             entry_point="bimrobot.assembly.env:AssemblyEnv",
             vector_entry_point="bimrobot.assembly.vector:AssemblyVectorEnv",
-            max_episode_steps=TIME_LIMITS[setting[:2]],
+            max_episode_steps=setting_time_limit(setting),  # the setting file's time_limit
             kwargs={"setting": setting},
         )
 

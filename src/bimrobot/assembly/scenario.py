@@ -12,18 +12,21 @@ into the lookup tables the environment, the batched simulator and the planner sh
 from __future__ import annotations
 
 import functools
-import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from bimrobot.config import check_keys, line_of, read_yaml_file
+from bimrobot.config import check_keys, read_yaml_file
 from bimrobot.errors import InputError
+from bimrobot.schema import (At, Choice, Custom, Flag, Integer, Quantity, Rule, Text, Vector, keys_of, read_key, read_keys,
+                             rule)
 
 SETTINGS_DIR = Path(__file__).with_name("settings")
-SETTINGS = [f"E{e}S{s}" for e in range(1, 5) for s in range(1, 5)]
+#: The benchmark settings ("E1S1" .. "E4S4"): the scenario files of ``settings/``, sorted. A file added
+#: there is a setting (and, through :mod:`bimrobot.assembly`, a Gymnasium environment).
+SETTINGS = sorted(path.stem for path in SETTINGS_DIR.glob("*.yaml"))
 COMPONENT_LENGTHS = {"column": 4, "beam": 3}
 MAX_LAYOUT_ATTEMPTS = 1000
 #: Largest grid a scenario may ask for, cells per axis: the benchmark's is 15 x 15 x 9; observations are
@@ -39,11 +42,11 @@ MAX_TIME_LIMIT = 100_000
 #: Largest magnitude of a reward constant (the benchmark's are -1 and 10).
 MAX_REWARD = 1e6
 
-#: The keys of a target entry and of a component entry (docs/assembly.md).
-TARGET_KEYS = ("type", "cells")
-COMPONENT_KEYS = ("id", "type", "length", "start", "target", "prebuilt")
-
 Cell = tuple[int, int, int]
+
+
+#: A box's cells along one axis: [lo, hi], inclusive.
+_SPAN = Vector(Integer(), "[lo, hi]")
 
 
 @dataclass(frozen=True)
@@ -51,18 +54,19 @@ class Reward:
     """Reward constants (thesis eq. 6.1-6.2): step cost ``r0 / c`` (doubled after ``epsilon`` steps on a
     component), ``+k`` for a placement with k components standing, ``+k + completion_bonus`` for the last."""
 
-    r0: float = -1.0
-    epsilon: int = 15
-    completion_bonus: float = 10.0
+    # r0 < 0: the planner's optimality rests on every step costing something
+    r0: float = field(default=-1.0, metadata=rule(Quantity(-MAX_REWARD, 0.0, high_open=True)))
+    epsilon: int = field(default=15, metadata=rule(Integer(0, MAX_TIME_LIMIT)))
+    completion_bonus: float = field(default=10.0, metadata=rule(Quantity(0.0, MAX_REWARD)))
 
 
 @dataclass(frozen=True)
 class Box:
     """An inclusive box of cells: x in x[0]..x[1], y in y[0]..y[1], z in z[0]..z[1]."""
 
-    x: tuple[int, int]
-    y: tuple[int, int]
-    z: tuple[int, int] = (0, 0)
+    x: tuple[int, int] = field(metadata=rule(_SPAN))
+    y: tuple[int, int] = field(metadata=rule(_SPAN))
+    z: tuple[int, int] = field(default=(0, 0), metadata=rule(_SPAN))
 
     def cells(self) -> list[Cell]:
         return [
@@ -108,23 +112,196 @@ class Component:
     prebuilt: bool = False
 
 
+# ------------------------------------------------------------------------------------- file rules
+# How each key of a scenario file is read (bimrobot.schema); coordinates are checked against the grid
+# (``At.context``, read first) as they are read, so a number like 10**6 in a cell never reaches a
+# ``range()`` or an array shape.
+
+
+def _mapping(value: Any, at: At) -> dict:
+    if not isinstance(value, dict):
+        raise at.fail(f"expected a mapping (key: value lines), got {value!r}")
+    return value
+
+
+def _entries(value: Any, at: At) -> Any:
+    """``value`` (a list, or a mapping when ``value`` is one) of at most :data:`MAX_ENTRIES` entries."""
+    if not isinstance(value, (list, dict)):
+        raise at.fail(f"expected a list, got {value!r}")
+    if len(value) > MAX_ENTRIES:
+        raise at.fail(f"{len(value)} entries; a scenario holds at most {MAX_ENTRIES}")
+    return value
+
+
+def _item(value: Any, at: At, key: str) -> At:
+    """The place of a list item: the item's own line when it is a mapping, else the list's."""
+    line = getattr(value, "line", None)
+    return replace(at, key=key, line=f" line {line}" if line else at.line)
+
+
+@dataclass(frozen=True)
+class _Grid(Rule):
+    def read(self, value: Any, at: At) -> Cell:
+        dims = Vector(Integer(), "[W, L, H] cells", (3,)).read(value, at)
+        if min(dims) < 2 or max(dims) > MAX_GRID_CELLS:
+            raise at.fail(f"{list(dims)} must be 2 to {MAX_GRID_CELLS} cells along every axis (the benchmark's grid is "
+                          "15 x 15 x 9; larger grids exceed what the batched simulator and the planner are sized for)")
+        return dims
+
+
+def _cell(value: Any, at: At) -> Cell:
+    cell = Vector(Integer(), "[x, y, z]", (3,)).read(value, at)
+    W, L, H = at.context
+    if not all(0 <= c < n for c, n in zip(cell, at.context)):
+        raise at.fail(f"cell {cell} is outside the grid (0 <= x < {W}, 0 <= y < {L}, 0 <= z < {H})")
+    return cell
+
+
+@dataclass(frozen=True)
+class _Run(Rule):
+    """A straight run of cells [node1, node2] along x, y or z."""
+
+    def read(self, value: Any, at: At) -> tuple[Cell, Cell]:
+        if not isinstance(value, list) or len(value) != 2:
+            raise at.fail(f"expected [[x, y, z], [x, y, z]] (node1, node2), got {value!r}")
+        node1, node2 = _cell(value[0], at), _cell(value[1], at)
+        if sum(a != b for a, b in zip(node1, node2)) > 1:
+            raise at.fail(f"{list(node1)} -> {list(node2)} is not a straight run along x, y or z")
+        return node1, node2
+
+
+@dataclass(frozen=True)
+class _ComponentType(Rule):
+    """column or beam (:data:`COMPONENT_LENGTHS`); messages name the entry."""
+
+    def read(self, value: Any, at: At) -> str:
+        if not isinstance(value, str) or value not in COMPONENT_LENGTHS:
+            raise replace(at, key="").fail(
+                f"unknown component type {value!r} (expected one of {', '.join(COMPONENT_LENGTHS)})")
+        return value
+
+
+@dataclass(frozen=True)
+class _Box(Rule):
+    """A box {x: [lo, hi], y: [lo, hi], z: [lo, hi]} inside the grid (an axis left out: [0, 0])."""
+
+    def read(self, value: Any, at: At) -> Box:
+        if not isinstance(value, dict):
+            raise at.fail(f"expected a box {{x: [lo, hi], y: [lo, hi], z: [lo, hi]}}, got {value!r}")
+        entry = at.entry()
+        check_keys(value, keys_of(Box), at.source, entry.where)
+        spans = {}
+        for axis, size in zip(keys_of(Box), at.context):
+            axis_at = entry.of(value, axis)
+            lo, hi = spans[axis] = _SPAN.read(value.get(axis, [0, 0]), axis_at)
+            if lo > hi:
+                raise replace(axis_at, key="").fail(f"{axis} range {[lo, hi]} is empty")
+            if lo < 0 or hi >= size:
+                raise replace(axis_at, key="").fail(f"{axis} range {[lo, hi]} leaves the grid (0 <= {axis} < {size})")
+        return Box(**spans)
+
+
+def _boxes(value: Any, at: At) -> tuple[Box, ...]:
+    items = _entries(value or [], at)
+    return tuple(_Box().read(b, _item(b, at, f"{at.key}[{i}]")) for i, b in enumerate(items))
+
+
+def _foundations(value: Any, at: At) -> tuple[tuple[int, int], ...]:
+    W, L, _ = at.context
+    pairs = []
+    for i, item in enumerate(_entries(value or [], at)):
+        x, y = Vector(Integer(), "[x, y]").read(item, replace(at, key=f"foundations[{i}]"))
+        if not (0 <= x < W and 0 <= y < L):
+            raise replace(at, key=f"foundations[{i}]").fail(f"({x}, {y}) lies outside the {W} x {L} grid")
+        pairs.append((x, y))
+    return tuple(pairs)
+
+
+@dataclass(frozen=True)
+class TargetEntry:
+    """The keys of a target entry (docs/assembly.md): ``targets: {id: {type, cells}}``."""
+
+    type: str = field(metadata=rule(_ComponentType()))
+    cells: tuple[Cell, Cell] = field(metadata=rule(_Run()))
+
+
+@dataclass(frozen=True)
+class ComponentEntry:
+    """The keys of a component entry (docs/assembly.md); ``id`` and ``target`` default to ``#i`` and the id."""
+
+    id: str = field(metadata=rule(Text()))
+    type: str = field(metadata=rule(_ComponentType()))
+    length: int = field(metadata=rule(Integer(1, MAX_COMPONENT_LENGTH)))
+    start: tuple[Cell, Cell] | None = field(metadata=rule(_Run()))
+    target: str = field(metadata=rule(Text()))
+    prebuilt: bool = field(metadata=rule(Flag()))
+
+
+def _targets(value: Any, at: At) -> tuple[Target, ...]:
+    targets_data = _entries(_mapping(value or {}, at), at)
+    targets = []
+    for tid, tdata in targets_data.items():
+        entry = at.entry().of(targets_data, tid).entry()
+        tdata = _mapping(tdata, entry)
+        check_keys(tdata, keys_of(TargetEntry), at.source, entry.where)
+        ttype = read_key(tdata, "type", TargetEntry, entry)
+        targets.append(Target(str(tid), ttype, *read_key(tdata, "cells", TargetEntry, entry)))
+    return tuple(targets)
+
+
+def _components(value: Any, at: At) -> tuple[Component, ...]:
+    components = []
+    for i, cdata in enumerate(_entries(value or [], at)):
+        cdata = _mapping(cdata, replace(at, key=f"components[{i}]"))
+        cid = str(cdata.get("id", f"#{i}"))
+        entry = replace(_item(cdata, at, ""), where=f"components.{cid}")
+        check_keys(cdata, keys_of(ComponentEntry), at.source, entry.where)
+        ctype = read_key(cdata, "type", ComponentEntry, entry)
+        length = read_key(cdata, "length", ComponentEntry, entry, COMPONENT_LENGTHS[ctype])
+        start = read_key(cdata, "start", ComponentEntry, entry) if cdata.get("start") is not None else None
+        prebuilt = read_key(cdata, "prebuilt", ComponentEntry, entry, False)
+        components.append(Component(cid, ctype, length, str(cdata.get("target", cid)), start, prebuilt))
+    return tuple(components)
+
+
+def _groups(value: Any, at: At) -> Any:
+    """``interchangeable``: true (every type's slots one group), false (none) or lists of target ids."""
+    if value is True:
+        return True
+    if value is False or value is None:
+        return ()
+    if not isinstance(value, list) or not all(isinstance(g, list) for g in value):
+        raise at.fail(f"expected true, false or a list of target-id lists, got {value!r}")
+    return tuple(tuple(str(t) for t in g) for g in value)
+
+
+def _reward(value: Any, at: At) -> Reward:
+    return Reward(**read_keys(_mapping(value or {}, at), Reward, at.entry()))
+
+
+def _area(value: Any, at: At) -> Box | None:
+    return _Box().read(value, at) if value else None
+
+
 @dataclass(frozen=True)
 class Scenario:
     """One assembly setting: site, components in handling order, targets, dynamics constants."""
 
-    name: str
-    grid: tuple[int, int, int]
-    time_limit: int
-    components: tuple[Component, ...]
-    targets: tuple[Target, ...]
-    foundations: tuple[tuple[int, int], ...] = ()
-    obstacles: tuple[Box, ...] = ()
-    layout: str = "fixed"  # "fixed" or "random"
-    yard: tuple[Box, ...] = ()  # node1 sampling regions of random layouts (z ignored)
-    construction_area: Box | None = None
-    interchangeable: tuple[tuple[str, ...], ...] = ()  # groups of target ids
-    reward: Reward = field(default_factory=Reward)
-    description: str = ""
+    name: str = field(metadata=rule(Text()))
+    grid: tuple[int, int, int] = field(metadata=rule(_Grid()))
+    time_limit: int = field(metadata=rule(Integer(1, MAX_TIME_LIMIT)))
+    components: tuple[Component, ...] = field(metadata=rule(Custom(_components)))
+    targets: tuple[Target, ...] = field(metadata=rule(Custom(_targets)))
+    foundations: tuple[tuple[int, int], ...] = field(default=(), metadata=rule(Custom(_foundations)))
+    obstacles: tuple[Box, ...] = field(default=(), metadata=rule(Custom(_boxes)))
+    layout: str = field(default="fixed", metadata=rule(Choice(("fixed", "random"), "'fixed' or 'random'")))
+    #: node1 sampling regions of random layouts (z ignored)
+    yard: tuple[Box, ...] = field(default=(), metadata=rule(Custom(_boxes)))
+    construction_area: Box | None = field(default=None, metadata=rule(Custom(_area)))
+    #: groups of target ids
+    interchangeable: tuple[tuple[str, ...], ...] = field(default=(), metadata=rule(Custom(_groups)))
+    reward: Reward = field(default_factory=Reward, metadata=rule(Custom(_reward)))
+    description: str = field(default="", metadata=rule(Text()))
     source: str = "<memory>"
 
     @property
@@ -181,6 +358,17 @@ def benchmark_scenario(setting: str) -> Scenario:
 
 
 @functools.lru_cache(maxsize=None)
+def setting_time_limit(setting: str) -> int:
+    """The episode length of a benchmark setting, steps: its file's ``time_limit``, read without building
+    the scenario (Gymnasium's TimeLimit gets it when :mod:`bimrobot.assembly` registers the settings)."""
+    if setting not in SETTINGS:
+        raise InputError(f"unknown assembly setting '{setting}': expected one of {', '.join(SETTINGS)}")
+    path = SETTINGS_DIR / f"{setting}.yaml"
+    data = read_yaml_file(path, "scenario file")
+    return read_key(data, "time_limit", Scenario, At(str(path), path=True), 100)
+
+
+@functools.lru_cache(maxsize=None)
 def _cached_benchmark(setting: str) -> Scenario:
     return load_scenario(SETTINGS_DIR / f"{setting}.yaml")
 
@@ -204,231 +392,29 @@ def _read_yaml(path: Path) -> Any:
 def parse_scenario(data: dict[str, Any], source: str = "<memory>") -> Scenario:
     """Build a :class:`Scenario` from a plain mapping (the YAML content) and validate it.
 
-    Every number is checked against its range as it is read, and every coordinate against the grid, so
-    nothing grid-sized is allocated before the whole file is known to fit (:data:`MAX_GRID_CELLS` per axis).
-    Messages name the file, the line (when the mapping comes from :func:`bimrobot.config.parse_yaml`) and
-    the key.
+    Each key is read by the rule :class:`Scenario` declares for it (:mod:`bimrobot.schema`), the grid
+    first: every number is checked against its range as it is read, and every coordinate against the
+    grid, so nothing grid-sized is allocated before the whole file is known to fit (:data:`MAX_GRID_CELLS`
+    per axis). Messages name the file, the line (when the mapping comes from
+    :func:`bimrobot.config.parse_yaml`) and the key.
     """
     import copy
 
     data = copy.deepcopy(data)  # keeps parse_yaml's line numbers (LineDict survives deepcopy)
-    p = _Parser(source)
-    p.mapping(data, "the file", "")
-    known = {
-        "name", "description", "grid", "time_limit", "reward", "foundations", "obstacles", "layout", "yard",
-        "construction_area", "targets", "components", "interchangeable",
-    }
-    check_keys(data, known, source)
-    p.read_grid(data.get("grid", [15, 15, 9]), line_of(data, "grid"))
-    reward_data = p.mapping(data.get("reward") or {}, "reward", line_of(data, "reward"))
-    check_keys(reward_data, ("r0", "epsilon", "completion_bonus"), source, "reward")
-
-    def reward_line(key: str) -> str:
-        return line_of(reward_data, key) or line_of(data, "reward")
-
-    # r0 < 0: the planner's optimality rests on every step costing something
-    reward = Reward(
-        r0=p.real(reward_data.get("r0", -1.0), "reward.r0", reward_line("r0"), low=-MAX_REWARD, high=0.0, high_open=True),
-        epsilon=p.integer(reward_data.get("epsilon", 15), "reward.epsilon", reward_line("epsilon"), 0, MAX_TIME_LIMIT),
-        completion_bonus=p.real(
-            reward_data.get("completion_bonus", 10.0), "reward.completion_bonus", reward_line("completion_bonus"),
-            low=0.0, high=MAX_REWARD,
-        ),
-    )
-    time_limit = p.integer(data.get("time_limit", 100), "time_limit", line_of(data, "time_limit"), 1, MAX_TIME_LIMIT)
-    targets_data = p.mapping(data.get("targets") or {}, "targets", line_of(data, "targets"))
-    p.count(targets_data, "targets", line_of(data, "targets"))
-    targets = []
-    for tid, tdata in targets_data.items():
-        where = f"targets.{tid}"
-        line = line_of(targets_data, tid)
-        tdata = p.mapping(tdata, where, line)
-        check_keys(tdata, TARGET_KEYS, source, where)
-        ttype = p.component_type(tdata.get("type"), where, line_of(tdata, "type") or line)
-        node1, node2 = p.run(tdata.get("cells"), f"{where}.cells", line_of(tdata, "cells") or line)
-        targets.append(Target(str(tid), ttype, node1, node2))
-    components_data = p.sequence(data.get("components") or [], "components", line_of(data, "components"))
-    p.count(components_data, "components", line_of(data, "components"))
-    components = []
-    for i, cdata in enumerate(components_data):
-        cdata = p.mapping(cdata, f"components[{i}]", line_of(data, "components"))
-        cid = str(cdata.get("id", f"#{i}"))
-        where = f"components.{cid}"
-        line = f" line {cdata.line}" if getattr(cdata, "line", None) else line_of(data, "components")
-        check_keys(cdata, COMPONENT_KEYS, source, where)
-        ctype = p.component_type(cdata.get("type"), where, line_of(cdata, "type") or line)
-        length = p.integer(
-            cdata.get("length", COMPONENT_LENGTHS[ctype]), f"{where}.length", line_of(cdata, "length") or line,
-            1, MAX_COMPONENT_LENGTH,
-        )
-        start_line = line_of(cdata, "start") or line
-        start = p.run(cdata["start"], f"{where}.start", start_line) if cdata.get("start") is not None else None
-        target = str(cdata.get("target", cid))
-        prebuilt = cdata.get("prebuilt", False)
-        if not isinstance(prebuilt, bool):
-            raise p.fail(f"{where}.prebuilt", f"expected true or false, got {prebuilt!r}", line_of(cdata, "prebuilt") or line)
-        components.append(Component(cid, ctype, length, target, start, prebuilt))
-    interchangeable = data.get("interchangeable", False)
-    interchangeable_line = line_of(data, "interchangeable")
-    if interchangeable is True:  # every type (and, through the cells, every beam axis) is one group
-        groups = []
-        for ttype in COMPONENT_LENGTHS:
-            group = tuple(t.id for t in targets if t.type == ttype)
-            if len(group) > 1:
-                groups.append(group)
-        interchangeable = groups
-    elif interchangeable is False or interchangeable is None:
-        interchangeable = []
-    elif not isinstance(interchangeable, list) or not all(isinstance(g, list) for g in interchangeable):
-        raise p.fail("interchangeable", f"expected true, false or a list of target-id lists, got {interchangeable!r}",
-                     interchangeable_line)
-
-    def boxes(key: str) -> tuple[Box, ...]:
-        items = p.sequence(data.get(key) or [], key, line_of(data, key))
-        p.count(items, key, line_of(data, key))
-        return tuple(p.box(b, f"{key}[{i}]", _item_line(b, line_of(data, key))) for i, b in enumerate(items))
-
-    foundations_data = p.sequence(data.get("foundations") or [], "foundations", line_of(data, "foundations"))
-    p.count(foundations_data, "foundations", line_of(data, "foundations"))
-    layout = data.get("layout", "fixed")
-    if layout not in ("fixed", "random"):
-        raise p.fail("layout", f"expected 'fixed' or 'random', got {layout!r}", line_of(data, "layout"))
-    scenario = Scenario(
-        name=str(data.get("name", "scenario")),
-        grid=p.grid,
-        time_limit=time_limit,
-        components=tuple(components),
-        targets=tuple(targets),
-        foundations=tuple(
-            p.pair(f, f"foundations[{i}]", line_of(data, "foundations")) for i, f in enumerate(foundations_data)
-        ),
-        obstacles=boxes("obstacles"),
-        layout=layout,
-        yard=boxes("yard"),
-        construction_area=(
-            p.box(data["construction_area"], "construction_area", line_of(data, "construction_area"))
-            if data.get("construction_area") else None
-        ),
-        interchangeable=tuple(tuple(str(t) for t in g) for g in interchangeable),
-        reward=reward,
-        description=str(data.get("description", "")),
-        source=source,
-    )
+    at = At(source, path=True)
+    _mapping(data, replace(at, key="the file"))
+    check_keys(data, keys_of(Scenario), source)
+    at = replace(at, context=read_key(data, "grid", Scenario, at, [15, 15, 9]))
+    defaults = {"time_limit": 100, "interchangeable": False, "layout": "fixed", "name": "scenario", "description": ""}
+    values = {key: read_key(data, key, Scenario, at, defaults.get(key))
+              for key in ("reward", "time_limit", "targets", "components", "interchangeable", "foundations", "layout",
+                          "obstacles", "yard", "construction_area", "name", "description")}
+    if values["interchangeable"] is True:  # every type (and, through the cells, every beam axis) is one group
+        groups = (tuple(t.id for t in values["targets"] if t.type == ttype) for ttype in COMPONENT_LENGTHS)
+        values["interchangeable"] = tuple(group for group in groups if len(group) > 1)
+    scenario = Scenario(grid=at.context, source=source, **values)
     validate_scenario(scenario)
     return scenario
-
-
-def _item_line(item: Any, fallback: str) -> str:
-    """`` line N`` of a mapping item of a YAML list (its own line), else ``fallback``."""
-    line = getattr(item, "line", None)
-    return f" line {line}" if line else fallback
-
-
-class _Parser:
-    """Small typed readers that raise InputError naming the file, the line and the offending key.
-
-    Every coordinate is checked against the grid (read first) as it is read, so a number like 10**6
-    in a cell never reaches a ``range()`` or an array shape.
-    """
-
-    def __init__(self, source: str):
-        self.source = source
-        self.grid: Cell = (0, 0, 0)
-
-    def fail(self, where: str, what: str, line: str = "") -> InputError:
-        return InputError(f"{self.source}{line}: {where}: {what}")
-
-    def mapping(self, value: Any, where: str, line: str) -> dict:
-        if not isinstance(value, dict):
-            raise self.fail(where, f"expected a mapping (key: value lines), got {value!r}", line)
-        return value
-
-    def sequence(self, value: Any, where: str, line: str) -> list:
-        if not isinstance(value, list):
-            raise self.fail(where, f"expected a list, got {value!r}", line)
-        return value
-
-    def count(self, items: Any, where: str, line: str) -> None:
-        if len(items) > MAX_ENTRIES:
-            raise self.fail(where, f"{len(items)} entries; a scenario holds at most {MAX_ENTRIES}", line)
-
-    def integer(self, value: Any, where: str, line: str = "", low: int | None = None, high: int | None = None) -> int:
-        if isinstance(value, bool) or not isinstance(value, int):
-            raise self.fail(where, f"expected an integer, got {value!r}", line)
-        if (low is not None and value < low) or (high is not None and value > high):
-            raise self.fail(where, f"must be an integer from {low} to {high}, got {value}", line)
-        return value
-
-    def real(self, value: Any, where: str, line: str, low: float, high: float, high_open: bool = False) -> float:
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise self.fail(where, f"expected a number, got {value!r}", line)
-        if not math.isfinite(value) or value < low or value > high or (high_open and value == high):
-            upper = f"< {high:g}" if high_open else f"<= {high:g}"
-            shown = f"{value:g}" if isinstance(value, float) or abs(value) < 10**15 else "a huge number"
-            raise self.fail(where, f"must be a finite number >= {low:g} and {upper}, got {shown}", line)
-        return float(value)
-
-    def read_grid(self, value: Any, line: str) -> None:
-        if not isinstance(value, list) or len(value) != 3:
-            raise self.fail("grid", f"expected [W, L, H] cells, got {value!r}", line)
-        dims = [self.integer(v, "grid", line) for v in value]
-        if min(dims) < 2 or max(dims) > MAX_GRID_CELLS:
-            raise self.fail(
-                "grid",
-                f"{dims} must be 2 to {MAX_GRID_CELLS} cells along every axis (the benchmark's grid is 15 x 15 x 9; "
-                "larger grids exceed what the batched simulator and the planner are sized for)",
-                line,
-            )
-        self.grid = tuple(dims)  # type: ignore[assignment]
-
-    def cell(self, value: Any, where: str, line: str) -> Cell:
-        if not isinstance(value, list) or len(value) != 3:
-            raise self.fail(where, f"expected [x, y, z], got {value!r}", line)
-        cell = tuple(self.integer(v, where, line) for v in value)
-        W, L, H = self.grid
-        if not all(0 <= c < n for c, n in zip(cell, self.grid)):
-            raise self.fail(where, f"cell {cell} is outside the grid (0 <= x < {W}, 0 <= y < {L}, 0 <= z < {H})", line)
-        return cell  # type: ignore[return-value]
-
-    def pair(self, value: Any, where: str, line: str) -> tuple[int, int]:
-        if not isinstance(value, list) or len(value) != 2:
-            raise self.fail(where, f"expected [x, y], got {value!r}", line)
-        x, y = (self.integer(v, where, line) for v in value)
-        W, L, _ = self.grid
-        if not (0 <= x < W and 0 <= y < L):
-            raise self.fail(where, f"({x}, {y}) lies outside the {W} x {L} grid", line)
-        return x, y
-
-    def run(self, value: Any, where: str, line: str) -> tuple[Cell, Cell]:
-        if not isinstance(value, list) or len(value) != 2:
-            raise self.fail(where, f"expected [[x, y, z], [x, y, z]] (node1, node2), got {value!r}", line)
-        node1, node2 = self.cell(value[0], where, line), self.cell(value[1], where, line)
-        if sum(a != b for a, b in zip(node1, node2)) > 1:
-            raise self.fail(where, f"{list(node1)} -> {list(node2)} is not a straight run along x, y or z", line)
-        return node1, node2
-
-    def component_type(self, value: Any, where: str, line: str) -> str:
-        if not isinstance(value, str) or value not in COMPONENT_LENGTHS:
-            raise self.fail(where, f"unknown component type {value!r} (expected one of {', '.join(COMPONENT_LENGTHS)})", line)
-        return value
-
-    def box(self, value: Any, where: str, line: str) -> Box:
-        if not isinstance(value, dict):
-            raise self.fail(where, f"expected a box {{x: [lo, hi], y: [lo, hi], z: [lo, hi]}}, got {value!r}", line)
-        check_keys(value, ("x", "y", "z"), self.source, where)
-        ranges = {}
-        for axis, size in zip(("x", "y", "z"), self.grid):
-            rng = value.get(axis, [0, 0])
-            axis_line = line_of(value, axis) or line
-            if not isinstance(rng, list) or len(rng) != 2:
-                raise self.fail(f"{where}.{axis}", f"expected [lo, hi], got {rng!r}", axis_line)
-            lo, hi = (self.integer(v, f"{where}.{axis}", axis_line) for v in rng)
-            if lo > hi:
-                raise self.fail(where, f"{axis} range {[lo, hi]} is empty", axis_line)
-            if lo < 0 or hi >= size:
-                raise self.fail(where, f"{axis} range {[lo, hi]} leaves the grid (0 <= {axis} < {size})", axis_line)
-            ranges[axis] = (lo, hi)
-        return Box(ranges["x"], ranges["y"], ranges["z"])
 
 
 # ------------------------------------------------------------------------------------------ validation

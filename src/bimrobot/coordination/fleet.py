@@ -44,15 +44,16 @@ from __future__ import annotations
 
 import logging
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from importlib import resources
 from pathlib import Path
 
-from bimrobot.config import check_keys, line_of, number, parse_yaml, read_yaml_file
+from bimrobot.config import check_keys, line_of, parse_yaml, read_yaml_file
 from bimrobot.errors import InputError
 from bimrobot.sco.timing import RobotTimes
 from bimrobot.site import SITE_COORDINATE_LIMIT_M, Site, default_site, load_site  # noqa: F401 (re-exported)
-from bimrobot.site import number_in as _number_in
+from bimrobot.schema import (At, Choice, Custom, Name, Ordered, Quantity, Subset, Vector, quantities_of, read_keys,
+                             rule, rules_of)
 from bimrobot.tasks import KIND_TASKS, TASKS, Task
 
 log = logging.getLogger(__name__)
@@ -84,7 +85,8 @@ METHODS = ("bolt", "weld")
 DEFAULT_ARM_SPEED_M_S = 0.5
 HOME_FRAMES = ("site", "model")
 
-#: Physical range of each robot number: (low, high, unit), both bounds inclusive. Upper bounds: the fastest
+#: The physical range of each robot number, declared on :class:`RobotSpec`'s fields (:data:`RANGES` lists
+#: them as (low, high, unit), both bounds inclusive). Upper bounds: the fastest
 #: site vehicle is far below 50 m/s (180 km/h); the largest mobile cranes lift about 1,200 t, so 1e6
 #: kg; a reach or platform beyond 300 m / 100 m is a typo; one handling step longer than a day
 #: (86,400 s) is not a step. Lower bounds, so that no time a simulation derives from them overflows
@@ -93,25 +95,28 @@ HOME_FRAMES = ("site", "model")
 #: building part or tool a robot carries; a reach under 0.1 m reaches nothing; a node or assembly point
 #: takes at least 0.1 s; loading and unloading may take no time at all; an arm faster than 10 m/s is no
 #: construction robot's.
-RANGES = {
-    "speed_m_s": (0.01, 50.0, "m/s"),
-    "carry_kg": (1.0, 1e6, "kg"),
-    "lift_kg": (1.0, 1e6, "kg"),
-    "reach_m": (0.1, 300.0, "m"),
-    "time_per_node_s": (0.1, 86_400.0, "s"),
-    "time_per_point_s": (0.1, 86_400.0, "s"),
-    "load_s": (0.0, 86_400.0, "s"),
-    "unload_s": (0.0, 86_400.0, "s"),
-    "arm_speed_m_s": (0.01, 10.0, "m/s"),
-}
 #: Platform length and width (m), both inclusive: 0.1 m is a tray, 100 m longer than any transport deck.
-PLATFORM_RANGE_M = (0.1, 100.0)
-#: Gripper jaw opening (m): closed to 20 m (a crane hook takes any section: leave the key out).
-GRIPPER_RANGE_M = (0.0, 20.0)
-#: A mobile base's length and width (m): a small robot's to a crawler crane's.
-FOOTPRINT_RANGE_M = (0.05, 100.0)
+#: Gripper jaw opening (m): closed to 20 m (a crane hook takes any section: leave the key out). A mobile
+#: base's length and width (m): a small robot's to a crawler crane's.
+_PLATFORM = Vector(Quantity(0.1, 100.0, "m"), "[length, width] in metres")
+_GRIPPER = Vector(Quantity(0.0, 20.0, "m"), "[min, max] in metres")
+_FOOTPRINT = Vector(Quantity(0.05, 100.0, "m"), "[length, width] in metres")
+_HOME = Vector(Quantity(-SITE_COORDINATE_LIMIT_M, SITE_COORDINATE_LIMIT_M, "m"), "[x, y] or [x, y, z] in metres", (2, 3))
+_SECONDS = Quantity(0.1, 86_400.0, "s")
+_HANDLING_S = Quantity(0.0, 86_400.0, "s")
 #: Homes in the model frame may be georeferenced (far from the IFC origin): within 1e7 m.
 MODEL_HOME_LIMIT_M = 1.0e7
+
+
+def _rcan_activities(names, at: At) -> frozenset:
+    from bimrobot.rcan.activities import ActivityKind  # the six activities' names, said once (no RCAN machinery)
+
+    if not isinstance(names, list) or not names:
+        raise at.fail(f"must be a non-empty list of RCAN activity names, got {names!r}")
+    try:
+        return frozenset(ActivityKind.parse(str(name)).value for name in names)
+    except ValueError as exc:
+        raise InputError(f"{at}: {exc}") from None
 
 
 @dataclass(frozen=True)
@@ -124,23 +129,23 @@ class RobotSpec:
     motions (every chapter-4 robot); ``rcan_activities`` None: all six RCAN activities.
     """
 
-    name: str
-    kind: str
-    speed_m_s: float
-    carry_kg: float = 0.0
-    lift_kg: float = 0.0
-    platform_m: tuple[float, float] | None = None
-    reach_m: float = 0.0
-    time_per_node_s: float = 0.0
-    time_per_point_s: float = 0.0
-    load_s: float = 0.0
-    unload_s: float = 0.0
-    methods: tuple[str, ...] = METHODS
-    home_m: tuple[float, ...] | None = None
-    arm_speed_m_s: float | None = None
-    gripper_opening_m: tuple[float, float] | None = None
-    footprint_m: tuple[float, float] | None = None
-    rcan_activities: frozenset[str] | None = None
+    name: str = field(metadata=rule(Name()))
+    kind: str = field(metadata=rule(Choice(tuple(KIND_TASKS))))
+    speed_m_s: float = field(metadata=rule(Quantity(0.01, 50.0, "m/s")))
+    carry_kg: float = field(default=0.0, metadata=rule(Quantity(1.0, 1e6, "kg")))
+    lift_kg: float = field(default=0.0, metadata=rule(Quantity(1.0, 1e6, "kg")))
+    platform_m: tuple[float, float] | None = field(default=None, metadata=rule(_PLATFORM))
+    reach_m: float = field(default=0.0, metadata=rule(Quantity(0.1, 300.0, "m")))
+    time_per_node_s: float = field(default=0.0, metadata=rule(_SECONDS))
+    time_per_point_s: float = field(default=0.0, metadata=rule(_SECONDS))
+    load_s: float = field(default=0.0, metadata=rule(_HANDLING_S))
+    unload_s: float = field(default=0.0, metadata=rule(_HANDLING_S))
+    methods: tuple[str, ...] = field(default=METHODS, metadata=rule(Subset(METHODS)))
+    home_m: tuple[float, ...] | None = field(default=None, metadata=rule(_HOME))
+    arm_speed_m_s: float | None = field(default=None, metadata=rule(Quantity(0.01, 10.0, "m/s")))
+    gripper_opening_m: tuple[float, float] | None = field(default=None, metadata=rule(Ordered(_GRIPPER)))
+    footprint_m: tuple[float, float] | None = field(default=None, metadata=rule(_FOOTPRINT))
+    rcan_activities: frozenset[str] | None = field(default=None, metadata=rule(Custom(_rcan_activities)))
 
     # ------------------------------------------------------------ chapter 4 (simulate, thesis, CP-SAT)
     @property
@@ -187,6 +192,12 @@ class RobotSpec:
             return True
         low, high = self.gripper_opening_m
         return low <= min(section_m) <= high
+
+
+#: Each robot number's physical range, (low, high, unit), both inclusive: read from RobotSpec's fields.
+RANGES = quantities_of(RobotSpec)
+#: Platform, gripper opening and base footprint sides (m), both inclusive: read from RobotSpec's fields.
+PLATFORM_RANGE_M, GRIPPER_RANGE_M, FOOTPRINT_RANGE_M = ((r.item.low, r.item.high) for r in (_PLATFORM, _GRIPPER, _FOOTPRINT))
 
 
 @dataclass(frozen=True)
@@ -241,86 +252,30 @@ class _Keys:
         return self.of.get(name, name)
 
 
-def _robot(entry, source: str, index: int, keys: _Keys, home_limit: float) -> RobotSpec:
-    where = f"robots[{index}]"
+def _robot(entry, source: str, index: int, keys: _Keys, home: Vector) -> RobotSpec:
+    """One robot of a fleet file, read by RobotSpec's declared rules; its kind says the keys it needs;
+    ``home``: the rule of its home (within the fleet's frame's limit)."""
+    at = At(source, where=f"robots[{index}]")
     if not isinstance(entry, dict):
-        raise InputError(f"{source}: {where} must be a mapping with name, kind, {keys('speed_m_s')}, ..., got {entry!r}")
-    name = entry.get("name")
-    if not isinstance(name, str) or not name.strip() or not name.isprintable():  # it goes into schedules and logs
-        raise InputError(f"{source}{line_of(entry, 'name')}: {where}: key 'name' must be a non-empty string of printable "
-                         f"characters, got {name!r}"[:400])
-    where = f"{where} ({name})"
-    kind = entry.get("kind")
-    if not isinstance(kind, str) or kind not in KIND_ACTIVITIES:
-        raise InputError(f"{source}{line_of(entry, 'kind')}: {where}: key 'kind' must be one of {', '.join(KIND_ACTIVITIES)}, got {kind!r}")
+        raise InputError(f"{source}: {at.where} must be a mapping with name, kind, {keys('speed_m_s')}, ..., got {entry!r}")
+    name = Name().read(entry.get("name"), at.of(entry, "name"))
+    at = replace(at, where=f"{at.where} ({name})")
+    kind = rules_of(RobotSpec)["kind"].read(entry.get("kind"), at.of(entry, "kind"))
     needed = {key for activity in KIND_ACTIVITIES[kind] for key in ACTIVITY_KEYS[activity]}
     optional = set(V1_OPTIONAL if keys.v1 else OPTIONAL_KEYS)
     if kind == "mobile_manipulator" and not keys.v1:  # it may carry what it holds in its gripper
         needed.discard("platform_m")
         optional.add("platform_m")
-    check_keys(entry, {keys(k) for k in needed | set(optional)} | {"name", "kind"}, source, where, detail=f" for a {kind} robot")
-    for key in sorted(keys(k) for k in needed):
-        if key not in entry:
-            shown = ", ".join(sorted(keys(k) for k in needed))
-            raise InputError(f"{source}: {where}: missing key '{key}' (a {kind} robot needs {shown})")
-    values: dict = {"name": name, "kind": kind}
-    present = {k for k in optional if keys(k) in entry}
-    for key in sorted((needed | present) & set(RANGES)):
-        low, high, unit = RANGES[key]
-        values[key] = number(entry, keys(key), source, low=low, high=high, low_inclusive=True, unit=unit, where=where)
-    if "platform_m" in needed | present:
-        size = _pair(entry, keys("platform_m"), source, where, *PLATFORM_RANGE_M, "[length, width]")
-        values["platform_m"] = (max(size), min(size))
+    numbers = sorted((needed | optional) & set(RANGES))  # read in this order: the first refusal is the same
+    order = [*numbers, *(k for k in ("platform_m", "methods", "home_m", "gripper_opening_m", "footprint_m",
+                                     "rcan_activities") if k in needed | optional)]
+    values = read_keys(entry, RobotSpec, at, only=["name", "kind", *order], names=keys, detail=f" for a {kind} robot",
+                       required=needed, needs=f" (a {kind} robot needs {', '.join(sorted(keys(k) for k in needed))})",
+                       rules={"home_m": home})
+    if "platform_m" in values:
+        values["platform_m"] = (max(values["platform_m"]), min(values["platform_m"]))
         values.setdefault("reach_m", values["platform_m"][0] / 2)  # a transport robot loads over its platform
-    if "methods" in present:
-        methods = entry["methods"]
-        if not isinstance(methods, list) or not methods or any(m not in METHODS for m in methods):
-            raise InputError(f"{source}{line_of(entry, 'methods')}: {where}: key 'methods' must be a list drawn from {list(METHODS)}, got {methods!r}")
-        values["methods"] = tuple(methods)
-    if "home_m" in present:
-        values["home_m"] = _home(entry, keys("home_m"), source, where, home_limit, allow_z=not keys.v1)
-    if "gripper_opening_m" in present:
-        opening = _pair(entry, "gripper_opening_m", source, where, *GRIPPER_RANGE_M, "[min, max]")
-        if opening[0] > opening[1]:
-            raise InputError(f"{source}{line_of(entry, 'gripper_opening_m')}: {where}: key 'gripper_opening_m' "
-                             f"must be [min, max] with min <= max, got {list(opening)}")
-        values["gripper_opening_m"] = opening
-    if "footprint_m" in present:
-        values["footprint_m"] = _pair(entry, "footprint_m", source, where, *FOOTPRINT_RANGE_M, "[length, width]")
-    if "rcan_activities" in present:
-        values["rcan_activities"] = _rcan_activities(entry, source, where)
     return RobotSpec(**values)
-
-
-def _pair(entry, key: str, source: str, where: str, low: float, high: float, shape: str) -> tuple[float, float]:
-    label = f"{source}{line_of(entry, key)}: {where}: key '{key}'"
-    value = entry[key]
-    if not isinstance(value, (list, tuple)) or len(value) != 2:
-        raise InputError(f"{label} must be {shape} in metres, got {value!r}")
-    first, second = (_number_in(v, label, low, high, "m", low_inclusive=True) for v in value)
-    return (first, second)
-
-
-def _home(entry, key: str, source: str, where: str, limit: float, allow_z: bool) -> tuple[float, ...]:
-    label = f"{source}{line_of(entry, key)}: {where}: key '{key}'"
-    value = entry[key]
-    if not isinstance(value, (list, tuple)) or len(value) not in ((2, 3) if allow_z else (2,)):
-        shape = "[x, y] or [x, y, z]" if allow_z else "a pair of numbers [x, y]"
-        raise InputError(f"{label} must be {shape} in metres, got {value!r}")
-    return tuple(_number_in(v, label, -limit, limit, "m", low_inclusive=True) for v in value)
-
-
-def _rcan_activities(entry, source: str, where: str) -> frozenset:
-    from bimrobot.rcan.activities import ActivityKind  # the six activities' names, said once (no RCAN machinery)
-
-    names = entry["rcan_activities"]
-    label = f"{source}{line_of(entry, 'rcan_activities')}: {where}: key 'rcan_activities'"
-    if not isinstance(names, list) or not names:
-        raise InputError(f"{label} must be a non-empty list of RCAN activity names, got {names!r}")
-    try:
-        return frozenset(ActivityKind.parse(str(name)).value for name in names)
-    except ValueError as exc:
-        raise InputError(f"{label}: {exc}") from None
 
 
 def fleet_from_dict(data, source: str) -> Fleet:
@@ -345,7 +300,8 @@ def fleet_from_dict(data, source: str) -> Fleet:
     if frame not in HOME_FRAMES:
         raise InputError(f"{source}{line_of(data, 'home_frame')}: key 'home_frame' must be one of {', '.join(HOME_FRAMES)}, got {frame!r}")
     limit = MODEL_HOME_LIMIT_M if frame == "model" else SITE_COORDINATE_LIMIT_M
-    specs = tuple(_robot(entry, source, i, keys, limit) for i, entry in enumerate(robots))
+    home = _HOME.within(limit) if not keys.v1 else _HOME.within(limit, (2,), "a pair of numbers [x, y] in metres")
+    specs = tuple(_robot(entry, source, i, keys, home) for i, entry in enumerate(robots))
     first: dict[str, int] = {}
     for index, spec in enumerate(specs):
         if spec.name in first:
@@ -424,8 +380,8 @@ BUILTIN_FLEETS = builtin_fleets()
 
 
 def load_fleet(spec: str | Path) -> Fleet:
-    """A built-in fleet (:data:`BUILTIN_FLEETS`: "fleet1", "fleet2", "site-crane", "rcan-lab") or a fleet
-    YAML file of any version, validated."""
+    """A built-in fleet (:data:`BUILTIN_FLEETS`, the files of ``fleets/``: "fleet1", "fleet2", "rcan-robots",
+    "site-crane") or a fleet YAML file of any version, validated."""
     if str(spec) in BUILTIN_FLEETS:
         text = resources.files("bimrobot.coordination").joinpath(FLEETS_FOLDER, f"{spec}.yaml").read_text()
         source = f"built-in fleet {spec}"

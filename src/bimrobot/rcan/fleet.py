@@ -20,19 +20,18 @@ what only RCAN needs:
 
 from __future__ import annotations
 
-import math
 from collections.abc import Iterable
-from dataclasses import replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
 from bimrobot.config import check_keys, line_of
-from bimrobot.config import number as config_number
 from bimrobot.coordination.fleet import (BUILTIN_FLEETS, Fleet, RobotSpec, fleet_from_dict, load_fleet,
                                          warn_old_format)
 from bimrobot.errors import InputError
 from bimrobot.rcan.activities import ActivityKind, RcanActivity
+from bimrobot.schema import At, Coordinates, Custom, Ordered, Quantity, keys_of, quantities_of, read_keys, rule
 from bimrobot.site import Site, default_site
 
 #: The built-in fleet RCAN runs with when it is given none (husky_ur5, heavy_mobile_manipulator, site_crane).
@@ -96,21 +95,47 @@ def load_rcan_fleet(spec=None, data: object | None = None, source: str | None = 
 
 
 # ---------------------------------------------------------------- RCAN's older capability table
-#: Physical ranges of a robot's numbers in a capability table: key -> (low, high, low inclusive, unit).
+#: Physical ranges of a robot's numbers in a capability table, declared on :class:`CapabilityRobot`.
 #: The largest land cranes lift about 5,000 t and reach about 250 m; nothing on a site drives faster
 #: than a road vehicle (20 m/s); a gripper takes less than a day per pick-up or install.
-ROBOT_RANGES = {
-    "payload_kg": (0.0, 5.0e6, True, "kg"),
-    "reach_m": (0.0, 250.0, True, "m"),
-    "speed_m_s": (0.0, 20.0, False, "m/s"),
-    "arm_speed_m_s": (0.0, 10.0, False, "m/s"),
-}
-#: The keys of a robot entry of a capability table.
-ROBOT_KEYS = ("types", *ROBOT_RANGES, "handling_s", "gripper_opening_m", "home", "footprint_m")
-HANDLING_RANGE_S = (0.0, 86400.0)
-GRIPPER_RANGE_M = (0.0, 20.0)
-FOOTPRINT_RANGE_M = (0.05, 100.0)
-HOME_RANGE_M = 1.0e7
+HANDLING_S = Quantity(0.0, 86400.0, "s")
+
+
+def _handling(value, at: At) -> dict:
+    """``handling_s``: RCAN activity name -> seconds (empty or null: none)."""
+    if not value:
+        return {}
+    if not isinstance(value, dict):
+        raise at.fail("must map activity names (pick_up, install, ...) to seconds")
+    seconds = {}
+    for key in value:
+        try:
+            kind = ActivityKind.parse(str(key))
+        except ValueError as exc:
+            raise InputError(f"{at.source}{line_of(value, key) or at.line}: {at.where}: handling_s: {exc}") from None
+        seconds[kind] = HANDLING_S.read(value[key], replace(at, line=line_of(value, key), where=f"{at.where} handling_s", key=str(key)))
+    return seconds
+
+
+@dataclass(frozen=True)
+class CapabilityRobot:
+    """The keys of one robot of a capability table (metres, seconds, kg, m/s; ``home`` [x, y, z] in the
+    model frame); ``types`` is checked against the table's ``robot_types`` before (its messages name them)."""
+
+    types: tuple = field(metadata=rule(Custom(lambda value, at: value)))
+    home: tuple = field(default=(0.0, 0.0, 0.0), metadata=rule(Coordinates(3, -1.0e7, 1.0e7)))
+    handling_s: dict = field(default_factory=dict, metadata=rule(Custom(_handling)))
+    gripper_opening_m: tuple | None = field(default=None, metadata=rule(Ordered(Coordinates(2, 0.0, 20.0))))
+    payload_kg: float = field(default=0.0, metadata=rule(Quantity(0.0, 5.0e6, "kg")))
+    footprint_m: tuple | None = field(default=None, metadata=rule(Coordinates(2, 0.05, 100.0)))
+    speed_m_s: float = field(default=1.0, metadata=rule(Quantity(0.0, 20.0, "m/s", low_open=True)))
+    reach_m: float = field(default=0.0, metadata=rule(Quantity(0.0, 250.0, "m")))
+    arm_speed_m_s: float = field(default=0.5, metadata=rule(Quantity(0.0, 10.0, "m/s", low_open=True)))
+
+
+#: The keys of a robot entry of a capability table, and the ranges of its numbers (low, high, unit).
+ROBOT_KEYS = keys_of(CapabilityRobot)
+ROBOT_RANGES = quantities_of(CapabilityRobot)
 
 
 def fleet_from_capability_table(data: object, source: str = "capability table") -> Fleet:
@@ -140,24 +165,6 @@ def fleet_from_capability_table(data: object, source: str = "capability table") 
     return Fleet(name=Path(source).stem, robots=robots, source=source, home_frame="model")
 
 
-def _coordinates(entry: dict, key: str, source: str, robot: str, line: str, count: int, low: float, high: float,
-                 default: list | None = None) -> tuple[float, ...] | None:
-    """``entry[key]`` as ``count`` numbers in metres, each in ``[low, high]``; None when absent and no
-    default. ``line``: the robot's line, used when the key's own is unknown."""
-    value = entry.get(key, default)
-    if value is None:
-        value = default  # 'home:' with nothing after it: as if absent
-    if value is None:
-        return None
-    label = f"{source}{line_of(entry, key) or line}: robot '{robot}': key '{key}'"
-    if not (isinstance(value, list) and len(value) == count
-            and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value)):
-        raise InputError(f"{label} must be a list of {count} numbers in metres, got {value!r}")
-    if not all(low <= v <= high and math.isfinite(v) for v in value):
-        raise InputError(f"{label} must hold numbers between {low:g} and {high:g} m, got {value!r}")
-    return tuple(float(v) for v in value)
-
-
 def _table_robot(name: str, entry: object, robot_types: dict, source: str, line: str = "") -> RobotSpec:
     where = f"{source}{line}: robots.{name}"
     if not isinstance(entry, dict):
@@ -168,40 +175,15 @@ def _table_robot(name: str, entry: object, robot_types: dict, source: str, line:
     unknown = [t for t in types if not isinstance(t, str) or t not in robot_types]
     if unknown:
         raise InputError(f"{where}.types names unknown robot type {unknown[0]!r} (known: {', '.join(robot_types)})")
-    robot = f"robot '{name}'"
-    check_keys(entry, ROBOT_KEYS, source, robot)
-
-    def number(key: str, default: float) -> float:
-        low, high, inclusive, unit = ROBOT_RANGES[key]
-        return config_number(entry, key, source, low=low, high=high, low_inclusive=inclusive, unit=unit,
-                             default=default, where=robot)
-
-    home = _coordinates(entry, "home", source, name, line, 3, -HOME_RANGE_M, HOME_RANGE_M, [0.0, 0.0, 0.0])
-    handling = entry.get("handling_s", {}) or {}
-    if not isinstance(handling, dict):
-        raise InputError(f"{source}{line_of(entry, 'handling_s') or line}: {robot}: key 'handling_s' must map "
-                         "activity names (pick_up, install, ...) to seconds")
-    handling_s = {}
-    for key in handling:
-        try:
-            kind = ActivityKind.parse(str(key))
-        except ValueError as exc:
-            raise InputError(f"{source}{line_of(handling, key) or line}: {robot}: handling_s: {exc}") from None
-        handling_s[kind] = config_number(handling, key, source, low=HANDLING_RANGE_S[0], high=HANDLING_RANGE_S[1],
-                                         unit="s", where=f"{robot} handling_s")
-    opening = _coordinates(entry, "gripper_opening_m", source, name, line, 2, *GRIPPER_RANGE_M)
-    if opening is not None and opening[0] > opening[1]:
-        raise InputError(f"{source}{line_of(entry, 'gripper_opening_m') or line}: {robot}: key 'gripper_opening_m' "
-                         f"must be [min, max] with min <= max, got {list(opening)}")
+    read = read_keys(entry, CapabilityRobot, At(source, line, f"robot '{name}'"))
+    spec = CapabilityRobot(**{key: value for key, value in read.items() if value is not None})
     activities = frozenset().union(*(robot_types[t] for t in types))
-    payload = number("payload_kg", 0.0)
-    install = handling_s.get(ActivityKind.INSTALL, 0.0)
-    footprint = _coordinates(entry, "footprint_m", source, name, line, 2, *FOOTPRINT_RANGE_M)
+    install = spec.handling_s.get(ActivityKind.INSTALL, 0.0)
     return RobotSpec(
-        name=name, kind="mobile_manipulator", speed_m_s=number("speed_m_s", 1.0), carry_kg=payload, lift_kg=payload,
-        reach_m=number("reach_m", 0.0), time_per_node_s=install,
-        time_per_point_s=install, load_s=handling_s.get(ActivityKind.PICK_UP, 0.0),
-        arm_speed_m_s=number("arm_speed_m_s", 0.5), gripper_opening_m=opening, footprint_m=footprint, home_m=home,
+        name=name, kind="mobile_manipulator", speed_m_s=spec.speed_m_s, carry_kg=spec.payload_kg,
+        lift_kg=spec.payload_kg, reach_m=spec.reach_m, time_per_node_s=install, time_per_point_s=install,
+        load_s=spec.handling_s.get(ActivityKind.PICK_UP, 0.0), arm_speed_m_s=spec.arm_speed_m_s,
+        gripper_opening_m=spec.gripper_opening_m, footprint_m=spec.footprint_m, home_m=spec.home,
         rcan_activities=None if activities == frozenset(ActivityKind) else frozenset(k.value for k in activities),
     )
 
