@@ -30,6 +30,8 @@ class ControlSkill:
                 self._record()
 
     def _control(self) -> None:
+        """Each robot's arm torques (Nm: PD to ``q_ref`` + gravity and payload compensation, clipped at
+        the joints' limits) and its base velocity command, for the next step."""
         data = self.data
         for name, robot in self.robots.items():
             idx = self.idx[name]
@@ -56,6 +58,7 @@ class ControlSkill:
         return [j for j, hit in zip(JOINT_NAMES, at_limit) if hit]
 
     def _record(self) -> None:
+        """Append a frame: (time s, body names, every body's position m and quaternion wxyz, world)."""
         self.frames.append((round(self.time_s, 6), self._names,
                             np.concatenate([self.data.xpos[1:], self.data.xquat[1:]], axis=1).copy()))
         self._next_frame += 1.0 / RECORD_HZ
