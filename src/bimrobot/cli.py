@@ -222,6 +222,26 @@ def _stop_behind(error: BaseException) -> KeyboardInterrupt | None:
     return None
 
 
+def _generated_models(args) -> None:
+    """Issue 38: an argument ``generated:KIND:...`` (a generated building, :mod:`bimrobot.planning.generator`)
+    names its IFC file, written once into the cache, so that every command reads it like a user's model.
+    The in-memory frame ``generated:NXxNYxFLOORS`` is left to the commands that know it."""
+    from pathlib import Path
+
+    def resolved(value):
+        if isinstance(value, list):
+            return [resolved(v) for v in value]
+        text = str(value) if isinstance(value, (str, Path)) else ""
+        if text.startswith("generated:"):
+            from bimrobot.planning.generator import is_generated, model_path
+
+            return type(value)(model_path(text)) if is_generated(text) else value
+        return value
+
+    for name, value in vars(args).items():
+        setattr(args, name, resolved(value))
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run one command; the exit status: 0 done, 1 no command, 2 bad input (one sentence, no traceback),
     130 / 143 / 129 stopped by SIGINT (Ctrl-C) / SIGTERM / SIGHUP, 141 output pipe closed.
@@ -236,6 +256,7 @@ def main(argv: list[str] | None = None) -> int:
             parser = parser_for(argv)  # imports the command's part: a moment in which a signal may come
             args = parser.parse_args(argv)
             command = args.command
+            _generated_models(args)
             if not getattr(args, "func", None):
                 parser.print_help()
                 return 1

@@ -113,6 +113,9 @@ def test_a_spec_is_a_model_path_for_simulate(tmp_path, monkeypatch, capsys):
     assert summary["smart_components"]["components"] == 5  # four wall panels and the slab on them
     assert len(list((tmp_path / "cache").glob("panel-1x1x1-seed3-*.ifc"))) == 1
     capsys.readouterr()
+    assert main(["inspect", "generated:panel:1x1x1:seed=3"]) == 0  # any command: the same cached file
+    assert "project 'generated:panel:1x1x1:seed=3 (1x1x1)'" in capsys.readouterr().out
+    assert len(list((tmp_path / "cache").iterdir())) == 1
     assert main(["simulate", "generated:panel:1x1x1:seed=-1", "-o", str(tmp_path / "bad")]) == 2
     assert "must be seed=S or bolts=B" in capsys.readouterr().err
 
