@@ -71,10 +71,9 @@ class At:
             return f"{self.source}{self.line}: {self.where + '.' if self.where and self.key else self.where}{self.key}:"
         return f"{self.source}{self.line}: {self.where + ': ' if self.where else ''}key '{self.key}'"
 
-    def of(self, mapping: Any, key: Any, shown: str | None = None) -> "At":
+    def of(self, mapping: Any, key: Any) -> "At":
         """The place of ``mapping[key]``: its own line when known, else this one's."""
-        return At(self.source, line_of(mapping, key) or self.line, self.where, str(key) if shown is None else shown,
-                  self.path, self.context)
+        return At(self.source, line_of(mapping, key) or self.line, self.where, str(key), self.path, self.context)
 
     def entry(self) -> "At":
         """This place as the entry whose own keys are read next (path style: ``reward`` -> ``reward.r0``)."""
@@ -100,6 +99,10 @@ class Rule:
 
     def read(self, value: Any, at: At) -> Any:  # pragma: no cover - every rule overrides it
         raise NotImplementedError
+
+    def describe(self) -> str:
+        """What the key holds, in a few words for ``bimrobot fleet keys`` (e.g. ``0.01 to 50 m/s``)."""
+        return ""
 
 
 def _bound(value: float | None, inclusive: bool, below: bool) -> str:
@@ -135,6 +138,9 @@ class Quantity(Rule):
             raise at.fail(f"must be {bounds}{' ' + self.unit if self.unit else ''}, got {value:g}")
         return float(value)
 
+    def describe(self) -> str:
+        return f"{self.low:g} to {self.high:g} {self.unit}".strip()
+
 
 @dataclass(frozen=True)
 class Integer(Rule):
@@ -167,6 +173,9 @@ class Choice(Rule):
             raise at.expected(shown, shown, value)
         return value
 
+    def describe(self) -> str:
+        return " | ".join(self.values)
+
 
 @dataclass(frozen=True)
 class Flag(Rule):
@@ -195,6 +204,9 @@ class Name(Rule):
             raise InputError(f"{at} must be a non-empty string of printable characters, got {value!r}"[:400])
         return value
 
+    def describe(self) -> str:
+        return "text"
+
 
 @dataclass(frozen=True)
 class Subset(Rule):
@@ -206,6 +218,9 @@ class Subset(Rule):
         if not isinstance(value, list) or not value or any(v not in self.values for v in value):
             raise at.fail(f"must be a list drawn from {list(self.values)}, got {value!r}")
         return tuple(value)
+
+    def describe(self) -> str:
+        return f"list of {', '.join(self.values)}"
 
 
 @dataclass(frozen=True)
@@ -221,6 +236,9 @@ class Vector(Rule):
         if not isinstance(value, (list, tuple)) or len(value) not in self.counts:
             raise at.expected(self.shape, self.shape, value)
         return tuple(self.item.read(v, at) for v in value)
+
+    def describe(self) -> str:
+        return f"{self.shape}, each {self.item.describe()}"
 
     def within(self, limit: float, counts: tuple[int, ...] | None = None, shape: str | None = None) -> "Vector":
         """This vector with items in [-limit, limit] (and other counts or shape when given)."""
@@ -273,15 +291,23 @@ class Ordered(Rule):
             raise at.fail(f"must be [min, max] with min <= max, got {list(pair)}")
         return pair
 
+    def describe(self) -> str:
+        return f"{self.inner.describe()}, min <= max"
+
 
 @dataclass(frozen=True)
 class Custom(Rule):
-    """A value read by ``reader(value, at)``: for what a module of its own validates (a work calendar)."""
+    """A value read by ``reader(value, at)``: for what a module of its own validates (a work calendar);
+    ``text`` describes it."""
 
     reader: Any
+    text: str = ""
 
     def read(self, value: Any, at: At) -> Any:
         return self.reader(value, at)
+
+    def describe(self) -> str:
+        return self.text
 
 
 # ---------------------------------------------------------------- reading a mapping

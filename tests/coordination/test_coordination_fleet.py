@@ -1,9 +1,11 @@
 """Fleets (Table 4.1) and sites (fig. 4.11) from YAML, validated; the market's evaluators."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
-from bimrobot.coordination.fleet import default_site, load_fleet, load_site
+from bimrobot.coordination.fleet import RobotSpec, default_site, load_fleet, load_site
 from bimrobot.coordination.market import BidProposal, TaskRequest, incapability, make_evaluator, propose
 from bimrobot.errors import InputError
 
@@ -253,6 +255,11 @@ def test_fleet_list_and_convert(tmp_path, capsys):
     assert main(["fleet", "list"]) == 0
     out = capsys.readouterr().out
     assert [line.split()[0] for line in out.splitlines()] == ["fleet1", "fleet2", "rcan-robots", "site-crane"]
+    assert main(["fleet", "keys"]) == 0  # from the declaration that validates: every key, its range, who needs it
+    lines = {line.split()[0]: line for line in capsys.readouterr().out.splitlines()}
+    assert list(lines) == [f.name for f in dataclasses.fields(RobotSpec)]
+    assert "0.01 to 50 m/s" in lines["speed_m_s"] and lines["carry_kg"].endswith("needed by transport, mobile_manipulator")
+    assert "each 0.1 to 100 m" in lines["platform_m"] and lines["platform_m"].endswith("needed by transport")
     old = tmp_path / "old.yaml"
     old.write_text(V1_FLEET2)
     new = tmp_path / "new.yaml"

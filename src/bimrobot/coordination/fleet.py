@@ -145,7 +145,8 @@ class RobotSpec:
     arm_speed_m_s: float | None = field(default=None, metadata=rule(Quantity(0.01, 10.0, "m/s")))
     gripper_opening_m: tuple[float, float] | None = field(default=None, metadata=rule(Ordered(_GRIPPER)))
     footprint_m: tuple[float, float] | None = field(default=None, metadata=rule(_FOOTPRINT))
-    rcan_activities: frozenset[str] | None = field(default=None, metadata=rule(Custom(_rcan_activities)))
+    rcan_activities: frozenset[str] | None = field(default=None, metadata=rule(
+        Custom(_rcan_activities, "list of RCAN activities (thesis Table 5.2 names; default all six)")))
 
     # ------------------------------------------------------------ chapter 4 (simulate, thesis, CP-SAT)
     @property

@@ -1,5 +1,6 @@
-"""``bimrobot fleet list`` and ``bimrobot fleet convert``: the built-in fleets, and older fleet files
-rewritten in the one fleet format (:mod:`bimrobot.coordination.fleet`)."""
+"""``bimrobot fleet list``, ``fleet keys`` and ``fleet convert``: the built-in fleets, the keys of a robot
+(from the declaration that validates fleet files), and older fleet files rewritten in the one fleet format
+(:mod:`bimrobot.coordination.fleet`)."""
 
 from __future__ import annotations
 
@@ -7,6 +8,7 @@ import argparse
 
 EXAMPLES = """examples:
   bimrobot fleet list                            # the built-in fleets and their robots
+  bimrobot fleet keys                            # every key of a robot: unit, range, the kinds that need it
   bimrobot fleet convert old.yaml -o fleet.yaml  # a version-1 fleet or RCAN capability table, as version 2
 """
 
@@ -20,6 +22,10 @@ def register(subparsers) -> None:
                                   epilog="example:\n  bimrobot fleet list",
                                   formatter_class=argparse.RawDescriptionHelpFormatter)
     listing.set_defaults(func=_list)
+    keys = commands.add_parser("keys", help="the keys of a version-2 robot entry: unit, range, the kinds that need it",
+                               epilog="example:\n  bimrobot fleet keys",
+                               formatter_class=argparse.RawDescriptionHelpFormatter)
+    keys.set_defaults(func=_keys)
     convert = commands.add_parser("convert", help="rewrite a fleet file of any version in the version-2 keys",
                                   epilog="example:\n  bimrobot fleet convert capabilities.yaml -o fleet.yaml",
                                   formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -38,6 +44,21 @@ def _list(args) -> int:
             kinds[robot.kind] = kinds.get(robot.kind, 0) + 1
         shown = ", ".join(f"{count} {kind}" for kind, count in kinds.items())
         print(f"{name:12s} {len(fleet.robots)} robots ({shown}): {', '.join(fleet.names)}")
+    return 0
+
+
+def _keys(args) -> int:
+    """One line per key of a robot entry, read from the same declaration that validates fleet files."""
+    from bimrobot.coordination.fleet import ACTIVITY_KEYS, KIND_ACTIVITIES, RobotSpec
+    from bimrobot.schema import rules_of
+
+    for key, rule in rules_of(RobotSpec).items():
+        kinds = [kind for kind, tasks in KIND_ACTIVITIES.items()
+                 if key in ("name", "kind") or any(key in ACTIVITY_KEYS[task] for task in tasks)]
+        if key == "platform_m":  # a mobile manipulator may leave it out (it carries in its gripper)
+            kinds.remove("mobile_manipulator")
+        need = f"needed by {', '.join(kinds)}" if kinds else "optional"
+        print(f"{key:18s} {rule.describe():66s} {need}")
     return 0
 
 
