@@ -195,7 +195,7 @@ STAGES = (  # the simulation first: it refuses a fleet that cannot build the mod
     Stage("simulation", "build simulation (market, SimPy)",
           lambda a, d: ["simulate", str(a.model), "--fleet", str(a.fleet), "-o", str(d / "simulation"), "--no-progress",
                         "--prebuilt", a.prebuilt, *(["--by-element"] if a.by_element else []),
-                        *_site(a), *_selection(a), *_weights(a)], _simulate),
+                        *_site(a), *_selection(a), *_weights(a), *_planner(a)], _simulate),
     Stage("package", "Gazebo package (components on the yard)",
           lambda a, d: ["convert", str(a.model), "-o", str(d / "package"), "--layout", "yard", "--no-progress",
                         "--package-name", _package_name(a), *_placed_site(d), *_selection(a), *_weights(a)],
@@ -216,6 +216,13 @@ STAGES = (  # the simulation first: it refuses a fleet that cannot build the mod
           lambda a, d: ["replay", str(d), "-o", str(d / "build.rrd"), "--model", str(a.model),
                         *(["--start", a.start] if a.start else [])], _replay),
 )
+
+
+def _planner(args) -> list[str]:
+    """``--planner NAME`` for the simulation stage (issue 38); CP-SAT plans per joint. None: the market."""
+    if getattr(args, "planner", None) is None:
+        return []
+    return ["--planner", args.planner, *(["--per-joint"] if args.planner == "cp-sat" else [])]
 
 
 def _work_schedule(args, folder: Path) -> list[str]:
@@ -276,6 +283,9 @@ def register(subparsers) -> None:
                         "physically in MuJoCo; rcan/state.db.trajectory.csv holds their trajectories)")
     parser.add_argument("--time-scale", type=_non_negative, default=0.0, metavar="S",
                         help="RCAN's sim robots: real seconds slept per simulated second (default 0, as fast as possible)")
+    parser.add_argument("--planner", metavar="NAME",
+                        help="who plans the build, as simulate --planner (default the market): market, "
+                        "market:quickest-finish, rule:NAME, cp-sat (per joint), learned or PATH.zip")
     add_selection_options(parser, built=True)
     add_unknown_weight_option(parser)
     parser.set_defaults(func=build_command)
@@ -309,6 +319,8 @@ def _fingerprint(args) -> dict:
     options = {key: str(getattr(args, key)) for key in
                ("fleet", "site", "prebuilt", "by_element", "include", "exclude", "unknown_weight_text", "start",
                 "backend", "schedule_out")}
+    if getattr(args, "planner", None) is not None:  # issue 38; absent by default, so earlier builds still match
+        options["planner"] = str(args.planner)
     return {"options": options, "inputs": {str(p.resolve()): digest(p) for p in _inputs(args)}}
 
 
@@ -325,6 +337,10 @@ def _check_inputs(args) -> BuildModel:
     load_fleet(args.fleet)
     load_site(args.site)
     _check_schedule_out(args)
+    if getattr(args, "planner", None) is not None:  # issue 38: a wrong planner name, refused before the stages
+        from bimrobot.planning.planners import check_planner
+
+        check_planner(args.planner, per_node=args.planner != "cp-sat")
     shared = BuildModel(args)
     check_selection(args.model, args.include, args.exclude, args.prebuilt, ifc=shared.ifc)
     return shared

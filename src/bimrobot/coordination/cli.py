@@ -132,6 +132,12 @@ def register(subparsers) -> None:
     _add_common(simulate)
     simulate.add_argument("--evaluator", default="least-cost", choices=EVALUATORS, help="how the winning bid is chosen (default least-cost; greedy-nearest and random are baselines)")
     simulate.add_argument("--seed", type=_ranged(int, 0, 2**32 - 1, ""), default=0, help="seed of the random allocator (default 0)")
+    simulate.add_argument(  # issue 38: bimrobot.planning.planners
+        "--planner", metavar="NAME",
+        help="who plans the build (default: the market with --evaluator): market, market:quickest-finish, "
+        "rule:most-successors, rule:longest-path, rule:nearest, rule:shortest-handling, cp-sat (with --per-joint), "
+        "learned, or a policy file PATH.zip; plan.json says what planning cost",
+    )
     simulate.add_argument("--breakdown", type=_breakdown, action="append", default=[], metavar="ROBOT@SECONDS[+REPAIR]", help="the robot breaks down at that time, for good or for REPAIR seconds (repeatable)")
     simulate.add_argument("--no-gantt", action="store_true", help="skip the Gantt chart (faster on big buildings)")
     simulate.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -281,14 +287,23 @@ def run_simulate(args, model=None) -> int:
         return run_thesis(args, model)
     if args.step_time is not None:
         raise InputError("--step-time applies to --mode thesis only (the event mode times every task as it happens)")
+    if getattr(args, "planner", None) is not None:  # a wrong name is refused before the model is read
+        from bimrobot.planning.planners import check_planner
+
+        check_planner(args.planner, per_node=not args.per_joint, breakdowns=args.breakdown)
     model, elevations, fleet, site, weights, smart_model = _prepare(args, "simulate", model)
     smart = smart_model()
+    dispatcher, stats = _planner(args, smart, fleet, site, elevations)
     to_build = sum(1 for c in smart.components.values() if not c.prebuilt)
     with tqdm(total=to_build, desc="components assembled", unit="", disable=True if args.no_progress else None, leave=False) as bar:
         result = simulate(smart, fleet, site, args.evaluator, args.seed, args.breakdown, elevations,
-                          on_assembled=lambda _: bar.update(1), per_node=not args.per_joint)
+                          on_assembled=lambda _: bar.update(1), per_node=not args.per_joint, dispatcher=dispatcher)
     with atomic_output_dir(args.output, kind="simulate", inputs=_inputs(args)) as tmp:
         write_outputs(result, tmp, gantt=not args.no_gantt, unknown_weight=weights.as_dict())
+        if stats is not None:
+            from bimrobot.planning.planners import plan_record
+
+            (tmp / "plan.json").write_text(plan_record(args.planner, result, stats), encoding="utf-8")
         (tmp / "site.yaml").write_text(site_yaml(site, "this simulation"), encoding="utf-8")
         (tmp / RUN_FLEET_FILE).write_text(fleet_yaml(fleet, "this simulation"), encoding="utf-8")  # the schedule's fleet
     info = smart.summary()
@@ -310,12 +325,32 @@ def run_simulate(args, model=None) -> int:
               f"cannot verify them (listed under components_without_weight in summary.json)")
     if smart.duplicates:
         print(f"not built: {len(smart.duplicates)} elements duplicating a connected element in place (listed in summary.json)")
-    print(f"fleet {fleet.name}, evaluator {result.evaluator}: makespan {result.makespan:.1f} s, {result.steps} steps, "
+    print(f"fleet {fleet.name}, {'evaluator' if stats is None else 'planner'} {result.evaluator}: makespan {result.makespan:.1f} s, {result.steps} steps, "
           f"fleet utilisation {result.utilisation:.1%}")
     print(format_robot_table(result))
+    if stats is not None:
+        from bimrobot.planning.planners import plan_line
+
+        print(plan_line(result, stats))
     print(f"output: {Path(args.output).resolve()}/ (events.log, events.jsonl, robots.csv, summary.json, states.json, schedule.csv"
-          f"{'' if args.no_gantt else ', gantt.png'})")
+          f"{'' if args.no_gantt else ', gantt.png'}{'' if stats is None else ', plan.json'})")
     return 0
+
+
+def _planner(args, smart, fleet, site, elevations):
+    """``--planner``: (the dispatcher that carries out the plan, its PlanStats), or (None, None) for the
+    market of ``--evaluator`` (simulate's default, unchanged; ``--planner market`` is the same run)."""
+    planner = getattr(args, "planner", None)
+    if planner is None or planner == "market":  # the default market: the very same run and outputs
+        return None, None
+    if args.evaluator != "least-cost":
+        raise InputError(f"give --planner or --evaluator, not both (got --planner {planner} and --evaluator {args.evaluator})")
+    from bimrobot.planning.dispatch import DispatchProblem
+    from bimrobot.planning.planners import PlanStats, dispatcher_for
+
+    stats = PlanStats()
+    problem = DispatchProblem(smart, fleet, site, elevations, not args.per_joint, tuple(args.breakdown))
+    return dispatcher_for(planner, problem, stats), stats
 
 
 def run_thesis(args, model=None) -> int:
@@ -327,6 +362,8 @@ def run_thesis(args, model=None) -> int:
         raise InputError("--per-joint is not available with --mode thesis (the thesis' loop works per connection node); use --mode event")
     if args.breakdown:
         raise InputError("--breakdown is not available with --mode thesis (the thesis' loop has no faults); use --mode event")
+    if getattr(args, "planner", None) is not None:
+        raise InputError("--planner is not available with --mode thesis (the thesis' loop is the market's); use --mode event")
     if args.evaluator != "least-cost":
         raise InputError(f"--mode thesis awards to the lowest bid (least-cost) only, got --evaluator {args.evaluator}")
     step_time = args.step_time or DEFAULT_STEP_TIME

@@ -44,6 +44,7 @@ def register(subparsers) -> None:
     add_unknown_weight_option(export)
     export.set_defaults(func=run_export)
     _register_generate(commands)  # issue 38: generated buildings (block at the end of this file)
+    _register_benchmark(commands)  # issue 38: planners compared (block at the end of this file)
 
 
 def run_export(args) -> int:
@@ -126,4 +127,65 @@ def run_generate(args) -> int:
           f"bays {layout.bay_x} x {layout.bay_y} m, storeys {layout.storey_height} m, {layout.bolts_per_node} fasteners "
           f"per node), {len(made.fleet.robots)} robots; written in {seconds:.1f} s")
     print(f"output: {Path(args.output).resolve()}/ (building.ifc, fleet.yaml, site.yaml, generated.json)")
+    return 0
+
+
+# --- issue 38: `plan benchmark`, every planner against CP-SAT's bound (bimrobot.planning.benchmark) ---------
+
+BENCHMARK_EXAMPLES = """examples:
+  bimrobot plan benchmark frame.ifc generated:steel:100:seed=0 -o bench/
+  bimrobot plan benchmark ../shared/data/ifc/*.ifc* --time-limit 60 -o bench_real/
+  bimrobot plan benchmark generated:steel:1000:seed=0 --planners market,rule:longest-path,cp-sat -o bench_1000/
+
+Per model and planner: makespan (the plan executed by simulate's event simulation, per joint), CP-SAT's
+lower bound and the gap to it, planning time (wall s) and time per decision. IFC files are built by
+site-crane (with IfcFooting, IfcSlab and IfcWall prebuilt where it cannot build them otherwise),
+generated:KIND:... buildings by the fleet drawn for them, unless --fleet is given. Writes benchmark.md
+and benchmark.json. Planning times are wall times: compare them on one machine.
+"""
+
+
+def _register_benchmark(commands) -> None:
+    """Add ``plan benchmark``."""
+    from bimrobot.coordination.cli import _ranged
+
+    bench = commands.add_parser(
+        "benchmark", help="every planner on the same buildings: makespan, gap to CP-SAT's bound, planning time",
+        epilog=BENCHMARK_EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    bench.add_argument("models", nargs="+", type=_ModelArgument,
+                       help="IFC files or generated:KIND:NXxNYxF|N[:seed=S] specs")
+    bench.add_argument("--planners", help="comma-separated planner names (default: all; learned where installed)")
+    bench.add_argument("--fleet", help="fleet for every model (default: site-crane, or the generated building's own)")
+    bench.add_argument("--time-limit", type=_ranged(float, 0.0, 86_400.0, "s", low_inclusive=False), default=60.0,
+                       help="CP-SAT's wall-clock limit per model, seconds (default 60)")
+    bench.add_argument("--cpsat-max-tasks", type=_ranged(int, 1, 1_000_000, ""), default=20_000,
+                       help="larger models get no CP-SAT run (no bound), default 20000 tasks")
+    bench.add_argument("-o", "--output", required=True, help="output folder (new, or one `plan benchmark` wrote)")
+    bench.set_defaults(func=run_benchmark)
+
+
+class _ModelArgument:
+    """A benchmark model as the user wrote it: a generated spec stays a spec (its drawn fleet and its name
+    in the table), not the cached file that bimrobot.cli gives other commands."""
+
+    def __init__(self, text: str):
+        self.text = text
+
+
+def run_benchmark(args) -> int:
+    """``bimrobot plan benchmark``: the table, printed and written."""
+    from bimrobot.io import atomic_output_dir, check_output
+    from bimrobot.planning.benchmark import DEFAULT_PLANNERS, bench_model, markdown, write
+    from bimrobot.planning.planners import planner_for
+
+    planners = tuple(p.strip() for p in args.planners.split(",")) if args.planners else DEFAULT_PLANNERS
+    for name in planners:
+        planner_for(name)  # an unknown name: one sentence, before any work
+    check_output(args.output, folder=True, inputs=[], kind="plan-benchmark")
+    entries = [bench_model(m.text, planners, args.fleet, args.time_limit, args.cpsat_max_tasks) for m in args.models]
+    with atomic_output_dir(args.output, kind="plan-benchmark") as tmp:
+        write(entries, args.time_limit, tmp)
+    print(markdown(entries, args.time_limit))
+    print(f"output: {Path(args.output).resolve()}/ (benchmark.md, benchmark.json)")
     return 0

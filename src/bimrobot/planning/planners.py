@@ -1,0 +1,389 @@
+"""Planners behind one interface (issue 38): every planner is a dispatcher of the one event simulation.
+
+A planner turns a problem (model + fleet + site, as ``simulate`` reads it: a
+:class:`~bimrobot.planning.dispatch.DispatchProblem`) into a :class:`~bimrobot.coordination.market.Dispatcher`.
+:class:`~bimrobot.coordination.simulation.ConstructionSimulation` then executes the plan: it asks the
+dispatcher at each allocation round, so every planner's makespan comes from the same time model (travel,
+handling, release, floor gate, idle robots driving back to the yard).
+
+Names (:func:`planner_for`):
+
+- ``market`` (least-cost) and ``market:quickest-finish``: the thesis' market (``market.MarketDispatcher``).
+- ``rule:most-successors``, ``rule:longest-path``, ``rule:shortest-handling``: priority rules. At each
+  round the ready tasks are taken in the rule's order (most tasks after it, directly or not; longest
+  remaining path of shortest handling times, the critical path; shortest handling time); each goes to the
+  capable idle robot that finishes it soonest (travel + handling; ties: robot name).
+- ``rule:nearest``: the (ready task, idle robot) pair with the shortest drive first, again and again.
+- ``cp-sat``: :func:`bimrobot.coordination.optimal.solve_optimal`'s schedule replayed: each task goes to
+  the robot CP-SAT chose, and each robot takes its tasks in CP-SAT's start order, each as soon as it is
+  published and the robot is free (per joint only: CP-SAT's tasks are per joint).
+- ``learned`` and ``PATH.zip``: a learned policy, :class:`bimrobot.planning.learned.LearnedPlanner`
+  (imported only when asked for). The contract: ``LearnedPlanner(path)`` (``path`` None for the policy
+  shipped with the package) is a ``Dispatcher``, or has ``dispatcher(problem) -> Dispatcher``.
+
+All planners are deterministic. Times in seconds, positions (x, y) in metres in the site frame.
+"""
+
+from __future__ import annotations
+
+import heapq
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from bimrobot.coordination.market import (
+    Award, Dispatcher, MarketDispatcher, incapability, make_evaluator, propose, handling_time,
+)
+from bimrobot.errors import InputError
+from bimrobot.tasks import Task
+
+RULES = ("most-successors", "longest-path", "nearest", "shortest-handling")
+#: the names :func:`planner_for` knows, in the order the CLI lists them (``PATH.zip`` besides)
+PLANNERS = ("market", "market:quickest-finish", *(f"rule:{r}" for r in RULES), "cp-sat", "learned")
+DEFAULT = "market"
+#: CP-SAT's limits when it plans for the CLI: wall seconds, deterministic seconds, one worker (reproducible)
+CPSAT_TIME_LIMIT_S = 60.0
+CPSAT_DETERMINISTIC_S = 20.0
+
+
+@dataclass
+class PlanStats:
+    """What planning cost: ``decisions`` (awards made), ``decide_s`` (wall seconds in the dispatcher's
+    rounds), ``solve_s`` (wall seconds before the run: CP-SAT's solve), and planner-specific ``notes``."""
+
+    decisions: int = 0
+    decide_s: float = 0.0
+    solve_s: float = 0.0
+    #: the same in this process's CPU seconds (steadier than wall time on a shared machine)
+    decide_cpu_s: float = 0.0
+    solve_cpu_s: float = 0.0
+    notes: dict = field(default_factory=dict)
+
+    @property
+    def planning_s(self) -> float:
+        return self.solve_s + self.decide_s
+
+    @property
+    def planning_cpu_s(self) -> float:
+        return self.solve_cpu_s + self.decide_cpu_s
+
+    @property
+    def ms_per_decision(self) -> float | None:
+        return None if not self.decisions else 1000.0 * self.decide_s / self.decisions
+
+    @property
+    def cpu_ms_per_decision(self) -> float | None:
+        return None if not self.decisions else 1000.0 * self.decide_cpu_s / self.decisions
+
+
+class Timed(Dispatcher):
+    """A dispatcher that counts its decisions and the wall time of its rounds into ``stats``."""
+
+    def __init__(self, inner: Dispatcher, stats: PlanStats):
+        self.inner, self.stats, self.name = inner, stats, inner.name
+
+    def awards(self, sim) -> list[Award] | None:
+        started, cpu = time.perf_counter(), time.process_time()
+        chosen = self.inner.awards(sim)
+        self.stats.decide_s += time.perf_counter() - started
+        self.stats.decide_cpu_s += time.process_time() - cpu
+        self.stats.decisions += len(chosen or ())
+        return chosen
+
+
+# ---------------------------------------------------------------- priority rules
+def _request_key(sim, request) -> str:
+    """The task graph's node of a published request (:func:`bimrobot.planning.dispatch.task_key`)."""
+    from bimrobot.planning.dispatch import task_key
+
+    node = request.node_ids[0] if request.node_ids and sim.per_node else None
+    return task_key(request.activity, request.component_id, request.joint_id, node)
+
+
+def _scores(sim, rule: str) -> dict[str, float]:
+    """Each task's priority under ``rule`` (higher first): its number of successors (direct or not), or
+    its longest remaining path in seconds (its own and its successors' shortest handling times, gates 0),
+    or minus its shortest handling time (s)."""
+    from bimrobot.planning.dispatch import task_graph
+
+    graph = task_graph(sim)
+    n = len(graph.keys)
+    after: list[list[int]] = [[] for _ in range(n)]
+    indegree = np.zeros(n, dtype=np.int64)
+    for a, b in graph.edges:
+        after[a].append(int(b))
+        indegree[b] += 1
+    order, ready = [], [i for i in range(n) if indegree[i] == 0]
+    while ready:  # topological order (Kahn)
+        i = ready.pop()
+        order.append(i)
+        for j in after[i]:
+            indegree[j] -= 1
+            if indegree[j] == 0:
+                ready.append(j)
+    specs = [r.spec for r in sim.build.robots.values()]
+
+    def shortest(request) -> float:
+        if request is None:
+            return 0.0
+        return min((handling_time(s, request) for s in specs if not incapability(s, request)), default=0.0)
+
+    if rule == "shortest-handling":
+        return {k: -shortest(r) for k, r in zip(graph.keys, graph.requests)}
+    if rule == "longest-path":
+        tail = [0.0] * n
+        for i in reversed(order):
+            tail[i] = shortest(graph.requests[i]) + max((tail[j] for j in after[i]), default=0.0)
+        return dict(zip(graph.keys, tail))
+    below = [0] * n  # successors as a bit set per task
+    for i in reversed(order):
+        bits = 0
+        for j in after[i]:
+            bits |= below[j] | (1 << j)
+        below[i] = bits
+    return {k: float(bits.bit_count()) for k, bits in zip(graph.keys, below)}
+
+
+class RuleDispatcher(Dispatcher):
+    """A priority rule (module docstring) as the simulation's dispatcher; ``rule`` one of :data:`RULES`."""
+
+    def __init__(self, rule: str):
+        if rule not in RULES:
+            raise InputError(f"unknown rule {rule!r}: choose one of {', '.join(RULES)}")
+        self.rule, self.name = rule, f"rule:{rule}"
+        self._scores: dict[str, float] | None = None
+        self._sim = None
+
+    def awards(self, sim) -> list[Award]:
+        if self._sim is not sim:
+            self._sim, self._scores = sim, (None if self.rule == "nearest" else _scores(sim, self.rule))
+        now = sim.build.env.now
+        idle = {a: set(names) for a, names in sim.build.idle.items()}
+        pending = [r for pool in sim.build.pending.values() for r in pool]
+        chosen: list[Award] = []
+        if self.rule == "nearest":
+            return self._nearest(sim, pending, idle, now)
+        pending.sort(key=lambda r: (-self._scores.get(_request_key(sim, r), 0.0), r.priority))
+        for request in pending:
+            proposals = [propose(sim.build.robots[n].spec, sim.position_now(sim.build.robots[n]), now, True, request)
+                         for n in sorted(idle[request.activity]) if not incapability(sim.build.robots[n].spec, request)]
+            if proposals:
+                best = min(proposals, key=lambda p: (p.cost, p.robot))
+                chosen.append(Award(request, best.robot, best, len(proposals)))
+                for names in idle.values():
+                    names.discard(best.robot)
+        return chosen
+
+    def _nearest(self, sim, pending, idle, now) -> list[Award]:
+        """The shortest drive first: all (task, idle robot) pairs, nearest first (ties: task priority, name)."""
+        pairs = []
+        for request in pending:
+            for name in idle[request.activity]:
+                robot = sim.build.robots[name]
+                if not incapability(robot.spec, request):
+                    p = propose(robot.spec, sim.position_now(robot), now, True, request)
+                    pairs.append((p.distance, request.priority, name, request, p))
+        pairs.sort(key=lambda x: x[:3])
+        chosen, busy, given = [], set(), set()
+        for _, _, name, request, p in pairs:
+            if name in busy or request.id in given:
+                continue
+            bidders = sum(1 for q in pairs if q[3] is request)
+            chosen.append(Award(request, name, p, bidders))
+            busy.add(name)
+            given.add(request.id)
+        return chosen
+
+
+# ---------------------------------------------------------------- CP-SAT replayed
+class ReplayDispatcher(Dispatcher):
+    """CP-SAT's plan (``assignment``: task key -> robot, ``start``: task key -> work start s) executed by
+    the simulation: a robot takes the next task of its CP-SAT sequence once that task is published. When
+    nothing runs and no robot's next task is ready (the simulation's floor gate also waits for parts
+    without connection nodes, which CP-SAT's does not), each idle robot takes its earliest planned ready
+    task out of order (counted in ``reordered``); a published task CP-SAT did not plan goes to the
+    least-cost idle robot (``unplanned``)."""
+
+    name = "cp-sat"
+
+    def __init__(self, assignment: dict[str, str], start: dict[str, float]):
+        self.queues: dict[str, list[str]] = {}
+        for key in sorted(assignment, key=lambda k: (start[k], k)):
+            self.queues.setdefault(assignment[key], []).append(key)
+        self.assignment = assignment
+        self.reordered = 0
+        self.unplanned = 0
+
+    def awards(self, sim) -> list[Award]:
+        now = sim.build.env.now
+        ready = {_request_key(sim, r): r for pool in sim.build.pending.values() for r in pool}
+        idle = {n for names in sim.build.idle.values() for n in names}
+        chosen = []
+        for name in sorted(idle):
+            queue = self.queues.get(name)
+            if queue and queue[0] in ready:
+                chosen.append(self._award(sim, ready.pop(queue.pop(0)), name, now))
+        running = any(r.task is not None for r in sim.build.robots.values())
+        if not chosen and not running:
+            for name in sorted(idle):
+                mine = [k for k in self.queues.get(name, ()) if k in ready]
+                if mine:
+                    self.queues[name].remove(mine[0])
+                    self.reordered += 1
+                    chosen.append(self._award(sim, ready.pop(mine[0]), name, now))
+        free = idle - {a.robot for a in chosen}
+        for key, request in sorted(ready.items(), key=lambda kv: kv[1].priority):
+            if key in self.assignment:
+                continue
+            names = [n for n in sorted(free & sim.build.idle[request.activity])
+                     if not incapability(sim.build.robots[n].spec, request) and not self.queues.get(n)]
+            if names:
+                self.unplanned += 1
+                award = min((self._award(sim, request, n, now) for n in names), key=lambda a: (a.proposal.cost, a.robot))
+                chosen.append(award)
+                free.discard(award.robot)
+        return chosen
+
+    @staticmethod
+    def _award(sim, request, name: str, now: float) -> Award:
+        robot = sim.build.robots[name]
+        return Award(request, name, propose(robot.spec, sim.position_now(robot), now, True, request), 1)
+
+
+# ---------------------------------------------------------------- the registry
+@dataclass(frozen=True)
+class Planner:
+    """A named planner: ``make(problem, stats)`` returns the dispatcher that carries out its plan."""
+
+    name: str
+    description: str
+    make: Callable
+
+
+def _market(evaluator: str) -> Callable:
+    return lambda problem, stats, **_: MarketDispatcher(make_evaluator(evaluator))
+
+
+def _rule(rule: str) -> Callable:
+    return lambda problem, stats, **_: RuleDispatcher(rule)
+
+
+def _cpsat(problem, stats: PlanStats, time_limit_s: float = CPSAT_TIME_LIMIT_S,
+           deterministic_s: float | None = CPSAT_DETERMINISTIC_S, workers: int = 1, **_) -> Dispatcher:
+    """Solve with CP-SAT (per joint), keep its objective and bound in ``stats.notes``, replay its plan."""
+    from bimrobot.coordination.optimal import solve_optimal
+
+    if problem.per_node:
+        raise InputError("--planner cp-sat plans per joint (CP-SAT's tasks): add --per-joint")
+    if problem.breakdowns:
+        raise InputError("--planner cp-sat plans without breakdowns: leave out --breakdown")
+    started, cpu = time.perf_counter(), time.process_time()
+    schedule = solve_optimal(problem.smart, problem.fleet, problem.site, problem.storey_elevations,
+                             time_limit_s=time_limit_s, workers=workers, deterministic_limit=deterministic_s)
+    stats.solve_s += time.perf_counter() - started
+    stats.solve_cpu_s += time.process_time() - cpu
+    stats.notes.update(cpsat_makespan_s=schedule.makespan, cpsat_lower_bound_s=schedule.lower_bound,
+                       cpsat_status=schedule.status, cpsat_method=schedule.method, cpsat_tasks=schedule.tasks,
+                       market_s=schedule.hinted_s)
+    replay = ReplayDispatcher(schedule.assignment, schedule.start)
+    stats.notes["replay"] = replay
+    return replay
+
+
+def _learned(path: str | None) -> Callable:
+    def make(problem, stats, **_):
+        if path is not None and not Path(path).is_file():
+            raise InputError(f"--planner {path}: no such policy file")
+        try:
+            from bimrobot.planning.learned import LearnedPlanner
+        except ModuleNotFoundError as exc:
+            if exc.name != "bimrobot.planning.learned":
+                raise
+            raise InputError("--planner learned: no learned policy is installed (bimrobot.planning.learned is "
+                             "missing from this bimrobot)") from None
+        planner = LearnedPlanner(path)
+        return planner if isinstance(planner, Dispatcher) else planner.dispatcher(problem)
+    return make
+
+
+_REGISTRY: dict[str, Planner] = {
+    "market": Planner("market", "the thesis' market, least-cost (simulate's default)", _market("least-cost")),
+    "market:quickest-finish": Planner("market:quickest-finish", "the market, quickest-finish", _market("quickest-finish")),
+    **{f"rule:{r}": Planner(f"rule:{r}", f"priority rule: {r.replace('-', ' ')}", _rule(r)) for r in RULES},
+    "cp-sat": Planner("cp-sat", "CP-SAT's schedule replayed (per joint)", _cpsat),
+    "learned": Planner("learned", "the learned policy shipped with bimrobot", _learned(None)),
+}
+
+
+def planner_for(name: str) -> Planner:
+    """The planner called ``name`` (:data:`PLANNERS`, or a policy file ``PATH.zip``); one sentence
+    (InputError) listing the choices otherwise."""
+    if name in _REGISTRY:
+        return _REGISTRY[name]
+    if name.endswith(".zip"):
+        return Planner(name, f"learned policy {name}", _learned(name))
+    raise InputError(f"unknown planner {name!r}: choose one of {', '.join(PLANNERS)} or a policy file PATH.zip")
+
+
+def dispatcher_for(name: str, problem, stats: PlanStats | None = None, **options) -> Dispatcher:
+    """The dispatcher that carries out planner ``name``'s plan of ``problem`` (a ``DispatchProblem``),
+    timed into ``stats``. ``options``: the planner's own (CP-SAT: ``time_limit_s``, ``deterministic_s``,
+    ``workers``)."""
+    stats = stats if stats is not None else PlanStats()
+    return Timed(planner_for(name).make(problem, stats, **options), stats)
+
+
+def plan(name: str, problem, **options):
+    """Plan ``problem`` with planner ``name`` and execute the plan on the event simulation: returns
+    (``SimulationResult``, :class:`PlanStats`)."""
+    from bimrobot.coordination.simulation import simulate
+
+    stats = PlanStats()
+    dispatcher = dispatcher_for(name, problem, stats, **options)
+    result = simulate(problem.smart, problem.fleet, problem.site, "least-cost", 0, problem.breakdowns,
+                      problem.storey_elevations, per_node=problem.per_node, dispatcher=dispatcher)
+    return result, stats
+
+
+def check_planner(name: str, per_node: bool, breakdowns=()) -> Planner:
+    """Refuse, in one sentence and before any work, a planner that cannot plan this run."""
+    planner = planner_for(name)
+    if name == "cp-sat" and per_node:
+        raise InputError("--planner cp-sat plans per joint (CP-SAT's tasks): add --per-joint")
+    if name == "cp-sat" and breakdowns:
+        raise InputError("--planner cp-sat plans without breakdowns: leave out --breakdown")
+    if name.endswith(".zip") and not Path(name).is_file():
+        raise InputError(f"--planner {name}: no such policy file")
+    return planner
+
+
+def plan_record(name: str, result, stats: PlanStats) -> str:
+    """``plan.json`` (``simulate --planner``): which planner made the plan, what planning cost (wall
+    seconds, so it varies run to run) and, for CP-SAT, its own objective and bound against the executed
+    makespan (s)."""
+    import json
+
+    from bimrobot.io import signature
+
+    record = {"bimrobot": signature("plan record"), "planner": name, "makespan_s": round(result.makespan, 3),
+              "decisions": stats.decisions, "planning_s": round(stats.planning_s, 3), "solve_s": round(stats.solve_s, 3),
+              "ms_per_decision": None if stats.ms_per_decision is None else round(stats.ms_per_decision, 3)}
+    for key, value in stats.notes.items():
+        if key == "replay":
+            record.update(reordered=value.reordered, unplanned=value.unplanned)
+        else:
+            record[key] = round(value, 3) if isinstance(value, float) else value
+    return json.dumps(record, indent=2, sort_keys=True) + "\n"
+
+
+def plan_line(result, stats: PlanStats) -> str:
+    """One line for the terminal: planning time, decisions, and CP-SAT's objective against the run."""
+    text = f"planned by {result.evaluator}: {stats.planning_s:.2f} s planning, {stats.decisions} decisions"
+    notes = stats.notes
+    if "cpsat_makespan_s" in notes:
+        text += (f"; CP-SAT's own objective {notes['cpsat_makespan_s']:.1f} s ({notes['cpsat_status']}, lower bound "
+                 f"{notes['cpsat_lower_bound_s']:.1f} s), executed {result.makespan:.1f} s")
+    return text

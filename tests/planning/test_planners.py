@@ -1,0 +1,105 @@
+"""Planners behind one interface (issue 38): every planner's plan, executed by the one event simulation,
+respects the precedences and the robots' capabilities; `--planner market` is simulate's default byte for
+byte; a rule decides by its rule; an unknown planner is refused; CP-SAT's plan replayed keeps its
+makespan. On the generated chapter-4 steel frame (no IFC file); CP-SAT with a small deterministic limit."""
+
+import pytest
+
+from bimrobot.cli import main
+from bimrobot.coordination.market import incapability
+from bimrobot.coordination.optimal import task_graph
+from bimrobot.coordination.simulation import ConstructionSimulation, simulate
+from bimrobot.errors import InputError
+from bimrobot.planning.dispatch import frame_problem
+from bimrobot.planning.planners import PLANNERS, RuleDispatcher, _request_key, _scores, plan, planner_for
+from bimrobot.tasks import Task
+
+#: CP-SAT in tests: one worker and CP-SAT's deterministic time, so every machine finds the same plan
+CPSAT = {"deterministic_s": 0.5, "time_limit_s": 600.0, "workers": 1}
+
+
+def _by_task(smart, result) -> dict[str, tuple[str, float, float]]:
+    """Task key (optimal.task_graph's) -> (robot, departure s, finish s); a joint's rows (one per node) merged."""
+    rows: dict[str, tuple[str, float, float]] = {}
+    for a in result.activities:
+        if a.activity == Task.ASSEMBLE:
+            node = a.node_id or a.name.split(" ", 1)[1]
+            key = f"assemble:{smart.nodes[node].joint_id}"
+        else:
+            key = f"{a.activity}:{a.global_id}"
+        robot, start, finish = rows.get(key, (a.robot, a.start, a.finish))
+        rows[key] = (robot, min(start, a.start), max(finish, a.finish))
+    return rows
+
+
+@pytest.mark.parametrize("name", [p for p in PLANNERS if p != "learned"])
+def test_every_planner_builds_the_frame_respecting_precedences_and_capabilities(name):
+    """Per joint (CP-SAT's tasks): every task done once, by a robot able to do it, never before what it
+    waits for (the support, floor gate, transport-position and joint-member rules of optimal.task_graph)."""
+    problem = frame_problem(per_node=False)
+    result, stats = plan(name, problem, **(CPSAT if name == "cp-sat" else {}))
+    assert result.evaluator == ("least-cost" if name == "market" else name.removeprefix("market:"))
+    sim = ConstructionSimulation(problem.smart, problem.fleet, problem.site, storey_elevations=problem.storey_elevations)
+    tasks = task_graph(sim.smart, sim)
+    done = _by_task(sim.smart, result)
+    assert set(done) == {t.key for t in tasks}
+    specs = {r.name: r for r in problem.fleet.robots}
+    for t in tasks:
+        robot, depart, _ = done[t.key]
+        assert incapability(specs[robot], t.request) is None, (t.key, robot)
+        for before in t.predecessors:
+            assert done[before][2] <= depart + 1e-6, (before, t.key)
+    assert stats.decisions == 28 and result.makespan > 0
+
+
+def test_planner_market_is_simulate_byte_for_byte(tmp_path, capsys):
+    """`simulate --planner market` writes the very files that `simulate` writes (the written-at stamp aside)."""
+    common = ["simulate", "generated:2x2x1", "--fleet", "fleet2", "--no-progress", "--no-gantt"]
+    assert main([*common, "-o", str(tmp_path / "default")]) == 0
+    assert main([*common, "--planner", "market", "-o", str(tmp_path / "market")]) == 0
+    files = sorted(p.name for p in (tmp_path / "default").iterdir() if p.name != ".bimrobot-output.json")
+    assert files == sorted(p.name for p in (tmp_path / "market").iterdir() if p.name != ".bimrobot-output.json")
+    assert "schedule.csv" in files
+    for name in files:
+        assert (tmp_path / "default" / name).read_bytes() == (tmp_path / "market" / name).read_bytes(), name
+
+
+def test_a_rule_planner_decides_by_its_rule():
+    """rule:longest-path gives first the ready task with the longest remaining path; rule:nearest, which
+    ignores how fast a robot handles, builds the frame more slowly than the market (3,798 s against 3,282 s)."""
+    problem = frame_problem()
+    sim = ConstructionSimulation(problem.smart, problem.fleet, problem.site, storey_elevations=problem.storey_elevations,
+                                 per_node=True)
+    sim.start()
+    scores = _scores(sim, "longest-path")
+    ready = [r for pool in sim.build.pending.values() for r in pool]
+    first = RuleDispatcher("longest-path").awards(sim)[0]
+    assert scores[_request_key(sim, first.request)] == max(scores[_request_key(sim, r)] for r in ready)
+    market = simulate(problem.smart, problem.fleet, problem.site, storey_elevations=problem.storey_elevations, per_node=True)
+    nearest, _ = plan("rule:nearest", problem)
+    assert [(a.robot, a.start) for a in nearest.activities] != [(a.robot, a.start) for a in market.activities]
+    assert nearest.makespan == pytest.approx(3798.26, abs=0.01) and market.makespan == pytest.approx(3282.34, abs=0.01)
+
+
+def test_an_unknown_planner_is_refused_in_one_sentence(tmp_path, capsys):
+    with pytest.raises(InputError, match="unknown planner 'fastest'.*rule:longest-path.*cp-sat.*PATH.zip"):
+        planner_for("fastest")
+    assert main(["simulate", "generated:2x2x1", "--planner", "fastest", "-o", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "unknown planner 'fastest'" in err and len(err.splitlines()) == 1 and "Traceback" not in err
+    assert not (tmp_path / "out").exists()
+    assert main(["simulate", "generated:2x2x1", "--planner", "cp-sat", "-o", str(tmp_path / "out")]) == 2
+    assert "add --per-joint" in capsys.readouterr().err
+
+
+def test_cpsat_replayed_keeps_cpsat_makespan():
+    """The simulation follows CP-SAT's robot per task and its order per robot: the executed makespan is
+    CP-SAT's objective, up to CP-SAT's 0.01 s time unit (its times are rounded up, the run's are not),
+    and never below CP-SAT's lower bound; no task needed to leave CP-SAT's order."""
+    problem = frame_problem(per_node=False)
+    result, stats = plan("cp-sat", problem, **CPSAT)
+    notes, replay = stats.notes, stats.notes["replay"]
+    assert notes["cpsat_lower_bound_s"] - 1e-6 <= result.makespan <= notes["cpsat_makespan_s"] + 1e-6
+    assert notes["cpsat_makespan_s"] - result.makespan <= 0.01 * notes["cpsat_tasks"]
+    assert replay.reordered == 0 and replay.unplanned == 0
+    assert result.makespan <= notes["market_s"] + 1e-6  # CP-SAT starts from the market's schedule
