@@ -32,14 +32,15 @@ def _chromium():
     return None
 
 
-@pytest.fixture
-def browser():
-    webdriver = pytest.importorskip("selenium.webdriver", reason="selenium is not installed (pip install selenium)")
+def chromium_session(webdriver):
+    """A headless Chromium (WebGL through SwiftShader, :data:`WINDOW`) that logs every request the page
+    begins and what the page's Content-Security-Policy stopped (``window._blocked``); None without
+    Debian's chromium and chromium-driver. ``webdriver``: selenium's module (bench/replay_load.py uses it too)."""
     from selenium.webdriver.chrome.service import Service
 
     binary, driver = _chromium(), shutil.which("chromedriver")
     if binary is None or driver is None:
-        pytest.skip("Debian's chromium and chromium-driver are not installed (scripts/setup.sh installs them)")
+        return None
     options = webdriver.ChromeOptions()
     options.binary_location = binary
     for argument in ("--headless=new", "--no-sandbox", "--use-angle=swiftshader", "--enable-unsafe-swiftshader",
@@ -53,6 +54,15 @@ def browser():
     session.execute_cdp_cmd("Page.addScriptToEvaluateOnNewDocument", {"source": (
         "window._blocked = []; document.addEventListener('securitypolicyviolation', "
         "e => window._blocked.push(e.blockedURI));")})
+    return session
+
+
+@pytest.fixture
+def browser():
+    webdriver = pytest.importorskip("selenium.webdriver", reason="selenium is not installed (pip install selenium)")
+    session = chromium_session(webdriver)
+    if session is None:
+        pytest.skip("Debian's chromium and chromium-driver are not installed (scripts/setup.sh installs them)")
     try:
         yield session
     finally:

@@ -393,23 +393,32 @@ def _node_times(record: BuildRecord) -> dict[str, tuple[float, float]]:
 
 
 def _log_robots(rec, clock: _Clock, record: BuildRecord, tracks: dict) -> None:
-    """Each robot's box over time, with its current activity as a hidden label (shown on hover)."""
+    """Each robot's box over time, with its current activity as a hidden label (shown on hover): one
+    chunk per robot, the box itself once (at 0 s), its position while it moves and its label when its
+    activity changes (:func:`_send_rows`' sparse columns); ``/events``, one text line per activity start."""
     import rerun as rr
 
+    lines: list[tuple[float, str]] = []
     for name, robot in record.robots.items():
-        path = entity("robots", name)
         half = ROBOT_HALF_SIZES.get(robot.kind, (0.4, 0.4, 0.4))
         colour = ROBOT_COLOURS.get(robot.kind, (120, 120, 120))
         track = tracks[name]
-        positions = np.array([(x, y, 0.0) for _, x, y in track.positions])
-        rec.send_columns(path, indexes=clock.columns([t for t, _, _ in track.positions]),
-                         columns=rr.Transform3D.columns(translation=positions))
-        for t, label, busy in track.activities:
-            clock.at(t)
-            rec.log(path, rr.Boxes3D(half_sizes=[half], centers=[[0.0, 0.0, half[2]]], colors=[colour],
-                                     labels=[f"{name}: {label}"], fill_mode="solid", show_labels=False))
-            if busy:
-                rec.log("/events", rr.TextLog(f"t = {t:,.1f} s  {name}: {label}", level="INFO"))
+        rows = sorted([(t, "pose", (x, y)) for t, x, y in track.positions] +
+                      [(t, "label", f"{name}: {label}") for t, label, _ in track.activities], key=lambda row: row[0])
+        n = len(rows)
+        poses = [i for i, row in enumerate(rows) if row[1] == "pose"]
+        labels = [i for i, row in enumerate(rows) if row[1] == "label"]
+        columns = [_Sparse(c, labels[:1], n) for c in _one_row(rr.Boxes3D.columns(
+            half_sizes=[half], centers=[[0.0, 0.0, half[2]]], colors=[colour], fill_mode="solid", show_labels=[False]))]
+        columns += [_Sparse(c, labels, n) for c in rr.Boxes3D.columns(labels=[rows[i][2] for i in labels])]
+        columns += [_Sparse(c, poses, n) for c in
+                    rr.Transform3D.columns(translation=[(*rows[i][2], 0.0) for i in poses])]
+        rec.send_columns(entity("robots", name), indexes=clock.columns([row[0] for row in rows]), columns=columns)
+        lines += [(t, f"t = {t:,.1f} s  {name}: {label}") for t, label, busy in track.activities if busy]
+    if lines:
+        lines.sort(key=lambda line: line[0])
+        rec.send_columns("/events", indexes=clock.columns([t for t, _ in lines]),
+                         columns=rr.TextLog.columns(text=[text for _, text in lines], level=["INFO"] * len(lines)))
 
 
 def _log_nodes(rec, clock: _Clock, record: BuildRecord) -> None:
@@ -436,36 +445,67 @@ def _node_phase(times: tuple[float, float], t: float) -> str:
 
 
 def _log_progress(rec, clock: _Clock, record: BuildRecord) -> dict:
-    """Counts of components per state over time; returns the replay's summary."""
+    """Counts of components per state over time (``/progress/<state>``); returns the replay's summary.
+    A count is logged where it changes and just before (the rows between lie on the same line: the
+    plot is the same with fewer rows)."""
     import rerun as rr
 
-    events = sorted((t, component, state) for component, history in record.states.items() for t, state in history)
-    current: dict[str, str] = {}
-    for state in STATES if record.states else ():
-        rec.log(entity("progress", state), rr.SeriesLines(names=state, colors=[STATE_COLOURS[state]]), static=True)
-    index = 0
-    last_installed = None
-    while index < len(events):
-        t = events[index][0]
-        while index < len(events) and events[index][0] == t:
-            _, component, state = events[index]
-            if state == INSTALLED and current.get(component) != INSTALLED:
-                last_installed = t
-            current[component] = state
-            index += 1
-        clock.at(t)
-        counts = {state: 0 for state in STATES}
-        for state in current.values():
-            counts[state] += 1
-        for state, number in counts.items():
-            rec.log(entity("progress", state), rr.Scalars(number))
-    installed = sum(1 for s in current.values() if s == INSTALLED)
+    times, counts, current = _state_counts(record)
+    for column, state in enumerate(STATES if record.states else ()):
+        path = entity("progress", state)
+        rec.log(path, rr.SeriesLines(names=state, colors=[STATE_COLOURS[state]]), static=True)
+        keep = _turning_points(counts[:, column])
+        rec.send_columns(path, indexes=clock.columns(times[keep]), columns=rr.Scalars.columns(scalars=counts[keep, column]))
     return {
         "pieces": len(record.pieces),
         "components": len(record.states),
         "robots": len(record.robots),
         "nodes": len(record.nodes),
-        "installed": installed,
-        "last_installation_s": last_installed,
+        "installed": sum(1 for s in current.values() if s == INSTALLED),
+        "last_installation_s": _last_installation(record),
         "makespan_s": record.makespan,
     }
+
+
+def _events(record: BuildRecord) -> list[tuple[float, str, str]]:
+    return sorted((t, component, state) for component, history in record.states.items() for t, state in history)
+
+
+def _state_counts(record: BuildRecord) -> tuple[np.ndarray, np.ndarray, dict[str, str]]:
+    """(times s, counts (times, states) of components per state after each time, final state of each
+    component)."""
+    events = _events(record)
+    current: dict[str, str] = {}
+    times, counts = [], []
+    for index, (t, component, state) in enumerate(events):
+        current[component] = state
+        if index + 1 == len(events) or events[index + 1][0] != t:
+            row = {s: 0 for s in STATES}
+            for s in current.values():
+                row[s] += 1
+            times.append(t)
+            counts.append([row[s] for s in STATES])
+    return np.array(times, dtype=float), np.array(counts, dtype=float).reshape(-1, len(STATES)), current
+
+
+def _turning_points(values: np.ndarray) -> np.ndarray:
+    """Indices of a series worth a row: the first, the last, and where it differs from the row before
+    or the row after (the rows left out lie on the line between their neighbours)."""
+    keep = np.zeros(len(values), dtype=bool)
+    if len(values):
+        keep[[0, -1]] = True
+        differs = values[1:] != values[:-1]
+        keep[1:] |= differs
+        keep[:-1] |= differs
+    return np.flatnonzero(keep)
+
+
+def _last_installation(record: BuildRecord) -> float | None:
+    """The last time a component became installed (s; None when none did)."""
+    current: dict[str, str] = {}
+    last = None
+    for t, component, state in _events(record):
+        if state == INSTALLED and current.get(component) != INSTALLED:
+            last = t
+        current[component] = state
+    return last
