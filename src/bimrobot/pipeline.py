@@ -225,6 +225,17 @@ def _planner(args) -> list[str]:
     return ["--planner", args.planner, *(["--per-joint"] if args.planner == "cp-sat" else [])]
 
 
+def _planner_text(args) -> str:
+    return "" if getattr(args, "planner", None) is None else f" --planner {args.planner}"
+
+
+def _planned_by(args) -> str:
+    """The README's line on who planned the build (issue 38); nothing for the default market."""
+    if getattr(args, "planner", None) in (None, "market"):
+        return ""
+    return f"\nPlanned by `{args.planner}` (`simulation/plan.json`: planning time and decisions)."
+
+
 def _work_schedule(args, folder: Path) -> list[str]:
     """``--ifc-out`` for the model with its simulated schedule as an IfcWorkSchedule (an IFC2X3 model's
     copy is migrated to IFC4, which has IfcTaskTime), ``--schedule-out`` for its scheduler export in the
@@ -483,8 +494,8 @@ def readme(args, folder: Path, done: dict, figures: str = "") -> str:
     return f"""<!-- {io.signature("build README")} -->
 # Build of {args.model.name}
 
-`bimrobot build {args.model.name} --fleet {args.fleet}{' --site ' + str(args.site) if args.site else ''}` ({seconds}).
-Fleet: `{args.fleet}`; site: {_site_source(folder)} (`site.yaml`). Units: metres, z up, kg, seconds.
+`bimrobot build {args.model.name} --fleet {args.fleet}{' --site ' + str(args.site) if args.site else ''}{_planner_text(args)}` ({seconds}).
+Fleet: `{args.fleet}`; site: {_site_source(folder)} (`site.yaml`). Units: metres, z up, kg, seconds.{_planned_by(args)}
 
 {figures}
 ## Files

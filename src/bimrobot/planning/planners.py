@@ -156,18 +156,25 @@ class RuleDispatcher(Dispatcher):
         self.rule, self.name = rule, f"rule:{rule}"
         self._scores: dict[str, float] | None = None
         self._sim = None
+        self._key: dict[str, float] = {}  # request id -> its score under the rule
 
     def awards(self, sim) -> list[Award]:
         if self._sim is not sim:
             self._sim, self._scores = sim, (None if self.rule == "nearest" else _scores(sim, self.rule))
+            self._key = {}
         now = sim.build.env.now
         idle = {a: set(names) for a, names in sim.build.idle.items()}
         pending = [r for pool in sim.build.pending.values() for r in pool]
         chosen: list[Award] = []
         if self.rule == "nearest":
             return self._nearest(sim, pending, idle, now)
-        pending.sort(key=lambda r: (-self._scores.get(_request_key(sim, r), 0.0), r.priority))
+        for r in pending:
+            if r.id not in self._key:
+                self._key[r.id] = self._scores.get(_request_key(sim, r), 0.0)
+        pending.sort(key=lambda r: (-self._key[r.id], r.priority))
         for request in pending:
+            if not any(idle.values()):
+                break
             proposals = [propose(sim.build.robots[n].spec, sim.position_now(sim.build.robots[n]), now, True, request)
                          for n in sorted(idle[request.activity]) if not incapability(sim.build.robots[n].spec, request)]
             if proposals:
