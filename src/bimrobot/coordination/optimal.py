@@ -295,8 +295,9 @@ def _build(cp_model, problem: _Problem, hint: dict | None):
     if hint:
         variables = dict(assigned=assigned, depart=depart, start=start, end=end, arcs=arcs_of, sizes=sizes,
                          gates=gates, makespan=makespan)
-        _add_hint(model, hint, problem, handling, drive, first_drive, ready, variables)
-    return model, (makespan, assigned, depart, start, end, capable)
+        hinted = _add_hint(model, hint, problem, handling, drive, first_drive, ready, variables)
+        return model, (makespan, assigned, depart, start, end, capable, hinted)
+    return model, (makespan, assigned, depart, start, end, capable, None)
 
 
 def _floor_loads(model, tasks, gates, ancestors, capable, busy_min, assigned) -> None:
@@ -304,7 +305,6 @@ def _floor_loads(model, tasks, gates, ancestors, capable, busy_min, assigned) ->
     gate below (or time 0) plus the shortest lead-in before any of it can start, and the floor's own gate
     (every joint of floors <= f done) less the shortest run-out after it. With the robot literals this
     is linear, so the relaxation balances each floor's work over the robots that can do it."""
-    order = {t.key: i for i, t in enumerate(tasks)}
     for floor, gate in gates.items():
         below = [f for f in gates if f < floor]
         opening = gates[max(below)] if below else 0
@@ -317,12 +317,7 @@ def _floor_loads(model, tasks, gates, ancestors, capable, busy_min, assigned) ->
             if not below or t.key in gated or any(p in gated for p in preds):
                 gated.add(t.key)
                 head[t.key] = max((head[p] + min(busy_min[p, r.name] for r in capable[p]) for p in preds if p in head), default=0)
-        tail: dict[str, int] = {}
-        for t in reversed(mine):
-            if t.key not in head:
-                continue
-            if t.activity == Task.ASSEMBLE:
-                tail[t.key] = 0
+        tail = {t.key: 0 for t in mine if t.key in head and t.activity == Task.ASSEMBLE}  # it ends by the gate
         successors: dict[str, list[str]] = {}
         for t in mine:
             for p in t.predecessors:
@@ -345,7 +340,6 @@ def _floor_loads(model, tasks, gates, ancestors, capable, busy_min, assigned) ->
             if len(pair) == 2 and len(work) > 1:
                 lead = min(head[t.key] for t in work) + min(tail[t.key] for t in work)
                 model.Add(gate - opening - lead >= _two_robot_bound(work, pair, busy_min))
-    del order
 
 
 def _two_robot_bound(work: list[_Task], pair: tuple[str, str], busy_min) -> int:
@@ -377,7 +371,7 @@ def _add_hint(model, hint: dict, problem: _Problem, handling, drive, first_drive
     hint is feasible as it stands and the best found is never longer than the market's schedule."""
     tasks = problem.tasks
     if any(t.key not in hint or (t.key, hint[t.key][0]) not in v["assigned"] for t in tasks):
-        return  # a partial hint would only mislead the search
+        return None  # a partial hint would only mislead the search
     keys = {t.key for t in tasks}
     ends = {t.key: t.request.end for t in tasks}
     times: dict[str, tuple[int, int, int]] = {}  # task -> (depart, start, end) in ticks
@@ -406,12 +400,13 @@ def _add_hint(model, hint: dict, problem: _Problem, handling, drive, first_drive
     for floor, gate in v["gates"].items():
         model.AddHint(gate, max((times[t.key][2] for t in tasks if t.activity == Task.ASSEMBLE and t.floor <= floor), default=0))
     model.AddHint(v["makespan"], max((x[2] for x in times.values()), default=0))
+    return {key: (hint[key][0], *values) for key, values in times.items()}
 
 
 def _solve(problem: _Problem, hint: dict | None, time_limit_s: float, workers: int, seed: int,
            deterministic_limit: float | None) -> _Solved:
     cp_model = require_extra("ortools.sat.python.cp_model", "optimize")
-    model, (makespan, assigned, depart, start, end, capable) = _build(cp_model, problem, hint)
+    model, (makespan, assigned, depart, start, end, capable, hinted) = _build(cp_model, problem, hint)
     solver = cp_model.CpSolver()
     solver.parameters.max_time_in_seconds = time_limit_s
     if deterministic_limit is not None:
@@ -419,6 +414,17 @@ def _solve(problem: _Problem, hint: dict | None, time_limit_s: float, workers: i
     solver.parameters.num_workers = workers
     solver.parameters.random_seed = seed
     status = solver.Solve(model)
+    if status not in (cp_model.OPTIMAL, cp_model.FEASIBLE) and hinted:  # stopped before reading the hint
+        bound = solver.BestObjectiveBound()
+        return _Solved(
+            makespan=max(x[3] for x in hinted.values()) / SCALE,
+            bound=max(0.0, bound / SCALE) if math.isfinite(bound) else 0.0,
+            status="FEASIBLE",
+            assignment={k: x[0] for k, x in hinted.items()},
+            depart={k: x[1] / SCALE for k, x in hinted.items()},
+            start={k: x[2] / SCALE for k, x in hinted.items()},
+            end={k: x[3] / SCALE for k, x in hinted.items()},
+        )
     if status not in (cp_model.OPTIMAL, cp_model.FEASIBLE):
         raise InputError(f"CP-SAT found no schedule within {time_limit_s} s (status {solver.StatusName(status)})")
     tasks = problem.tasks
