@@ -6,7 +6,7 @@ Public: :meth:`~ArmSkill.solve`, :meth:`~ArmSkill.move_arm`, :meth:`~ArmSkill.mo
 :meth:`~ArmSkill.plan_arm`, :meth:`~ArmSkill.path_contacts`, :meth:`~ArmSkill.stow_arm`,
 :meth:`~ArmSkill.ready_posture`, :meth:`~ArmSkill.stowed_posture`, :meth:`~ArmSkill.carry_posture`,
 :meth:`~ArmSkill.tcp_path`, :meth:`~ArmSkill.moved_to`, :meth:`~ArmSkill.tcp_position_at`,
-:meth:`~ArmSkill.commanded_tcp_pose`. Joints in rad, poses 4x4 (world, m).
+:meth:`~ArmSkill.tcp_pose_at`, :meth:`~ArmSkill.commanded_tcp_pose`. Joints in rad, poses 4x4 (world, m).
 """
 
 from __future__ import annotations
@@ -270,16 +270,16 @@ class ArmSkill:
 
     def tcp_position_at(self, robot: str, q: np.ndarray) -> np.ndarray:
         """World position of the tcp for arm joints ``q`` with the base where it is (forward kinematics)."""
-        return self._tcp_pose_at(robot, q)[:3, 3]
+        return self.tcp_pose_at(robot, q)[:3, 3]
 
     def commanded_tcp_pose(self, robot: str) -> np.ndarray:
         """The tool centre point's pose (4x4, world) at the arm's commanded joints, the base where it is:
         where the arm settles. An arm holding a long member lags and sags centimetres behind its
         command for a while; a reach checked from where its tool is at that moment did not hold once
         it had settled (a 3.2 m beam, 30 mm at the edge of a 4 m arm's reach)."""
-        return self._tcp_pose_at(robot, self.robots[robot].q_ref)
+        return self.tcp_pose_at(robot, self.robots[robot].q_ref)
 
-    def _tcp_pose_at(self, robot: str, q: np.ndarray) -> np.ndarray:
+    def tcp_pose_at(self, robot: str, q: np.ndarray) -> np.ndarray:
         """The tcp's pose (4x4, world) for arm joints ``q`` with the base where it is (forward kinematics)."""
         ik = self.robots[robot].ik
         data = self.mj.MjData(ik.model)

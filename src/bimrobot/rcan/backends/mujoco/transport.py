@@ -79,11 +79,7 @@ class Transport(features.Transport):
         # then over and turned in steps (30 degrees, 0.3 m at most), the tool kept pointing down: one
         # joint-space move would tilt the member on its way
         start_yaw = math.atan2(up[1, 0], up[0, 0])
-        ik = site.robots[robot].ik
-        data = site.mj.MjData(ik.model)
-        data.qpos[:6] = carry
-        site.mj.mj_kinematics(ik.model, data)
-        end = site.arm_base_pose(robot)[:3, :3] @ data.site("tcp").xmat.reshape(3, 3)
+        end = site.tcp_pose_at(robot, carry)[:3, :3]
         turn = math.remainder(math.atan2(end[1, 0], end[0, 0]) - start_yaw, 2 * math.pi)
         count = max(1, math.ceil(max(abs(turn) / math.radians(30), np.linalg.norm(goal - up[:3, 3]) / 0.3)))
         poses = [motion.pose(motion.tool_down(start_yaw + turn * k / count), up[:3, 3] + (goal - up[:3, 3]) * k / count)
