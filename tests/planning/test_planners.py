@@ -103,3 +103,16 @@ def test_cpsat_replayed_keeps_cpsat_makespan():
     assert notes["cpsat_makespan_s"] - result.makespan <= 0.01 * notes["cpsat_tasks"]
     assert replay.reordered == 0 and replay.unplanned == 0
     assert result.makespan <= notes["market_s"] + 1e-6  # CP-SAT starts from the market's schedule
+
+
+def test_the_benchmark_bounds_every_planner_from_below():
+    """`plan benchmark`'s rows: every planner's makespan at or above the bound (here the critical path of
+    shortest handling times or the work per robot, CP-SAT left out), with the gap in per cent."""
+    from bimrobot.planning.benchmark import bench_model, markdown
+
+    entry = bench_model("generated:2x1x1", ("market", "rule:nearest", "rule:longest-path"), fleet="fleet2", log=lambda _: None)
+    assert [r["planner"] for r in entry["rows"]] == ["market", "rule:nearest", "rule:longest-path"]
+    assert entry["tasks"] == 10 and entry["bound_from"] in ("critical path", "work / robots")
+    for row in entry["rows"]:
+        assert row["makespan_s"] >= entry["lower_bound_s"] and row["gap_pct"] >= 0 and row["decisions"] == 10
+    assert "| generated:2x1x1, fleet2 | 3 | 10 |" in markdown([entry], 60.0)
