@@ -115,22 +115,27 @@ def _count(kind: str, nx: int, ny: int, floors: int) -> int:
 
 
 def grid_for(kind: str, components: int, rng: np.random.Generator) -> tuple[int, int, int]:
-    """(nx, ny, floors) whose component count is closest to ``components``: among the grids within 2 %
-    (or the closest ones) with a plan no longer than 3 x its width and at most 12 floors (and no more
-    floors than the cube root of ``components``, so that small buildings are not towers), one drawn by
-    ``rng``."""
+    """(nx, ny, floors) whose component count is closest to ``components``, with a plan no longer than
+    3 x its width. The number of floors is drawn first, from 1 to the cube root of ``components`` (at
+    most 12: small buildings are not towers, large ones not one storey); then, among the grids of that
+    many floors within 2 % (or 2 components) of the count, one is drawn. Where no grid of that many
+    floors comes so close, the draw is among the closest grids of any number of floors."""
     found: dict[tuple[int, int, int], int] = {}
-    for floors in range(1, min(12, max(1, round(components ** (1 / 3)))) + 1):
+    most = min(12, max(1, round(components ** (1 / 3))))
+    for floors in range(1, most + 1):
         for nx in range(1, 160):
-            for ny in range(nx, min(3 * nx, 480) + 1):
+            for ny in range(max(1, -(-nx // 3)), 3 * nx + 1):  # plans up to 3 x as long as wide, either way
                 count = _count(kind, nx, ny, floors)
                 if count > components * 1.05 + 5:
                     break
                 found[nx, ny, floors] = abs(count - components)
-    best = min(found.values())
-    near = sorted(g for g, err in found.items() if err <= max(best, 0.02 * components))
-    nx, ny, floors = near[int(rng.integers(len(near)))]
-    return (ny, nx, floors) if rng.random() < 0.5 else (nx, ny, floors)
+    tolerance = max(2, 0.02 * components)
+    floors = int(rng.integers(1, most + 1))
+    near = sorted(g for g, err in found.items() if g[2] == floors and err <= tolerance)
+    if not near:
+        best = min(found.values())
+        near = sorted(g for g, err in found.items() if err <= max(best, tolerance))
+    return near[int(rng.integers(len(near)))]
 
 
 def draw_layout(spec: Spec):
