@@ -287,7 +287,7 @@ class Ordered(Rule):
 
     def read(self, value: Any, at: At) -> tuple:
         pair = self.inner.read(value, at)
-        if pair[0] > pair[1]:
+        if pair is not None and pair[0] > pair[1]:  # None: a capability table's null (as if absent)
             raise at.fail(f"must be [min, max] with min <= max, got {list(pair)}")
         return pair
 

@@ -124,9 +124,9 @@ def _mapping(value: Any, at: At) -> dict:
     return value
 
 
-def _entries(value: Any, at: At) -> Any:
-    """``value`` (a list, or a mapping when ``value`` is one) of at most :data:`MAX_ENTRIES` entries."""
-    if not isinstance(value, (list, dict)):
+def _entries(value: Any, at: At, kind: type = list) -> Any:
+    """``value``, a list (or a ``kind``) of at most :data:`MAX_ENTRIES` entries."""
+    if not isinstance(value, kind):
         raise at.fail(f"expected a list, got {value!r}")
     if len(value) > MAX_ENTRIES:
         raise at.fail(f"{len(value)} entries; a scenario holds at most {MAX_ENTRIES}")
@@ -139,10 +139,15 @@ def _item(value: Any, at: At, key: str) -> At:
     return replace(at, key=key, line=f" line {line}" if line else at.line)
 
 
+_DIMS, _CELL, _PAIR = (Vector(Integer(), shape, (n,)) for shape, n in (("[W, L, H] cells", 3), ("[x, y, z]", 3), ("[x, y]", 2)))
+
+
 @dataclass(frozen=True)
 class _Grid(Rule):
+    """[W, L, H]: 2 to :data:`MAX_GRID_CELLS` cells along every axis."""
+
     def read(self, value: Any, at: At) -> Cell:
-        dims = Vector(Integer(), "[W, L, H] cells", (3,)).read(value, at)
+        dims = _DIMS.read(value, at)
         if min(dims) < 2 or max(dims) > MAX_GRID_CELLS:
             raise at.fail(f"{list(dims)} must be 2 to {MAX_GRID_CELLS} cells along every axis (the benchmark's grid is "
                           "15 x 15 x 9; larger grids exceed what the batched simulator and the planner are sized for)")
@@ -150,7 +155,7 @@ class _Grid(Rule):
 
 
 def _cell(value: Any, at: At) -> Cell:
-    cell = Vector(Integer(), "[x, y, z]", (3,)).read(value, at)
+    cell = _CELL.read(value, at)
     W, L, H = at.context
     if not all(0 <= c < n for c, n in zip(cell, at.context)):
         raise at.fail(f"cell {cell} is outside the grid (0 <= x < {W}, 0 <= y < {L}, 0 <= z < {H})")
@@ -210,7 +215,7 @@ def _foundations(value: Any, at: At) -> tuple[tuple[int, int], ...]:
     W, L, _ = at.context
     pairs = []
     for i, item in enumerate(_entries(value or [], at)):
-        x, y = Vector(Integer(), "[x, y]").read(item, replace(at, key=f"foundations[{i}]"))
+        x, y = _PAIR.read(item, replace(at, key=f"foundations[{i}]"))
         if not (0 <= x < W and 0 <= y < L):
             raise replace(at, key=f"foundations[{i}]").fail(f"({x}, {y}) lies outside the {W} x {L} grid")
         pairs.append((x, y))
@@ -238,7 +243,7 @@ class ComponentEntry:
 
 
 def _targets(value: Any, at: At) -> tuple[Target, ...]:
-    targets_data = _entries(_mapping(value or {}, at), at)
+    targets_data = _entries(_mapping(value or {}, at), at, dict)
     targets = []
     for tid, tdata in targets_data.items():
         entry = at.entry().of(targets_data, tid).entry()
