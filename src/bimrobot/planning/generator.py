@@ -116,8 +116,8 @@ def _count(kind: str, nx: int, ny: int, floors: int) -> int:
 
 def grid_for(kind: str, components: int, rng: np.random.Generator) -> tuple[int, int, int]:
     """(nx, ny, floors) whose component count is closest to ``components``, with a plan no longer than
-    3 x its width. The number of floors is drawn first, from 1 to the cube root of ``components`` (at
-    most 12: small buildings are not towers, large ones not one storey); then, among the grids of that
+    3 x its width. The number of floors is drawn first, from half the cube root of ``components`` to the
+    cube root (at most 12: small buildings are not towers, large ones not one storey); then, among the grids of that
     many floors within 2 % (or 2 components) of the count, one is drawn. Where no grid of that many
     floors comes so close, the draw is among the closest grids of any number of floors."""
     found: dict[tuple[int, int, int], int] = {}
@@ -130,7 +130,7 @@ def grid_for(kind: str, components: int, rng: np.random.Generator) -> tuple[int,
                     break
                 found[nx, ny, floors] = abs(count - components)
     tolerance = max(2, 0.02 * components)
-    floors = int(rng.integers(1, most + 1))
+    floors = int(rng.integers(max(1, -(-most // 2)), most + 1))
     near = sorted(g for g, err in found.items() if g[2] == floors and err <= tolerance)
     if not near:
         best = min(found.values())
