@@ -13,8 +13,9 @@ setup: $(VENV)/.installed
 demo: setup
 	VENV=$(VENV) DEMO_OUT=$(DEMO_OUT) scripts/demo.sh
 
-# The suite in two runs: most tests on TEST_WORKERS processes (one test file per worker: a file's
-# module fixtures are computed once), then the tests whose robots, services or browser keep real time
+# The suite in two runs: most tests on TEST_WORKERS processes (one test file per worker, so a file's
+# module fixtures are computed once; tests/test_real_models.py one model per worker, dearest first:
+# tests/conftest.py groups them), then the tests whose robots, services or browser keep real time
 # alone, so a loaded machine cannot make them late.
 TEST_WORKERS ?= 2
 SERIAL_TESTS := ros or redis or browser or chaos

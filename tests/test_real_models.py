@@ -14,14 +14,16 @@ from pathlib import Path
 
 import pytest
 
+from shared_data import SHARED_IFC, shared_models
 
-#: ../shared/data/ifc beside the repository (as in tests/conftest.py, whose name other conftest files shadow).
-SHARED_IFC = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "ifc"
 SIMULATE = ("--no-progress", "--no-gantt")
 PREBUILT = "IfcFooting,IfcSlab,IfcWall"
-MODELS = sorted(p.name for p in SHARED_IFC.glob("*.ifc*")) if SHARED_IFC.is_dir() else []
+MODELS = [path.name for path in shared_models()]
 
-pytestmark = pytest.mark.skipif(not MODELS, reason=f"{SHARED_IFC} is absent: the shared real models live beside the repository")
+pytestmark = [
+    pytest.mark.slow,  # the chain per model: up to 228 s of set-up (AC20) on CI
+    pytest.mark.skipif(not MODELS, reason=f"{SHARED_IFC} is absent: the shared real models live beside the repository"),
+]
 
 
 def bimrobot(*args: str, cwd: Path) -> subprocess.CompletedProcess:

@@ -17,6 +17,7 @@ from bimrobot.bim.split import split_model
 from bimrobot.errors import InputError
 from bimrobot.world.names import safe_name
 from output_checks import snapshot
+from shared_data import shared_file
 
 
 def _same_element(split_model_, original_element):
@@ -149,9 +150,7 @@ def test_split_bad_input_leaves_no_output(tmp_path):
 @pytest.fixture(scope="module")
 def prefab(tmp_path_factory):
     """MULTICOM-Prefab split by assembly, and the model it came from (skipped when ../shared is absent)."""
-    path = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "ifc" / "MULTICOM-Prefab.ifc"
-    if not path.exists():
-        pytest.skip(f"{path} is absent: the shared test data lives beside the repository, not in it")
+    path = shared_file("ifc", "MULTICOM-Prefab.ifc")
     out = tmp_path_factory.mktemp("prefab") / "units"
     return path, out, split_model(path, out), load_model(path)
 

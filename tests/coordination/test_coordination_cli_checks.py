@@ -9,24 +9,18 @@ import pytest
 from bimrobot.cli import main
 from bimrobot.coordination.schedule import load_schedule_csv
 from output_checks import snapshot
-
-
-@pytest.fixture(scope="module")
-def frame_ifc(tmp_path_factory) -> Path:
-    from bimrobot.bim.examples import steel_frame
-
-    return steel_frame(tmp_path_factory.mktemp("frame") / "frame.ifc")
+from shared_data import REPO_ROOT
 
 
 @pytest.fixture
-def project(tmp_path, frame_ifc) -> Path:
+def project(tmp_path, steel_frame_ifc) -> Path:
     """A user's project folder: the model, notes, a fleet file and a folder of their own results."""
     folder = tmp_path / "project"
     (folder / "results").mkdir(parents=True)
-    (folder / "frame.ifc").write_bytes(frame_ifc.read_bytes())
+    (folder / "frame.ifc").write_bytes(steel_frame_ifc.read_bytes())
     (folder / "notes.txt").write_text("site visit on Monday\n")
     (folder / "results" / "budget.xlsx").write_bytes(b"PK\x03\x04 not really a spreadsheet")
-    (folder / "fleet.yaml").write_text((Path(__file__).parents[2] / "src/bimrobot/coordination/fleets/fleet2.yaml").read_text())
+    (folder / "fleet.yaml").write_text((REPO_ROOT / "src/bimrobot/coordination/fleets/fleet2.yaml").read_text())
     return folder
 
 
@@ -124,15 +118,15 @@ def test_a_breakdown_of_an_unknown_robot_is_refused_before_the_model_is_read(tmp
     assert "--breakdown names robot 'Robot9', which is not in fleet fleet2" in capsys.readouterr().err
 
 
-def test_include_and_exclude_choose_what_is_built(frame_ifc, tmp_path, capsys):
+def test_include_and_exclude_choose_what_is_built(steel_frame_ifc, tmp_path, capsys):
     out = tmp_path / "sim"
-    assert main(["simulate", str(frame_ifc), "--exclude", "IfcBeam", "-o", str(out), "--no-gantt", "--no-progress"]) == 0
+    assert main(["simulate", str(steel_frame_ifc), "--exclude", "IfcBeam", "-o", str(out), "--no-gantt", "--no-progress"]) == 0
     summary = json.loads((out / "summary.json").read_text())["smart_components"]
     assert summary["components"] == 8  # 4 footings + 4 columns; no beam
     rows = load_schedule_csv(out / "schedule.csv")
     assert {r["GlobalId"] for r in rows if r["Activity"] == "transport"} and len({r["GlobalId"] for r in rows if r["Activity"] == "transport"}) == 4
     capsys.readouterr()
-    assert main(["simulate", str(frame_ifc), "--include", "IfcColum", "-o", str(tmp_path / "bad")]) == 2
+    assert main(["simulate", str(steel_frame_ifc), "--include", "IfcColum", "-o", str(tmp_path / "bad")]) == 2
     assert "--include names 'IfcColum', which is not an" in capsys.readouterr().err
     assert not (tmp_path / "bad").exists()
 

@@ -20,27 +20,6 @@ robots:
 """
 
 
-@pytest.fixture(scope="module")
-def steel_frame_model(tmp_path_factory):
-    from bimrobot.bim import load_model
-    from bimrobot.bim.examples import steel_frame
-
-    path = steel_frame(tmp_path_factory.mktemp("frame") / "frame.ifc")
-    return load_model(path)
-
-
-@pytest.fixture(scope="module")
-def ifc_unit_model():
-    from pathlib import Path
-
-    from bimrobot.bim import load_model
-
-    path = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "ifc" / "ifcUnit.ifc"
-    if not path.exists():
-        pytest.skip(f"{path} is absent: the shared test data lives beside the repository, not in it")
-    return load_model(path)
-
-
 def test_steel_frame_smart_components(steel_frame_model):
     smart = build_smart_model(steel_frame_model)
     classes = sorted(c.ifc_class for c in smart.components.values())

@@ -2,15 +2,14 @@
 workaround that used to end in a KeyError), and the pre-flight check that lists everything at once."""
 
 import json
-from pathlib import Path
 
 import pytest
 
 from bimrobot.cli import main
 from bimrobot.coordination.schedule import load_schedule_csv
+from shared_data import SHARED_IFC, shared_models
 
-SHARED_IFC = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "ifc"
-MODELS = sorted(p.name for p in SHARED_IFC.glob("*.ifc*")) if SHARED_IFC.is_dir() else []
+MODELS = [path.name for path in shared_models()]
 CAST_IN_PLACE = "IfcFooting,IfcSlab,IfcWall,IfcWallStandardCase"
 
 pytestmark = pytest.mark.skipif(not MODELS, reason=f"{SHARED_IFC} is absent: the shared real models live beside the repository")

@@ -1,18 +1,18 @@
-"""Fixtures for the lbd tests: the chapter-4 steel frame (written with ifcopenshell.api) and a
-schedule for it in the format `bimrobot simulate` writes (docs/conventions.md)."""
+"""Fixtures for the lbd tests: the chapter-4 steel frame (tests/conftest.py) and a schedule for it in
+the format `bimrobot simulate` writes (docs/conventions.md)."""
 
 from __future__ import annotations
 
 import pytest
 
-from bimrobot.bim import load_model
-from bimrobot.bim.examples import steel_frame
+from shared_data import SHARED_ONTOLOGIES
+
 from bimrobot.lbd.schedule import ACTIVITY_TASK_TYPES, Activity, Schedule, write_schedule_csv
 
 
 @pytest.fixture(scope="session")
-def frame_model(tmp_path_factory):
-    return load_model(steel_frame(tmp_path_factory.mktemp("lbd") / "steel_frame.ifc"))
+def frame_model(steel_frame_model):
+    return steel_frame_model
 
 
 def frame_schedule(model) -> Schedule:
@@ -56,12 +56,8 @@ def frame_schedule_csv(frame_model, tmp_path_factory):
 @pytest.fixture
 def ontology_file():
     """A function: ontology_file("bot.ttl") -> Path under ../shared/data/ontologies (skips when absent)."""
-    from pathlib import Path
-
-    folder = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "ontologies"
-
-    def find(name: str) -> Path:
-        path = folder / name
+    def find(name: str):
+        path = SHARED_ONTOLOGIES / name
         if not path.exists():
             pytest.skip(f"{path} is absent: the shared ontologies live beside the repository, not in it")
         return path

@@ -4,7 +4,6 @@ started and stopped by the test (skipped when the `oxigraph` server binary is no
 from __future__ import annotations
 
 import shutil
-import socket
 import subprocess
 import sys
 import time
@@ -26,14 +25,8 @@ def oxigraph_binary() -> str:
     return found
 
 
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
 @pytest.fixture
-def endpoint(tmp_path):
+def endpoint(tmp_path, free_port):
     port = free_port()
     server = subprocess.Popen(
         [oxigraph_binary(), "serve", "--location", str(tmp_path / "db"), "--bind", f"127.0.0.1:{port}"],
@@ -83,6 +76,6 @@ def test_cli_builds_on_and_queries_an_endpoint(endpoint, frame_model, frame_sche
     assert capsys.readouterr().out.splitlines() == ["state,components", "OnYard,84", "PositionFixed,4"]
 
 
-def test_unreachable_endpoint_is_one_sentence():
+def test_unreachable_endpoint_is_one_sentence(free_port):
     with pytest.raises(InputError, match=r"the SPARQL endpoint http://127.0.0.1:\d+ did not answer"):
         ConstructionGraph.open(f"http://127.0.0.1:{free_port()}").query("progress")

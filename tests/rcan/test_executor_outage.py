@@ -4,7 +4,6 @@ a long Redis outage. It now stops after the reconnection time with one sentence 
 from __future__ import annotations
 
 import shutil
-import socket
 import subprocess
 import sys
 import time
@@ -12,12 +11,6 @@ import time
 import pytest
 
 pytestmark = pytest.mark.redis
-
-
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def _start_redis(port: int) -> subprocess.Popen:
@@ -38,8 +31,8 @@ def _start_redis(port: int) -> subprocess.Popen:
     return process
 
 
-def test_the_executor_gives_up_after_redis_reconnect_with_one_sentence(tmp_path):
-    port = _free_port()
+def test_the_executor_gives_up_after_redis_reconnect_with_one_sentence(tmp_path, free_port):
+    port = free_port()
     server = _start_redis(port)
     url = f"redis://127.0.0.1:{port}/0"
     executor = subprocess.Popen([sys.executable, "-m", "bimrobot", "rcan", "executor", "--redis", url, "--backend", "sim",

@@ -123,11 +123,10 @@ class Deployment:
                 process.wait(timeout=30)
 
 
-def test_chaos_every_activity_executed_exactly_once_and_states_equal_an_uninterrupted_run(tmp_path):
+def test_chaos_every_activity_executed_exactly_once_and_states_equal_an_uninterrupted_run(tmp_path, free_port):
     if shutil.which("redis-server") is None:
         pytest.skip("redis-server is not installed (Debian package redis-server)")
     pytest.importorskip("redis")
-    from test_rcan_redis import free_port
 
     schedule = frame_schedule(tmp_path / "schedule.csv", components=COMPONENTS)
     caps = write_caps(tmp_path / "caps.yaml")

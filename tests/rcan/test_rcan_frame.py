@@ -12,18 +12,15 @@ from bimrobot.rcan.system import run_plan
 
 
 @pytest.fixture(scope="module")
-def frame(tmp_path_factory):
+def frame(tmp_path_factory, steel_frame_model):
     """(model, schedule, schedule path) of the steel frame built by fleet 2."""
-    from bimrobot.bim import load_model
-    from bimrobot.bim.examples import steel_frame
     from bimrobot.coordination.fleet import load_fleet
     from bimrobot.coordination.schedule import write_schedule_csv
     from bimrobot.coordination.simulation import simulate
     from bimrobot.lbd.schedule import load_schedule_csv
     from bimrobot.sco import build_smart_model
 
-    folder = tmp_path_factory.mktemp("frame")
-    model = load_model(steel_frame(folder / "frame.ifc"))
+    folder, model = tmp_path_factory.mktemp("frame"), steel_frame_model
     result = simulate(build_smart_model(model), load_fleet("fleet2"),
                       storey_elevations=[s.elevation for s in model.storeys])
     path = write_schedule_csv(result.activities, folder / "schedule.csv")
@@ -87,18 +84,16 @@ def test_frame_schedule_from_the_cli_with_graph_output(frame, tmp_path, capsys):
     assert graph.component_state(first) == "Assembled"
 
 
-def test_per_node_frame_schedule_runs_to_completion_with_robots_released_after_transport(tmp_path):
+def test_per_node_frame_schedule_runs_to_completion_with_robots_released_after_transport(tmp_path, steel_frame_model):
     """Per connection node, a beam's positioning waits for the columns it joins; fleet 1 has one
     transport robot: the robot sets each component down at its drop-off and brings the next."""
-    from bimrobot.bim import load_model
-    from bimrobot.bim.examples import steel_frame
     from bimrobot.coordination.fleet import load_fleet
     from bimrobot.coordination.schedule import write_schedule_csv
     from bimrobot.coordination.simulation import simulate
     from bimrobot.lbd.schedule import load_schedule_csv
     from bimrobot.sco import build_smart_model
 
-    model = load_model(steel_frame(tmp_path / "frame.ifc"))
+    model = steel_frame_model
     result = simulate(build_smart_model(model), load_fleet("fleet1"),
                       storey_elevations=[s.elevation for s in model.storeys], per_node=True)
     schedule = load_schedule_csv(write_schedule_csv(result.activities, tmp_path / "schedule.csv"), model)

@@ -18,21 +18,14 @@ from rcan_helpers import frame_schedule, write_capabilities
 from output_checks import snapshot
 
 
-@pytest.fixture(scope="module")
-def frame_ifc(tmp_path_factory):
-    from bimrobot.bim.examples import steel_frame
-
-    return steel_frame(tmp_path_factory.mktemp("model") / "frame.ifc")
-
-
 @pytest.fixture
-def site(tmp_path, frame_ifc, monkeypatch):
+def site(tmp_path, steel_frame_ifc, monkeypatch):
     """A user's disk: project/ with a model, schedule and capability table; a foreign folder, a link to
     it, a regular file, a user's SQLite database; the current directory is an empty work folder."""
     project = tmp_path / "project"
     project.mkdir()
     model = project / "frame.ifc"
-    model.write_bytes(frame_ifc.read_bytes())
+    model.write_bytes(steel_frame_ifc.read_bytes())
     schedule = frame_schedule(project / "schedule.csv")
     caps = write_capabilities(project / "caps.yaml")
     mine = tmp_path / "mine"

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import shutil
-import socket
 import subprocess
 import sys
 import time
@@ -18,14 +17,8 @@ from bimrobot.rcan.system import run_plan
 pytestmark = pytest.mark.redis
 
 
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
 @pytest.fixture
-def redis_url():
+def redis_url(free_port):
     """A throw-away redis-server (no persistence) on a free loopback port; stopped by PID afterwards."""
     server = shutil.which("redis-server")
     if server is None:
@@ -188,7 +181,7 @@ def test_a_node_nobody_can_execute_is_escalated_through_the_dead_letter_stream(r
 
 @pytest.mark.parametrize("persistence", [["--appendonly", "yes", "--appendfsync", "always"], ["--appendonly", "no"]],
                          ids=["with persistence", "without persistence"])
-def test_a_redis_restart_mid_run_is_survived(tmp_path, persistence, schedule_csv, cranes):
+def test_a_redis_restart_mid_run_is_survived(tmp_path, persistence, schedule_csv, cranes, free_port):
     """redis-server is killed (SIGKILL) mid-run and started again on the same port: coordinator and
     executors reconnect, groups are recreated, unfinished work is re-sent, every goal runs once."""
     import os

@@ -202,6 +202,7 @@ def test_benchmark_grid_in_parallel_and_resumed(tmp_path):
         run_benchmark(longer, tmp_path, workers=1)
 
 
+@pytest.mark.slow  # starts a local Ray instance and trains two PPO runs
 def test_benchmark_on_a_local_ray_instance(tmp_path):
     ray = pytest.importorskip("ray", reason="Ray is an optional extra (pip install 'bimrobot[ray]')")
     spec = BenchmarkSpec(["E1S1"], ["ppo"], [0, 1], 256, profile="fast", eval_episodes=1,

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import shutil
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -15,17 +16,13 @@ from bimrobot.world.check import problems, read_models, sdf_validator, validate_
 from bimrobot.world.package import GENERIC_SITE_NAMES, ConvertOptions, convert
 from output_checks import snapshot
 
-SHARED_IFC = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "ifc"
-
 needs_ign = pytest.mark.skipif(sdf_validator() is None, reason="`ign sdf` is not installed (ignition-tools)")
 
 
 @pytest.fixture(scope="module")
-def frame_package(tmp_path_factory):
-    tmp = tmp_path_factory.mktemp("frame")
-    ifc = examples.steel_frame(tmp / "frame.ifc")
-    out = tmp / "frame_pkg"
-    return out, convert(ifc, out, ConvertOptions(target="both"))
+def frame_package(tmp_path_factory, steel_frame_ifc):
+    out = tmp_path_factory.mktemp("frame") / "frame_pkg"
+    return out, convert(steel_frame_ifc, out, ConvertOptions(target="both"))
 
 
 def test_steel_frame_package_holds_the_thesis_weights(frame_package):
@@ -103,11 +100,11 @@ def test_cli_converts_and_prints_where_and_what(tmp_path, cli):
         ("", ["frame.ifc", "--map-band", "2", "1"], "--map-band"),
     ],
 )
-def test_cli_bad_input_exits_2_with_one_sentence_and_no_output(tmp_path, cli, setup, args, message):
+def test_cli_bad_input_exits_2_with_one_sentence_and_no_output(tmp_path, cli, setup, args, message, steel_frame_ifc):
     if setup is not None and args[0] == "bad.ifc":
         (tmp_path / "bad.ifc").write_text(setup)
     if args[0] == "frame.ifc":
-        examples.steel_frame(tmp_path / "frame.ifc")
+        shutil.copyfile(steel_frame_ifc, tmp_path / "frame.ifc")
     status, _, err = cli("convert", *args, "-o", "out_pkg", "--no-progress", cwd=tmp_path)
     assert status == 2, err
     assert message in err
@@ -117,8 +114,8 @@ def test_cli_bad_input_exits_2_with_one_sentence_and_no_output(tmp_path, cli, se
 
 
 @pytest.mark.parametrize("option", ["--unknown-weight", "--default-density"])
-def test_cli_refuses_an_impossible_density(tmp_path, cli, option):
-    examples.steel_frame(tmp_path / "frame.ifc")
+def test_cli_refuses_an_impossible_density(tmp_path, cli, option, steel_frame_ifc):
+    shutil.copyfile(steel_frame_ifc, tmp_path / "frame.ifc")
     with pytest.raises(SystemExit) as exited:  # argparse: usage line and the error, exit 2
         cli("convert", "frame.ifc", "-o", "out_pkg", option, "0", cwd=tmp_path)
     assert exited.value.code == 2
@@ -137,10 +134,11 @@ def test_cli_refuses_an_impossible_density(tmp_path, cli, option):
         ("linked", "a folder that bimrobot did not write and it is not empty"),
     ],
 )
-def test_cli_refuses_outputs_that_would_destroy_data_and_leaves_them_byte_for_byte(tmp_path, cli, output, message):
+def test_cli_refuses_outputs_that_would_destroy_data_and_leaves_them_byte_for_byte(tmp_path, cli, output, message,
+                                                                                  steel_frame_ifc):
     project = tmp_path / "project"
     project.mkdir()
-    examples.steel_frame(project / "frame.ifc")
+    shutil.copyfile(steel_frame_ifc, project / "frame.ifc")
     (project / "notes").mkdir()
     (project / "notes" / "thesis.txt").write_text("precious")
     (project / "linked").symlink_to(project / "notes")
@@ -152,10 +150,10 @@ def test_cli_refuses_outputs_that_would_destroy_data_and_leaves_them_byte_for_by
     assert sorted(p.name for p in project.iterdir()) == ["frame.ifc", "linked", "notes"]
 
 
-def test_cli_refuses_the_folder_holding_the_input_before_reading_it(tmp_path, cli):
+def test_cli_refuses_the_folder_holding_the_input_before_reading_it(tmp_path, cli, steel_frame_ifc):
     """The path is checked before the model is read: a huge model would otherwise be read for nothing."""
     (tmp_path / "models").mkdir()
-    examples.steel_frame(tmp_path / "models" / "frame.ifc")
+    shutil.copyfile(steel_frame_ifc, tmp_path / "models" / "frame.ifc")
     status, _, err = cli("convert", "models/frame.ifc", "-o", "models", cwd=tmp_path)
     assert status == 2 and "contains an input of this command" in err
     (tmp_path / "models" / "frame.ifc").write_text("not IFC")  # refused before it is read: no parse error

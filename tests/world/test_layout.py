@@ -41,12 +41,11 @@ def test_rigid_removes_scale_and_round_off():
     assert pytest.approx(np.linalg.det(rigid(matrix)[:3, :3])) == 1.0
 
 
-def test_the_far_away_warning_names_the_yard_when_only_the_yard_is_far(tmp_path, capsys):
+def test_the_far_away_warning_names_the_yard_when_only_the_yard_is_far(tmp_path, capsys, steel_frame_ifc):
     """A site whose yard lies 3 km out is the site's doing, not the model's: the warning says so."""
-    from bimrobot.bim.examples import steel_frame
     from bimrobot.cli import main
 
-    frame = steel_frame(tmp_path / "frame.ifc")
+    frame = steel_frame_ifc
     site = tmp_path / "far.yaml"
     site.write_text("yard: [[3000, 0], [3000, 2]]\n")
     assert main(["convert", str(frame), "-o", str(tmp_path / "pkg"), "--layout", "yard", "--site", str(site),

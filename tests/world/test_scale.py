@@ -122,11 +122,10 @@ def test_merged_package_passes_the_validator(tmp_path):
     assert json.loads((out / "report.json").read_text())["counts"]["models"] == 3
 
 
-def test_cli_merge_static_keeps_the_named_classes_and_validates(tmp_path, monkeypatch, capsys):
-    from bimrobot.bim import examples
+def test_cli_merge_static_keeps_the_named_classes_and_validates(tmp_path, monkeypatch, capsys, steel_frame_ifc):
     from bimrobot.cli import main
 
-    ifc = examples.steel_frame(tmp_path / "frame.ifc")
+    ifc = steel_frame_ifc
     monkeypatch.chdir(tmp_path)
     status = main(["convert", str(ifc), "-o", "pkg", "--merge-static", "--keep-separate", "IfcColumn, IfcBeam",
                    "--validate", "--no-progress"])
