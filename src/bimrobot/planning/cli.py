@@ -44,6 +44,7 @@ def register(subparsers) -> None:
     add_unknown_weight_option(export)
     export.set_defaults(func=run_export)
     _register_generate(commands)  # issue 38: generated buildings (block at the end of this file)
+    register_train(commands)  # issue 38: the learned planner (block at the end of this file)
     _register_benchmark(commands)  # issue 38: planners compared (block at the end of this file)
 
 
@@ -188,4 +189,60 @@ def run_benchmark(args) -> int:
         write(entries, args.time_limit, tmp)
     print(markdown(entries, args.time_limit))
     print(f"output: {Path(args.output).resolve()}/ (benchmark.md, benchmark.json)")
+    return 0
+
+
+# --- issue 38: `plan train`, the learned planner (bimrobot.planning.learned) ------------------------------
+
+TRAIN_EXAMPLES = """examples:
+  bimrobot plan train --seed 0 --steps 4096 -o runs/dispatch-s0/
+  bimrobot plan train --seed 1 --steps 0 --imitation-steps 2000 -o runs/imitation-s1/   # imitation only
+
+Trains on generated buildings only (steel, precast, panel; bimrobot.planning.generator, drawn from the
+seed): behaviour cloning of the least-cost market, then MaskablePPO fine-tuning with a size-independent
+policy (docs/planning.md, "Learned planner"). Writes policy.zip (use it with --planner PATH.zip),
+imitation.zip (the policy after imitation, before PPO) and train.json (command, seed, accuracy, the
+training buildings and the market's makespan on each). Bounded by steps, never by wall time; one torch thread.
+"""
+
+
+def register_train(commands) -> None:
+    """Add ``plan train``."""
+    train = commands.add_parser(
+        "train", help="train the learned planner on generated buildings (imitation of the market, then PPO)",
+        epilog=TRAIN_EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    train.add_argument("--seed", type=int, default=0, help="seed of the training buildings, weights and PPO (default 0)")
+    train.add_argument("--steps", type=int, default=4096, help="PPO env steps after imitation (default 4096; 0: imitation only)")
+    train.add_argument("--imitation-steps", type=int, default=400, help="behaviour-cloning mini-batches of the market's choices (default 400; 0: none)")
+    train.add_argument("-o", "--output", required=True, help="output folder (new, or one `plan train` wrote)")
+    train.set_defaults(func=run_train)
+
+
+def run_train(args) -> int:
+    """``bimrobot plan train``: train, write policy.zip, imitation.zip and train.json in one folder."""
+    import json
+    import shlex
+    import sys
+
+    from bimrobot.io import atomic_output_dir, check_output, signature
+    from bimrobot.planning.learned import policy_bytes, save, train
+
+    check_output(args.output, folder=True, kind="plan-train")  # refused before the long work
+    command = "bimrobot plan train " + shlex.join(sys.argv[2:] if sys.argv[1:2] == ["plan"] else sys.argv[1:])
+    imitated: dict = {}
+
+    def keep(model, accuracy):
+        imitated["zip"] = policy_bytes(model, {"stage": "after imitation, before PPO", "imitation_accuracy": accuracy})
+
+    result = train(args.seed, args.steps, args.imitation_steps, command=command, on_imitated=keep)
+    with atomic_output_dir(args.output, kind="plan-train") as tmp:
+        save(result.model, tmp / "policy.zip", result.meta)
+        if imitated:
+            (tmp / "imitation.zip").write_bytes(imitated["zip"])
+        info = {"bimrobot": signature("plan train"), **result.meta}
+        (tmp / "train.json").write_text(json.dumps(info, indent=2, sort_keys=True) + "\n", encoding="utf-8")
+    accuracy = "" if result.accuracy is None else f"; imitation reproduces {100 * result.accuracy:.1f} % of the market's choices"
+    print(f"trained on {len(result.pool)} generated buildings, {args.imitation_steps} imitation steps, {args.steps} PPO steps{accuracy}")
+    print(f"output: {Path(args.output).resolve()}/ (policy.zip, imitation.zip, train.json)")
     return 0

@@ -1,0 +1,508 @@
+"""The learned planner (issue 38): MaskablePPO with a size-independent policy on ``bimrobot/Dispatch-v0``.
+
+The policy (:class:`DispatchPolicy`, sb3-contrib's ``MaskableActorCriticPolicy`` with
+:class:`DispatchExtractor`) has no parameter whose shape depends on the number of tasks or robots:
+
+1. every node (task or floor gate) and every robot is embedded by a shared MLP of its features
+   (``symlog``-scaled: seconds, metres, kg);
+2. ``ROUNDS`` rounds of message passing along the precedence edges (forward and backward, mean over the
+   real edges) give each task a view of what it waits for and what waits for it;
+3. each (task, robot) pair is scored from the two embeddings, the pair's handling and travel times and a
+   pooled context of the whole build; a learned logit from the context scores waiting. The environment's
+   action mask removes everything that is not a valid award.
+
+The padded arrays of the environment only give the batch shape, so the same weights run on any building:
+at inference the padding is the building's own size.
+
+Training (:func:`train`, ``bimrobot plan train``) uses generated buildings only (real IFC models are the
+test set): behaviour cloning of the least-cost market's choices (a warm start), then PPO fine-tuning,
+with the reward divided by the market's makespan on the same building (per cent of it), so small and
+large buildings weigh alike. Seeded; bounded by steps, never by wall time.
+
+:class:`LearnedPlanner` plays a policy on a problem and replays its awards as a
+:class:`~bimrobot.coordination.market.Dispatcher` (the contract of ``bimrobot.planning.planners``).
+Times in seconds, positions in metres (site frame x, y; model frame z, z up), masses in kg.
+"""
+
+from __future__ import annotations
+
+import json
+import shlex
+import sys
+import tempfile
+import zipfile
+from dataclasses import dataclass
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+import torch as th
+from sb3_contrib.common.maskable.policies import MaskableActorCriticPolicy
+from torch import nn
+
+from bimrobot.coordination.market import Award, Dispatcher, propose
+from bimrobot.errors import InputError
+from bimrobot.planning.dispatch import NODE_FEATURES, ROBOT_FEATURES, DispatchEnv, DispatchProblem, MarketPolicy, play
+
+#: the policy shipped with the package (``--planner learned``)
+DEFAULT_POLICY = Path(__file__).parent / "policies" / "dispatch.zip"
+#: the file inside a policy zip that says how it was trained (command, seed, buildings, figures)
+META_NAME = "bimrobot.json"
+HIDDEN = 32
+ROUNDS = 2
+PAIR_FEATURES = 4  # handling, travel, handling + travel (symlog s), compatible
+MAX_STEPS = 10_000_000
+
+
+def symlog(x: th.Tensor) -> th.Tensor:
+    """sign(x) log(1 + |x|): seconds, metres and kg of any size to a few units."""
+    return th.sign(x) * th.log1p(th.abs(x))
+
+
+def _mlp(inputs: int, hidden: int = HIDDEN) -> nn.Sequential:
+    return nn.Sequential(nn.Linear(inputs, hidden), nn.ReLU(), nn.Linear(hidden, hidden), nn.ReLU())
+
+
+class DispatchExtractor(nn.Module):
+    """Dict observation of :class:`~bimrobot.planning.dispatch.DispatchEnv` (batched) -> per-pair logits
+    (B, max_tasks x max_robots, in the action order ``task x max_robots + robot``), the wait logit (B, 1)
+    and a value embedding (B, HIDDEN), concatenated. Parameters independent of the padded sizes."""
+
+    def __init__(self, observation_space: gym.spaces.Dict, hidden: int = HIDDEN, rounds: int = ROUNDS):
+        super().__init__()
+        n, r = observation_space["compatibility"].shape
+        self.actions = n * r + 1
+        self.hidden = hidden
+        self.features_dim = self.actions + hidden  # read by SB3; not a parameter shape
+        self.node_in = _mlp(len(NODE_FEATURES), hidden)
+        self.robot_in = _mlp(len(ROBOT_FEATURES), hidden)
+        self.passes = nn.ModuleList(nn.Sequential(nn.Linear(3 * hidden, hidden), nn.ReLU()) for _ in range(rounds))
+        self.pair_node = nn.Linear(hidden, hidden)
+        self.pair_robot = nn.Linear(hidden, hidden, bias=False)
+        self.pair_context = nn.Linear(2 * hidden, hidden, bias=False)
+        self.pair_scalars = nn.Linear(PAIR_FEATURES, hidden, bias=False)
+        self.pair_out = nn.Sequential(nn.ReLU(), nn.Linear(hidden, hidden), nn.ReLU(), nn.Linear(hidden, 1))
+        self.wait = nn.Sequential(nn.Linear(2 * hidden, hidden), nn.ReLU(), nn.Linear(hidden, 1))
+        self.value = _mlp(2 * hidden, hidden)
+
+    def forward(self, obs: dict) -> th.Tensor:
+        node_mask = obs["node_mask"].float()  # (B, N)
+        robot_mask = obs["robot_mask"].float()  # (B, R)
+        h = self.node_in(symlog(obs["node_features"])) * node_mask[..., None]  # (B, N, H)
+        g = self.robot_in(symlog(obs["robot_features"])) * robot_mask[..., None]  # (B, R, H)
+        for layer in self.passes:
+            h = (h + layer(th.cat([h, *self._messages(h, obs)], dim=-1))) * node_mask[..., None]
+        context = th.cat([_mean(h, node_mask), _mean(g, robot_mask)], dim=-1)  # (B, 2H)
+        handling, travel = obs["handling_s"].float(), obs["travel_s"].float()
+        scalars = th.stack([symlog(handling), symlog(travel), symlog(handling + travel), obs["compatibility"].float()], -1)
+        pair = (self.pair_node(h)[:, :, None, :] + self.pair_robot(g)[:, None, :, :]
+                + self.pair_scalars(scalars) + self.pair_context(context)[:, None, None, :])  # (B, N, R, H)
+        logits = self.pair_out(pair).flatten(1)  # (B, N * R)
+        return th.cat([logits, self.wait(context), self.value(context)], dim=1)
+
+    @staticmethod
+    def _messages(h: th.Tensor, obs: dict) -> tuple[th.Tensor, th.Tensor]:
+        """Mean embedding of each node's predecessors and of its successors (real edges only)."""
+        b, n, width = h.shape
+        edges = obs["precedence"].long()  # (B, E, 2)
+        real = obs["precedence_mask"].float()[..., None]  # (B, E, 1)
+        offset = (th.arange(b, device=h.device) * n)[:, None]
+        before, after = (edges[..., 0] + offset).flatten(), (edges[..., 1] + offset).flatten()
+        flat, weight = h.reshape(b * n, width), real.reshape(-1, 1)
+        out = []
+        for src, dst in ((before, after), (after, before)):
+            total = th.zeros_like(flat).index_add_(0, dst, flat[src] * weight)
+            count = th.zeros(b * n, 1, device=h.device).index_add_(0, dst, weight)
+            out.append((total / count.clamp(min=1.0)).reshape(b, n, width))
+        return out[0], out[1]
+
+
+def _mean(x: th.Tensor, mask: th.Tensor) -> th.Tensor:
+    return (x * mask[..., None]).sum(1) / mask.sum(1, keepdim=True).clamp(min=1.0)
+
+
+class _Split(nn.Module):
+    """Splits the extractor's output into the actor's logits and the critic's embedding."""
+
+    def __init__(self, actions: int, hidden: int):
+        super().__init__()
+        self.actions, self.latent_dim_pi, self.latent_dim_vf = actions, actions, hidden
+
+    def forward(self, features: th.Tensor) -> tuple[th.Tensor, th.Tensor]:
+        return features[:, : self.actions], features[:, self.actions:]
+
+    def forward_actor(self, features: th.Tensor) -> th.Tensor:
+        return features[:, : self.actions]
+
+    def forward_critic(self, features: th.Tensor) -> th.Tensor:
+        return features[:, self.actions:]
+
+
+class DispatchPolicy(MaskableActorCriticPolicy):
+    """MaskableActorCriticPolicy whose logits come straight from :class:`DispatchExtractor` (no action
+    layer whose shape would depend on the padded sizes); the value head reads the pooled context."""
+
+    def __init__(self, observation_space, action_space, lr_schedule, **kwargs):
+        kwargs.update(features_extractor_class=DispatchExtractor, net_arch=[], share_features_extractor=True)
+        super().__init__(observation_space, action_space, lr_schedule, **kwargs)
+
+    def _build_mlp_extractor(self) -> None:
+        self.mlp_extractor = _Split(self.features_extractor.actions, self.features_extractor.hidden)
+
+    def _build(self, lr_schedule) -> None:
+        self._build_mlp_extractor()
+        self.action_net = nn.Identity()
+        self.value_net = nn.Linear(self.mlp_extractor.latent_dim_vf, 1)
+        self.optimizer = self.optimizer_class(self.parameters(), lr=lr_schedule(1), **self.optimizer_kwargs)
+
+
+# ---------------------------------------------------------------- buildings for training
+#: the generated buildings of the training pool: (kind, grid) drawn with the run's seed
+TRAIN_SPECS = (("steel", "2x2x2"), ("steel", "3x2x1"), ("steel", "2x3x2"), ("steel", "3x3x1"),
+               ("precast", "2x2x2"), ("precast", "3x2x1"), ("panel", "2x2x1"), ("panel", "3x2x1"))
+
+
+@dataclass
+class PoolEntry:
+    """One training building: its spec, problem and the least-cost market's makespan on it (s)."""
+
+    spec: str
+    problem: DispatchProblem
+    market_s: float
+
+
+def generated_problem(spec: str) -> DispatchProblem:
+    """The problem of a generated building (``generated:KIND:GRID:seed=S``) with its own random fleet and
+    site (:mod:`bimrobot.planning.generator`), as ``simulate`` reads it."""
+    from bimrobot.coordination.fleet import fleet_yaml
+    from bimrobot.planning.dispatch import simulate_problem
+    from bimrobot.planning.generator import generate, parse_spec
+    from bimrobot.site import site_yaml
+
+    parsed = parse_spec(spec)
+    with tempfile.TemporaryDirectory(prefix="bimrobot-train-") as folder:
+        made = generate(parsed, Path(folder) / "building.ifc")
+        (Path(folder) / "fleet.yaml").write_text(fleet_yaml(made.fleet, parsed.text()), encoding="utf-8")
+        (Path(folder) / "site.yaml").write_text(site_yaml(made.site, parsed.text()), encoding="utf-8")
+        return simulate_problem([str(made.path), "--fleet", str(Path(folder) / "fleet.yaml"),
+                                 "--site", str(Path(folder) / "site.yaml")])
+
+
+def sizes(problem: DispatchProblem) -> tuple[int, int, int]:
+    """(tasks + gates, robots, precedences) of ``problem``: its own padding."""
+    from bimrobot.coordination.simulation import ConstructionSimulation
+    from bimrobot.planning.dispatch import AgentDispatcher, task_graph
+
+    sim = ConstructionSimulation(problem.smart, problem.fleet, problem.site, breakdowns=problem.breakdowns,
+                                 storey_elevations=problem.storey_elevations, per_node=problem.per_node,
+                                 dispatcher=AgentDispatcher())
+    sim.start()
+    graph = task_graph(sim)
+    return len(graph.keys), len(problem.fleet.robots), len(graph.edges)
+
+
+def env_for(problem: DispatchProblem) -> DispatchEnv:
+    """The environment of ``problem`` padded to its own size."""
+    n, r, e = sizes(problem)
+    return DispatchEnv(problem, max_tasks=n, max_robots=r, max_edges=max(e, 1))
+
+
+def training_pool(seed: int, specs=TRAIN_SPECS) -> list[PoolEntry]:
+    """Generated buildings of ``specs``, each drawn with ``seed`` (and its index), with the market's makespan."""
+    pool = []
+    for i, (kind, grid) in enumerate(specs):
+        spec = f"generated:{kind}:{grid}:seed={seed * 100 + i}"
+        problem = generated_problem(spec)
+        _, result = play(env_for(problem), MarketPolicy(), seed=0)
+        pool.append(PoolEntry(spec, problem, float(result.makespan)))
+    return pool
+
+
+class _Drawn:
+    """The ``problem`` callable of a training environment: a building of the pool drawn at each reset."""
+
+    def __init__(self, pool: list[PoolEntry]):
+        self.pool, self.last = pool, 0
+
+    def __call__(self, rng: np.random.Generator) -> DispatchProblem:
+        self.last = int(rng.integers(len(self.pool)))
+        return self.pool[self.last].problem
+
+
+class PerCentOfMarket(gym.Wrapper):
+    """Reward in per cent of the market's makespan on the drawn building (return = -100 x makespan / market)."""
+
+    def __init__(self, env: DispatchEnv, drawn: _Drawn):
+        super().__init__(env)
+        self.drawn = drawn
+
+    def step(self, action):
+        obs, reward, done, truncated, info = self.env.step(action)
+        return obs, 100.0 * reward / self.drawn.pool[self.drawn.last].market_s, done, truncated, info
+
+    def action_masks(self) -> np.ndarray:
+        return self.env.unwrapped.action_masks()
+
+
+def _pad(pool: list[PoolEntry]) -> tuple[int, int, int]:
+    n, r, e = zip(*(sizes(p.problem) for p in pool))
+    return max(n), max(r), max(e)
+
+
+def make_training_env(pool: list[PoolEntry], seed: int) -> gym.Env:
+    """One environment drawing the pool's buildings, padded to the largest of them, reward per cent of market."""
+    n, r, e = _pad(pool)
+    drawn = _Drawn(pool)
+    env = PerCentOfMarket(DispatchEnv(drawn, max_tasks=n, max_robots=r, max_edges=e), drawn)
+    env.reset(seed=seed)
+    return env
+
+
+# ---------------------------------------------------------------- imitation of the market
+def market_demonstrations(pool: list[PoolEntry], pad: tuple[int, int, int]) -> tuple[dict, np.ndarray, np.ndarray]:
+    """Every decision of the least-cost market on the pool's buildings, padded to ``pad``:
+    (observations stacked per key, action masks (D, A), the market's actions (D,))."""
+    observations, masks, actions = [], [], []
+    for entry in pool:
+        env = DispatchEnv(entry.problem, max_tasks=pad[0], max_robots=pad[1], max_edges=pad[2])
+        policy = MarketPolicy()
+        obs, _ = env.reset(seed=0)
+        done = truncated = False
+        while not (done or truncated):
+            action = policy(env)
+            observations.append(obs)
+            masks.append(env.action_masks())
+            actions.append(action)
+            obs, _, done, truncated, _ = env.step(action)
+    stacked = {k: np.stack([o[k] for o in observations]) for k in observations[0]}
+    return stacked, np.stack(masks), np.array(actions, dtype=np.int64)
+
+
+def imitate(policy, demonstrations, steps: int, seed: int, batch: int = 32, lr: float = 1e-3) -> float:
+    """Behaviour cloning: ``steps`` Adam steps of cross-entropy between the masked policy and the market's
+    actions, mini-batches drawn with ``seed``. Returns the accuracy (0-1) of the greedy policy on them."""
+    obs, masks, actions = demonstrations
+    rng = np.random.default_rng(seed)
+    optimizer = th.optim.Adam(policy.parameters(), lr=lr)
+    policy.set_training_mode(True)
+    for _ in range(steps):
+        pick = rng.integers(len(actions), size=min(batch, len(actions)))
+        distribution = policy.get_distribution(_tensors(obs, pick), action_masks=masks[pick])
+        loss = -distribution.log_prob(th.as_tensor(actions[pick])).mean()
+        optimizer.zero_grad()
+        loss.backward()
+        optimizer.step()
+    return imitation_accuracy(policy, demonstrations)
+
+
+def imitation_accuracy(policy, demonstrations) -> float:
+    """Share (0-1) of the demonstrations where the greedy masked policy picks the market's action."""
+    obs, masks, actions = demonstrations
+    policy.set_training_mode(False)
+    hits = 0
+    with th.no_grad():
+        for start in range(0, len(actions), 64):
+            pick = np.arange(start, min(start + 64, len(actions)))
+            chosen = policy.get_distribution(_tensors(obs, pick), action_masks=masks[pick]).get_actions(deterministic=True)
+            hits += int((chosen.numpy() == actions[pick]).sum())
+    return hits / max(len(actions), 1)
+
+
+def _tensors(obs: dict, pick: np.ndarray) -> dict:
+    return {k: th.as_tensor(v[pick]).float() for k, v in obs.items()}
+
+
+# ---------------------------------------------------------------- training
+@dataclass
+class TrainResult:
+    """What :func:`train` did: the model, the imitation accuracy (0-1), the pool's specs and market makespans."""
+
+    model: object
+    accuracy: float | None
+    pool: list[PoolEntry]
+    meta: dict
+
+
+def new_model(env: gym.Env, seed: int, n_steps: int = 256, batch_size: int = 64, learning_rate: float = 3e-4):
+    """A MaskablePPO with :class:`DispatchPolicy` on ``env`` (one torch thread: reproducible)."""
+    from sb3_contrib import MaskablePPO
+
+    th.set_num_threads(1)
+    return MaskablePPO(DispatchPolicy, env, seed=seed, n_steps=n_steps, batch_size=batch_size,
+                       learning_rate=learning_rate, n_epochs=4, gamma=1.0, gae_lambda=0.95, ent_coef=0.0,
+                       clip_range=0.1, device="cpu", verbose=0)
+
+
+def train(seed: int, steps: int, imitation_steps: int = 400, specs=TRAIN_SPECS, command: str | None = None,
+          on_imitated=None) -> TrainResult:
+    """Train a policy on generated buildings: imitation of the market (``imitation_steps``, 0 for none),
+    then ``steps`` PPO env steps (0 for none). ``on_imitated(model, accuracy)`` is called between the two.
+    Seeded: the same arguments give the same weights."""
+    if not 0 <= steps <= MAX_STEPS:
+        raise InputError(f"--steps must be from 0 to {MAX_STEPS:,} env steps, got {steps}")
+    if not 0 <= imitation_steps <= MAX_STEPS:
+        raise InputError(f"--imitation-steps must be from 0 to {MAX_STEPS:,}, got {imitation_steps}")
+    if seed < 0:
+        raise InputError(f"--seed must be a whole number >= 0, got {seed}")
+    th.manual_seed(seed)
+    pool = training_pool(seed, specs)
+    env = make_training_env(pool, seed)
+    model = new_model(env, seed)
+    accuracy = None
+    if imitation_steps:
+        demonstrations = market_demonstrations(pool, _pad(pool))
+        accuracy = imitate(model.policy, demonstrations, imitation_steps, seed)
+        if on_imitated is not None:
+            on_imitated(model, accuracy)
+    if steps:
+        model.learn(total_timesteps=steps)
+    meta = {
+        "command": command or "bimrobot plan train " + shlex.join(sys.argv[1:]),
+        "seed": seed, "steps": steps, "imitation_steps": imitation_steps,
+        "imitation_accuracy": accuracy, "hidden": HIDDEN, "rounds": ROUNDS,
+        "training_buildings": {p.spec: round(p.market_s, 3) for p in pool},
+        "note": "trained on generated buildings only; real IFC models are the test set",
+    }
+    return TrainResult(model, accuracy, pool, meta)
+
+
+def policy_bytes(model, meta: dict) -> bytes:
+    """``model`` as MaskablePPO's zip, with :data:`META_NAME` (how it was trained, with bimrobot's
+    signature) as its first entry, uncompressed."""
+    import io
+
+    from bimrobot.io import signature
+
+    buffer, out_buffer = io.BytesIO(), io.BytesIO()
+    model.save(buffer)
+    meta = {"bimrobot": signature("learned dispatch policy"), **meta}
+    with zipfile.ZipFile(buffer) as sb3, zipfile.ZipFile(out_buffer, "w", compression=zipfile.ZIP_DEFLATED) as out:
+        out.writestr(META_NAME, json.dumps(meta, indent=2, sort_keys=True) + "\n", compress_type=zipfile.ZIP_STORED)
+        for item in sb3.infolist():
+            out.writestr(item, sb3.read(item))
+    return out_buffer.getvalue()
+
+
+def save(model, path: str | Path, meta: dict) -> Path:
+    """Write ``model`` with ``meta`` (:func:`policy_bytes`) to ``path`` atomically."""
+    from bimrobot.io import atomic_output_file
+
+    with atomic_output_file(path) as tmp:
+        tmp.write_bytes(policy_bytes(model, meta))
+    return Path(path)
+
+
+def read_meta(path: str | Path) -> dict:
+    """How the policy at ``path`` was trained (:data:`META_NAME`), {} when it does not say."""
+    with zipfile.ZipFile(path) as archive:
+        return json.loads(archive.read(META_NAME)) if META_NAME in archive.namelist() else {}
+
+
+def load_policy(path: str | Path, env: gym.Env):
+    """The policy saved at ``path`` rebuilt for ``env``'s padded sizes (the weights fit any size)."""
+    from stable_baselines3.common.save_util import load_from_zip_file
+
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"{path}: no such policy file")
+    try:
+        data, params, _ = load_from_zip_file(path, device="cpu", load_data=True)
+    except (zipfile.BadZipFile, ValueError, KeyError) as exc:
+        raise InputError(f"{path} is not a saved policy zip ({type(exc).__name__})") from None
+    if not params or "policy" not in params:
+        raise InputError(f"{path} is not a saved policy zip: it holds no policy weights")
+    policy = DispatchPolicy(env.observation_space, env.action_space, lambda _: 0.0)
+    try:
+        policy.load_state_dict(params["policy"])
+    except RuntimeError:
+        raise InputError(f"{path} holds another policy's weights, not bimrobot's dispatch policy") from None
+    policy.set_training_mode(False)
+    return policy
+
+
+# ---------------------------------------------------------------- the planner
+class LearnedPolicy:
+    """``policy(env) -> action``: the greedy masked choice of a loaded policy on a :class:`DispatchEnv`."""
+
+    def __init__(self, policy):
+        self.policy = policy
+
+    def __call__(self, env: gym.Env) -> int:
+        env = env.unwrapped
+        obs = {k: th.as_tensor(v[None]).float() for k, v in env._observation().items()}
+        with th.no_grad():
+            action = self.policy.get_distribution(obs, action_masks=env.action_masks()[None]).get_actions(deterministic=True)
+        return int(action[0])
+
+
+class LearnedPlanner:
+    """A learned policy as a planner: ``dispatcher(problem)`` plays the policy on ``problem`` (padded to
+    its own size) and returns a :class:`~bimrobot.coordination.market.Dispatcher` that replays its awards
+    at the same times, so ``simulate`` with it gives the policy's schedule. ``path`` None: the shipped
+    :data:`DEFAULT_POLICY`."""
+
+    def __init__(self, path: str | Path | None = None):
+        self.path = Path(path) if path is not None else DEFAULT_POLICY
+        if not self.path.is_file():
+            raise InputError(f"{self.path}: no such policy file" + (" (no learned policy ships with this version)" if path is None else ""))
+        self.meta = read_meta(self.path)
+
+    def play(self, problem: DispatchProblem):
+        """(the policy's awards [(time s, task key, robot)], the simulation result) on ``problem``."""
+        env = env_for(problem)
+        policy = LearnedPolicy(load_policy(self.path, env))
+        obs, _ = env.reset(seed=0)
+        awards, done, truncated = [], False, False
+        while not (done or truncated):
+            action = policy(env)
+            if action != env.wait_action and env._valid(action):
+                node, robot = divmod(action, env.max_robots)
+                awards.append((float(env.sim.build.env.now), env.graph.keys[node], env.robot_names[robot]))
+            obs, _, done, truncated, _ = env.step(action)
+        return awards, env.result
+
+    def dispatcher(self, problem: DispatchProblem) -> Dispatcher:
+        awards, _ = self.play(problem)
+        return ReplayDispatcher(awards)
+
+
+class ReplayDispatcher(Dispatcher):
+    """Replays recorded awards: at each allocation round, those recorded at the current time (s) whose
+    task is pending and robot idle, in their order. Should the run ever leave the recording (nothing to
+    replay while no robot works), the least-cost market decides that round (counted in ``fallbacks``)."""
+
+    name = "learned"
+
+    def __init__(self, awards: list[tuple[float, str, str]]):
+        from bimrobot.coordination.market import MarketDispatcher, make_evaluator
+
+        self.remaining = list(awards)
+        self.market = MarketDispatcher(make_evaluator("least-cost", 0))
+        self.fallbacks = 0
+
+    def awards(self, sim) -> list[Award]:
+        from bimrobot.planning.planners import _request_key
+
+        now = sim.build.env.now
+        ready = {_request_key(sim, r): r for pool in sim.build.pending.values() for r in pool}
+        chosen, used, keep = [], set(), []
+        for entry in self.remaining:
+            time, key, name = entry
+            request = ready.get(key)
+            if abs(time - now) < 1e-9 and request is not None and name not in used and name in sim.build.idle[request.activity]:
+                robot = sim.build.robots[name]
+                chosen.append(Award(request, name, propose(robot.spec, sim.position_now(robot), now, True, request), 1))
+                used.add(name)
+                del ready[key]
+            else:
+                keep.append(entry)
+        self.remaining = keep
+        if not chosen and not any(r.task is not None for r in sim.build.robots.values()):
+            self.fallbacks += 1
+            return self.market.awards(sim)
+        return chosen
+
+
+__all__ = ["DEFAULT_POLICY", "DispatchExtractor", "LearnedPlanner", "LearnedPolicy", "ReplayDispatcher", "train",
+           "save", "load_policy", "read_meta", "imitate", "imitation_accuracy", "market_demonstrations",
+           "training_pool", "generated_problem", "env_for"]
