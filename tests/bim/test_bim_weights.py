@@ -25,8 +25,8 @@ from bimrobot.bim.cli import summarize
 from bimrobot.bim.model import WeightSource
 from bimrobot.bim.quantities import PLAUSIBLE_DENSITY_KG_M3, density_of, match_material, weight_check
 from bimrobot.cli import main
+from shared_data import SHARED_IFC
 
-SHARED_IFC = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "ifc"
 
 # A wall 4 m long, 3 m high; its thickness is the sum of its layers (metres).
 WALL_LENGTH, WALL_HEIGHT = 4.0, 3.0

@@ -13,6 +13,7 @@ from rdflib import RDF
 from bimrobot.errors import InputError
 from bimrobot.lbd.graph import BOT, BRC, DICE, DICP, VOCABULARY_FILE, ConstructionGraph, build_graph, query_names
 from bimrobot.lbd.schedule import load_schedule_csv, load_schedule_ifc
+from shared_data import shared_file
 
 
 @pytest.fixture(scope="module")
@@ -305,14 +306,9 @@ def test_turtle_keeps_full_double_precision(frame_model, schedule, tmp_path):
 @pytest.fixture(scope="module")
 def precast_model():
     """MULTICOM-trappen_bordessen.ifc: Tekla precast stairs and landings, with IfcElementAssemblies."""
-    from pathlib import Path
-
     from bimrobot.bim import load_model
 
-    path = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "ifc" / "MULTICOM-trappen_bordessen.ifc"
-    if not path.exists():
-        pytest.skip(f"{path} is absent: the shared test data lives beside the repository, not in it")
-    return load_model(path)
+    return load_model(shared_file("ifc", "MULTICOM-trappen_bordessen.ifc"))
 
 
 def test_precast_assemblies_are_elements_with_their_parts_as_sub_elements(precast_model, ontology_file, tmp_path):

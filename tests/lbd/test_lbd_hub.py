@@ -4,7 +4,6 @@ the query RCAN's generation system uses to pick what it may start."""
 
 from __future__ import annotations
 
-from pathlib import Path
 
 import pytest
 from rdflib import RDF
@@ -14,8 +13,8 @@ from bimrobot.lbd.generation import ALLOWED_STATES, ready_activities
 from bimrobot.lbd.graph import BRC, build_graph
 from bimrobot.lbd.schedule import load_schedule_csv
 from bimrobot.sco import build_smart_model
+from shared_data import SHARED_IFC
 
-SHARED_IFC = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "ifc"
 
 
 @pytest.fixture(scope="module")

@@ -4,16 +4,15 @@ traceback. Skipped when ../shared is absent."""
 
 from __future__ import annotations
 
-from pathlib import Path
 
 import pytest
 import rdflib
 
 from bimrobot.cli import main
 from bimrobot.lbd.graph import BOT
+from shared_data import SHARED_IFC, shared_models
 
-SHARED_IFC = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "ifc"
-MODELS = sorted(p.name for p in SHARED_IFC.glob("*.ifc*")) if SHARED_IFC.is_dir() else []
+MODELS = [path.name for path in shared_models()]
 
 
 @pytest.mark.skipif(not MODELS, reason=f"{SHARED_IFC} is absent: the shared real models live beside the repository")

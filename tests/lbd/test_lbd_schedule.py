@@ -7,6 +7,7 @@ import pytest
 
 from bimrobot.errors import InputError
 from bimrobot.lbd.schedule import load_schedule_csv, load_schedule_ifc, write_schedule_csv
+from shared_data import shared_file
 
 HEADER = "Identification,Name,PredefinedType,Activity,GlobalId,Robot,Start,Finish,Duration,Predecessors,TargetX,TargetY,TargetZ,Storey\n"
 GOOD_ROWS = [
@@ -172,11 +173,7 @@ def test_a_schedule_file_that_is_no_csv_is_one_sentence(tmp_path, shared_ifc):
 
 def test_real_schependomlaan_event_log_is_refused_as_not_a_bimrobot_schedule():
     """The project's real as-planned event log is a 4D log, not a bimrobot schedule: one sentence."""
-    from pathlib import Path
-
-    log = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "schedules" / "schependomlaan-eventlog-as-planned.csv"
-    if not log.exists():
-        pytest.skip(f"{log} is absent: the shared test data lives beside the repository, not in it")
+    log = shared_file("schedules", "schependomlaan-eventlog-as-planned.csv")
     with pytest.raises(InputError, match=r"missing column\(s\) .*a bimrobot schedule CSV is expected"):
         load_schedule_csv(log)
 

@@ -11,9 +11,9 @@ from bimrobot.cli import main
 from bimrobot.errors import InputError
 from bimrobot.lbd.msproject import load_schedule_msproject
 from bimrobot.lbd.schedule import Activity, Schedule, load_schedule, load_schedule_csv
+from shared_data import SHARED, SHARED_IFC
 
-SHARED = Path(__file__).resolve().parents[2].parent / "shared" / "data"
-PLANNING = SHARED / "schedules" / "schependomlaan-planning.xml"
+PLANNING = SHARED / "data" / "schedules" / "schependomlaan-planning.xml"
 
 
 @pytest.fixture(scope="module")
@@ -136,7 +136,7 @@ def test_work_schedule_output_policy_and_ifc2x3(frame_ifc, schedule, tmp_path, c
     assert foreign.read_text() == "not bimrobot's"
     with pytest.raises(InputError):
         write_work_schedule(frame_ifc, schedule, frame_ifc)  # never over its input
-    trappen = SHARED / "ifc" / "MULTICOM-trappen_bordessen.ifc"
+    trappen = SHARED_IFC / "MULTICOM-trappen_bordessen.ifc"
     if trappen.is_file():  # IFC2X3 has no IfcTaskTime: the scheduled copy is migrated to IFC4
         import ifcopenshell
 

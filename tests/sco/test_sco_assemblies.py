@@ -1,6 +1,5 @@
 """Assembly units (precast: the IfcElementAssembly is lifted as one), prebuilt classes and what rests on them."""
 
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -13,8 +12,8 @@ from bimrobot.errors import InputError
 from bimrobot.bim import load_model
 from bimrobot.sco import State, build_smart_model
 from bimrobot.sco.build import ASSUMED_POINTS_PER_JOINT, split_points
+from shared_data import SHARED_IFC
 
-SHARED_IFC = Path(__file__).resolve().parents[2].parent / "shared" / "data" / "ifc"
 
 HEAVY_FLEET = """\
 name: heavy
