@@ -521,7 +521,7 @@ def _by_floor(tasks, fleet, homes, given, hinted, time_limit_s, started, limits)
             shifted = {k: (given[k][0], given[k][1] + offset, given[k][2] + offset) for k in keys}
         solved = _solve(_Problem(local, fleet, where, release), shifted, budget * 0.7, **limits)
         relaxed = _solve(_Problem(local, fleet, where, {r.name: 0.0 for r in fleet.robots}, free_start=True),
-                         None, budget * 0.3, **limits)
+                         shifted, budget * 0.3, **limits)  # the hint, re-timed there, keeps it from failing
         bounds.append(relaxed.bound)
         for key, robot in solved.assignment.items():
             assignment[key] = robot
