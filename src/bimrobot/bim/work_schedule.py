@@ -459,6 +459,7 @@ def scheduled_model(ifc_in: str | os.PathLike, schedule, *, epoch: str | None = 
     clock = _Clock(calendar, origin, calendar_time=bool(getattr(schedule, "epoch", None)))
     spans = {a.id: clock.span(a.start, a.finish) for a in activities}
     first, last = min(s for s, _ in spans.values()), max(f for _, f in spans.values())
+    first_new_id = ifc.get_max_id() + 1
     work_schedule = sequence.add_work_schedule(ifc, name=name, predefined_type="PLANNED", start_time=first)
     work_schedule.Identification = "BIMROBOT"
     groups = _Groups(ifc, work_schedule)
@@ -473,6 +474,7 @@ def scheduled_model(ifc_in: str | os.PathLike, schedule, *, epoch: str | None = 
     for summary, members in groups.summaries():
         _set_times(ifc, summary, clock, min(spans[m][0] for m in members), max(spans[m][1] for m in members))
     _assign_calendar(ifc, calendar, groups.roots)
+    _stable_global_ids(ifc, first_new_id, seed=f"{_model_key(ifc, ifc_in)}/{name}")
     if groups.unassigned:
         log.warning("%d of %d activities act on no product of %s: their tasks are not assigned to a product",
                     groups.unassigned, len(activities), ifc_in)
@@ -480,6 +482,53 @@ def scheduled_model(ifc_in: str | os.PathLike, schedule, *, epoch: str | None = 
                               calendar=calendar, start=first, finish=last,
                               working_days=working_days(calendar, first.date(), last.date()))
     return ifc, figures
+
+
+def _model_key(ifc, source: Path) -> str:
+    """What identifies the source model: its IfcProject's GlobalId, else its file name."""
+    project = next(iter(ifc.by_type("IfcProject")), None)
+    return project.GlobalId if project is not None and project.GlobalId else source.name
+
+
+def _stable_global_ids(ifc, first_id: int, seed: str) -> None:
+    """Give every rooted entity made from entity id ``first_id`` on (the work schedule, its tasks, sequences,
+    calendar, assignments, nests) a GlobalId derived from ``seed`` and its class and rank among the new
+    entities of that class (UUID 5, compressed as IFC writes it), instead of IfcOpenShell's random ones.
+    The schedule is written in a fixed order (activities by start, then id), so the same model and
+    schedule get the same GlobalIds on every run: two builds write the same file."""
+    import uuid
+
+    import ifcopenshell.guid
+
+    ranks: dict[str, int] = {}
+    for step_id in range(first_id, ifc.get_max_id() + 1):
+        try:
+            entity = ifc.by_id(step_id)
+        except RuntimeError:  # an id the api used and removed
+            continue
+        if not entity.is_a("IfcRoot"):
+            continue
+        kind = entity.is_a()
+        ranks[kind] = ranks.get(kind, 0) + 1
+        key = uuid.uuid5(uuid.NAMESPACE_URL, f"bimrobot:work-schedule/{seed}/{kind}/{ranks[kind]}")
+        entity.GlobalId = ifcopenshell.guid.compress(key.hex)
+        _sorted_sets(entity)
+    for declares in ifc.by_type("IfcRelDeclares"):  # the project's, which the work schedule and calendar join
+        _sorted_sets(declares)
+
+
+#: Relationships whose related objects are an unordered SET, which IfcOpenShell's api fills in an order
+#: that varies from run to run (IfcRelNests' are an ordered LIST, kept as made).
+_SET_RELATIONS = {"IfcRelDeclares": "RelatedDefinitions", "IfcRelAssignsToControl": "RelatedObjects",
+                  "IfcRelAssignsToProcess": "RelatedObjects", "IfcRelAssignsToProduct": "RelatedObjects",
+                  "IfcRelAssignsToResource": "RelatedObjects"}
+
+
+def _sorted_sets(entity) -> None:
+    """A relationship's SET of related objects in entity-id order (the same bytes every run)."""
+    attribute = _SET_RELATIONS.get(entity.is_a())
+    if attribute and getattr(entity, attribute):
+        setattr(entity, attribute, sorted(getattr(entity, attribute), key=lambda e: e.id()))
 
 
 class _Clock:

@@ -1,0 +1,51 @@
+"""The same answer twice: commands run twice on the same input write the same bytes (issue 35).
+
+Only what is a time stamp may differ, and each test names it."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+from bimrobot.lbd.schedule import Activity, Schedule
+
+
+def _frame_schedule(model) -> Schedule:
+    """Each column transported then positioned, by two robots: activities, sequences, resources."""
+    activities, clock = [], 0.0
+    for number, column in enumerate(model.by_class("IfcColumn")[:3]):
+        carry = Activity(f"T{number}", f"Transport {column.global_id}", "transport", column.global_id,
+                         "Transport 1", clock, clock + 60.0)
+        place = Activity(f"P{number}", f"Position {column.global_id}", "position", column.global_id,
+                         "Positioning 1", clock + 60.0, clock + 180.0, predecessors=(carry.id,))
+        activities += [carry, place]
+        clock += 60.0
+    return Schedule(activities, epoch="2026-03-02T08:00:00")
+
+
+#: The one time stamp in a scheduled copy's data: the IfcWorkSchedule's CreationDate (IfcOpenShell's
+#: sequence.add_work_schedule sets it to now). The header's FILE_NAME time stamp is the source model's.
+_CREATION_DATE = re.compile(rb"(IFCWORKSCHEDULE\('[^']*',[^,]*,'[^']*',[^,]*,[^,]*,'[^']*',)'[^']*'")
+
+
+def test_a_scheduled_copy_and_its_ms_project_export_are_the_same_bytes_twice(steel_frame_ifc, steel_frame_model,
+                                                                               tmp_path):
+    import ifcopenshell
+
+    from bimrobot.bim.work_schedule import scheduled_model, write_schedule_export, write_work_schedule
+
+    schedule = _frame_schedule(steel_frame_model)
+    copies = [write_work_schedule(steel_frame_ifc, schedule, tmp_path / f"run{n}.ifc") for n in (1, 2)]
+    first, second = (_CREATION_DATE.sub(rb"\1'(time)'", p.read_bytes()) for p in copies)
+    assert first == second
+    ifc = ifcopenshell.open(str(copies[0]))
+    new = ifc.by_type("IfcTask") + ifc.by_type("IfcRelSequence") + ifc.by_type("IfcWorkCalendar")
+    assert len(new) == 1 + 6 + 3 + 1  # a storey's summary task, 6 activities, 3 sequences, the calendar
+    assert len({e.GlobalId for e in ifc.by_type("IfcRoot")}) == len(ifc.by_type("IfcRoot"))
+    assert ifc.by_type("IfcProject")[0].GlobalId == ifcopenshell.open(str(steel_frame_ifc)).by_type("IfcProject")[0].GlobalId
+
+    exports = []
+    for n in (1, 2):
+        model, _ = scheduled_model(steel_frame_ifc, schedule)
+        exports.append(write_schedule_export(model, tmp_path / f"plan{n}.xml").read_bytes())
+    assert exports[0] == exports[1] and b"<GUID>" in exports[0]
