@@ -64,6 +64,7 @@ def bench_model(model: str, planners=DEFAULT_PLANNERS, fleet: str | None = None,
     started = time.perf_counter()
     try:
         problem, fleet_name, note = problem_for(model, fleet)
+        path, work = simple_bound(problem)  # also the simulation's pre-flight check of the fleet
     except BimrobotError as exc:  # a model no fleet can build, or with nothing to build: a line, not a stop
         log(f"{model}: not benchmarked: {exc}")
         return {"model": model, "fleet": fleet or "site-crane", "note": f"not benchmarked: {exc}", "components": 0,
@@ -71,7 +72,6 @@ def bench_model(model: str, planners=DEFAULT_PLANNERS, fleet: str | None = None,
                 "rows": []}
     read_s = time.perf_counter() - started
     components = sum(1 for c in problem.smart.components.values() if not c.prebuilt)
-    path, work = simple_bound(problem)
     entry = {"model": model, "fleet": fleet_name, "note": note, "components": components, "read_s": round(read_s, 2),
              "tasks": _tasks(problem), "lower_bound_s": None, "cpsat_bound_s": None, "cpsat_status": None,
              "cpsat_method": None, "path_bound_s": round(path, 2), "work_bound_s": round(work, 2), "rows": []}
