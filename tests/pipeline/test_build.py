@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import contextlib
 import csv
+import io
 import json
 import os
 import signal
@@ -236,3 +238,46 @@ def test_build_refuses_a_foreign_output_folder(frame, tmp_path, capsys):
     assert main(["build", str(frame), "-o", str(out)]) == 2
     assert "did not write" in capsys.readouterr().err
     assert (out / "notes.txt").read_text() == "keep me"
+
+
+def test_no_written_file_names_the_partial_folder_the_build_was_made_in(built):
+    """The build is written in .out.partial and renamed to out: a path into the partial folder (e.g.
+    package/report.json's site file, report.html's `bimrobot report` line) would name nothing afterwards."""
+    for path in built.rglob("*"):
+        if path.is_file() and path.suffix in {".json", ".md", ".yaml", ".html", ".xml", ".txt", ".csv", ".sdf", ".py"}:
+            assert "out.partial" not in path.read_text(encoding="utf-8", errors="replace"), path
+    site = json.loads((built / "package" / "report.json").read_text())["options"]["site"]["source"]
+    assert Path(site) == built / "site.yaml" and Path(site).is_file()
+
+
+#: What may differ between two builds of the same model with the same options: times of the run. Files
+#: compared as JSON have these keys removed; the IFC copy has IfcWorkSchedule.CreationDate (a time stamp).
+TIMED_FILES = {".bimrobot-output.json", "package/.bimrobot-output.json", "simulation/.bimrobot-output.json",
+               "README.md", "build.rrd", "rcan/state.db", "report.html"}
+TIMED_KEYS = {"build.json": ("stages", "generator"), "package/report.json": ("timings_s",),
+              "rcan/report.json": ("wall_s", "latencies_s")}
+
+
+def test_a_second_build_writes_the_same_bytes_but_its_times(frame, built, tmp_path):
+    import re
+
+    again = tmp_path / "out"  # the same folder name: the package is named after it
+    with contextlib.redirect_stdout(io.StringIO()):
+        assert main(["build", str(frame), "-o", str(again), "--schedule-out", "plan.xml"]) == 0
+    names = sorted(str(p.relative_to(built)) for p in built.rglob("*") if p.is_file())
+    assert names == sorted(str(p.relative_to(again)) for p in again.rglob("*") if p.is_file())
+    creation = re.compile(rb"(IFCWORKSCHEDULE\('[^']*',[^,]*,'[^']*',[^,]*,[^,]*,'[^']*',)'[^']*'")
+    for name in names:
+        # paths into the output folder (package/report.json's site file) name each build's own folder
+        first, second = (built / name).read_bytes(), (again / name).read_bytes().replace(bytes(again), bytes(built))
+        if name in TIMED_FILES:
+            continue
+        if name in TIMED_KEYS:
+            first, second = (_without(json.loads(b), TIMED_KEYS[name]) for b in (first, second))
+        elif name.endswith(".ifc"):
+            first, second = (creation.sub(rb"\1''", b) for b in (first, second))
+        assert first == second, name
+
+
+def _without(data: dict, keys) -> dict:
+    return {k: v for k, v in data.items() if k not in keys}

@@ -49,3 +49,36 @@ def test_a_scheduled_copy_and_its_ms_project_export_are_the_same_bytes_twice(ste
         model, _ = scheduled_model(steel_frame_ifc, schedule)
         exports.append(write_schedule_export(model, tmp_path / f"plan{n}.xml").read_bytes())
     assert exports[0] == exports[1] and b"<GUID>" in exports[0]
+
+
+def test_rcan_prints_its_interaction_log_in_the_same_order_every_run(tmp_path):
+    """Two robots work at once on the sim backend: their threads finish in varying order, the printed
+    log is ordered by simulated time and plan order, so each run prints the same lines in the same order."""
+    import importlib.util
+
+    from bimrobot.lbd.schedule import load_schedule_csv
+    from bimrobot.rcan.plans import plan_from_schedule
+    from bimrobot.rcan.system import run_plan
+
+    spec = importlib.util.spec_from_file_location("rcan_helpers", Path(__file__).parents[1] / "rcan" / "rcan_helpers.py")
+    helpers = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(helpers)
+    plan = plan_from_schedule(load_schedule_csv(helpers.frame_schedule(tmp_path / "s.csv")), yard=(-10.0, -10.0, 0.0))
+    logs, makespans = [], set()
+    for _ in range(4):
+        lines: list[str] = []
+        report = run_plan(plan, helpers.two_crane_capabilities(), log=lines.append)
+        logs.append(lines)
+        makespans.add(report.makespan_s)
+    for log in logs:  # results in order of their simulated finish; each activity published, sent, then done
+        finishes = [float(line.rsplit("-", 1)[1].split()[0]) for line in log if "] result: " in line]
+        assert finishes == sorted(finishes)
+        for activity in plan:
+            at = [next(n for n, line in enumerate(log) if line.startswith(prefix)) for prefix in (
+                f"[component {activity.component_id}] publishes {activity.activity_id} ",
+                f"[rcan/{activity.activity_id}] robot ", f"[rcan/{activity.activity_id}] result: ")]
+            assert at == sorted(at), activity.activity_id
+    if len(makespans) == 1:  # the sim backend's times were the same: so is the whole log
+        assert all(log == logs[0] for log in logs)
+    assert {line.split("]")[0] for line in logs[0]} >= {"[component " + plan[0].component_id}
+    assert sum("robot crane_a executes" in line for line in logs[0]) and sum("robot crane_b executes" in line for line in logs[0])

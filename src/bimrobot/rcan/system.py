@@ -12,6 +12,7 @@ from __future__ import annotations
 import hashlib
 import heapq
 import json
+import math
 import time
 import uuid
 from dataclasses import dataclass, field
@@ -68,6 +69,25 @@ def plan_signature(activities: list[RcanActivity]) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
+class _OrderedLog:
+    """The interaction log, printed in the same order every run: robots working at once report in the
+    order their threads finish, so lines are held and printed by simulated time (s), then plan order, then
+    stage (published, sent, result), then the order they were made in; a line is printed once
+    no node in flight can come before it (:meth:`RcanSystem._flush_log`)."""
+
+    def __init__(self, out: Callable[[str], None]):
+        self.out, self.at, self._held, self._count = out, (0.0, 0, -1), [], 0
+
+    def __call__(self, line: str) -> None:
+        self._count += 1
+        heapq.heappush(self._held, (*self.at, self._count, line))
+
+    def flush(self, until_s: float) -> None:
+        """Print, in order, every held line about a time before ``until_s`` (inf: all)."""
+        while self._held and (self._held[0][0] < until_s or until_s == math.inf):
+            self.out(heapq.heappop(self._held)[-1])
+
+
 class RcanSystem:
     """Generation system + state manager + message routing, over one broker.
 
@@ -82,7 +102,7 @@ class RcanSystem:
         self.state = state_manager
         self.allocator = TaskAllocator(capabilities)
         self.generator = NodeGenerator(self.allocator, backend_name)
-        self.log = log or (lambda line: None)
+        self.log = _OrderedLog(log) if log is not None else (lambda line: None)
         self.router = Router()
         # called after each turn of the run with (results handled in all, nodes in flight): a backend in
         # this process that executes one activity at a time uses it to choose the next deterministically
@@ -101,6 +121,8 @@ class RcanSystem:
         round trip per activity on the dispatch path and bought nothing: a crashed run resumes from its
         journal, never from messages in Redis."""
         t = activity.target
+        ready_s = max((self._finished_s.get(p, 0.0) for p in (*activity.predecessors, *activity.after)), default=0.0)
+        self._log_at(max(ready_s, self._at_s), 0, activity.activity_id)
         self.log(f"[component {activity.component_id}] publishes {activity.activity_id} '{activity.kind.label}' "
                  f"target ({t.x:.2f}, {t.y:.2f}, {t.z:.2f})" + (f" attempt {attempt}" if attempt > 1 else ""))
         self.broker.post(ACTIVITY_TOPIC, {"activity_id": activity.activity_id, "attempt": attempt,
@@ -213,6 +235,8 @@ class RcanSystem:
     def _instantiate(self, activity: RcanActivity, attempt: int, robot: str) -> None:
         node = self.generator.instantiate(activity, robot)
         self._idle.discard(robot)
+        ready_s = max((self._finished_s.get(p, 0.0) for p in activity.predecessors), default=0.0)
+        self._log_at(max(ready_s, self._free_s.get(robot, 0.0)), 1, activity.activity_id)
         self.log(f"[generation] RCAN node {node.node_id} instantiated: component {activity.component_id}, "
                  f"activity '{activity.kind.label}', robot {robot}, backend {node.backend}")
         before, state = self.state.start(node, attempt)
@@ -225,6 +249,8 @@ class RcanSystem:
         self._in_flight[node.robot] = (node, attempt)
         self._idle.discard(node.robot)
         self._sent_at[(node.activity_id, attempt)] = time.perf_counter()
+        self._sent_s[node.robot] = max(ready_at, self._free_s.get(node.robot, 0.0))  # its lines come no earlier
+        self._log_at(self._sent_s[node.robot], 1, node.activity_id)
         self.log(f"[{node.node_id}] robot {node.robot} executes '{node.kind.label}' of {node.component_id}"
                  + (f" (attempt {attempt})" if attempt > 1 else ""))
         self.broker.post(robot_topic(node.robot),
@@ -244,11 +270,14 @@ class RcanSystem:
         if sent is not None:
             self._latencies.append(time.perf_counter() - sent)
         verdict = "success" if result.success else "failure"
+        self._free_s[result.robot] = self._at_s = result.finished_s
+        self._log_at(result.finished_s, 2, node.activity_id)
         self.log(f"[{node.node_id}] result: {verdict}: {result.message} (t {result.started_s:.1f}-{result.finished_s:.1f} s)")
         escalate = False
         if result.robot_lost and not result.success:
             escalate = not self._out_of_service(node, result.message)
         self._decide(node, self.state.result(node, result, escalate=escalate), result)
+        self._at_s = 0.0  # a retry published by the decision is ready at the result; later ones at their own time
         self.broker.ack(message)
 
     def _out_of_service(self, node: RcanNode, why: str) -> bool:
@@ -328,6 +357,7 @@ class RcanSystem:
                 self.log(f"[state manager] {activity_id} was escalated: retrying it")
         self._run_token = uuid.uuid4().hex
         self._in_flight, self._sent_at, self._latencies = {}, {}, []
+        self._sent_s, self._free_s, self._at_s = {}, {}, 0.0
         self._done, self._escalations, self._finished_s = set(), [], {}
         reconnections = getattr(self.broker, "reconnections", 0)
         self._held, self._groups, self._recheck, self._newly_done, self._down = {}, {}, set(), [], set()
@@ -385,14 +415,31 @@ class RcanSystem:
                     self.publish(self._plan[activity_id])
                 ready.clear()
                 self._dispatch_waiting()
+            self._flush_log()
             if self.on_settled is not None:
                 self.on_settled(self._results_handled, len(self._in_flight))
             if not self._in_flight:
                 break  # finished, or blocked: waiting activities that no free robot will ever take
             if timeout_s is not None and time.perf_counter() - started > timeout_s:
+                self._flush_log(everything=True)
                 raise TimeoutError(f"RCAN run did not finish within {timeout_s:.0f} s; in flight: {sorted(self._in_flight)}")
             messages = self.broker.receive(self.router.topics, timeout_s=0.05)
+        self._flush_log(everything=True)
         return self._report(activities, started, resumed)
+
+    # --- the printed log -----------------------------------------------------------------------------
+    def _log_at(self, at_s: float, phase: int, activity_id: str) -> None:
+        """The simulated time (s) the next log lines are about and their stage: an activity's publishing
+        (0) when it is ready, its dispatch (1) when it is ready and its robot free, its result (2) at its finish."""
+        if isinstance(self.log, _OrderedLog):
+            self.log.at = (at_s, self._order.get(activity_id, -1), phase)
+
+    def _flush_log(self, everything: bool = False) -> None:
+        """Print the held log lines that no node in flight can precede: those before the earliest
+        simulated time a node in flight was sent at (every line if ``everything``)."""
+        if isinstance(self.log, _OrderedLog):
+            until = math.inf if everything or not self._in_flight else min(self._sent_s.get(r, 0.0) for r in self._in_flight)
+            self.log.flush(until)
 
     def _settle_failed(self) -> list[str]:
         """The soft-order links (``after``) met by failure: an escalated activity and every activity that

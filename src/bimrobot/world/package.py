@@ -302,6 +302,14 @@ def build_package(
     return report
 
 
+def final_path(text: str) -> str:
+    """``text`` with a resumable command's partial folder (``.NAME.partial``, :func:`bimrobot.io.partial_folder`)
+    replaced by the folder it becomes when the command finishes (``NAME``): e.g. ``build``'s
+    ``out/.b.partial/site.yaml`` is ``out/b/site.yaml`` once the build is renamed into place. Other text
+    is returned unchanged."""
+    return re.sub(r"(^|/)\.([^/]+)\.partial(?=/|$)", r"\1\2", text)
+
+
 GENERIC_SITE_NAMES = {"", "site", "default", "default_site", "surface", "topography", "topography_surface",
                       "unnamed", "my_site", "undefined", "none", "null", "unknown", "untitled", "project",
                       "default_project", "building", "default_building", "world"}
@@ -759,6 +767,8 @@ def _report(model, package, world_name, world_files, converted, skipped, maps, y
         by_class[entry["ifc_class"]] = by_class.get(entry["ifc_class"], 0) + 1
     options_dict = json.loads(json.dumps(asdict(options), default=str))  # a work calendar's times as "07:00:00"
     options_dict["static"] = options.is_static
+    if options_dict.get("site"):  # a site file in a build's partial folder: where it is once the build is done
+        options_dict["site"]["source"] = final_path(options_dict["site"]["source"])
     return {
         "generator": io.signature("convert"),
         "source": str(model.source) if model.source else None,
