@@ -56,3 +56,22 @@ def test_a_decomposition_over_its_cpu_budget_keeps_the_hull_and_says_so(monkeypa
     assert result.method == "convex hull (CoACD over its 1 s CPU budget)"
     assert len(result.pieces) == 1
     tally("collision budget")
+
+
+def test_the_command_process_never_loads_coacd(tmp_path):
+    """`import coacd` then `import rclpy` in one process segfaults: `convert --target mujoco`'s check for
+    the physics extra and the decomposition itself leave CoACD out of the command's process."""
+    import subprocess
+    import sys
+
+    body = angle_body()
+    np.savez(tmp_path / "angle.npz", vertices=body.vertices, faces=body.faces)
+    code = (f"import sys, numpy as np\n"
+            f"from bimrobot.physics import collision\nfrom bimrobot.world.physics import Body\n"
+            f"collision.require_coacd()\nd = np.load({str(tmp_path / 'angle.npz')!r})\n"
+            f"print(collision.collision_pieces(Body(d['vertices'], d['faces'])).method, 'coacd' in sys.modules)")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    method, loaded = done.stdout.split("\n")[-2].rsplit(" ", 1)
+    assert method.startswith("CoACD (") and loaded == "False"
+    tally("collision budget")

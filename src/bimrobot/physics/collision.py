@@ -86,6 +86,18 @@ def collision_pieces(body: Body, budget: int = DEFAULT_BUDGET) -> Collision:
     return Collision(pieces, f"CoACD ({len(pieces)} pieces)", filled / volume)
 
 
+def require_coacd() -> None:
+    """Say now, before the geometry work, when CoACD (the physics extra) is not installed, without
+    importing it: it is loaded only in the forked process that decomposes (:func:`_decompose`). Loaded
+    in the command's own process, a later ``import rclpy`` there crashes with SIGSEGV."""
+    import importlib.util
+
+    from bimrobot.errors import MissingExtraError
+
+    if importlib.util.find_spec("coacd") is None:
+        raise MissingExtraError("this command needs the optional dependency 'coacd': pip install 'bimrobot[physics]'")
+
+
 def _coacd(body: Body, budget: int) -> list[np.ndarray] | None:
     """CoACD's pieces (vertex arrays) of ``body``, or None when it needs more than TIME_BUDGET_S of CPU."""
     import multiprocessing

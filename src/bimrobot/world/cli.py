@@ -119,8 +119,10 @@ def convert_command(args: argparse.Namespace, model=None) -> int:
 
     io.check_output(args.output, folder=True, inputs=[args.ifc, args.site], kind="convert")  # before the long read and conversion
     if args.target == "mujoco":  # the MJCF scene needs the physics extra: say so before the geometry work
-        for module in ("mujoco", "coacd"):
-            require_extra(module, "physics")
+        require_extra("mujoco", "physics")
+        from bimrobot.physics.collision import require_coacd
+
+        require_coacd()  # found, not imported: CoACD loads only in the forked process that decomposes
     if args.site and args.layout != "yard":
         raise InputError("--site places the yard, so it needs --layout yard")
     site = load_site(args.site) if args.site else None  # a bad file is refused now; None: from the building
