@@ -258,6 +258,7 @@ TIMED_KEYS = {"build.json": ("stages", "generator"), "package/report.json": ("ti
               "rcan/report.json": ("wall_s", "latencies_s")}
 
 
+@pytest.mark.slow  # a second build of the frame: 11 s of CPU, 43 s of wall time on the loaded 2-core machine
 def test_a_second_build_writes_the_same_bytes_but_its_times(frame, built, tmp_path):
     import re
 

@@ -28,8 +28,8 @@ def _frame_schedule(model) -> Schedule:
 _CREATION_DATE = re.compile(rb"(IFCWORKSCHEDULE\('[^']*',[^,]*,'[^']*',[^,]*,[^,]*,'[^']*',)'[^']*'")
 
 
-def test_a_scheduled_copy_and_its_ms_project_export_are_the_same_bytes_twice(steel_frame_ifc, steel_frame_model,
-                                                                               tmp_path):
+def test_a_scheduled_copy_and_its_scheduler_exports_are_the_same_bytes_twice(steel_frame_ifc, steel_frame_model,
+                                                                             tmp_path):
     import ifcopenshell
 
     from bimrobot.bim.work_schedule import scheduled_model, write_schedule_export, write_work_schedule
@@ -44,11 +44,12 @@ def test_a_scheduled_copy_and_its_ms_project_export_are_the_same_bytes_twice(ste
     assert len({e.GlobalId for e in ifc.by_type("IfcRoot")}) == len(ifc.by_type("IfcRoot"))
     assert ifc.by_type("IfcProject")[0].GlobalId == ifcopenshell.open(str(steel_frame_ifc)).by_type("IfcProject")[0].GlobalId
 
-    exports = []
+    exports = []  # Microsoft Project XML and Primavera P6 XML (ifc4d), from a fresh copy each run
     for n in (1, 2):
         model, _ = scheduled_model(steel_frame_ifc, schedule)
-        exports.append(write_schedule_export(model, tmp_path / f"plan{n}.xml").read_bytes())
-    assert exports[0] == exports[1] and b"<GUID>" in exports[0]
+        exports.append([write_schedule_export(model, tmp_path / f"plan{n}{kind}").read_bytes()
+                        for kind in (".xml", ".p6.xml")])
+    assert exports[0] == exports[1] and b"<GUID>" in exports[0][0]
 
 
 def test_rcan_prints_its_interaction_log_in_the_same_order_every_run(tmp_path):
