@@ -86,9 +86,11 @@ def test_the_learned_planners_schedule_respects_every_precedence(imitated, frame
     path, *_ = imitated
     planner = LearnedPlanner(path)
     _, played = planner.play(frame)
+    replay = planner.dispatcher(frame)
     result = simulate(frame.smart, frame.fleet, frame.site, "least-cost", 0, (), frame.storey_elevations,
-                      per_node=frame.per_node, dispatcher=planner.dispatcher(frame))
+                      per_node=frame.per_node, dispatcher=replay)
     assert result.makespan == pytest.approx(played.makespan, abs=1e-9)
+    assert replay.fallbacks == 0 and not replay.remaining
     assert all(c.state == State.ASSEMBLED for c in result.built.components.values())
     finish = {a.id: a.finish for a in result.activities}
     assert all(a.start >= finish[p] - 1e-9 for a in result.activities for p in a.predecessors)

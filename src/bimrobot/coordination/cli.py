@@ -291,6 +291,8 @@ def run_simulate(args, model=None) -> int:
         from bimrobot.planning.planners import check_planner
 
         check_planner(args.planner, per_node=not args.per_joint, breakdowns=args.breakdown)
+        if args.evaluator != "least-cost":
+            raise InputError(f"give --planner or --evaluator, not both (got --planner {args.planner} and --evaluator {args.evaluator})")
     model, elevations, fleet, site, weights, smart_model = _prepare(args, "simulate", model)
     smart = smart_model()
     dispatcher, stats = _planner(args, smart, fleet, site, elevations)
@@ -343,8 +345,6 @@ def _planner(args, smart, fleet, site, elevations):
     planner = getattr(args, "planner", None)
     if planner is None or planner == "market":  # the default market: the very same run and outputs
         return None, None
-    if args.evaluator != "least-cost":
-        raise InputError(f"give --planner or --evaluator, not both (got --planner {planner} and --evaluator {args.evaluator})")
     from bimrobot.planning.dispatch import DispatchProblem
     from bimrobot.planning.planners import PlanStats, dispatcher_for
 

@@ -223,13 +223,13 @@ def run_train(args) -> int:
     """``bimrobot plan train``: train, write policy.zip, imitation.zip and train.json in one folder."""
     import json
     import shlex
-    import sys
 
     from bimrobot.io import atomic_output_dir, check_output, signature
     from bimrobot.planning.learned import policy_bytes, save, train
 
     check_output(args.output, folder=True, kind="plan-train")  # refused before the long work
-    command = "bimrobot plan train " + shlex.join(sys.argv[2:] if sys.argv[1:2] == ["plan"] else sys.argv[1:])
+    command = shlex.join(["bimrobot", "plan", "train", "--seed", str(args.seed), "--steps", str(args.steps),
+                          "--imitation-steps", str(args.imitation_steps), "-o", args.output])
     imitated: dict = {}
 
     def keep(model, accuracy):

@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import json
 import shlex
-import sys
 import tempfile
 import zipfile
 from dataclasses import dataclass
@@ -357,7 +356,8 @@ def train(seed: int, steps: int, imitation_steps: int = 400, specs=TRAIN_SPECS, 
     if steps:
         model.learn(total_timesteps=steps)
     meta = {
-        "command": command or "bimrobot plan train " + shlex.join(sys.argv[1:]),
+        "command": command or shlex.join(["bimrobot", "plan", "train", "--seed", str(seed), "--steps", str(steps),
+                                           "--imitation-steps", str(imitation_steps), "-o", "OUT"]),
         "seed": seed, "steps": steps, "imitation_steps": imitation_steps,
         "imitation_accuracy": accuracy, "hidden": HIDDEN, "rounds": ROUNDS,
         "training_buildings": {p.spec: round(p.market_s, 3) for p in pool},
@@ -498,8 +498,8 @@ class ReplayDispatcher(Dispatcher):
                 keep.append(entry)
         self.remaining = keep
         if not chosen and not any(r.task is not None for r in sim.build.robots.values()):
-            self.fallbacks += 1
-            return self.market.awards(sim)
+            chosen = self.market.awards(sim)
+            self.fallbacks += bool(chosen)
         return chosen
 
 
