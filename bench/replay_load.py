@@ -20,10 +20,15 @@ does). Seconds from asking for the page until:
 - *panels drawn*: the "Components per state" panel shows its lines (coloured pixels in a screenshot,
   taken every 2 s once the timeline end is reached), the last panel to fill.
 
-Printed per recording: MB, the three times (min/median/max over ``--repeats``), and the replay's
-figures as differences from the reference measured in the same repeat. Timings depend on the machine
-and its load; only the differences and ratios in one run mean something. Needs Debian's chromium and
-chromium-driver and selenium (as the browser test).
+and the browser's CPU seconds (its renderer, GPU and other processes) until the timeline end and
+until the panels are drawn: on a shared machine steadier than wall time.
+
+Printed per recording: MB, the times and CPU seconds (min/median/max over ``--repeats``), and each
+as a difference from the reference measured in the same repeat. ``--replay`` times a recording
+written before instead of writing one; ``--extra`` adds other recordings of the same build (variants).
+Timings depend on the machine and its load; only the differences in one run mean something. Needs
+Debian's chromium and chromium-driver and selenium (as the browser test). docs/evidence/replay.md
+has the figures.
 """
 
 from __future__ import annotations
