@@ -107,6 +107,8 @@ class RcanSystem:
         # called after each turn of the run with (results handled in all, nodes in flight): a backend in
         # this process that executes one activity at a time uses it to choose the next deterministically
         self.on_settled: Callable[[int, int], None] | None = None
+        # the backend reports simulated times: results are handled in simulated-time order (see _releasable)
+        self.simulated_time = False
         self._results_handled = 0
         self.router.route(RESULT_TOPIC, self._on_result)
         self.router.route(DEAD_LETTER_TOPIC, self._on_dead_letter)
@@ -358,6 +360,8 @@ class RcanSystem:
         self._run_token = uuid.uuid4().hex
         self._in_flight, self._sent_at, self._latencies = {}, {}, []
         self._sent_s, self._free_s, self._at_s = {}, {}, 0.0
+        self._pending: list[tuple[float, int, int, Message]] = []  # results held back (simulated time)
+        self._held_count = 0
         self._done, self._escalations, self._finished_s = set(), [], {}
         reconnections = getattr(self.broker, "reconnections", 0)
         self._held, self._groups, self._recheck, self._newly_done, self._down = {}, {}, set(), [], set()
@@ -395,7 +399,7 @@ class RcanSystem:
             # one turn: handle what came, publish what became ready, instantiate and post RCAN nodes;
             # its journal writes are committed together before the next receive sends its posts
             with store.batch():
-                for message in messages:
+                for message in self._in_simulated_order(messages):
                     self.router.dispatch(message)
                 if getattr(self.broker, "reconnections", 0) != reconnections:
                     reconnections = self.broker.reconnections
@@ -423,9 +427,46 @@ class RcanSystem:
             if timeout_s is not None and time.perf_counter() - started > timeout_s:
                 self._flush_log(everything=True)
                 raise TimeoutError(f"RCAN run did not finish within {timeout_s:.0f} s; in flight: {sorted(self._in_flight)}")
-            messages = self.broker.receive(self.router.topics, timeout_s=0.05)
+            wait_s = 0.0 if self._pending and self._releasable() else 0.05
+            messages = self.broker.receive(self.router.topics, timeout_s=wait_s)
         self._flush_log(everything=True)
         return self._report(activities, started, resumed)
+
+    # --- results in simulated-time order -------------------------------------------------------------
+    # Executor threads report in whatever order they finish in real time. With a backend that reports
+    # simulated times, a result is handled only when no robot still working can finish before it in
+    # simulated time, and results of one simulated time in plan order: which robot gets the next
+    # activity, and the component states, then follow simulated time, never thread timing.
+
+    def _in_simulated_order(self, messages: list[Message]) -> list[Message]:
+        """``messages`` to handle in this turn: everything but results at once; with simulated time,
+        results are held and only those of the earliest simulated finish that is safe come out."""
+        if not self.simulated_time:
+            return messages
+        now = []
+        for message in messages:
+            result = message.payload.get("result", {}) if message.topic == RESULT_TOPIC else {}
+            flight = self._in_flight.get(result.get("robot"))
+            if not result or flight is None or flight[0].activity_id != result.get("activity_id"):
+                now.append(message)  # not a result, or a duplicate: handled (or dropped) at once
+                continue
+            order = self._order.get(result["activity_id"], -1)
+            self._held_count += 1  # a tie-breaker that never compares two messages
+            heapq.heappush(self._pending, (float(result.get("finished_s") or 0.0), order, self._held_count, message))
+        if self._releasable():
+            finish = self._pending[0][0]
+            while self._pending and self._pending[0][0] == finish:
+                now.append(heapq.heappop(self._pending)[3])
+        return now
+
+    def _releasable(self) -> bool:
+        """Whether the earliest held result (simulated finish f, s) is final: every robot in flight
+        whose result has not come was sent at a simulated time after f, so it finishes after f."""
+        if not self._pending:
+            return False
+        finish = self._pending[0][0]
+        reported = {m.payload["result"]["robot"] for _, _, _, m in self._pending}
+        return all(self._sent_s.get(robot, 0.0) > finish for robot in self._in_flight if robot not in reported)
 
     # --- the printed log -----------------------------------------------------------------------------
     def _log_at(self, at_s: float, phase: int, activity_id: str) -> None:
@@ -568,6 +609,11 @@ def _dependents(activities: list[RcanActivity], roots: list[str]) -> dict[str, s
     return cause
 
 
+# backends whose results carry simulated times, so that holding a result back until every robot that
+# could finish earlier has reported costs no robot any time (issue 35: allocation independent of threads)
+SIMULATED_TIME_BACKENDS = frozenset({"sim"})
+
+
 def run_plan(
     activities: Iterable[RcanActivity],
     capabilities: Fleet,
@@ -646,6 +692,8 @@ def _run_plan(activities, capabilities, backend, state_db, redis_url, spawn_exec
             backend_instance.attach_coordinator()
             system.on_settled = backend_instance.coordinator_settled
         system.allocator.reallocate = reallocate
+        # times are simulated (not a robot's clock) and no turn coordinator orders them: handle results by them
+        system.simulated_time = backend in SIMULATED_TIME_BACKENDS and not in_turns
         report = system.run(activities, timeout_s=timeout_s, retry_escalated=retry_escalated)
         if backend_instance is not None:  # what the backend measured, if it says (e.g. placement errors)
             report.backend_summary = backend_instance.summary()
