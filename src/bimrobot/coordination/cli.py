@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import argparse
 import math
-import re
 from pathlib import Path
 
+from bimrobot.coordination.inputs import GENERATED, input_files, load_building, prepare  # noqa: F401 (load_building, GENERATED: re-exported)
 from bimrobot.errors import InputError
 
 SIMULATE_EXAMPLES = """examples:
@@ -40,9 +40,6 @@ Compares the market (least-cost, quickest-finish) with greedy-nearest and random
 the build is small enough (<= --max-tasks tasks), with an optimal CP-SAT schedule (needs ortools:
 pip install 'bimrobot[optimize]'). Writes allocators.csv and allocators.md.
 """
-
-GENERATED = re.compile(r"^generated:(\d+)x(\d+)x(\d+)$")
-
 
 #: Longest time (s) a breakdown, a repair or the CP-SAT limit may take: 1e9 s is 31 years.
 MAX_SECONDS = 1e9
@@ -186,95 +183,9 @@ def register(subparsers) -> None:
     allocators.set_defaults(func=run_allocators)
 
 
-def load_building(spec: str, include: str | None = None, exclude: str | None = None, prebuilt: str | None = None,
-                  unknown_weight=None):
-    """(BuildingModel, storey elevations in metres) from an IFC path or ``generated:NXxNYxF``.
-
-    ``include`` / ``exclude`` / ``prebuilt``: IfcOpenShell selectors (:mod:`bimrobot.bim.selection`), for
-    IFC files. ``unknown_weight``: the :class:`~bimrobot.bim.unknown_weight.UnknownWeightRule`, applied once
-    when the model is read (``model.unknown_weights``; a generated frame gives every element its weight).
-    """
-    match = GENERATED.match(spec)
-    if match:
-        from bimrobot.coordination.generate import generated_frame
-
-        nx, ny, floors = (int(v) for v in match.groups())
-        if min(nx, ny, floors) < 1:
-            raise InputError(f"{spec}: NX, NY and FLOORS must be at least 1")
-        if nx * ny * floors > 1_000_000:
-            raise InputError(f"{spec}: at most 1,000,000 columns (NX x NY x FLOORS), got {nx * ny * floors:,}")
-        model = generated_frame(nx, ny, floors)
-        if unknown_weight is not None:
-            from bimrobot.bim.unknown_weight import UnknownWeights
-
-            model.unknown_weights = UnknownWeights(unknown_weight)  # every generated element has its weight
-    else:
-        # issue 38: generated:KIND:... is a generated IFC file (bimrobot.planning.generator), read as a user's
-        if spec.startswith("generated:"):
-            from bimrobot.planning.generator import model_path
-
-            spec = str(model_path(spec))
-        path = Path(spec)
-        if not path.is_file():
-            raise InputError(f"model file {spec!r} does not exist")
-        from bimrobot.bim import load_model
-
-        model = load_model(path, include=include, exclude=exclude, prebuilt=prebuilt, unknown_weight=unknown_weight)
-    return model, [s.elevation for s in model.storeys]
-
-
-def _inputs(args) -> list[str]:
-    """The files the command reads (for the output policy): the model, a fleet file, a site file."""
-    from bimrobot.coordination.fleet import BUILTIN_FLEETS
-
-    files = [] if GENERATED.match(args.model) else [args.model]
-    if args.fleet not in BUILTIN_FLEETS:
-        files.append(args.fleet)
-    if args.site:
-        files.append(args.site)
-    return files
-
-
-def _prepare(args, kind: str | None, model=None, folder: bool = True):
-    """Check the output path, read fleet, site and model (the unknown-weight rule applied as it is read).
-
-    Returns (model, elevations, fleet, site, unknown-weight report, a function building a fresh
-    SmartModel). Everything a user can get wrong is refused here, before the long work starts, an output
-    folder another kind of command wrote included (``kind``: ``simulate`` or ``allocators``). ``model``:
-    the BuildingModel of ``args.model`` already read with the same selection, prebuilt selector and
-    unknown-weight rule (``bimrobot build`` reads it once for every stage); None reads it here.
-    ``folder``: the output is a folder (simulate, allocators), else one file (``plan export``, kind None).
-    """
-    from bimrobot.coordination.fleet import load_fleet, load_site
-    from bimrobot.io import check_output
-    from bimrobot.sco.build import build_smart_model, prebuilt_rule, prebuilt_selector
-    from bimrobot.site import site_for
-
-    check_output(args.output, folder=folder, inputs=_inputs(args), kind=kind)  # an output of another kind: refused now
-    fleet = load_fleet(args.fleet)
-    site = load_site(args.site)
-    names = {r.name for r in fleet.robots}
-    for robot, *_ in getattr(args, "breakdown", []):
-        if robot not in names:
-            raise InputError(f"--breakdown names robot {robot!r}, which is not in fleet {fleet.name} ({', '.join(sorted(names))})")
-    prebuilt = args.prebuilt  # a selector; the old comma list of classes is one too
-    if model is None:
-        model, elevations = load_building(args.model, args.include, args.exclude, prebuilt_selector(prebuilt),
-                                          args.unknown_weight)
-    else:
-        elevations = [s.elevation for s in model.storeys]
-    prebuilt_rule(model, prebuilt)  # an unknown class name is refused now, with the model's classes
-    weights = model.unknown_weights  # the rule, applied once when the model was read
-    site = site_for(args.site, model.elements.values())  # given, fig. 4.11 or derived; placed on the building
-    points = {"assembly_points_per_joint": site.assembly_points_per_joint} if site.assembly_points_per_joint else {}
-    return model, elevations, fleet, site, weights, lambda: build_smart_model(
-        model, prebuilt_classes=prebuilt, inferred_tolerance_m=args.tolerance, by_element=args.by_element, **points
-    )
-
-
 def run_simulate(args, model=None) -> int:
     """``bimrobot simulate``: the build simulated into ``args.output``. ``model``: the BuildingModel of
-    ``args.model`` already read (see :func:`_prepare`); None reads it."""
+    ``args.model`` already read (see :func:`~bimrobot.coordination.inputs.prepare`); None reads it."""
     from bimrobot.coordination.fleet import RUN_FLEET_FILE, fleet_yaml
     from bimrobot.coordination.report import format_robot_table, write_outputs
     from bimrobot.coordination.simulation import simulate
@@ -293,14 +204,14 @@ def run_simulate(args, model=None) -> int:
         check_planner(args.planner, per_node=not args.per_joint, breakdowns=args.breakdown)
         if args.evaluator != "least-cost":
             raise InputError(f"give --planner or --evaluator, not both (got --planner {args.planner} and --evaluator {args.evaluator})")
-    model, elevations, fleet, site, weights, smart_model = _prepare(args, "simulate", model)
+    model, elevations, fleet, site, weights, smart_model = prepare(args, "simulate", model)
     smart = smart_model()
     dispatcher, stats = _planner(args, smart, fleet, site, elevations)
     to_build = sum(1 for c in smart.components.values() if not c.prebuilt)
     with tqdm(total=to_build, desc="components assembled", unit="", disable=True if args.no_progress else None, leave=False) as bar:
         result = simulate(smart, fleet, site, args.evaluator, args.seed, args.breakdown, elevations,
                           on_assembled=lambda _: bar.update(1), per_node=not args.per_joint, dispatcher=dispatcher)
-    with atomic_output_dir(args.output, kind="simulate", inputs=_inputs(args)) as tmp:
+    with atomic_output_dir(args.output, kind="simulate", inputs=input_files(args)) as tmp:
         write_outputs(result, tmp, gantt=not args.no_gantt, unknown_weight=weights.as_dict())
         if stats is not None:
             from bimrobot.planning.planners import plan_record
@@ -367,10 +278,10 @@ def run_thesis(args, model=None) -> int:
     if args.evaluator != "least-cost":
         raise InputError(f"--mode thesis awards to the lowest bid (least-cost) only, got --evaluator {args.evaluator}")
     step_time = args.step_time or DEFAULT_STEP_TIME
-    model, elevations, fleet, site, weights, smart_model = _prepare(args, "simulate", model)
+    model, elevations, fleet, site, weights, smart_model = prepare(args, "simulate", model)
     smart = smart_model()
     result = simulate_thesis(smart, fleet, site, step_time, elevations)
-    with atomic_output_dir(args.output, kind="simulate", inputs=_inputs(args)) as tmp:
+    with atomic_output_dir(args.output, kind="simulate", inputs=input_files(args)) as tmp:
         write_thesis_outputs(result, tmp, unknown_weight=weights.as_dict(), smart_summary=smart.summary())
     message = weights.message()
     if message:
@@ -390,7 +301,7 @@ def run_allocators(args) -> int:
     from bimrobot.coordination.compare import compare_allocators, format_markdown, write_outputs
     from bimrobot.io import atomic_output_dir
 
-    model, elevations, fleet, site, weights, smart_model = _prepare(args, "allocators")
+    model, elevations, fleet, site, weights, smart_model = prepare(args, "allocators")
     message = weights.message()
     if message:
         print(message)
@@ -399,7 +310,7 @@ def run_allocators(args) -> int:
         seeds=args.seeds, optimal=not args.no_optimal, time_limit_s=args.time_limit, max_tasks=args.max_tasks,
     )
     table = format_markdown(rows, title=f"{args.model}, fleet {fleet.name}")
-    with atomic_output_dir(args.output, kind="allocators", inputs=_inputs(args)) as tmp:
+    with atomic_output_dir(args.output, kind="allocators", inputs=input_files(args)) as tmp:
         write_outputs(rows, table, tmp)
     print(table)
     print(f"output: {Path(args.output).resolve()}/ (allocators.csv, allocators.md, allocators.json, allocators.png)")

@@ -50,15 +50,15 @@ def register(subparsers) -> None:
 
 def run_export(args) -> int:
     """``bimrobot plan export``: read model, fleet and site as ``simulate`` does; write the instance."""
-    from bimrobot.coordination.cli import _inputs, _prepare
+    from bimrobot.coordination.inputs import input_files, prepare
     from bimrobot.io import atomic_output_file
     from bimrobot.planning.problem import build_instance, dumps
 
     # simulate's own checks and readers: output refused before the long work, fleet, site, model, prebuilt
-    _, elevations, fleet, site, _, smart_model = _prepare(args, None, folder=False)
+    _, elevations, fleet, site, _, smart_model = prepare(args, None, folder=False)
     smart = smart_model()
     instance = build_instance(smart, fleet, site, elevations)
-    with atomic_output_file(args.output, inputs=_inputs(args)) as tmp:
+    with atomic_output_file(args.output, inputs=input_files(args)) as tmp:
         tmp.write_text(dumps(instance), encoding="utf-8")
     print(f"{args.output}: {len(instance['tasks'])} tasks, {len(instance['precedences'])} precedences, "
           f"{len(instance['robots'])} robots (fleet {fleet.name}); the problem of `simulate --per-joint`")

@@ -79,14 +79,14 @@ def simulate_problem(argv: list[str]) -> DispatchProblem:
     (model, ``--fleet``, ``--site``, ``--prebuilt``, selection, ``--per-joint``, ``--breakdown``, ...).
     Give no ``-o``: nothing is written."""
     from bimrobot.cli import parser_for
-    from bimrobot.coordination.cli import _prepare
+    from bimrobot.coordination.inputs import prepare
 
     with tempfile.TemporaryDirectory() as folder:
         argv = ["simulate", *argv, "-o", str(Path(folder) / "unused")]
         args = parser_for(argv).parse_args(argv)
         if args.mode != "event":
             raise InputError("the dispatching environment runs the event simulation, not --mode thesis")
-        _, elevations, fleet, site, _, smart_model = _prepare(args, "simulate")
+        _, elevations, fleet, site, _, smart_model = prepare(args, "simulate")
     return DispatchProblem(smart_model(), fleet, site, elevations, not args.per_joint, tuple(args.breakdown))
 
 
