@@ -4,7 +4,7 @@ is made of the features it implements (``class SimBackend(MoveToComponent, PickU
 
 Each feature method takes the RCAN node, the attempt number, the robot time (s since the build start)
 the activity may start at, and a feedback callback ``(progress 0..1, phase)``, and returns an
-:class:`~bimrobot.rcan.backends.interfaces.ActivityResult`. A backend's module implements a feature by
+:class:`~bimrobot.rcan.backends.info.ActivityResult`. A backend's module implements a feature by
 subclassing its class here and overriding the method.
 """
 
@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, ClassVar
 from bimrobot.rcan.activities import ActivityKind
 
 if TYPE_CHECKING:  # pragma: no cover
-    from bimrobot.rcan.backends.interfaces import ActivityResult
+    from bimrobot.rcan.backends.info import ActivityResult
     from bimrobot.rcan.node import RcanNode
 
 

@@ -1,6 +1,7 @@
-"""What a backend declares besides its features: what a run must give it, whether it acts in turns, and
-the command-line options it adds. Light to import (no backend, no numpy), so that ``bimrobot rcan --help``
-lists every backend's options without importing one.
+"""What a backend declares besides its features: what a run must give it, whether it acts in turns, the
+command-line options it adds, and what it reports after an activity (:class:`ActivityResult`, here so that
+the features and the interface share it without importing each other). Light to import (no backend, no
+numpy), so that ``bimrobot rcan --help`` lists every backend's options without importing one.
 
 A backend's folder declares one :class:`BackendInfo` as ``INFO`` in its ``__init__`` (and its class says
 ``info = INFO``); :mod:`bimrobot.rcan.system` and :mod:`bimrobot.rcan.cli` read it instead of testing
@@ -113,3 +114,43 @@ class RunContext:
         """The constructor keywords for ``needs`` that this context has."""
         values = {need: getattr(self, need) for need in needs}
         return {CONTEXT_KEYWORDS[n]: (list(v) if n == "plan" else v) for n, v in values.items() if v is not None}
+
+
+@dataclass(frozen=True)
+class ActivityResult:
+    """What a robot reports after an activity. Times are simulated/robot seconds since the build start."""
+
+    activity_id: str
+    attempt: int
+    robot: str
+    success: bool
+    message: str
+    started_s: float = 0.0
+    finished_s: float = 0.0
+    #: the robot stopped answering during the activity (its node died): RCAN takes it out of service and
+    #: gives the activity to another capable robot, or escalates it when there is none
+    robot_lost: bool = False
+
+    @property
+    def duration_s(self) -> float:
+        return self.finished_s - self.started_s
+
+    def to_message(self) -> dict:
+        # the fields one by one: dataclasses.asdict deep-copies recursively, a cost on every result
+        return {"activity_id": self.activity_id, "attempt": self.attempt, "robot": self.robot, "success": self.success,
+                "message": self.message, "started_s": self.started_s, "finished_s": self.finished_s,
+                "robot_lost": self.robot_lost}
+
+    @classmethod
+    def from_message(cls, message: dict) -> "ActivityResult":
+        return cls(
+            activity_id=str(message["activity_id"]),
+            attempt=int(message["attempt"]),
+            robot=str(message["robot"]),
+            success=bool(message["success"]) if not isinstance(message["success"], str)
+            else message["success"].lower() in ("1", "true"),
+            message=str(message["message"]),
+            started_s=float(message.get("started_s", 0.0)),
+            finished_s=float(message.get("finished_s", 0.0)),
+            robot_lost=bool(message.get("robot_lost", False)),
+        )

@@ -17,56 +17,15 @@ from __future__ import annotations
 import abc
 import contextlib
 import inspect
-from dataclasses import dataclass
 from typing import Callable, ClassVar, Collection
 
 from bimrobot.rcan.activities import ActivityKind
 from bimrobot.rcan.backends.features import ALL_FEATURES, features_of
-from bimrobot.rcan.backends.info import CONTEXT_KEYWORDS, BackendInfo, RunContext
+from bimrobot.rcan.backends.info import CONTEXT_KEYWORDS, ActivityResult, BackendInfo, RunContext  # noqa: F401 (ActivityResult: re-exported)
 from bimrobot.rcan.node import RcanNode
 
 #: Feedback callback: (progress 0..1, phase text).
 FeedbackCallback = Callable[[float, str], None]
-
-
-@dataclass(frozen=True)
-class ActivityResult:
-    """What a robot reports after an activity. Times are simulated/robot seconds since the build start."""
-
-    activity_id: str
-    attempt: int
-    robot: str
-    success: bool
-    message: str
-    started_s: float = 0.0
-    finished_s: float = 0.0
-    #: the robot stopped answering during the activity (its node died): RCAN takes it out of service and
-    #: gives the activity to another capable robot, or escalates it when there is none
-    robot_lost: bool = False
-
-    @property
-    def duration_s(self) -> float:
-        return self.finished_s - self.started_s
-
-    def to_message(self) -> dict:
-        # the fields one by one: dataclasses.asdict deep-copies recursively, a cost on every result
-        return {"activity_id": self.activity_id, "attempt": self.attempt, "robot": self.robot, "success": self.success,
-                "message": self.message, "started_s": self.started_s, "finished_s": self.finished_s,
-                "robot_lost": self.robot_lost}
-
-    @classmethod
-    def from_message(cls, message: dict) -> "ActivityResult":
-        return cls(
-            activity_id=str(message["activity_id"]),
-            attempt=int(message["attempt"]),
-            robot=str(message["robot"]),
-            success=bool(message["success"]) if not isinstance(message["success"], str)
-            else message["success"].lower() in ("1", "true"),
-            message=str(message["message"]),
-            started_s=float(message.get("started_s", 0.0)),
-            finished_s=float(message.get("finished_s", 0.0)),
-            robot_lost=bool(message.get("robot_lost", False)),
-        )
 
 
 class ExecutorBackend(abc.ABC):
