@@ -100,6 +100,13 @@ def task_key(activity: str, component: str, joint: str | None, node: str | None)
     return f"transport:{component}"
 
 
+def request_key(sim, request) -> str:
+    """The task graph's node (:func:`task_key`) of a request published in ``sim``, a running
+    :class:`~bimrobot.coordination.simulation.ConstructionSimulation` (per node when ``sim.per_node``)."""
+    node = request.node_ids[0] if request.node_ids and sim.per_node else None
+    return task_key(request.activity, request.component_id, request.joint_id, node)
+
+
 @dataclass
 class TaskGraph:
     """The build's tasks and floor gates as a graph: ``keys[i]`` names node i, ``requests[i]`` is its

@@ -481,7 +481,7 @@ class ReplayDispatcher(Dispatcher):
         self.fallbacks = 0
 
     def awards(self, sim) -> list[Award]:
-        from bimrobot.planning.planners import _request_key
+        from bimrobot.planning.dispatch import request_key as _request_key
 
         now = sim.build.env.now
         ready = {_request_key(sim, r): r for pool in sim.build.pending.values() for r in pool}

@@ -96,11 +96,10 @@ class Timed(Dispatcher):
 
 # ---------------------------------------------------------------- priority rules
 def _request_key(sim, request) -> str:
-    """The task graph's node of a published request (:func:`bimrobot.planning.dispatch.task_key`)."""
-    from bimrobot.planning.dispatch import task_key
+    """The task graph's node of a published request (:func:`bimrobot.planning.dispatch.request_key`)."""
+    from bimrobot.planning.dispatch import request_key
 
-    node = request.node_ids[0] if request.node_ids and sim.per_node else None
-    return task_key(request.activity, request.component_id, request.joint_id, node)
+    return request_key(sim, request)
 
 
 def _scores(sim, rule: str) -> dict[str, float]:
