@@ -609,11 +609,6 @@ def _dependents(activities: list[RcanActivity], roots: list[str]) -> dict[str, s
     return cause
 
 
-# backends whose results carry simulated times, so that holding a result back until every robot that
-# could finish earlier has reported costs no robot any time (issue 35: allocation independent of threads)
-SIMULATED_TIME_BACKENDS = frozenset({"sim"})
-
-
 def run_plan(
     activities: Iterable[RcanActivity],
     capabilities: Fleet,
@@ -693,7 +688,8 @@ def _run_plan(activities, capabilities, backend, state_db, redis_url, spawn_exec
             system.on_settled = backend_instance.coordinator_settled
         system.allocator.reallocate = reallocate
         # times are simulated (not a robot's clock) and no turn coordinator orders them: handle results by them
-        system.simulated_time = backend in SIMULATED_TIME_BACKENDS and not in_turns
+        # (BackendInfo.simulated_time; issue 35: the allocation does not depend on thread timing)
+        system.simulated_time = info.simulated_time and not in_turns
         report = system.run(activities, timeout_s=timeout_s, retry_escalated=retry_escalated)
         if backend_instance is not None:  # what the backend measured, if it says (e.g. placement errors)
             report.backend_summary = backend_instance.summary()

@@ -72,12 +72,16 @@ class BackendInfo:
     own executor thread and the coordinator reports each of its turns (``attach_coordinator``,
     ``coordinator_settled``); ``options``: the command-line options it adds; ``commands``: sub-commands of
     ``bimrobot rcan`` it adds, each ``"module:function"`` called with the argparse sub-parsers (a light
-    module: it is imported whenever ``bimrobot rcan`` builds its parser).
+    module: it is imported whenever ``bimrobot rcan`` builds its parser); ``simulated_time``: its results
+    carry simulated times (s), not a robot's clock, so the coordinator may hold a result back until every
+    robot that could finish earlier has reported and handle results in simulated-time order (the same
+    allocation whatever the threads do) at no cost to any robot.
     """
 
     backend: str
     needs: tuple[str, ...] = ()
     acts_in_turns: bool = False
+    simulated_time: bool = False
     options: tuple[BackendOption, ...] = ()
     commands: tuple[str, ...] = ()
 

@@ -45,6 +45,7 @@ from bimrobot.rcan.backends.info import BackendInfo, BackendOption
 INFO = BackendInfo(
     backend="bimrobot.rcan.backends.sim.backend:SimBackend",
     needs=("state_db",),
+    simulated_time=True,
     options=(
         BackendOption(("--time-scale",),
                       "sim: real seconds slept per simulated second (default 0, as fast as possible)",
