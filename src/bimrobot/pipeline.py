@@ -361,10 +361,10 @@ def _run_stage(stage: Stage, args, folder: Path, shared: BuildModel) -> int:
     """Run one stage's sub-command function in this process on the build's model; its exit code
     (InputError propagates)."""
     from bimrobot import io
-    from bimrobot.cli import build_parser
+    from bimrobot.cli import parser_for
 
     argv = stage.argv(args, folder)
-    sub_args = build_parser().parse_args(argv)
+    sub_args = parser_for(argv).parse_args(argv)  # only the stage's part is imported and registered
     shown = shlex.join(argv).replace(str(folder), str(args.output).rstrip("/"))
     print(f"$ bimrobot {io.printable(shown)}", flush=True)
     # The stage writes into the build's partial folder, renamed to the output at the end: its lines name
