@@ -49,3 +49,13 @@ def test_the_command_word_skips_bimrobot_options():
     assert command_word(["-vv", "convert", "frame.ifc", "-o", "out"]) == "convert"
     assert command_word(["--verbose", "--help"]) is None
     assert command_word([]) is None
+
+
+def test_package_inits_load_no_heavy_library():
+    """Importing a package (or a light module in it) does not import its heavy modules: the names of
+    bimrobot.coordination, bimrobot.sco and bimrobot.bim are loaded on first use (issue 37)."""
+    loaded = _loaded_after("import bimrobot.coordination, bimrobot.sco.timing, bimrobot.bim.selection, "
+                           "bimrobot.coordination.inputs")
+    assert loaded == []
+    fleet_list = _loaded_after("from bimrobot.cli import main\nmain(['fleet', 'list'])")
+    assert "simpy" not in fleet_list  # the simulation is not needed to list fleets

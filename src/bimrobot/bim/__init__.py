@@ -9,11 +9,17 @@ buildings; ``bimrobot.bim.split`` writes one IFC file per assembly or element;
 ``bimrobot.bim.connections.infer_connections`` finds joints from touching geometry.
 """
 
-from bimrobot.bim.model import BuildingModel, Connection, Element, SkippedProduct, Storey, WeightSource
+from __future__ import annotations
+
+import importlib
+
+_LAZY = {name: "bimrobot.bim.model" for name in
+         ("BuildingModel", "Connection", "Element", "SkippedProduct", "Storey", "WeightSource")}
+"""Public name -> the module that defines it, imported when the name is first used (numpy comes with it)."""
 
 
 def load_model(path, include=None, exclude=None, progress=False, threads=None, properties=True,
-               processes=None, prebuilt=None, unknown_weight=None, ifc=None) -> BuildingModel:
+               processes=None, prebuilt=None, unknown_weight=None, ifc=None) -> "BuildingModel":
     """Read an IFC file into a BuildingModel (see :func:`bimrobot.bim.reader.load_model`)."""
     from bimrobot.bim.reader import load_model as _load_model
 
@@ -22,3 +28,18 @@ def load_model(path, include=None, exclude=None, progress=False, threads=None, p
 
 
 __all__ = ["BuildingModel", "Connection", "Element", "SkippedProduct", "Storey", "WeightSource", "load_model"]
+
+
+def __getattr__(name: str):
+    """Import :mod:`bimrobot.bim.model` when one of its names is first used (PEP 562), so that importing a
+    light submodule (``bimrobot.bim.selection``) does not load numpy."""
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted([*globals(), *_LAZY])

@@ -1,11 +1,37 @@
 """Smart construction objects (thesis chapter 4): components and connection nodes that know their
 state, publish their requirements and follow the thesis' state chart."""
 
-from bimrobot.sco.build import SmartModel, build_smart_model
-from bimrobot.sco.component import Component, ConnectionNode, ConstructionObject, Joint
-from bimrobot.sco.states import Event, InvalidTransitionError, Requirement, State
+from __future__ import annotations
 
-__all__ = [
-    "Component", "ConnectionNode", "ConstructionObject", "Event", "InvalidTransitionError", "Joint",
-    "Requirement", "SmartModel", "State", "build_smart_model",
-]
+import importlib
+
+_LAZY = {
+    "SmartModel": "bimrobot.sco.build",
+    "build_smart_model": "bimrobot.sco.build",
+    "Component": "bimrobot.sco.component",
+    "ConnectionNode": "bimrobot.sco.component",
+    "ConstructionObject": "bimrobot.sco.component",
+    "Joint": "bimrobot.sco.component",
+    "Event": "bimrobot.sco.states",
+    "InvalidTransitionError": "bimrobot.sco.states",
+    "Requirement": "bimrobot.sco.states",
+    "State": "bimrobot.sco.states",
+}
+"""Public name -> the module that defines it, imported when the name is first used."""
+
+__all__ = sorted(_LAZY)
+
+
+def __getattr__(name: str):
+    """Import the submodule that defines ``name`` on first use (PEP 562), so that importing this package
+    (as ``bimrobot.sco.timing`` does) loads none of its heavy submodules."""
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted([*globals(), *_LAZY])
