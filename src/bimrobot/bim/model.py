@@ -55,6 +55,15 @@ class Connection:
     inferred: bool = False
 
 
+def mesh_volume(vertices: np.ndarray, faces: np.ndarray) -> float:
+    """Enclosed volume (m3) of a closed triangle mesh (``vertices`` (N, 3) in metres, ``faces`` (M, 3)
+    vertex indices) by the divergence theorem (absolute value)."""
+    if len(faces) == 0:
+        return 0.0
+    a, b, c = vertices[faces[:, 0]], vertices[faces[:, 1]], vertices[faces[:, 2]]
+    return float(abs(np.einsum("ij,ij->i", a, np.cross(b, c)).sum()) / 6.0)
+
+
 @dataclass
 class Element:
     """One building element with solid geometry.
@@ -86,8 +95,6 @@ class Element:
     @cached_property
     def volume_m3(self) -> float:
         """Enclosed volume of the body (m3), from its mesh."""
-        from bimrobot.bim.quantities import mesh_volume
-
         return mesh_volume(self.vertices, self.faces)
 
     @cached_property

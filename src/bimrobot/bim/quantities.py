@@ -26,9 +26,7 @@ import unicodedata
 from dataclasses import dataclass
 from typing import Callable, NamedTuple
 
-import numpy as np
-
-from bimrobot.bim.model import WeightSource
+from bimrobot.bim.model import WeightSource, mesh_volume  # noqa: F401 (mesh_volume: re-exported)
 
 #: Implied densities (kg/m3) that a building element can have: below, lighter than most insulation
 #: boards; above, heavier than steel (7,850; stainless 7,900-8,000; Tekla writes 8,000.4 for its steel
@@ -513,14 +511,6 @@ class Weight(NamedTuple):
     kg: float | None
     source: WeightSource
     basis: str
-
-
-def mesh_volume(vertices: np.ndarray, faces: np.ndarray) -> float:
-    """Enclosed volume (m3) of a closed triangle mesh by the divergence theorem (absolute value)."""
-    if len(faces) == 0:
-        return 0.0
-    a, b, c = vertices[faces[:, 0]], vertices[faces[:, 1]], vertices[faces[:, 2]]
-    return float(abs(np.einsum("ij,ij->i", a, np.cross(b, c)).sum()) / 6.0)
 
 
 def pick_weight_quantity(quantities: dict[str, float]) -> tuple[str, float] | None:
