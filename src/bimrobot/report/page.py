@@ -11,7 +11,8 @@ import re
 from collections import Counter
 from pathlib import Path
 
-from bimrobot.report import charts, figures
+import bimrobot.report.charts as charts  # by module path: the package (report/__init__) imports this page
+import bimrobot.report.figures as figures
 from bimrobot.report.facts import INSTALLED, BuildFacts
 
 TEMPLATE = "report.html.j2"
