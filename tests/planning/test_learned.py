@@ -84,7 +84,7 @@ def test_the_learned_planners_schedule_respects_every_precedence(imitated, frame
     """simulate with the planner's dispatcher: the policy's own schedule (same makespan), every component
     assembled, no activity before its predecessors, no robot doing two things at once."""
     path, *_ = imitated
-    planner = LearnedPlanner(path)
+    planner = LearnedPlanner(path, guard=False)
     _, played = planner.play(frame)
     replay = planner.dispatcher(frame)
     result = simulate(frame.smart, frame.fleet, frame.site, "least-cost", 0, (), frame.storey_elevations,
@@ -115,3 +115,23 @@ def test_plan_train_refuses_a_negative_count_in_one_sentence_before_any_work(opt
     err = capsys.readouterr().err
     assert code == 2 and option[0] in err and "Traceback" not in err
     assert not (tmp_path / "run").exists()
+
+
+def test_the_guarded_planner_is_never_longer_than_the_market_and_says_which_plan_it_used(imitated, frame):
+    """The "never worse" rule: the planner plays its policy and the least-cost market and simulate runs the
+    shorter schedule exactly; without the guard it runs the policy's own."""
+    from bimrobot.planning.dispatch import MarketPolicy
+
+    path, *_ = imitated
+    _, market = play(env_for(frame), MarketPolicy(), seed=0)
+    guarded, raw = LearnedPlanner(path), LearnedPlanner(path, guard=False)
+    replay = guarded.dispatcher(frame)
+    result = simulate(frame.smart, frame.fleet, frame.site, "least-cost", 0, (), frame.storey_elevations,
+                      per_node=frame.per_node, dispatcher=replay)
+    last = guarded.last
+    assert last["market_s"] == pytest.approx(market.makespan, abs=1e-9)
+    assert result.makespan == pytest.approx(min(last["policy_s"], last["market_s"]), abs=1e-9)
+    assert result.makespan <= market.makespan + 1e-9 and replay.fallbacks == 0
+    assert last["chosen"] == ("policy" if last["policy_s"] <= last["market_s"] else "market")
+    raw.dispatcher(frame)
+    assert raw.last == {"policy_s": last["policy_s"], "market_s": None, "chosen": "policy"}

@@ -439,18 +439,25 @@ class LearnedPlanner:
     """A learned policy as a planner: ``dispatcher(problem)`` plays the policy on ``problem`` (padded to
     its own size) and returns a :class:`~bimrobot.coordination.market.Dispatcher` that replays its awards
     at the same times, so ``simulate`` with it gives the policy's schedule. ``path`` None: the shipped
-    :data:`DEFAULT_POLICY`."""
+    :data:`DEFAULT_POLICY`.
 
-    def __init__(self, path: str | Path | None = None):
+    ``guard`` (default True), the "never worse" rule: the planner also plays the least-cost market on the
+    same problem in the same event simulation and replays whichever schedule is shorter (the policy's on
+    a tie). ``last`` says, after each ``dispatcher`` call, both makespans (s) and which plan won."""
+
+    def __init__(self, path: str | Path | None = None, guard: bool = True):
         self.path = Path(path) if path is not None else DEFAULT_POLICY
         if not self.path.is_file():
             raise InputError(f"{self.path}: no such policy file" + (" (no learned policy ships with this version)" if path is None else ""))
         self.meta = read_meta(self.path)
+        self.guard = guard
+        self.last: dict = {}
 
-    def play(self, problem: DispatchProblem):
-        """(the policy's awards [(time s, task key, robot)], the simulation result) on ``problem``."""
+    def play(self, problem: DispatchProblem, policy=None):
+        """(the awards [(time s, task key, robot)], the simulation result) of the loaded policy (or of
+        ``policy(env) -> action``, e.g. :class:`~bimrobot.planning.dispatch.MarketPolicy`) on ``problem``."""
         env = env_for(problem)
-        policy = LearnedPolicy(load_policy(self.path, env))
+        policy = policy or LearnedPolicy(load_policy(self.path, env))
         obs, _ = env.reset(seed=0)
         awards, done, truncated = [], False, False
         while not (done or truncated):
@@ -462,7 +469,15 @@ class LearnedPlanner:
         return awards, env.result
 
     def dispatcher(self, problem: DispatchProblem) -> Dispatcher:
-        awards, _ = self.play(problem)
+        awards, result = self.play(problem)
+        self.last = {"policy_s": float(result.makespan), "market_s": None, "chosen": "policy"}
+        if self.guard:
+            from bimrobot.planning.dispatch import MarketPolicy
+
+            market_awards, market = self.play(problem, MarketPolicy())
+            self.last["market_s"] = float(market.makespan)
+            if market.makespan < result.makespan - 1e-9:
+                awards, self.last["chosen"] = market_awards, "market"
         return ReplayDispatcher(awards)
 
 

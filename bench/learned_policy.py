@@ -1,0 +1,57 @@
+"""The learned planner against the least-cost market on the shared real models (issue 38).
+
+Each problem as ``simulate`` reads it: per node (simulate's default), fleet site-crane (IfcFooting, IfcSlab
+and IfcWall prebuilt where that fleet cannot build them otherwise), the chapter-4 frame with fleet2. For each:
+the market's makespan, the policy's own (greedy), and the guarded planner's (the shorter of the two),
+executed by ``simulate`` with the planner's dispatcher (asserted equal, no market fallback).
+Makespans in simulated seconds; no timing.
+
+    .venv/bin/python bench/learned_policy.py [POLICY.zip]     # default: the shipped policy
+"""
+
+import sys
+
+import torch as th
+
+from bimrobot.coordination.simulation import simulate
+
+from bimrobot.errors import InputError
+from bimrobot.planning.dispatch import MarketPolicy, frame_problem, play, simulate_problem
+from bimrobot.planning.learned import DEFAULT_POLICY, LearnedPlanner, env_for
+
+SHARED = "../shared/data/ifc/"
+MODELS = ("MULTICOM-trappen_bordessen.ifc", "ifcColumn.ifc", "GEELEN-Breedplaat_V1.ifc", "ROOT-staal.ifczip")
+
+
+def problems():
+    """(name, problem) of the frame and the shared real models."""
+    yield "chapter-4 frame (fleet2)", frame_problem()
+    for name in MODELS:
+        try:
+            yield name, simulate_problem([SHARED + name, "--fleet", "site-crane"])
+        except InputError:
+            yield name + " (prebuilt)", simulate_problem([SHARED + name, "--fleet", "site-crane",
+                                                          "--prebuilt", "IfcFooting,IfcSlab,IfcWall"])
+
+
+def main(path) -> None:
+    th.set_num_threads(1)
+    planner = LearnedPlanner(path)
+    print("| model | market (s) | policy (s) | policy vs market | guarded planner (s) | plan used |")
+    print("|---|---:|---:|---:|---:|---|")
+    for name, problem in problems():
+        _, market = play(env_for(problem), MarketPolicy(), seed=0)
+        replay = planner.dispatcher(problem)
+        run = simulate(problem.smart, problem.fleet, problem.site, "least-cost", 0, problem.breakdowns,
+                       problem.storey_elevations, per_node=problem.per_node, dispatcher=replay)
+        last = planner.last
+        assert abs(last["market_s"] - market.makespan) < 1e-6
+        diff = 100.0 * (last["policy_s"] - market.makespan) / market.makespan
+        used = min(last["policy_s"], last["market_s"])
+        assert abs(run.makespan - used) < 1e-6 and replay.fallbacks == 0, (run.makespan, used, replay.fallbacks)
+        print(f"| {name} | {market.makespan:,.1f} | {last['policy_s']:,.1f} | {diff:+.1f} % | {used:,.1f} | {last['chosen']} |",
+              flush=True)
+
+
+if __name__ == "__main__":
+    main(sys.argv[1] if len(sys.argv) > 1 else DEFAULT_POLICY)
