@@ -6,7 +6,12 @@ the market's makespan, the policy's own (greedy), and the guarded planner's (the
 executed by ``simulate`` with the planner's dispatcher (asserted equal, no market fallback).
 Makespans in simulated seconds; no timing.
 
-    .venv/bin/python bench/learned_policy.py [POLICY.zip]     # default: the shipped policy
+    .venv/bin/python bench/learned_policy.py [POLICY.zip]                 # default: the shipped policy
+    .venv/bin/python bench/learned_policy.py --validation A.zip B.zip ...   # pick among policies
+
+``--validation`` plays each policy alone on generated buildings that no training run draws (seeds from
+9,000), larger than the training ones, and prints each policy's mean makespan in per cent of the market's:
+how a policy is chosen without looking at the real models.
 """
 
 import sys
@@ -34,6 +39,29 @@ def problems():
                                                           "--prebuilt", "IfcFooting,IfcSlab,IfcWall"])
 
 
+VALIDATION = tuple(f"generated:{kind}:{grid}:seed={9000 + i}" for i, (kind, grid) in enumerate(
+    (("steel", "4x3x2"), ("steel", "3x3x3"), ("precast", "3x3x2"), ("precast", "4x2x2"), ("panel", "3x3x2"), ("panel", "4x3x1"))))
+
+
+def validation(paths) -> None:
+    """Each policy alone against the market on :data:`VALIDATION` (per cent of the market's makespan)."""
+    from bimrobot.planning.learned import generated_problem
+
+    th.set_num_threads(1)
+    planners = [LearnedPlanner(p, guard=False) for p in paths]
+    ratios = [[] for _ in paths]
+    for spec in VALIDATION:
+        problem = generated_problem(spec)
+        _, market = play(env_for(problem), MarketPolicy(), seed=0)
+        cells = []
+        for planner, mine in zip(planners, ratios):
+            _, result = planner.play(problem)
+            mine.append(100.0 * result.makespan / market.makespan)
+            cells.append(f"{mine[-1] - 100:+.1f} %")
+        print(f"| {spec} | {market.makespan:,.1f} | " + " | ".join(cells) + " |", flush=True)
+    print("| mean | | " + " | ".join(f"{sum(r) / len(r) - 100:+.2f} %" for r in ratios) + " |")
+
+
 def main(path) -> None:
     th.set_num_threads(1)
     planner = LearnedPlanner(path)
@@ -54,4 +82,7 @@ def main(path) -> None:
 
 
 if __name__ == "__main__":
-    main(sys.argv[1] if len(sys.argv) > 1 else DEFAULT_POLICY)
+    if sys.argv[1:2] == ["--validation"]:
+        validation(sys.argv[2:])
+    else:
+        main(sys.argv[1] if len(sys.argv) > 1 else DEFAULT_POLICY)
