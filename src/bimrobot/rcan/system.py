@@ -102,12 +102,12 @@ class RcanSystem:
         self.state = state_manager
         self.allocator = TaskAllocator(capabilities)
         self.generator = NodeGenerator(self.allocator, backend_name)
-        self.log = _OrderedLog(log) if log is not None else (lambda line: None)
+        self._given_log = log
+        self.log = log if log is not None else (lambda line: None)
         self.router = Router()
         # called after each turn of the run with (results handled in all, nodes in flight): a backend in
         # this process that executes one activity at a time uses it to choose the next deterministically
         self.on_settled: Callable[[int, int], None] | None = None
-        # the backend reports simulated times: results are handled in simulated-time order (see _releasable)
         self.simulated_time = False
         self._results_handled = 0
         self.router.route(RESULT_TOPIC, self._on_result)
@@ -467,6 +467,19 @@ class RcanSystem:
         finish = self._pending[0][0]
         reported = {m.payload["result"]["robot"] for _, _, _, m in self._pending}
         return all(self._sent_s.get(robot, 0.0) > finish for robot in self._in_flight if robot not in reported)
+
+    @property
+    def simulated_time(self) -> bool:
+        """The backend reports simulated times: its results are handled in simulated-time order (see
+        ``_releasable``) and the log is printed in that order (:class:`_OrderedLog`). A backend on real
+        clocks (ros2) keeps a live log: each line is printed when it happens."""
+        return self._simulated_time
+
+    @simulated_time.setter
+    def simulated_time(self, value: bool) -> None:
+        self._simulated_time = value
+        if self._given_log is not None:
+            self.log = _OrderedLog(self._given_log) if value else self._given_log
 
     # --- the printed log -----------------------------------------------------------------------------
     def _log_at(self, at_s: float, phase: int, activity_id: str) -> None:
