@@ -310,8 +310,13 @@ def _learned(path: str | None) -> Callable:
                 raise
             raise InputError("--planner learned: no learned policy is installed (bimrobot.planning.learned is "
                              "missing from this bimrobot)") from None
+        # the policy plays the whole build (and the market beside it) here: that is its planning time
+        started, cpu = time.perf_counter(), time.process_time()
         planner = LearnedPlanner(path)
-        return planner if isinstance(planner, Dispatcher) else planner.dispatcher(problem)
+        dispatcher = planner if isinstance(planner, Dispatcher) else planner.dispatcher(problem)
+        stats.solve_s += time.perf_counter() - started
+        stats.solve_cpu_s += time.process_time() - cpu
+        return dispatcher
     return make
 
 
