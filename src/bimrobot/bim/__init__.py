@@ -11,7 +11,7 @@ buildings; ``bimrobot.bim.split`` writes one IFC file per assembly or element;
 
 from __future__ import annotations
 
-import importlib
+from bimrobot import lazy_names
 
 _LAZY = {name: "bimrobot.bim.model" for name in
          ("BuildingModel", "Connection", "Element", "SkippedProduct", "Storey", "WeightSource")}
@@ -30,16 +30,6 @@ def load_model(path, include=None, exclude=None, progress=False, threads=None, p
 __all__ = ["BuildingModel", "Connection", "Element", "SkippedProduct", "Storey", "WeightSource", "load_model"]
 
 
-def __getattr__(name: str):
-    """Import :mod:`bimrobot.bim.model` when one of its names is first used (PEP 562), so that importing a
-    light submodule (``bimrobot.bim.selection``) does not load numpy."""
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted([*globals(), *_LAZY])
+# names load on first use (PEP 562), so that importing a light submodule (``bimrobot.bim.selection``) does
+# not load numpy
+__getattr__, __dir__ = lazy_names(__name__, _LAZY)

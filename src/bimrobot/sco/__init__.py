@@ -3,7 +3,7 @@ state, publish their requirements and follow the thesis' state chart."""
 
 from __future__ import annotations
 
-import importlib
+from bimrobot import lazy_names
 
 _LAZY = {
     "SmartModel": "bimrobot.sco.build",
@@ -22,16 +22,6 @@ _LAZY = {
 __all__ = sorted(_LAZY)
 
 
-def __getattr__(name: str):
-    """Import the submodule that defines ``name`` on first use (PEP 562), so that importing this package
-    (as ``bimrobot.sco.timing`` does) loads none of its heavy submodules."""
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted([*globals(), *_LAZY])
+# names load on first use (PEP 562), so that importing this package (as ``bimrobot.sco.timing`` does) loads
+# none of its heavy submodules
+__getattr__, __dir__ = lazy_names(__name__, _LAZY)
