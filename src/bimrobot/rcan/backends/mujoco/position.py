@@ -149,9 +149,7 @@ class PositionForInstalling(features.PositionForInstalling):
         site = self.site
         tcp = site.tcp_pose(robot) if tcp is None else tcp
         grip = site.held_in_tcp(robot)
-        size = np.array(site.components[gid].size)
-        corners = np.array([[x, y, z, 1.0] for x in (-size[0] / 2, size[0] / 2) for y in (-size[1] / 2, size[1] / 2)
-                            for z in (0.0, size[2])])
+        corners = _corners(site.components[gid].size)
 
         def lowest_below_tcp(pose: np.ndarray) -> float:
             return float(((pose @ grip) @ corners.T)[2].min() - pose[2, 3])
@@ -209,10 +207,7 @@ class PositionForInstalling(features.PositionForInstalling):
         site = self.site
         arm_base = site.arm_base_pose(robot) if arm_base is None else arm_base
         pose = site.body_pose(gid)
-        size = np.array(site.components[gid].size)
-        corners = np.array([[x, y, z, 1.0] for x in (-size[0] / 2, size[0] / 2) for y in (-size[1] / 2, size[1] / 2)
-                            for z in (0.0, size[2])])
-        world = (pose @ corners.T)[:3].T
+        world = (pose @ _corners(site.components[gid].size).T)[:3].T
         low, high = world.min(axis=0), world.max(axis=0)
         model = self.families[robot]
         shoulder = arm_base[:3, 3] + np.array([0.0, 0.0, model.dh[0][1]])
@@ -231,3 +226,10 @@ class PositionForInstalling(features.PositionForInstalling):
         back = goal.copy()
         back[:3, 3] -= goal[:3, 2] * LIFT_M
         return [back, goal]
+
+
+def _corners(size) -> np.ndarray:
+    """The 8 corners of a component's box (x, y, z sizes in m) in its own frame, homogeneous (8 x 4): centred
+    in x and y, from its base (z = 0) to its top, as the site places components."""
+    sx, sy, sz = size
+    return np.array([[x, y, z, 1.0] for x in (-sx / 2, sx / 2) for y in (-sy / 2, sy / 2) for z in (0.0, sz)])
