@@ -8,7 +8,7 @@ import pytest
 from bimrobot.bim.examples import steel_frame
 from bimrobot.bim.selection import DEFAULT_PREBUILT
 from bimrobot.cli import main
-from bimrobot.coordination.cli import load_building
+from bimrobot.coordination.inputs import load_building
 from bimrobot.coordination.fleet import load_fleet
 from bimrobot.coordination.simulation import simulate
 from bimrobot.errors import InputError

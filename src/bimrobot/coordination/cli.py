@@ -6,7 +6,7 @@ import argparse
 import math
 from pathlib import Path
 
-from bimrobot.coordination.inputs import GENERATED, input_files, load_building, prepare  # noqa: F401 (load_building, GENERATED: re-exported)
+from bimrobot.coordination.inputs import input_files, prepare
 from bimrobot.errors import InputError
 
 SIMULATE_EXAMPLES = """examples:
