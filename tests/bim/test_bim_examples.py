@@ -34,7 +34,7 @@ def test_steel_frame_columns_and_beams_weigh_what_the_thesis_says(steel_frame_mo
 
 def test_section_meshes_match_catalogue_areas(steel_frame_model, greenhouse_model):
     """Mesh volume / length = the section's catalogue area (fillets included) within 0.5 to 1 %."""
-    from bimrobot.bim.quantities import mesh_volume
+    from bimrobot.bim.model import mesh_volume
 
     column = steel_frame_model.by_class("IfcColumn")[0]
     assert mesh_volume(column.vertices, column.faces) / 4.0 == pytest.approx(9290e-6, rel=0.005)  # W250x73

@@ -7,7 +7,8 @@ import pytest
 
 from bimrobot.bim import load_model
 from bimrobot.bim.model import WeightSource
-from bimrobot.bim.quantities import density_of, mesh_volume
+from bimrobot.bim.model import mesh_volume
+from bimrobot.bim.quantities import density_of
 from bimrobot.errors import InputError
 
 SHARED_FILES = [

@@ -26,7 +26,7 @@ import unicodedata
 from dataclasses import dataclass
 from typing import Callable, NamedTuple
 
-from bimrobot.bim.model import WeightSource, mesh_volume  # noqa: F401 (mesh_volume: re-exported)
+from bimrobot.bim.model import WeightSource
 
 #: Implied densities (kg/m3) that a building element can have: below, lighter than most insulation
 #: boards; above, heavier than steel (7,850; stainless 7,900-8,000; Tekla writes 8,000.4 for its steel

@@ -32,8 +32,8 @@ import ifcopenshell.util.placement
 import ifcopenshell.util.shape
 import ifcopenshell.util.unit
 
-from bimrobot.bim.model import Assembly, BuildingModel, Connection, Element, SkippedProduct, Storey
-from bimrobot.bim.quantities import WEIGHT_PROPERTY_NAMES, MaterialDensities, mesh_volume, resolve_weight
+from bimrobot.bim.model import Assembly, BuildingModel, Connection, Element, SkippedProduct, Storey, mesh_volume
+from bimrobot.bim.quantities import WEIGHT_PROPERTY_NAMES, MaterialDensities, resolve_weight
 from bimrobot.bim.selection import describe, select_products
 from bimrobot.errors import InputError
 
