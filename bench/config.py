@@ -6,10 +6,10 @@
 A generated RCAN capability table (the built-in one's robot types, then N robots of nine keys each,
 about 250 bytes a robot) is read three ways, min/median/max seconds over ``--repeat`` runs:
 
-- ``pure-python``: ``yaml.load`` with :data:`bimrobot.config.PURE_PYTHON_LOADER` (line numbers, YAML 1.2
-  floats), how :func:`bimrobot.config.parse_yaml` read files before (without its number check);
-- ``c-load``: the same ``yaml.load`` on libyaml's parser (:data:`bimrobot.config.LOADER`);
-- ``parse_yaml``: :func:`bimrobot.config.parse_yaml` now (libyaml's parser, one pass that builds the
+- ``pure-python``: ``yaml.load`` with :data:`bimrobot.core.config.PURE_PYTHON_LOADER` (line numbers, YAML 1.2
+  floats), how :func:`bimrobot.core.config.parse_yaml` read files before (without its number check);
+- ``c-load``: the same ``yaml.load`` on libyaml's parser (:data:`bimrobot.core.config.LOADER`);
+- ``parse_yaml``: :func:`bimrobot.core.config.parse_yaml` now (libyaml's parser, one pass that builds the
   data and checks every number).
 
 Printed: each time, the speed-up of each against ``pure-python`` at the same size, and the growth of
@@ -53,7 +53,7 @@ def capability_yaml(robots: int) -> str:
 def main(argv: list[str] | None = None) -> int:
     import yaml
 
-    from bimrobot import config
+    from bimrobot.core import config
     from bimrobot.rcan.generation import parse_capabilities
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])

@@ -53,7 +53,7 @@ work_calendar: {days: [Monday], hours: ['07:00', '16:00']}
 
 def _load(kind: str, path: Path) -> str:
     if kind == "site":
-        from bimrobot.site import load_site, site_to_dict
+        from bimrobot.site.site import load_site, site_to_dict
 
         return json.dumps(site_to_dict(load_site(path)), sort_keys=True)
     if kind == "scenario":
@@ -61,7 +61,7 @@ def _load(kind: str, path: Path) -> str:
 
         s = load_scenario(path)
         return repr((s.grid, s.time_limit, s.reward, s.components, s.targets, s.obstacles, s.yard, s.layout))
-    from bimrobot.coordination.fleet import load_fleet
+    from bimrobot.site.fleet import load_fleet
 
     robots = [replace(r, rcan_activities=r.rcan_activities and tuple(sorted(r.rcan_activities)))  # a frozenset prints
               for r in load_fleet(path).robots]                                                  # in hash order
@@ -71,7 +71,7 @@ def _load(kind: str, path: Path) -> str:
 def record(out: str) -> None:
     import yaml
 
-    from bimrobot.errors import InputError
+    from bimrobot.core.errors import InputError
     from tests.reliability.test_config_mutants import HOSTILE, _parent, _paths
 
     logging.disable(logging.CRITICAL)

@@ -6,7 +6,7 @@ For every IFC file in ../shared/data/ifc (when present) and the built-in example
   that ``bimrobot.bim`` uses (local coordinates), reading every shape's vertices and faces, at its best:
   run with one thread and with one per core (at most 8), the faster of the two (bimrobot itself reads
   with one iterator per core in forked processes, each with one thread);
-* conversion: :func:`bimrobot.world.package.convert` (read + meshes + SDF + maps + report + preview.png).
+* conversion: :func:`bimrobot.export.gazebo.package.convert` (read + meshes + SDF + maps + report + preview.png).
 
 Each runs in a fresh subprocess (imports done before the clock starts), so the peak memory
 (``ru_maxrss``) is that run's own. And as a user waits for them, whole processes timed from outside
@@ -77,7 +77,7 @@ def child_convert(path: str, out: str) -> dict:
     import ifcopenshell.geom  # noqa: F401  (imported before the clock, as in child_iterate)
 
     from bimrobot.bim import reader  # noqa: F401
-    from bimrobot.world.package import ConvertOptions, convert
+    from bimrobot.export.gazebo.package import ConvertOptions, convert
 
     start = time.perf_counter()
     report = convert(path, out, ConvertOptions())
@@ -285,8 +285,8 @@ def replicated_ifc(path: Path, copies: int, out: Path) -> Path:
 def bench_validation(path: Path, copies: int, workdir: Path, repeat: int, variants=(False, True)) -> str:
     """``convert --validate``'s checks on a package of ``copies`` x the file's elements; the reference
     is ``ign sdf -k`` on the world of the file's own package, which the same checks also run on."""
-    from bimrobot.world.check import problems, validate_sdf, validate_world
-    from bimrobot.world.package import ConvertOptions, build_package
+    from bimrobot.export.gazebo.check import problems, validate_sdf, validate_world
+    from bimrobot.export.gazebo.package import ConvertOptions, build_package
 
     lines = ["| package | models | distinct | check s | peak MB | ign sdf -k world s | peak MB | ratio |",
              "|---|---:|---:|---:|---:|---:|---:|---:|"]

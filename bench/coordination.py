@@ -27,7 +27,7 @@ ROBOTS_PER_KIND = 25
 
 
 def bench_fleet():
-    from bimrobot.coordination.fleet import fleet_from_dict
+    from bimrobot.site.fleet import fleet_from_dict
 
     robots = []
     for i in range(ROBOTS_PER_KIND):
@@ -42,7 +42,7 @@ def bench_fleet():
 
 
 def bench_site():
-    from bimrobot.coordination.fleet import Site
+    from bimrobot.site.fleet import Site
 
     return Site(
         yard=tuple((-5.0, 3.0 * k) for k in range(GRID)),

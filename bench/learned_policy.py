@@ -20,7 +20,7 @@ import torch as th
 
 from bimrobot.coordination.simulation import simulate
 
-from bimrobot.errors import InputError
+from bimrobot.core.errors import InputError
 from bimrobot.planning.dispatch import MarketPolicy, frame_problem, play, simulate_problem
 from bimrobot.planning.learned import DEFAULT_POLICY, LearnedPlanner, env_for
 

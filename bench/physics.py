@@ -53,7 +53,7 @@ def yard_scene(folder: Path):
 
     from bimrobot.bim import load_model
     from bimrobot.bim.examples import steel_frame
-    from bimrobot.world.package import ConvertOptions, build_package
+    from bimrobot.export.gazebo.package import ConvertOptions, build_package
 
     model_in = load_model(steel_frame(folder / "frame.ifc"), exclude="IfcMechanicalFastener")
     build_package(model_in, folder / "yard", ConvertOptions(target="mujoco", layout="yard", maps=False))

@@ -33,8 +33,8 @@ LADDER = ["2x1x1:fleet2", "2x2x1:fleet1", "2x2x1:fleet2", "3x2x1:fleet2", "3x2x2
 def solve(item: str, time_limit: float, workers: int, whole_tasks: int) -> dict:
     from bimrobot.bim.selection import DEFAULT_PREBUILT
     from bimrobot.coordination.inputs import load_building
-    from bimrobot.coordination.fleet import load_fleet
-    from bimrobot.coordination.optimal import solve_optimal
+    from bimrobot.site.fleet import load_fleet
+    from bimrobot.planning.optimal import solve_optimal
     from bimrobot.sco import build_smart_model
 
     frame, fleet = item.split(":")

@@ -25,7 +25,7 @@ GRID = 20
 
 def synthetic_schedule(smart):
     """Transport, position and one assemble per connection node for every component to build (chained)."""
-    from bimrobot.lbd.schedule import PREDEFINED_TYPE, Activity, Schedule
+    from bimrobot.schedule.csv import PREDEFINED_TYPE, Activity, Schedule
 
     activities, clock = [], 0.0
     for component in smart.components.values():
@@ -73,7 +73,7 @@ def main() -> int:
     parser.add_argument("--floors", type=int, nargs="+", default=[1, 4, 9])
     parser.add_argument("--repeat", type=int, default=3)
     args = parser.parse_args()
-    from bimrobot.lbd.schedule import load_schedule_csv, write_schedule_csv
+    from bimrobot.schedule.csv import load_schedule_csv, write_schedule_csv
     from bimrobot.rcan.plans import plan_from_schedule
 
     rows = []

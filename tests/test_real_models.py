@@ -99,8 +99,8 @@ def test_the_building_is_built_and_converted(pipeline):
 def test_the_package_is_valid_and_names_nothing_generic(pipeline):
     """convert's package (default options) says what it wrote, passes bimrobot's own checks, and gives
     no world, model or map a tool-default name ("Undefined", "Default", "Topography : Surface")."""
-    from bimrobot.world.check import problems
-    from bimrobot.world.package import GENERIC_SITE_NAMES
+    from bimrobot.export.gazebo.check import problems
+    from bimrobot.export.gazebo.package import GENERIC_SITE_NAMES
 
     out = pipeline["work"] / "pkg"
     report = json.loads((out / "report.json").read_text())
@@ -118,8 +118,8 @@ def test_the_package_is_valid_and_names_nothing_generic(pipeline):
 @pytest.mark.sdf
 def test_the_package_passes_the_sdformat_validator(pipeline):
     """The world and every distinct model of the package through `ign sdf -k` (SDF 1.6 is checked on the
-    synthetic frame in tests/world)."""
-    from bimrobot.world.check import sdf_validator, validate_world
+    synthetic frame in tests/export)."""
+    from bimrobot.export.gazebo.check import sdf_validator, validate_world
 
     if sdf_validator() is None:
         pytest.skip("`ign sdf` is not installed (ignition-tools)")

@@ -9,7 +9,7 @@ fi
 "$BIMROBOT" convert "$FRAME" -o "$PKG" --target both --no-progress --validate
 "$VENV/bin/python" -c "
 import sys
-from bimrobot.world.render import render_package
+from bimrobot.export.gazebo.render import render_package
 render_package(sys.argv[1], sys.argv[2], title='frame_pkg: the converted steel frame')
 " "$PKG" "$DEMO_OUT/frame_world.png"
 echo "world: the Gazebo package is in $PKG/ (worlds/, models/<GlobalId>/, launch/, maps/, report.json, README.md);"

@@ -20,17 +20,17 @@ import threading
 import weakref
 
 from bimrobot import __version__
-from bimrobot.errors import BimrobotError
+from bimrobot.core.errors import BimrobotError
 
 COMMANDS = {
     "example": ("bimrobot.bim.cli", "write a built-in example building (IFC4, metres)"),
     "inspect": ("bimrobot.bim.cli", "summarise what an IFC model holds"),
     "split": ("bimrobot.bim.cli", "write one IFC file per assembly or building element"),
-    "convert": ("bimrobot.world.cli", "convert an IFC model into a Gazebo package (worlds, models, launch files, maps)"),
+    "convert": ("bimrobot.export.cli", "convert an IFC model into a Gazebo package (worlds, models, launch files, maps)"),
     "simulate": ("bimrobot.coordination.cli",
                  "market-based multi-robot construction simulation of a building (thesis ch. 4)"),
     "allocators": ("bimrobot.coordination.cli", "compare the market with greedy, random and optimal (CP-SAT) allocation"),
-    "fleet": ("bimrobot.coordination.fleet_cli", "list the built-in fleets; convert an older fleet file"),
+    "fleet": ("bimrobot.site.fleet_cli", "list the built-in fleets; convert an older fleet file"),
     "graph": ("bimrobot.lbd.cli",
               "build the construction knowledge graph (BOT + DiCon + schedule + states) of an IFC model"),
     "query": ("bimrobot.lbd.cli", "run a SPARQL query on a construction graph"),
@@ -248,7 +248,7 @@ def main(argv: list[str] | None = None) -> int:
 
     From its first line, SIGTERM and SIGHUP stop it as Ctrl-C does (:class:`Stopped`), and the
     command's temporary files live in a folder of its own that is removed however it ends
-    (:func:`bimrobot.cores.private_temp_folder`)."""
+    (:func:`bimrobot.core.cores.private_temp_folder`)."""
     command = None
     argv = sys.argv[1:] if argv is None else argv
     try:
@@ -262,7 +262,7 @@ def main(argv: list[str] | None = None) -> int:
                 return 1
             import logging
 
-            from bimrobot.cores import private_temp_folder
+            from bimrobot.core.cores import private_temp_folder
 
             logging.basicConfig(
                 level=[logging.WARNING, logging.INFO, logging.DEBUG][min(args.verbose, 2)],

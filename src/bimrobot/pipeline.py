@@ -1,7 +1,7 @@
 """``bimrobot build``: the main job in one command, from an IFC model to a robot-built structure.
 
 Stages, each one existing sub-command's function called in this process on the output of the stage before,
-into one output folder (written atomically and resumable, :func:`bimrobot.io.resumable_output_dir`):
+into one output folder (written atomically and resumable, :func:`bimrobot.core.io.resumable_output_dir`):
 
 ========== ============================================================== ===========================
 stage      what                                                           sub-command
@@ -45,7 +45,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
-from bimrobot.errors import InputError
+from bimrobot.core.errors import InputError
 
 BUILD_EXAMPLES = """examples:
   bimrobot build frame.ifc -o out/                                  # fleet2 on the thesis' site (fig. 4.11)
@@ -104,7 +104,7 @@ def _simulate(sub_args: argparse.Namespace, shared: BuildModel) -> int:
 
 
 def _convert(sub_args: argparse.Namespace, shared: BuildModel) -> int:
-    from bimrobot.world.cli import convert_command
+    from bimrobot.export.cli import convert_command
 
     return convert_command(sub_args, shared.model())
 
@@ -156,7 +156,7 @@ def _weights(args) -> list[str]:
 
 def _package_name(args) -> str:
     """The ROS package name of the world: from the output folder's name, as `convert` would."""
-    from bimrobot.world.names import ros_package_name
+    from bimrobot.core.names import ros_package_name
 
     return ros_package_name(args.output.resolve().name)
 
@@ -246,7 +246,7 @@ def _work_schedule(args, folder: Path) -> list[str]:
 
 def _check_schedule_out(args) -> None:
     """``build --schedule-out``: a file name (.xml or .p6.xml) written into the output folder."""
-    from bimrobot.bim.work_schedule import schedule_export_kind
+    from bimrobot.schedule.ifc import schedule_export_kind
 
     if args.schedule_out is None:
         return
@@ -313,7 +313,7 @@ def _non_negative(text: str) -> float:
 
 
 def _inputs(args) -> list[Path]:
-    from bimrobot.coordination.fleet import BUILTIN_FLEETS
+    from bimrobot.site.fleet import BUILTIN_FLEETS
 
     files = [args.model]
     if str(args.fleet) not in BUILTIN_FLEETS:
@@ -325,7 +325,7 @@ def _inputs(args) -> list[Path]:
 
 def _fingerprint(args) -> dict:
     """What makes two builds the same: the options and the inputs' contents (SHA-256)."""
-    from bimrobot.io import file_digest as digest
+    from bimrobot.core.io import file_digest as digest
 
     options = {key: str(getattr(args, key)) for key in
                ("fleet", "site", "prebuilt", "by_element", "include", "exclude", "unknown_weight_text", "start",
@@ -341,7 +341,7 @@ def _check_inputs(args) -> BuildModel:
     minutes the stages take). A fleet that cannot build the model is refused by the first stage.
     Returns the build's model: the one parse of the file, which the stages' BuildingModel is read from."""
     from bimrobot.bim.selection import check_selection
-    from bimrobot.coordination.fleet import load_fleet, load_site
+    from bimrobot.site.fleet import load_fleet, load_site
 
     if not args.model.is_file():
         raise InputError(f"model file {str(args.model)!r} does not exist")
@@ -360,7 +360,7 @@ def _check_inputs(args) -> BuildModel:
 def _run_stage(stage: Stage, args, folder: Path, shared: BuildModel) -> int:
     """Run one stage's sub-command function in this process on the build's model; its exit code
     (InputError propagates)."""
-    from bimrobot import io
+    from bimrobot.core import io
     from bimrobot.cli import parser_for
 
     argv = stage.argv(args, folder)
@@ -394,7 +394,7 @@ class _Renaming:
 
 def build_command(args: argparse.Namespace) -> int:
     """``bimrobot build``: run the stages into one resumable output folder; 1 when RCAN escalated work."""
-    from bimrobot import io
+    from bimrobot.core import io
 
     args.unknown_weight_text = _unknown_weight_text(args)
     shared = _check_inputs(args)
@@ -468,7 +468,7 @@ def _work_schedule_row(args) -> str:
            "on the site's IfcWorkCalendar, IfcRelSequence, outputs on the parts with a body | Bonsai's 4D sequencing; "
            "ifcopenshell |\n")
     if args.schedule_out:
-        from bimrobot.bim.work_schedule import SCHEDULE_EXPORTS
+        from bimrobot.schedule.ifc import SCHEDULE_EXPORTS
 
         kind = SCHEDULE_EXPORTS[".p6.xml" if str(args.schedule_out).lower().endswith(".p6.xml") else ".xml"]
         program = "Primavera P6 (Import, P6 XML)" if kind.startswith("Primavera") else "Microsoft Project"
@@ -488,7 +488,7 @@ def _trajectory_row(folder: Path) -> str:
 def readme(args, folder: Path, done: dict, figures: str = "") -> str:
     """out/README.md: the build's key figures (``figures``, Markdown from :func:`_build_report`), then
     what each file is and how to open it."""
-    from bimrobot import io
+    from bimrobot.core import io
 
     seconds = ", ".join(f"{name} {info['seconds']:.1f} s" for name, info in done.items() if "seconds" in info)
     return f"""<!-- {io.signature("build README")} -->

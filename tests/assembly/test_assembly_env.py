@@ -8,7 +8,7 @@ from gymnasium.utils.env_checker import check_env
 
 import bimrobot.assembly as assembly
 from bimrobot.assembly.env import CURRENT, FREE_TARGET, OBSTACLE, PLACED, WAITING, AssemblyEnv
-from bimrobot.errors import InputError
+from bimrobot.core.errors import InputError
 
 UP, DOWN = 4, 5
 X_MINUS, Y_MINUS, X_PLUS, Y_PLUS = 0, 1, 2, 3

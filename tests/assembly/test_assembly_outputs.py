@@ -10,7 +10,7 @@ import pytest
 
 from bimrobot.assembly.scenario import SETTINGS_DIR
 from bimrobot.cli import main
-from bimrobot.io import has_signature
+from bimrobot.core.io import has_signature
 from output_checks import snapshot
 
 

@@ -17,7 +17,7 @@ from bimrobot.assembly.scenario import (
     parse_scenario,
     setting_time_limit,
 )
-from bimrobot.errors import InputError
+from bimrobot.core.errors import InputError
 
 
 def e2s2_data() -> dict:

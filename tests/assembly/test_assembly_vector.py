@@ -12,7 +12,7 @@ import bimrobot.assembly.vector as vector
 from bimrobot.assembly.env import AssemblyEnv
 from bimrobot.assembly.planner import plan
 from bimrobot.assembly.vector import AssemblySB3VecEnv, AssemblyVectorEnv, BatchedAssemblySim
-from bimrobot.errors import InputError
+from bimrobot.core.errors import InputError
 
 INVERSE = {0: 2, 1: 3, 2: 0, 3: 1, 4: 5, 5: 4}
 

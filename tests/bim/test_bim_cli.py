@@ -102,7 +102,7 @@ def test_inspect_reads_an_ifczip(shared_ifc, capsys):
 
 
 def test_example_writes_a_file_it_recognises_and_replaces_only_that(tmp_path, capsys, monkeypatch):
-    from bimrobot import io
+    from bimrobot.core import io
 
     monkeypatch.chdir(tmp_path)
     assert main(["example", "steel-frame", "-o", "frame.ifc"]) == 0

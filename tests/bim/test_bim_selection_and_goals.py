@@ -13,7 +13,7 @@ from bimrobot.bim import reader
 from bimrobot.bim.selection import (
     DEFAULT_PREBUILT, NOT_ASSEMBLED, add_prebuilt_option, add_selection_options, check_selection, exclusion,
 )
-from bimrobot.errors import InputError
+from bimrobot.core.errors import InputError
 
 
 def _parser() -> argparse.ArgumentParser:

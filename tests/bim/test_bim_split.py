@@ -14,8 +14,8 @@ import ifcopenshell.validate
 
 from bimrobot.bim import load_model
 from bimrobot.bim.split import split_model
-from bimrobot.errors import InputError
-from bimrobot.world.names import safe_name
+from bimrobot.core.errors import InputError
+from bimrobot.core.names import safe_name
 from output_checks import snapshot
 from shared_data import shared_file
 

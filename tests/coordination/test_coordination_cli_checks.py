@@ -20,7 +20,7 @@ def project(tmp_path, steel_frame_ifc) -> Path:
     (folder / "frame.ifc").write_bytes(steel_frame_ifc.read_bytes())
     (folder / "notes.txt").write_text("site visit on Monday\n")
     (folder / "results" / "budget.xlsx").write_bytes(b"PK\x03\x04 not really a spreadsheet")
-    (folder / "fleet.yaml").write_text((REPO_ROOT / "src/bimrobot/coordination/fleets/fleet2.yaml").read_text())
+    (folder / "fleet.yaml").write_text((REPO_ROOT / "src/bimrobot/site/fleets/fleet2.yaml").read_text())
     return folder
 
 
@@ -63,7 +63,7 @@ def test_a_folder_bimrobot_wrote_is_replaced_and_the_schedule_still_loads(projec
     assert summary["fleet"] == "fleet1" and summary["generator"].startswith("written by bimrobot")
     rows = load_schedule_csv(project / "sim" / "schedule.csv")
     assert rows and {r["Activity"] for r in rows} == {"transport", "position", "assemble"}
-    lbd_schedule = pytest.importorskip("bimrobot.lbd.schedule")
+    lbd_schedule = pytest.importorskip("bimrobot.schedule.csv")
     from bimrobot.bim import load_model
 
     assert len(lbd_schedule.load_schedule_csv(project / "sim" / "schedule.csv", load_model(project / "frame.ifc")).activities) == len(rows)

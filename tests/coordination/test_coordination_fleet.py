@@ -5,9 +5,9 @@ import dataclasses
 import numpy as np
 import pytest
 
-from bimrobot.coordination.fleet import RobotSpec, default_site, load_fleet, load_site
+from bimrobot.site.fleet import RobotSpec, default_site, load_fleet, load_site
 from bimrobot.coordination.market import BidProposal, TaskRequest, incapability, make_evaluator, propose
-from bimrobot.errors import InputError
+from bimrobot.core.errors import InputError
 
 
 def test_builtin_fleets_are_table_4_1():
@@ -196,7 +196,7 @@ robots:
 def test_a_version_1_fleet_reads_as_the_same_robots_with_one_warning(tmp_path, caplog):
     path = tmp_path / "old.yaml"
     path.write_text(V1_FLEET2)
-    with caplog.at_level("WARNING", logger="bimrobot.coordination.fleet"):
+    with caplog.at_level("WARNING", logger="bimrobot.site.fleet"):
         old = load_fleet(path)
     assert old.robots == load_fleet("fleet2").robots  # every number the same, so every makespan
     [warning] = [r.getMessage() for r in caplog.records]
@@ -225,9 +225,9 @@ def test_version_2_fleet_files_are_validated_naming_the_key(tmp_path, robot, mes
 
 def test_one_robot_type_for_simulate_and_rcan(tmp_path, caplog):
     """RCAN's robots are the fleet's robots: the built-in rcan-robots, a fleet and an older RCAN capability
-    table all read as bimrobot.coordination.fleet.RobotSpec, with RCAN's views derived from it."""
+    table all read as bimrobot.site.fleet.RobotSpec, with RCAN's views derived from it."""
     import bimrobot.rcan.generation as generation
-    from bimrobot.coordination.fleet import RobotSpec
+    from bimrobot.site.fleet import RobotSpec
     from bimrobot.rcan.activities import ActivityKind as K
     from bimrobot.rcan.generation import load_capabilities
 
@@ -242,7 +242,7 @@ def test_one_robot_type_for_simulate_and_rcan(tmp_path, caplog):
     table = tmp_path / "capabilities.yaml"
     table.write_text("robot_types:\n  base: {activities: [move_to_component, transport]}\n"
                      "robots:\n  cart: {types: [base], payload_kg: 50, speed_m_s: 0.4, home: [1, 2, 0]}\n")
-    with caplog.at_level("WARNING", logger="bimrobot.coordination.fleet"):
+    with caplog.at_level("WARNING", logger="bimrobot.site.fleet"):
         cart = load_capabilities(table, model_offset=(100.0, 100.0)).by_name["cart"]
     assert "RCAN capability table" in caplog.text and "payload_kg -> carry_kg" in caplog.text
     assert cart.home_m == (1.0, 2.0, 0.0)  # a capability table's homes are in the model frame already

@@ -2,9 +2,9 @@
 
 import pytest
 
-from bimrobot.coordination.fleet import load_fleet
+from bimrobot.site.fleet import load_fleet
 from bimrobot.coordination.simulation import simulate
-from bimrobot.errors import InputError
+from bimrobot.core.errors import InputError
 from bimrobot.sco import State, build_smart_model
 
 LONG_PLATFORM_FLEET = """\
@@ -72,7 +72,7 @@ def test_ifc_unit_needs_longer_platforms_than_table_4_1(ifc_unit_model, tmp_path
 
 def test_lbd_importer_accepts_our_schedule(steel_frame_model, tmp_path):
     """The schedule CSV is the contract with the lbd/rcan parts: their validated importer must take it."""
-    lbd_schedule = pytest.importorskip("bimrobot.lbd.schedule")
+    lbd_schedule = pytest.importorskip("bimrobot.schedule.csv")
     from bimrobot.coordination.schedule import write_schedule_csv
 
     smart = build_smart_model(steel_frame_model)

@@ -1,19 +1,19 @@
-"""The CP-SAT schedule (bimrobot.coordination.optimal) at scale: deterministic limits, never longer than the
+"""The CP-SAT schedule (bimrobot.planning.optimal) at scale: deterministic limits, never longer than the
 market it starts from, a lower bound and its gap, and floor-by-floor solving for large builds."""
 
 import pytest
 
 from bimrobot.bim.selection import DEFAULT_PREBUILT
-from bimrobot.coordination.fleet import load_fleet
+from bimrobot.site.fleet import load_fleet
 from bimrobot.coordination.generate import generated_frame
 from bimrobot.coordination.market import handling_time
 from bimrobot.coordination.simulation import ConstructionSimulation, simulate
-from bimrobot.errors import InputError
+from bimrobot.core.errors import InputError
 from bimrobot.sco import build_smart_model
 
 pytest.importorskip("ortools")
 
-from bimrobot.coordination.optimal import solve_optimal, task_graph  # noqa: E402
+from bimrobot.planning.optimal import solve_optimal, task_graph  # noqa: E402
 
 #: CP-SAT's deterministic time per solve (its own work units, the same on every machine), one worker
 LIMITS = dict(workers=1, deterministic_limit=0.5, time_limit_s=600.0)

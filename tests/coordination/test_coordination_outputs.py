@@ -6,11 +6,11 @@ import json
 import pytest
 
 from bimrobot.cli import main
-from bimrobot.coordination.fleet import load_fleet
+from bimrobot.site.fleet import load_fleet
 from bimrobot.coordination.generate import generated_frame
 from bimrobot.coordination.schedule import COLUMNS, load_schedule_csv, write_schedule_csv
 from bimrobot.coordination.simulation import simulate
-from bimrobot.errors import InputError
+from bimrobot.core.errors import InputError
 from bimrobot.sco import build_smart_model
 
 CONVENTION_COLUMNS = [
@@ -128,7 +128,7 @@ def test_help_shows_an_example(capsys):
 
 def test_optimal_schedule_bounds_the_market_and_matches_it_on_one_robot_chain(tmp_path, capsys):
     pytest.importorskip("ortools")
-    from bimrobot.coordination.optimal import solve_optimal
+    from bimrobot.planning.optimal import solve_optimal
 
     model = generated_frame(2, 1, 1)
     elevations = [s.elevation for s in model.storeys]

@@ -77,7 +77,7 @@ def test_the_prebuilt_workaround_builds_the_house_and_the_office(name, extra, tm
                 supporters[e["component"]] = e["supporters"]
         for gid, time in made.items():  # made exactly when the last thing it rests on was fixed
             assert time == pytest.approx(max(fixed.get(s, 0.0) for s in supporters[gid]), abs=1e-3)
-    lbd_schedule = pytest.importorskip("bimrobot.lbd.schedule")
+    lbd_schedule = pytest.importorskip("bimrobot.schedule.csv")
     from bimrobot.bim import load_model
 
     schedule = lbd_schedule.load_schedule_csv(out / "schedule.csv", load_model(SHARED_IFC / name))
@@ -100,7 +100,7 @@ def test_precast_units_are_simulated_as_units_and_by_element_on_request(tmp_path
     assert printed.startswith("118 components, 118 of them assembly units")
     rows = load_schedule_csv(tmp_path / "units" / "schedule.csv")
     assert len({r["GlobalId"] for r in rows if r["Activity"] == "transport"}) == 118  # one lift per unit
-    lbd_schedule = pytest.importorskip("bimrobot.lbd.schedule")
+    lbd_schedule = pytest.importorskip("bimrobot.schedule.csv")
     from bimrobot.bim import load_model
 
     # the rcan/graph side takes the assemblies' GlobalIds as the model's own

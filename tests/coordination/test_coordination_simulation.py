@@ -3,10 +3,10 @@
 import pytest
 
 from bimrobot.bim.model import BuildingModel, Connection, Storey
-from bimrobot.coordination.fleet import Site, load_fleet
+from bimrobot.site.fleet import Site, load_fleet
 from bimrobot.coordination.generate import box_element, generated_frame
 from bimrobot.coordination.simulation import simulate
-from bimrobot.errors import BimrobotError, InputError
+from bimrobot.core.errors import BimrobotError, InputError
 from bimrobot.sco import State, build_smart_model
 
 THESIS_SEQUENCE = [
@@ -190,7 +190,7 @@ def test_random_allocator_is_reproducible_with_its_seed():
 
 from hypothesis import given, settings, strategies as st  # noqa: E402
 
-from bimrobot.coordination.fleet import fleet_from_dict  # noqa: E402
+from bimrobot.site.fleet import fleet_from_dict  # noqa: E402
 
 
 @settings(max_examples=15, deadline=None)

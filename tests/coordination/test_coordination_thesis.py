@@ -17,7 +17,7 @@ from hypothesis import strategies as st
 from bimrobot.bim import load_model
 from bimrobot.bim.examples import steel_frame
 from bimrobot.cli import main
-from bimrobot.coordination.fleet import load_fleet
+from bimrobot.site.fleet import load_fleet
 from bimrobot.coordination.generate import generated_frame
 from bimrobot.coordination.thesis import STEP_TIME_RULES, THESIS_TABLE_4_2, simulate_thesis
 from bimrobot.sco import build_smart_model
@@ -231,7 +231,7 @@ def test_cli_per_node_flag(frame6_ifc, tmp_path, capsys):
        evaluator=st.sampled_from(["least-cost", "quickest-finish", "greedy-nearest", "random"]),
        breakdown=st.one_of(st.none(), st.floats(0.0, 3000.0)), seed=st.integers(0, 100))
 def test_event_mode_per_node_builds_any_frame_consistently(nx, ny, floors, per_kind, evaluator, breakdown, seed):
-    from bimrobot.coordination.fleet import fleet_from_dict
+    from bimrobot.site.fleet import fleet_from_dict
     from bimrobot.coordination.simulation import simulate
 
     robots = []

@@ -1,4 +1,4 @@
-"""The output policy (bimrobot.io): what is refused, what is replaced, and that failures leave nothing."""
+"""The output policy (bimrobot.core.io): what is refused, what is replaced, and that failures leave nothing."""
 
 import hashlib
 import json
@@ -8,8 +8,8 @@ from pathlib import Path
 
 import pytest
 
-from bimrobot.errors import InputError
-from bimrobot.io import MARKER, atomic_output_dir, atomic_output_file, check_output, signature
+from bimrobot.core.errors import InputError
+from bimrobot.core.io import MARKER, atomic_output_dir, atomic_output_file, check_output, signature
 from output_checks import snapshot
 
 

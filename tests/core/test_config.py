@@ -4,9 +4,9 @@ from pathlib import Path
 
 import pytest
 
-from bimrobot.config import line_of, parse_yaml
-from bimrobot.errors import InputError
-from bimrobot.schema import At, Quantity
+from bimrobot.core.config import line_of, parse_yaml
+from bimrobot.core.errors import InputError
+from bimrobot.core.schema import At, Quantity
 
 
 @pytest.mark.parametrize(
@@ -36,7 +36,7 @@ def test_mappings_know_their_lines_and_quantities_check_their_ranges():
 def test_every_declared_robot_range_is_the_range_a_fleet_file_is_held_to():
     """RANGES is read from RobotSpec's declarations: a value at each bound loads, one just beyond is
     refused naming the key, its line, the bound and the unit."""
-    from bimrobot.coordination.fleet import RANGES, fleet_from_dict
+    from bimrobot.site.fleet import RANGES, fleet_from_dict
 
     assert RANGES["speed_m_s"] == (0.01, 50.0, "m/s") and RANGES["carry_kg"] == (1.0, 1e6, "kg")
     robot = {"speed_m_s": 1, "carry_kg": 5, "lift_kg": 5, "reach_m": 1, "time_per_node_s": 5, "time_per_point_s": 5}
@@ -132,7 +132,7 @@ def test_a_malformed_file_of_each_kind_is_one_sentence_with_file_and_line(tmp_pa
 
 
 def test_libyamls_parser_reads_what_the_pure_python_one_reads_with_the_same_lines():
-    from bimrobot.config import LOADER, PURE_PYTHON_LOADER
+    from bimrobot.core.config import LOADER, PURE_PYTHON_LOADER
 
     text = ("base: &base {speed: 1.5, reach: 1e-3}\nrobots:\n  - name: r1\n    <<: *base\n    home: [0, 2]\n"
             "  - *base\nflags: [yes, no, ~, 2026-11-23]\n")

@@ -1,10 +1,10 @@
-"""bimrobot.cores: the heap kept out of full garbage collections while a job runs, blocks nesting."""
+"""bimrobot.core.cores: the heap kept out of full garbage collections while a job runs, blocks nesting."""
 
 from __future__ import annotations
 
 import gc
 
-from bimrobot.cores import frozen_heap
+from bimrobot.core.cores import frozen_heap
 
 
 class _Node:

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from bimrobot import frames
+from bimrobot.core import frames
 
 
 def _rotations():

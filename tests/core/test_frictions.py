@@ -29,8 +29,8 @@ def test_a_missing_extra_is_named_with_its_install_command_before_any_work(tmp_p
 
 
 def test_fleet_names_forgive_case_and_suggest_the_nearest():
-    from bimrobot.coordination.fleet import load_fleet
-    from bimrobot.errors import InputError
+    from bimrobot.site.fleet import load_fleet
+    from bimrobot.core.errors import InputError
 
     assert load_fleet("Fleet2").robots == load_fleet("fleet2").robots
     with pytest.raises(InputError, match=r"did you mean 'fleet2'\?"):

@@ -109,7 +109,7 @@ def test_a_file_the_user_added_to_or_changed_in_an_output_folder_is_never_delete
     if "--store-path" in argv:
         pytest.importorskip("pyoxigraph")
         if change == "changed":
-            pytest.skip("a store's files are RocksDB's own, which a query rewrites (bimrobot.io.MANAGED_FILES)")
+            pytest.skip("a store's files are RocksDB's own, which a query rewrites (bimrobot.core.io.MANAGED_FILES)")
     monkeypatch.chdir(tmp_path)
     values = {"out": "out", "model": str(inputs["model"]), "schedule": str(inputs["schedule"])}
     command = [arg.format(**values) for arg in argv]

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from bimrobot.cli import main
-from bimrobot.site import default_site, load_site
+from bimrobot.site.site import default_site, load_site
 
 
 @pytest.fixture(scope="module")
@@ -78,7 +78,7 @@ def test_a_real_building_gets_a_site_of_its_own_and_the_frame_keeps_fig_4_11(tmp
     13 x 11 m gets a derived site whose yard and robot homes lie off its footprint."""
     from bimrobot.bim import load_model
     from bimrobot.bim.examples import steel_frame
-    from bimrobot.site import derive_site, footprint, on_the_building, site_for
+    from bimrobot.site.site import derive_site, footprint, on_the_building, site_for
 
     frame = load_model(steel_frame(tmp_path / "frame.ifc"))
     assert site_for(None, frame.elements.values()).source == default_site().source

@@ -7,7 +7,7 @@ import json
 import pytest
 
 from bimrobot.sco.states import REQUIREMENT_OF, Requirement
-from bimrobot.tasks import KIND_TASKS, TASKS, Task
+from bimrobot.core.tasks import KIND_TASKS, TASKS, Task
 
 
 def test_each_task_is_written_with_an_ifc4_task_type_of_its_own():
@@ -49,8 +49,8 @@ def test_the_simulation_and_the_schedule_file_share_one_activity_record():
     # One schedule row type: a row the simulation records is the row the CSV reader gives back, so
     # every field (aborted included) and the duration mean the same everywhere.
     from bimrobot.coordination import simulation
-    from bimrobot.lbd import schedule
-    from bimrobot.tasks import Activity
+    from bimrobot.schedule import csv as schedule
+    from bimrobot.core.tasks import Activity
 
     assert simulation.Activity is schedule.Activity is Activity
     row = Activity("A1", "Transport C1", Task.TRANSPORT, "C1", "crane", 2.0, 7.5, target=(1.0, 0.0, 3.0))

@@ -7,7 +7,7 @@ import pytest
 
 from shared_data import SHARED_ONTOLOGIES
 
-from bimrobot.lbd.schedule import ACTIVITY_TASK_TYPES, Activity, Schedule, write_schedule_csv
+from bimrobot.schedule.csv import ACTIVITY_TASK_TYPES, Activity, Schedule, write_schedule_csv
 
 
 @pytest.fixture(scope="session")

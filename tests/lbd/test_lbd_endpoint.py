@@ -13,9 +13,9 @@ from pathlib import Path
 import pytest
 
 from bimrobot.cli import main
-from bimrobot.errors import InputError
+from bimrobot.core.errors import InputError
 from bimrobot.lbd.graph import ConstructionGraph, build_graph
-from bimrobot.lbd.schedule import load_schedule_csv
+from bimrobot.schedule.csv import load_schedule_csv
 
 
 def oxigraph_binary() -> str:

@@ -10,9 +10,9 @@ import rdflib
 import rdflib.compare
 from rdflib import RDF
 
-from bimrobot.errors import InputError
+from bimrobot.core.errors import InputError
 from bimrobot.lbd.graph import BOT, BRC, DICE, DICP, VOCABULARY_FILE, ConstructionGraph, build_graph, query_names
-from bimrobot.lbd.schedule import load_schedule_csv, load_schedule_ifc
+from bimrobot.schedule.csv import load_schedule_csv, load_schedule_ifc
 from shared_data import shared_file
 
 
@@ -294,7 +294,7 @@ def test_custom_base_is_kept_when_reopened(frame_model, schedule, tmp_path):
 def test_turtle_keeps_full_double_precision(frame_model, schedule, tmp_path):
     import dataclasses
 
-    from bimrobot.lbd.schedule import Schedule
+    from bimrobot.schedule.csv import Schedule
 
     first = dataclasses.replace(schedule.activities[0], target=(123.4567891, -0.000123456789, 98765.4321))
     graph = build_graph(frame_model, Schedule([first]))
@@ -312,7 +312,7 @@ def precast_model():
 
 
 def test_precast_assemblies_are_elements_with_their_parts_as_sub_elements(precast_model, ontology_file, tmp_path):
-    from bimrobot.lbd.schedule import Activity, Schedule
+    from bimrobot.schedule.csv import Activity, Schedule
 
     model = precast_model
     assert model.assemblies, "the Tekla export groups its parts into assemblies"

@@ -11,7 +11,7 @@ from rdflib import RDF
 from bimrobot.cli import main
 from bimrobot.lbd.generation import ALLOWED_STATES, ready_activities
 from bimrobot.lbd.graph import BRC, build_graph
-from bimrobot.lbd.schedule import load_schedule_csv
+from bimrobot.schedule.csv import load_schedule_csv
 from bimrobot.sco import build_smart_model
 from shared_data import SHARED_IFC
 
@@ -96,7 +96,7 @@ def test_prefab_inferred_joints_answer_connected_elements(tmp_path, capsys):
 def test_progress_bar_only_on_a_terminal(monkeypatch):
     import io as stdio
 
-    from bimrobot.lbd import progress
+    from bimrobot.core import progress
 
     class Terminal(stdio.StringIO):
         def isatty(self):

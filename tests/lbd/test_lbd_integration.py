@@ -7,7 +7,7 @@ import pytest
 
 from bimrobot.cli import main
 from bimrobot.lbd.graph import COMPONENT_STATES, build_graph
-from bimrobot.lbd.schedule import load_schedule_csv
+from bimrobot.schedule.csv import load_schedule_csv
 
 
 def test_component_states_are_the_sco_state_machine_names():

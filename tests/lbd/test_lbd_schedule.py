@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import pytest
 
-from bimrobot.errors import InputError
-from bimrobot.lbd.schedule import load_schedule_csv, load_schedule_ifc, write_schedule_csv
+from bimrobot.core.errors import InputError
+from bimrobot.schedule.csv import load_schedule_csv, load_schedule_ifc, write_schedule_csv
 from shared_data import shared_file
 
 HEADER = "Identification,Name,PredefinedType,Activity,GlobalId,Robot,Start,Finish,Duration,Predecessors,TargetX,TargetY,TargetZ,Storey\n"
@@ -219,7 +219,7 @@ def test_an_id_with_a_control_character_or_a_space_is_refused_in_one_sentence(tm
 
 
 def test_the_writer_refuses_what_the_reader_would_refuse_and_quotes_free_text(tmp_path):
-    from bimrobot.lbd.schedule import Activity
+    from bimrobot.schedule.csv import Activity
 
     def activity(**changes) -> Activity:
         fields = dict(id="A1", name="Lift, then\r\nturn \"slowly\"", activity="transport", global_id="COL",

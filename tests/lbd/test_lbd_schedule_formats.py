@@ -8,9 +8,9 @@ from pathlib import Path
 import pytest
 
 from bimrobot.cli import main
-from bimrobot.errors import InputError
-from bimrobot.lbd.msproject import load_schedule_msproject
-from bimrobot.lbd.schedule import Activity, Schedule, load_schedule, load_schedule_csv
+from bimrobot.core.errors import InputError
+from bimrobot.schedule.msproject import load_schedule_msproject
+from bimrobot.schedule.csv import Activity, Schedule, load_schedule, load_schedule_csv
 from shared_data import SHARED, SHARED_IFC
 
 PLANNING = SHARED / "data" / "schedules" / "schependomlaan-planning.xml"
@@ -103,8 +103,8 @@ def test_simulated_schedule_is_written_as_an_ifc_work_schedule(frame_ifc, frame_
     import ifcopenshell
     import ifcopenshell.util.sequence as sequence
 
-    from bimrobot import io
-    from bimrobot.bim.work_schedule import read_work_schedule, write_work_schedule
+    from bimrobot.core import io
+    from bimrobot.schedule.ifc import read_work_schedule, write_work_schedule
 
     out = write_work_schedule(frame_ifc, schedule, tmp_path / "frame-4d.ifc", epoch="2026-03-02T08:00:00")
     ifc = ifcopenshell.open(str(out))
@@ -127,7 +127,7 @@ def test_simulated_schedule_is_written_as_an_ifc_work_schedule(frame_ifc, frame_
 
 
 def test_work_schedule_output_policy_and_ifc2x3(frame_ifc, schedule, tmp_path, capsys):
-    from bimrobot.bim.work_schedule import write_work_schedule
+    from bimrobot.schedule.ifc import write_work_schedule
 
     foreign = tmp_path / "mine.ifc"
     foreign.write_text("not bimrobot's")
@@ -168,7 +168,7 @@ def test_graph_cli_writes_the_scheduled_ifc(frame_ifc, frame_schedule_csv, tmp_p
 
 def test_coordination_writes_and_reads_through_the_one_schedule_module(tmp_path, schedule):
     from bimrobot.coordination import schedule as coordination
-    from bimrobot.lbd import schedule as lbd
+    from bimrobot.schedule import csv as lbd
 
     assert coordination.COLUMNS is lbd.COLUMNS and coordination.is_schedule_csv is lbd.is_schedule_csv
     path = lbd.write_schedule_csv(schedule, tmp_path / "s.csv")

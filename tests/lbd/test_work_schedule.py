@@ -15,9 +15,9 @@ from pathlib import Path
 
 import pytest
 
-from bimrobot.bim.work_schedule import WorkCalendar, working_datetime, working_days
+from bimrobot.schedule.ifc import WorkCalendar, working_datetime, working_days
 from bimrobot.cli import main
-from bimrobot.lbd.schedule import Activity, Schedule, load_schedule_csv
+from bimrobot.schedule.csv import Activity, Schedule, load_schedule_csv
 
 FRIDAY_LATE = "2026-03-06T15:50:00"  # the frame's 19 minutes of work run over the weekend
 MSP = {"p": "http://schemas.microsoft.com/project"}
@@ -117,7 +117,7 @@ def test_precast_units_are_summary_tasks_whose_activities_output_the_parts(share
     import ifcopenshell.util.element
     import ifcopenshell.util.sequence as sequence
 
-    from bimrobot.bim.work_schedule import read_work_schedule, write_work_schedule
+    from bimrobot.schedule.ifc import read_work_schedule, write_work_schedule
 
     source = shared_ifc("MULTICOM-trappen_bordessen.ifc")
     original = ifcopenshell.open(str(source))
@@ -158,7 +158,7 @@ def test_a_schedule_read_in_calendar_time_keeps_its_dates(frame_ifc, frame_model
     not laid onto working hours again; the duration is the working time between them."""
     import ifcopenshell
 
-    from bimrobot.bim.work_schedule import write_work_schedule
+    from bimrobot.schedule.ifc import write_work_schedule
 
     column = frame_model.by_class("IfcColumn")[0].global_id
     night = Schedule([Activity("T1", "Erect", "position", column, None, 0.0, 24 * 3600.0)], epoch="2026-03-02T08:00:00")
@@ -173,7 +173,7 @@ def test_ms_project_export_reads_back_with_ifc4d(frame_4d, frame_model, frame_sc
     import ifcopenshell
     from ifc4d.msp2ifc import MSP2Ifc
 
-    from bimrobot import io
+    from bimrobot.core import io
 
     folder, printed = frame_4d
     assert "plan.xml: Microsoft Project XML of the same 30 tasks (ifc4d)" in printed

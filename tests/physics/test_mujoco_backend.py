@@ -151,10 +151,10 @@ def frame_starts(tmp_path_factory):
     component*, both ready at 0 s."""
     from bimrobot.bim import load_model
     from bimrobot.bim.examples import steel_frame
-    from bimrobot.coordination.fleet import load_fleet
+    from bimrobot.site.fleet import load_fleet
     from bimrobot.coordination.schedule import write_schedule_csv
     from bimrobot.coordination.simulation import simulate
-    from bimrobot.lbd.schedule import load_schedule_csv
+    from bimrobot.schedule.csv import load_schedule_csv
     from bimrobot.rcan.plans import plan_from_schedule
     from bimrobot.sco import build_smart_model
 

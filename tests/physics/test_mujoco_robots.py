@@ -11,7 +11,7 @@ pytest.importorskip("mujoco")
 pytest.importorskip("mink")
 pytest.importorskip("pyastar2d")
 
-from bimrobot.errors import InputError  # noqa: E402
+from bimrobot.core.errors import InputError  # noqa: E402
 from bimrobot.physics.site import Blocked, MotionFailed  # noqa: E402
 from bimrobot.rcan.activities import ActivityKind, Pose, RcanActivity  # noqa: E402
 from bimrobot.rcan.backends import create_backend  # noqa: E402
@@ -541,7 +541,7 @@ def test_a_transport_tried_again_after_its_component_was_set_down_finds_it_there
 
 
 def test_the_middle_column_of_a_yard_row_is_picked_from_further_out_and_carried(tmp_path):
-    """The yard lays components 0.5 m apart (`bimrobot.world.layout.yard_poses`; here 0.6 m): no 0.8 m
+    """The yard lays components 0.5 m apart (`bimrobot.export.gazebo.layout.yard_poses`; here 0.6 m): no 0.8 m
     wide base fits between two 4 m columns, and every stand at the arm's working distance from the middle one's
     centre lay on it or on its neighbours ("every stand around it is blocked": on the frame a beam's
     chain escalated so). Its reach checked, the robot now stands further out, beyond a neighbour or

@@ -6,9 +6,9 @@ import pytest
 mujoco = pytest.importorskip("mujoco")
 
 from bimrobot.bim.model import Element, WeightSource  # noqa: E402
-from bimrobot.physics.collision import collision_pieces  # noqa: E402
-from bimrobot.world.package import ConvertOptions, build_package  # noqa: E402
-from bimrobot.world.physics import Body  # noqa: E402
+from bimrobot.export.mujoco.collision import collision_pieces  # noqa: E402
+from bimrobot.export.gazebo.package import ConvertOptions, build_package  # noqa: E402
+from bimrobot.export.inertia import Body  # noqa: E402
 
 from mujoco_helpers import world_fixtures  # noqa: E402
 

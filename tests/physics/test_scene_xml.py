@@ -7,7 +7,7 @@ import pytest
 
 mujoco = pytest.importorskip("mujoco")
 
-from bimrobot.world.package import ConvertOptions, build_package  # noqa: E402
+from bimrobot.export.gazebo.package import ConvertOptions, build_package  # noqa: E402
 
 from mujoco_helpers import world_fixtures  # noqa: E402
 

@@ -89,7 +89,7 @@ def test_build_reads_the_ifc_once_and_says_so(frame, built):
 def test_a_stage_run_as_its_sub_command_writes_what_the_build_wrote(frame, built, tmp_path):
     """The stages are the sub-commands' own functions: `simulate` and `convert --layout yard` run alone
     (each reading the file itself) give the build's schedule and the build's package components."""
-    from bimrobot.world.names import ros_package_name
+    from bimrobot.core.names import ros_package_name
 
     assert main(["simulate", str(frame), "--fleet", "fleet2", "-o", str(tmp_path / "sim"), "--no-progress"]) == 0
     assert (tmp_path / "sim" / "schedule.csv").read_text() == (built / "simulation" / "schedule.csv").read_text()

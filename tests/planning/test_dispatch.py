@@ -11,7 +11,7 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 from bimrobot.coordination.simulation import simulate
-from bimrobot.errors import BimrobotError, InputError
+from bimrobot.core.errors import BimrobotError, InputError
 from bimrobot.planning.dispatch import ENV_ID, NODE_FEATURES, DispatchEnv, MarketPolicy, frame_problem, play, task_key
 from bimrobot.sco.states import State
 

@@ -9,7 +9,7 @@ from bimrobot.bim import load_model
 from bimrobot.bim.examples import CONCRETE_DENSITY, HOLLOW_CORE_KG_PER_M2, PRECAST_COLUMN
 from bimrobot.cli import main
 from bimrobot.coordination.simulation import simulate
-from bimrobot.errors import InputError
+from bimrobot.core.errors import InputError
 from bimrobot.planning.generator import draw_fleet, draw_layout, generate, grid_for, is_generated, parse_spec
 from bimrobot.sco import build_smart_model
 
@@ -129,7 +129,7 @@ def test_plan_generate_writes_building_fleet_and_site(tmp_path, capsys):
                  str(out / "site.yaml"), "--per-joint", "--no-gantt", "--no-progress", "-o", str(tmp_path / "sim")]) == 0
     spec = parse_spec(info["spec"])
     fleet = draw_fleet(spec, draw_layout(spec))
-    from bimrobot.coordination.fleet import load_fleet
+    from bimrobot.site.fleet import load_fleet
 
     assert load_fleet(out / "fleet.yaml").robots == fleet.robots  # the seed's fleet, read back as written
     capsys.readouterr()

@@ -7,7 +7,7 @@ import pytest
 import torch as th
 
 from bimrobot.coordination.simulation import simulate
-from bimrobot.errors import InputError
+from bimrobot.core.errors import InputError
 from bimrobot.planning.dispatch import frame_problem, play
 from bimrobot.planning.learned import (
     LearnedPlanner, LearnedPolicy, env_for, imitate, imitation_accuracy, load_policy,

@@ -7,12 +7,12 @@ import pytest
 
 from bimrobot.cli import main
 from bimrobot.coordination.market import incapability
-from bimrobot.coordination.optimal import task_graph
+from bimrobot.planning.optimal import task_graph
 from bimrobot.coordination.simulation import ConstructionSimulation, simulate
-from bimrobot.errors import InputError
+from bimrobot.core.errors import InputError
 from bimrobot.planning.dispatch import frame_problem
 from bimrobot.planning.planners import PLANNERS, RuleDispatcher, _request_key, _scores, plan, planner_for
-from bimrobot.tasks import Task
+from bimrobot.core.tasks import Task
 
 #: CP-SAT in tests: one worker and CP-SAT's deterministic time, so every machine finds the same plan
 CPSAT = {"deterministic_s": 0.5, "time_limit_s": 600.0, "workers": 1}

@@ -9,12 +9,12 @@ from bimrobot.bim.examples import steel_frame
 from bimrobot.bim.selection import DEFAULT_PREBUILT
 from bimrobot.cli import main
 from bimrobot.coordination.inputs import load_building
-from bimrobot.coordination.fleet import load_fleet
+from bimrobot.site.fleet import load_fleet
 from bimrobot.coordination.simulation import simulate
-from bimrobot.errors import InputError
+from bimrobot.core.errors import InputError
 from bimrobot.planning.problem import build_instance, dumps, load_instance
 from bimrobot.sco import build_smart_model
-from bimrobot.site import site_for
+from bimrobot.site.site import site_for
 
 
 @pytest.fixture(scope="module")
@@ -52,7 +52,7 @@ def _predecessors(instance) -> dict[str, dict[str, str]]:
 def test_one_gate_per_floor_says_what_every_lower_joint_said(frame):
     """Version 2: the frame's transports of floor 2 wait for the one gate of floor 1, which waits for every
     joint assembly of floor 1: the same order as task_graph's full list, in far fewer edges."""
-    from bimrobot.coordination.optimal import task_graph
+    from bimrobot.planning.optimal import task_graph
     from bimrobot.coordination.simulation import ConstructionSimulation
 
     _, smart, fleet, site, elevations = frame

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from bimrobot.lbd.schedule import Activity, write_schedule_csv
+from bimrobot.schedule.csv import Activity, write_schedule_csv
 from bimrobot.rcan.generation import parse_capabilities
 
 TABLE_5_2 = {

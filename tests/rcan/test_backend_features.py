@@ -11,7 +11,7 @@ from __future__ import annotations
 import pytest
 
 from bimrobot.cli import main
-from bimrobot.errors import InputError
+from bimrobot.core.errors import InputError
 from bimrobot.rcan.backends import BACKENDS, backend_class, declaration
 from bimrobot.rcan.backends import features
 from bimrobot.rcan.backends.info import BackendInfo, BackendOption

@@ -14,10 +14,10 @@ from bimrobot.rcan.system import run_plan
 @pytest.fixture(scope="module")
 def frame(tmp_path_factory, steel_frame_model):
     """(model, schedule, schedule path) of the steel frame built by fleet 2."""
-    from bimrobot.coordination.fleet import load_fleet
+    from bimrobot.site.fleet import load_fleet
     from bimrobot.coordination.schedule import write_schedule_csv
     from bimrobot.coordination.simulation import simulate
-    from bimrobot.lbd.schedule import load_schedule_csv
+    from bimrobot.schedule.csv import load_schedule_csv
     from bimrobot.sco import build_smart_model
 
     folder, model = tmp_path_factory.mktemp("frame"), steel_frame_model
@@ -87,10 +87,10 @@ def test_frame_schedule_from_the_cli_with_graph_output(frame, tmp_path, capsys):
 def test_per_node_frame_schedule_runs_to_completion_with_robots_released_after_transport(tmp_path, steel_frame_model):
     """Per connection node, a beam's positioning waits for the columns it joins; fleet 1 has one
     transport robot: the robot sets each component down at its drop-off and brings the next."""
-    from bimrobot.coordination.fleet import load_fleet
+    from bimrobot.site.fleet import load_fleet
     from bimrobot.coordination.schedule import write_schedule_csv
     from bimrobot.coordination.simulation import simulate
-    from bimrobot.lbd.schedule import load_schedule_csv
+    from bimrobot.schedule.csv import load_schedule_csv
     from bimrobot.sco import build_smart_model
 
     model = steel_frame_model
@@ -109,10 +109,10 @@ def test_prefab_per_node_schedule_does_not_stall_on_one_capable_robot(shared_ifc
     """MULTICOM-Prefab per node with the site crane: only one robot of the table carries its units."""
     from bimrobot.bim import load_model
     from bimrobot.bim.unknown_weight import UnknownWeightRule, apply_unknown_weight_rule
-    from bimrobot.coordination.fleet import load_fleet
+    from bimrobot.site.fleet import load_fleet
     from bimrobot.coordination.schedule import write_schedule_csv
     from bimrobot.coordination.simulation import simulate
-    from bimrobot.lbd.schedule import load_schedule_csv
+    from bimrobot.schedule.csv import load_schedule_csv
     from bimrobot.sco import build_smart_model
 
     model = load_model(shared_ifc("MULTICOM-Prefab.ifc"))

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from bimrobot.errors import InputError
+from bimrobot.core.errors import InputError
 from bimrobot.rcan.activities import ActivityKind as K, Pose, RcanActivity
 from bimrobot.rcan.generation import NodeGenerator, TaskAllocator, load_capabilities, parse_capabilities
 
@@ -159,7 +159,7 @@ def test_a_fleets_site_homes_are_placed_in_the_model_frame(tmp_path):
     """A fleet's homes are site positions; RCAN's goals are in the model frame: a home h is at
     h - model_offset (the model -> site translation `simulate` uses)."""
     from bimrobot.rcan.fleet import model_offset_of
-    from bimrobot.site import load_site
+    from bimrobot.site.site import load_site
 
     site_file = tmp_path / "site.yaml"
     site_file.write_text("robot_home: [[100.0, 50.0], [104.0, 50.0]]\nconstruction_area: [[0, 0], [20, 10]]\n")

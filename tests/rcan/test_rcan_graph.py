@@ -14,7 +14,7 @@ import trimesh.transformations as tf
 
 from bimrobot.cli import main
 from bimrobot.lbd.graph import ConstructionGraph
-from bimrobot.lbd.schedule import Activity, Schedule, load_schedule_csv
+from bimrobot.schedule.csv import Activity, Schedule, load_schedule_csv
 from bimrobot.rcan.activities import ActivityKind as K
 from bimrobot.rcan.plans import ComponentFacts, plan_from_graph, plan_from_schedule
 
@@ -195,7 +195,7 @@ def _graph_with_pick_up(model, schedule, gid, pick_up, folder):
     writes from a yard layout; the experiments' yard is the thesis' pick-up pose)."""
     from bimrobot.bim import load_model
     from bimrobot.lbd.graph import build_graph
-    from bimrobot.lbd.schedule import load_schedule_csv
+    from bimrobot.schedule.csv import load_schedule_csv
 
     loaded = load_model(model)
     graph = build_graph(loaded, load_schedule_csv(schedule, loaded), pick_up={gid: pick_up})

@@ -104,7 +104,7 @@ def test_a_users_sqlite_database_gets_no_table(site, capsys):
     tables = sqlite3.connect(user_db).execute("SELECT name FROM sqlite_master WHERE type='table'").fetchall()
     assert tables == [("invoices",)]
     # the library refuses it too, not only the command line
-    from bimrobot.errors import InputError
+    from bimrobot.core.errors import InputError
     from bimrobot.rcan.state_manager import StateStore
 
     with pytest.raises(InputError, match="is not a bimrobot state database"):

@@ -7,8 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from bimrobot.errors import InputError
-from bimrobot.lbd.schedule import Activity, Schedule
+from bimrobot.core.errors import InputError
+from bimrobot.schedule.csv import Activity, Schedule
 from bimrobot.rcan.activities import ActivityKind as K
 from bimrobot.rcan.generation import TaskAllocator, parse_capabilities
 from bimrobot.rcan.plans import plan_from_schedule, unknown_weight_components

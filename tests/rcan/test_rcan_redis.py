@@ -189,7 +189,7 @@ def test_a_redis_restart_mid_run_is_survived(tmp_path, persistence, schedule_csv
     import sqlite3
     import threading
 
-    from bimrobot.lbd.schedule import load_schedule_csv
+    from bimrobot.schedule.csv import load_schedule_csv
     from bimrobot.rcan.plans import plan_from_schedule
 
     from rcan_helpers import done_count

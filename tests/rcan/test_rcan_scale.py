@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import threading
 
-from bimrobot.lbd.schedule import load_schedule_csv
+from bimrobot.schedule.csv import load_schedule_csv
 from bimrobot.rcan.generation import parse_capabilities
 from bimrobot.rcan.plans import plan_from_schedule
 from bimrobot.rcan.system import run_plan

@@ -14,7 +14,7 @@ import time
 import pytest
 
 from bimrobot.cli import main
-from bimrobot.errors import InputError
+from bimrobot.core.errors import InputError
 from bimrobot.rcan.activities import ActivityKind as K, Pose, RcanActivity
 from bimrobot.rcan.backends.sim import SimBackend
 from bimrobot.rcan.generation import load_capabilities

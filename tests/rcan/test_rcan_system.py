@@ -6,8 +6,8 @@ from dataclasses import replace
 
 import pytest
 
-from bimrobot.errors import InputError
-from bimrobot.lbd.schedule import load_schedule_csv
+from bimrobot.core.errors import InputError
+from bimrobot.schedule.csv import load_schedule_csv
 from bimrobot.rcan.activities import ActivityKind as K, Pose, RcanActivity
 from bimrobot.rcan.generation import load_capabilities
 from bimrobot.rcan.plans import COLUMN_ID, FOOTING_ID, experiment, plan_from_schedule

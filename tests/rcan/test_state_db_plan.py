@@ -7,7 +7,7 @@ import sqlite3
 
 import pytest
 
-from bimrobot.errors import InputError
+from bimrobot.core.errors import InputError
 from bimrobot.rcan.generation import load_capabilities
 from bimrobot.rcan.plans import experiment
 from bimrobot.rcan.system import run_plan

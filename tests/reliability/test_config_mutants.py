@@ -32,7 +32,7 @@ hypothesis = pytest.importorskip("hypothesis")
 from hypothesis import HealthCheck, given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 
-from bimrobot.errors import InputError  # noqa: E402
+from bimrobot.core.errors import InputError  # noqa: E402
 
 from .conftest import CHAOS_LONG, tally  # noqa: E402
 
@@ -160,7 +160,7 @@ OPERATORS = ["replace", "replace", "replace", "delete", "add-key", "duplicate-it
 
 
 def _check_fleet(path: Path) -> None:
-    from bimrobot.coordination.fleet import PLATFORM_RANGE_M, RANGES, load_fleet
+    from bimrobot.site.fleet import PLATFORM_RANGE_M, RANGES, load_fleet
 
     fleet = load_fleet(path)
     for robot in fleet.robots:
@@ -173,7 +173,7 @@ def _check_fleet(path: Path) -> None:
 
 
 def _check_site(path: Path) -> None:
-    from bimrobot.site import load_site
+    from bimrobot.site.site import load_site
 
     site = load_site(path)
     for x, y in [*site.yard, *site.robot_home, *site.construction_area]:
@@ -196,7 +196,7 @@ def _check_scenario(path: Path) -> None:
 
 
 def _check_schedule(path: Path) -> None:
-    from bimrobot.lbd.schedule import load_schedule_csv, write_schedule_csv
+    from bimrobot.schedule.csv import load_schedule_csv, write_schedule_csv
 
     schedule = load_schedule_csv(path)
     again = load_schedule_csv(write_schedule_csv(schedule, path.with_name("written.csv")))

@@ -192,8 +192,8 @@ def test_an_element_placed_absurdly_far_is_refused_in_one_sentence(tmp_path, x, 
 
 def test_an_occupancy_map_too_large_to_draw_is_refused_in_one_sentence():
     # the maps' own guard, for extents the reader lets through (a 10 km site at 5 cm: 4e10 cells)
-    from bimrobot.errors import InputError
-    from bimrobot.world.navmap import grid_frame
+    from bimrobot.core.errors import InputError
+    from bimrobot.export.gazebo.navmap import grid_frame
 
     with pytest.raises(InputError, match=r"the occupancy maps would be 2e\+05 x 2e\+05 cells \(x 0 \.\. 10000 m, "
                                          r"y 0 \.\. 10000 m plus 1 m around it, at 0\.05 m per cell\), more than the 1e\+08"):

@@ -7,7 +7,7 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-from bimrobot.lbd.schedule import Activity, Schedule
+from bimrobot.schedule.csv import Activity, Schedule
 
 
 def _frame_schedule(model) -> Schedule:
@@ -32,7 +32,7 @@ def test_a_scheduled_copy_and_its_scheduler_exports_are_the_same_bytes_twice(ste
                                                                              tmp_path):
     import ifcopenshell
 
-    from bimrobot.bim.work_schedule import scheduled_model, write_schedule_export, write_work_schedule
+    from bimrobot.schedule.ifc import scheduled_model, write_schedule_export, write_work_schedule
 
     schedule = _frame_schedule(steel_frame_model)
     copies = [write_work_schedule(steel_frame_ifc, schedule, tmp_path / f"run{n}.ifc") for n in (1, 2)]
@@ -60,7 +60,7 @@ def test_rcan_prints_its_interaction_log_in_the_same_order_every_run(tmp_path):
     4 and 6 of 10 runs)."""
     import importlib.util
 
-    from bimrobot.lbd.schedule import load_schedule_csv
+    from bimrobot.schedule.csv import load_schedule_csv
     from bimrobot.rcan.plans import plan_from_schedule
     from bimrobot.rcan.system import run_plan
 

@@ -333,7 +333,7 @@ def test_a_killed_external_robot_node_leaves_no_shared_memory(tmp_path):
 
 _HOLDING_A_TEMP_FILE = """
 import tempfile, time
-from bimrobot.cores import private_temp_folder
+from bimrobot.core.cores import private_temp_folder
 with private_temp_folder() as folder:
     with open(tempfile.mkstemp()[1], "w") as held:  # a temporary file, open, as a command holds one
         print(folder, flush=True)

@@ -19,7 +19,7 @@ pytestmark = pytest.mark.chaos
 
 @pytest.mark.parametrize("deep", [False, True])
 def test_a_local_ray_session_folder_leaves_room_for_its_sockets(monkeypatch, tmp_path, deep):
-    from bimrobot import cores
+    from bimrobot.core import cores
 
     room = 66  # what `rl benchmark --ray local` asks for (bimrobot.rl.benchmark.RAY_SOCKET_ROOM)
     # the command's temporary folder: as short as /tmp/bimrobot-<pid>-<8> is, or as deep as a test's

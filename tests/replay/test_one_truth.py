@@ -121,8 +121,8 @@ def installed_scene(model, components, tmp_path: Path) -> tuple[dict[str, np.nda
     ``components`` of ``model`` (a BuildingModel, changed: only they are kept): (from scene.xml's
     bodies, from the package's report.json)."""
     pytest.importorskip("mujoco")
-    import bimrobot.physics.scene as scene
-    from bimrobot.world.package import ConvertOptions, build_package
+    import bimrobot.export.mujoco.scene as scene
+    from bimrobot.export.gazebo.package import ConvertOptions, build_package
 
     model.elements = {gid: e for gid, e in model.elements.items() if gid in components}
     model.connections, model.assemblies = [], {}

@@ -8,7 +8,7 @@ import torch as th
 from stable_baselines3 import DQN
 from stable_baselines3.common.type_aliases import ReplayBufferSamples
 
-from bimrobot.errors import InputError
+from bimrobot.core.errors import InputError
 from bimrobot.rl.algorithms import (
     DoubleDQN,
     DuelingDQNPolicy,

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from bimrobot.assembly.planner import reference_returns
-from bimrobot.errors import InputError
-from bimrobot.io import MARKER
+from bimrobot.core.errors import InputError
+from bimrobot.core.io import MARKER
 from bimrobot.rl.benchmark import (
     BenchmarkSpec,
     aggregate,

@@ -10,8 +10,8 @@ from pathlib import Path
 import pytest
 
 from bimrobot.cli import main
-from bimrobot.errors import InputError
-from bimrobot.io import MARKER, has_signature
+from bimrobot.core.errors import InputError
+from bimrobot.core.io import MARKER, has_signature
 from bimrobot.rl.benchmark import BenchmarkSpec, benchmark_folder, write_summary
 from output_checks import snapshot
 
@@ -176,7 +176,7 @@ def _finish_a_run(folder: Path, name: str = "E1S1-ppo-s0") -> None:
 
 
 def test_another_bimrobot_output_is_replaced_saying_so_and_put_back_if_nothing_finished(tmp_path, capsys):
-    from bimrobot.io import atomic_output_dir
+    from bimrobot.core.io import atomic_output_dir
 
     old = tmp_path / "out"
     with atomic_output_dir(old, kind="simulate") as tmp:  # marked, with the manifest of its files

@@ -5,10 +5,10 @@ import numpy as np
 import pytest
 
 from bimrobot.bim.model import Assembly, BuildingModel, Connection, Storey
-from bimrobot.coordination.fleet import load_fleet
+from bimrobot.site.fleet import load_fleet
 from bimrobot.coordination.generate import box_element
 from bimrobot.coordination.simulation import simulate
-from bimrobot.errors import InputError
+from bimrobot.core.errors import InputError
 from bimrobot.bim import load_model
 from bimrobot.sco import State, build_smart_model
 from bimrobot.sco.build import ASSUMED_POINTS_PER_JOINT, split_points
@@ -137,7 +137,7 @@ def test_a_prebuilt_slab_on_a_robot_built_beam_is_made_once_the_beam_is_placed(t
 
 def test_the_cp_sat_task_graph_follows_supports_through_a_prebuilt_slab():
     pytest.importorskip("ortools")
-    from bimrobot.coordination.optimal import task_graph
+    from bimrobot.planning.optimal import task_graph
     from bimrobot.coordination.simulation import ConstructionSimulation
 
     smart = build_smart_model(_slab_on_a_robot_built_beam(), prebuilt_classes=("IfcWall", "IfcSlab"))

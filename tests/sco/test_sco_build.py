@@ -5,7 +5,7 @@ import pytest
 
 from bimrobot.bim.model import BuildingModel, Connection, SkippedProduct, Storey
 from bimrobot.coordination.generate import box_element, generated_frame
-from bimrobot.errors import InputError
+from bimrobot.core.errors import InputError
 from bimrobot.sco import State, build_smart_model
 
 

@@ -81,7 +81,7 @@ def register(subparsers) -> None:
 
 def _settings(arg: str) -> list[str]:
     from bimrobot.assembly.scenario import SETTINGS
-    from bimrobot.errors import InputError
+    from bimrobot.core.errors import InputError
 
     if arg == "all":
         return list(SETTINGS)
@@ -98,7 +98,7 @@ MAX_FPS = 100.0
 
 def _check_seed(seed: int) -> None:
     from bimrobot.assembly.env import MAX_SEED
-    from bimrobot.errors import InputError
+    from bimrobot.core.errors import InputError
 
     if not 0 <= seed <= MAX_SEED:
         raise InputError(f"--seed must be from 0 to {MAX_SEED}, got {seed}")
@@ -109,8 +109,8 @@ def cmd_optimum(args) -> int:
 
     from bimrobot.assembly.planner import REFERENCE_FILE, compute_reference_returns
     from bimrobot.assembly.scenario import SETTINGS_DIR
-    from bimrobot.errors import InputError
-    from bimrobot.io import atomic_output_file, check_output, signature
+    from bimrobot.core.errors import InputError
+    from bimrobot.core.io import atomic_output_file, check_output, signature
 
     settings = _settings(args.setting)
     if not 2 <= args.episodes <= MAX_EPISODES:
@@ -167,7 +167,7 @@ def _make_policy(spec: str, env, seed: int):
 
 def _load_run_policy(spec: str):
     """The greedy policy of a training run directory (bimrobot.rl.policy.load_policy, imported lazily)."""
-    from bimrobot.errors import InputError
+    from bimrobot.core.errors import InputError
 
     if not Path(spec).is_dir():
         raise InputError(f"--policy: '{spec}' is neither 'planner', 'random' nor a training run directory")
@@ -184,8 +184,8 @@ def cmd_play(args) -> int:
     from bimrobot.assembly import make_env
     from bimrobot.assembly.env import AssemblyEnv
     from bimrobot.assembly.scenario import SETTINGS_DIR, load_scenario
-    from bimrobot.errors import InputError
-    from bimrobot.io import atomic_output_file, check_output
+    from bimrobot.core.errors import InputError
+    from bimrobot.core.io import atomic_output_file, check_output
 
     render_mode = "rgb_array" if args.gif else ("ansi" if args.ansi else None)
     if not (math.isfinite(args.fps) and 0 < args.fps <= MAX_FPS):

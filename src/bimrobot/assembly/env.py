@@ -19,7 +19,7 @@ from bimrobot.assembly.scenario import (
     sample_layout,
     sample_prebuilt_slots,
 )
-from bimrobot.errors import InputError
+from bimrobot.core.errors import InputError
 
 # action -> (dx, dy, dz); thesis names: forward, left, back, right, up, down
 MOVES = ((-1, 0, 0), (0, -1, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1), (0, 0, -1))

@@ -21,7 +21,7 @@ import numpy as np
 
 from bimrobot.assembly.env import MOVES, AssemblyEnv, AssemblyState
 from bimrobot.assembly.scenario import SETTINGS, benchmark_scenario, lifted_pose, run_cells
-from bimrobot.errors import BimrobotError, InputError
+from bimrobot.core.errors import BimrobotError, InputError
 
 REFERENCE_FILE = Path(__file__).with_name("settings") / "reference_returns.json"
 REFERENCE_EPISODES = 100

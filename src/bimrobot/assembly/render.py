@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from bimrobot.assembly.scenario import Scenario
-from bimrobot.io import signature
+from bimrobot.core.io import signature
 
 if TYPE_CHECKING:  # pragma: no cover
     from bimrobot.assembly.env import AssemblyEnv

@@ -18,9 +18,9 @@ from typing import Any
 
 import numpy as np
 
-from bimrobot.config import check_keys, parse_yaml, read_yaml_file
-from bimrobot.errors import InputError
-from bimrobot.schema import (At, Choice, Custom, Flag, Integer, Quantity, Rule, Text, Vector, keys_of, read_key, read_keys,
+from bimrobot.core.config import check_keys, parse_yaml, read_yaml_file
+from bimrobot.core.errors import InputError
+from bimrobot.core.schema import (At, Choice, Custom, Flag, Integer, Quantity, Rule, Text, Vector, keys_of, read_key, read_keys,
                              rule)
 
 SETTINGS_DIR = Path(__file__).with_name("settings")
@@ -113,7 +113,7 @@ class Component:
 
 
 # ------------------------------------------------------------------------------------- file rules
-# How each key of a scenario file is read (bimrobot.schema); coordinates are checked against the grid
+# How each key of a scenario file is read (bimrobot.core.schema); coordinates are checked against the grid
 # (``At.context``, read first) as they are read, so a number like 10**6 in a cell never reaches a
 # ``range()`` or an array shape.
 
@@ -402,11 +402,11 @@ def _read_yaml(path: Path) -> Any:
 def parse_scenario(data: dict[str, Any], source: str = "<memory>") -> Scenario:
     """Build a :class:`Scenario` from a plain mapping (the YAML content) and validate it.
 
-    Each key is read by the rule :class:`Scenario` declares for it (:mod:`bimrobot.schema`), the grid
+    Each key is read by the rule :class:`Scenario` declares for it (:mod:`bimrobot.core.schema`), the grid
     first: every number is checked against its range as it is read, and every coordinate against the
     grid, so nothing grid-sized is allocated before the whole file is known to fit (:data:`MAX_GRID_CELLS`
     per axis). Messages name the file, the line (when the mapping comes from
-    :func:`bimrobot.config.parse_yaml`) and the key.
+    :func:`bimrobot.core.config.parse_yaml`) and the key.
     """
     import copy
 

@@ -31,7 +31,7 @@ from bimrobot.assembly.scenario import (
     compile_scenario,
     sample_prebuilt_slots,
 )
-from bimrobot.errors import InputError
+from bimrobot.core.errors import InputError
 
 _MOVES = np.array(MOVES, np.int64)
 #: Most environments of one batch (a few kB each; SB3 rollouts hold n_steps observations of each).
@@ -704,7 +704,7 @@ def _sb3_class():
     global _SB3_CLASS
     if _SB3_CLASS is not None:
         return _SB3_CLASS
-    from bimrobot.errors import require_extra
+    from bimrobot.core.errors import require_extra
 
     vec_env = require_extra("stable_baselines3.common.vec_env", "rl")
     import time

@@ -94,12 +94,12 @@ def _progress(args) -> bool:
 
 
 def _example(args) -> int:
-    from bimrobot import io
+    from bimrobot.core import io
     from bimrobot.bim.examples import EXAMPLES
-    from bimrobot.io import printable
+    from bimrobot.core.io import printable
 
     from bimrobot.bim.examples import MAX_BOLTS_PER_NODE
-    from bimrobot.errors import InputError
+    from bimrobot.core.errors import InputError
 
     output = args.output or Path(f"{args.name}.ifc")
     bolts = getattr(args, "bolts_per_node", None)
@@ -153,9 +153,9 @@ def _inspect(args) -> int:
 
 
 def _split(args) -> int:
-    from bimrobot import io
+    from bimrobot.core import io
     from bimrobot.bim.split import split_model
-    from bimrobot.io import printable
+    from bimrobot.core.io import printable
 
     io.check_output(args.output, folder=True, inputs=[args.model])  # before reading a large model
     written = split_model(
@@ -274,7 +274,7 @@ def summarize(model) -> dict:
 
 def format_summary(summary: dict) -> str:
     """The human-readable table that ``bimrobot inspect`` prints (names made printable)."""
-    from bimrobot.io import printable
+    from bimrobot.core.io import printable
 
     units = summary["units"]
     lines = [

@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from bimrobot.bim.model import BuildingModel, Connection, Element
-from bimrobot.errors import require_extra
+from bimrobot.core.errors import require_extra
 
 
 def candidate_pairs(boxes: np.ndarray, tolerance: float) -> list[tuple[int, int]]:

@@ -46,7 +46,7 @@ import ifcopenshell.api.unit
 import ifcopenshell.guid
 import ifcopenshell.util.placement
 
-from bimrobot import io
+from bimrobot.core import io
 
 STEEL_DENSITY = 7850.0  # kg/m3
 CONCRETE_DENSITY = 2400.0  # kg/m3
@@ -294,7 +294,7 @@ def steel_frame(path: str | Path, bolts_per_node: int | None = None) -> Path:
     no relation joins a footing (footings carry no robot work, thesis l.4709). With N = 6 the frame has
     the 20 nodes and 120 assembly points of Table 4.2.
     """
-    from bimrobot.errors import InputError
+    from bimrobot.core.errors import InputError
 
     if bolts_per_node is not None and (
         isinstance(bolts_per_node, bool) or not isinstance(bolts_per_node, int)
@@ -672,7 +672,7 @@ def generated_building(path: str | Path, layout: Layout) -> Path:
     Every joint is an IfcRelConnectsWithRealizingElements whose relating element supports the related
     one; its fasteners are IfcMechanicalFastener (bolts, dowels) or IfcFastener (welds) without bodies.
     """
-    from bimrobot.errors import InputError
+    from bimrobot.core.errors import InputError
 
     if layout.kind not in BUILDING_KINDS:
         raise InputError(f"building kind must be one of {', '.join(BUILDING_KINDS)}, got {layout.kind!r}")

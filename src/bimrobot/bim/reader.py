@@ -35,7 +35,7 @@ import ifcopenshell.util.unit
 from bimrobot.bim.model import Assembly, BuildingModel, Connection, Element, SkippedProduct, Storey, mesh_volume
 from bimrobot.bim.quantities import WEIGHT_PROPERTY_NAMES, MaterialDensities, resolve_weight
 from bimrobot.bim.selection import describe, select_products
-from bimrobot.errors import InputError
+from bimrobot.core.errors import InputError
 
 log = logging.getLogger(__name__)
 
@@ -141,7 +141,7 @@ def load_model(
     (:func:`anchor_to_bodies`; ``model.relocated`` lists them), so every consumer reads the body's place.
     ``ifc``: the file ``path`` already parsed by :func:`open_ifc` (``bimrobot build`` parses it once to
     check its selectors, then reads the model from that parse); None parses it here.
-    Raises :class:`~bimrobot.errors.InputError` naming the file when it is missing, not IFC, truncated,
+    Raises :class:`~bimrobot.core.errors.InputError` naming the file when it is missing, not IFC, truncated,
     of an unsupported schema, or holds no element with solid geometry.
     """
     path = Path(path)
@@ -244,7 +244,7 @@ def check_plausible_geometry(elements: dict[str, Element], shown: str) -> None:
 
 def printable_name(element: Element) -> str:
     """The element's name, quoted, with control characters escaped (or 'unnamed')."""
-    from bimrobot.io import printable
+    from bimrobot.core.io import printable
 
     return repr(printable(element.name)) if element.name else "(unnamed)"
 
@@ -334,7 +334,7 @@ class _ShareReader:
 def _shares(candidates: list, processes: int | None, threads: int | None) -> list[list]:
     """The products each process reads: every n-th one (neighbours in a file are alike, so the shares
     cost about the same). One share where forking would not pay, or cannot be done safely."""
-    from bimrobot.cores import can_fork
+    from bimrobot.core.cores import can_fork
 
     count = processes or (1 if threads else default_threads())
     if count <= 1 or len(candidates) < MIN_PRODUCTS_TO_SHARE or not can_fork():
@@ -351,7 +351,7 @@ def _read_shares(read: _ShareReader, shares: list[list], progress: bool, threads
     import multiprocessing
     import pickle
 
-    from bimrobot.cores import can_fork, frozen_heap
+    from bimrobot.core.cores import can_fork, frozen_heap
 
     bar = None
     if progress:
@@ -408,11 +408,11 @@ def _read_shares(read: _ShareReader, shares: list[list], progress: bool, threads
 
 def _read_in_child(read: _ShareReader, share: list, threads: int, sending, parent: int, read_ends: list) -> None:
     """A forked process's part of :func:`_read_shares`: read ``share``, send back ("ok", findings) or
-    ("error", the exception), pickled. It dies with ``parent`` (:func:`bimrobot.cores.bind_to_parent`)
+    ("error", the exception), pickled. It dies with ``parent`` (:func:`bimrobot.core.cores.bind_to_parent`)
     and first closes its copies of the pipes' ``read_ends``, so that only the parent can read them."""
     import pickle
 
-    from bimrobot.cores import bind_to_parent
+    from bimrobot.core.cores import bind_to_parent
 
     bind_to_parent(parent)
     for end in read_ends:
@@ -447,7 +447,7 @@ def _lazy_volume(cache: dict[str, float], key: str, vertices: np.ndarray, faces:
 def open_ifc(path: str | os.PathLike) -> ifcopenshell.file:
     """Open an IFC-SPF file or an ``.ifczip`` holding one; InputError with one sentence when it cannot.
 
-    Messages name the file with control characters escaped (:func:`bimrobot.io.printable`).
+    Messages name the file with control characters escaped (:func:`bimrobot.core.io.printable`).
     """
     path = Path(path)
     shown = _shown(path)
@@ -491,7 +491,7 @@ def header_schema(path: str | Path) -> str | None:
 
 
 def _shown(path) -> str:
-    from bimrobot.io import printable
+    from bimrobot.core.io import printable
 
     return printable(str(path))
 
@@ -615,7 +615,7 @@ def geometry_settings() -> ifcopenshell.geom.settings:
 def default_threads() -> int:
     """Geometry threads, or processes sharing the geometry pass: every core this process may use, at
     most 8 (the iterator's gain flattens beyond)."""
-    from bimrobot.cores import cores
+    from bimrobot.core.cores import cores
 
     return max(1, min(8, cores()))
 
@@ -997,7 +997,7 @@ def duplicate_global_ids(ifc: ifcopenshell.file) -> dict[str, list]:
 
 def duplicates_message(source, duplicates: dict[str, list], keys: dict[int, str], shown: int = 3) -> str:
     """One line naming the duplicated GlobalIds and their entities, and what bimrobot does about them."""
-    from bimrobot.io import printable
+    from bimrobot.core.io import printable
 
     def entities(found: list) -> str:
         return " and ".join(f"#{e.id()} {e.is_a()}" for e in found)

@@ -24,7 +24,7 @@ import argparse
 import re
 from pathlib import Path
 
-from bimrobot.errors import InputError
+from bimrobot.core.errors import InputError
 
 #: What the structure's robots do not assemble unless asked (a selector).
 NOT_ASSEMBLED = "IfcFurnishingElement, IfcDoor, IfcWindow, IfcCovering, IfcOpeningElement, IfcDistributionElement"

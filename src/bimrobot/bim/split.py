@@ -26,7 +26,7 @@ Each file has the source's schema and header description and holds:
   the unit appear as reference stubs: same class, GlobalId and Name, no placement or geometry, so the
   file still says what the unit connects to without carrying the neighbours' bodies.
 
-Files are named ``<safe key>.ifc`` (:func:`bimrobot.world.names.safe_name` of the assembly's or
+Files are named ``<safe key>.ifc`` (:func:`bimrobot.core.names.safe_name` of the assembly's or
 element's GlobalId; a GlobalId that the file uses twice is keyed ``<GlobalId>#<step id>`` as in
 :func:`bimrobot.bim.load_model`) and written atomically into the output folder together with
 ``index.json`` (key -> file, class, name, and for assemblies their parts).
@@ -44,7 +44,7 @@ from typing import Iterable
 import ifcopenshell
 import ifcopenshell.util.element
 
-from bimrobot import io
+from bimrobot.core import io
 from bimrobot.bim.reader import (
     as_selector,
     duplicate_global_ids,
@@ -56,9 +56,9 @@ from bimrobot.bim.reader import (
     product_keys,
 )
 from bimrobot.bim.selection import describe, select_products
-from bimrobot.errors import InputError
-from bimrobot.io import printable
-from bimrobot.world.names import safe_name
+from bimrobot.core.errors import InputError
+from bimrobot.core.io import printable
+from bimrobot.core.names import safe_name
 
 log = logging.getLogger(__name__)
 
@@ -110,7 +110,7 @@ def split_model(
     (an IfcElementAssembly, a Tekla wide-slab plate, a window: see
     :func:`~bimrobot.bim.reader.is_unit_whole`) when the model has any, else by element. Every ``IfcElement`` except openings and virtual
     elements is written, including products without a solid body (e.g. curve-only welds), since their
-    IFC data is still worth keeping. ``output_dir`` follows :mod:`bimrobot.io`'s policy.
+    IFC data is still worth keeping. ``output_dir`` follows :mod:`bimrobot.core.io`'s policy.
     """
     path = Path(path)
     io.check_output(output_dir, folder=True, inputs=[path])

@@ -30,7 +30,7 @@ from dataclasses import dataclass, field
 from typing import Iterable, NamedTuple
 
 from bimrobot.bim.model import Element, WeightSource
-from bimrobot.errors import InputError
+from bimrobot.core.errors import InputError
 
 DEFAULT_DENSITY_KG_M3 = 2400.0
 STEEL_DENSITY_KG_M3 = 7850.0

@@ -11,11 +11,11 @@ from __future__ import annotations
 from bimrobot import lazy_names
 
 _LAZY = {
-    "Fleet": "bimrobot.coordination.fleet",
-    "RobotSpec": "bimrobot.coordination.fleet",
-    "Site": "bimrobot.coordination.fleet",
-    "load_fleet": "bimrobot.coordination.fleet",
-    "load_site": "bimrobot.coordination.fleet",
+    "Fleet": "bimrobot.site.fleet",
+    "RobotSpec": "bimrobot.site.fleet",
+    "Site": "bimrobot.site.fleet",
+    "load_fleet": "bimrobot.site.fleet",
+    "load_site": "bimrobot.site.fleet",
     "EVALUATORS": "bimrobot.coordination.market",
     "BidNotice": "bimrobot.coordination.market",
     "BidProposal": "bimrobot.coordination.market",
@@ -28,6 +28,6 @@ _LAZY = {
 __all__ = sorted(_LAZY)
 
 
-# names load on first use (PEP 562), so that importing this package (as ``bimrobot.coordination.fleet``
+# names load on first use (PEP 562), so that importing this package (as ``bimrobot.site.fleet``
 # does) loads none of its heavy submodules
 __getattr__, __dir__ = lazy_names(__name__, _LAZY)

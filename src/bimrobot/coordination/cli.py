@@ -7,7 +7,7 @@ import math
 from pathlib import Path
 
 from bimrobot.coordination.inputs import input_files, prepare
-from bimrobot.errors import InputError
+from bimrobot.core.errors import InputError
 
 SIMULATE_EXAMPLES = """examples:
   bimrobot example steel-frame -o frame.ifc
@@ -186,11 +186,11 @@ def register(subparsers) -> None:
 def run_simulate(args, model=None) -> int:
     """``bimrobot simulate``: the build simulated into ``args.output``. ``model``: the BuildingModel of
     ``args.model`` already read (see :func:`~bimrobot.coordination.inputs.prepare`); None reads it."""
-    from bimrobot.coordination.fleet import RUN_FLEET_FILE, fleet_yaml
+    from bimrobot.site.fleet import RUN_FLEET_FILE, fleet_yaml
     from bimrobot.coordination.report import format_robot_table, write_outputs
     from bimrobot.coordination.simulation import simulate
-    from bimrobot.io import atomic_output_dir
-    from bimrobot.site import site_yaml
+    from bimrobot.core.io import atomic_output_dir
+    from bimrobot.site.site import site_yaml
 
     from tqdm import tqdm
 
@@ -267,7 +267,7 @@ def _planner(args, smart, fleet, site, elevations):
 def run_thesis(args, model=None) -> int:
     """``simulate --mode thesis``: the thesis' step loop, Table 4.2 and Listing 4.2 outputs."""
     from bimrobot.coordination.thesis import DEFAULT_STEP_TIME, format_thesis_table, simulate_thesis, write_thesis_outputs
-    from bimrobot.io import atomic_output_dir
+    from bimrobot.core.io import atomic_output_dir
 
     if args.per_joint:  # None unless given
         raise InputError("--per-joint is not available with --mode thesis (the thesis' loop works per connection node); use --mode event")
@@ -298,8 +298,8 @@ def run_thesis(args, model=None) -> int:
 
 
 def run_allocators(args) -> int:
-    from bimrobot.coordination.compare import compare_allocators, format_markdown, write_outputs
-    from bimrobot.io import atomic_output_dir
+    from bimrobot.planning.compare import compare_allocators, format_markdown, write_outputs
+    from bimrobot.core.io import atomic_output_dir
 
     model, elevations, fleet, site, weights, smart_model = prepare(args, "allocators")
     message = weights.message()

@@ -13,7 +13,7 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-from bimrobot.errors import InputError
+from bimrobot.core.errors import InputError
 
 GENERATED = re.compile(r"^generated:(\d+)x(\d+)x(\d+)$")
 
@@ -57,7 +57,7 @@ def load_building(spec: str, include: str | None = None, exclude: str | None = N
 
 def input_files(args) -> list[str]:
     """The files the command reads (for the output policy): the model, a fleet file, a site file."""
-    from bimrobot.coordination.fleet import BUILTIN_FLEETS
+    from bimrobot.site.fleet import BUILTIN_FLEETS
 
     files = [] if GENERATED.match(args.model) else [args.model]
     if args.fleet not in BUILTIN_FLEETS:
@@ -77,10 +77,10 @@ def prepare(args, kind: str | None, model=None, folder: bool = True):
     unknown-weight rule (``bimrobot build`` reads it once for every stage); None reads it here.
     ``folder``: the output is a folder (simulate, allocators), else one file (``plan export``, kind None).
     """
-    from bimrobot.coordination.fleet import load_fleet, load_site
-    from bimrobot.io import check_output
+    from bimrobot.site.fleet import load_fleet, load_site
+    from bimrobot.core.io import check_output
     from bimrobot.sco.build import build_smart_model, prebuilt_rule, prebuilt_selector
-    from bimrobot.site import site_for
+    from bimrobot.site.site import site_for
 
     check_output(args.output, folder=folder, inputs=input_files(args), kind=kind)  # an output of another kind: refused now
     fleet = load_fleet(args.fleet)

@@ -23,10 +23,10 @@ from typing import ClassVar
 
 import numpy as np
 
-from bimrobot.coordination.fleet import RobotSpec
-from bimrobot.errors import InputError
+from bimrobot.site.fleet import RobotSpec
+from bimrobot.core.errors import InputError
 from bimrobot.sco import timing
-from bimrobot.tasks import Task
+from bimrobot.core.tasks import Task
 
 TOLERANCE_M = 1e-6
 

@@ -53,7 +53,7 @@ def summary(result: SimulationResult, unknown_weight: dict | None = None) -> dic
     ``unknown_weight``: what the ``--unknown-weight`` rule did
     (:meth:`bimrobot.bim.unknown_weight.UnknownWeights.as_dict`), reported as is.
     """
-    from bimrobot.io import signature
+    from bimrobot.core.io import signature
 
     return {
         "generator": signature("simulate summary"),
@@ -148,7 +148,7 @@ def time_unit(seconds: float) -> tuple[float, str]:
 def write_outputs(result: SimulationResult, out_dir: Path, gantt: bool = True, unknown_weight: dict | None = None) -> list[Path]:
     """Write every output file into ``out_dir``; returns the paths written.
 
-    ``out_dir`` is a fresh folder from :func:`bimrobot.io.atomic_output_dir`, which applies the output
+    ``out_dir`` is a fresh folder from :func:`bimrobot.core.io.atomic_output_dir`, which applies the output
     policy (nothing here replaces a file bimrobot did not write). ``unknown_weight``: see :func:`summary`.
     """
     out_dir = Path(out_dir)

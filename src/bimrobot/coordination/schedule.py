@@ -1,6 +1,6 @@
 """The simulation's activities as the schedule CSV (docs/conventions.md).
 
-The CSV has one reader and writer, :mod:`bimrobot.lbd.schedule`; this module hands it the completed
+The CSV has one reader and writer, :mod:`bimrobot.schedule.csv`; this module hands it the completed
 activities of a simulation (times rounded to milliseconds, targets to 0.1 mm, so that the file reads
 well and Duration is Finish - Start as written) and gives the rows back as plain dicts for reports.
 Times are seconds from the start of the build, targets metres in the model's world frame.
@@ -10,15 +10,15 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from bimrobot.lbd.schedule import (
+from bimrobot.schedule.csv import (
     COLUMNS,
     PREDEFINED_TYPE,
     Activity,
     is_schedule_csv,
 )
-from bimrobot.lbd.schedule import load_schedule_csv as _load_schedule
-from bimrobot.lbd.schedule import write_schedule_csv as _write_schedule
-from bimrobot.tasks import Task
+from bimrobot.schedule.csv import load_schedule_csv as _load_schedule
+from bimrobot.schedule.csv import write_schedule_csv as _write_schedule
+from bimrobot.core.tasks import Task
 
 __all__ = ["COLUMNS", "PREDEFINED_TYPE", "is_schedule_csv", "load_schedule_csv", "schedule_activities",
            "schedule_rows", "write_schedule_csv"]
@@ -39,7 +39,7 @@ def schedule_activities(activities) -> list[Activity]:
 
 
 def write_schedule_csv(activities, path: str | Path, inputs=(), option: str = "-o") -> Path:
-    """Write the simulation's schedule atomically under the output policy (:mod:`bimrobot.io`): an
+    """Write the simulation's schedule atomically under the output policy (:mod:`bimrobot.core.io`): an
     existing file is replaced only when it is a schedule CSV (:func:`is_schedule_csv`); returns the path."""
     return _write_schedule(schedule_activities(activities), path, inputs=inputs, option=option)
 
@@ -66,5 +66,5 @@ def schedule_rows(activities) -> list[dict]:
 
 def load_schedule_csv(path: str | Path) -> list[dict]:
     """Read a schedule CSV back as rows (see :func:`schedule_rows`), validated by
-    :func:`bimrobot.lbd.schedule.load_schedule_csv` (InputError naming the file, line and column)."""
+    :func:`bimrobot.schedule.csv.load_schedule_csv` (InputError naming the file, line and column)."""
     return [_row(a) for a in _load_schedule(path)]

@@ -27,7 +27,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import simpy
 
-from bimrobot.coordination.fleet import ACTIVITIES, Fleet, RobotSpec, Site, default_site
+from bimrobot.site.fleet import ACTIVITIES, Fleet, RobotSpec, Site, default_site
 from bimrobot.coordination.market import (
     Award,
     Dispatcher,
@@ -37,12 +37,12 @@ from bimrobot.coordination.market import (
     make_evaluator,
     propose,
 )
-from bimrobot.errors import BimrobotError, InputError
+from bimrobot.core.errors import BimrobotError, InputError
 from bimrobot.sco import timing
 from bimrobot.sco.build import SmartModel, gc_paused
 from bimrobot.sco.component import Component, Joint
 from bimrobot.sco.states import Event, State, at_least
-from bimrobot.tasks import TASKS, Activity, Task  # Activity: the one schedule row, re-exported here
+from bimrobot.core.tasks import TASKS, Activity, Task  # Activity: the one schedule row, re-exported here
 
 log = logging.getLogger(__name__)
 

@@ -32,14 +32,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from bimrobot.coordination.fleet import Fleet, RobotSpec, Site
+from bimrobot.site.fleet import Fleet, RobotSpec, Site
 from bimrobot.coordination.market import TaskRequest, incapability
 from bimrobot.coordination.simulation import ConstructionSimulation
-from bimrobot.errors import BimrobotError, InputError
+from bimrobot.core.errors import BimrobotError, InputError
 from bimrobot.sco import timing
 from bimrobot.sco.build import SmartModel
 from bimrobot.sco.states import Event, State, at_least
-from bimrobot.tasks import TASKS, Task
+from bimrobot.core.tasks import TASKS, Task
 
 KINDS = TASKS
 KIND_WORDS = {task: task.word for task in TASKS}  # "Node: ... requests positioning"
@@ -485,7 +485,7 @@ def thesis_summary(result: ThesisResult, unknown_weight: dict | None = None, sma
     """Steps, construction time under every rule, per-robot rows and provenance (JSON-serialisable)."""
     from collections import Counter
 
-    from bimrobot.io import signature
+    from bimrobot.core.io import signature
 
     return {
         "generator": signature("simulate summary"),

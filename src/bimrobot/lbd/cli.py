@@ -9,7 +9,7 @@ import sys
 import time
 from pathlib import Path
 
-from bimrobot.errors import InputError
+from bimrobot.core.errors import InputError
 
 GRAPH_EXAMPLES = """examples:
   bimrobot graph frame.ifc -o frame.ttl
@@ -120,7 +120,7 @@ def register(subparsers) -> None:
 
 def _check_outputs(args, inputs: list) -> None:
     """The output policy for -o and --store-path, applied before the model is read."""
-    from bimrobot import io
+    from bimrobot.core import io
 
     io.check_output(args.output, folder=False, inputs=inputs, option="-o")
     if args.store == "oxigraph":
@@ -135,10 +135,10 @@ def graph_command(args, model=None, ifc=None) -> int:
     BuildingModel of that file already read with the same selection and unknown-weight rule, and ``ifc``
     its parse, which ``--ifc-out`` writes the schedule into (``bimrobot build`` reads the file once for
     every stage); None reads them here."""
-    from bimrobot import io
+    from bimrobot.core import io
     from bimrobot.bim import load_model
     from bimrobot.lbd.graph import DEFAULT_BASE, build_graph, checked_base
-    from bimrobot.lbd.schedule import load_schedule, load_schedule_ifc
+    from bimrobot.schedule.csv import load_schedule, load_schedule_ifc
     from bimrobot.lbd.store import format_for
 
     if args.store != "memory" and args.store_path is None:
@@ -164,13 +164,13 @@ def graph_command(args, model=None, ifc=None) -> int:
         schedule = load_schedule(args.schedule, model=model)
     elif args.ifc_schedule:
         schedule = load_schedule_ifc(args.model, model=model)
-    from bimrobot.site import site_for
+    from bimrobot.site.site import site_for
 
     site = site_for(args.site, model.elements.values())  # the run's site, held by the graph
     smart = _smart_model(model, args, site.assembly_points_per_joint)
     options = {"base": base, "properties": not args.no_properties, "assemblies": not args.by_element, "smart": smart,
                "site": site}
-    from bimrobot.coordination.fleet import load_fleet, schedule_fleet
+    from bimrobot.site.fleet import load_fleet, schedule_fleet
 
     fleet = load_fleet(args.fleet) if args.fleet else schedule_fleet(args.schedule) if args.schedule else None
     if fleet is not None:
@@ -223,9 +223,9 @@ def graph_command(args, model=None, ifc=None) -> int:
 def _check_work_schedule_outputs(args, inputs: list):
     """The names of --ifc-out and --schedule-out and their output policy, checked before anything is
     written; the site's work calendar (None when neither is asked for)."""
-    from bimrobot import io
-    from bimrobot.bim.work_schedule import check_ifc_out, schedule_export_kind
-    from bimrobot.site import load_site
+    from bimrobot.core import io
+    from bimrobot.schedule.ifc import check_ifc_out, schedule_export_kind
+    from bimrobot.site.site import load_site
 
     wanted = [(option, path) for option, path in (("--ifc-out", args.ifc_out), ("--schedule-out", args.schedule_out))
               if path is not None]
@@ -247,7 +247,7 @@ def _check_work_schedule_outputs(args, inputs: list):
 def _write_work_schedule(args, schedule, calendar, inputs: list, ifc=None) -> None:
     """The model with the schedule as an IfcWorkSchedule (--ifc-out) and its scheduler export (--schedule-out).
     ``ifc``: the model's file already parsed, which the schedule is written into (None: parsed here)."""
-    from bimrobot.bim.work_schedule import (
+    from bimrobot.schedule.ifc import (
         SCHEDULE_EXPORTS, schedule_export_kind, scheduled_model, write_schedule_export, write_scheduled_ifc)
 
     inputs = [*inputs, args.site]

@@ -8,7 +8,7 @@ plain dicts. Units: seconds, metres (world frame), kg.
 from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
-from bimrobot.tasks import TASKS
+from bimrobot.core.tasks import TASKS
 
 if TYPE_CHECKING:  # pragma: no cover
     from bimrobot.lbd.graph import ConstructionGraph

@@ -55,13 +55,13 @@ import rdflib
 from pyparsing import ParseException
 from rdflib import RDF, RDFS, XSD, Literal, Namespace, URIRef
 
-from bimrobot import io
-from bimrobot.errors import InputError
+from bimrobot.core import io
+from bimrobot.core.errors import InputError
 from bimrobot.lbd import components
-from bimrobot.lbd.progress import progress_bar
-from bimrobot.lbd.schedule import Activity, Schedule
+from bimrobot.core.progress import progress_bar
+from bimrobot.schedule.csv import Activity, Schedule
 from bimrobot.lbd.store import TripleStore, format_for, load_store, open_store, write_atomically
-from bimrobot.tasks import Task
+from bimrobot.core.tasks import Task
 
 if TYPE_CHECKING:  # pragma: no cover
     from bimrobot.bim.model import BuildingModel
@@ -225,9 +225,9 @@ class ConstructionGraph:
         return json.loads(str(rows[0]["d"])) if rows else None
 
     def run_site(self):
-        """The site the graph's run used, with the building placed on it (:class:`bimrobot.site.Site`), or
+        """The site the graph's run used, with the building placed on it (:class:`bimrobot.site.site.Site`), or
         None when the graph does not hold one (``brc:siteDescription``)."""
-        from bimrobot.site import site_from_dict
+        from bimrobot.site.site import site_from_dict
 
         rows = self.store.select(f"SELECT ?d WHERE {{ ?site <{BRC.siteDescription}> ?d }} LIMIT 1")
         return site_from_dict(json.loads(str(rows[0]["d"])), "the construction graph's site") if rows else None
@@ -249,7 +249,7 @@ class ConstructionGraph:
     def serialize(self, path: str | os.PathLike, format: str | None = None, inputs: Iterable = (),
                   option: str = "-o") -> Path:
         """Write the graph as Turtle or JSON-LD (``format`` "turtle"/"json-ld", else from the suffix),
-        under the output policy of :mod:`bimrobot.io`: ``inputs`` are the files it was built from,
+        under the output policy of :mod:`bimrobot.core.io`: ``inputs`` are the files it was built from,
         ``option`` how the user named ``path`` (for messages). The file is signed (a ``#`` comment in
         Turtle, a ``"generator"`` key in JSON-LD) so that a later run may replace it."""
         kinds = {kind: f"{self.base}{kind}/" for kind in ("site", "building", "storey", "element", "interface", "activity", "robot")}
@@ -364,10 +364,10 @@ def build_graph(
     ``pick_up``: GlobalId -> where the component waits on the yard (m, world; see
     :func:`bimrobot.lbd.components.pick_up_positions`), written as ``brc:pickUpPosition`` of the
     components that start OnYard. ``site``: the run's site with the building placed on it
-    (:func:`bimrobot.site.site_for`), written as ``brc:modelOffsetX/Y`` (model -> site translation, m) and
+    (:func:`bimrobot.site.site.site_for`), written as ``brc:modelOffsetX/Y`` (model -> site translation, m) and
     ``brc:siteDescription`` (the site file's keys as JSON) of the ``bot:Site``, so that RCAN run from the
     graph alone has the robot homes and the placement `simulate` had. ``fleet``: the run's fleet
-    (:class:`bimrobot.coordination.fleet.Fleet`): each robot a ``dice:Device`` with its kind and the tasks
+    (:class:`bimrobot.site.fleet.Fleet`): each robot a ``dice:Device`` with its kind and the tasks
     it does (``brc:robotKind``, ``brc:performs``), the whole as ``brc:fleetDescription`` (the fleet file's
     keys as JSON), so that `rcan run --graph` needs no ``--capabilities``.
 
@@ -440,7 +440,7 @@ class _GraphWriter:
         yield self.site, RDFS.label, Literal(model.site_name or "site")
         yield self.site, BOT.hasBuilding, self.building
         if self.run_site is not None and self.run_site.model_offset is not None:
-            from bimrobot.site import site_to_dict
+            from bimrobot.site.site import site_to_dict
 
             yield self.site, BRC.modelOffsetX, _literal(float(self.run_site.model_offset[0]))
             yield self.site, BRC.modelOffsetY, _literal(float(self.run_site.model_offset[1]))
@@ -608,7 +608,7 @@ class _GraphWriter:
 
     def fleet_triples(self) -> Iterator[Triple]:
         """The fleet's robots, what each does, and the fleet file itself (``brc:fleetDescription``)."""
-        from bimrobot.coordination.fleet import fleet_to_dict
+        from bimrobot.site.fleet import fleet_to_dict
 
         yield self.site, BRC.fleetDescription, Literal(json.dumps(fleet_to_dict(self.fleet)))
         for spec in self.fleet.robots:

@@ -14,8 +14,8 @@ from pathlib import Path
 
 import numpy as np
 
-from bimrobot.errors import InputError
-from bimrobot.frames import sdf_pose_matrix
+from bimrobot.core.errors import InputError
+from bimrobot.core.frames import sdf_pose_matrix
 
 
 def pick_up_positions(package: Path, model, model_path: Path | None = None) -> dict[str, tuple[float, float, float]]:

@@ -16,8 +16,8 @@ from typing import Any, Iterable, Protocol
 import rdflib
 from rdflib.term import Node
 
-from bimrobot.errors import InputError
-from bimrobot.io import atomic_output_file
+from bimrobot.core.errors import InputError
+from bimrobot.core.io import atomic_output_file
 
 Triple = tuple[rdflib.URIRef, rdflib.URIRef, Node]
 _XSD_STRING = str(rdflib.XSD.string)
@@ -169,7 +169,7 @@ class OxigraphStore:
     ``path`` is None (used to build and write large graphs fast)."""
 
     def __init__(self, path: str | os.PathLike | None):
-        from bimrobot.errors import require_extra
+        from bimrobot.core.errors import require_extra
 
         self.ox = require_extra("pyoxigraph", "oxigraph")
         self.path = Path(path) if path is not None else None
@@ -407,7 +407,7 @@ def write_atomically(
     inputs: Iterable = (),
     option: str = "-o",
 ) -> Path:
-    """Serialize ``store`` to ``path`` under the output policy (:mod:`bimrobot.io`): via a temporary
+    """Serialize ``store`` to ``path`` under the output policy (:mod:`bimrobot.core.io`): via a temporary
     file, so a failure leaves nothing half-written, and signed, so a later run may replace it.
     ``inputs``: the files the graph was built from (never overwritten)."""
     with atomic_output_file(path, inputs=inputs, option=option) as tmp:

@@ -1,8 +1,8 @@
 """Physics in MuJoCo: the converted building as an MJCF scene, the robots that build it, and their motion.
 
-- :mod:`bimrobot.physics.collision`: collision pieces of an element (convex hull, or CoACD convex
+- :mod:`bimrobot.export.mujoco.collision`: collision pieces of an element (convex hull, or CoACD convex
   decomposition for concave members, under a per-element budget)
-- :mod:`bimrobot.physics.scene`: ``convert --target mujoco``: one MJCF body per element
+- :mod:`bimrobot.export.mujoco.scene`: ``convert --target mujoco``: one MJCF body per element
 - :mod:`bimrobot.physics.robot`: the mobile manipulator family (wheeled base, UR5-kinematics arm, gripper)
 - :mod:`bimrobot.physics.motion`: grid paths for the base, inverse kinematics for the arm, the weld grasp
 - :mod:`bimrobot.physics.planning`: OMPL paths for an arm and a base, bounded by iterations, seeded

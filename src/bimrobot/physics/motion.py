@@ -7,9 +7,9 @@ import math
 
 import numpy as np
 
-from bimrobot.frames import planar_transform as planar  # poses and turns are bimrobot.frames', by their old names
-from bimrobot.frames import tool_down
-from bimrobot.frames import transform as pose
+from bimrobot.core.frames import planar_transform as planar  # poses and turns are bimrobot.core.frames', by their old names
+from bimrobot.core.frames import tool_down
+from bimrobot.core.frames import transform as pose
 from bimrobot.physics.robot import RobotModel, arm_only_xml
 
 IK_POSITION_TOLERANCE_M = 1e-3

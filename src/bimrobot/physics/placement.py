@@ -4,7 +4,7 @@ An RCAN node gives a component's weight, its three extents (smallest first: ``a 
 target position; it gives no orientation (the schedule's targets have no rotation). The scene needs
 boxes, so the backend places them by the conventions the rest of bimrobot follows:
 
-- **On the yard** (``convert --layout yard``, :mod:`bimrobot.world.layout`) a component lies with its
+- **On the yard** (``convert --layout yard``, :mod:`bimrobot.export.gazebo.layout`) a component lies with its
   longest side along x and its thinnest side vertical, and its pick-up position is its centre of
   mass: the box ``(L, b, a)`` centred on the target.
 - **Installed**, the target is the IFC placement origin. A member (``L >= 2.5 b``) is *horizontal* (a
@@ -28,7 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from bimrobot.frames import yaw_matrix as yaw_frame  # Rz(yaw), said in bimrobot.frames
+from bimrobot.core.frames import yaw_matrix as yaw_frame  # Rz(yaw), said in bimrobot.core.frames
 
 MEMBER_RATIO = 2.5  # L >= 2.5 b: a linear member (column, beam)
 # how far outside another component's box (horizontally, vertically) a member's end may lie and still

@@ -17,7 +17,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from bimrobot.errors import BimrobotError, InputError
+from bimrobot.core.errors import BimrobotError, InputError
 
 PREBUILT = "IfcFooting,IfcSlab,IfcWall"
 #: the planners benchmarked by default (``learned`` where a policy is installed)
@@ -32,9 +32,9 @@ def problem_for(model: str, fleet: str | None = None):
     from bimrobot.planning.generator import is_generated
 
     if is_generated(model) and fleet is None and model.count(":") >= 2:
-        from bimrobot.coordination.fleet import fleet_yaml
+        from bimrobot.site.fleet import fleet_yaml
         from bimrobot.planning.generator import draw_fleet, draw_layout, draw_site, parse_spec
-        from bimrobot.site import site_yaml
+        from bimrobot.site.site import site_yaml
 
         spec = parse_spec(model)
         layout = draw_layout(spec)
@@ -175,7 +175,7 @@ def markdown(entries: list[dict], time_limit_s: float) -> str:
 
 def write(entries: list[dict], time_limit_s: float, folder: Path) -> None:
     """``benchmark.md`` and ``benchmark.json`` into ``folder``."""
-    from bimrobot.io import signature
+    from bimrobot.core.io import signature
 
     (folder / "benchmark.md").write_text(markdown(entries, time_limit_s), encoding="utf-8")
     record = {"bimrobot": signature("plan benchmark"), "time_limit_s": time_limit_s, "models": entries}

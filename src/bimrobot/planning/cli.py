@@ -51,7 +51,7 @@ def register(subparsers) -> None:
 def run_export(args) -> int:
     """``bimrobot plan export``: read model, fleet and site as ``simulate`` does; write the instance."""
     from bimrobot.coordination.inputs import input_files, prepare
-    from bimrobot.io import atomic_output_file
+    from bimrobot.core.io import atomic_output_file
     from bimrobot.planning.problem import build_instance, dumps
 
     # simulate's own checks and readers: output refused before the long work, fleet, site, model, prebuilt
@@ -104,11 +104,11 @@ def run_generate(args) -> int:
     import json
     import time
 
-    from bimrobot.coordination.fleet import fleet_yaml
-    from bimrobot.errors import InputError
-    from bimrobot.io import atomic_output_dir, signature
+    from bimrobot.site.fleet import fleet_yaml
+    from bimrobot.core.errors import InputError
+    from bimrobot.core.io import atomic_output_dir, signature
     from bimrobot.planning.generator import generate, parse_spec, summary
-    from bimrobot.site import site_yaml
+    from bimrobot.site.site import site_yaml
 
     if args.seed < 0:
         raise InputError(f"--seed must be a whole number >= 0, got {args.seed}")
@@ -176,7 +176,7 @@ class _ModelArgument:
 
 def run_benchmark(args) -> int:
     """``bimrobot plan benchmark``: the table, printed and written."""
-    from bimrobot.io import atomic_output_dir, check_output
+    from bimrobot.core.io import atomic_output_dir, check_output
     from bimrobot.planning.benchmark import DEFAULT_PLANNERS, bench_model, markdown, write
     from bimrobot.planning.planners import planner_for
 
@@ -224,7 +224,7 @@ def run_train(args) -> int:
     import json
     import shlex
 
-    from bimrobot.io import atomic_output_dir, check_output, signature
+    from bimrobot.core.io import atomic_output_dir, check_output, signature
     from bimrobot.planning.learned import policy_bytes, save, train
 
     check_output(args.output, folder=True, kind="plan-train")  # refused before the long work

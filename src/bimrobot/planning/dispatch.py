@@ -22,13 +22,13 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from bimrobot.coordination.fleet import Fleet, Site, load_fleet
+from bimrobot.site.fleet import Fleet, Site, load_fleet
 from bimrobot.coordination.market import Dispatcher, MarketDispatcher, handling_time, incapability, make_evaluator
 from bimrobot.coordination.simulation import ConstructionSimulation, SimulationResult
-from bimrobot.errors import BimrobotError, InputError
+from bimrobot.core.errors import BimrobotError, InputError
 from bimrobot.sco.build import SmartModel
 from bimrobot.sco.states import State
-from bimrobot.tasks import Task
+from bimrobot.core.tasks import Task
 
 ENV_ID = "bimrobot/Dispatch-v0"
 #: bound of every observed number (metres, seconds, kg): finite, far beyond any site or build (about 32 years)
@@ -67,7 +67,7 @@ def frame_problem(fleet: str = "fleet2", per_node: bool = True, size: tuple[int,
     ``fleet`` on its site; the default is the thesis' chapter-4 frame."""
     from bimrobot.coordination.generate import generated_frame
     from bimrobot.sco.build import build_smart_model
-    from bimrobot.site import site_for
+    from bimrobot.site.site import site_for
 
     model = generated_frame(*size)
     return DispatchProblem(build_smart_model(model), load_fleet(fleet), site_for(None, model.elements.values()),

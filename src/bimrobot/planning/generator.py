@@ -5,7 +5,7 @@ The building is a real IFC4 file written by :func:`bimrobot.bim.examples.generat
 z up), so every command reads it exactly as it reads a user's model. This module draws its shape
 (:class:`~bimrobot.bim.examples.Layout`: grid, bays, storey height, sections, fasteners per node), a
 fleet varied from a built-in one (robots per kind, speeds and handling times) and a site derived from
-the building (:func:`bimrobot.site.derive_site`), and parses the ``generated:`` model spec.
+the building (:func:`bimrobot.site.site.derive_site`), and parses the ``generated:`` model spec.
 
 Specs (usable wherever a model path is)::
 
@@ -28,7 +28,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from bimrobot.errors import InputError
+from bimrobot.core.errors import InputError
 
 #: The kinds of generated building (bimrobot.bim.examples.BUILDING_KINDS, repeated to keep imports light).
 KINDS = ("steel", "precast", "panel")
@@ -159,7 +159,7 @@ def draw_fleet(spec: Spec, layout):
     robots, else site-crane (:data:`BASE_FLEETS`). 1-3 robots of each kind, each a copy of one of the base
     fleet's robots of that kind with its speed and handling times scaled by 0.8-1.25 (same limits), so
     the fleet can build ``layout``. Seeded by ``spec.seed``."""
-    from bimrobot.coordination.fleet import fleet_from_dict, fleet_to_dict, load_fleet
+    from bimrobot.site.fleet import fleet_from_dict, fleet_to_dict, load_fleet
 
     rng = np.random.default_rng([spec.seed, KINDS.index(spec.kind), 1])
     names = BASE_FLEETS[spec.kind] if _fits_small_robots(layout) else ("site-crane",)
@@ -196,9 +196,9 @@ def _fits_small_robots(layout) -> bool:
 
 
 def draw_site(spec: Spec, layout):
-    """The site derived from the building's footprint (:func:`bimrobot.site.derive_site`: yard east of it,
+    """The site derived from the building's footprint (:func:`bimrobot.site.site.derive_site`: yard east of it,
     robot homes south of it), with idle robots staying or driving back to the yard, drawn by the seed."""
-    from bimrobot.site import derive_site
+    from bimrobot.site.site import derive_site
 
     rng = np.random.default_rng([spec.seed, KINDS.index(spec.kind), 2])
     margin = 0.6 if layout.kind == "steel" else 0.3  # footings 1.2 m wide; precast units, panels
@@ -207,7 +207,7 @@ def draw_site(spec: Spec, layout):
     box = SimpleNamespace(world_bounds=np.array([[-margin, -margin, 0.0], [width + margin, depth + margin, 1.0]]))
     site = derive_site([box])
     return replace(site, idle_robots=("stay", "yard")[int(rng.integers(2))],
-                   source=f"site derived from the generated building {spec.text()} (bimrobot.site.derive_site)")
+                   source=f"site derived from the generated building {spec.text()} (bimrobot.site.site.derive_site)")
 
 
 @dataclass

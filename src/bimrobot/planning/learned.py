@@ -40,7 +40,7 @@ from sb3_contrib.common.maskable.policies import MaskableActorCriticPolicy
 from torch import nn
 
 from bimrobot.coordination.market import Award, Dispatcher, propose
-from bimrobot.errors import InputError
+from bimrobot.core.errors import InputError
 from bimrobot.planning.dispatch import NODE_FEATURES, ROBOT_FEATURES, DispatchEnv, DispatchProblem, MarketPolicy, play
 
 #: the policy shipped with the package (``--planner learned``)
@@ -173,10 +173,10 @@ class PoolEntry:
 def generated_problem(spec: str) -> DispatchProblem:
     """The problem of a generated building (``generated:KIND:GRID:seed=S``) with its own random fleet and
     site (:mod:`bimrobot.planning.generator`), as ``simulate`` reads it."""
-    from bimrobot.coordination.fleet import fleet_yaml
+    from bimrobot.site.fleet import fleet_yaml
     from bimrobot.planning.dispatch import simulate_problem
     from bimrobot.planning.generator import generate, parse_spec
-    from bimrobot.site import site_yaml
+    from bimrobot.site.site import site_yaml
 
     parsed = parse_spec(spec)
     with tempfile.TemporaryDirectory(prefix="bimrobot-train-") as folder:
@@ -371,7 +371,7 @@ def policy_bytes(model, meta: dict) -> bytes:
     signature) as its first entry, uncompressed."""
     import io
 
-    from bimrobot.io import signature
+    from bimrobot.core.io import signature
 
     buffer, out_buffer = io.BytesIO(), io.BytesIO()
     model.save(buffer)
@@ -385,7 +385,7 @@ def policy_bytes(model, meta: dict) -> bytes:
 
 def save(model, path: str | Path, meta: dict) -> Path:
     """Write ``model`` with ``meta`` (:func:`policy_bytes`) to ``path`` atomically."""
-    from bimrobot.io import atomic_output_file
+    from bimrobot.core.io import atomic_output_file
 
     with atomic_output_file(path) as tmp:
         tmp.write_bytes(policy_bytes(model, meta))

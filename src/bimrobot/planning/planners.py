@@ -14,7 +14,7 @@ Names (:func:`planner_for`):
   remaining path of shortest handling times, the critical path; shortest handling time); each goes to the
   capable idle robot that finishes it soonest (travel + handling; ties: robot name).
 - ``rule:nearest``: the (ready task, idle robot) pair with the shortest drive first, again and again.
-- ``cp-sat``: :func:`bimrobot.coordination.optimal.solve_optimal`'s schedule replayed: each task goes to
+- ``cp-sat``: :func:`bimrobot.planning.optimal.solve_optimal`'s schedule replayed: each task goes to
   the robot CP-SAT chose, and each robot takes its tasks in CP-SAT's start order, each as soon as it is
   published and the robot is free (per joint only: CP-SAT's tasks are per joint).
 - ``learned`` and ``PATH.zip``: a learned policy, :class:`bimrobot.planning.learned.LearnedPlanner`
@@ -37,8 +37,8 @@ import numpy as np
 from bimrobot.coordination.market import (
     Award, Dispatcher, MarketDispatcher, incapability, make_evaluator, propose, handling_time,
 )
-from bimrobot.errors import InputError
-from bimrobot.tasks import Task
+from bimrobot.core.errors import InputError
+from bimrobot.core.tasks import Task
 
 RULES = ("most-successors", "longest-path", "nearest", "shortest-handling")
 #: the names :func:`planner_for` knows, in the order the CLI lists them (``PATH.zip`` besides)
@@ -280,7 +280,7 @@ def _rule(rule: str) -> Callable:
 def _cpsat(problem, stats: PlanStats, time_limit_s: float = CPSAT_TIME_LIMIT_S,
            deterministic_s: float | None = CPSAT_DETERMINISTIC_S, workers: int = 1, **_) -> Dispatcher:
     """Solve with CP-SAT (per joint), keep its objective and bound in ``stats.notes``, replay its plan."""
-    from bimrobot.coordination.optimal import solve_optimal
+    from bimrobot.planning.optimal import solve_optimal
 
     if problem.per_node:
         raise InputError("--planner cp-sat plans per joint (CP-SAT's tasks): add --per-joint")
@@ -377,7 +377,7 @@ def plan_record(name: str, result, stats: PlanStats) -> str:
     makespan (s)."""
     import json
 
-    from bimrobot.io import signature
+    from bimrobot.core.io import signature
 
     record = {"bimrobot": signature("plan record"), "planner": name, "makespan_s": round(result.makespan, 3),
               "decisions": stats.decisions, "planning_s": round(stats.planning_s, 3), "solve_s": round(stats.solve_s, 3),

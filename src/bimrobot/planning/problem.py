@@ -1,8 +1,8 @@
 """The planning problem as data: the instance ``bimrobot plan export`` writes (docs/planning.md).
 
 The instance is built from the simulation's own pieces, so it is the problem ``simulate --per-joint``
-runs and :func:`bimrobot.coordination.optimal.solve_optimal` solves: the tasks and precedences of
-:func:`~bimrobot.coordination.optimal.task_graph` (its floor gate written as one gate per floor,
+runs and :func:`bimrobot.planning.optimal.solve_optimal` solves: the tasks and precedences of
+:func:`~bimrobot.planning.optimal.task_graph` (its floor gate written as one gate per floor,
 :func:`floor_gates`), every task's request from
 :meth:`~bimrobot.coordination.simulation.ConstructionSimulation.request_for` (where the work is, what it
 weighs, its nodes and points), handling times from the one time model (:mod:`bimrobot.sco.timing`, via
@@ -17,7 +17,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from bimrobot.errors import InputError
+from bimrobot.core.errors import InputError
 
 #: The instance format's version; :func:`load_instance` refuses any other. Version 2: one gate per floor
 #: (``gates``) instead of every lower-floor joint before every transport.
@@ -83,9 +83,9 @@ def floor_gates(tasks: list[dict]) -> tuple[list[dict], list[dict]]:
 
 def build_instance(smart, fleet, site, storey_elevations=None) -> dict:
     """The planning instance (a JSON-ready dict) of ``smart`` (a SmartModel) built by ``fleet`` on ``site``
-    (placed on the building, :func:`bimrobot.site.site_for`); ``storey_elevations`` in metres."""
+    (placed on the building, :func:`bimrobot.site.site.site_for`); ``storey_elevations`` in metres."""
     from bimrobot.coordination.market import handling_time, incapability
-    from bimrobot.coordination.optimal import task_graph
+    from bimrobot.planning.optimal import task_graph
     from bimrobot.coordination.simulation import ConstructionSimulation
 
     sim = ConstructionSimulation(smart, fleet, site, storey_elevations=storey_elevations)
@@ -164,7 +164,7 @@ def build_instance(smart, fleet, site, storey_elevations=None) -> dict:
 
 
 def _signature() -> str:
-    from bimrobot.io import signature
+    from bimrobot.core.io import signature
 
     return signature("planning instance")
 

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import enum
 from dataclasses import dataclass, field
-from bimrobot.tasks import Task
+from bimrobot.core.tasks import Task
 
 
 class ActivityKind(str, enum.Enum):

@@ -27,7 +27,7 @@ from collections import defaultdict, deque
 from dataclasses import dataclass
 from typing import Callable, Iterable
 
-from bimrobot.errors import InputError, require_extra
+from bimrobot.core.errors import InputError, require_extra
 
 log = logging.getLogger(__name__)
 

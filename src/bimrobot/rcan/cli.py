@@ -10,7 +10,7 @@ import os
 import sys
 from dataclasses import asdict
 
-from bimrobot.errors import InputError
+from bimrobot.core.errors import InputError
 from bimrobot.rcan.backends import BACKENDS
 
 RUN_EXAMPLES = """examples:
@@ -151,11 +151,11 @@ def _fleet_capabilities(args, activities=None):
     """The placed fleet of ``--fleet``; a fleet's homes go from the run's site into the model
     frame with ``--model-offset``, else the site's model_offset, else the offset that centres
     ``activities``' installs in the construction area (no plan: none). The run's site is the one the
-    graph holds (``--graph``), or the one `simulate` uses for ``--model`` (:func:`bimrobot.site.site_for`),
+    graph holds (``--graph``), or the one `simulate` uses for ``--model`` (:func:`bimrobot.site.site.site_for`),
     else ``--site`` (default fig. 4.11)."""
     from bimrobot.rcan.fleet import model_offset_of
     from bimrobot.rcan.generation import load_capabilities
-    from bimrobot.site import OFFSET_LIMIT_M, load_site
+    from bimrobot.site.site import OFFSET_LIMIT_M, load_site
 
     site = getattr(args, "run_site", None) or load_site(args.site)
     if args.model_offset is not None:
@@ -215,7 +215,7 @@ def _inputs(args) -> list:
 
 def _check_outputs(args, inputs: list) -> None:
     """The output policy for --report, --graph-out and --state-db, before anything is read or run."""
-    from bimrobot.io import check_output
+    from bimrobot.core.io import check_output
     from bimrobot.rcan.state_manager import is_state_db
 
     outputs = {}
@@ -251,7 +251,7 @@ def _load_plan(args):
         if args.capabilities is None:  # the fleet the graph's run used, when the graph holds it
             args.graph_fleet = graph.fleet_data()
         return plan_from_graph(graph, tuple(args.yard), standoff_m=args.standoff), graph, None
-    from bimrobot.lbd.schedule import load_schedule
+    from bimrobot.schedule.csv import load_schedule
 
     model, weights = None, None
     from_ifc = _is_ifc(args.schedule)
@@ -263,7 +263,7 @@ def _load_plan(args):
         weights = model.unknown_weights  # the rule, applied once when the model was read
         if weights.message():
             print(weights.message(), flush=True)
-        from bimrobot.site import site_for
+        from bimrobot.site.site import site_for
 
         args.run_site = site_for(args.site, model.elements.values())  # as `simulate` and `convert` place it
     schedule = load_schedule(args.schedule, model)
@@ -303,7 +303,7 @@ def _unknown_weight_notice(activities, model_given: bool) -> list[str]:
 
 
 def _run(args) -> int:
-    from bimrobot.io import atomic_output_file, signature
+    from bimrobot.core.io import atomic_output_file, signature
     from bimrobot.rcan.state_manager import removed_unless_used
     from bimrobot.rcan.system import run_plan
 
@@ -422,7 +422,7 @@ def _executor(args) -> int:
     if not args.redis:
         raise InputError("rcan executor needs --redis URL: it serves robots for a coordinator in another process")
     if args.state_db != ":memory:":
-        from bimrobot.io import check_output
+        from bimrobot.core.io import check_output
         from bimrobot.rcan.state_manager import is_state_db
 
         check_output(args.state_db, folder=False, inputs=_inputs(args), option="--state-db", recognise=is_state_db)

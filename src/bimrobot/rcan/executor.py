@@ -15,7 +15,7 @@ import logging
 import threading
 from typing import Iterable
 
-from bimrobot.errors import InputError
+from bimrobot.core.errors import InputError
 from bimrobot.rcan.backends.interfaces import ActivityResult, ExecutorBackend
 from bimrobot.rcan.broker import RESULT_TOPIC, Broker, Message, robot_topic
 from bimrobot.rcan.node import RcanNode

@@ -1,12 +1,12 @@
-"""The fleet RCAN runs with: THE fleet (:mod:`bimrobot.coordination.fleet`) placed in the model frame.
+"""The fleet RCAN runs with: THE fleet (:mod:`bimrobot.site.fleet`) placed in the model frame.
 
-RCAN's robot is the fleet's :class:`~bimrobot.coordination.fleet.RobotSpec`; its RCAN views (the activities
+RCAN's robot is the fleet's :class:`~bimrobot.site.fleet.RobotSpec`; its RCAN views (the activities
 it performs, its payload, handling times and arm speed) are that class's properties. This module adds
 what only RCAN needs:
 
 - :data:`TABLE_5_2`: robot type -> the activities it performs (thesis Table 5.2);
 - :func:`place_fleet`: every robot's home as [x, y, z] in the model frame (the IFC's world frame, where
-  RCAN's goals are). A fleet's homes are site positions (:mod:`bimrobot.site`) unless the fleet says
+  RCAN's goals are). A fleet's homes are site positions (:mod:`bimrobot.site.site`) unless the fleet says
   ``home_frame: model``; a home ``h`` on the site is at ``h - offset`` in the model frame, with ``offset``
   the model -> site translation `simulate` uses (:func:`model_offset_of`). A robot without a home starts
   at the site's robot homes in turn. Without the offset a georeferenced model (thousands of kilometres
@@ -26,13 +26,13 @@ from pathlib import Path
 
 import numpy as np
 
-from bimrobot.config import check_keys, line_of
-from bimrobot.coordination.fleet import (BUILTIN_FLEETS, Fleet, RobotSpec, fleet_from_dict, load_fleet,
+from bimrobot.core.config import check_keys, line_of
+from bimrobot.site.fleet import (BUILTIN_FLEETS, Fleet, RobotSpec, fleet_from_dict, load_fleet,
                                          warn_old_format)
-from bimrobot.errors import InputError
+from bimrobot.core.errors import InputError
 from bimrobot.rcan.activities import ActivityKind, RcanActivity
-from bimrobot.schema import At, Coordinates, Custom, Ordered, Quantity, keys_of, quantities_of, read_keys, rule
-from bimrobot.site import Site, default_site
+from bimrobot.core.schema import At, Coordinates, Custom, Ordered, Quantity, keys_of, quantities_of, read_keys, rule
+from bimrobot.site.site import Site, default_site
 
 #: The built-in fleet RCAN runs with when it is given none (husky_ur5, heavy_mobile_manipulator, site_crane).
 DEFAULT_FLEET = "rcan-robots"

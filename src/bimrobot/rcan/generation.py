@@ -1,6 +1,6 @@
 """RCAN generation system: the fleet, task allocator and node generator (thesis 5.2.1-5.2.2).
 
-1. The fleet (:mod:`bimrobot.coordination.fleet`, one robot description for `simulate` and RCAN) says
+1. The fleet (:mod:`bimrobot.site.fleet`, one robot description for `simulate` and RCAN) says
    which robots are on site and which activities each performs (Table 5.2: :mod:`bimrobot.rcan.fleet`).
 2. The :class:`TaskAllocator` matches each published activity to a capable robot: it must integrate
    the robot type the activity needs and carry the component's weight; once a robot holds a component
@@ -13,8 +13,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from bimrobot.coordination.fleet import Fleet, RobotSpec
-from bimrobot.errors import InputError
+from bimrobot.site.fleet import Fleet, RobotSpec
+from bimrobot.core.errors import InputError
 from bimrobot.rcan.activities import RcanActivity
 from bimrobot.rcan.fleet import load_rcan_fleet, types_for
 from bimrobot.rcan.node import RcanNode
@@ -23,7 +23,7 @@ def load_capabilities(path: str | Path | None = None, site=None, model_offset=(0
     """The fleet RCAN runs with, placed in the model frame (:func:`bimrobot.rcan.fleet.place_fleet`): a
     built-in fleet name (``fleet2``, ``rcan-robots``, ...) or a fleet file of any version (an older RCAN
     capability table too); ``None``: the built-in ``rcan-robots``. Site-frame homes are taken from ``site``
-    (a :class:`bimrobot.site.Site`, default fig. 4.11) into the model frame with ``model_offset`` (model ->
+    (a :class:`bimrobot.site.site.Site`, default fig. 4.11) into the model frame with ``model_offset`` (model ->
     site, metres).
 
     Raises :class:`InputError` naming the file, key and line on any malformed entry or number out of

@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from bimrobot.rcan.activities import ActivityKind, Pose, RcanActivity
-from bimrobot.tasks import Task
+from bimrobot.core.tasks import Task
 
 
 @dataclass(frozen=True)

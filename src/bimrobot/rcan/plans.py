@@ -14,10 +14,10 @@ from dataclasses import dataclass
 from typing import Callable
 
 from bimrobot.bim.examples import RCAN_EXPERIMENTS
-from bimrobot.errors import InputError
+from bimrobot.core.errors import InputError
 from bimrobot.lbd import components
 from bimrobot.rcan.activities import SCHEDULE_DECOMPOSITION, ActivityKind, Pose, RcanActivity
-from bimrobot.tasks import Task
+from bimrobot.core.tasks import Task
 
 K = ActivityKind
 
@@ -66,7 +66,7 @@ def plan_from_schedule(schedule, model=None, yard: tuple[float, float, float] = 
                        yard_spacing_m: float = 2.0, standoff_m: float = 0.6,
                        facts: Callable[[str], ComponentFacts] | None = None,
                        reach_m: float = WITHIN_REACH_M) -> list[RcanActivity]:
-    """RCAN activities for every row of ``schedule`` (a :class:`bimrobot.lbd.schedule.Schedule`).
+    """RCAN activities for every row of ``schedule`` (a :class:`bimrobot.schedule.csv.Schedule`).
 
     A row without a target position (an IFC work schedule's task) goes to its component's position
     in ``model`` (an element's placement origin; see :mod:`bimrobot.lbd.components` for an assembly).
@@ -244,7 +244,7 @@ def plan_from_graph(graph, yard: tuple[float, float, float] = (-10.0, -10.0, 0.0
     state, weight, size, goal and pick-up position) are selected with SPARQL (``lbd/queries/rcan_plan.rq``)
     and broken down as :func:`plan_from_schedule` does. ``graph``: a
     :class:`bimrobot.lbd.graph.ConstructionGraph` with a schedule (``bimrobot graph --schedule``)."""
-    from bimrobot.lbd.schedule import Activity, Schedule
+    from bimrobot.schedule.csv import Activity, Schedule
 
     rows = graph.query("rcan_plan")
     if not rows:
@@ -320,7 +320,7 @@ def experiment(number: int) -> Experiment:
     from bimrobot.bim import load_model
     from bimrobot.bim.examples import rcan_experiment
     from bimrobot.lbd.graph import build_graph
-    from bimrobot.lbd.schedule import Activity, Schedule
+    from bimrobot.schedule.csv import Activity, Schedule
 
     if number not in RCAN_EXPERIMENTS:
         raise InputError(f"there is no experiment {number}: the thesis has experiments 1, 2 and 3")

@@ -26,7 +26,7 @@ from pathlib import Path
 from typing import Iterable, Iterator
 from urllib.parse import quote
 
-from bimrobot.errors import InputError
+from bimrobot.core.errors import InputError
 from bimrobot.rcan.activities import ActivityKind
 from bimrobot.rcan.backends.interfaces import ActivityResult
 from bimrobot.rcan.node import RcanNode

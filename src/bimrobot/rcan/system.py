@@ -18,8 +18,8 @@ import uuid
 from dataclasses import dataclass, field
 from typing import Callable, Iterable
 
-from bimrobot.coordination.fleet import Fleet
-from bimrobot.errors import InputError
+from bimrobot.site.fleet import Fleet
+from bimrobot.core.errors import InputError
 from bimrobot.rcan.activities import ActivityKind, RcanActivity
 from bimrobot.rcan.backends import DEFAULT_BACKEND
 from bimrobot.rcan.backends.interfaces import ActivityResult

@@ -17,7 +17,7 @@ from pathlib import Path
 
 def write_replay(out_dir, rrd_path, *, model=None, start: dt.datetime | None = None,
                  simulation=None, building=None) -> dict:
-    """Write the replay of the build in ``out_dir`` to ``rrd_path`` (through bimrobot.io's output policy).
+    """Write the replay of the build in ``out_dir`` to ``rrd_path`` (through bimrobot.core.io's output policy).
 
     ``out_dir``: a `bimrobot build` output folder, a `convert` package folder when ``simulation``
     (the `simulate` output folder) is given, or an `rcan run` folder (report.json, state database,
@@ -27,7 +27,7 @@ def write_replay(out_dir, rrd_path, *, model=None, start: dt.datetime | None = N
     for every stage); None reads the file.
     Returns a summary: pieces, components, robots, nodes, installed, last_installation_s, makespan_s.
     """
-    from bimrobot import io
+    from bimrobot.core import io
     from bimrobot.replay.inputs import load_build
     from bimrobot.replay.record import write_rrd
 

@@ -6,7 +6,7 @@ import argparse
 import datetime as dt
 from pathlib import Path
 
-from bimrobot.errors import InputError
+from bimrobot.core.errors import InputError
 
 REPLAY_EXAMPLES = """examples:
   bimrobot replay out/ -o out/build.rrd              # a `bimrobot build` output folder
@@ -65,7 +65,7 @@ def _date_time(text: str) -> dt.datetime:
 def replay_command(args, model=None) -> int:
     """``bimrobot replay``. ``model``: the BuildingModel of the build's IFC file, already read (``bimrobot
     build`` reads it once for every stage); None reads the file the package names."""
-    from bimrobot.errors import require_extra
+    from bimrobot.core.errors import require_extra
 
     require_extra("rerun", "replay")  # before any work: the recording and the viewer are Rerun's
     from bimrobot.replay import write_replay

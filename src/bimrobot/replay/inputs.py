@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bimrobot.errors import InputError
+from bimrobot.core.errors import InputError
 from bimrobot.replay.rcan import RcanRun, is_rcan_folder, load_rcan_run
 
 log = logging.getLogger(__name__)
@@ -178,7 +178,7 @@ def load_build(folders: list[Path], model_path: Path | None = None, building=Non
     ``model_path``: the IFC file, when it is no longer where the package's report says it was.
     ``building``: that file's BuildingModel, already read (``bimrobot build``); None reads it here."""
     from bimrobot.bim import load_model
-    from bimrobot.site import site_from_dict
+    from bimrobot.site.site import site_from_dict
 
     package, simulation = find_folders(folders)
     report = read_json(package / "report.json")
@@ -219,7 +219,7 @@ def load_rcan_alone(folder: Path, model_path: Path | None) -> BuildRecord:
     """An `rcan run` output folder (report.json, state database, trajectory CSV) with the IFC model
     ``model_path`` for the meshes (every element of the model, in its own frame)."""
     from bimrobot.bim import load_model
-    from bimrobot.world.layout import rigid
+    from bimrobot.export.gazebo.layout import rigid
 
     if model_path is None or not Path(model_path).is_file():
         raise InputError(f"{folder} is an `rcan run` output folder: give the IFC model with --model "
@@ -249,8 +249,8 @@ def storey_names(model) -> dict[str, str]:
 
 
 def _pieces(package: Path, report: dict, model, layout_yard: bool) -> dict[str, Piece]:
-    from bimrobot.world.layout import rigid
-    from bimrobot.world.render import dae_triangles, pose_matrix
+    from bimrobot.export.gazebo.layout import rigid
+    from bimrobot.export.gazebo.render import dae_triangles, pose_matrix
 
     pieces = {}
     for entry in report["converted"]:
@@ -298,7 +298,7 @@ def _robots(schedule: list[dict], summary: dict, site, offset: np.ndarray, sched
     """The robots that work in the schedule, in the fleet's order, with homes as `simulate` gives them
     (their own home, else the site's homes in turn) and their speeds from the fleet file: the one
     `simulate` wrote beside the schedule (``fleet.yaml``), else the fleet its summary names."""
-    from bimrobot.coordination.fleet import load_fleet, schedule_fleet
+    from bimrobot.site.fleet import load_fleet, schedule_fleet
 
     names = [r["robot"] for r in summary.get("robots", [])]
     kinds = {r["robot"]: r.get("kind", "") for r in summary.get("robots", [])}

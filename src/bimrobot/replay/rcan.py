@@ -20,8 +20,8 @@ from pathlib import Path
 
 import numpy as np
 
-from bimrobot.errors import InputError
-from bimrobot.frames import matrix_of_quat_wxyz, transform
+from bimrobot.core.errors import InputError
+from bimrobot.core.frames import matrix_of_quat_wxyz, transform
 
 TRAJECTORY_SUFFIX = ".trajectory.csv"
 TRAJECTORY_COLUMNS = ("time_s", "body", "x", "y", "z", "qw", "qx", "qy", "qz")

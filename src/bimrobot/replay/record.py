@@ -98,7 +98,7 @@ def write_rrd(record: BuildRecord, rrd: Path, start: dt.datetime | None = None, 
     (entities, components, installed, last installation time, elements drawn simplified)."""
     import rerun as rr
 
-    from bimrobot import io
+    from bimrobot.core import io
     from bimrobot.replay.layout import blueprint
 
     record, simplified = simplified_record(record)

@@ -24,7 +24,7 @@ import logging
 
 import numpy as np
 
-from bimrobot.frames import xyzw_of_wxyz
+from bimrobot.core.frames import xyzw_of_wxyz
 from bimrobot.replay.inputs import STATES, BuildRecord
 from bimrobot.replay.rcan import RcanRun
 

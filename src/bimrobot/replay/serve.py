@@ -27,8 +27,8 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from bimrobot.cores import dies_with_this_process
-from bimrobot.errors import InputError
+from bimrobot.core.cores import dies_with_this_process
+from bimrobot.core.errors import InputError
 
 URL_PATTERN = re.compile(r"connect at (http://127\.0\.0\.1:\d+\S*)")
 

@@ -38,9 +38,9 @@ def write_report(build_folder: str | Path, output: str | Path | None = None, *, 
     ``building.png`` (for README.md); elsewhere it is only inside the page.
 
     ``start``: date-time of the build's t = 0 s (default: the build's own, else today 08:00);
-    ``calendar``: a :class:`bimrobot.bim.work_schedule.WorkCalendar` (default: the build's site's);
+    ``calendar``: a :class:`bimrobot.schedule.ifc.WorkCalendar` (default: the build's site's);
     ``model``: the IFC file, when it is no longer where the build read it. Both files go through
-    :mod:`bimrobot.io` (atomic; a file bimrobot did not write is never replaced). Raises InputError when ``build_folder`` is not a build folder or the report extra is missing."""
+    :mod:`bimrobot.core.io` (atomic; a file bimrobot did not write is never replaced). Raises InputError when ``build_folder`` is not a build folder or the report extra is missing."""
     output = Path(output) if output is not None else Path(build_folder) / REPORT_HTML
     _write(Path(build_folder), output, start, calendar, option, model)
     return output
@@ -59,8 +59,8 @@ def write_build_report(build_folder: str | Path, building=None) -> str:
 
 def _write(folder: Path, output: Path, start, calendar, option: str, model=None, building=None):
     """Read the build, draw the building, write the page; the build's :class:`~bimrobot.report.facts.BuildFacts`."""
-    from bimrobot import io
-    from bimrobot.errors import InputError
+    from bimrobot.core import io
+    from bimrobot.core.errors import InputError
     from bimrobot.report import page
     from bimrobot.report.facts import read_build
     from bimrobot.report.picture import draw_building

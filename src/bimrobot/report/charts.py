@@ -2,7 +2,7 @@
 
 Both share a working-time axis: x is seconds of work from the start of the build (the schedule's own
 numbers), labelled with the site's calendar dates of the
-:class:`~bimrobot.bim.work_schedule.WorkCalendar`, so nights and days off take no room and a bar's
+:class:`~bimrobot.schedule.ifc.WorkCalendar`, so nights and days off take no room and a bar's
 length is its working time. (Plotly's date-axis rangebreaks would do the same but draw no horizontal
 bar with a base: plotly.js 3.) Each chart is returned as an HTML ``<div>`` without plotly.js (the page
 inlines plotly.js once).

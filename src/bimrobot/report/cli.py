@@ -37,8 +37,8 @@ def register(subparsers) -> None:
 
 
 def report_command(args: argparse.Namespace) -> int:
-    from bimrobot import io
-    from bimrobot.errors import InputError
+    from bimrobot.core import io
+    from bimrobot.core.errors import InputError
     from bimrobot.report import write_report
     from bimrobot.report.facts import parse_start
 

@@ -4,7 +4,7 @@ Sources, each optional (a missing or unreadable one is listed in :attr:`BuildFac
 part of the report says "unknown"): ``build.json``, ``simulation/summary.json``, ``schedule.csv``,
 ``states.json``, ``package/report.json`` and ``rcan/report.json``. Times are seconds of work from the
 start of the build, laid onto the site's working calendar (``work_calendar`` of the build's site file,
-default Monday-Friday 07:00-16:00) by :func:`bimrobot.bim.work_schedule.working_datetime`, the same
+default Monday-Friday 07:00-16:00) by :func:`bimrobot.schedule.ifc.working_datetime`, the same
 arithmetic as the IFC work schedule's (so the report's dates are the 4D schedule's). The makespan is
 the simulation's (``summary.json``), the one number every other output of the build agrees with.
 """
@@ -19,8 +19,8 @@ from pathlib import Path
 
 import networkx as nx
 
-from bimrobot.errors import InputError
-from bimrobot.bim.work_schedule import WorkCalendar, working_datetime
+from bimrobot.core.errors import InputError
+from bimrobot.schedule.ifc import WorkCalendar, working_datetime
 
 #: The thesis' component states in the order a component passes through them (chapter 4).
 STATES = ("OnYard", "InTransit", "Arrived", "InLocation", "WorkingInPositioning", "PositionFixed",
@@ -178,7 +178,7 @@ def parse_start(text: str | None) -> dt.datetime:
 def site_calendar(site: str | None) -> tuple[WorkCalendar, str]:
     """The working calendar of the build's site file (its ``site.yaml``, else ``build.json``'s ``site``) and
     where it comes from; the default calendar when the build used the default site or its file is gone."""
-    from bimrobot.site import load_site
+    from bimrobot.site.site import load_site
 
     if site and Path(site).is_file():
         try:

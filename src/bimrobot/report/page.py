@@ -25,7 +25,7 @@ def render(facts: BuildFacts, picture_png: bytes | None, picture_note: str = "")
     says why there is none)."""
     import jinja2
 
-    from bimrobot import io
+    from bimrobot.core import io
 
     environment = jinja2.Environment(
         loader=jinja2.FileSystemLoader(Path(__file__).with_name("templates")),

@@ -4,7 +4,7 @@ The package of a build has its components on the yard (its ``preview.png`` shows
 report shows the building finished instead. Each element's visual mesh is the package's own
 (``models/<model>/meshes/<model>.dae``, the colours the simulator shows), placed by the element's
 IFC placement (from the model file, read once for the report: :attr:`BuildFacts.building_model`), and
-painted with :func:`bimrobot.world.render.paint` (Pillow; metres, z up, a scale bar).
+painted with :func:`bimrobot.export.gazebo.render.paint` (Pillow; metres, z up, a scale bar).
 """
 
 from __future__ import annotations
@@ -24,8 +24,8 @@ MAX_TRIANGLES = 150_000
 def installed_triangles(package: Path, report: dict, model) -> tuple[np.ndarray, np.ndarray]:
     """World triangles (k, 3, 3; metres, model frame) and RGBA colours (k, 4) of the package's elements
     at their installed poses (``model``: the BuildingModel). Raises OSError when a mesh cannot be read."""
-    from bimrobot.world.layout import rigid
-    from bimrobot.world.render import dae_triangles
+    from bimrobot.export.gazebo.layout import rigid
+    from bimrobot.export.gazebo.render import dae_triangles
 
     triangles, colours = [], []
     for entry in report.get("converted") or []:
@@ -43,10 +43,10 @@ def installed_triangles(package: Path, report: dict, model) -> tuple[np.ndarray,
 
 
 def draw_building(folder: Path, png: Path, facts) -> str | None:
-    """Paint the assembled building of the build in ``folder`` into ``png`` (through bimrobot.io's
+    """Paint the assembled building of the build in ``folder`` into ``png`` (through bimrobot.core.io's
     output policy); return None when drawn, else why not, in words (no package, model file gone, ...)."""
-    from bimrobot.errors import InputError
-    from bimrobot.world.render import paint
+    from bimrobot.core.errors import InputError
+    from bimrobot.export.gazebo.render import paint
 
     package = Path(folder) / "package"
     report = facts.package

@@ -28,7 +28,7 @@ from torch import nn
 from torch.nn import functional as F
 
 from bimrobot.assembly.vector import MAX_ENVS
-from bimrobot.errors import InputError
+from bimrobot.core.errors import InputError
 from bimrobot.rl.names import ALGORITHM_NAMES, PROFILE_NAMES
 
 

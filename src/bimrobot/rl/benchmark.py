@@ -38,8 +38,8 @@ from typing import Any, Callable, Iterable, Iterator
 
 import numpy as np
 
-from bimrobot.errors import InputError
-from bimrobot.io import MARKER, check_output, describe_folder, signature
+from bimrobot.core.errors import InputError
+from bimrobot.core.io import MARKER, check_output, describe_folder, signature
 from bimrobot.rl.algorithms import ALGORITHMS, MAX_TIMESTEPS, get_algorithm
 from bimrobot.rl.compare import SCORE_GOAL, THESIS_BEST_SCORE
 from bimrobot.rl.train import LAST_EPISODES, TrainConfig, train
@@ -144,7 +144,7 @@ def _marker_kind(folder: Path) -> str | None:
 
 
 def _is_legacy_benchmark(folder: Path) -> bool:
-    """A benchmark folder written before output folders carried :data:`bimrobot.io.MARKER`: its grid.json
+    """A benchmark folder written before output folders carried :data:`bimrobot.core.io.MARKER`: its grid.json
     (with a spec and runs) and a table.md under the benchmark's own heading."""
     try:
         grid = json.loads((folder / "grid.json").read_text(encoding="utf-8"))
@@ -187,7 +187,7 @@ def _write_marker(folder: Path) -> None:
 
 @contextlib.contextmanager
 def benchmark_folder(out: str | Path, *, option: str = "-o", create: bool = True) -> Iterator[Path]:
-    """The benchmark's output folder (resolved), under :mod:`bimrobot.io`'s policy adapted to a folder that
+    """The benchmark's output folder (resolved), under :mod:`bimrobot.core.io`'s policy adapted to a folder that
     grows run by run and must survive an interruption so that the grid can be resumed.
 
     * a benchmark folder bimrobot wrote (its marker says ``"rl benchmark"``, or it has the grid.json and
@@ -196,7 +196,7 @@ def benchmark_folder(out: str | Path, *, option: str = "-o", create: bool = True
     * a new or empty folder is created and marked at once;
     * another folder bimrobot wrote (a ``simulate`` output, a run dir, ...) is replaced, saying so: it is
       moved aside at once, put back if the benchmark fails before its first run finishes, deleted otherwise;
-    * everything :func:`bimrobot.io.check_output` refuses is refused (the current directory, a file, a
+    * everything :func:`bimrobot.core.io.check_output` refuses is refused (the current directory, a file, a
       non-empty folder bimrobot did not write, a path under a file, a symlink to any of those).
 
     If the benchmark fails or is interrupted before any run has finished, what this call created is
@@ -372,7 +372,7 @@ def _pool(workers: int, ray_address: str | None):
         ) as pool:
             yield pool
         return
-    from bimrobot.errors import require_extra
+    from bimrobot.core.errors import require_extra
 
     ray = require_extra("ray", "ray")
     from ray.util.multiprocessing import Pool as RayPool
@@ -385,7 +385,7 @@ def _pool(workers: int, ray_address: str | None):
     # folder of this benchmark, removed when the instance stops, not to <tmp>/ray where it would stay
     # (issue 35: in the command's own temporary folder, one level deeper than /tmp, Ray's plasma_store socket
     # took 112 bytes, over the 107 a Unix socket's path may have, and `--ray local` failed)
-    from bimrobot.cores import socket_folder
+    from bimrobot.core.cores import socket_folder
 
     folder = socket_folder(RAY_SOCKET_ROOM)
     try:

@@ -110,14 +110,14 @@ def _output(parser: argparse.ArgumentParser, default, help: str) -> None:
 
 def _needs_rl() -> None:
     """Name the `rl` extra (PyTorch, Stable-Baselines3) before any work starts when it is missing."""
-    from bimrobot.errors import require_extra
+    from bimrobot.core.errors import require_extra
 
     for module in ("torch", "stable_baselines3", "sb3_contrib"):
         require_extra(module, "rl")
 
 
 def _overrides(pairs: list[str]) -> dict:
-    from bimrobot.errors import InputError
+    from bimrobot.core.errors import InputError
 
     overrides = {}
     for pair in pairs:
@@ -166,7 +166,7 @@ def _print_results(results: dict) -> None:
 def _eval(args) -> int:
     _needs_rl()
     from bimrobot.assembly.env import MAX_SEED
-    from bimrobot.errors import InputError
+    from bimrobot.core.errors import InputError
     from bimrobot.rl.train import MAX_EVAL_EPISODES, evaluate_run
 
     if not 1 <= args.episodes <= MAX_EVAL_EPISODES:
@@ -185,7 +185,7 @@ def _eval(args) -> int:
 
 def _benchmark(args) -> int:
     _needs_rl()
-    from bimrobot.errors import InputError
+    from bimrobot.core.errors import InputError
     from bimrobot.rl.benchmark import (
         MAX_WORKERS,
         BenchmarkSpec,
@@ -217,7 +217,7 @@ def _benchmark(args) -> int:
 
 
 def _compare(args) -> int:
-    from bimrobot.errors import InputError
+    from bimrobot.core.errors import InputError
     from bimrobot.rl.compare import write_comparison
 
     if args.out is None:

@@ -15,8 +15,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from bimrobot.errors import InputError
-from bimrobot.io import atomic_output_file, has_signature, signature
+from bimrobot.core.errors import InputError
+from bimrobot.core.io import atomic_output_file, has_signature, signature
 from bimrobot.rl.names import ALGORITHM_NAMES
 
 SCORE_GOAL = 0.9

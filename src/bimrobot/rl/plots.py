@@ -16,7 +16,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from bimrobot.io import signature  # noqa: E402
+from bimrobot.core.io import signature  # noqa: E402
 
 CURVE_POINTS = 60
 WINDOW = 20

@@ -13,7 +13,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from bimrobot.errors import InputError
+from bimrobot.core.errors import InputError
 from bimrobot.rl.algorithms import get_algorithm
 
 Policy = Callable[[np.ndarray, dict], int]

@@ -11,7 +11,7 @@ A run dir ``<out>/<setting>-<algo>-s<seed>/`` holds
 * ``results.json``: last-100 training mean, greedy evaluation (20 episodes by default), normalised
   scores against the planner's reference table, wall time and throughput.
 
-The run dir appears only when the run completes (written through :func:`bimrobot.io.atomic_output_dir`).
+The run dir appears only when the run completes (written through :func:`bimrobot.core.io.atomic_output_dir`).
 Returns are in the environment's reward units; time in seconds.
 """
 
@@ -37,8 +37,8 @@ from stable_baselines3.common.callbacks import BaseCallback, CallbackList, Check
 from stable_baselines3.common.logger import configure
 from stable_baselines3.common.vec_env import DummyVecEnv, VecEnv, VecMonitor
 
-from bimrobot.errors import InputError
-from bimrobot.io import atomic_output_dir
+from bimrobot.core.errors import InputError
+from bimrobot.core.io import atomic_output_dir
 from bimrobot.rl.algorithms import MAX_TIMESTEPS, get_algorithm, hyperparameters
 from bimrobot.rl.names import SHAPING_METRICS
 
@@ -49,7 +49,7 @@ EVAL_SEED_OFFSET = 10_000  # evaluation resets never reuse a training seed
 MAX_EVAL_EPISODES = 100_000
 MAX_THREADS = 1024
 MAX_SHAPING = 1000.0  # the shaping pays +-scale per cell; the env's own rewards are about 1 per step
-RUN_KIND = "rl train run"  # the kind in a run dir's bimrobot.io marker
+RUN_KIND = "rl train run"  # the kind in a run dir's bimrobot.core.io marker
 
 
 @dataclass
@@ -257,7 +257,7 @@ def train(config: TrainConfig, out_dir: str | Path, *, keep_earlier: bool = True
     ``out_dir`` is the parent: it may exist and hold other runs. With ``keep_earlier`` (the CLI's way) an
     earlier run of the same setting, algorithm and seed is never replaced: the new run is written beside
     it, as ``<name>-2``, ``<name>-3``, ... (:func:`free_run_dir`). Without it (the benchmark, which
-    reuses finished runs) the run dir follows :mod:`bimrobot.io`'s policy (a run dir bimrobot wrote is
+    reuses finished runs) the run dir follows :mod:`bimrobot.core.io`'s policy (a run dir bimrobot wrote is
     replaced; anything else there is refused). The run dir appears only when the run completes: a
     failure or Ctrl-C leaves neither it nor a parent this call created, nor PyTorch's cache files in
     the temporary folder (:func:`private_temp_folder`).

@@ -48,7 +48,7 @@ import numpy as np
 
 from bimrobot.bim.model import BuildingModel, Connection, Element, WeightSource
 from bimrobot.bim.selection import DEFAULT_PREBUILT
-from bimrobot.errors import InputError
+from bimrobot.core.errors import InputError
 from bimrobot.sco.component import Component, ConnectionNode, Joint
 from bimrobot.sco.states import State
 

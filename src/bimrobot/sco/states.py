@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import enum
 
-from bimrobot.errors import BimrobotError
+from bimrobot.core.errors import BimrobotError
 
 
 class State(str, enum.Enum):

@@ -32,7 +32,7 @@ class RobotTimes:
     """A robot's speeds and handling times: metres per second and seconds.
 
     ``arm_speed_m_s`` is ``math.inf`` when the handling times already include the arm's motions (every
-    chapter-4 fleet robot). A robot's are :attr:`bimrobot.coordination.fleet.RobotSpec.times`."""
+    chapter-4 fleet robot). A robot's are :attr:`bimrobot.site.fleet.RobotSpec.times`."""
 
     speed_m_s: float
     load_s: float = 0.0

@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 
-from bimrobot.frames import quat_wxyz, yaw_of
+from bimrobot.core.frames import quat_wxyz, yaw_of
 from bimrobot.physics import motion
 from bimrobot.physics.site.common import (FINGER_DEPTH_M, GRASP_ANGLE_TOLERANCE_DEG, GRASP_POSITION_TOLERANCE_M,
                                           PROP_CONTYPE, MotionFailed)

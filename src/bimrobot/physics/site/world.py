@@ -18,10 +18,10 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 
-from bimrobot.frames import quat_wxyz
+from bimrobot.core.frames import quat_wxyz
 from bimrobot.physics import motion
 from bimrobot.physics.robot import JOINT_NAMES, RobotModel, add_robot
-from bimrobot.physics.scene import scene_root
+from bimrobot.export.mujoco.scene import scene_root
 from bimrobot.physics.site.common import (GRASP_TIME_CONSTANT_S, PIT_DEPTH_M, PROP_CONTYPE, READY_SEED, ROBOT_BIT_0,
                                           ROBOT_BITS, SITE_HALF_M, Component, Robot)
 

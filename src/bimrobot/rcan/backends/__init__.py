@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import importlib
 
-from bimrobot.errors import InputError
+from bimrobot.core.errors import InputError
 from bimrobot.rcan.backends.info import BackendInfo, BackendOption
 
 #: backend name -> its folder (a module declaring ``INFO``), or "module:Class" of its ExecutorBackend subclass

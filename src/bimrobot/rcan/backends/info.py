@@ -15,7 +15,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from bimrobot.errors import InputError
+from bimrobot.core.errors import InputError
 
 #: what a run can give a backend (a field of :class:`RunContext`) -> the constructor keyword it goes to
 CONTEXT_KEYWORDS = {"state_db": "db_path", "plan": "plan", "trajectory_path": "trajectory_path"}

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bimrobot.coordination.fleet import Fleet
+from bimrobot.site.fleet import Fleet
 from bimrobot.rcan.activities import ActivityKind
 from bimrobot.rcan.backends.interfaces import ActivityResult, ExecutorBackend
 from bimrobot.rcan.backends.mujoco import INFO
@@ -306,9 +306,9 @@ class MujocoBackend(MoveToComponent, PositionForPickingUp, PickUp, Transport, Po
             self.write_trajectory(self.trajectory_path)
 
     def write_trajectory(self, path: Path) -> Path:
-        """The recorded body poses as CSV (time_s, body, x, y, z, qw, qx, qy, qz), through bimrobot.io:
+        """The recorded body poses as CSV (time_s, body, x, y, z, qw, qx, qy, qz), through bimrobot.core.io:
         see :func:`trajectory_rows` for which frames of which bodies are written."""
-        from bimrobot import io
+        from bimrobot.core import io
 
         with io.atomic_output_file(path, option="trajectory") as tmp:
             with open(tmp, "w", newline="", encoding="utf-8") as handle:

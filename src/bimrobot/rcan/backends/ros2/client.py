@@ -11,8 +11,8 @@ import os
 import threading
 import time
 
-from bimrobot.coordination.fleet import Fleet
-from bimrobot.frames import quat_xyzw_of_yaw
+from bimrobot.site.fleet import Fleet
+from bimrobot.core.frames import quat_xyzw_of_yaw
 from bimrobot.rcan.activities import ActivityKind, Pose
 from bimrobot.rcan.backends.interfaces import ActivityResult, ExecutorBackend
 from bimrobot.rcan.backends.ros2 import INFO

@@ -30,13 +30,13 @@ def register(commands) -> None:
 
 def robot_node(args) -> int:
     """Serve the fleet's robots (or ``--robot``'s) until SIGINT/SIGTERM; bad input is one sentence."""
-    from bimrobot.errors import InputError
+    from bimrobot.core.errors import InputError
     from bimrobot.rcan import cli
     from bimrobot.rcan.backends.ros2.robot_node import serve_robot_node
 
     cli._check_backend_options(args)
     if args.state_db != ":memory:":
-        from bimrobot.io import check_output
+        from bimrobot.core.io import check_output
         from bimrobot.rcan.state_manager import is_state_db
 
         check_output(args.state_db, folder=False, inputs=cli._inputs(args), option="--state-db", recognise=is_state_db)

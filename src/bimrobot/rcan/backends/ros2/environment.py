@@ -15,7 +15,7 @@ import os
 import sys
 from pathlib import Path
 
-from bimrobot.errors import MissingExtraError
+from bimrobot.core.errors import MissingExtraError
 from bimrobot.rcan.activities import ActivityKind
 
 SETUP_HINT = "run scripts/setup-ros2.sh .venv (ROS 2 Jazzy wheels + the bimrobot_interfaces action package)"

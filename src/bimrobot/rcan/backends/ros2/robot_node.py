@@ -14,8 +14,8 @@ import sys
 import threading
 import time
 
-from bimrobot.coordination.fleet import Fleet
-from bimrobot.frames import yaw_of_quat_xyzw
+from bimrobot.site.fleet import Fleet
+from bimrobot.core.frames import yaw_of_quat_xyzw
 from bimrobot.rcan.activities import ActivityKind
 from bimrobot.rcan.backends.ros2.environment import (HEARTBEAT, HEARTBEAT_S, action_name, cleanup_fastdds,
                                                      fastdds_files, load_ros2)

@@ -8,7 +8,7 @@ from bimrobot.rcan.activities import Pose
 from bimrobot.rcan.backends import features
 from bimrobot.rcan.backends.interfaces import ActivityResult
 from bimrobot.sco import timing
-from bimrobot.tasks import Task
+from bimrobot.core.tasks import Task
 
 #: height of the stowed gripper above the base, m
 ARM_STOW_HEIGHT_M = 0.5

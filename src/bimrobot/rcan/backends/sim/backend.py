@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from bimrobot.coordination.fleet import Fleet
+from bimrobot.site.fleet import Fleet
 from bimrobot.rcan.backends.interfaces import ExecutorBackend
 from bimrobot.rcan.backends.sim import INFO
 from bimrobot.rcan.backends.sim.arm import PositionForInstalling, PositionForPickingUp

@@ -8,7 +8,7 @@ from __future__ import annotations
 from bimrobot.rcan.backends import features
 from bimrobot.rcan.backends.interfaces import ActivityResult
 from bimrobot.sco import timing
-from bimrobot.tasks import Task
+from bimrobot.core.tasks import Task
 
 #: how far the gripper may be from the activity's pose, m
 GRASP_TOLERANCE_M = 0.05

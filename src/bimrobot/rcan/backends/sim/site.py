@@ -16,7 +16,7 @@ from typing import Callable
 
 import numpy as np
 
-from bimrobot.coordination.fleet import Fleet, RobotSpec
+from bimrobot.site.fleet import Fleet, RobotSpec
 from bimrobot.rcan.activities import Pose
 from bimrobot.rcan.backends.interfaces import ActivityResult
 from bimrobot.rcan.node import RcanNode
