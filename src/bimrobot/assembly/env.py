@@ -9,6 +9,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from bimrobot.assembly.render import EpisodeView, Renderer, render_ansi
 from bimrobot.assembly.scenario import (
     CompiledScenario,
     Scenario,
@@ -312,14 +313,10 @@ class AssemblyEnv(gym.Env):
             gym.logger.warn("render() called without a render_mode; use render_mode='rgb_array', 'ansi' or 'human'")
             return None
         if self.render_mode == "ansi":
-            from bimrobot.assembly.render import render_ansi
-
-            return render_ansi(self)
-        from bimrobot.assembly.render import Renderer
-
+            return render_ansi(self.view())
         if self._renderer is None:
             self._renderer = Renderer(self.scenario)
-        frame = self._renderer.draw(self)
+        frame = self._renderer.draw(self.view())
         if self.render_mode == "human":
             self._renderer.show(frame)
             return None
@@ -355,6 +352,16 @@ class AssemblyEnv(gym.Env):
 
     def filled_targets(self) -> list[bool]:
         return list(self._filled)
+
+    def view(self) -> EpisodeView:
+        """This moment of the episode, as the renderers draw it (grid cells, z up)."""
+        current = self.current_component
+        return EpisodeView(
+            scenario=self.scenario, components=self.component_cells(), filled_targets=self.filled_targets(),
+            current=current, arrived=self.last_placed,
+            start_cells=None if current is None else run_cells(*self._starts[self._cur]),
+            elapsed=self._elapsed, steps=self._steps, standing=self._k, total=self._cs.n_total,
+        )
 
     @property
     def last_placed(self) -> str | None:

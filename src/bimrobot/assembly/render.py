@@ -7,15 +7,14 @@ component's start pose an orange wireframe. The yard is grey, the construction a
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from dataclasses import dataclass
 
 import numpy as np
 
 from bimrobot.assembly.scenario import Scenario
 from bimrobot.core.io import signature
 
-if TYPE_CHECKING:  # pragma: no cover
-    from bimrobot.assembly.env import AssemblyEnv
+Cell = tuple[int, int, int]
 
 COLOURS = {
     "waiting": "#f39c34",
@@ -30,6 +29,27 @@ COLOURS = {
     "target": "#e0408a",
     "start": "#f39c34",
 }
+
+
+@dataclass(frozen=True)
+class EpisodeView:
+    """What a picture of an assembly episode shows; cells are grid indices (x, y, z), z up.
+
+    ``components``: id -> (state, cells), state one of 'waiting', 'current', 'placed', 'prebuilt'.
+    ``start_cells``: the moving component's start pose (None when nothing moves). ``elapsed``: steps of
+    the episode; ``steps``: steps on the moving component; ``standing`` of ``total`` components stand.
+    """
+
+    scenario: Scenario
+    components: dict[str, tuple[str, list[Cell]]]
+    filled_targets: list[bool]
+    current: str | None
+    arrived: str | None
+    start_cells: list[Cell] | None
+    elapsed: int
+    steps: int
+    standing: int
+    total: int
 
 
 def _box_faces(lo, hi) -> list[list[tuple[float, float, float]]]:
@@ -124,32 +144,29 @@ class Renderer:
             handles.append(Patch(color=COLOURS["obstacle"], alpha=0.5, label="obstacle"))
         self.fig.legend(handles=handles, loc="lower center", ncol=len(handles), fontsize=8, frameon=False)
 
-    def draw(self, env: "AssemblyEnv") -> np.ndarray:
-        """An RGB frame (H, W, 3) uint8 of the env's current state."""
+    def draw(self, view: EpisodeView) -> np.ndarray:
+        """An RGB frame (H, W, 3) uint8 of one moment of the episode."""
         from matplotlib.colors import to_rgba
         from mpl_toolkits.mplot3d.art3d import Line3DCollection, Poly3DCollection
 
-        sc = env.scenario
+        sc = view.scenario
         faces = list(self._obstacle_faces)
         colours = [to_rgba(COLOURS["obstacle"], 0.35)] * len(faces)
-        arrived = env.last_placed
-        current = env.current_component
-        for cid, (state, cells) in env.component_cells().items():
+        arrived = view.arrived
+        current = view.current
+        for cid, (state, cells) in view.components.items():
             colour = COLOURS["arrived"] if cid == arrived else COLOURS[state]
             lo, hi = _cells_box(cells)
             faces += _box_faces(lo, hi)
             colours += [to_rgba(colour)] * 6
         edges, edge_colours = [], []
-        for target, filled in zip(sc.targets, env.filled_targets()):
+        for target, filled in zip(sc.targets, view.filled_targets):
             if not filled:
                 lo, hi = _cells_box(target.cells)
                 edges += _box_edges(lo, hi)
                 edge_colours += [COLOURS["target"]] * 12
-        if current is not None:
-            from bimrobot.assembly.scenario import run_cells
-
-            index = [c.id for c in sc.handled].index(current)
-            lo, hi = _cells_box(run_cells(*env._starts[index]))
+        if view.start_cells is not None:
+            lo, hi = _cells_box(view.start_cells)
             edges += _box_edges(lo, hi)
             edge_colours += [COLOURS["start"]] * 12
         artists = []
@@ -163,7 +180,7 @@ class Renderer:
             solids.axes = self.ax
             solids.set_transform(self.ax.transData)
             artists.append(solids)
-        title = f"{sc.name}   step {env._elapsed}   standing {env._k}/{env._cs.n_total}"
+        title = f"{sc.name}   step {view.elapsed}   standing {view.standing}/{view.total}"
         if current is not None:
             title += f"   moving {current}"
         self.title.set_text(title)
@@ -205,9 +222,9 @@ class Renderer:
 ANSI_LEGEND = "C current, w waiting, # placed, t free target, X obstacle, F foundation, . ground"
 
 
-def render_ansi(env: "AssemblyEnv") -> str:
+def render_ansi(view: EpisodeView) -> str:
     """A top-down text map (x down, y across) with the top-most object of each (x, y) column."""
-    sc = env.scenario
+    sc = view.scenario
     W, L, _ = sc.grid
     grid = [["." for _ in range(L)] for _ in range(W)]
     height = np.full((W, L), -1)
@@ -223,14 +240,14 @@ def render_ansi(env: "AssemblyEnv") -> str:
         mark([(x, y, 0)], "F", 1)
     for box in sc.obstacles:
         mark(box.cells(), "X", 2)
-    for target, filled in zip(sc.targets, env.filled_targets()):
+    for target, filled in zip(sc.targets, view.filled_targets):
         if not filled:
             mark(target.cells, "t", 0)
-    for _cid, (state, cells) in env.component_cells().items():
+    for _cid, (state, cells) in view.components.items():
         mark(cells, {"current": "C", "waiting": "w"}.get(state, "#"), 5)
     lines = [
-        f"{sc.name} step {env._elapsed}: moving {env.current_component or '-'} "
-        f"({env._steps if env.current_component else 0} steps on it), {env._k}/{env._cs.n_total} standing",
+        f"{sc.name} step {view.elapsed}: moving {view.current or '-'} "
+        f"({view.steps if view.current else 0} steps on it), {view.standing}/{view.total} standing",
         "     y " + "".join(str(y % 10) for y in range(L)),
     ]
     for x in range(W):
