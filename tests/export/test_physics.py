@@ -63,7 +63,8 @@ def test_flat_body_gets_a_positive_definite_tensor():
 
 def test_beam_dropped_in_mujoco_rests_on_its_flange_at_half_its_depth():
     pytest.importorskip("mujoco")
-    from bimrobot.export.inertia import Body, drop_on_ground
+    from bimrobot.export.inertia import Body
+    from bimrobot.export.mujoco.scene import drop_on_ground
 
     beam = box_element("1Beam$0000000000000000", "IfcBeam", (3.5, 0.15, 0.31), np.eye(4), 109.28, base_at_origin=False)
     body = Body(beam.vertices, beam.faces)

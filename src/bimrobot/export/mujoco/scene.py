@@ -20,12 +20,14 @@ Load it with ``mujoco.MjModel.from_xml_path("scene/mujoco/scene.xml")``.
 from __future__ import annotations
 
 import xml.etree.ElementTree as ET
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import trimesh
 
 from bimrobot.core.frames import quat_wxyz as quaternion  # MuJoCo's (w, x, y, z), said in bimrobot.core.frames
+from bimrobot.export.inertia import Body, MassProperties
 from bimrobot.export.mujoco.collision import DEFAULT_BUDGET, collision_pieces
 
 TIMESTEP_S = 0.002
@@ -162,3 +164,42 @@ def write_scene(package_dir: Path, converted: list, options, ground_z: float, ya
         "collision_methods": dict(sorted(counts.items())),
         "collision": methods,
     }
+
+
+@dataclass(frozen=True)
+class Settled:
+    """Where a body came to rest in :func:`drop_on_ground`: pose (4x4, world), centre of mass (world,
+    m), its speed (m/s) and angular speed (rad/s) at the end, and the seconds simulated."""
+
+    pose: np.ndarray
+    center_of_mass: np.ndarray
+    speed: float
+    angular_speed: float
+    seconds: float
+
+
+def drop_on_ground(pieces: list[tuple[np.ndarray, np.ndarray]], mass: MassProperties, pose: np.ndarray,
+                   seconds: float = 2.0) -> Settled:
+    """Drop a rigid body on a ground plane at z = 0 in MuJoCo and return where it rests.
+
+    ``pieces``: convex collision pieces [(vertices, faces)] in the body frame (m; MuJoCo collides each
+    as its hull), ``mass``: its mass properties, ``pose``: the 4x4 start pose. This is the check
+    the project's physics engine makes of a converted element (it replaced pybullet's)."""
+    import tempfile
+
+    import mujoco
+
+    with tempfile.TemporaryDirectory() as folder:  # MuJoCo reads meshes from files
+        root, asset, world = scene_root("drop", 0.0)
+        (Path(folder) / "meshes").mkdir()
+        body = Body(*pieces[0])
+        add_element_body(world, asset, Path(folder) / "meshes", "body", "body", pose, mass, body, "", True, pieces)
+        (Path(folder) / "drop.xml").write_text(ET.tostring(root, encoding="unicode"), encoding="utf-8")
+        model = mujoco.MjModel.from_xml_path(str(Path(folder) / "drop.xml"))
+    data = mujoco.MjData(model)
+    mujoco.mj_step(model, data, nstep=int(round(seconds / model.opt.timestep)))
+    moved = np.eye(4)
+    moved[:3, :3] = data.body("body").xmat.reshape(3, 3)
+    moved[:3, 3] = data.body("body").xpos
+    return Settled(moved, data.body("body").xipos.copy(), float(np.linalg.norm(data.qvel[:3])),
+                   float(np.linalg.norm(data.qvel[3:6])), seconds)
