@@ -58,7 +58,7 @@ def test_every_declared_robot_range_is_the_range_a_fleet_file_is_held_to():
 def test_a_capability_tables_null_coordinates_read_as_absent():
     """Found by replacing every value of a capability table with each hostile value (8,288 files, messages
     compared before/after the schema): ``gripper_opening_m: null`` raised a TypeError."""
-    from bimrobot.rcan.fleet import fleet_from_capability_table
+    from bimrobot.site.fleet import fleet_from_capability_table
 
     text = CAPABILITIES + "    gripper_opening_m: null\n    footprint_m: null\n    home: null\n"
     robot = fleet_from_capability_table(parse_yaml(text, "caps.yaml"), "caps.yaml").robots[0]

@@ -13,36 +13,9 @@ Each resulting :class:`RcanActivity` has an idempotent id ``<row Identification>
 
 from __future__ import annotations
 
-import enum
 from dataclasses import dataclass, field
-from bimrobot.core.tasks import Task
 
-
-class ActivityKind(str, enum.Enum):
-    """A robot construction activity (thesis section 5.3.3), value = its snake_case name."""
-
-    MOVE_TO_COMPONENT = "move_to_component"
-    POSITION_FOR_PICKING_UP = "position_for_picking_up"
-    PICK_UP = "pick_up"
-    TRANSPORT = "transport"
-    POSITION_FOR_INSTALLING = "position_for_installing"
-    INSTALL = "install"
-
-    @property
-    def label(self) -> str:
-        """The thesis' name, e.g. "Position for picking up"."""
-        return self.value.replace("_", " ").capitalize()
-
-    @classmethod
-    def parse(cls, text: str) -> "ActivityKind":
-        """Accept ``pick_up``, ``Pick up`` or ``pick-up``; ValueError naming the valid kinds otherwise."""
-        key = text.strip().lower().replace(" ", "_").replace("-", "_")
-        try:
-            return cls(key)
-        except ValueError:
-            valid = ", ".join(kind.value for kind in cls)
-            raise ValueError(f"unknown construction activity {text!r} (expected one of: {valid})") from None
-
+from bimrobot.core.tasks import ActivityKind, Task
 
 #: Chapter-4 schedule activity -> the RCAN activities it is broken into, in order.
 SCHEDULE_DECOMPOSITION: dict[Task, tuple[ActivityKind, ...]] = {

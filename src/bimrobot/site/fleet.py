@@ -36,8 +36,11 @@ refused before anything is simulated, naming the file, the robot, the key and it
 Older files still load, converted to the one type with one warning naming the old keys and the new ones:
 a version-1 chapter-4 fleet (``speed``, ``carry_load``, ``payload``, ``platform_size``, ``reach``,
 ``time_per_node``, ``time_per_point``, ``load_time``, ``unload_time``, ``home``; :data:`V1_KEYS`) and an
-RCAN capability table (``robot_types`` and ``robots`` with ``payload_kg``, ``handling_s`` ...; read by
-:mod:`bimrobot.rcan.fleet`). ``bimrobot fleet convert old.yaml -o new.yaml`` writes the new form.
+RCAN capability table (``robot_types`` and ``robots`` with ``payload_kg``, ``reach_m``, ``speed_m_s``,
+``arm_speed_m_s``, ``handling_s``, ``gripper_opening_m``, ``home``, ``footprint_m``; read by
+:func:`fleet_from_capability_table`): each of its robots becomes a mobile manipulator that carries (in its
+gripper, no platform) and lifts its ``payload_kg``, loads in ``handling_s.pick_up`` and installs a node or
+point in ``handling_s.install``, performing the activities of its types; its home stays in the model frame. ``bimrobot fleet convert old.yaml -o new.yaml`` writes the new form.
 """
 
 from __future__ import annotations
@@ -52,9 +55,9 @@ from bimrobot.core.config import check_keys, line_of, parse_yaml, read_yaml_file
 from bimrobot.core.errors import InputError
 from bimrobot.sco.timing import RobotTimes
 from bimrobot.site.site import SITE_COORDINATE_LIMIT_M, Site, default_site, load_site  # noqa: F401 (re-exported)
-from bimrobot.core.schema import (At, Choice, Custom, Name, Ordered, Quantity, Subset, Vector, quantities_of, read_keys,
-                             rule, rules_of)
-from bimrobot.core.tasks import KIND_TASKS, TASKS, Task
+from bimrobot.core.schema import (At, Choice, Coordinates, Custom, Name, Ordered, Quantity, Subset, Vector, keys_of,
+                                  quantities_of, read_keys, rule, rules_of)
+from bimrobot.core.tasks import KIND_TASKS, TASKS, ActivityKind, Task
 
 log = logging.getLogger(__name__)
 
@@ -109,8 +112,6 @@ MODEL_HOME_LIMIT_M = 1.0e7
 
 
 def _rcan_activities(names, at: At) -> frozenset:
-    from bimrobot.rcan.activities import ActivityKind  # the six activities' names, said once (no RCAN machinery)
-
     if not isinstance(names, list) or not names:
         raise at.fail(f"must be a non-empty list of RCAN activity names, got {names!r}")
     try:
@@ -184,7 +185,7 @@ class RobotSpec:
         return {"pick_up": self.load_s, "install": install}
 
     def performs(self, kind) -> bool:
-        """Whether it performs RCAN activity ``kind`` (:class:`bimrobot.rcan.activities.ActivityKind`)."""
+        """Whether it performs RCAN activity ``kind`` (:class:`bimrobot.core.tasks.ActivityKind`)."""
         return self.rcan_activities is None or str(getattr(kind, "value", kind)) in self.rcan_activities
 
     def can_grip(self, section_m: tuple[float, float] | None) -> bool:
@@ -283,9 +284,7 @@ def fleet_from_dict(data, source: str) -> Fleet:
     """A validated Fleet from a parsed fleet file of any version; errors name ``source`` and the key.
     A version-1 chapter-4 fleet or an RCAN capability table is converted, with one warning."""
     if isinstance(data, dict) and isinstance(data.get("robot_types"), dict):
-        from bimrobot.rcan.fleet import fleet_from_capability_table  # RCAN's own older format
-
-        return fleet_from_capability_table(data, source)
+        return fleet_from_capability_table(data, source)  # RCAN's own older format
     if not isinstance(data, dict) or "robots" not in data:
         raise InputError(f"{source}: expected a mapping with 'version: {VERSION}' and a 'robots' list")
     version = data.get("version", 1)
@@ -396,3 +395,97 @@ def load_fleet(spec: str | Path) -> Fleet:
         hint = f"; did you mean {close[0]!r}?" if close else ""
         raise InputError(f"fleet {spec!r} is neither a built-in fleet ({', '.join(BUILTIN_FLEETS)}) nor a file{hint}")
     return fleet_from_dict(read_yaml_file(spec, "fleet file"), str(spec))
+
+
+# ---------------------------------------------------------------- RCAN's older capability table
+#: Physical ranges of a robot's numbers in a capability table, declared on :class:`CapabilityRobot`.
+#: The largest land cranes lift about 5,000 t and reach about 250 m; nothing on a site drives faster
+#: than a road vehicle (20 m/s); a gripper takes less than a day per pick-up or install.
+HANDLING_S = Quantity(0.0, 86400.0, "s")
+
+
+def _handling(value, at: At) -> dict:
+    """``handling_s``: RCAN activity name -> seconds (empty or null: none)."""
+    if not value:
+        return {}
+    if not isinstance(value, dict):
+        raise at.fail("must map activity names (pick_up, install, ...) to seconds")
+    seconds = {}
+    for key in value:
+        try:
+            kind = ActivityKind.parse(str(key))
+        except ValueError as exc:
+            raise InputError(f"{at.source}{line_of(value, key) or at.line}: {at.where}: handling_s: {exc}") from None
+        seconds[kind] = HANDLING_S.read(value[key], replace(at, line=line_of(value, key), where=f"{at.where} handling_s", key=str(key)))
+    return seconds
+
+
+@dataclass(frozen=True)
+class CapabilityRobot:
+    """The keys of one robot of a capability table (metres, seconds, kg, m/s; ``home`` [x, y, z] in the
+    model frame); ``types`` is checked against the table's ``robot_types`` before (its messages name them)."""
+
+    types: tuple = field(metadata=rule(Custom(lambda value, at: value)))
+    home: tuple = field(default=(0.0, 0.0, 0.0), metadata=rule(Coordinates(3, -1.0e7, 1.0e7)))
+    handling_s: dict = field(default_factory=dict, metadata=rule(Custom(_handling)))
+    gripper_opening_m: tuple | None = field(default=None, metadata=rule(Ordered(Coordinates(2, 0.0, 20.0))))
+    payload_kg: float = field(default=0.0, metadata=rule(Quantity(0.0, 5.0e6, "kg")))
+    footprint_m: tuple | None = field(default=None, metadata=rule(Coordinates(2, 0.05, 100.0)))
+    speed_m_s: float = field(default=1.0, metadata=rule(Quantity(0.0, 20.0, "m/s", low_open=True)))
+    reach_m: float = field(default=0.0, metadata=rule(Quantity(0.0, 250.0, "m")))
+    arm_speed_m_s: float = field(default=0.5, metadata=rule(Quantity(0.0, 10.0, "m/s", low_open=True)))
+
+
+#: The keys of a robot entry of a capability table, and the ranges of its numbers (low, high, unit).
+ROBOT_KEYS = keys_of(CapabilityRobot)
+ROBOT_RANGES = quantities_of(CapabilityRobot)
+
+
+def fleet_from_capability_table(data: object, source: str = "capability table") -> Fleet:
+    """A fleet (homes in the model frame) from RCAN's older capability table, validated; one warning."""
+    if not isinstance(data, dict) or not isinstance(data.get("robot_types"), dict):
+        raise InputError(f"{source}: expected a mapping with 'robot_types' and 'robots'")
+    if not isinstance(data.get("robots"), dict) or not data["robots"]:
+        raise InputError(f"{source}{line_of(data, 'robots')}: 'robots' must map at least one robot name to its specification")
+    check_keys(data, ("robot_types", "robots"), source)
+    robot_types: dict[str, frozenset[ActivityKind]] = {}
+    for type_name, entry in data["robot_types"].items():
+        activities = (entry or {}).get("activities") if isinstance(entry, dict) else None
+        where = f"{source}{line_of(data['robot_types'], type_name)}: robot_types.{type_name}"
+        if isinstance(entry, dict):
+            check_keys(entry, ("activities",), source, f"robot_types.{type_name}")
+        if not isinstance(activities, list):
+            raise InputError(f"{where}.activities must be a list of activity names")
+        try:
+            robot_types[str(type_name)] = frozenset(ActivityKind.parse(str(a)) for a in activities)
+        except ValueError as exc:
+            raise InputError(f"{where}: {exc}") from None
+    robots = tuple(_table_robot(str(name), entry, robot_types, source, line_of(data["robots"], name))
+                   for name, entry in data["robots"].items())
+    warn_old_format(source, "an RCAN capability table", "robot_types -> rcan_activities, payload_kg -> carry_kg "
+                    "and lift_kg, handling_s pick_up -> load_s, install -> time_per_node_s and time_per_point_s, "
+                    "home -> home_m (home_frame: model)")
+    return Fleet(name=Path(source).stem, robots=robots, source=source, home_frame="model")
+
+
+def _table_robot(name: str, entry: object, robot_types: dict, source: str, line: str = "") -> RobotSpec:
+    where = f"{source}{line}: robots.{name}"
+    if not isinstance(entry, dict):
+        raise InputError(f"{where} must be a mapping")
+    types = entry.get("types")
+    if not isinstance(types, list) or not types:
+        raise InputError(f"{where}.types must list the robot types it integrates")
+    unknown = [t for t in types if not isinstance(t, str) or t not in robot_types]
+    if unknown:
+        raise InputError(f"{where}.types names unknown robot type {unknown[0]!r} (known: {', '.join(robot_types)})")
+    read = read_keys(entry, CapabilityRobot, At(source, line, f"robot '{name}'"))
+    spec = CapabilityRobot(**{key: value for key, value in read.items() if value is not None})
+    activities = frozenset().union(*(robot_types[t] for t in types))
+    install = spec.handling_s.get(ActivityKind.INSTALL, 0.0)
+    return RobotSpec(
+        name=name, kind="mobile_manipulator", speed_m_s=spec.speed_m_s, carry_kg=spec.payload_kg,
+        lift_kg=spec.payload_kg, reach_m=spec.reach_m, time_per_node_s=install, time_per_point_s=install,
+        load_s=spec.handling_s.get(ActivityKind.PICK_UP, 0.0), arm_speed_m_s=spec.arm_speed_m_s,
+        gripper_opening_m=spec.gripper_opening_m, footprint_m=spec.footprint_m, home_m=spec.home,
+        rcan_activities=None if activities == frozenset(ActivityKind) else frozenset(k.value for k in activities),
+    )
