@@ -12,7 +12,8 @@ from gymnasium.utils.env_checker import check_env
 
 from bimrobot.coordination.simulation import simulate
 from bimrobot.core.errors import BimrobotError, InputError
-from bimrobot.planning.dispatch import ENV_ID, NODE_FEATURES, DispatchEnv, MarketPolicy, frame_problem, play, task_key
+from bimrobot.planning.dispatch import (ENV_ID, NODE_FEATURES, DispatchEnv, MarketPolicy, frame_problem, play,
+                                       rebuild_observation, task_key)
 from bimrobot.sco.states import State
 
 
@@ -163,3 +164,47 @@ def test_a_fleet_left_without_carriers_ends_the_episode_as_stalled():
     assert "no working robot can transport" in info["stalled"] and env.result is None
     with pytest.raises(BimrobotError, match="call reset"):
         env.step(env.wait_action)
+
+
+def _same_as_rebuilt_at_every_decision(env, policy, seed=0) -> int:
+    """Step ``env`` with ``policy`` and compare each observation, key by key, with one rebuilt from
+    nothing (``rebuild_observation``): same keys, dtypes and bits. Returns the decisions taken."""
+    obs, _ = env.reset(seed=seed)
+    done = truncated = False
+    while True:
+        expected = rebuild_observation(env)
+        assert list(obs) == list(expected)
+        for key, value in expected.items():
+            assert obs[key].dtype == value.dtype and np.array_equal(obs[key], value), (key, env.decisions)
+        if done or truncated:
+            return env.decisions
+        obs, _, done, truncated, _ = env.step(policy(env))
+
+
+def test_the_kept_up_observation_is_the_rebuilt_one_bit_for_bit_on_the_frame():
+    """The market per node and per joint, and with a breakdown (its task auctioned again), a robot out for
+    good and idle robots driving back to the yard (travel from part way along a drive)."""
+    base = frame_problem()
+    problems = [base, frame_problem(per_node=False),
+                replace(base, site=replace(base.site, idle_robots="yard"),
+                        breakdowns=(("TransportRobot11", 100.0, 50.0), ("AssemblyRobot31", 400.0)))]
+    for problem in problems:
+        assert _same_as_rebuilt_at_every_decision(DispatchEnv(problem), MarketPolicy()) >= 28  # per joint: 28 tasks
+
+
+def test_the_kept_up_observation_is_the_rebuilt_one_on_a_generated_building(tmp_path):
+    """A generated precast frame of two floors (gates, its drawn fleet and site), a seeded random choice
+    among the valid actions (waiting included), padded wider than the building."""
+    from bimrobot.planning.dispatch import simulate_problem
+    from bimrobot.planning.generator import generate
+    from bimrobot.site.fleet import fleet_yaml
+    from bimrobot.site.site import site_yaml
+
+    made = generate("generated:precast:2x2x2:seed=3", tmp_path / "building.ifc")
+    (tmp_path / "fleet.yaml").write_text(fleet_yaml(made.fleet, "test"), encoding="utf-8")
+    (tmp_path / "site.yaml").write_text(site_yaml(made.site, "test"), encoding="utf-8")
+    problem = simulate_problem([str(made.path), "--fleet", str(tmp_path / "fleet.yaml"), "--site", str(tmp_path / "site.yaml")])
+    rng = np.random.default_rng(11)
+    env = DispatchEnv(problem, max_tasks=256, max_robots=12, max_edges=1024)
+    decisions = _same_as_rebuilt_at_every_decision(env, lambda e: int(rng.choice(np.flatnonzero(e.action_masks()))))
+    assert decisions > len(env.graph.keys) // 2 and env.result is not None

@@ -300,6 +300,7 @@ class DispatchEnv(gym.Env):
         self.sim: ConstructionSimulation | None = None
         self.result: SimulationResult | None = None
         self._ended = True
+        self._episode = 0
 
     # ---------------------------------------------------------------- episode
     def reset(self, *, seed: int | None = None, options: dict | None = None):
@@ -309,6 +310,7 @@ class DispatchEnv(gym.Env):
                                           storey_elevations=problem.storey_elevations, per_node=problem.per_node,
                                           dispatcher=AgentDispatcher())
         self.sim.start()
+        self._episode += 1
         self.graph = task_graph(self.sim)
         self._set_up_arrays(problem.fleet)
         self.result, self.round_id, self.decisions, self._clock = None, 0, 0, 0.0
@@ -412,6 +414,8 @@ class DispatchEnv(gym.Env):
 
     # ---------------------------------------------------------------- observation
     def _set_up_arrays(self, fleet: Fleet) -> None:
+        """What holds for the whole episode (task and robot features, compatibility, handling times,
+        precedences and the order earliest starts are computed in) and the observation's buffers."""
         graph, n, r = self.graph, len(self.graph.keys), len(fleet.robots)
         if n > self.max_tasks or r > self.max_robots or len(graph.edges) > self.max_edges:
             raise InputError(
@@ -443,7 +447,7 @@ class DispatchEnv(gym.Env):
                     self.capable[i, j] = True
                     self.handling[i, j] = handling_time(spec, request)
         shortest = np.where(self.capable, self.handling, np.inf).min(axis=1)
-        self.shortest = np.where(np.isfinite(shortest), shortest, 0.0)[:n]
+        self.shortest = np.where(np.isfinite(shortest), shortest, 0.0)[:n]  # float32, as the observation
         static[:n, 15] = self.shortest
         self.static = static
         self.robot_static = np.zeros((self.max_robots, len(ROBOT_FEATURES)), np.float32)
@@ -455,10 +459,42 @@ class DispatchEnv(gym.Env):
         self.precedence[: len(graph.edges)] = graph.edges
         self.precedence_any = np.zeros(self.max_edges, np.int8)
         self.precedence_any[: len(graph.edges)] = graph.any_of
-        self.levels = _levels(n, graph.edges)  # (nodes, indices of the edges into them) per depth
+        depth = _depths(n, graph.edges)
+        self.levels = _levels(depth, graph.edges)  # (nodes, indices of the edges into them) per depth
         self.group_after = np.zeros(int(graph.groups.max(initial=-1)) + 1, np.int64)
         self.group_after[graph.groups] = graph.edges[:, 1]
         self.state = np.zeros(n, np.int64)  # index into STATES
+        self._fixed = {  # what does not change during the episode
+            "node_mask": _mask(self.max_tasks, n), "robot_mask": _mask(self.max_robots, r),
+            "precedence": self.precedence, "precedence_mask": _mask(self.max_edges, len(graph.edges)),
+            "precedence_any": self.precedence_any, "compatibility": self.capable.astype(np.int8), "handling_s": self.handling,
+        }
+        self._set_up_buffers(n, r, depth)
+
+    def _set_up_buffers(self, n: int, r: int, depth: np.ndarray) -> None:
+        """The arrays the observation keeps between decisions and updates where the last decision changed
+        something: node states, the gates' open predecessors, travel columns, earliest starts."""
+        graph = self.graph
+        self._gates = graph.kinds == KINDS.index("gate")
+        self._adds = np.where(self._gates, 0.0, self.shortest)  # what a waiting node's finish adds to its start (s)
+        self._order, self._node_groups, self._group_edges, self._sources = _in_edges(n, graph.edges, graph.groups, depth)
+        into_gate = self._gates[graph.edges[:, 1]] if len(graph.edges) else np.zeros(0, bool)
+        self._open_before = np.bincount(graph.edges[into_gate, 1], minlength=n)  # per gate: predecessors not done
+        self._gates_after: dict[int, list[int]] = {}
+        for a, b in graph.edges[into_gate].tolist():
+            self._gates_after.setdefault(a, []).append(b)
+        self._gate_nodes = np.flatnonzero(self._gates).tolist()
+        self._gate_before = {g: graph.edges[graph.edges[:, 1] == g, 0] for g in self._gate_nodes}
+        self._nodes = self.static.copy()
+        self._nodes[np.arange(n), 10] = 1.0  # every node waiting
+        self._travel = np.zeros((self.max_tasks, self.max_robots), np.float32)
+        self._travel_from = np.full((r, 2), np.nan)  # where each robot's travel column was computed from
+        self._rows = [np.flatnonzero(self.capable[:n, j]) for j in range(r)]
+        self._rows_xy = [self.start_xy[rows] for rows in self._rows]
+        self._start, self._finish = np.empty(n), np.empty(n)
+        self._running_until = np.full(n, np.nan)
+        self._running: list[int] = []
+        self._observed, self._last = None, {}
 
     def _height(self, request, component) -> float:
         if request.node_ids and request.activity != Task.TRANSPORT:
@@ -466,6 +502,16 @@ class DispatchEnv(gym.Env):
         if request.joint_id:
             return float(self.sim.smart.joints[request.joint_id].position[2])
         return float(component.target_position[2])
+
+    def _set_state(self, node: int, state: int) -> None:
+        """Node ``node`` is now in ``state`` (index into :data:`STATES`): its one-hot, the gates after it."""
+        old = int(self.state[node])
+        self.state[node] = state
+        self._nodes[node, 10 + old] = 0.0
+        self._nodes[node, 10 + state] = 1.0
+        if state == 3 and old != 3:
+            for gate in self._gates_after.get(node, ()):
+                self._open_before[gate] -= 1
 
     def _follow_events(self) -> None:
         """Node states from the simulation's event log since the last look."""
@@ -476,85 +522,74 @@ class DispatchEnv(gym.Env):
                 key = task_key(event["activity"], event["component"], event["joint"], event["node"])
                 node = self.graph_index[key]
                 self._request_node[event["request"]] = node
-                self.state[node] = 1
+                self._set_state(node, 1)
             elif kind == "award":
-                self.state[self._request_node[event["request"]]] = 2
+                self._set_state(self._request_node[event["request"]], 2)
             elif kind == "reauction":
-                self.state[self._request_node[event["request"]]] = 1
+                self._set_state(self._request_node[event["request"]], 1)
             elif kind == "finish":
                 node = self._request_node[event["request"]]
-                self.state[node], self._finished_at[node] = 3, event["time"]
+                self._finished_at[node] = event["time"]
+                self._set_state(node, 3)
         self._seen_events = len(events)
 
+    def _close_gates(self) -> None:
+        """A floor gate is done once every node before it is (gates are not tasks: no events). In index
+        order, so that closing one floor's gate may close the next one's at once."""
+        for gate in self._gate_nodes:
+            if self.state[gate] != 3 and self._open_before[gate] == 0:
+                self._finished_at[gate] = np.max(self._finished_at[self._gate_before[gate]], initial=0.0)
+                self._set_state(gate, 3)
+
     def _observation(self) -> dict:
+        """The observation now. Kept between decisions: node states follow the new events, the gates
+        their counts of open predecessors, a robot's travel column is recomputed only when where it drives
+        from changed; the earliest starts, which move with the clock, are one compiled pass over the
+        waiting nodes. The values are those of :func:`rebuild_observation` (tests compare them)."""
+        now = float(self.sim.build.env.now)
+        key = (self._episode, self.decisions, len(self.sim.build.events), now)
+        if key == self._observed:  # asked again with nothing changed (a policy reading the last step's)
+            return {k: v.copy() for k, v in self._last.items()}
         self._follow_events()
-        n, now = len(self.graph.keys), float(self.sim.build.env.now)
+        self._close_gates()
         robots = [self.sim.build.robots[name] for name in self.robot_names]
-        running_until = np.full(n, np.nan)
-        for robot in robots:
-            if robot.task is not None:
-                running_until[self._node_of(robot.task)] = robot.free_at
-        gates = self.graph.kinds == KINDS.index("gate")
-        self._close_gates(gates)
-        start = self._earliest_starts(now, running_until, gates)
-        nodes = self.static.copy()
-        nodes[np.arange(n), 10 + self.state] = 1.0
-        nodes[:n, 14] = start - now
+        self._update_starts(now, robots)
         robot_features = self.robot_static.copy()
-        where = np.zeros((self.max_robots, 2))
         for j, robot in enumerate(robots):
             busy = robot.task is not None
             here = self.sim.where(robot)
-            where[j] = robot.end_position if busy else here
             robot_features[j, 0:2] = here
             robot_features[j, 6:9] = (busy, max(0.0, robot.free_at - now) if busy else 0.0, robot.broken)
-        travel = np.zeros((self.max_tasks, self.max_robots), np.float32)
-        k = len(robots)
-        distance = np.hypot(*(self.start_xy[:n, None, :] - where[None, :k, :]).transpose(2, 0, 1))
-        travel[:n, :k] = np.where(self.capable[:n, :k], distance / self.speeds[None, :], 0.0)
-        return {
-            "node_features": nodes,
-            "node_mask": _mask(self.max_tasks, n),
-            "robot_features": robot_features,
-            "robot_mask": _mask(self.max_robots, k),
-            "precedence": self.precedence.copy(),
-            "precedence_mask": _mask(self.max_edges, len(self.graph.edges)),
-            "precedence_any": self.precedence_any.copy(),
-            "compatibility": self.capable.astype(np.int8),
-            "handling_s": self.handling.copy(),
-            "travel_s": travel,
-            "time_s": np.array([now], np.float32),
+            self._update_travel(j, robot.end_position if busy else here)
+        fixed = self._fixed  # copied too: every observation is new data (gymnasium's contract)
+        self._last = {
+            "node_features": self._nodes, "node_mask": fixed["node_mask"], "robot_features": robot_features,
+            "robot_mask": fixed["robot_mask"], "precedence": fixed["precedence"], "precedence_mask": fixed["precedence_mask"],
+            "precedence_any": fixed["precedence_any"], "compatibility": fixed["compatibility"],
+            "handling_s": fixed["handling_s"], "travel_s": self._travel, "time_s": np.array([now], np.float32),
         }
+        self._observed = key
+        return {k: v.copy() for k, v in self._last.items()}
 
-    def _close_gates(self, gates: np.ndarray) -> None:
-        """A floor gate is done once every node before it is (gates are not tasks: no events)."""
-        for i in np.flatnonzero(gates & (self.state != 3)):
-            before = self.graph.edges[self.graph.edges[:, 1] == i, 0]
-            if np.all(self.state[before] == 3):
-                self.state[i] = 3
-                self._finished_at[i] = np.max(self._finished_at[before], initial=0.0)
+    def _update_starts(self, now: float, robots: list) -> None:
+        """Column ``earliest_start_s`` of every node (see :func:`_earliest_starts_pass`)."""
+        for node in self._running:
+            self._running_until[node] = np.nan
+        self._running = [self._node_of(robot.task) for robot in robots if robot.task is not None]
+        for node, robot in zip(self._running, (robot for robot in robots if robot.task is not None)):
+            self._running_until[node] = robot.free_at
+        _starts_pass()(self._order, self._node_groups, self._group_edges, self._sources, self.state, self._finished_at,
+                       self._running_until, self.shortest, self._adds, now, self._start, self._finish, self._nodes)
 
-    def _earliest_starts(self, now: float, running_until: np.ndarray, gates: np.ndarray) -> np.ndarray:
-        """Earliest start (s) of every node: now for ready, running and done work; for waiting work the
-        latest earliest finish of what it waits for (shortest handling, no travel; a gate takes none)."""
-        # waiting nodes: overwritten level by level before anything after them reads them
-        finish = np.where(self.state == 3, self._finished_at, now)
-        finish = np.where(self.state == 2, np.nan_to_num(running_until, nan=now), finish)
-        ready = self.state == 1
-        finish[ready] = now + self.shortest[ready]
-        start = np.full(len(self.state), now)
-        bound = np.full(len(self.state), now)
-        first = np.full(len(self.group_after), np.inf)  # per group: the first of its alternatives to finish
-        for level, into in self.levels:
-            todo = level[self.state[level] == 0]
-            if todo.size == 0:
-                continue
-            groups = self.graph.groups[into]
-            np.minimum.at(first, groups, finish[self.graph.edges[into, 0]])
-            np.maximum.at(bound, self.group_after[groups], first[groups])
-            start[todo] = bound[todo]
-            finish[todo] = bound[todo] + np.where(gates[todo], 0.0, self.shortest[todo])
-        return start
+    def _update_travel(self, j: int, where) -> None:
+        """Robot ``j``'s travel column (s to every task it can do, from ``where``, site frame m), when
+        ``where`` moved since it was last computed."""
+        x, y = float(where[0]), float(where[1])
+        if self._travel_from[j, 0] == x and self._travel_from[j, 1] == y:
+            return
+        self._travel_from[j] = (x, y)
+        xy = self._rows_xy[j]
+        self._travel[self._rows[j], j] = np.hypot(xy[:, 0] - x, xy[:, 1] - y) / self.speeds[j]
 
     def render(self):
         if self.render_mode != "ansi" or self.sim is None:
@@ -563,19 +598,159 @@ class DispatchEnv(gym.Env):
         return f"t = {self.sim.build.env.now:.1f} s, decision {self.decisions}: " + ", ".join(f"{v} {k}" for k, v in counts.items())
 
 
+def rebuild_observation(env: DispatchEnv) -> dict:
+    """The observation of ``env`` now, rebuilt from nothing: node states replayed from the whole event
+    log, gates closed, earliest starts level by level through the precedence graph, travel of every task
+    and robot. The definition the environment's kept-up arrays must equal (bit for bit); it leaves ``env``
+    as it is. Seconds, metres (site frame x, y; model frame z)."""
+    env = env.unwrapped
+    graph, sim = env.graph, env.sim
+    n, now = len(graph.keys), float(sim.build.env.now)
+    state, finished_at, request_node = np.zeros(n, np.int64), np.full(n, np.nan), {}
+    for event in sim.build.events:
+        kind = event["event"]
+        if kind == "task_request":
+            node = env.graph_index[task_key(event["activity"], event["component"], event["joint"], event["node"])]
+            request_node[event["request"]], state[node] = node, 1
+        elif kind in ("award", "reauction"):
+            state[request_node[event["request"]]] = 2 if kind == "award" else 1
+        elif kind == "finish":
+            node = request_node[event["request"]]
+            state[node], finished_at[node] = 3, event["time"]
+    robots = [sim.build.robots[name] for name in env.robot_names]
+    running_until = np.full(n, np.nan)
+    for robot in robots:
+        if robot.task is not None:
+            running_until[env.graph_index[request_key(sim, robot.task)]] = robot.free_at
+    gates = graph.kinds == KINDS.index("gate")
+    for i in np.flatnonzero(gates & (state != 3)):
+        before = graph.edges[graph.edges[:, 1] == i, 0]
+        if np.all(state[before] == 3):
+            state[i], finished_at[i] = 3, np.max(finished_at[before], initial=0.0)
+    start = _level_starts(env, state, finished_at, now, running_until, gates)
+    nodes = env.static.copy()
+    nodes[np.arange(n), 10 + state] = 1.0
+    nodes[:n, 14] = start - now
+    robot_features = env.robot_static.copy()
+    where = np.zeros((env.max_robots, 2))
+    for j, robot in enumerate(robots):
+        busy = robot.task is not None
+        here = sim.where(robot)
+        where[j] = robot.end_position if busy else here
+        robot_features[j, 0:2] = here
+        robot_features[j, 6:9] = (busy, max(0.0, robot.free_at - now) if busy else 0.0, robot.broken)
+    travel = np.zeros((env.max_tasks, env.max_robots), np.float32)
+    k = len(robots)
+    distance = np.hypot(*(env.start_xy[:n, None, :] - where[None, :k, :]).transpose(2, 0, 1))
+    travel[:n, :k] = np.where(env.capable[:n, :k], distance / env.speeds[None, :], 0.0)
+    return {
+        "node_features": nodes,
+        "node_mask": _mask(env.max_tasks, n),
+        "robot_features": robot_features,
+        "robot_mask": _mask(env.max_robots, k),
+        "precedence": env.precedence.copy(),
+        "precedence_mask": _mask(env.max_edges, len(graph.edges)),
+        "precedence_any": env.precedence_any.copy(),
+        "compatibility": env.capable.astype(np.int8),
+        "handling_s": env.handling.copy(),
+        "travel_s": travel,
+        "time_s": np.array([now], np.float32),
+    }
+
+
+def _level_starts(env: DispatchEnv, state, finished_at, now: float, running_until, gates) -> np.ndarray:
+    """Earliest start (s) of every node: now for ready, running and done work; for waiting work the
+    latest earliest finish of what it waits for (shortest handling, no travel; a gate takes none), the
+    first of a group of alternatives counting. Level by level (numpy), the definition."""
+    graph = env.graph
+    # waiting nodes: overwritten level by level before anything after them reads them
+    finish = np.where(state == 3, finished_at, now)
+    finish = np.where(state == 2, np.nan_to_num(running_until, nan=now), finish)
+    ready = state == 1
+    finish[ready] = now + env.shortest[ready]
+    start = np.full(len(state), now)
+    bound = np.full(len(state), now)
+    first = np.full(len(env.group_after), np.inf)  # per group: the first of its alternatives to finish
+    for level, into in env.levels:
+        todo = level[state[level] == 0]
+        if todo.size == 0:
+            continue
+        groups = graph.groups[into]
+        np.minimum.at(first, groups, finish[graph.edges[into, 0]])
+        np.maximum.at(bound, env.group_after[groups], first[groups])
+        start[todo] = bound[todo]
+        finish[todo] = bound[todo] + np.where(gates[todo], 0.0, env.shortest[todo])
+    return start
+
+
+def _earliest_starts_pass(order, node_groups, group_edges, sources, state, finished_at, running_until, shortest, adds,
+                          now, start, finish, nodes):
+    """Compiled by numba (:func:`_starts_pass`): :func:`_level_starts` in one pass, written into column
+    14 of ``nodes`` as seconds from ``now``. ``order``: the nodes of depth >= 1 by depth; node v's
+    alternative groups are ``node_groups[v]:node_groups[v + 1]``, group g's edges
+    ``group_edges[g]:group_edges[g + 1]``, their first nodes ``sources``. Same arithmetic as the levels
+    (float32 for a ready node's finish, NaN kept by min and max), so the same bits."""
+    now32 = np.float32(now)
+    for i in range(state.size):
+        s = state[i]
+        if s == 3:
+            finish[i] = finished_at[i]
+        elif s == 2:
+            f = running_until[i]
+            if f != f:
+                f = now
+            elif f == np.inf:
+                f = 1.7976931348623157e308  # nan_to_num's largest finite float
+            elif f == -np.inf:
+                f = -1.7976931348623157e308
+            finish[i] = f
+        elif s == 1:
+            finish[i] = now32 + shortest[i]
+        else:
+            finish[i] = now
+        start[i] = now
+    for v in order:
+        if state[v] != 0:
+            continue
+        bound = now
+        for g in range(node_groups[v], node_groups[v + 1]):
+            first = np.inf
+            for e in range(group_edges[g], group_edges[g + 1]):
+                x = finish[sources[e]]
+                if x < first or x != x:
+                    first = x
+            if first > bound or first != first:
+                bound = first
+        start[v] = bound
+        finish[v] = bound + np.float64(adds[v])
+    for i in range(state.size):
+        nodes[i, 14] = start[i] - now
+
+
+_PASS = []
+
+
+def _starts_pass():
+    """:func:`_earliest_starts_pass` compiled (numba, cached next to this file; compiled on first use)."""
+    if not _PASS:
+        from numba import njit
+
+        _PASS.append(njit(cache=True)(_earliest_starts_pass))
+    return _PASS[0]
+
+
 def _mask(size: int, real: int) -> np.ndarray:
     mask = np.zeros(size, np.int8)
     mask[:real] = 1
     return mask
 
 
-def _levels(n: int, edges: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
-    """(nodes, the edges into them) per depth in the precedence graph (longest path from a source), from
-    depth 1 on: each node's predecessors lie at smaller depths."""
+def _depths(n: int, edges: np.ndarray) -> np.ndarray:
+    """(n,) each node's depth in the precedence graph (longest path from a source, in edges)."""
     depth = np.zeros(n, np.int64)
     indegree = np.bincount(edges[:, 1], minlength=n) if len(edges) else np.zeros(n, np.int64)
     after: list[list[int]] = [[] for _ in range(n)]
-    for a, b in edges:
+    for a, b in edges.tolist():
         after[a].append(b)
     queue = deque(np.flatnonzero(indegree == 0).tolist())
     seen = 0
@@ -589,8 +764,28 @@ def _levels(n: int, edges: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
                 queue.append(b)
     if seen < n:
         raise BimrobotError("the task graph has a cycle")
+    return depth
+
+
+def _levels(depth: np.ndarray, edges: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+    """(nodes, the edges into them) per depth, from depth 1 on: each node's predecessors lie at smaller depths."""
     into = depth[edges[:, 1]] if len(edges) else np.zeros(0, np.int64)
     return [(np.flatnonzero(depth == d), np.flatnonzero(into == d)) for d in range(1, int(depth.max(initial=0)) + 1)]
+
+
+def _in_edges(n: int, edges: np.ndarray, groups: np.ndarray, depth: np.ndarray):
+    """The precedences as :func:`_earliest_starts_pass` reads them: (the nodes of depth >= 1 by depth,
+    per node the range of its groups, per group the range of its edges, the edges' first nodes)."""
+    order = np.flatnonzero(depth >= 1)
+    order = order[np.argsort(depth[order], kind="stable")]
+    if not len(edges):
+        return order, np.zeros(n + 1, np.int64), np.zeros(1, np.int64), np.zeros(0, np.int64)
+    by = np.lexsort((groups, edges[:, 1]))  # edges by the node they lead into, then by group
+    after, group = edges[by, 1], groups[by]
+    first = np.flatnonzero(np.r_[True, (group[1:] != group[:-1]) | (after[1:] != after[:-1])])
+    group_edges = np.r_[first, len(by)].astype(np.int64)
+    node_groups = np.searchsorted(after[first], np.arange(n + 1)).astype(np.int64)
+    return order, node_groups, group_edges, np.ascontiguousarray(edges[by, 0], dtype=np.int64)
 
 
 class MarketPolicy:
