@@ -1,4 +1,4 @@
-"""Sub-commands of the assembly part: ``bimrobot assembly optimum | play | validate``."""
+"""Sub-commands of the assembly part: ``bimrobot assembly optimum | play | validate | from-ifc``."""
 
 from __future__ import annotations
 
@@ -12,6 +12,7 @@ OPTIMUM_EXAMPLES = """examples:
   bimrobot assembly optimum --setting E2S2            # optimal and random-policy return of one setting
   bimrobot assembly optimum --setting all             # the 16-setting table (about a minute)
   bimrobot assembly optimum --setting all --write     # also store it in settings/reference_returns.json
+  bimrobot assembly optimum --scenario frame.yaml     # a custom scenario (e.g. from `assembly from-ifc`)
 """
 
 PLAY_EXAMPLES = """examples:
@@ -25,6 +26,13 @@ VALIDATE_EXAMPLES = """examples:
   bimrobot assembly validate my_site.yaml             # exit 0 and a summary, or exit 2 and what is wrong
 """
 
+FROM_IFC_EXAMPLES = """examples:
+  bimrobot example steel-frame -o frame.ifc
+  bimrobot assembly from-ifc frame.ifc --storey "Level 1" -o frame.yaml       # the grid measured (auto)
+  bimrobot assembly from-ifc model.ifc --storey 0 --grid 6x7.2 -o ground.yaml  # storey by index, grid in metres
+  bimrobot assembly play --scenario frame.yaml --policy planner --gif frame.gif
+"""
+
 
 def register(subparsers) -> None:
     """Add this part's sub-commands to the bimrobot parser."""
@@ -32,7 +40,7 @@ def register(subparsers) -> None:
         "assembly",
         help="DRL assembly-planning benchmark: optimal returns, animated episodes, scenario validation",
         description="The voxel assembly-planning benchmark of the thesis' chapter 6 (16 settings E1S1..E4S4).",
-        epilog=OPTIMUM_EXAMPLES + PLAY_EXAMPLES + VALIDATE_EXAMPLES,
+        epilog=OPTIMUM_EXAMPLES + PLAY_EXAMPLES + VALIDATE_EXAMPLES + FROM_IFC_EXAMPLES,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     sub = parser.add_subparsers(dest="assembly_command", metavar="SUBCOMMAND")
@@ -47,6 +55,7 @@ def register(subparsers) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     optimum.add_argument("--setting", default="all", help="a setting such as E2S2, or 'all' (default)")
+    optimum.add_argument("--scenario", metavar="YAML", help="a custom scenario file instead of --setting")
     optimum.add_argument("--episodes", type=int, default=100, help="seeded resets / random episodes (default 100)")
     optimum.add_argument("--write", action="store_true", help="store the table in settings/reference_returns.json")
     optimum.add_argument("--json", metavar="FILE", help="also write the table as JSON to FILE")
@@ -77,6 +86,26 @@ def register(subparsers) -> None:
     )
     validate.add_argument("scenario", help="scenario YAML file")
     validate.set_defaults(func=cmd_validate)
+
+    from_ifc = sub.add_parser(
+        "from-ifc",
+        help="turn a storey's columns and beams into a custom scenario",
+        description="Read a storey's columns (IfcColumn) and beams (IfcBeam, IfcMember when horizontal) from an IFC "
+        "model, snap them to a voxel grid shaped like the benchmark's (a bay 4 cells, a column 4 cells tall), write the "
+        "scenario YAML and validate it; says what was dropped and why.",
+        epilog=FROM_IFC_EXAMPLES,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    from_ifc.add_argument("model", help="IFC model (.ifc or .ifczip)")
+    from_ifc.add_argument("--storey", required=True, help="storey name, or its index from 0 in the model's order")
+    from_ifc.add_argument("--grid", default="auto",
+                          help="grid spacing: 'auto' (the most common column spacing per axis, default), metres, or XxY metres")
+    from_ifc.add_argument("--interchangeable", action="store_true",
+                          help="any component may fill any free slot of its type (the benchmark's S2); the planner's "
+                          "search grows exponentially with it")
+    from_ifc.add_argument("--name", help="scenario name (default: MODEL-STOREY)")
+    from_ifc.add_argument("-o", "--output", required=True, metavar="YAML", help="scenario file to write")
+    from_ifc.set_defaults(func=cmd_from_ifc)
 
 
 def _settings(arg: str) -> list[str]:
@@ -112,12 +141,19 @@ def cmd_optimum(args) -> int:
     from bimrobot.core.errors import InputError
     from bimrobot.core.io import atomic_output_file, check_output, signature
 
-    settings = _settings(args.setting)
+    scenario = None
+    if args.scenario:
+        if args.write:
+            raise InputError("--write stores the benchmark's reference table: it does not take --scenario")
+        from bimrobot.assembly.scenario import load_scenario
+
+        scenario = load_scenario(args.scenario)
+    settings = [scenario.name] if scenario else _settings(args.setting)
     if not 2 <= args.episodes <= MAX_EPISODES:
         raise InputError(f"--episodes must be from 2 to {MAX_EPISODES}, got {args.episodes}")
     if args.write and (args.setting != "all" or args.episodes != 100):
         raise InputError("--write stores the reference table: use it with --setting all and the default --episodes 100")
-    inputs = [SETTINGS_DIR / f"{setting}.yaml" for setting in settings]
+    inputs = [args.scenario] if scenario else [SETTINGS_DIR / f"{setting}.yaml" for setting in settings]
     # before the minute of planning, so that a bad path never throws the table away
     if args.json:
         check_output(args.json, folder=False, inputs=inputs, option="--json")
@@ -125,11 +161,12 @@ def cmd_optimum(args) -> int:
         check_output(REFERENCE_FILE, folder=False, inputs=inputs, option="--write")
     rows = {}
     for setting in tqdm(settings, desc="settings", disable=len(settings) < 2 or not sys.stderr.isatty()):
-        rows[setting] = compute_reference_returns(setting, args.episodes)
-    print(f"{'setting':8} {'optimal':>10} {'± sem':>7} {'random':>10} {'± sem':>7}")
+        rows[setting] = compute_reference_returns(None if scenario else setting, args.episodes, scenario)
+    width = max(8, *(len(setting) for setting in rows))
+    print(f"{'setting':{width}} {'optimal':>10} {'± sem':>7} {'random':>10} {'± sem':>7}")
     for setting, row in rows.items():
         print(
-            f"{setting:8} {row['optimal']:10.2f} {row['optimal_sem']:7.2f} {row['random']:10.2f} {row['random_sem']:7.2f}"
+            f"{setting:{width}} {row['optimal']:10.2f} {row['optimal_sem']:7.2f} {row['random']:10.2f} {row['random_sem']:7.2f}"
         )
     print(
         f"optimal: exact planner (mean over seeded resets 0..{args.episodes - 1} where resets are random); "
@@ -263,4 +300,48 @@ def cmd_validate(args) -> int:
     fits = "within" if best.steps <= scenario.time_limit else "BEYOND"
     print(f"solvable: the exact planner completes reset seed 0 in {best.steps} steps ({fits} the time limit), "
           f"return {best.return_:.4f}")
+    return 0
+
+
+#: Largest scenario whose optimum ``from-ifc`` computes (handled components; own slots: a chain of
+#: shortest paths; interchangeable slots: the planner's search over slot sets grows exponentially).
+PLAN_LIMIT = {False: 100, True: 13}
+
+
+def cmd_from_ifc(args) -> int:
+    from bimrobot.assembly.env import AssemblyEnv
+    from bimrobot.assembly.from_ifc import dropped_summary, find_storey, frame_scenario, parse_grid, scenario_yaml
+    from bimrobot.assembly.planner import plan
+    from bimrobot.assembly.scenario import load_scenario
+    from bimrobot.bim import load_model
+    from bimrobot.core.io import atomic_output_file, check_output, signature
+
+    grid = parse_grid(args.grid)
+    check_output(args.output, folder=False, inputs=[args.model], option="-o")
+    model = load_model(args.model, include="IfcColumn, IfcBeam, IfcMember", properties=False)
+    storey = find_storey(model, args.storey)
+    result = frame_scenario(model, storey, grid, args.interchangeable, args.name, source=args.output)
+    sx, sy = result.spacing
+    cx, cy, cz = result.cell
+    read = ", ".join(f"{n} {cls}" for cls, n in sorted(result.read.items()))
+    print(f"{result.model}: storey '{storey.name}': read {read}; grid {sx:g} x {sy:g} m "
+          f"({'the most common column spacing' if result.auto else 'given'}), cells {cx:.3f} x {cy:.3f} x {cz:.3f} m")
+    scenario = result.scenario
+    columns = sum(c.type == "column" for c in scenario.components)
+    print(f"kept {columns} columns and {len(scenario.components) - columns} beams; dropped {len(result.dropped)}")
+    for line in dropped_summary(result.dropped):
+        print(f"  dropped {line}")
+    with atomic_output_file(args.output, inputs=[args.model], option="-o") as tmp:
+        tmp.write_text(scenario_yaml(result, signature("assembly from-ifc")), encoding="utf-8")
+    scenario = load_scenario(args.output)  # what a user's `validate` reads
+    print(f"wrote {args.output}: valid scenario '{scenario.name}', grid {'x'.join(map(str, scenario.grid))}, "
+          f"{len(scenario.handled)} components, time limit {scenario.time_limit}")
+    if len(scenario.handled) > PLAN_LIMIT[args.interchangeable]:
+        print(f"not planned: more than {PLAN_LIMIT[args.interchangeable]} components for the exact planner here")
+        return 0
+    env = AssemblyEnv(scenario=scenario)
+    env.reset(seed=0)
+    best = plan(env)
+    fits = "within" if best.steps <= scenario.time_limit else "BEYOND"
+    print(f"solvable: the exact planner completes it in {best.steps} steps ({fits} the time limit), return {best.return_:.4f}")
     return 0

@@ -275,19 +275,19 @@ def planner_policy(env):
     return policy
 
 
-def optimal_return(setting: str, seed: int | None = None) -> float:
-    """The optimal return of a benchmark setting's reset with ``seed``."""
-    env = AssemblyEnv(setting)
+def optimal_return(setting: str | None, seed: int | None = None, scenario=None) -> float:
+    """The optimal return of a benchmark setting's (or a custom ``scenario``'s) reset with ``seed``."""
+    env = AssemblyEnv(setting, scenario=scenario)
     env.reset(seed=seed)
     return plan(env).return_
 
 
-def random_policy_returns(setting: str, episodes: int = REFERENCE_EPISODES) -> np.ndarray:
+def random_policy_returns(setting: str | None, episodes: int = REFERENCE_EPISODES, scenario=None) -> np.ndarray:
     """Returns of a uniformly random policy: episode e resets with seed e and draws actions from
-    ``numpy.random.default_rng(e)``; the registered time limit applies."""
+    ``numpy.random.default_rng(e)``; the registered (or the custom ``scenario``'s) time limit applies."""
     from bimrobot.assembly.vector import BatchedAssemblySim
 
-    sim = BatchedAssemblySim(setting, episodes, seed=None)
+    sim = BatchedAssemblySim(setting, episodes, seed=None, scenario=scenario)
     sim.reset(seeds=list(range(episodes)))
     rngs = [np.random.default_rng(e) for e in range(episodes)]
     returns = np.zeros(episodes)
@@ -300,13 +300,15 @@ def random_policy_returns(setting: str, episodes: int = REFERENCE_EPISODES) -> n
     return returns
 
 
-def compute_reference_returns(setting: str, episodes: int = REFERENCE_EPISODES) -> dict[str, float]:
+def compute_reference_returns(setting: str | None, episodes: int = REFERENCE_EPISODES, scenario=None) -> dict[str, float]:
     """Optimal return (mean over ``episodes`` seeded resets when resets are random) and random-policy
-    mean return (``episodes`` seeded episodes), with their standard errors."""
-    scenario = benchmark_scenario(setting)
+    mean return (``episodes`` seeded episodes), with their standard errors, of a benchmark setting or
+    of a custom ``scenario``."""
+    custom = scenario
+    scenario = custom if custom is not None else benchmark_scenario(setting)
     seeds = range(episodes) if scenario.is_stochastic else [0]
-    optimal = np.array([optimal_return(setting, seed) for seed in seeds])
-    random = random_policy_returns(setting, episodes)
+    optimal = np.array([optimal_return(setting, seed, custom) for seed in seeds])
+    random = random_policy_returns(setting, episodes, custom)
     sem = lambda a: float(a.std(ddof=1) / np.sqrt(len(a))) if len(a) > 1 else 0.0  # noqa: E731
     return {
         "optimal": round(float(optimal.mean()), 4),
