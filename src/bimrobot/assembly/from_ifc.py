@@ -200,6 +200,9 @@ def frame_scenario(model, storey, grid: tuple[float, float] | None = None, inter
     read = Counter()
     columns = _columns(model, storey, dropped)
     read["IfcColumn"] = len(columns) + len(dropped)
+    if not columns and dropped:
+        raise InputError(f"storey '{storey.name}' of {model_name}: none of its {len(dropped)} columns (IfcColumn) is "
+                         f"vertical ({_kinds(dropped)}), so there is no frame to assemble")
     if not columns:
         with_columns = Counter(model.storey(e.storey_id).name for e in model.by_class("IfcColumn") if e.storey_id)
         hint = ", ".join(f"'{s}' ({n})" for s, n in with_columns.items()) or "none"
