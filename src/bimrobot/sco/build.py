@@ -36,36 +36,41 @@ in no robot time, the moment everything it rests on has its position fixed (:att
 from __future__ import annotations
 
 import contextlib
-import re
 import copy
+import dataclasses
 import gc
 import logging
-import dataclasses
 from dataclasses import dataclass, field
-from typing import Callable, Iterable
+from typing import Iterable
 
 import numpy as np
 
-from bimrobot.bim.model import BuildingModel, Connection, Element, WeightSource
-from bimrobot.bim.selection import DEFAULT_PREBUILT
+from bimrobot.bim.model import BuildingModel, Connection, Element
 from bimrobot.core.errors import InputError
 from bimrobot.sco.component import Component, ConnectionNode, Joint
+from bimrobot.sco.joints import (
+    connector_roles,
+    direct_joints,
+    duplicates_of_connected,
+    fasteners_at_joints,
+    joints_from_relations,
+    points_by_source,
+    split_points,
+)
+from bimrobot.sco.prebuilt import ASSEMBLY_CLASS, PREBUILT_CLASSES, PrebuiltRule, prebuilt_rule, prebuilt_selector
 from bimrobot.sco.states import State
+from bimrobot.sco.units import assembly_units, main_part, map_connections, orient_inferred
+
+# Their callers import these from here, where they were before the split (issue 37).
+__all__ = ["SmartModel", "build_smart_model", "gc_paused", "ASSUMED_POINTS_PER_JOINT", "MAX_TOLERANCE_M",
+           "PREBUILT_CLASSES", "main_part", "prebuilt_rule", "prebuilt_selector", "split_points"]
 
 log = logging.getLogger(__name__)
 
-#: Classes that are foundations already built on site when the simulation starts (thesis 4.5.2): the
-#: default ``--prebuilt`` selector (:data:`bimrobot.bim.selection.DEFAULT_PREBUILT`) as a tuple.
-PREBUILT_CLASSES = tuple(name.strip() for name in DEFAULT_PREBUILT.split(","))
 #: Fastening points an inferred joint is given when the model has no fastener there: four bolts, the
 #: smallest usual bolted shear connection (a beam's fin plate or cleat), two on each side's node. An
 #: assumption, reported as such; set ``assembly_points_per_joint`` (the fleet/site file's key of that name).
 ASSUMED_POINTS_PER_JOINT = 4
-#: Classes whose elements are the fastening points of a joint when they reach into both its components.
-FASTENER_CLASSES = ("IfcMechanicalFastener", "IfcFastener")
-#: Property names (after the last "/", lower case) that give how many fasteners one element stands for
-#: (a bolt group exported as one element).
-FASTENER_COUNT_PROPERTIES = ("bolt count", "number of bolts", "numberofbolts", "boltcount", "number of fasteners")
 #: Classes that are never components themselves (fasteners, non-physical or non-structural items).
 #: Reinforcement is cast into its concrete, never lifted by itself. (Proxies are components: Tekla exports
 #: precast floor plates as IfcBuildingElementProxy; leave them out with ``--exclude IfcBuildingElementProxy``.)
@@ -74,14 +79,10 @@ NON_COMPONENT_CLASSES = (
     "IfcSpace", "IfcAnnotation", "IfcGrid", "IfcVirtualElement",
     "IfcReinforcingBar", "IfcReinforcingMesh", "IfcTendon", "IfcTendonAnchor",
 )
-#: The class name that, given to ``prebuilt_classes``, marks every assembly unit prebuilt.
-ASSEMBLY_CLASS = "IfcElementAssembly"
 #: A partner counts as carrying a component when its bottom is this much lower (metres).
 SUPPORT_MARGIN_M = 0.05
 #: Largest gap (metres) that may count as touching when connections are inferred.
 MAX_TOLERANCE_M = 0.5
-#: Schemas whose class names ``prebuilt_classes`` may use (a name valid in any of them is accepted).
-KNOWN_SCHEMAS = ("IFC2X3", "IFC4", "IFC4X3_ADD2")
 
 
 @dataclass
@@ -206,28 +207,21 @@ def gc_paused():
             gc.enable()
 
 
-@gc_paused()
-def build_smart_model(
-    model: BuildingModel,
-    *,
-    prebuilt_classes: Iterable[str] | str = PREBUILT_CLASSES,
-    inferred_tolerance_m: float = 0.01,
-    assembly_points_per_joint: int = ASSUMED_POINTS_PER_JOINT,
-    inferred_assembly_method: str = "bolt",
-    by_element: bool = False,
-) -> SmartModel:
-    """Components, connection nodes and joints of ``model``.
+@dataclass
+class _Connected:
+    """What :func:`build_smart_model` builds on: the model of its work units and their connections."""
 
-    Uses the model's ``IfcRelConnectsWithRealizingElements`` when there are any; otherwise connections
-    inferred from touching geometry (``bimrobot.bim.connections.infer_connections`` with
-    ``inferred_tolerance_m``, metres). An inferred joint's points are the model's fasteners there, or
-    else ``assembly_points_per_joint`` (assumed, made by ``inferred_assembly_method``). When the model
-    has assemblies (``model.assemblies``) each is one component unless ``by_element``.
-    ``prebuilt_classes``: a ``--prebuilt`` selector, or IFC class names (subclasses count; and
-    ``IfcElementAssembly`` for every assembly unit), that are work of others. Raises InputError when the
-    model has no buildable element, a prebuilt class is not an IFC class, the tolerance is not in
-    (0, 0.5] m or the points per joint are not a whole number >= 1.
-    """
+    work: BuildingModel  # the model itself, or its assembly units in place of their parts
+    connections: list[Connection]
+    source: str  # where the connections came from (SmartModel.connection_source)
+    related: set[str]  # the connectors
+    role_rule: str
+    parts: dict[str, tuple[str, ...]] = field(default_factory=dict)  # unit -> its parts
+    partial: list[str] = field(default_factory=list)  # units with a part of unknown weight
+    internal: int = 0  # relations between parts of one unit (made in the factory)
+
+
+def _check_arguments(inferred_tolerance_m: float, assembly_points_per_joint: int) -> None:
     if not (0 < inferred_tolerance_m <= MAX_TOLERANCE_M):
         raise InputError(
             f"the contact tolerance must be > 0 and <= {MAX_TOLERANCE_M:g} m (bodies this close count as touching), "
@@ -237,65 +231,78 @@ def build_smart_model(
         raise InputError(
             f"assembly_points_per_joint must be a whole number of fastening points >= 1, got {assembly_points_per_joint!r}"
         )
-    is_prebuilt = prebuilt_rule(model, prebuilt_classes)
-    explicit = [c for c in model.connections if not c.inferred]
-    realizing = {r for c in explicit for r in c.realizing_ids}
-    parts: dict[str, tuple[str, ...]] = {}
-    partial: list[str] = []
-    internal = 0
-    if model.assemblies and not by_element:
-        work, unit_of, parts, partial = assembly_units(model)
-        mapped = _map_connections(explicit, unit_of)
-        internal = len(explicit) - len(mapped)
-        if mapped:
-            connections, connection_source = mapped, "IfcRelConnectsWithRealizingElements between assemblies"
-        else:
-            inferred = [c for c in model.connections if c.inferred] or _infer(model, inferred_tolerance_m)
-            connections = _orient(_map_connections(inferred, unit_of), work)
-            connection_source = "inferred from geometry" if connections else "none"
-        related = set()
-        role_rule = "assemblies are joined directly to each other (connections between parts of one assembly are internal)"
+
+
+def _unit_connections(model: BuildingModel, explicit: list[Connection], tolerance_m: float) -> _Connected:
+    """Assembly units joined directly to each other: the file's relations between units, else contact."""
+    work, unit_of, parts, partial = assembly_units(model)
+    mapped = map_connections(explicit, unit_of)
+    if mapped:
+        connections, source = mapped, "IfcRelConnectsWithRealizingElements between assemblies"
     else:
-        work = model
-        if explicit:
-            connection_source = "IfcRelConnectsWithRealizingElements"
-            connections = explicit
-        else:
-            connections = [c for c in model.connections if c.inferred]
-            if not connections:
-                connections = _infer(model, inferred_tolerance_m)
-            connection_source = "inferred from geometry" if connections else "none"
-        if connection_source == "IfcRelConnectsWithRealizingElements":
-            related, role_rule = connector_roles(model, connections)
-        else:
-            related, role_rule = set(), "no connectors: touching components are joined directly"
+        inferred = [c for c in model.connections if c.inferred] or _infer(model, tolerance_m)
+        connections = orient_inferred(map_connections(inferred, unit_of), work)
+        source = "inferred from geometry" if connections else "none"
+    role_rule = "assemblies are joined directly to each other (connections between parts of one assembly are internal)"
+    return _Connected(work, connections, source, set(), role_rule, parts, partial, len(explicit) - len(mapped))
+
+
+def _element_connections(model: BuildingModel, explicit: list[Connection], tolerance_m: float) -> _Connected:
+    """Element by element: the file's relations with their connectors, else touching components joined directly."""
+    if explicit:
+        related, role_rule = connector_roles(model, explicit)
+        return _Connected(model, explicit, "IfcRelConnectsWithRealizingElements", related, role_rule)
+    connections = [c for c in model.connections if c.inferred]
+    if not connections:
+        connections = _infer(model, tolerance_m)
+    source = "inferred from geometry" if connections else "none"
+    return _Connected(model, connections, source, set(), "no connectors: touching components are joined directly")
+
+
+def _components(model: BuildingModel, connected: _Connected, realizing: set[str], floors: list[str],
+                is_prebuilt) -> dict[str, Component]:
+    """The components: every work unit that is no connector, no realizing element and of no
+    :data:`NON_COMPONENT_CLASSES`. Raises InputError when there is none."""
+    work = connected.work
     component_ids = [
         gid
         for gid, element in work.elements.items()
-        if gid not in related and gid not in realizing and element.ifc_class not in NON_COMPONENT_CLASSES
+        if gid not in connected.related and gid not in realizing and element.ifc_class not in NON_COMPONENT_CLASSES
     ]
-    wholes = {gid: a.ifc_class for gid, a in model.assemblies.items()} if parts else {}
+    wholes = {gid: a.ifc_class for gid, a in model.assemblies.items()} if connected.parts else {}
     if not component_ids:
         raise InputError(f"{model.source or 'the model'} has no buildable element (columns, beams, footings, ...)")
-
-    floors, floor_names = _floor_order(work)
-    components = {
-        gid: _component(work.elements[gid], work, floors, is_prebuilt, parts.get(gid, ()), wholes.get(gid))
+    return {
+        gid: _component(work.elements[gid], work, floors, is_prebuilt, connected.parts.get(gid, ()), wholes.get(gid))
         for gid in component_ids
     }
 
-    duplicates: list[str] = []
-    if connection_source == "IfcRelConnectsWithRealizingElements":
-        joints, nodes = _joints_from_relations(work, connections, components, related)
-        duplicates = _duplicates_of_connected(work, components, nodes)
+
+def _goals_from_body(model: BuildingModel) -> list[dict]:
+    """The elements whose goal was moved onto their body by the reader (``model.relocated``), in metres."""
+    return [
+        {"GlobalId": r.global_id, "class": r.ifc_class, "name": r.name, "moved_m": r.distance_m}
+        for r in getattr(model, "relocated", ())
+    ]
+
+
+def _joints_and_nodes(model: BuildingModel, c: _Connected, components: dict[str, Component], tolerance_m: float,
+                      points_per_joint: int, method: str) -> tuple[dict, dict, list[str]]:
+    """The joints and nodes, and the duplicates dropped from ``components`` (uncut copies of connected members)."""
+    if c.source == "IfcRelConnectsWithRealizingElements":
+        joints, nodes = joints_from_relations(c.work, c.connections, components, c.related)
+        duplicates = duplicates_of_connected(c.work, components, nodes)
         for gid in duplicates:
             del components[gid]
-    else:
-        fasteners = _fasteners_at_joints(model, work, connections, components, inferred_tolerance_m,
-                                         {p for ids in parts.values() for p in ids})
-        joints, nodes = _direct_joints(
-            work, model, connections, components, assembly_points_per_joint, inferred_assembly_method, fasteners
-        )
+        return joints, nodes, duplicates
+    fasteners = fasteners_at_joints(model, c.work, c.connections, components, tolerance_m,
+                                    {p for ids in c.parts.values() for p in ids})
+    joints, nodes = direct_joints(c.work, model, c.connections, components, points_per_joint, method, fasteners)
+    return joints, nodes, []
+
+
+def _link(components: dict[str, Component], joints: dict[str, Joint], nodes: dict[str, ConnectionNode]) -> None:
+    """Give each component its nodes and joint partners, each node the other nodes of its joint."""
     for node in nodes.values():
         components[node.component_id].connection_nodes.append(node)
     for joint in joints.values():
@@ -305,7 +312,10 @@ def build_smart_model(
         for node_id in joint.node_ids:
             nodes[node_id].relative_object_ids = [n for n in joint.node_ids if n != node_id]
 
-    supporters = {
+
+def _supporters(components: dict[str, Component]) -> dict[str, tuple[str, ...]]:
+    """Component -> the joint partners it rests on: lower by :data:`SUPPORT_MARGIN_M` and on its floor or below."""
+    return {
         gid: tuple(
             sorted(
                 other
@@ -316,6 +326,11 @@ def build_smart_model(
         )
         for gid, component in components.items()
     }
+
+
+def _prebuilt_states(components: dict[str, Component], joints: dict[str, Joint], nodes: dict[str, ConnectionNode],
+                     supporters: dict[str, tuple[str, ...]]) -> set[str]:
+    """Set the start states of the prebuilt components and return those made later (SmartModel.prebuilt_later)."""
     # A prebuilt component resting on a robot-built one (or on one made later) cannot be there from the
     # start: it is made by others once what it rests on is fixed. Supporters are strictly lower, so one
     # pass bottom-up decides it.
@@ -343,7 +358,58 @@ def build_smart_model(
             and all(n.state == State.ASSEMBLED for n in component.connection_nodes)
         ):
             component.state = State.ASSEMBLED
+    return later
 
+
+def _log_summary(smart: SmartModel) -> None:
+    if smart.unknown_weight:
+        log.warning(
+            "%d components have no weight, not even an assumed one (e.g. %s): payload checks cannot verify them",
+            len(smart.unknown_weight), smart.unknown_weight[0],
+        )
+    log.info(
+        "%s: %d components, %d connection nodes, %d joints (%s)",
+        smart.source, len(smart.components), len(smart.nodes), len(smart.joints), smart.connection_source,
+    )
+
+
+@gc_paused()
+def build_smart_model(
+    model: BuildingModel,
+    *,
+    prebuilt_classes: Iterable[str] | str = PREBUILT_CLASSES,
+    inferred_tolerance_m: float = 0.01,
+    assembly_points_per_joint: int = ASSUMED_POINTS_PER_JOINT,
+    inferred_assembly_method: str = "bolt",
+    by_element: bool = False,
+) -> SmartModel:
+    """Components, connection nodes and joints of ``model``.
+
+    Uses the model's ``IfcRelConnectsWithRealizingElements`` when there are any; otherwise connections
+    inferred from touching geometry (``bimrobot.bim.connections.infer_connections`` with
+    ``inferred_tolerance_m``, metres). An inferred joint's points are the model's fasteners there, or
+    else ``assembly_points_per_joint`` (assumed, made by ``inferred_assembly_method``). When the model
+    has assemblies (``model.assemblies``) each is one component unless ``by_element``.
+    ``prebuilt_classes``: a ``--prebuilt`` selector, or IFC class names (subclasses count; and
+    ``IfcElementAssembly`` for every assembly unit), that are work of others. Raises InputError when the
+    model has no buildable element, a prebuilt class is not an IFC class, the tolerance is not in
+    (0, 0.5] m or the points per joint are not a whole number >= 1.
+    """
+    _check_arguments(inferred_tolerance_m, assembly_points_per_joint)
+    is_prebuilt = prebuilt_rule(model, prebuilt_classes)
+    explicit = [c for c in model.connections if not c.inferred]
+    realizing = {r for c in explicit for r in c.realizing_ids}
+    if model.assemblies and not by_element:
+        connected = _unit_connections(model, explicit, inferred_tolerance_m)
+    else:
+        connected = _element_connections(model, explicit, inferred_tolerance_m)
+    floors, floor_names = _floor_order(connected.work)
+    components = _components(model, connected, realizing, floors, is_prebuilt)
+    joints, nodes, duplicates = _joints_and_nodes(model, connected, components, inferred_tolerance_m,
+                                                  assembly_points_per_joint, inferred_assembly_method)
+    _link(components, joints, nodes)
+    supporters = _supporters(components)
+    later = _prebuilt_states(components, joints, nodes, supporters)
     smart = SmartModel(
         source=str(model.source or model.project_name),
         components=components,
@@ -352,221 +418,21 @@ def build_smart_model(
         floors=floors,
         floor_names=floor_names,
         supporters=supporters,
-        connection_source=connection_source,
-        role_rule=role_rule,
-        connectors=sorted(related),
+        connection_source=connected.source,
+        role_rule=connected.role_rule,
+        connectors=sorted(connected.related),
         duplicates=duplicates,
         unconnected=sorted(gid for gid, c in components.items() if not c.connection_nodes),
         unknown_weight=sorted(gid for gid, c in components.items() if c.weight_kg is None),
-        partial_weight=sorted(gid for gid in partial if gid in components),
+        partial_weight=sorted(gid for gid in connected.partial if gid in components),
         prebuilt_later=sorted(later),
         assemblies=sum(1 for c in components.values() if c.part_ids),
-        internal_connections=internal,
-        assembly_points_by_source=_points_by_source(joints, nodes, assembly_points_per_joint),
-        goals_from_body=[
-            {"GlobalId": r.global_id, "class": r.ifc_class, "name": r.name, "moved_m": r.distance_m}
-            for r in getattr(model, "relocated", ())
-        ],
+        internal_connections=connected.internal,
+        assembly_points_by_source=points_by_source(joints, nodes, assembly_points_per_joint),
+        goals_from_body=_goals_from_body(model),
     )
-    if smart.unknown_weight:
-        log.warning(
-            "%d components have no weight, not even an assumed one (e.g. %s): payload checks cannot verify them",
-            len(smart.unknown_weight), smart.unknown_weight[0],
-        )
-    log.info(
-        "%s: %d components, %d connection nodes, %d joints (%s)",
-        smart.source, len(components), len(nodes), len(joints), connection_source,
-    )
+    _log_summary(smart)
     return smart
-
-
-def _schema(name: str):
-    import ifcopenshell
-
-    try:
-        return ifcopenshell.ifcopenshell_wrapper.schema_by_name(name)
-    except Exception:  # an unknown schema (e.g. a generated model): fall back to IFC4 where used
-        return None
-
-
-def _declaration(schema, name: str):
-    if schema is None:
-        return None
-    try:
-        return schema.declaration_by_name(name)
-    except Exception:
-        return None
-
-
-_CLASS_NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")  # a bare name: the old class list
-
-
-class PrebuiltRule:
-    """Which components are prebuilt (work of others), from a ``--prebuilt`` selector.
-
-    Called with an IFC class name it says whether that class is prebuilt (subclasses count), as the
-    plain class rule always did; :meth:`of` decides for a component: an element or unit the selector
-    picked, one of a prebuilt class, or a unit whose whole is of a prebuilt class (or, with
-    ``IfcElementAssembly`` among the classes, any unit), or whose parts the selector all picked.
-    """
-
-    def __init__(self, classes: set[str], own_schema, ids: frozenset[str] = frozenset()):
-        self.classes, self.ids, self._own, self._cache = classes, ids, own_schema, {}
-        self.assemblies = ASSEMBLY_CLASS in classes
-
-    def __call__(self, ifc_class: str) -> bool:
-        if ifc_class not in self._cache:
-            declaration = _declaration(self._own, ifc_class)
-            names = {ifc_class}
-            while declaration is not None:
-                names.add(declaration.name())
-                declaration = declaration.supertype()
-            self._cache[ifc_class] = bool(names & self.classes)
-        return self._cache[ifc_class]
-
-    def of(self, component_id: str, ifc_class: str, whole_class: str | None = None, part_ids=()) -> bool:
-        """Whether the component (an element, or a unit of ``part_ids`` whose whole is ``whole_class``) is prebuilt."""
-        if component_id in self.ids or self(ifc_class):
-            return True
-        if part_ids:
-            if self.assemblies or (whole_class and self(whole_class)):
-                return True
-            return bool(self.ids) and all(p in self.ids for p in part_ids)
-        return False
-
-
-def prebuilt_selector(text: str | None) -> str | None:
-    """The ``--prebuilt`` text when it is a selector that is evaluated on the IFC file (give it to
-    ``load_model(prebuilt=...)``, which evaluates it on the one parse of the file), or None when it is a
-    comma list of IFC class names, which :func:`prebuilt_rule` reads without the file."""
-    names = [name.strip() for name in (text or "").split(",") if name.strip()]
-    return None if all(_CLASS_NAME.match(name) for name in names) else text
-
-
-def prebuilt_rule(model: BuildingModel, classes: Iterable[str] | str) -> PrebuiltRule:
-    """The :class:`PrebuiltRule` of a ``--prebuilt`` selector (or of IFC class names).
-
-    A comma list of class names (``"IfcFooting, IfcPile"``, the old ``--prebuilt`` syntax) is read
-    without the IFC file: a class takes its subclasses in the model's schema (``IfcWall`` takes
-    ``IfcWallStandardCase``), and a name valid in another IFC schema only matches nothing. Any other
-    selector (``"IfcSlab, /Pset_SlabCommon/.IsExternal=False"``, ``"IfcWall + IfcSlab"``) is evaluated
-    with IfcOpenShell: from ``model.prebuilt_ids`` when the model was loaded with that selector
-    (``load_model(prebuilt=...)``), else on the model's file. Raises InputError for a name that is no
-    IFC class at all (listing the classes the model has) or an invalid selector.
-    """
-    text = classes if isinstance(classes, str) else ", ".join(str(c) for c in classes)
-    names = [name.strip() for name in text.split(",") if name.strip()]
-    own = _schema(model.schema) or _schema("IFC4")
-    if all(_CLASS_NAME.match(name) for name in names):
-        known = [s for s in (_schema(n) for n in KNOWN_SCHEMAS) if s is not None]
-        wanted: set[str] = set()
-        for name in names:
-            declarations = [d for d in (_declaration(s, name) for s in known) if d is not None]
-            if not declarations:
-                present = sorted(set(model.class_counts()) | ({ASSEMBLY_CLASS} if model.assemblies else set()))
-                raise InputError(
-                    f"--prebuilt names '{name}', which is not an IFC class "
-                    f"(this model's classes: {', '.join(present) or 'none'})"
-                )
-            wanted.add(declarations[0].name())
-        return PrebuiltRule(wanted, own)
-    if getattr(model, "prebuilt_selector", None) == text:
-        return PrebuiltRule(set(), own, model.prebuilt_ids)
-    if model.source is None or not str(model.source).lower().endswith((".ifc", ".ifczip")):
-        raise InputError(f"--prebuilt '{text}' is a selector, which needs the model's IFC file; give IFC class names instead")
-    from bimrobot.bim.reader import open_ifc, product_key, product_keys
-    from bimrobot.bim.selection import select_ids
-
-    log.info("evaluating --prebuilt '%s' on %s", text, model.source)
-    ifc = open_ifc(model.source)
-    keys = product_keys(ifc)
-    ids = frozenset(product_key(ifc.by_id(i), keys) for i in select_ids(ifc, text, model.source, "--prebuilt"))
-    return PrebuiltRule(set(), own, ids)
-
-
-def assembly_units(model: BuildingModel) -> tuple[BuildingModel, dict[str, str], dict[str, tuple[str, ...]], list[str]]:
-    """The model with each outermost assembly replaced by one element: its unit.
-
-    A unit keeps the assembly's GlobalId, name and storey (else its heaviest part's), takes the
-    placement and local frame of its heaviest part and its class (the whole's class when the whole is
-    not an IfcElementAssembly: an IfcSlab floor plate of proxies is an IfcSlab), and as body the union of its parts' bodies (in that
-    frame, so its size is measured along the main part). Its weight is the sum of its parts' (kg), or
-    None when no part has one. Returns (the unit model, element id -> unit id for every part, unit id ->
-    part ids, ids of units with a part whose weight is unknown).
-    """
-    elements: dict[str, Element] = {}
-    unit_of: dict[str, str] = {}
-    parts_of: dict[str, tuple[str, ...]] = {}
-    partial: list[str] = []
-    for assembly in model.assemblies.values():
-        parts = [model.elements[p] for p in assembly.part_ids if p in model.elements]
-        if not parts:
-            continue
-        main = main_part(parts)
-        whole_class = getattr(assembly, "ifc_class", ASSEMBLY_CLASS)
-        to_main = np.linalg.inv(main.placement)
-        vertices, faces, offset = [], [], 0
-        for part in parts:
-            homogeneous = np.c_[part.world_vertices, np.ones(len(part.vertices))]
-            vertices.append((homogeneous @ to_main.T)[:, :3])
-            faces.append(part.faces + offset)
-            offset += len(part.vertices)
-        weights = [p.weight_kg for p in parts if p.weight_kg is not None]
-        if len(weights) < len(parts):
-            partial.append(assembly.global_id)
-        sources = {p.weight_source for p in parts}
-        elements[assembly.global_id] = Element(
-            global_id=assembly.global_id,
-            ifc_class=main.ifc_class if whole_class == ASSEMBLY_CLASS else whole_class,
-            name=assembly.name or main.name,
-            storey_id=assembly.storey_id or main.storey_id,
-            placement=main.placement.copy(),
-            vertices=np.concatenate(vertices),
-            faces=np.concatenate(faces),
-            material=main.material,
-            weight_kg=float(sum(weights)) if weights else None,
-            weight_source=sources.pop() if len(sources) == 1 else (WeightSource.UNKNOWN if not weights else main.weight_source),
-        )
-        parts_of[assembly.global_id] = tuple(p.global_id for p in parts)
-        for part in parts:
-            unit_of[part.global_id] = assembly.global_id
-    # Keep file order: a unit takes the place of its first part.
-    ordered: dict[str, Element] = {}
-    for gid, element in model.elements.items():
-        unit = unit_of.get(gid)
-        if unit is None:
-            ordered[gid] = element
-        elif unit not in ordered:
-            ordered[unit] = elements[unit]
-    # the same model with units in place of their parts; connections are mapped to units by the caller
-    units = dataclasses.replace(model, elements=ordered, connections=[], assemblies={})
-    return units, unit_of, parts_of, partial
-
-
-def _map_connections(connections: list[Connection], unit_of: dict[str, str]) -> list[Connection]:
-    """Connections between units (relations between parts of one unit are dropped: they are internal)."""
-    mapped = []
-    for c in connections:
-        a, b = unit_of.get(c.relating_id, c.relating_id), unit_of.get(c.related_id, c.related_id)
-        if a != b:
-            mapped.append(Connection(a, b, c.realizing_ids, c.connection_type, c.global_id, c.inferred))
-    return mapped
-
-
-def _orient(connections: list[Connection], model: BuildingModel) -> list[Connection]:
-    """One inferred connection per touching pair of units, the lower-reaching one relating."""
-    seen: set[frozenset] = set()
-    oriented = []
-    for c in connections:
-        pair = frozenset((c.relating_id, c.related_id))
-        if pair in seen:
-            continue
-        seen.add(pair)
-        a, b = model.elements[c.relating_id], model.elements[c.related_id]
-        if b.world_bounds[0, 2] < a.world_bounds[0, 2]:
-            a, b = b, a
-        oriented.append(Connection(a.global_id, b.global_id, inferred=True))
-    return oriented
 
 
 def _infer(model: BuildingModel, tolerance_m: float) -> list[Connection]:
@@ -654,324 +520,3 @@ def own_extents(element: Element) -> tuple[float, float, float]:
     return tuple(float(v) for v in extents)
 
 
-def assembly_method(connection: Connection, model: BuildingModel) -> str:
-    """"bolt" or "weld", from the relation's ConnectionType or else its realizing elements."""
-    text = (connection.connection_type or "").upper()
-    if "WELD" in text:
-        return "weld"
-    if any(word in text for word in ("BOLT", "SCREW", "RIVET", "PIN")):
-        return "bolt"
-    classes_and_names = []
-    skipped = {s.global_id: s for s in model.skipped}
-    for gid in connection.realizing_ids:
-        item = model.elements.get(gid) or skipped.get(gid)
-        if item is not None:
-            classes_and_names.append((item.ifc_class, (item.name or "").lower()))
-    for ifc_class, name in classes_and_names:
-        if "weld" in name:
-            return "weld"
-        if "bolt" in name or ifc_class == "IfcMechanicalFastener":
-            return "bolt"
-    if any(ifc_class == "IfcFastener" for ifc_class, _ in classes_and_names):
-        return "weld"  # IfcFastener without a name hint: IFC's class for welds, glue, nails
-    return "bolt"
-
-
-def _centre(ids, model: BuildingModel) -> np.ndarray | None:
-    boxes = [model.elements[i].world_bounds for i in ids if i in model.elements]
-    if not boxes:
-        return None
-    return np.mean([box.mean(axis=0) for box in boxes], axis=0)
-
-
-def main_part(parts: list[Element]) -> Element:
-    """The part whose placement an assembly unit takes (the heaviest; the first of equals): the unit's
-    origin, where the schedule, the graph and RCAN install it (issue 34: one position per component)."""
-    return max(parts, key=_mass_proxy)
-
-
-def _mass_proxy(element: Element) -> float:
-    """Weight in kg, or (weight unknown) bounding-box volume x steel density, to compare sizes."""
-    if element.weight_kg is not None:
-        return float(element.weight_kg)
-    extent = element.world_bounds[1] - element.world_bounds[0]
-    return float(np.prod(extent)) * 7850.0
-
-
-def connector_roles(model: BuildingModel, connections: list[Connection]) -> tuple[set[str], str]:
-    """Which elements are connectors, and the rule that decided it.
-
-    The thesis' convention (fig. 4.6): the RelatedElement is the connector. It is used when it is
-    consistent, i.e. every connector so found is related to at least one component. Models that chain
-    their relations instead (footing -> plate -> column -> clip -> beam) fail that test; then in each
-    relation the lighter element (weight, else bounding-box size) is the connector.
-    """
-    partners: dict[str, set[str]] = {}
-    for c in connections:
-        partners.setdefault(c.relating_id, set()).add(c.related_id)
-        partners.setdefault(c.related_id, set()).add(c.relating_id)
-    related = {c.related_id for c in connections}
-    if all(any(p not in related for p in partners[k]) for k in related):
-        return related, "RelatingElement = component, RelatedElement = connector (thesis fig. 4.6)"
-    connectors = set()
-    for c in connections:
-        a, b = model.elements.get(c.relating_id), model.elements.get(c.related_id)
-        if a is None or b is None:
-            connectors.add(c.related_id)
-            continue
-        connectors.add(c.relating_id if _mass_proxy(a) < _mass_proxy(b) else c.related_id)
-    return connectors, "the lighter element of each relation is the connector (relations are chained)"
-
-
-def _duplicates_of_connected(model, components, nodes) -> list[str]:
-    """Unconnected components that sit where a connected component of the same class is (within 5 cm).
-
-    Some exports (ifcUnit) contain each member twice: the connected, cut member and an uncut copy.
-    """
-    connected = {n.component_id for n in nodes.values()}
-    boxes = {gid: model.elements[gid].world_bounds for gid in connected}
-    duplicates = []
-    for gid, component in components.items():
-        if gid in connected:
-            continue
-        box = model.elements[gid].world_bounds
-        for other in connected:
-            if components[other].ifc_class == component.ifc_class and np.all(np.abs(boxes[other] - box) < 0.05):
-                duplicates.append(gid)
-                break
-    return sorted(duplicates)
-
-
-def _connector_groups(connectors: set[str], connections) -> dict[str, str]:
-    """Connector -> its group: connectors related to each other (connector to connector) form one
-    group, named by its smallest GlobalId (networkx's union-find)."""
-    from networkx.utils import UnionFind
-
-    groups = UnionFind(connectors)
-    for c in connections:
-        if c.relating_id in connectors and c.related_id in connectors:
-            groups.union(c.relating_id, c.related_id)
-    return {k: min(members) for members in groups.to_sets() for k in members}
-
-
-def _joints_from_relations(model, connections, components, connectors: set[str]):
-    """Joints from IfcRelConnectsWithRealizingElements: one per connector group."""
-    group_of = _connector_groups(connectors, connections)
-
-    group_realizing: dict[str, set[str]] = {}
-    for c in connections:
-        if c.relating_id in connectors and c.related_id in connectors:
-            group_realizing.setdefault(group_of[c.related_id], set()).update(c.realizing_ids)
-
-    nodes: dict[str, ConnectionNode] = {}
-    group_nodes: dict[str, list[str]] = {}
-    for c in connections:
-        if c.related_id in connectors and c.relating_id in components:
-            component_id, connector_id = c.relating_id, c.related_id
-        elif c.relating_id in connectors and c.related_id in components:
-            component_id, connector_id = c.related_id, c.relating_id
-        else:
-            continue
-        node_id = f"{c.relating_id}:{c.related_id}"
-        group = group_of[connector_id]
-        if node_id in nodes:  # the same pair related twice: more fastening points on one node
-            node = nodes[node_id]
-            node.assembly_point_number += max(1, len(c.realizing_ids))
-            continue
-        component = components[component_id]
-        position = _centre([connector_id], model)
-        if position is None:
-            position = _centre(c.realizing_ids, model)
-        nodes[node_id] = ConnectionNode(
-            id=node_id,
-            name=f"{component.name} / {model.elements[connector_id].name if connector_id in model.elements else connector_id}",
-            object_type="ConnectionNode",
-            component_id=component_id,
-            joint_id=group,
-            connector_ids=(connector_id,),
-            assembly_point_number=max(1, len(c.realizing_ids)),
-            assembly_method=assembly_method(c, model),
-            assembly_point_source="model" if c.realizing_ids else "assumed",
-            position=position if position is not None else component.target_position.copy(),
-        )
-        group_nodes.setdefault(group, []).append(node_id)
-        group_realizing.setdefault(group, set()).update(c.realizing_ids)
-
-    members_of_group: dict[str, list[str]] = {}
-    for k in connectors:
-        members_of_group.setdefault(group_of[k], []).append(k)
-    joints: dict[str, Joint] = {}
-    for group, node_ids in group_nodes.items():
-        member_ids = tuple(dict.fromkeys(nodes[n].component_id for n in node_ids))
-        group_connectors = tuple(sorted(members_of_group.get(group, ())))
-        position = _centre(group_connectors, model)
-        if position is None:
-            position = np.mean([nodes[n].position for n in node_ids], axis=0)
-        floor = max(components[m].floor for m in member_ids)
-        joints[group] = Joint(
-            id=group,
-            component_ids=member_ids,
-            node_ids=tuple(node_ids),
-            connector_ids=group_connectors,
-            realizing_ids=tuple(sorted(group_realizing.get(group, ()))),
-            position=position,
-            floor=floor,
-        )
-        for n in node_ids:
-            nodes[n].level = floor
-            nodes[n].joint_id = group
-    return joints, nodes
-
-
-def _contact_point(a: Component, b: Component, model: BuildingModel) -> np.ndarray:
-    box_a, box_b = model.elements[a.id].world_bounds, model.elements[b.id].world_bounds
-    low = np.maximum(box_a[0], box_b[0])
-    high = np.minimum(box_a[1], box_b[1])
-    return (low + high) / 2.0  # centre of the overlap (or of the gap, when within tolerance)
-
-
-def _fasteners_at_joints(model: BuildingModel, work: BuildingModel, connections, components, tolerance_m: float,
-                         internal: set[str]) -> dict[frozenset, list[Element]]:
-    """The model's fasteners at each inferred joint: {frozenset((a, b)): [fastener elements]}.
-
-    A fastener (:data:`FASTENER_CLASSES`; not a part of a unit, where it is made in the factory) is at
-    the joint of two components when its body's world box reaches into both components' boxes (within
-    ``tolerance_m`` metres, the contact tolerance): a bolt through a fin plate and a column. When it
-    reaches into several joints, it is at the one whose contact centre is nearest to it.
-    """
-    fasteners = [e for gid, e in model.elements.items() if e.ifc_class in FASTENER_CLASSES and gid not in internal]
-    pairs = list(dict.fromkeys(
-        frozenset((c.relating_id, c.related_id)) for c in connections
-        if c.inferred and c.relating_id in components and c.related_id in components and c.relating_id != c.related_id
-    ))
-    if not fasteners or not pairs:
-        return {}
-    ordered = [tuple(sorted(pair)) for pair in pairs]
-    box_of = {gid: work.elements[gid].world_bounds for pair in ordered for gid in pair}
-    low_a = np.array([box_of[a][0] for a, _ in ordered]) - tolerance_m
-    high_a = np.array([box_of[a][1] for a, _ in ordered]) + tolerance_m
-    low_b = np.array([box_of[b][0] for _, b in ordered]) - tolerance_m
-    high_b = np.array([box_of[b][1] for _, b in ordered]) + tolerance_m
-    centres = (np.maximum(low_a, low_b) + np.minimum(high_a, high_b)) / 2.0
-    found: dict[frozenset, list[Element]] = {}
-    for fastener in fasteners:
-        low, high = fastener.world_bounds
-        touches = (
-            np.all(low <= high_a, axis=1) & np.all(high >= low_a, axis=1)
-            & np.all(low <= high_b, axis=1) & np.all(high >= low_b, axis=1)
-        )
-        if not touches.any():
-            continue
-        candidates = np.flatnonzero(touches)
-        distance = np.linalg.norm(centres[candidates] - (low + high) / 2.0, axis=1)
-        found.setdefault(pairs[int(candidates[int(np.argmin(distance))])], []).append(fastener)
-    return found
-
-
-def fastener_count(element: Element) -> int:
-    """How many fastening points one fastener element stands for: a count property of a bolt group
-    (:data:`FASTENER_COUNT_PROPERTIES`, a whole number 1-1000), else 1."""
-    for key, value in (element.properties or {}).items():
-        if str(key).rsplit("/", 1)[-1].lower() in FASTENER_COUNT_PROPERTIES:
-            try:
-                count = int(float(value))
-            except (TypeError, ValueError):
-                continue
-            if 1 <= count <= 1000 and count == float(value):
-                return count
-    return 1
-
-
-def fastener_method(fasteners: list[Element]) -> str:
-    """"bolt" or "weld" for the fasteners of one joint: a name saying weld or bolt decides, else
-    IfcMechanicalFastener is a bolt and IfcFastener (IFC's class for welds, glue, nails) a weld."""
-    for fastener in fasteners:
-        name = (fastener.name or "").lower()
-        if "weld" in name:
-            return "weld"
-        if "bolt" in name or fastener.ifc_class == "IfcMechanicalFastener":
-            return "bolt"
-    return "weld"
-
-
-def split_points(points: int) -> tuple[int, int]:
-    """A joint's points over its two nodes: (the first node's, the second's), the first taking the odd one."""
-    return points - points // 2, points // 2
-
-
-def _points_by_source(joints: dict, nodes: dict, per_joint: int) -> dict:
-    """Joints and fastening points by where their count came from: {"model": ..., "assumed": ...}."""
-    result = {"model": {"joints": 0, "points": 0}, "assumed": {"joints": 0, "points": 0, "per_joint": per_joint}}
-    for joint in joints.values():
-        joint_nodes = [nodes[n] for n in joint.node_ids if n in nodes]
-        for source in ("model", "assumed"):
-            points = sum(n.assembly_point_number for n in joint_nodes if n.assembly_point_source == source)
-            if any(n.assembly_point_source == source for n in joint_nodes):
-                result[source]["joints"] += 1
-                result[source]["points"] += points
-    return result
-
-
-def _direct_joints(model, source_model, connections, components, points: int, method: str, fasteners=None):
-    """One joint per connected pair of components, with a node on each side.
-
-    An inferred pair takes its points from the model's fasteners there (``fasteners``: see
-    :func:`_fasteners_at_joints`, method by :func:`fastener_method`), else ``points`` per joint made by
-    ``method``, assumed (split over the two nodes by :func:`split_points`); a relation from the file
-    (between two assemblies) keeps its realizing elements' count and method. Several relations between
-    the same pair add up on one joint.
-    """
-    fasteners = fasteners or {}
-    nodes: dict[str, ConnectionNode] = {}
-    joints: dict[str, Joint] = {}
-    for c in connections:
-        a_id, b_id = c.relating_id, c.related_id
-        if a_id not in components or b_id not in components or a_id == b_id:
-            continue
-        realizing = tuple(c.realizing_ids)
-        if c.inferred:
-            found = fasteners.get(frozenset((a_id, b_id)), [])
-            if found:
-                count, how, source = sum(fastener_count(f) for f in found), fastener_method(found), "model"
-                realizing = tuple(f.global_id for f in found)
-            else:
-                count, how, source = points, method, "assumed"
-            counts = split_points(count)
-        else:
-            count, how = max(1, len(c.realizing_ids)), assembly_method(c, source_model)
-            source = "model" if c.realizing_ids else "assumed"
-            counts = (count, count)
-        joint_id = f"{a_id}:{b_id}" if f"{b_id}:{a_id}" not in joints else f"{b_id}:{a_id}"
-        if joint_id in joints:
-            if not c.inferred:
-                for node_id in joints[joint_id].node_ids:
-                    nodes[node_id].assembly_point_number += count
-            continue
-        a, b = components[a_id], components[b_id]
-        position = _contact_point(a, b, model)
-        floor = max(a.floor, b.floor)
-        pair = (f"{a_id}:{b_id}", f"{b_id}:{a_id}")
-        for node_id, owner, other, node_points in ((pair[0], a, b, counts[0]), (pair[1], b, a, counts[1])):
-            nodes[node_id] = ConnectionNode(
-                id=node_id,
-                name=f"{owner.name} / {other.name}",
-                object_type="ConnectionNode",
-                component_id=owner.id,
-                joint_id=joint_id,
-                assembly_point_number=node_points,
-                assembly_method=how,
-                assembly_point_source=source,
-                level=floor,
-                position=position.copy(),
-            )
-        joints[joint_id] = Joint(
-            id=joint_id,
-            component_ids=(a_id, b_id),
-            node_ids=pair,
-            connector_ids=(),
-            realizing_ids=realizing,
-            position=position,
-            floor=floor,
-            inferred=c.inferred,
-        )
-    return joints, nodes
