@@ -99,7 +99,8 @@ def register(subparsers) -> None:
     from_ifc.add_argument("model", help="IFC model (.ifc or .ifczip)")
     from_ifc.add_argument("--storey", required=True, help="storey name, or its index from 0 in the model's order")
     from_ifc.add_argument("--grid", default="auto",
-                          help="grid spacing: 'auto' (the most common column spacing per axis, default), metres, or XxY metres")
+                          help="grid spacing: 'auto' (of the most common column spacings per axis, the pair that keeps the most "
+                          "beams; default), metres, or XxY metres")
     from_ifc.add_argument("--interchangeable", action="store_true",
                           help="any component may fill any free slot of its type (the benchmark's S2); the planner's "
                           "search grows exponentially with it")
@@ -325,7 +326,7 @@ def cmd_from_ifc(args) -> int:
     cx, cy, cz = result.cell
     read = ", ".join(f"{n} {cls}" for cls, n in sorted(result.read.items()))
     print(f"{result.model}: storey '{storey.name}': read {read}; grid {sx:g} x {sy:g} m "
-          f"({'the most common column spacing' if result.auto else 'given'}), cells {cx:.3f} x {cy:.3f} x {cz:.3f} m")
+          f"({'auto: the column spacings that keep the most beams' if result.auto else 'given'}), cells {cx:.3f} x {cy:.3f} x {cz:.3f} m")
     scenario = result.scenario
     columns = sum(c.type == "column" for c in scenario.components)
     print(f"kept {columns} columns and {len(scenario.components) - columns} beams; dropped {len(result.dropped)}")

@@ -3,9 +3,9 @@
 The storey's columns (``IfcColumn``) and beams (``IfcBeam``, and ``IfcMember`` when horizontal) are read
 through :func:`bimrobot.bim.load_model` (model frame, metres, z up) and snapped to a voxel grid shaped like
 the benchmark's: a bay of the grid is :data:`BAY_CELLS` cells and the storey's most common column is
-:data:`COLUMN_CELLS` cells tall. A cell is therefore ``grid / 4`` metres along x and y (``grid``: the most
-common column spacing along that axis, or the metres given) and a quarter of that column height along z;
-voxels are boxes, not cubes. A column whose axis lies more than :data:`ON_GRID` of a cell from a grid line
+:data:`COLUMN_CELLS` cells tall. A cell is therefore ``grid / 4`` metres along x and y (``grid``: the metres
+given, or, of the most common column spacings along each axis, the pair that keeps the most beams) and a
+quarter of that column height along z; voxels are boxes, not cubes. A column whose axis lies more than :data:`ON_GRID` of a cell from a grid line
 is dropped as off-grid; a beam is kept when it rests on the tops of two kept columns of one grid line,
 one bay apart, its cells the run between their top cells. Everything dropped is listed with the reason.
 
@@ -193,7 +193,8 @@ def _offset(values: list[float], cell: float) -> float:
 def frame_scenario(model, storey, grid: tuple[float, float] | None = None, interchangeable: bool = False,
                    name: str | None = None, source: str = "<from-ifc>") -> FrameScenario:
     """The scenario of ``storey``'s steel (or precast) frame; ``grid``: metres along x and y, or None to
-    measure it (the most common column spacing per axis). Raises InputError for a storey without
+    measure it (:func:`_best_grid`: of the most common column spacings per axis, the pair that keeps the most
+    beams). Raises InputError for a storey without
     columns or beams, or one that the env's limits cannot hold at this grid."""
     model_name = _model_name(model)
     dropped: list[Dropped] = []
@@ -516,7 +517,7 @@ def scenario_yaml(result: FrameScenario, signature_line: str) -> str:
     lines = [
         f"# {signature_line}",
         f"# Storey '{result.storey}' of {result.model} as a custom assembly scenario (docs/assembly.md).",
-        f"# Grid {result.spacing[0]:g} x {result.spacing[1]:g} m ({'the most common column spacing' if result.auto else 'given'}); "
+        f"# Grid {result.spacing[0]:g} x {result.spacing[1]:g} m ({'auto: the column spacings that keep the most beams' if result.auto else 'given'}); "
         f"a cell is {cx:.3f} x {cy:.3f} x {cz:.3f} m (x, y, z);",
         f"# the corner of cell (0, 0, 1) lies at ({result.origin[0]:.3f}, {result.origin[1]:.3f}, {result.origin[2]:.3f}) m "
         "in the model frame (z up).",
