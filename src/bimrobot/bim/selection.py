@@ -209,10 +209,10 @@ def check_selection(model_path, include: str | None = None, exclude: str | None 
     "prebuilt": n, "products": n}``, products being what the build would read). Raises InputError, one
     sentence, for an unreadable file, a selector IfcOpenShell cannot parse, a class the schema does not
     have (listing the model's element classes), or a selection that leaves no product. ``ifc``: the file
-    already parsed (:func:`bimrobot.bim.reader.open_ifc`), which ``bimrobot build`` then reads the model
+    already parsed (:func:`bimrobot.bim.ifc_file.open_ifc`), which ``bimrobot build`` then reads the model
     from; None parses it here.
     """
-    from bimrobot.bim.reader import open_ifc
+    from bimrobot.bim.ifc_file import open_ifc
 
     path = Path(model_path)
     ifc = open_ifc(path) if ifc is None else ifc

@@ -2,20 +2,17 @@
 
 :func:`check_capabilities` raises ONE :class:`~bimrobot.core.errors.InputError` listing everything the
 fleet cannot do, grouped by IFC class with the capacity it would need (mass in kg, platform length x
-width in metres, reach in metres above the floor the robot stands on), and what the fleet has.
+width in metres, reach in metres above the floor the robot stands on), and what the fleet has. ``sim`` is
+the :class:`~bimrobot.coordination.simulation.ConstructionSimulation` being set up (its ``fleet``,
+``smart``, ``request_for`` and ``joints_to_build``); not imported here, which would be a circle.
 """
 
 from __future__ import annotations
-
-from typing import TYPE_CHECKING
 
 from bimrobot.coordination.market import TaskRequest, incapability
 from bimrobot.core.errors import InputError
 from bimrobot.core.tasks import Task
 from bimrobot.site.fleet import ACTIVITIES, Fleet, RobotSpec
-
-if TYPE_CHECKING:
-    from bimrobot.coordination.simulation import ConstructionSimulation
 
 
 def distinct_robots(fleet: Fleet) -> dict[str, list[RobotSpec]]:
@@ -33,7 +30,7 @@ def _impossible(distinct: dict[str, list[RobotSpec]], request: TaskRequest) -> b
     return all(incapability(r, request) for r in distinct[request.activity])
 
 
-def _component_needs(sim: ConstructionSimulation, distinct: dict[str, list[RobotSpec]], to_build: list) -> dict[str, dict]:
+def _component_needs(sim, distinct: dict[str, list[RobotSpec]], to_build: list) -> dict[str, dict]:
     """IFC class -> the components no robot can carry or position, with the worst need per activity."""
     by_class: dict[str, dict] = {}
     for component in to_build:
@@ -54,7 +51,7 @@ def _component_needs(sim: ConstructionSimulation, distinct: dict[str, list[Robot
     return by_class
 
 
-def _joint_needs(sim: ConstructionSimulation, distinct: dict[str, list[RobotSpec]], joints: list) -> tuple[list[str], float, set]:
+def _joint_needs(sim, distinct: dict[str, list[RobotSpec]], joints: list) -> tuple[list[str], float, set]:
     """The joints no robot can assemble, the most reach they need (m) and their assembly methods."""
     failing_joints, joint_reach, joint_methods = [], 0.0, set()
     for joint in joints:
@@ -84,7 +81,7 @@ def _class_parts(by_class: dict[str, dict]) -> list[str]:
     return parts
 
 
-def check_capabilities(sim: ConstructionSimulation) -> None:
+def check_capabilities(sim) -> None:
     """Pre-flight: every component and joint of ``sim`` must be doable by some robot of its fleet.
 
     Raises ONE InputError listing everything the fleet cannot do, grouped by IFC class with the
