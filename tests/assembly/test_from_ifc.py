@@ -66,6 +66,12 @@ def test_interchangeable_slots_and_the_written_file(steel_frame_ifc, tmp_path, c
     starts = [cell for c in sc.handled for cell in run_cells(*c.start)]
     assert len(starts) == len(set(starts)) == 28 and all(z == 1 for _, _, z in starts)  # flat in the yard, apart
     assert main(["assembly", "validate", str(out)]) == 0
+    capsys.readouterr()
+    # the benchmark's reference returns for it: the planner's optimum, and a random policy that places nothing
+    assert main(["assembly", "optimum", "--scenario", str(out), "--episodes", "2"]) == 0
+    row = capsys.readouterr().out.splitlines()[1].split()
+    optimal, random = float(row[-4]), float(row[-2])
+    assert optimal > 0 and -15 - 2 * (sc.time_limit - 15) <= random < -700  # never placing anything: -785
 
 
 def test_bad_requests_are_one_sentence_and_write_nothing(steel_frame_ifc, steel_frame_model, tmp_path, capsys):
@@ -74,7 +80,7 @@ def test_bad_requests_are_one_sentence_and_write_nothing(steel_frame_ifc, steel_
     err = capsys.readouterr().err
     assert "no such storey" in err and "0 'Level 1' (0 m); 1 'Level 2' (4.025 m)" in err and err.count("\n") == 1
     assert not out.exists()
-    with pytest.raises(InputError, match="storey 'Level 2' .* has no vertical columns .* storeys with columns: 'Level 1' \\(4\\)"):
+    with pytest.raises(InputError, match="storey 'Level 2' .* has no vertical columns .* storeys with IfcColumns: 'Level 1' \\(4\\)"):
         _frame(steel_frame_model, "Level 2")
     with pytest.raises(InputError, match="spans 77 x 5 cells .* more than the env's 64 cells per axis; try a larger --grid"):
         _frame(generated_frame(nx=20, ny=2))  # 19 bays of 4 cells in a row

@@ -37,6 +37,9 @@ ON_GRID = 0.25
 AXIS_TOLERANCE_DEG = 5.0
 #: Coordinates closer than this (metres) are one grid line when the spacing is measured.
 SAME_LINE_M = 0.05
+#: Shortest column (metres) a frame stands on: shorter IfcColumns are cleats, stubs or pedestals
+#: (ifcUnit.ifc exports its 0.25 m angle cleats as IfcColumn).
+MIN_COLUMN_M = 1.0
 #: Steps the time limit allows per component (the benchmark's Env4: 600 for 13).
 STEPS_PER_COMPONENT = 50
 BEAM_CLASSES = ("IfcBeam", "IfcMember")
@@ -148,6 +151,10 @@ def _columns(model, storey, dropped: list[Dropped]) -> list[_Column]:
             continue
         low, high = element.world_bounds
         size = high - low
+        if size[2] < MIN_COLUMN_M:
+            dropped.append(_dropped(element, f"too short: {size[2]:.2f} m high, under {MIN_COLUMN_M:g} m (a cleat, a stub "
+                                             "or a pedestal)"))
+            continue
         if max(size[0], size[1]) > 0.5 * size[2]:
             dropped.append(_dropped(element, f"not vertical: {size[0]:.2f} x {size[1]:.2f} m in plan, {size[2]:.2f} m high"))
             continue
@@ -158,7 +165,8 @@ def _columns(model, storey, dropped: list[Dropped]) -> list[_Column]:
 
 
 def _beam_axis(element, cell: float) -> tuple[int, np.ndarray, np.ndarray] | str:
-    """(plan axis 0 x / 1 y, start, end) of a beam's axis (metres; z: the beam's top), or why not;
+    """(plan axis 0 x / 1 y, start, end, bottom) of a beam's axis (metres; z: the beam's top; bottom: the
+    z of its underside), or why not;
     ``cell``: the height of a cell (metres): a piece shorter than half of it is no beam."""
     low, high = element.world_bounds
     if max(high - low) < cell / 2:
@@ -176,7 +184,7 @@ def _beam_axis(element, cell: float) -> tuple[int, np.ndarray, np.ndarray] | str
     start, end = middle.copy(), middle.copy()
     start[axis], end[axis] = low[axis], high[axis]
     start[2] = end[2] = high[2]
-    return axis, start, end
+    return axis, start, end, float(low[2])
 
 
 def _offset(values: list[float], cell: float) -> float:
@@ -202,13 +210,13 @@ def frame_scenario(model, storey, grid: tuple[float, float] | None = None, inter
     columns = _columns(model, storey, dropped)
     read["IfcColumn"] = len(columns) + len(dropped)
     if not columns and dropped:
-        raise InputError(f"storey '{storey.name}' of {model_name}: none of its {len(dropped)} columns (IfcColumn) is "
-                         f"vertical ({_kinds(dropped)}), so there is no frame to assemble")
+        raise InputError(f"storey '{storey.name}' of {model_name}: none of its {len(dropped)} columns (IfcColumn) is a "
+                         f"vertical column of {MIN_COLUMN_M:g} m or more ({_kinds(dropped)}), so there is no frame to assemble")
     if not columns:
         with_columns = Counter(model.storey(e.storey_id).name for e in model.by_class("IfcColumn") if e.storey_id)
         hint = ", ".join(f"'{s}' ({n})" for s, n in with_columns.items()) or "none"
         raise InputError(f"storey '{storey.name}' of {model_name} has no vertical columns (IfcColumn) to build a frame "
-                         f"from; storeys with columns: {hint}")
+                         f"from; storeys with IfcColumns: {hint}")
     vertical, columns = _vertical_cell(columns, dropped, model)
     beams = _beam_axes(model, storey, vertical, read)
     dropped += [_dropped(element, axis) for element, axis in beams if isinstance(axis, str)]
@@ -360,8 +368,8 @@ def _match_beams(beams, columns, offset, cell, dropped) -> list[tuple[object, in
     """(element, plan axis, column at the start, column at the end) of every beam resting on two
     columns one bay apart, at their tops; the others dropped with the reason."""
     kept, seen = [], {}
-    for element, (axis, start, end) in beams:
-        reason, ends = _supports(axis, start, end, columns, offset, cell)
+    for element, (axis, start, end, bottom) in beams:
+        reason, ends = _supports(axis, start, end, bottom, columns, offset, cell)
         if reason is None:
             key = (axis, ends[0].i, ends[0].j)
             if key in seen:
@@ -374,7 +382,7 @@ def _match_beams(beams, columns, offset, cell, dropped) -> list[tuple[object, in
     return kept
 
 
-def _supports(axis, start, end, columns, offset, cell):
+def _supports(axis, start, end, bottom, columns, offset, cell):
     """(None, (column a, column b)) when the beam from ``start`` to ``end`` rests on the tops of two
     columns of one grid line one bay apart; (reason, None) otherwise."""
     across = 1 - axis
@@ -401,9 +409,11 @@ def _supports(axis, start, end, columns, offset, cell):
     if length > MAX_COMPONENT_LENGTH:
         return f"too long: {length} cells between its columns, and components are at most {MAX_COMPONENT_LENGTH}", None
     top = start[2]
-    for c in (a, b):
-        if abs(top - c.top) > (c.top - c.base) / c.cells / 2:
-            return f"not at the column tops: its top is at z = {top:.2f} m, column '{c.name}' ends at {c.top:.2f} m", None
+    for c in (a, b):  # flush with the top, or resting on it: within half a cell of the beam's depth
+        half = (c.top - c.base) / c.cells / 2
+        if not bottom - half <= c.top <= top + half:
+            return (f"not at the column tops: it spans z = {bottom:.2f} .. {top:.2f} m, column '{c.name}' ends at "
+                    f"{c.top:.2f} m"), None
     if a.cells != b.cells:
         return f"columns of different heights: '{a.name}' {a.cells} cells, '{b.name}' {b.cells}", None
     return None, (a, b)
