@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import math
 from collections import Counter
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -164,10 +164,10 @@ def _columns(model, storey, dropped: list[Dropped]) -> list[_Column]:
     return columns
 
 
-def _beam_axis(element, cell: float) -> tuple[int, np.ndarray, np.ndarray] | str:
+def _beam_axis(element, cell: float) -> tuple[int, np.ndarray, np.ndarray, float] | str:
     """(plan axis 0 x / 1 y, start, end, bottom) of a beam's axis (metres; z: the beam's top; bottom: the
-    z of its underside), or why not;
-    ``cell``: the height of a cell (metres): a piece shorter than half of it is no beam."""
+    z of its underside), or why it is no beam; ``cell``: the height of a cell (metres): a piece shorter
+    than half of it is no beam."""
     low, high = element.world_bounds
     if max(high - low) < cell / 2:
         return f"too short: {max(high - low):.2f} m long, under half a cell's height of {cell:.2f} m (a cleat, a plate or a stub)"
@@ -201,49 +201,54 @@ def _offset(values: list[float], cell: float) -> float:
 def frame_scenario(model, storey, grid: tuple[float, float] | None = None, interchangeable: bool = False,
                    name: str | None = None, source: str = "<from-ifc>") -> FrameScenario:
     """The scenario of ``storey``'s steel (or precast) frame; ``grid``: metres along x and y, or None to
-    measure it (:func:`_best_grid`: of the most common column spacings per axis, the pair that keeps the most
-    beams). Raises InputError for a storey without
-    columns or beams, or one that the env's limits cannot hold at this grid."""
+    measure it (:func:`_best_grid`). Raises InputError for a storey without columns or beams, or one that
+    the env's limits cannot hold at this grid."""
     model_name = _model_name(model)
     dropped: list[Dropped] = []
     read = Counter()
     columns = _columns(model, storey, dropped)
     read["IfcColumn"] = len(columns) + len(dropped)
-    if not columns and dropped:
-        raise InputError(f"storey '{storey.name}' of {model_name}: none of its {len(dropped)} columns (IfcColumn) is a "
-                         f"vertical column of {MIN_COLUMN_M:g} m or more ({_kinds(dropped)}), so there is no frame to assemble")
+    if columns:
+        vertical, columns = _vertical_cell(columns, dropped)
     if not columns:
-        with_columns = Counter(model.storey(e.storey_id).name for e in model.by_class("IfcColumn") if e.storey_id)
-        hint = ", ".join(f"'{s}' ({n})" for s, n in with_columns.items()) or "none"
-        raise InputError(f"storey '{storey.name}' of {model_name} has no vertical columns (IfcColumn) to build a frame "
-                         f"from; storeys with IfcColumns: {hint}")
-    vertical, columns = _vertical_cell(columns, dropped, model)
+        raise _no_columns(model, storey, dropped)
     beams = _beam_axes(model, storey, vertical, read)
     dropped += [_dropped(element, axis) for element, axis in beams if isinstance(axis, str)]
     beams = [(element, axis) for element, axis in beams if not isinstance(axis, str)]
-    auto = grid is None
-    spacing = _best_grid(columns, beams, vertical) if auto else (float(grid[0]), float(grid[1]))
+    spacing = _best_grid(columns, beams, vertical) if grid is None else (float(grid[0]), float(grid[1]))
     fit = _Fit(columns, beams, spacing)
     dropped += fit.dropped
-    columns, beams, (ox, oy), (cell_x, cell_y) = fit.columns, fit.beams, fit.offset, fit.cell
-    if not columns:
-        raise InputError(f"storey '{storey.name}' of {model_name}: none of its {read['IfcColumn']} columns is on the grid "
-                         f"({spacing[0]:g} x {spacing[1]:g} m) with 1 to {MAX_COMPONENT_LENGTH} cells of height "
-                         f"({_kinds(dropped)}); try another --grid")
-    base = _mode([c.base for c in columns], SAME_LINE_M)
-    if not beams:
+    where = f"storey '{storey.name}' of {model_name}"
+    if not fit.columns:
+        raise InputError(f"{where}: none of its {read['IfcColumn']} columns is on the grid ({spacing[0]:g} x "
+                         f"{spacing[1]:g} m; {_kinds(dropped)}); try another --grid")
+    if not fit.beams:
         found = sum(read[c] for c in BEAM_CLASSES)
-        raise InputError(f"storey '{storey.name}' of {model_name}: none of its {found} beams rests on the tops of two of "
-                         f"its {len(columns)} columns on the grid ({spacing[0]:g} x {spacing[1]:g} m"
-                         f"{'; ' + _kinds(dropped, BEAM_CLASSES) if found else ''}), so there is no frame to assemble")
-    data, elements, origin = _layout(columns, beams, (ox, oy, base), (cell_x, cell_y, vertical), interchangeable,
-                                     name or f"{Path(model_name).stem}-{storey.name}", storey, model_name)
-    scenario = parse_scenario(data, source=source)
-    return FrameScenario(model_name, storey.name, spacing, auto, (cell_x, cell_y, vertical), origin, data, scenario,
-                         elements, dropped, read)
+        raise InputError(f"{where}: none of its {found} beams rests on the tops of two of its {len(fit.columns)} columns "
+                         f"on the grid ({spacing[0]:g} x {spacing[1]:g} m{'; ' + _kinds(dropped, BEAM_CLASSES) if found else ''}"
+                         "), so there is no frame to assemble")
+    base = _mode([c.base for c in fit.columns], SAME_LINE_M)
+    cell = (*fit.cell, vertical)
+    data, elements, origin = _layout(fit.columns, fit.beams, (*fit.offset, base), cell, interchangeable,
+                                     name or f"{Path(model_name).stem}-{storey.name}", where)
+    return FrameScenario(model_name, storey.name, spacing, grid is None, cell, origin, data,
+                         parse_scenario(data, source=source), elements, dropped, read)
 
 
-def _vertical_cell(columns: list[_Column], dropped: list[Dropped], model) -> tuple[float, list[_Column]]:
+def _no_columns(model, storey, dropped: list[Dropped]) -> InputError:
+    """The refusal of a storey without a column to build on: why its own were dropped, or which storeys
+    have IfcColumns."""
+    where = f"storey '{storey.name}' of {_model_name(model)}"
+    if dropped:
+        return InputError(f"{where}: none of its {len(dropped)} columns (IfcColumn) is a vertical column of "
+                          f"{MIN_COLUMN_M:g} m or more on the storey's base ({_kinds(dropped)}), so there is no frame "
+                          "to assemble")
+    with_columns = Counter(model.storey(e.storey_id).name for e in model.by_class("IfcColumn") if e.storey_id)
+    hint = ", ".join(f"'{s}' ({n})" for s, n in with_columns.items()) or "none"
+    return InputError(f"{where} has no vertical columns (IfcColumn) to build a frame from; storeys with IfcColumns: {hint}")
+
+
+def _vertical_cell(columns: list[_Column], dropped: list[Dropped]) -> tuple[float, list[_Column]]:
     """The z size of a cell (a quarter of the most common column height) and the columns that stand on
     the storey's base and are 1 to 4 cells tall, with their height in cells."""
     height = _mode([c.top - c.base for c in columns], SAME_LINE_M)
@@ -261,16 +266,10 @@ def _vertical_cell(columns: list[_Column], dropped: list[Dropped], model) -> tup
             reason = (f"too tall: {c.top - c.base:.2f} m high, {cells} cells of {cell:.2f} m, and components are at "
                       f"most {MAX_COMPONENT_LENGTH} cells long")
         else:
-            kept.append(_replace(c, cells=cells))
+            kept.append(replace(c, cells=cells))
             continue
-        dropped.append(_dropped(model.element(c.global_id), reason))
+        dropped.append(Dropped(c.global_id, "IfcColumn", c.name, reason))
     return cell, kept
-
-
-def _replace(column: _Column, **changes) -> _Column:
-    from dataclasses import replace
-
-    return replace(column, **changes)
 
 
 #: Most spacings tried per axis by ``--grid auto`` (the most common ones).
@@ -339,7 +338,7 @@ def _snap_columns(columns, offset, cell, dropped) -> list[_Column]:
             reason = f"same cell: as column '{taken[tuple(ij)]}'"
         else:
             taken[tuple(ij)] = c.name
-            kept.append(_replace(c, i=ij[0], j=ij[1]))
+            kept.append(replace(c, i=ij[0], j=ij[1]))
             continue
         dropped.append(Dropped(c.global_id, "IfcColumn", c.name, reason))
     return kept
@@ -422,19 +421,19 @@ def _supports(axis, start, end, bottom, columns, offset, cell):
 # -------------------------------------------------------------------------------------------- layout
 
 
-def _layout(columns, beams, origin_m, cell, interchangeable, name, storey, model_name):
+def _layout(columns, beams, origin_m, cell, interchangeable, name, where):
     """The scenario mapping: targets (the structure), foundations, and a yard in front of the structure
     (rows along x at z = 1, y below the structure) where the components lie in handling order."""
     n = len(columns) + len(beams)
     if n > MAX_ENTRIES:
-        raise InputError(f"storey '{storey.name}' of {model_name} has {len(columns)} columns and {len(beams)} beams on the "
+        raise InputError(f"{where} has {len(columns)} columns and {len(beams)} beams on the "
                          f"grid, {n} components; a scenario holds at most {MAX_ENTRIES} (try a storey or model part with fewer)")
     i0, j0, width, depth = _extent(columns)
     column_ids = {c.global_id: f"col{k}" for k, c in enumerate(sorted(columns, key=lambda c: (c.j, c.i)), start=1)}
     layout = _site_size(columns, beams)
     if layout is None:
         raise InputError(
-            f"storey '{storey.name}' of {model_name} spans {width} x {depth} cells at this grid (a bay is {BAY_CELLS} cells) "
+            f"{where} spans {width} x {depth} cells at this grid (a bay is {BAY_CELLS} cells) "
             f"and its {n} components need a yard beside it: more than the env's {MAX_GRID_CELLS} cells per axis; "
             "try a larger --grid")
     W, L, yard_rows, starts = layout
@@ -460,7 +459,7 @@ def _layout(columns, beams, origin_m, cell, interchangeable, name, storey, model
         components.append({"id": cid, "type": kind, "length": length, "target": cid, "start": start})
     data = {
         "name": name,
-        "description": f"storey '{storey.name}' of {model_name}: {len(columns)} columns and {len(beams)} beams "
+        "description": f"{where}: {len(columns)} columns and {len(beams)} beams "
                        "(bimrobot assembly from-ifc)",
         "grid": [W, L, H],
         "time_limit": STEPS_PER_COMPONENT * n,
