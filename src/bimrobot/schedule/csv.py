@@ -9,24 +9,31 @@ the first problem it finds (:class:`bimrobot.core.errors.InputError`).
 from __future__ import annotations
 
 import csv
-from collections import Counter
 import itertools
 import logging
 import math
 import os
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Iterable, Iterator
 
 from bimrobot.core.errors import InputError
 from bimrobot.core.io import atomic_output_file
-from bimrobot.lbd import components
-from bimrobot.lbd.components import is_component
 from bimrobot.core.tasks import TASKS, Activity, Task
+from bimrobot.lbd.components import is_component
+from bimrobot.schedule.limits import (
+    LIMITS,
+    MAX_COORDINATE_M,
+    MAX_SECONDS,
+    TIME_TOLERANCE_S,
+    check_file_size,
+    id_problem,
+    limit,
+    too_many,
+)
+from bimrobot.schedule.schedule import Schedule, find_cycle, precedence_graph
+from bimrobot.schedule.task_rows import load_schedule_ifc, schedule_from_task_rows
 
 if TYPE_CHECKING:  # pragma: no cover
-    import networkx as nx
-
     from bimrobot.bim.model import BuildingModel
 
 log = logging.getLogger(__name__)
@@ -60,175 +67,6 @@ IFC_TASK_TYPES = frozenset(
         "CALIBRATION", "EMERGENCY", "INSPECTION",
     }
 )  # fmt: skip
-
-#: Slack allowed when comparing times (s): CSV floats are printed with limited precision.
-TIME_TOLERANCE_S = 1e-6
-#: Largest time in a schedule (s): 1e9 s is 31 years, the bound of every number bimrobot reads.
-MAX_SECONDS = 1e9
-#: Largest coordinate of a target position (m): georeferenced site coordinates (UTM northings reach
-#: 1e7 m) fit, a number beyond any site does not.
-MAX_COORDINATE_M = 1e7
-
-#: Limits checked before and while a schedule is read, so that no file makes a command run for hours or
-#: take more than 2 GB of memory: (environment variable that raises it, default). Rows: the largest
-#: real schedule has 14.5k rows (3 per component of a 4.8k-component model); 200k rows of 110 bytes
-#: peak at 0.25 GB while read, 200k rows of 1.2 kB (the 256 MB allowed) at 0.42 GB. Megabytes: 256 MB
-#: of CSV is over 1 million rows of the usual 200 bytes each; an MS Project XML file spends 1 to 3 kB on
-#: a task (its tags are not kept). Activities per component: a transport, a position and one assemble
-#: per connection node; a component joined at 1,000 nodes is no building element.
-LIMITS = {
-    "rows": ("BIMROBOT_SCHEDULE_MAX_ROWS", 200_000),
-    "csv_mb": ("BIMROBOT_SCHEDULE_MAX_MB", 256),
-    "xml_mb": ("BIMROBOT_MSPROJECT_MAX_MB", 1024),
-    "per_component": ("BIMROBOT_SCHEDULE_MAX_PER_COMPONENT", 1_000),
-}
-
-
-def limit(name: str) -> int:
-    """The limit ``name`` of :data:`LIMITS`: its environment variable when set to a positive whole
-    number (an InputError otherwise), else the default."""
-    variable, default = LIMITS[name]
-    text = os.environ.get(variable, "").strip()
-    if not text:
-        return default
-    try:
-        value = int(text)
-    except ValueError:
-        value = 0
-    if value < 1:
-        raise InputError(f"environment variable {variable}={text!r} must be a whole number >= 1 (default {default})")
-    return value
-
-
-def check_file_size(path: Path, name: str, what: str) -> None:
-    """Refuse ``path`` when it is larger than the limit ``name`` (megabytes) before reading any of it."""
-    try:
-        size = path.stat().st_size
-    except OSError:
-        return  # not there or unreadable: the reader says so in its own words
-    most = limit(name)
-    if size > most * 1_000_000:
-        variable = LIMITS[name][0]
-        raise InputError(f"the schedule {path} is {size / 1e6:,.0f} MB, more than the {most:,} MB a {what} may have; "
-                         f"split it, or raise the limit with the environment variable {variable}")
-
-
-def too_many(where: str, subject: str, name: str, noun: str = "") -> InputError:
-    """The one-sentence error for a schedule over the count limit ``name`` (``rows`` or
-    ``per_component``): ``subject`` says what has too many (e.g. ``the schedule has``), ``noun`` what
-    they are (rows or activities by default)."""
-    variable = LIMITS[name][0]
-    noun = noun or ("rows" if name == "rows" else "activities")
-    return InputError(f"{where}: {subject} more than {limit(name):,} {noun}, the limit; split the schedule, or "
-                      f"raise the limit with the environment variable {variable}")
-
-
-def id_problem(text: str, *, spaces: bool) -> str | None:
-    """What makes ``text`` unusable as an id in a schedule file, or None: control characters (a line
-    break, a tab, ...) never; white space only where ``spaces`` is True (names, not ids lists)."""
-    if not text.isprintable():
-        return "contains a control character"
-    if not spaces and any(c.isspace() for c in text):
-        return "contains white space"
-    return None
-
-
-@dataclass
-class Schedule:
-    """Activities in file order, plus the summary tasks (phases) they are nested in, if any.
-
-    ``activities`` are the leaves that robots execute; ``phases`` are IFC summary tasks (empty for a
-    CSV schedule), each with its own ``parent``. ``source`` is the file it was read from.
-    """
-
-    activities: list[Activity]
-    phases: list[Activity] = field(default_factory=list)
-    source: Path | None = None
-    epoch: str | None = None  # ISO date-time of t = 0 s, when the source had calendar times
-    #: ids of activities read from a schedule that did not name a model element (Microsoft Project
-    #: tasks no rule matched to the model): kept as activities without a component.
-    unmatched: list[str] = field(default_factory=list)
-
-    def __post_init__(self) -> None:
-        self._by_id = {a.id: a for a in [*self.phases, *self.activities]}
-        self._successors: dict[str, list[Activity]] | None = None
-
-    def __iter__(self) -> Iterator[Activity]:
-        return iter(self.activities)
-
-    def __len__(self) -> int:
-        return len(self.activities)
-
-    def __getitem__(self, activity_id: str) -> Activity:
-        try:
-            return self._by_id[activity_id]
-        except KeyError:
-            raise KeyError(f"no activity {activity_id!r} in {self.source or 'the schedule'}") from None
-
-    def __contains__(self, activity_id: object) -> bool:
-        return activity_id in self._by_id
-
-    @property
-    def makespan(self) -> float:
-        """Finish of the last activity, seconds (0 for an empty schedule)."""
-        return max((a.finish for a in self.activities), default=0.0)
-
-    def of_component(self, global_id: str) -> list[Activity]:
-        """The component's activities, by start time."""
-        return sorted((a for a in self.activities if a.global_id == global_id), key=lambda a: (a.start, a.id))
-
-    def successors(self, activity_id: str) -> list[Activity]:
-        """Activities that list ``activity_id`` as a predecessor (lists made once for all activities)."""
-        if self._successors is None:
-            self._successors = {}
-            for a in self.activities:
-                for p in dict.fromkeys(a.predecessors):
-                    self._successors.setdefault(p, []).append(a)
-        return list(self._successors.get(activity_id, ()))
-
-    def ready(self, done: Iterable[str]) -> list[Activity]:
-        """Activities not in ``done`` whose predecessors are all in ``done``, by start time."""
-        done = set(done)
-        return sorted(
-            (a for a in self.activities if a.id not in done and all(p in done for p in a.predecessors)),
-            key=lambda a: (a.start, a.id),
-        )
-
-    def topological_order(self) -> list[Activity]:
-        """Activities so that each comes after its predecessors: at every step the earliest-starting
-        ready one (ties by id); networkx's lexicographical topological sort with the key (start, id),
-        O(n log n + links). InputError naming the activities of a cycle, or an activity whose
-        predecessor is not one of the activities (only possible for a Schedule built by hand).
-        Python's cyclic garbage collector is paused meanwhile: its full passes over every live object
-        made the time grow faster than the schedule (as in :func:`bimrobot.sco.build.gc_paused`)."""
-        from bimrobot.sco.build import gc_paused
-
-        with gc_paused():
-            return self._topological_order()
-
-    def _topological_order(self) -> list[Activity]:
-        import networkx as nx  # imported when needed: it adds 0.2 s to every command that reads a schedule
-
-        by_id = {a.id: a for a in self.activities}
-        if len(by_id) < len(self.activities):
-            twice = next(i for i, n in Counter(a.id for a in self.activities).items() if n > 1)
-            raise InputError(f"{self.source or 'the schedule'} has two activities with the id {twice!r}")
-        for a in self.activities:
-            missing = next((p for p in a.predecessors if p not in by_id), None)
-            if missing is not None:
-                raise InputError(f"activity {a.id} of {self.source or 'the schedule'} has the predecessor "
-                                 f"{missing!r}, which is not one of its activities")
-        graph = precedence_graph({a.id: a.predecessors for a in self.activities})
-        try:
-            ids = list(nx.lexicographical_topological_sort(graph, key=lambda i: (by_id[i].start, i)))
-        except nx.NetworkXUnfeasible:
-            cycle = find_cycle({a.id: a.predecessors for a in self.activities}) or []
-            raise InputError(f"the activities of {self.source or 'the schedule'} form a cycle {' -> '.join(cycle)}") from None
-        return [by_id[i] for i in ids]
-
-    def global_ids(self) -> set[str]:
-        """GlobalIds of every component the schedule acts on."""
-        return {a.global_id for a in self.activities if a.global_id}
 
 
 # --------------------------------------------------------------------------------------------- CSV
@@ -502,29 +340,6 @@ def _check_references(schedule: Schedule, lines: dict[str, int], model: Building
                 )
 
 
-def precedence_graph(predecessors: dict[str, tuple[str, ...]]) -> nx.DiGraph:
-    """The directed graph predecessor -> activity of ``predecessors`` (activity id -> the ids that must
-    finish first), nodes in the dict's order; a predecessor that is not a key is left out."""
-    import networkx as nx
-
-    graph = nx.DiGraph()
-    graph.add_nodes_from(predecessors)
-    graph.add_edges_from((p, a) for a, before in predecessors.items() for p in before if p in predecessors)
-    return graph
-
-
-def find_cycle(predecessors: dict[str, tuple[str, ...]]) -> list[str] | None:
-    """A cycle ``[a, b, ..., a]`` in the predecessor relation, in execution order (each id a predecessor
-    of the next), or None (networkx's depth-first search from the first activity)."""
-    import networkx as nx
-
-    try:
-        edges = nx.find_cycle(precedence_graph(predecessors))
-    except nx.NetworkXNoCycle:
-        return None
-    return [u for u, _ in edges] + [edges[0][0]]
-
-
 def _check_sequence(schedule: Schedule, lines: dict[str, int]) -> None:
     cycle = find_cycle({a.id: a.predecessors for a in schedule.activities})
     if cycle:
@@ -611,88 +426,16 @@ def _check_writable(a: Activity) -> None:
                          "so it cannot be written to a schedule CSV")
 
 
-# --------------------------------------------------------------------------------------------- IFC
-
-
-def load_schedule_ifc(path: str | os.PathLike, model: BuildingModel | None = None) -> Schedule:
-    """Read the IfcWorkSchedule(s) of an IFC file into a :class:`Schedule`.
-
-    Leaf IfcTasks become ``activities``, summary tasks (with nested tasks) ``phases``. Activity ids are
-    the tasks' GlobalIds; times are seconds from the earliest scheduled start (``Schedule.epoch``);
-    FINISH_START IfcRelSequences become predecessors (other sequence types are logged and skipped).
-    ``global_id`` is the product the task outputs (IfcRelAssignsToProduct); ``robot`` the first
-    resource assigned to it; ``activity`` comes from the PredefinedType (LOGISTIC: transport,
-    INSTALLATION: position, CONSTRUCTION: assemble) and is ``assemble`` for an untyped task that
-    outputs a product. With ``model``, ``target`` is the product's placement origin (m).
-    """
-    from bimrobot.schedule.ifc import read_work_schedule
-
-    rows = read_work_schedule(path)
-    if not rows:
-        raise InputError(f"{path} has no IfcTask to read as a schedule")
-    return schedule_from_task_rows(rows, Path(path), model)
-
-
-def schedule_from_task_rows(rows: list, source: Path | None, model: BuildingModel | None = None) -> Schedule:
-    """Build a :class:`Schedule` from :class:`bimrobot.schedule.ifc.TaskRow` rows."""
-    from datetime import datetime
-
-    starts = [r.start for r in rows if r.start]
-    epoch = min(datetime.fromisoformat(s) for s in starts) if starts else None
-
-    def seconds(iso: str | None, fallback: float) -> float:
-        if not iso or epoch is None:
-            return fallback
-        return (datetime.fromisoformat(iso) - epoch).total_seconds()
-
-    known_storeys = {s.global_id for s in model.storeys} if model is not None else set()
-    leaves, phases = [], []
-    per_component: dict[str, int] = {}
-    most_each = limit("per_component")
-    for row in rows:
-        start = seconds(row.start, 0.0)
-        finish = seconds(row.finish, start)
-        if not (0 <= start <= MAX_SECONDS and 0 <= finish <= MAX_SECONDS):
-            raise InputError(f"{source}: task {row.global_id} ends {max(start, finish):.3g} s after the earliest start, "
-                             f"more than the {MAX_SECONDS:g} s (31 years) a schedule may span")
-        output = row.outputs[0] if row.outputs else None
-        if output and not row.is_summary:
-            count = per_component[output] = per_component.get(output, 0) + 1
-            if count > most_each:
-                raise too_many(f"{source}: task {row.global_id}", f"component {output!r} has", "per_component")
-        if model is not None and output and not is_component(model, output) and output not in known_storeys:
-            log.warning("IfcTask %s outputs %s, which is not an element of the model: left unlinked", row.global_id, output)
-            output = None
-        kind = Task.from_ifc_task_type(row.predefined_type) or (Task.ASSEMBLE if output else "")
-        target = None
-        storey = row.storey
-        if model is not None and is_component(model, output):
-            target = tuple(float(v) for v in components.position(model, output))
-            storey = components.storey_id(model, output) or storey
-        activity = Activity(
-            id=row.global_id,
-            name=row.name or row.global_id,
-            activity=kind,
-            global_id=output,
-            robot=row.resources[0] if row.resources else None,
-            start=start,
-            finish=max(start, finish),
-            predecessors=tuple(row.predecessors),
-            target=target,  # type: ignore[arg-type]
-            storey=storey,
-            predefined_type=row.predefined_type,
-            parent=row.parent,
-        )
-        (phases if row.is_summary else leaves).append(activity)
-    leaves.sort(key=lambda a: (a.start, a.id))
-    schedule = Schedule(leaves, phases=phases, source=source, epoch=epoch.isoformat() if epoch else None)
-    cycle = find_cycle({a.id: a.predecessors for a in [*phases, *leaves]})
-    if cycle:
-        raise InputError(f"{source}: the IfcRelSequence relations form a cycle {' -> '.join(cycle)}")
-    return schedule
-
-
+# Schedule (schedule.py), the limits (limits.py) and IfcTask rows (task_rows.py) have their own modules
+# (issue 37); the names below from them are re-exported for the callers that import them from here.
 __all__ = [
+    "LIMITS",
+    "check_file_size",
+    "id_problem",
+    "limit",
+    "too_many",
+    "precedence_graph",
+    "schedule_from_task_rows",
     "ACTIVITY_TASK_TYPES",
     "COLUMNS",
     "CSV_COLUMNS",

@@ -20,299 +20,33 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from bimrobot.core.errors import InputError
+from bimrobot.schedule.exports import SCHEDULE_EXPORTS, schedule_export_kind, write_schedule_export
+from bimrobot.schedule.task_rows import TaskRow, read_work_schedule
+from bimrobot.schedule.working_time import (
+    WEEKDAY_NAMES,
+    WorkCalendar,
+    work_calendar_from,
+    working_datetime,
+    working_days,
+    working_seconds,
+)
+
+# Reading (task_rows.py), working time (working_time.py) and the Microsoft Project / P6 export
+# (exports.py) have their own modules (issue 37); callers import these names from here, as before.
+__all__ = [
+    "scheduled_model", "write_work_schedule", "write_scheduled_ifc", "check_ifc_out", "migrated_to_ifc4",
+    "ScheduleFigures", "DURATION_TYPE", "SCHEDULE_EXPORTS", "schedule_export_kind", "write_schedule_export",
+    "TaskRow", "read_work_schedule", "WEEKDAY_NAMES", "WorkCalendar", "work_calendar_from", "working_datetime",
+    "working_days", "working_seconds",
+]
 
 log = logging.getLogger(__name__)
-
-
-@dataclass(frozen=True)
-class TaskRow:
-    """One IfcTask.
-
-    ``start``/``finish``: ISO date-times (ScheduleStart/ScheduleFinish, else EarlyStart/EarlyFinish,
-    else ActualStart/ActualFinish), or None. ``predecessors``: GlobalIds of the tasks that must finish
-    first (FINISH_START IfcRelSequence). ``outputs``: GlobalIds of the products the task is assigned to
-    (IfcRelAssignsToProduct, e.g. the wall it builds), in file order with an assembly before its parts;
-    ``inputs``: products it operates on (IfcRelAssignsToProcess); ``resources``: names of the resources
-    assigned to it (a robot, a crew). ``parent``: GlobalId of the summary task it is nested in;
-    ``is_summary``: it has nested tasks. ``storey``: GlobalId of the storey containing its first output,
-    if any.
-    """
-
-    global_id: str
-    name: str
-    identification: str | None
-    predefined_type: str
-    start: str | None
-    finish: str | None
-    predecessors: tuple[str, ...]
-    outputs: tuple[str, ...]
-    inputs: tuple[str, ...]
-    resources: tuple[str, ...]
-    parent: str | None
-    is_summary: bool
-    storey: str | None
-    work_schedule: str | None
-
-
-def _times(task) -> tuple[str | None, str | None]:
-    """(start, finish): each the first of the Schedule, Early, Actual value that is set."""
-    time = task.TaskTime
-    if time is None:
-        return None, None
-
-    def first(*attributes: str) -> str | None:
-        return next((value for a in attributes if (value := getattr(time, a, None))), None)
-
-    return (
-        first("ScheduleStart", "EarlyStart", "ActualStart"),
-        first("ScheduleFinish", "EarlyFinish", "ActualFinish"),
-    )
-
-
-def _predecessors(task) -> tuple[str, ...]:
-    found = []
-    for rel in task.IsSuccessorFrom or ():
-        kind = rel.SequenceType or "NOTDEFINED"
-        if kind == "FINISH_START":
-            found.append(rel.RelatingProcess.GlobalId)
-        else:
-            log.warning(
-                "IfcRelSequence %s (%s) from %s to %s is not FINISH_START: not used as a predecessor",
-                rel.GlobalId, kind, rel.RelatingProcess.GlobalId, task.GlobalId,
-            )  # fmt: skip
-    return tuple(found)
-
-
-def _storey_of(product) -> str | None:
-    import ifcopenshell.util.element
-
-    if product.is_a("IfcBuildingStorey"):
-        return product.GlobalId
-    container = ifcopenshell.util.element.get_container(product)
-    return container.GlobalId if container is not None and container.is_a("IfcBuildingStorey") else None
-
-
-def _wholes_first(products) -> list:
-    """Products by file order, each part after the whole it belongs to when both are outputs (the
-    assembly a task lifts before the parts that give it a body)."""
-    import ifcopenshell.util.element
-
-    products = set(products)
-
-    def is_part(product) -> bool:  # of a whole among the outputs, at any level
-        whole = ifcopenshell.util.element.get_aggregate(product)
-        while whole is not None and whole not in products:
-            whole = ifcopenshell.util.element.get_aggregate(whole)
-        return whole is not None
-
-    return sorted(products, key=lambda p: (is_part(p), p.id()))
-
-
-def read_work_schedule(path: str | os.PathLike) -> list[TaskRow]:
-    """Every IfcTask of the file, parents before children, in file order otherwise.
-
-    Raises :class:`InputError` when the file cannot be opened as IFC.
-    """
-    import ifcopenshell
-    import ifcopenshell.util.sequence as sequence
-
-    path = Path(path)
-    if not path.is_file():
-        raise InputError(f"the IFC file {path} does not exist")
-    try:
-        ifc = ifcopenshell.open(str(path))
-    except Exception as exc:  # ifcopenshell raises several types for unreadable files
-        raise InputError(f"cannot read {path} as IFC: {exc}") from None
-    rows = []
-    for task in ifc.by_type("IfcTask"):
-        outputs = _wholes_first(sequence.get_task_outputs(task))
-        parent = sequence.get_parent_task(task)
-        schedule = sequence.get_task_work_schedule(task)
-        start, finish = _times(task)
-        rows.append(
-            TaskRow(
-                global_id=task.GlobalId,
-                name=task.Name or "",
-                identification=task.Identification,
-                predefined_type=task.PredefinedType or "NOTDEFINED",
-                start=start,
-                finish=finish,
-                predecessors=_predecessors(task),
-                outputs=tuple(p.GlobalId for p in outputs),
-                inputs=tuple(sorted(p.GlobalId for p in sequence.get_task_inputs(task))),
-                resources=tuple(sorted(r.Name or r.GlobalId for r in sequence.get_task_resources(task))),
-                parent=parent.GlobalId if parent is not None else None,
-                is_summary=bool(sequence.get_nested_tasks(task)),
-                storey=_storey_of(outputs[0]) if outputs else None,
-                work_schedule=schedule.GlobalId if schedule is not None else None,
-            )
-        )
-    return rows
-
-
-# -------------------------------------------------------------------------------------- working time
-
-WEEKDAY_NAMES = ("Monday", "Tuesday", "Wednesday", "Thursday", "Friday", "Saturday", "Sunday")
-
-
-@dataclass(frozen=True)
-class WorkCalendar:
-    """When the site works: ``days`` (weekday names, Monday first) and one daily period ``hours`` =
-    (start, end) as "HH:MM" (local wall-clock time, no time zone, start < end on the same day).
-
-    The fields are the site file's ``work_calendar`` keys, in text, so that the calendar written into a
-    report (``dataclasses.asdict``, JSON) reads back as a site file's. The default is Monday-Friday
-    07:00-16:00 (9 h a day, 45 h a week)."""
-
-    days: tuple[str, ...] = WEEKDAY_NAMES[:5]
-    hours: tuple[str, str] = ("07:00", "16:00")
-
-    @property
-    def weekdays(self) -> tuple[int, ...]:
-        """ISO weekday numbers of the working days (1 = Monday ... 7 = Sunday)."""
-        return tuple(WEEKDAY_NAMES.index(day) + 1 for day in self.days)
-
-    @property
-    def start_time(self) -> dt.time:
-        return dt.time.fromisoformat(self.hours[0])
-
-    @property
-    def end_time(self) -> dt.time:
-        return dt.time.fromisoformat(self.hours[1])
-
-    @property
-    def day_s(self) -> float:
-        """Working seconds of one working day."""
-        return _seconds_of_day(self.end_time) - _seconds_of_day(self.start_time)
-
-    @property
-    def week_s(self) -> float:
-        """Working seconds of one week."""
-        return self.day_s * len(self.weekdays)
-
-    def __str__(self) -> str:
-        """E.g. ``Monday-Friday 07:00-16:00``: runs of consecutive days joined by a dash."""
-        runs: list[list[int]] = []
-        for day in sorted(self.weekdays):
-            if runs and runs[-1][-1] == day - 1:
-                runs[-1].append(day)
-            else:
-                runs.append([day])
-        days = ", ".join(WEEKDAY_NAMES[r[0] - 1] + (f"-{WEEKDAY_NAMES[r[-1] - 1]}" if len(r) > 1 else "") for r in runs)
-        return f"{days} {self.start_time:%H:%M}-{self.end_time:%H:%M}"
-
-
-def _seconds_of_day(time: dt.time) -> float:
-    return time.hour * 3600 + time.minute * 60 + time.second
-
-
-def working_datetime(calendar: WorkCalendar, origin: dt.datetime, seconds: float, *, finish: bool = False) -> dt.datetime:
-    """The date-time at which ``seconds`` of working time have passed since ``origin``.
-
-    Work only runs in the calendar's working periods: the simulated seconds of a robot's work are laid
-    onto working hours, so an hour of work that starts at 15:30 on a Friday ends at 07:30 on Monday
-    (default calendar). An instant at the end of a working day is the end of that day when it is a
-    ``finish`` and the start of the next working day otherwise. ``origin`` outside working time counts
-    from the next working period. Pure arithmetic, no time zone (wall-clock time of the site).
-    """
-    monday = dt.datetime.combine(origin.date() - dt.timedelta(days=origin.weekday()), dt.time())
-    worked = _worked_in_week(calendar, monday, origin) + seconds
-    weeks, rest = divmod(worked, calendar.week_s)
-    if finish and rest == 0 and weeks > 0:  # the end of the last working day of the week before
-        weeks, rest = weeks - 1, calendar.week_s
-    start_s = _seconds_of_day(calendar.start_time)
-    for day in range(7):
-        if day + 1 not in calendar.weekdays:
-            continue
-        if rest < calendar.day_s or (finish and rest <= calendar.day_s):
-            return monday + dt.timedelta(weeks=weeks, days=day, seconds=start_s + rest)
-        rest -= calendar.day_s
-    return monday + dt.timedelta(weeks=weeks + 1)  # not reached: rest < week_s
-
-
-def _worked_in_week(calendar: WorkCalendar, monday: dt.datetime, when: dt.datetime) -> float:
-    """Working seconds from ``monday`` 00:00 to ``when`` (a date-time of that week)."""
-    day = (when.date() - monday.date()).days
-    worked = calendar.day_s * sum(1 for d in calendar.weekdays if d <= day)
-    if day + 1 in calendar.weekdays:
-        into = (when - dt.datetime.combine(when.date(), calendar.start_time)).total_seconds()
-        worked += min(max(into, 0.0), calendar.day_s)
-    return worked
-
-
-def working_seconds(calendar: WorkCalendar, start: dt.datetime, finish: dt.datetime) -> float:
-    """Working seconds of the calendar from ``start`` to ``finish`` (the inverse of :func:`working_datetime`;
-    0 when ``finish`` is not after ``start``)."""
-    if finish <= start:
-        return 0.0
-    monday = dt.datetime.combine(start.date() - dt.timedelta(days=start.weekday()), dt.time())
-    later = dt.datetime.combine(finish.date() - dt.timedelta(days=finish.weekday()), dt.time())
-    weeks = (later - monday).days // 7
-    return weeks * calendar.week_s + _worked_in_week(calendar, later, finish) - _worked_in_week(calendar, monday, start)
-
-
-def working_days(calendar: WorkCalendar, first: dt.date, last: dt.date) -> int:
-    """Working days of the calendar from ``first`` to ``last``, both included."""
-    weeks, extra = divmod((last - first).days + 1, 7)
-    return weeks * len(calendar.weekdays) + sum(
-        1 for d in range(extra) if (first + dt.timedelta(days=d)).isoweekday() in calendar.weekdays)
-
-
-def work_calendar_from(value, source: str, line: str = "") -> WorkCalendar:
-    """The site file's ``work_calendar`` value, e.g. ``{days: [Monday, ..., Friday], hours: ["07:00", "16:00"]}``.
-
-    ``days``: weekday names (or their first three letters, any case); ``hours``: [start, end] as
-    ``"HH:MM"`` (an unquoted 7:00 reads as YAML's 420 minutes and is taken so). Both keys are optional
-    (default Monday-Friday, 07:00-16:00). ``source`` (the file) and ``line`` (`` line N`` of the key)
-    name where in a refusal."""
-    from bimrobot.core.config import check_keys, line_of
-
-    if not isinstance(value, dict):
-        raise InputError(f"{source}{line}: key 'work_calendar' must be a mapping with days and hours, "
-                         "e.g. {days: [Monday, Tuesday, Wednesday, Thursday, Friday], hours: ['07:00', '16:00']}")
-    check_keys(value, ("days", "hours"), source, "work_calendar")
-    default = WorkCalendar()
-    weekdays, (start, end) = default.weekdays, (default.start_time, default.end_time)
-    if "days" in value:
-        where = f"{source}{line_of(value, 'days')}: work_calendar: key 'days'"
-        days = value["days"]
-        if not isinstance(days, list) or not days:
-            raise InputError(f"{where} must be a non-empty list of weekday names, e.g. [Monday, Tuesday]")
-        weekdays = tuple(sorted({_weekday(day, where) for day in days}))
-    if "hours" in value:
-        where = f"{source}{line_of(value, 'hours')}: work_calendar: key 'hours'"
-        hours = value["hours"]
-        if not isinstance(hours, list) or len(hours) != 2:
-            raise InputError(f"{where} must be [start, end], e.g. ['07:00', '16:00'], got {hours!r}")
-        start, end = (_clock(h, where) for h in hours)
-        if not start < end:
-            raise InputError(f"{where}: the start {start:%H:%M} must be before the end {end:%H:%M} on the same day")
-    return WorkCalendar(tuple(WEEKDAY_NAMES[d - 1] for d in weekdays), (f"{start:%H:%M}", f"{end:%H:%M}"))
-
-
-def _weekday(name, where: str) -> int:
-    text = str(name).strip().lower()
-    for number, day in enumerate(WEEKDAY_NAMES, start=1):
-        if len(text) >= 3 and day.lower().startswith(text):
-            return number
-    raise InputError(f"{where}: {name!r} is not a weekday (Monday ... Sunday, or Mon ... Sun)")
-
-
-def _clock(value, where: str) -> dt.time:
-    if isinstance(value, int) and not isinstance(value, bool) and 0 <= value < 24 * 60:  # YAML 1.1 read 7:00 as 420
-        return dt.time(value // 60, value % 60)
-    try:
-        return dt.time.fromisoformat(str(value))
-    except ValueError:
-        raise InputError(f"{where}: {value!r} is not a time of day such as '07:00'") from None
 
 
 # ------------------------------------------------------------------------------------------- writing
 
 #: IfcTaskTime.DurationType of written tasks: durations count working time of the IfcWorkCalendar.
 DURATION_TYPE = "WORKTIME"
-#: Suffixes of ``--schedule-out``: what each writes (through ifc4d).
-SCHEDULE_EXPORTS = {".p6.xml": "Primavera P6 XML", ".xml": "Microsoft Project XML"}
 
 
 def migrated_to_ifc4(ifc, source: Path):
@@ -343,18 +77,6 @@ def check_ifc_out(path: str | os.PathLike, option: str = "--ifc-out") -> None:
     if Path(path).suffix.lower() != ".ifc":
         raise InputError(f"{option} {path}: the scheduled copy is written as .ifc (STEP), give a name ending in .ifc")
 
-
-def schedule_export_kind(path: str | os.PathLike, option: str = "--schedule-out") -> str:
-    """``"p6"`` for a name ending in .p6.xml, ``"msp"`` for another .xml; anything else is refused."""
-    name = Path(path).name.lower()
-    if name.endswith(".p6.xml"):
-        return "p6"
-    if name.endswith(".xml"):
-        return "msp"
-    if name.endswith(".xer"):
-        raise InputError(f"{option} {path}: ifc4d writes Primavera P6 as P6 XML, not XER; give a name ending in "
-                         ".p6.xml (P6 imports it), or .xml for Microsoft Project")
-    raise InputError(f"{option} {path}: give a name ending in .xml (Microsoft Project XML) or .p6.xml (Primavera P6 XML)")
 
 
 @dataclass(frozen=True)
@@ -453,9 +175,7 @@ def scheduled_model(ifc_in: str | os.PathLike, schedule, *, epoch: str | None = 
     if not activities:
         raise InputError(f"the schedule for {ifc_in} has no activity to write into the model")
     origin = _origin(epoch or getattr(schedule, "epoch", None))
-    ifc = _open(ifc_in) if parsed is None else parsed
-    if ifc.schema == "IFC2X3":  # no IfcTaskTime in IFC2X3: the copy is migrated to IFC4 first
-        ifc = migrated_to_ifc4(ifc, ifc_in)
+    ifc = _ifc4(_open(ifc_in) if parsed is None else parsed, ifc_in)
     clock = _Clock(calendar, origin, calendar_time=bool(getattr(schedule, "epoch", None)))
     spans = {a.id: clock.span(a.start, a.finish) for a in activities}
     first, last = min(s for s, _ in spans.values()), max(f for _, f in spans.values())
@@ -463,6 +183,28 @@ def scheduled_model(ifc_in: str | os.PathLike, schedule, *, epoch: str | None = 
     work_schedule = sequence.add_work_schedule(ifc, name=name, predefined_type="PLANNED", start_time=first)
     work_schedule.Identification = "BIMROBOT"
     groups = _Groups(ifc, work_schedule)
+    _add_tasks(ifc, groups, activities, clock, spans)
+    _assign_calendar(ifc, calendar, groups.roots)
+    _stable_global_ids(ifc, first_new_id, seed=f"{_model_key(ifc, ifc_in)}/{name}")
+    if groups.unassigned:
+        log.warning("%d of %d activities act on no product of %s: their tasks are not assigned to a product",
+                    groups.unassigned, len(activities), ifc_in)
+    figures = ScheduleFigures(activities=len(activities), storeys=groups.storey_count, units=groups.unit_count,
+                              calendar=calendar, start=first, finish=last,
+                              working_days=working_days(calendar, first.date(), last.date()))
+    return ifc, figures
+
+
+def _ifc4(ifc, source: Path):
+    """``ifc`` itself, or its IFC4 copy when it is IFC2X3 (which has no IfcTaskTime)."""
+    return migrated_to_ifc4(ifc, source) if ifc.schema == "IFC2X3" else ifc
+
+
+def _add_tasks(ifc, groups: "_Groups", activities: list, clock: "_Clock", spans: dict) -> None:
+    """One IfcTask per activity (in its storey and unit summary tasks), its FINISH_START sequences, then the
+    times of every task (``spans``: activity id -> (start, finish) date-times)."""
+    import ifcopenshell.api.sequence as sequence
+
     tasks = {a.id: groups.add_activity(a) for a in activities}
     for a in activities:
         for predecessor in a.predecessors:
@@ -473,15 +215,6 @@ def scheduled_model(ifc_in: str | os.PathLike, schedule, *, epoch: str | None = 
         _set_times(ifc, tasks[a.id], clock, *spans[a.id])
     for summary, members in groups.summaries():
         _set_times(ifc, summary, clock, min(spans[m][0] for m in members), max(spans[m][1] for m in members))
-    _assign_calendar(ifc, calendar, groups.roots)
-    _stable_global_ids(ifc, first_new_id, seed=f"{_model_key(ifc, ifc_in)}/{name}")
-    if groups.unassigned:
-        log.warning("%d of %d activities act on no product of %s: their tasks are not assigned to a product",
-                    groups.unassigned, len(activities), ifc_in)
-    figures = ScheduleFigures(activities=len(activities), storeys=groups.storey_count, units=groups.unit_count,
-                              calendar=calendar, start=first, finish=last,
-                              working_days=working_days(calendar, first.date(), last.date()))
-    return ifc, figures
 
 
 def _model_key(ifc, source: Path) -> str:
@@ -591,121 +324,6 @@ def _assign_calendar(ifc, calendar: WorkCalendar, roots: list) -> None:
     sequence.edit_recurrence_pattern(ifc, recurrence_pattern=pattern, attributes={"WeekdayComponent": list(calendar.weekdays)})
     sequence.add_time_period(ifc, recurrence_pattern=pattern, start_time=calendar.start_time, end_time=calendar.end_time)
     ifcopenshell.api.control.assign_control(ifc, relating_control=work_calendar, related_objects=roots)
-
-
-def write_schedule_export(ifc, path: str | os.PathLike, calendar: WorkCalendar | None = None, *, inputs=(),
-                          option: str = "--schedule-out") -> Path:
-    """Write the work schedule of ``ifc`` (made by :func:`scheduled_model`) for a scheduler, through ifc4d:
-    ``*.xml`` Microsoft Project XML (``ifc4d.ifc2msp``), ``*.p6.xml`` Primavera P6 XML (``ifc4d.ifc2p6``).
-
-    ifc4d 0.9.0 writes a duration as its whole days times 8 h, which makes every robot activity (minutes
-    long) 0 h, and a P6 calendar as 8 h a day; both are corrected from the IfcTaskTime and ``calendar``
-    after ifc4d has run: durations in working hours (P6 hours, MS Project ``PT#H#M#S``), the calendar's
-    hours per day, week, month and year (P6) and minutes per day (MS Project). MS Project tasks also get
-    a Start No Earlier Than constraint at their simulated start, so that auto-scheduling keeps the waits
-    for a busy robot that no link shows. The file carries ``io.SIGNATURE`` in an XML comment; it goes
-    through the output policy. Returns ``path``."""
-    from bimrobot.core import io
-
-    calendar = calendar or WorkCalendar()
-    kind = schedule_export_kind(path, option)
-    work_schedule = next((w for w in ifc.by_type("IfcWorkSchedule") if w.Identification == "BIMROBOT"), None)
-    if work_schedule is None:
-        raise InputError(f"{option} {path}: the model has no work schedule written by bimrobot to export")
-    root = (_msp_export if kind == "msp" else _p6_export)(ifc, work_schedule, calendar)
-    import xml.etree.ElementTree as ET
-
-    text = ET.tostring(root, encoding="unicode")
-    comment = f"<!-- {io.signature(SCHEDULE_EXPORTS['.p6.xml' if kind == 'p6' else '.xml'] + ' through ifc4d')} -->"
-    with io.atomic_output_file(path, inputs=inputs, option=option) as tmp:
-        tmp.write_text(f"<?xml version='1.0' encoding='utf-8'?>\n{comment}\n{text}\n", encoding="utf-8")
-    return Path(path)
-
-
-def _working_hours(task, calendar: WorkCalendar) -> float:
-    """The task's ScheduleDuration (working days, P1D = one working day) in working hours."""
-    from ifcopenshell.util.date import ifc2datetime
-
-    days = ifc2datetime(task.TaskTime.ScheduleDuration)
-    return days.total_seconds() / 86400 * calendar.day_s / 3600
-
-
-def _exported(exporter, work_schedule) -> None:
-    """Run an ifc4d exporter into a scratch file, its progress prints silenced (the tree stays in memory)."""
-    import contextlib
-    import io as text_io
-    import tempfile
-
-    exporter.work_schedule = work_schedule
-    with tempfile.TemporaryDirectory() as folder, contextlib.redirect_stdout(text_io.StringIO()):
-        exporter.xml = str(Path(folder) / "schedule.xml")
-        try:
-            exporter.execute()
-        except Exception as exc:  # ifc4d raises what its code meets (IndexError, KeyError ...)
-            raise InputError(f"ifc4d's {type(exporter).__name__} could not export the work schedule of this model: "
-                             f"{type(exc).__name__}: {exc}") from None
-
-
-def _msp_export(ifc, work_schedule, calendar: WorkCalendar):
-    """Microsoft Project XML (MSPDI) of the work schedule: ifc4d's Ifc2Msp, durations corrected."""
-    import xml.etree.ElementTree as ET
-
-    from ifc4d.ifc2msp import Ifc2Msp
-
-    exporter = Ifc2Msp()
-    exporter.file = ifc
-    exporter.hours_per_day = calendar.day_s / 3600
-    _exported(exporter, work_schedule)
-    guids = exporter.root.findall("GUID")
-    for duplicate in guids[1:]:  # ifc4d writes the project's GUID twice
-        exporter.root.remove(duplicate)
-    minutes_per_day = exporter.root.find("MinutesPerDay")
-    minutes_per_day.text = str(round(calendar.day_s / 60))
-    week = ET.Element("MinutesPerWeek")
-    week.text = str(round(calendar.week_s / 60))
-    exporter.root.insert(list(exporter.root).index(minutes_per_day) + 1, week)
-    for task, element in exporter.element_map.items():
-        if not task.is_a("IfcTask") or task.TaskTime is None:
-            continue
-        seconds = round(_working_hours(task, calendar) * 3600)
-        element.find("Duration").text = f"PT{seconds // 3600}H{seconds // 60 % 60}M{seconds % 60}S"
-        if not task.IsNestedBy:  # a leaf: keep its simulated start
-            calendar_uid = element.find("CalendarUID")
-            at = list(element).index(calendar_uid) if calendar_uid is not None else len(element)
-            constraint, date = ET.Element("ConstraintType"), ET.Element("ConstraintDate")
-            constraint.text, date.text = "4", task.TaskTime.ScheduleStart  # 4: Start No Earlier Than
-            element.insert(at, constraint)
-            element.insert(at + 2, date)
-    return exporter.root
-
-
-def _p6_export(ifc, work_schedule, calendar: WorkCalendar):
-    """Primavera P6 XML of the work schedule: ifc4d's Ifc2P6, durations and calendar hours corrected."""
-    from ifc4d.ifc2p6 import Ifc2P6
-
-    exporter = Ifc2P6()
-    exporter.file = ifc
-    exporter.hours_per_day = calendar.day_s / 3600
-    exporter.holiday_start_date = exporter.holiday_finish_date = dt.date.today()  # no holidays to list
-    # ifc4d makes a P6 project of every IfcWorkSchedule in the file (a model may bring its own, whose
-    # tasks may have no times) and takes the file's first calendar as the default: only ours here.
-    exporter.create_projects = lambda: exporter.create_project(work_schedule)
-    _exported(exporter, work_schedule)
-    calendar_entity = next(c for c in ifc.by_type("IfcWorkCalendar") if c.Name == f"Site working time: {calendar}")
-    for element in exporter.root.iter():
-        if element.tag.rpartition("}")[2] == "ActivityDefaultCalendarObjectId":
-            element.text = exporter.id_map[calendar_entity]
-    hours = {"HoursPerDay": calendar.day_s / 3600, "HoursPerWeek": calendar.week_s / 3600,
-             "HoursPerMonth": calendar.week_s / 3600 * 52 / 12, "HoursPerYear": calendar.week_s / 3600 * 52}
-    for element in exporter.root.iter():
-        tag = element.tag.rpartition("}")[2]
-        if tag in hours:
-            element.text = f"{hours[tag]:g}"
-    for task, element in exporter.element_map.items():
-        if task.is_a("IfcTask") and task.TaskTime is not None and element.find("PlannedDuration") is not None:
-            for tag in ("PlannedDuration", "RemainingDuration"):
-                element.find(tag).text = f"{_working_hours(task, calendar):.6f}".rstrip("0").rstrip(".")
-    return exporter.root
 
 
 class _Groups:

@@ -29,11 +29,12 @@ from typing import TYPE_CHECKING, Iterator, NamedTuple
 
 from bimrobot.core.errors import InputError
 from bimrobot.lbd import components
-from bimrobot.schedule.csv import id_problem
+from bimrobot.schedule.limits import check_file_size, id_problem
+from bimrobot.schedule.task_rows import TaskRow, schedule_from_task_rows
 
 if TYPE_CHECKING:  # pragma: no cover
     from bimrobot.bim.model import BuildingModel
-    from bimrobot.schedule.csv import Schedule
+    from bimrobot.schedule.schedule import Schedule
 
 log = logging.getLogger(__name__)
 
@@ -105,7 +106,7 @@ def _read(path: Path) -> tuple[list[_Task], dict[str, str], list[tuple[str, str]
     ((task UID, resource UID)), streamed: each element is dropped from the tree once read, so memory
     grows with the tasks kept, not with the file. Refuses a root that is not an MSPDI ``Project`` and
     more tasks than :func:`bimrobot.schedule.csv.limit` ``("rows")``."""
-    from bimrobot.schedule.csv import limit, too_many
+    from bimrobot.schedule.limits import limit, too_many
 
     tasks: list[_Task] = []
     resources: dict[str, str] = {}
@@ -199,27 +200,45 @@ def _outline_level(task: _Task, path: Path) -> int:
     return level
 
 
+def _assigned(resources: dict[str, str], assignments: list[tuple[str, str]]) -> dict[str, list[str]]:
+    """Task UID -> the names of the resources assigned to it (assignments to unnamed resources dropped)."""
+    assigned: dict[str, list[str]] = {}
+    for task_uid, resource_uid in assignments:
+        name = resources.get(resource_uid)
+        if name:
+            assigned.setdefault(task_uid, []).append(name)
+    return assigned
+
+
+def _predecessors(task: _Task, uids: set[str], path: Path) -> list[str]:
+    """The task's FINISH_START predecessors (UIDs); other link types are logged and left out. InputError
+    for a link to a UID that is not a task of the file."""
+    uid, predecessors = task.uid, []
+    for before, link_type in task.links:
+        kind = LINK_TYPES.get(link_type or "1", "unknown")
+        if before not in uids:
+            raise InputError(f"{path}: task UID {uid} links to predecessor UID {before}, which is not a task of the file")
+        if kind == "FINISH_START":
+            predecessors.append(before)
+        else:
+            log.warning("%s: link %s -> %s is %s, not FINISH_START: not used as a predecessor", path, before, uid, kind)
+    return predecessors
+
+
 def load_schedule_msproject(path: str | os.PathLike, model: BuildingModel | None = None) -> Schedule:
     """Read a Microsoft Project XML (MSPDI) schedule into a :class:`Schedule` (see the module docstring).
 
     Raises :class:`InputError` in one sentence for a file that is not well-formed XML, not an MSPDI
     project, has no task, a task without a UID or two with the same UID, a date that is not ISO 8601,
     a link to an unknown task or a cycle; and, before it is read, for a file over the size limit, or as
-    soon as it has more tasks than allowed (:data:`bimrobot.schedule.csv.LIMITS`). The file is streamed.
+    soon as it has more tasks than allowed (:data:`bimrobot.schedule.limits.LIMITS`). The file is streamed.
     """
-    from bimrobot.schedule.ifc import TaskRow
-    from bimrobot.schedule.csv import check_file_size, schedule_from_task_rows
-
     path = Path(path)
     check_file_size(path, "xml_mb", "Microsoft Project XML file")
     tasks, resources, assignments = _read(path)
     if not tasks:
         raise InputError(f"{path} is a Microsoft Project file without any task: nothing to schedule")
-    assigned: dict[str, list[str]] = {}
-    for task_uid, resource_uid in assignments:
-        name = resources.get(resource_uid)
-        if name:
-            assigned.setdefault(task_uid, []).append(name)
+    assigned = _assigned(resources, assignments)
     uids = _unique_uids(tasks, path)
     matcher = _Matcher(model)
     storeys = {s.global_id for s in model.storeys} if model is not None else set()
@@ -233,15 +252,7 @@ def load_schedule_msproject(path: str | os.PathLike, model: BuildingModel | None
         is_summary = task.summary == "1"
         if is_summary:
             outline.append((level, uid))
-        predecessors = []
-        for before, link_type in task.links:
-            kind = LINK_TYPES.get(link_type or "1", "unknown")
-            if before not in uids:
-                raise InputError(f"{path}: task UID {uid} links to predecessor UID {before}, which is not a task of the file")
-            if kind == "FINISH_START":
-                predecessors.append(before)
-            else:
-                log.warning("%s: link %s -> %s is %s, not FINISH_START: not used as a predecessor", path, before, uid, kind)
+        predecessors = _predecessors(task, uids, path)
         name = task.name
         target, rule = (None, "") if is_summary else matcher.match(name, list(task.texts))
         if not is_summary and target is None:
