@@ -15,7 +15,8 @@ from bimrobot.core.errors import InputError
 from bimrobot.rcan.backends import BACKENDS, backend_class, declaration
 from bimrobot.rcan.backends import features
 from bimrobot.rcan.backends.info import BackendInfo, BackendOption
-from bimrobot.rcan.backends.interfaces import ActivityResult, DispatchingBackend, ExecutorBackend
+from bimrobot.rcan.backends.info import ActivityResult
+from bimrobot.rcan.backends.interfaces import DispatchingBackend, ExecutorBackend
 from bimrobot.rcan.generation import load_capabilities
 from bimrobot.rcan.plans import experiment
 from bimrobot.rcan.system import run_plan

@@ -5,7 +5,7 @@ from __future__ import annotations
 import threading
 from dataclasses import fields
 
-from bimrobot.rcan.backends.interfaces import ActivityResult
+from bimrobot.rcan.backends.info import ActivityResult
 from bimrobot.rcan.broker import InProcessBroker
 
 

@@ -141,7 +141,7 @@ def test_a_turn_is_committed_whole_before_anything_of_it_is_seen_and_a_failed_tu
     """The coordinator commits each turn of its loop as one transaction (one disk sync for the result
     it handled and the node it starts next): until the turn commits, another reader of the database
     and the observers (the construction graph) see none of it; a turn that fails leaves no trace."""
-    from bimrobot.rcan.backends.interfaces import ActivityResult
+    from bimrobot.rcan.backends.info import ActivityResult
     from bimrobot.rcan.state_manager import StateManager
 
     path = tmp_path / "run.sqlite"

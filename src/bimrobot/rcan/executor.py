@@ -16,7 +16,8 @@ import threading
 from typing import Iterable
 
 from bimrobot.core.errors import InputError
-from bimrobot.rcan.backends.interfaces import ActivityResult, ExecutorBackend
+from bimrobot.rcan.backends.info import ActivityResult
+from bimrobot.rcan.backends.interfaces import ExecutorBackend
 from bimrobot.rcan.broker import RESULT_TOPIC, Broker, Message, robot_topic
 from bimrobot.rcan.node import RcanNode
 

@@ -28,7 +28,7 @@ from urllib.parse import quote
 
 from bimrobot.core.errors import InputError
 from bimrobot.rcan.activities import ActivityKind
-from bimrobot.rcan.backends.interfaces import ActivityResult
+from bimrobot.rcan.backends.info import ActivityResult
 from bimrobot.rcan.node import RcanNode
 from bimrobot.sco.states import Event, State, at_least, next_state
 

@@ -19,9 +19,9 @@ import contextlib
 import inspect
 from typing import Callable, ClassVar, Collection
 
-from bimrobot.rcan.activities import ActivityKind
+from bimrobot.core.tasks import ActivityKind
 from bimrobot.rcan.backends.features import ALL_FEATURES, features_of
-from bimrobot.rcan.backends.info import CONTEXT_KEYWORDS, ActivityResult, BackendInfo, RunContext  # noqa: F401 (ActivityResult: re-exported)
+from bimrobot.rcan.backends.info import CONTEXT_KEYWORDS, ActivityResult, BackendInfo, RunContext
 from bimrobot.rcan.node import RcanNode
 
 #: Feedback callback: (progress 0..1, phase text).

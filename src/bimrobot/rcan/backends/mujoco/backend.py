@@ -1,18 +1,24 @@
 """The ``mujoco`` backend: the site, the turns, and the six activity features it implements
 (:data:`FEATURES`, one module each: :mod:`.move`, :mod:`.pick`, :mod:`.transport`, :mod:`.position`,
-:mod:`.install`), with the scene's components and supports (:mod:`.scene`)."""
+:mod:`.install`), with the scene's components and supports (:mod:`.scene`).
+
+``execute`` (:class:`~bimrobot.rcan.backends.interfaces.ExecutorBackend`'s) calls the feature of the
+node's activity; each feature's method hands its physical work to :meth:`MujocoBackend.act`, which runs
+it in its turn of the one physical world."""
 
 from __future__ import annotations
 
 import csv
 import threading
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 
 from bimrobot.site.fleet import Fleet
-from bimrobot.rcan.activities import ActivityKind
-from bimrobot.rcan.backends.interfaces import ActivityResult, ExecutorBackend
+from bimrobot.core.tasks import ActivityKind
+from bimrobot.rcan.backends.info import ActivityResult
+from bimrobot.rcan.backends.interfaces import ExecutorBackend
 from bimrobot.rcan.backends.mujoco import INFO
 from bimrobot.rcan.backends.mujoco.common import MAKE_WAY_M, ArmWork
 from bimrobot.rcan.backends.mujoco.install import Install
@@ -26,20 +32,16 @@ from bimrobot.rcan.backends.mujoco.transport import Transport
 from bimrobot.rcan.backends.mujoco.turns import BLOCKED_WAIT_S, BLOCKED_WAITS, IDLE_WAIT_S, _Turns
 from bimrobot.rcan.node import RcanNode
 
-#: the activity features this backend implements (its feature classes, one module each) -> the method
-#: that does the activity's physical work, in its turn (:meth:`MujocoBackend._attempt`)
-FEATURES: dict[ActivityKind, str] = {
-    ActivityKind.MOVE_TO_COMPONENT: "_move_to_component",  # move.py
-    ActivityKind.POSITION_FOR_PICKING_UP: "_position_for_picking_up",  # pick.py
-    ActivityKind.PICK_UP: "_pick_up",  # pick.py
-    ActivityKind.TRANSPORT: "_transport",  # transport.py
-    ActivityKind.POSITION_FOR_INSTALLING: "_position_for_installing",  # position.py
-    ActivityKind.INSTALL: "_install",  # install.py
-}
+#: the activity features this backend implements: its feature classes, one module each (move.py, pick.py,
+#: transport.py, position.py, install.py); each one's method does its activity's physical work in its turn
+FEATURES = (MoveToComponent, PositionForPickingUp, PickUp, Transport, PositionForInstalling, Install)
+
+#: what a feature hands to :meth:`MujocoBackend.act`: the activity's physical work on the site, which
+#: returns the result's message and raises Blocked or MotionFailed (bimrobot.physics.site)
+Work = Callable[[RcanNode], str]
 
 
-class MujocoBackend(MoveToComponent, PositionForPickingUp, PickUp, Transport, PositionForInstalling, Install,
-                    SceneParts, ArmWork, ExecutorBackend):
+class MujocoBackend(*FEATURES, SceneParts, ArmWork, ExecutorBackend):
     """Executor backend on a MuJoCo scene (see the package docstring): the six activity features, one
     module each (:data:`FEATURES`), on one site; declared by :data:`~bimrobot.rcan.backends.mujoco.INFO`."""
 
@@ -83,14 +85,17 @@ class MujocoBackend(MoveToComponent, PositionForPickingUp, PickUp, Transport, Po
         self._waiting = 0  # of those, the ones waiting for other robots' work to clear their way
         self.at_work: dict[str, str] = {}  # robot -> the component its gripper is at (grasp or work pose)
 
-    def execute(self, node: RcanNode, attempt: int = 1, ready_at_s: float = 0.0, feedback=None) -> ActivityResult:
+    def act(self, node: RcanNode, attempt: int, ready_at_s: float, feedback, work: Work) -> ActivityResult:
+        """Do ``work`` for ``node``'s activity in the one physical world, not before ``ready_at_s``
+        (simulated s): in its turn when a coordinator is attached, else under the world's lock;
+        idempotent per (activity, attempt)."""
         if self._turns.coordinated:
-            return self._execute_in_turn(node, attempt, ready_at_s, feedback)
+            return self._execute_in_turn(node, attempt, ready_at_s, feedback, work)
         with self._count_lock:
             self._under_way += 1
         try:
             with self._lock:  # one physical world: robots act one after the other in simulated time
-                return self._execute(node, attempt, ready_at_s, feedback)
+                return self._execute(node, attempt, ready_at_s, feedback, work)
         finally:
             with self._count_lock:
                 self._under_way -= 1
@@ -108,14 +113,14 @@ class MujocoBackend(MoveToComponent, PositionForPickingUp, PickUp, Transport, Po
     def stop(self) -> None:
         self._turns.stop()
 
-    def _execute(self, node: RcanNode, attempt: int, ready_at_s: float, feedback) -> ActivityResult:
+    def _execute(self, node: RcanNode, attempt: int, ready_at_s: float, feedback, work: Work) -> ActivityResult:
         """One activity, blocked ways waited out in real seconds (no coordinator attached)."""
         done = self._known_result(node, attempt)
         if done:
             return done
         started = self._begin(node, ready_at_s, feedback)
         for waited in range(BLOCKED_WAITS + 1):
-            message, success, blocked = self._attempt(node)
+            message, success, blocked = self._attempt(node, work)
             if not blocked:
                 break
             if waited == BLOCKED_WAITS or not self._wait_for_other_work():
@@ -125,7 +130,7 @@ class MujocoBackend(MoveToComponent, PositionForPickingUp, PickUp, Transport, Po
         self._changed.notify_all()
         return self._finish(node, attempt, started, message, success, feedback)
 
-    def _execute_in_turn(self, node: RcanNode, attempt: int, ready_at_s: float, feedback) -> ActivityResult:
+    def _execute_in_turn(self, node: RcanNode, attempt: int, ready_at_s: float, feedback, work: Work) -> ActivityResult:
         """One activity, executed in its turns (module docstring)."""
         started = None
         with self._turns.queued((ready_at_s, node.activity_id, attempt)) as ticket:
@@ -142,7 +147,7 @@ class MujocoBackend(MoveToComponent, PositionForPickingUp, PickUp, Transport, Po
                             return done
                         if started is None:
                             started = self._begin(node, ready_at_s, feedback)
-                        message, success, was_blocked = self._attempt(node)
+                        message, success, was_blocked = self._attempt(node, work)
                         if not was_blocked:
                             return self._finish(node, attempt, started, message, success, feedback)
                         blocked = message
@@ -163,8 +168,8 @@ class MujocoBackend(MoveToComponent, PositionForPickingUp, PickUp, Transport, Po
             feedback(0.0, f"{node.kind.label}: started")
         return self.site.time_s
 
-    def _attempt(self, node: RcanNode) -> tuple[str, bool, bool]:
-        """Try the activity (message, success, blocked by other robots' work); when its way is
+    def _attempt(self, node: RcanNode, work: Work) -> tuple[str, bool, bool]:
+        """Try the activity's ``work`` (message, success, blocked by other robots' work); when its way is
         blocked, once more after the idle robots near its work have made way (:meth:`_send_idle_robots_back`)."""
         from bimrobot.physics.site import Blocked, MotionFailed
 
@@ -172,7 +177,7 @@ class MujocoBackend(MoveToComponent, PositionForPickingUp, PickUp, Transport, Po
         made_way = ""
         for _ in range(2):
             try:
-                done = made_way + self._put_away_other(node) + getattr(self, FEATURES[node.kind])(node)
+                done = made_way + self._put_away_other(node) + work(node)
                 return done + self._stow_when_freed(node), True, False
             except Blocked as failure:
                 blocked = str(failure)

@@ -11,7 +11,7 @@ import numpy as np
 from bimrobot.rcan.backends.mujoco.common import (ANGLE_TOLERANCE_DEG, POSITION_TOLERANCE_M, RESEAT_LIFT_M,
                                                    RESEAT_TRIES, SETTLE_S)
 from bimrobot.rcan.backends import features
-from bimrobot.rcan.backends.interfaces import ActivityResult
+from bimrobot.rcan.backends.info import ActivityResult
 from bimrobot.rcan.node import RcanNode
 
 
@@ -20,8 +20,9 @@ class Install(features.Install):
 
     def install(self, node: RcanNode, attempt: int = 1, ready_at_s: float = 0.0,
                 feedback=None) -> ActivityResult:
-        """*Install* in the one physical world, in its turn (:meth:`MujocoBackend.execute`)."""
-        return self.execute(node, attempt, ready_at_s, feedback)
+        """*Install* in the one physical world, in its turn: the work of :meth:`_install`
+        (:meth:`MujocoBackend.act`)."""
+        return self.act(node, attempt, ready_at_s, feedback, self._install)
 
     def _install(self, node: RcanNode) -> str:
         from bimrobot.physics.site import MotionFailed

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from bimrobot.rcan.backends import features
-from bimrobot.rcan.backends.interfaces import ActivityResult
+from bimrobot.rcan.backends.info import ActivityResult
 from bimrobot.rcan.node import RcanNode
 
 
@@ -15,8 +15,9 @@ class MoveToComponent(features.MoveToComponent):
 
     def move_to_component(self, node: RcanNode, attempt: int = 1, ready_at_s: float = 0.0,
                           feedback=None) -> ActivityResult:
-        """*Move to component* in the one physical world, in its turn (:meth:`MujocoBackend.execute`)."""
-        return self.execute(node, attempt, ready_at_s, feedback)
+        """*Move to component* in the one physical world, in its turn: the work of :meth:`_move_to_component`
+        (:meth:`MujocoBackend.act`)."""
+        return self.act(node, attempt, ready_at_s, feedback, self._move_to_component)
 
     def _move_to_component(self, node: RcanNode) -> str:
         goal = np.array([node.target.x, node.target.y])

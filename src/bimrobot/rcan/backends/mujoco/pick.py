@@ -8,7 +8,7 @@ import numpy as np
 
 from bimrobot.rcan.backends.mujoco.common import LIFT_M
 from bimrobot.rcan.backends import features
-from bimrobot.rcan.backends.interfaces import ActivityResult
+from bimrobot.rcan.backends.info import ActivityResult
 from bimrobot.rcan.node import RcanNode
 
 
@@ -17,8 +17,9 @@ class PositionForPickingUp(features.PositionForPickingUp):
 
     def position_for_picking_up(self, node: RcanNode, attempt: int = 1, ready_at_s: float = 0.0,
                                 feedback=None) -> ActivityResult:
-        """*Position for picking up* in the one physical world, in its turn (:meth:`MujocoBackend.execute`)."""
-        return self.execute(node, attempt, ready_at_s, feedback)
+        """*Position for picking up* in the one physical world, in its turn: the work of :meth:`_position_for_picking_up`
+        (:meth:`MujocoBackend.act`)."""
+        return self.act(node, attempt, ready_at_s, feedback, self._position_for_picking_up)
 
     def _position_for_picking_up(self, node: RcanNode) -> str:
         from bimrobot.physics.placement import lying_pose
@@ -52,8 +53,9 @@ class PickUp(features.PickUp):
 
     def pick_up(self, node: RcanNode, attempt: int = 1, ready_at_s: float = 0.0,
                 feedback=None) -> ActivityResult:
-        """*Pick up* in the one physical world, in its turn (:meth:`MujocoBackend.execute`)."""
-        return self.execute(node, attempt, ready_at_s, feedback)
+        """*Pick up* in the one physical world, in its turn: the work of :meth:`_pick_up`
+        (:meth:`MujocoBackend.act`)."""
+        return self.act(node, attempt, ready_at_s, feedback, self._pick_up)
 
     def _pick_up(self, node: RcanNode) -> str:
         from bimrobot.physics.site import MotionFailed

@@ -10,7 +10,7 @@ import numpy as np
 
 from bimrobot.rcan.backends.mujoco.common import LIFT_M, SUPPORT_MIN_Z_M
 from bimrobot.rcan.backends import features
-from bimrobot.rcan.backends.interfaces import ActivityResult
+from bimrobot.rcan.backends.info import ActivityResult
 from bimrobot.rcan.node import RcanNode
 
 
@@ -19,8 +19,9 @@ class PositionForInstalling(features.PositionForInstalling):
 
     def position_for_installing(self, node: RcanNode, attempt: int = 1, ready_at_s: float = 0.0,
                                 feedback=None) -> ActivityResult:
-        """*Position for installing* in the one physical world, in its turn (:meth:`MujocoBackend.execute`)."""
-        return self.execute(node, attempt, ready_at_s, feedback)
+        """*Position for installing* in the one physical world, in its turn: the work of :meth:`_position_for_installing`
+        (:meth:`MujocoBackend.act`)."""
+        return self.act(node, attempt, ready_at_s, feedback, self._position_for_installing)
 
     def _position_for_installing(self, node: RcanNode) -> str:
         from bimrobot.physics.site import Blocked, MotionFailed

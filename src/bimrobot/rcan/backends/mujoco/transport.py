@@ -9,7 +9,7 @@ import math
 import numpy as np
 
 from bimrobot.rcan.backends import features
-from bimrobot.rcan.backends.interfaces import ActivityResult
+from bimrobot.rcan.backends.info import ActivityResult
 from bimrobot.rcan.node import RcanNode
 
 
@@ -18,8 +18,9 @@ class Transport(features.Transport):
 
     def transport(self, node: RcanNode, attempt: int = 1, ready_at_s: float = 0.0,
                   feedback=None) -> ActivityResult:
-        """*Transport* in the one physical world, in its turn (:meth:`MujocoBackend.execute`)."""
-        return self.execute(node, attempt, ready_at_s, feedback)
+        """*Transport* in the one physical world, in its turn: the work of :meth:`_transport`
+        (:meth:`MujocoBackend.act`)."""
+        return self.act(node, attempt, ready_at_s, feedback, self._transport)
 
     def _transport(self, node: RcanNode) -> str:
         from bimrobot.physics.site import MotionFailed

@@ -14,7 +14,8 @@ import time
 from bimrobot.site.fleet import Fleet
 from bimrobot.core.frames import quat_xyzw_of_yaw
 from bimrobot.rcan.activities import ActivityKind, Pose
-from bimrobot.rcan.backends.interfaces import ActivityResult, ExecutorBackend
+from bimrobot.rcan.backends.info import ActivityResult
+from bimrobot.rcan.backends.interfaces import ExecutorBackend
 from bimrobot.rcan.backends.ros2 import INFO
 from bimrobot.rcan.backends.ros2.environment import HEARTBEAT, action_name, load_ros2
 from bimrobot.rcan.node import RcanNode

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from bimrobot.rcan.activities import Pose
 from bimrobot.rcan.backends import features
-from bimrobot.rcan.backends.interfaces import ActivityResult
+from bimrobot.rcan.backends.info import ActivityResult
 from bimrobot.sco import timing
 from bimrobot.core.tasks import Task
 

@@ -6,7 +6,7 @@ install places the held component (or fixes one already in place) and takes the 
 from __future__ import annotations
 
 from bimrobot.rcan.backends import features
-from bimrobot.rcan.backends.interfaces import ActivityResult
+from bimrobot.rcan.backends.info import ActivityResult
 from bimrobot.sco import timing
 from bimrobot.core.tasks import Task
 

@@ -18,7 +18,7 @@ import numpy as np
 
 from bimrobot.site.fleet import Fleet, RobotSpec
 from bimrobot.rcan.activities import Pose
-from bimrobot.rcan.backends.interfaces import ActivityResult
+from bimrobot.rcan.backends.info import ActivityResult
 from bimrobot.rcan.node import RcanNode
 from bimrobot.rcan.state_manager import connect_state_db, write_lock
 
