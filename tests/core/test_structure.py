@@ -1,0 +1,44 @@
+"""The shape of the import graph (issue 37): no new import cycle, no new upward import.
+
+``bench/structure.py`` reads every module of ``src/bimrobot`` with :mod:`ast` (imports inside functions
+count, imports written in docstrings do not) and the layers of docs/architecture.md (its ``LAYERS``). On
+2026-11-28 (10:20 UTC, the working tree of issue 37's sessions) it counted 1 import cycle, inside one folder,
+and 16 upward imports (commands reaching a higher part, schedule readers reaching lbd, the task table
+reaching sco's states, the site's calendar in schedule.ifc), both listed by ``python bench/structure.py``. Neither is zero yet, so this
+test keeps both numbers from growing: lower :data:`MAX_CYCLES` or :data:`MAX_UPWARD` when one is removed,
+and assert none once both are zero. Reading the graph takes about 0.2 s (no module is imported).
+"""
+
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+
+MAX_CYCLES = 1
+MAX_UPWARD = 16
+
+
+def _structure():
+    path = Path(__file__).resolve().parents[2] / "bench" / "structure.py"
+    spec = importlib.util.spec_from_file_location("bench_structure", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_no_import_cycle_and_no_upward_import_is_added():
+    structure = _structure()
+    graph = structure.import_graph()
+    cycles, upward = structure.cycles_of(graph), structure.upward(graph)
+    assert len(graph) > 100  # the whole tree was read
+    assert len(cycles) <= MAX_CYCLES, f"a new import cycle: {cycles}"
+    assert len(upward) <= MAX_UPWARD, "a new upward import: " + ", ".join(f"{a} -> {b}" for a, b in upward)
+
+
+def test_the_layers_name_every_part_of_the_tree():
+    """Every folder and top module of ``src/bimrobot`` has its place in the layers: a new part is placed
+    in docs/architecture.md (and ``LAYERS``) before anything can say whether its imports point down."""
+    structure = _structure()
+    placed = {part for layer in structure.LAYERS for part in layer} | set(structure.BESIDE) | structure.TOP
+    parts = {structure.part_of(name) for name in structure.modules()} - {""}
+    assert parts <= placed, f"parts the layers do not place: {sorted(parts - placed)}"
