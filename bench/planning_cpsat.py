@@ -7,7 +7,8 @@ the optimum, the best makespan found and the lower bound with the gap between th
 market's makespan (CP-SAT's first solution) and how far above the bound it is, and the wall and CPU
 time. Ratios are against the market measured in the same run (best / market) and against the time
 limit (time / limit). Wall time on a shared 2-core machine is disturbed by other processes; the CPU
-time is the solver's own work (``--workers`` threads).
+time is the solver's own work (``--workers`` threads), and CP-SAT's deterministic time (its own work
+units) is comparable across machines and loads; the load average is printed with each row.
 
     .venv/bin/python bench/planning_cpsat.py                      # the default ladder, 600 s per instance
     .venv/bin/python bench/planning_cpsat.py --time-limit 120 --only 2x2x1:fleet1 4x3x2:fleet2
@@ -47,19 +48,22 @@ def solve(item: str, time_limit: float, workers: int, whole_tasks: int) -> dict:
             "proved": schedule.status == "OPTIMAL", "best_s": schedule.makespan, "bound_s": schedule.lower_bound,
             "gap_pct": 100 * schedule.gap, "market_s": schedule.hinted_s,
             "market_over_bound_pct": 100 * (schedule.hinted_s - schedule.lower_bound) / schedule.hinted_s,
-            "wall_s": time.perf_counter() - wall, "cpu_s": time.process_time() - cpu}
+            "wall_s": time.perf_counter() - wall, "cpu_s": time.process_time() - cpu,
+            "deterministic_s": schedule.deterministic_s, "load": os.getloadavg()[0]}
 
 
 def run_ladder(args) -> None:
-    print(f"CP-SAT, {args.workers} workers, {args.time_limit:g} s per instance, whole model up to {args.whole_tasks} tasks")
-    print("| frame | fleet | tasks | method | proved | best (s) | bound (s) | gap | market (s) | market over bound | best / market | wall (s) | wall / limit | CPU (s) |")
-    print("|---|---|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+    print(f"CP-SAT, {args.workers} workers, {args.time_limit:g} s per instance, whole model up to {args.whole_tasks} tasks, "
+          f"{os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f} at the start")
+    print("| frame | fleet | tasks | method | proved | best (s) | bound (s) | gap | market (s) | market over bound | best / market "
+          "| wall (s) | wall / limit | CPU (s) | deterministic (s) | load at the end |")
+    print("|---|---|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
     for item in args.only or LADDER:
         r = solve(item, args.time_limit, args.workers, args.whole_tasks)
         print(f"| {r['frame']} | {r['fleet']} | {r['tasks']} | {r['method']} | {'yes' if r['proved'] else 'no'} | "
               f"{r['best_s']:.1f} | {r['bound_s']:.1f} | {r['gap_pct']:.2f} % | {r['market_s']:.1f} | "
               f"{r['market_over_bound_pct']:.2f} % | {r['best_s'] / r['market_s']:.4f} | {r['wall_s']:.1f} | "
-              f"{r['wall_s'] / args.time_limit:.2f} | {r['cpu_s']:.1f} |", flush=True)
+              f"{r['wall_s'] / args.time_limit:.2f} | {r['cpu_s']:.1f} | {r['deterministic_s']:.1f} | {r['load']:.1f} |", flush=True)
 
 
 def run_generate(args) -> None:

@@ -78,6 +78,8 @@ class OptimalSchedule:
     solve_s: float = 0.0
     hinted_s: float | None = None
     floors: list[dict] = field(default_factory=list)
+    #: CP-SAT's deterministic time of all solves (its own work units, comparable across machines and loads)
+    deterministic_s: float = 0.0
 
     @property
     def gap(self) -> float:
@@ -141,6 +143,7 @@ class _Solved:
     depart: dict[str, float]
     start: dict[str, float]
     end: dict[str, float]
+    deterministic_s: float = 0.0
 
 
 def _closure(tasks: list[_Task]) -> dict[str, int]:
@@ -286,7 +289,8 @@ def _build(cp_model, problem: _Problem, hint: dict | None):
         model.AddCumulative(intervals, [1] * len(intervals), len(robots))
     busy_min = {(t.key, r): handling[t.key, r] + min(shortest_in[t.key, r], horizon) for t in tasks for r in
                 (x.name for x in capable[t.key])}
-    _floor_loads(model, tasks, gates, ancestors, capable, busy_min, assigned)
+    travel = _Visits(model, assigned, handling, busy_min, drive)
+    _floor_loads(model, tasks, gates, ancestors, capable, busy_min, assigned, travel)
     makespan = model.NewIntVar(0, horizon, "makespan")
     model.AddMaxEquality(makespan, list(end.values()))
     for gate in gates.values():  # a gate is never later than the last end: lets the floor loads bound the makespan
@@ -294,13 +298,13 @@ def _build(cp_model, problem: _Problem, hint: dict | None):
     model.Minimize(makespan)
     if hint:
         variables = dict(assigned=assigned, depart=depart, start=start, end=end, arcs=arcs_of, sizes=sizes,
-                         gates=gates, makespan=makespan)
+                         gates=gates, makespan=makespan, visited=travel.visited)
         hinted = _add_hint(model, hint, problem, handling, drive, first_drive, ready, variables)
         return model, (makespan, assigned, depart, start, end, capable, hinted)
     return model, (makespan, assigned, depart, start, end, capable, None)
 
 
-def _floor_loads(model, tasks, gates, ancestors, capable, busy_min, assigned) -> None:
+def _floor_loads(model, tasks, gates, ancestors, capable, busy_min, assigned, travel) -> None:
     """Redundant, for the bound: on each floor f, the work of floor f that a robot does fits between the
     gate below (or time 0) plus the shortest lead-in before any of it can start, and the floor's own gate
     (every joint of floors <= f done) less the shortest run-out after it. With the robot literals this
@@ -333,6 +337,8 @@ def _floor_loads(model, tasks, gates, ancestors, capable, busy_min, assigned) ->
             work = [t for t in counted if (t.key, name) in assigned]
             lead = min(head[t.key] for t in work) + min(tail[t.key] for t in work)
             model.Add(sum(assigned[t.key, name] * busy_min[t.key, name] for t in work) <= gate - opening - lead)
+            if len(counted) == len(mine):  # the window holds all of the floor's work: count its drives
+                model.Add(travel.load(name, work) <= gate - opening - lead)
         pairs: dict[tuple[str, ...], list[_Task]] = {}
         for t in counted:
             pairs.setdefault(tuple(r.name for r in capable[t.key]), []).append(t)
@@ -340,6 +346,138 @@ def _floor_loads(model, tasks, gates, ancestors, capable, busy_min, assigned) ->
             if len(pair) == 2 and len(work) > 1:
                 lead = min(head[t.key] for t in work) + min(tail[t.key] for t in work)
                 model.Add(gate - opening - lead >= _two_robot_bound(work, pair, busy_min))
+                if len(counted) == len(mine):
+                    model.Add(gate - opening - lead >= travel.two_robot_bound(work, pair))
+        staged = _staged_bound(pairs, head, tail, busy_min)
+        if staged:
+            model.Add(gate - opening >= staged)
+
+
+def _fastest(costs: dict[str, list[int]], count: int) -> int:
+    """The least time (ticks) one or two robots need for ``count`` of their tasks, whichever: each robot
+    takes the cheapest of its own ``costs`` (sorted ascending), for every split of the count."""
+    lists = list(costs.values())
+    if len(lists) == 1:
+        return sum(lists[0][:count]) if count <= len(lists[0]) else 1 << 40
+    a, b = lists
+    best = 1 << 40
+    for on_a in range(max(0, count - len(b)), min(count, len(a)) + 1):
+        best = min(best, max(sum(a[:on_a]), sum(b[:count - on_a])))
+    return best
+
+
+def _staged_bound(groups: dict[tuple[str, ...], list[_Task]], head, tail, busy_min) -> int:
+    """A floor's least duration (ticks) from its two stages, e.g. positioning then assembly: every task
+    of a later group J waits for some task of an earlier group P (one or two robots each). Before the k-th
+    P task can end (E_k: the earliest, over splits of k between P's robots, from P's earliest start), at
+    most the k-1 P tasks with the most J successors are done, so the rest of J, at least n - released
+    tasks, starts after E_k and needs J's robots for at least their fastest split; then the run-out."""
+    best = 0
+    for later_robots, later in groups.items():
+        if len(later_robots) > 2 or len(later) < 2:
+            continue
+        for earlier_robots, earlier in groups.items():
+            if earlier_robots == later_robots or len(earlier_robots) > 2:
+                continue
+            keys = {t.key for t in earlier}
+            feeds = {t.key: 0 for t in earlier}
+            if not all(any(p in keys for p in t.predecessors) for t in later):
+                continue
+            for t in later:
+                for p in t.predecessors:
+                    if p in keys:
+                        feeds[p] += 1
+            released = sorted(feeds.values(), reverse=True)
+            first = min(head[t.key] for t in earlier)
+            run_out = min(tail[t.key] for t in later)
+            cost_p = {r: sorted(busy_min[t.key, r] for t in earlier) for r in earlier_robots}
+            cost_j = {r: sorted(busy_min[t.key, r] for t in later) for r in later_robots}
+            for k in range(1, len(earlier) + 1):
+                left = len(later) - sum(released[:k - 1])
+                if left <= 0:
+                    break
+                best = max(best, first + _fastest(cost_p, k) + _fastest(cost_j, left) + run_out)
+    return best
+
+
+class _Visits:
+    """A robot's drives, for the bound: tasks that begin and end at one point (positioning, assembly)
+    share that point with others, so each one's shortest drive in is 0; but a robot that does work at n
+    points drives into each of them at least once. ``load(robot, work)`` is the robot's handling of
+    ``work`` plus, per point it visits, the shortest drive into that point from the end of any other of
+    ``work``'s tasks, less the largest such drive (the first point may be where the robot already stands).
+    Ticks (0.01 s)."""
+
+    def __init__(self, model, assigned, handling, busy_min, drive):
+        self.model, self.assigned, self.handling, self.busy_min, self.drive = model, assigned, handling, busy_min, drive
+        self.visited = {}  # (robot, point) -> literal: the robot does some work there
+
+    @staticmethod
+    def _point(xy) -> tuple[int, int]:
+        return tuple(int(round(float(c) * 100)) for c in np.asarray(xy, dtype=float)[:2])
+
+    def two_robot_bound(self, work: list[_Task], pair: tuple[str, str]) -> int:
+        """The least time (ticks) two robots need for ``work`` that only they can do, with their drives:
+        min over splits of the larger load, a split choosing per point how many of its tasks each robot
+        takes (the cheapest of them, for a bound), each robot paying the shortest drive into every point
+        it works at, less its largest such drive (subset sums in ticks)."""
+        points, moving = self._points(work)
+        if moving:
+            return 0
+        cost = {r: {here: sorted(self.handling[t.key, r] for t in ts) for here, ts in points.items()} for r in pair}
+        near = {r: {here: self._nearest(r, here, ts, work) for here, ts in points.items()} for r in pair}
+        a, b = pair
+        size = sum(sum(c) + near[a][here] for here, c in cost[a].items()) + 1
+        if size * sum(len(ts) + 1 for ts in points.values()) > 6e7:
+            return 0  # too large to enumerate; the linear loads still hold
+        never = np.iinfo(np.int64).max // 4
+        best_b = np.full(size, never, dtype=np.int64)  # ticks on a -> least ticks on b
+        best_b[0] = 0
+        for here, ts in points.items():
+            merged = np.full(size, never, dtype=np.int64)
+            for on_a in range(len(ts) + 1):
+                on_b = len(ts) - on_a
+                add_a = sum(cost[a][here][:on_a]) + (near[a][here] if on_a else 0)
+                add_b = sum(cost[b][here][:on_b]) + (near[b][here] if on_b else 0)
+                shifted = np.full(size, never, dtype=np.int64)
+                shifted[add_a:] = best_b[:size - add_a] if add_a else best_b
+                merged = np.minimum(merged, shifted + add_b)
+            best_b = merged
+        loads = np.maximum(np.arange(size) - max(near[a].values()), best_b - max(near[b].values()))
+        return max(0, int(loads.min()))
+
+    def _nearest(self, name: str, here, ts: list[_Task], work: list[_Task]) -> int:
+        return min((self.drive(u.request.end, ts[0].request.start, name) for u in work
+                    if self._point(u.request.end) != here), default=0)
+
+    def _points(self, work: list[_Task]):
+        points: dict[tuple[int, int], list[_Task]] = {}
+        moving = []  # tasks that end elsewhere than they begin: their own shortest drive in stands
+        for t in work:
+            here = self._point(t.request.start)
+            (points.setdefault(here, []) if here == self._point(t.request.end) else moving).append(t)
+        return points, moving
+
+    def load(self, name: str, work: list[_Task]):
+        points: dict[tuple[int, int], list[_Task]] = {}
+        moving = []  # tasks that end elsewhere than they begin: their own shortest drive in stands
+        for t in work:
+            here = self._point(t.request.start)
+            (points.setdefault(here, []) if here == self._point(t.request.end) else moving).append(t)
+        nearest = {}
+        for here, ts in points.items():
+            gaps = [self.drive(u.request.end, ts[0].request.start, name) for u in work if self._point(u.request.end) != here]
+            nearest[here] = min(gaps, default=0)
+        terms = [self.assigned[t.key, name] * self.handling[t.key, name] for ts in points.values() for t in ts]
+        for here, ts in points.items():
+            key = (name, here, tuple(sorted(t.key for t in ts)))
+            if key not in self.visited:
+                self.visited[key] = lit = self.model.NewBoolVar(f"visits[{name},{here}]")
+                for t in ts:
+                    self.model.AddImplication(self.assigned[t.key, name], lit)
+            terms.append(self.visited[key] * nearest[here])
+        return sum(terms) - max(nearest.values(), default=0) + sum(
+            self.assigned[t.key, name] * self.busy_min[t.key, name] for t in moving)
 
 
 def _two_robot_bound(work: list[_Task], pair: tuple[str, str], busy_min) -> int:
@@ -391,6 +529,8 @@ def _add_hint(model, hint: dict, problem: _Problem, handling, drive, first_drive
         model.AddHint(lit, hint[key][0] == name)
     for arc, lit in v["arcs"].items():
         model.AddHint(lit, arc in true_arcs)
+    for (robot, _, keys), lit in v["visited"].items():
+        model.AddHint(lit, any(hint[key][0] == robot for key in keys))
     for key, (leave, begin, finish) in times.items():
         model.AddHint(v["depart"][key], leave)
         model.AddHint(v["start"][key], begin)
@@ -399,7 +539,9 @@ def _add_hint(model, hint: dict, problem: _Problem, handling, drive, first_drive
         model.AddHint(size, times[key][2] - times[key][0] if name in (None, hint[key][0]) else least)
     for floor, gate in v["gates"].items():
         model.AddHint(gate, max((times[t.key][2] for t in tasks if t.activity == Task.ASSEMBLE and t.floor <= floor), default=0))
-    model.AddHint(v["makespan"], max((x[2] for x in times.values()), default=0))
+    longest = max((x[2] for x in times.values()), default=0)
+    model.AddHint(v["makespan"], longest)
+    model.Add(v["makespan"] <= longest)  # the hint is a schedule: the optimum is no longer
     return {key: (hint[key][0], *values) for key, values in times.items()}
 
 
@@ -424,6 +566,7 @@ def _solve(problem: _Problem, hint: dict | None, time_limit_s: float, workers: i
             depart={k: x[1] / SCALE for k, x in hinted.items()},
             start={k: x[2] / SCALE for k, x in hinted.items()},
             end={k: x[3] / SCALE for k, x in hinted.items()},
+            deterministic_s=solver.response_proto.deterministic_time,
         )
     if status not in (cp_model.OPTIMAL, cp_model.FEASIBLE):
         raise InputError(f"CP-SAT found no schedule within {time_limit_s} s (status {solver.StatusName(status)})")
@@ -436,6 +579,7 @@ def _solve(problem: _Problem, hint: dict | None, time_limit_s: float, workers: i
         depart={t.key: solver.Value(depart[t.key]) / SCALE for t in tasks},
         start={t.key: solver.Value(start[t.key]) / SCALE for t in tasks},
         end={t.key: solver.Value(end[t.key]) / SCALE for t in tasks},
+        deterministic_s=solver.response_proto.deterministic_time,
     )
 
 
@@ -495,7 +639,8 @@ def solve_optimal(
         solved = _solve(_Problem(tasks, fleet, homes, {r.name: 0.0 for r in fleet.robots}), given,
                         max(time_limit_s - (time.perf_counter() - started), 1.0), **limits)
         return OptimalSchedule(solved.makespan, solved.bound, solved.status, solved.assignment, solved.start,
-                               len(tasks), "whole", time.perf_counter() - started, hinted)
+                               len(tasks), "whole", time.perf_counter() - started, hinted,
+                               deterministic_s=solved.deterministic_s)
     return _by_floor(tasks, fleet, homes, given, hinted, time_limit_s, started, limits)
 
 
@@ -506,7 +651,7 @@ def _by_floor(tasks, fleet, homes, given, hinted, time_limit_s, started, limits)
     ready = {r.name: 0.0 for r in fleet.robots}
     where = dict(homes)
     assignment, start, rows = {}, {}, []
-    clock, bounds, disjoint = 0.0, [], True
+    clock, bounds, disjoint, work = 0.0, [], True, 0.0
     for floor in floors:
         mine = [t for t in tasks if t.floor == floor]
         keys = {t.key for t in mine}
@@ -523,6 +668,7 @@ def _by_floor(tasks, fleet, homes, given, hinted, time_limit_s, started, limits)
         relaxed = _solve(_Problem(local, fleet, where, {r.name: 0.0 for r in fleet.robots}, free_start=True),
                          shifted, budget * 0.3, **limits)  # the hint, re-timed there, keeps it from failing
         bounds.append(relaxed.bound)
+        work += solved.deterministic_s + relaxed.deterministic_s
         for key, robot in solved.assignment.items():
             assignment[key] = robot
             start[key] = solved.start[key]
@@ -534,7 +680,7 @@ def _by_floor(tasks, fleet, homes, given, hinted, time_limit_s, started, limits)
                      "bound_s": relaxed.bound})
     bound = sum(bounds) if disjoint else max(bounds)
     return OptimalSchedule(clock, min(bound, clock), "FEASIBLE", assignment, start, len(tasks), "by floor",
-                           time.perf_counter() - started, hinted, rows)
+                           time.perf_counter() - started, hinted, rows, work)
 
 
 def _all_after_the_gate(tasks: list[_Task]) -> bool:
