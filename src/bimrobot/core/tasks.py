@@ -21,6 +21,10 @@ assemble  NeedToAssemble     CONSTRUCTION   assembly          PositionFixed,    
 the task can be given to a robot; *log word*: the noun of the chapter-4 log ("Publish positioning
 requirements to robot").
 
+The names of the states a component or node goes through (:class:`State`), of what it publishes
+(:class:`Requirement`) and of the six robot activities of chapter 5 (:class:`ActivityKind`) are said
+here too, below every part that names them; their state machine is :mod:`bimrobot.sco.states`.
+
 One row of a schedule, whoever makes or reads it (the simulation, the schedule CSV and IFC work
 schedules of :mod:`bimrobot.schedule.csv`, RCAN's plans), is an :class:`Activity`.
 """
@@ -30,7 +34,37 @@ from __future__ import annotations
 import enum
 from dataclasses import dataclass
 
-from bimrobot.sco.states import Requirement, State
+
+# ------------------------------------- the states of a smart construction object (thesis fig. 4.2)
+# Said here, below every part, because every part names them (the schedule, the graph, RCAN); their
+# state machine (events, transitions) is bimrobot.sco.states.
+class State(str, enum.Enum):
+    """The thesis' construction states (same names as in fig. 4.2 and Listing 4.2)."""
+
+    ON_YARD = "OnYard"
+    IN_TRANSIT = "InTransit"
+    ARRIVED = "Arrived"
+    IN_LOCATION = "InLocation"
+    WORKING_IN_POSITIONING = "WorkingInPositioning"
+    POSITION_FIXED = "PositionFixed"
+    WAIT_FOR_ASSEMBLY = "WaitForAssembly"
+    WORKING_IN_ASSEMBLY = "WorkingInAssembly"
+    ASSEMBLED = "Assembled"
+
+    def __str__(self) -> str:
+        return self.value
+
+
+class Requirement(str, enum.Enum):
+    """What a component or node needs from a robot in its current state."""
+
+    NEED_TO_TRANSFER = "NeedToTransfer"
+    NEED_TO_POSITION = "NeedToPosition"
+    NEED_TO_ASSEMBLE = "NeedToAssemble"
+    NONE = "None"
+
+    def __str__(self) -> str:
+        return self.value
 
 
 class Task(enum.StrEnum):
@@ -190,4 +224,4 @@ class ActivityKind(str, enum.Enum):
             raise ValueError(f"unknown construction activity {text!r} (expected one of: {valid})") from None
 
 
-__all__ = ["KIND_TASKS", "TASKS", "Activity", "ActivityKind", "Task"]
+__all__ = ["KIND_TASKS", "TASKS", "Activity", "ActivityKind", "Requirement", "State", "Task"]

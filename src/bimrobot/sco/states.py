@@ -25,35 +25,7 @@ from __future__ import annotations
 import enum
 
 from bimrobot.core.errors import BimrobotError
-
-
-class State(str, enum.Enum):
-    """The thesis' construction states (same names as in fig. 4.2 and Listing 4.2)."""
-
-    ON_YARD = "OnYard"
-    IN_TRANSIT = "InTransit"
-    ARRIVED = "Arrived"
-    IN_LOCATION = "InLocation"
-    WORKING_IN_POSITIONING = "WorkingInPositioning"
-    POSITION_FIXED = "PositionFixed"
-    WAIT_FOR_ASSEMBLY = "WaitForAssembly"
-    WORKING_IN_ASSEMBLY = "WorkingInAssembly"
-    ASSEMBLED = "Assembled"
-
-    def __str__(self) -> str:
-        return self.value
-
-
-class Requirement(str, enum.Enum):
-    """What a component or node needs from a robot in its current state."""
-
-    NEED_TO_TRANSFER = "NeedToTransfer"
-    NEED_TO_POSITION = "NeedToPosition"
-    NEED_TO_ASSEMBLE = "NeedToAssemble"
-    NONE = "None"
-
-    def __str__(self) -> str:
-        return self.value
+from bimrobot.core.tasks import Requirement, State  # the names, said in core: every part names them
 
 
 class Event(str, enum.Enum):
