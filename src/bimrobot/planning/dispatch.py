@@ -327,17 +327,18 @@ class DispatchEnv(gym.Env):
         if self.sim is None or self._ended:
             raise BimrobotError("call reset() before step(): no episode is running")
         action = int(action)
-        invalid = not self._valid(action)
+        award = self._award_of(action)
+        invalid = award is None
         if invalid:
             mask = self.action_masks()
             action = self.wait_action if mask[self.wait_action] else int(np.flatnonzero(mask)[0])
+            award = self._award_of(action)
         self.decisions += 1
         if action == self.wait_action:
             self.sim.end_round()
             done, info = self._to_next_decision()
         else:
-            node, robot = divmod(action, self.max_robots)
-            self.sim.award(self._pending_request(node), self.robot_names[robot])
+            self.sim.award(*award)
             if self.sim.has_decision():
                 done, info = False, {"time_s": float(self.sim.build.env.now)}
             else:
@@ -382,16 +383,22 @@ class DispatchEnv(gym.Env):
 
     def _valid(self, action: int) -> bool:
         """Whether ``action`` is valid now (one entry of :meth:`action_masks`, without building the mask)."""
+        return self._award_of(action) is not None
+
+    def _award_of(self, action: int):
+        """(pending request, robot name) of a valid award, () for valid waiting, None for an invalid action."""
         if action == self.wait_action:
-            return self.sim.can_wait()
+            return () if self.sim.can_wait() else None
         if not 0 <= action < self.wait_action:
-            return False
+            return None
         node, index = divmod(action, self.max_robots)
         if index >= len(self.robot_names):
-            return False
+            return None
         request, name = self._pending_request(node), self.robot_names[index]
-        return (request is not None and name in self.sim.build.idle[request.activity]
-                and not incapability(self.sim.build.robots[name].spec, request))
+        if (request is not None and name in self.sim.build.idle[request.activity]
+                and not incapability(self.sim.build.robots[name].spec, request)):
+            return request, name
+        return None
 
     def action_of(self, request, robot: str) -> int:
         """The action that gives ``request`` (pending) to ``robot`` (a name)."""
@@ -405,11 +412,14 @@ class DispatchEnv(gym.Env):
         return self._request_node[request.id]
 
     def _pending_request(self, node: int):
-        """The pending request of graph node ``node``, or None when it is not ready."""
-        for pool in self.sim.build.pending.values():
-            for request in pool:
-                if self._node_of(request) == node:
-                    return request
+        """The pending request of graph node ``node``, or None when it is not ready (looked for in the
+        pool of the node's activity only)."""
+        task = self.graph.requests[node] if node < len(self.graph.requests) else None
+        if task is None:  # a floor gate, or padding
+            return None
+        for request in self.sim.build.pending[task.activity]:
+            if self._node_of(request) == node:
+                return request
         return None
 
     # ---------------------------------------------------------------- observation
