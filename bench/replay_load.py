@@ -23,7 +23,8 @@ does). Seconds from asking for the page until:
 and the browser's CPU seconds (its renderer, GPU and other processes) until the timeline end and
 until the panels are drawn: on a shared machine steadier than wall time.
 
-Printed per recording: MB, the times and CPU seconds (min/median/max over ``--repeats``), and each
+Printed per recording: what it is made of (MB, chunks, entities, rows, read with Rerun's chunk
+reader), the times and CPU seconds (min/median/max over ``--repeats``), and each
 as a difference from the reference measured in the same repeat. ``--replay`` times a recording
 written before instead of writing one; ``--extra`` adds other recordings of the same build (variants).
 Timings depend on the machine and its load; only the differences in one run mean something. Needs
@@ -82,6 +83,28 @@ def tiny_recording(rrd: Path) -> float:
     rec.flush()
     rec.disconnect()
     return 1.0
+
+
+def recording_stats(rrd: Path) -> str:
+    """What a recording is made of, read with Rerun's own chunk reader (``rerun.chunk.RrdReader``, the
+    recording store, not the blueprint): MB, chunks, entities, rows, and the rows of element poses
+    (``/building`` Transform3D), robot poses and plotted values (Scalars)."""
+    from rerun.chunk import RrdReader
+
+    chunks = list(RrdReader(rrd).stream())
+    counts = {"element poses": 0, "robot poses": 0, "plotted values": 0}
+    for chunk in chunks:
+        batch = chunk.to_record_batch()
+        top = chunk.entity_path.split("/")[1]
+        for name in batch.schema.names:
+            column = batch.column(name)
+            kind = ("element poses" if top == "building" else "robot poses" if top == "robots" else None) \
+                if "Transform3D:translation" in name else "plotted values" if "Scalars:scalars" in name else None
+            if kind is not None:
+                counts[kind] += len(column) - column.null_count
+    entities = {c.entity_path for c in chunks if not c.entity_path.startswith("/__")}
+    return (f"{rrd.stat().st_size / 1e6:.2f} MB, {len(chunks)} chunks, {len(entities)} entities, "
+            f"{sum(len(c) for c in chunks):,} rows (" + ", ".join(f"{k} {v:,}" for k, v in counts.items()) + ")")
 
 
 def plot_pixels(image) -> int:
@@ -218,6 +241,8 @@ def main(argv: list[str] | None = None) -> int:
     reference.unlink(missing_ok=True)
     reference_end = tiny_recording(reference)
     recordings = [(reference, reference_end)] + [(r, makespan) for r in [rrd, *args.extra]]
+    for path, _ in recordings:
+        print(f"{path.name}: {recording_stats(path)}")
     times = {r: [] for r, _ in recordings}
     for repeat in range(args.repeats):
         for path, end_s in recordings:

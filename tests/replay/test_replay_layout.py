@@ -76,14 +76,15 @@ def test_robots_and_nodes_record_their_labels_hidden(frame_replay):
 def test_the_unbuilt_work_is_ghosted_from_the_start(frame_record, frame_static):
     """/ghost: one static translucent mesh of every element the build places (the prebuilt footings
     stand in their own colour instead), each a little inside its installed body."""
-    from bimrobot.replay.record import GHOST_RGBA, ghost_pieces, simplified_record
+    from bimrobot.replay.elements import drawn_record
+    from bimrobot.replay.record import GHOST_RGBA, ghost_pieces
 
     paths, static, _ = frame_static
     assert "/ghost" in paths
     vertices = np.array([list(v) for v in static["/ghost:Mesh3D:vertex_positions"].iloc[0]])
     albedo = int(static["/ghost:Mesh3D:albedo_factor"].iloc[0][0])
     assert (albedo & 0xFF) == GHOST_RGBA[3] < 255  # RGBA packed: the alpha makes it translucent
-    record, _ = simplified_record(frame_record)
+    record, _ = drawn_record(frame_record)
     ghosted = ghost_pieces(record)
     footings = [g for g, p in record.pieces.items() if p.ifc_class == "IfcFooting"]
     assert footings and not set(footings) & set(ghosted)
@@ -137,7 +138,7 @@ def test_the_eye_frames_the_building_and_the_panels_follow_the_timeline(frame_re
 def test_large_meshes_are_simplified_within_their_bounds():
     import trimesh
 
-    from bimrobot.replay.record import simplify
+    from bimrobot.replay.elements import simplify
 
     sphere = trimesh.creation.icosphere(subdivisions=5, radius=2.0)  # 20,480 triangles
     triangles = sphere.vertices[sphere.faces]
@@ -155,7 +156,7 @@ def test_tiny_parts_are_drawn_as_their_oriented_box():
     import trimesh
     from scipy.spatial.transform import Rotation
 
-    from bimrobot.replay.record import MAX_TRIANGLES, simplify
+    from bimrobot.replay.elements import MAX_TRIANGLES, simplify
 
     bolt = trimesh.creation.cylinder(radius=0.01, height=0.1, sections=32)
     turned = bolt.vertices @ Rotation.from_euler("xyz", [30, 40, 50], degrees=True).as_matrix().T
@@ -210,3 +211,47 @@ def test_long_builds_are_sampled_more_coarsely():
     times = sample_times(100.0, 400.0, sample_step(build(29098.0)))
     assert times[0] == 100.0 and times[-1] == 400.0 and len(times) == 12  # 300 s in 11 steps of <= 29.1 s
     assert len(sample_times(0.0, 10_000.0, 2.0)) == MAX_SAMPLES + 1
+
+
+def test_an_assembly_is_one_entity_carried_whole_from_its_main_part():
+    """A precast unit of several elements is drawn as one piece (one entity, one set of poses): its
+    parts' meshes joined in the frame of the part the schedule places, lying installed where the parts
+    lie installed, on the yard where the package put that main part; its hover lists the parts.
+    (MULTICOM-Prefab: 118 entities instead of 301, 1,467 element pose rows instead of 5,840.)"""
+    from bimrobot.replay.elements import element_properties, join_units
+    from bimrobot.replay.inputs import BuildRecord, Node, Piece, Robot
+    from bimrobot.replay.motion import MAX_LIFT_STEPS, component_poses, robot_tracks
+
+    triangle = np.array([[[0, 0, 0], [1, 0, 0], [0, 1, 0]]], dtype=float)
+
+    def pose(x, y, z, turn_deg=0.0):
+        from scipy.spatial.transform import Rotation
+
+        matrix = np.eye(4)
+        matrix[:3, :3] = Rotation.from_euler("z", turn_deg, degrees=True).as_matrix()
+        matrix[:3, 3] = (x, y, z)
+        return matrix
+
+    slab = Piece("S", "IfcSlab", "slab", "L1", 4 * triangle, np.ones(4), pose(-20, 0, 0), pose(5, 5, 3, 90))
+    anchor = Piece("A", "IfcMechanicalFastener", "anchor", "L1", triangle, np.ones(4), pose(-30, 9, 0), pose(6, 5, 3.2))
+    schedule = [{"Identification": "A1", "Name": "Transport U", "Activity": "transport", "GlobalId": "U", "Robot": "T",
+                 "Start": 0.0, "Finish": 100.0, "TargetX": 5.0, "TargetY": 5.0, "TargetZ": 3.0},
+                {"Identification": "A2", "Name": "Position U", "Activity": "position", "GlobalId": "U", "Robot": "T",
+                 "Start": 100.0, "Finish": 400.0, "TargetX": 5.0, "TargetY": 5.0, "TargetZ": 3.0}]
+    states = {"U": [(0.0, "OnYard"), (1.0, "InTransit"), (100.0, "Arrived"), (100.0, "WorkingInPositioning"),
+                    (400.0, "Assembled")]}
+    record = BuildRecord("t", {"S": slab, "A": anchor}, {"U": ["A", "S"]}, states, schedule,
+                         {"T": Robot("T", "transport", np.zeros(2), 1.0)},
+                         {"n": Node("n", np.zeros(3), ("A",))}, assemblies={"U": ("IfcElementAssembly", "unit 1", "L1")})
+    joined = join_units(record)
+    assert list(joined.pieces) == ["U"] and joined.parts == {"U": ["U"]} and joined.nodes["n"].realizing == ("U",)
+    unit = joined.pieces["U"]
+    assert (unit.ifc_class, unit.name, unit.storey_id) == ("IfcElementAssembly", "unit 1", "L1")
+    assert np.allclose(unit.installed_pose, slab.installed_pose) and np.allclose(unit.yard_pose, slab.yard_pose)
+    world = unit.triangles @ unit.installed_pose[:3, :3].T + unit.installed_pose[:3, 3]
+    parts = [p.triangles @ p.installed_pose[:3, :3].T + p.installed_pose[:3, 3] for p in (anchor, slab)]
+    assert np.allclose(world, np.concatenate(parts))  # every part where the model installs it
+    assert element_properties(joined, "U")["parts"] == "2: A, S"
+    poses = component_poses(joined, robot_tracks(joined))["U"]
+    assert np.allclose(poses[0][1], slab.yard_pose) and np.allclose(poses[-1][1], slab.installed_pose)
+    assert sum(1 for t, _ in poses if 100.0 < t < 400.0) == MAX_LIFT_STEPS - 1  # a 300 s lift in 4 steps

@@ -38,8 +38,8 @@ def experiment_replay(experiment_run):
 
 def column_path(experiment_run) -> str:
     """The column's entity path: /building/<storey>/<class>/<name>, as the replay names it."""
+    from bimrobot.replay.elements import element_paths
     from bimrobot.replay.inputs import load_rcan_alone
-    from bimrobot.replay.record import element_paths
 
     run, model = experiment_run
     path = element_paths(load_rcan_alone(run, model))[COLUMN]

@@ -182,9 +182,10 @@ def test_the_web_viewer_is_served_on_127_0_0_1_and_stopped_with_every_process_it
 
 
 def test_the_state_plot_and_robot_labels_read_back_as_the_build_has_them(frame_build, frame_replay):
-    """The plot of components per state is logged only where a count turns (a lighter recording): read
-    back and drawn as Rerun draws it (a line through its points), it gives every state's count at every
-    time a component changes state; each robot's hover label is its activity from each start on."""
+    """The plot of components per state is logged only where a count changes (a lighter recording) and
+    drawn as steps: read back and drawn as Rerun draws it (StepAfter: each value holds until the next
+    row), it gives every state's count at every time a component changes state; each robot's hover
+    label is its activity from each start on."""
     from bimrobot.replay.inputs import STATES, load_build
     from bimrobot.replay.motion import robot_tracks
     from bimrobot.replay.record import _state_counts
@@ -196,16 +197,20 @@ def test_the_state_plot_and_robot_labels_read_back_as_the_build_has_them(frame_b
     server, dataset = read_back(rrd)
     with server:
         frame = dataset.filter_contents(["/progress/**", f"/robots/{robot}"]).reader(index="sim_time").to_pandas()
+        static = dataset.filter_contents(["/progress/**"]).reader(index=None).to_pandas()
     seconds = frame["sim_time"].map(lambda t: round(t.total_seconds(), 6)).to_numpy()  # ns on the timeline
     times = np.round(times, 6)
     logged = 0
     for index, state in enumerate(STATES):
+        mode = static[f"/progress/{state}:SeriesLines:interpolation_mode"].iloc[0][0]
+        assert mode == rr.components.InterpolationMode.StepAfter.value, state
         values = frame[f"/progress/{state}:Scalars:scalars"]
         rows = values.notna().to_numpy()
         logged += rows.sum()
-        drawn = np.interp(times, seconds[rows], values[rows].map(lambda v: float(v[0])).to_numpy())
-        assert np.allclose(drawn, counts[:, index]), state
-    assert logged < counts.size  # fewer rows than one per state and time
+        at, drawn = seconds[rows], values[rows].map(lambda v: float(v[0])).to_numpy()
+        held = drawn[np.searchsorted(at, times, side="right") - 1]  # the last row at or before each time
+        assert np.array_equal(held, counts[:, index]), state
+    assert logged < counts.size / 2  # far fewer rows than one per state and time
     labels = frame[f"/robots/{robot}:Boxes3D:labels"]
     read = [(t, v[0]) for t, v in zip(seconds, labels) if v is not None and not (np.isscalar(v) and np.isnan(v))]
     expected = {}  # at a time with two labels (a task given as the last ends) the later one shows

@@ -6,9 +6,10 @@ whole chart spans :func:`chart_width` units; y is the robot's row (first robot o
 row). The bars are static (the whole plan at a glance); ``<root>/now``, a vertical line on the
 chart's timelines, marks the current time.
 
-Two charts use it: the simulated schedule's (``/gantt`` on ``sim_time``, :func:`log_gantt`) and what
-RCAN executed (``/rcan_gantt`` on ``rcan_time``, and ``physics_time`` with the mujoco backend, whose
-activity times are the scene's seconds; bimrobot.replay.record_rcan).
+Two charts use it: the simulated schedule's (``/gantt`` on ``sim_time``,
+:func:`bimrobot.replay.record.log_gantt`) and what RCAN executed (``/rcan_gantt`` on ``rcan_time``, and
+``physics_time`` with the mujoco backend, whose activity times are the scene's seconds;
+bimrobot.replay.record_rcan).
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from bimrobot.replay.elements import entity
 from bimrobot.replay.inputs import BuildRecord
 
 #: Bar colours by activity (RGB): those of the simulation's gantt.png (bimrobot.coordination.report).
@@ -72,21 +74,12 @@ def schedule_bars(record: BuildRecord) -> list[Bar]:
             for r in record.schedule]
 
 
-def log_gantt(rec, record: BuildRecord) -> int:
-    """The schedule's chart, ``/gantt`` on ``sim_time``; returns the number of bars."""
-    from bimrobot.replay.record import TIMELINE
-
-    return log_chart(rec, "gantt", list(record.robots), schedule_bars(record), record.makespan, (TIMELINE,))
-
-
 def log_chart(rec, root: str, robots: list[str], bars: list[Bar], end_s: float, timelines: tuple[str, ...]) -> int:
     """Log a chart under ``/<root>``: per robot its bars (``/<root>/<robot>``), the robots' names
     (``/<root>/names``, one point per row), the time ticks (``/<root>/axis``), all static, and the cursor
     (``/<root>/now``) on each of ``timelines``. ``end_s``: the time at the chart's right edge (s).
     Returns the number of bars."""
     import rerun as rr
-
-    from bimrobot.replay.record import entity
 
     width, end = chart_width(len(robots)), max(end_s, 1e-9)
     scale = width / end

@@ -35,7 +35,8 @@ class Piece:
 
     ``triangles`` (k, 3, 3) metres, local frame; ``colour`` RGBA 0..1 (the package's material colour);
     ``yard_pose`` 4x4 pick-up pose on the yard (None when the package was converted installed);
-    ``installed_pose`` 4x4 IFC placement (model frame)."""
+    ``installed_pose`` 4x4 IFC placement (model frame); ``part_ids`` the elements of a piece that joins an
+    assembly's parts (bimrobot.replay.elements.join_units), empty for an element."""
 
     global_id: str
     ifc_class: str
@@ -45,6 +46,7 @@ class Piece:
     colour: np.ndarray
     yard_pose: np.ndarray | None
     installed_pose: np.ndarray
+    part_ids: tuple[str, ...] = ()
 
     def world_bounds(self, pose: np.ndarray) -> np.ndarray:
         """[[xmin, ymin, zmin], [xmax, ymax, zmax]] of the mesh at ``pose`` (metres)."""
@@ -96,6 +98,8 @@ class BuildRecord:
     yard: np.ndarray | None = None
     #: storey GlobalId -> the storey's name (the entity tree names elements by storey)
     storeys: dict[str, str] = field(default_factory=dict)
+    #: component GlobalId of an assembly -> (its IFC class, name, storey GlobalId), as the model has it
+    assemblies: dict[str, tuple[str, str, str | None]] = field(default_factory=dict)
 
     @property
     def makespan(self) -> float:
@@ -211,7 +215,7 @@ def load_build(folders: list[Path], model_path: Path | None = None, building=Non
         pieces=pieces, parts=parts, states=states, schedule=schedule, robots=robots, nodes=nodes,
         inputs=[package, simulation, model_path], rcan=rcan,
         idle_robots=site.idle_robots, yard=site.to_model(np.asarray(site.yard, float).reshape(-1, 2), offset),
-        storeys=storey_names(model),
+        storeys=storey_names(model), assemblies=assembly_names(model, parts),
     )
 
 
@@ -238,7 +242,14 @@ def load_rcan_alone(folder: Path, model_path: Path | None) -> BuildRecord:
     parts = {c: [p for p in model.assemblies[c].part_ids if p in pieces] for c in components if c in model.assemblies}
     return BuildRecord(title=f"RCAN run {folder.name} ({Path(model_path).name})", pieces=pieces, parts=parts,
                        states={}, schedule=[], robots={}, nodes={}, inputs=[folder, Path(model_path)], rcan=run,
-                       storeys=storey_names(model))
+                       storeys=storey_names(model), assemblies=assembly_names(model, parts))
+
+
+def assembly_names(model, components) -> dict[str, tuple[str, str, str | None]]:
+    """Component GlobalId -> (IFC class, name, storey GlobalId) of each of ``components`` that is an
+    assembly of the model."""
+    return {c: (model.assemblies[c].ifc_class, model.assemblies[c].name or "", model.assemblies[c].storey_id)
+            for c in components if c in model.assemblies}
 
 
 def storey_names(model) -> dict[str, str]:

@@ -55,14 +55,14 @@ def _schedule_panels(record: BuildRecord | None):
     import rerun as rr
     import rerun.blueprint as rrb
 
-    from bimrobot.replay import gantt
+    from bimrobot.replay.gantt import bounds as chart_bounds
 
     axis, bounds = None, None
     if record is not None:
         whole = rr.TimeRange(start=rr.TimeRangeBoundary.absolute(seconds=0.0),
                              end=rr.TimeRangeBoundary.absolute(seconds=max(record.makespan, 1.0)))
         axis = rrb.TimeAxis(view_range=whole)
-        x_range, y_range = gantt.bounds(record)
+        x_range, y_range = chart_bounds(record)
         bounds = rrb.VisualBounds2D(x_range=x_range, y_range=y_range)
     return rrb.Vertical(
         rrb.Spatial2DView(name="Gantt: robots' activities (hover a bar)", origin="/gantt", visual_bounds=bounds,
@@ -78,13 +78,13 @@ def _schedule_panels(record: BuildRecord | None):
 def _rcan_panels(record: BuildRecord):
     import rerun.blueprint as rrb
 
-    from bimrobot.replay import gantt
+    from bimrobot.replay.gantt import chart_bounds
     from bimrobot.replay.record_rcan import timed_activities
 
     panels = [rrb.TimeSeriesView(name="RCAN: activities done per robot", origin="/rcan_done"),
               rrb.TextLogView(name="RCAN activities", origin="/rcan")]
     if timed_activities(record.rcan.activities):
-        x_range, y_range = gantt.chart_bounds(len({a.robot for a in record.rcan.activities if a.robot}))
+        x_range, y_range = chart_bounds(len({a.robot for a in record.rcan.activities if a.robot}))
         panels.insert(0, rrb.Spatial2DView(name="RCAN Gantt: what each robot executed (hover a bar)",
                                            origin="/rcan_gantt", background=[255, 255, 255],
                                            visual_bounds=rrb.VisualBounds2D(x_range=x_range, y_range=y_range)))

@@ -5,7 +5,7 @@ activity from where the last one ended to where this one begins (a transport: to
 yard, then carrying it to its target; positioning and assembly: to a stand-off point beside the work).
 A component lies on the yard until it is ``InTransit``, rides on its transport robot, is set down at
 its target when it has ``Arrived``, is lifted into its installed pose while ``WorkingInPositioning``
-and stays there from ``PositionFixed``. On a site with ``idle_robots: yard`` a robot that has worked
+(in at most :data:`MAX_LIFT_STEPS` steps) and stays there from ``PositionFixed``. On a site with ``idle_robots: yard`` a robot that has worked
 and has no task when it finishes drives back to the nearest yard position until its next task starts,
 as `simulate` sends it. Times in seconds from the start of the build; positions in the
 package's model frame, metres, z up.
@@ -26,6 +26,9 @@ STAND_OFF_M = 1.0
 #: Longest time step between two samples of a movement (s), and the most samples of one movement.
 SAMPLE_STEP_S = 2.0
 MAX_SAMPLES = 24
+#: Most steps of a lift (a component raised and turned from where it was set down into its installed
+#: pose: a straight line and one turn): drawn in a few steps, it reads the same with fewer rows.
+MAX_LIFT_STEPS = 4
 #: A long build is sampled more coarsely: the step is at least the build's length divided by this
 #: (the steel frame: 2 s, Prefab's 8-hour build: 29 s), so that the recording's time points stay few.
 STEPS_PER_BUILD = 1000
@@ -46,11 +49,11 @@ class RobotTrack:
     step_s: float = SAMPLE_STEP_S
 
 
-def sample_times(t0: float, t1: float, step_s: float = SAMPLE_STEP_S) -> np.ndarray:
-    """Times from t0 to t1 (both included) at most ``step_s`` apart, at most MAX_SAMPLES + 1."""
+def sample_times(t0: float, t1: float, step_s: float = SAMPLE_STEP_S, most: int = MAX_SAMPLES) -> np.ndarray:
+    """Times from t0 to t1 (both included) at most ``step_s`` apart, in at most ``most`` steps (s)."""
     if t1 <= t0:
         return np.array([t0])
-    count = int(min(MAX_SAMPLES, max(1, np.ceil((t1 - t0) / step_s))))
+    count = int(min(most, max(1, np.ceil((t1 - t0) / step_s))))
     return np.linspace(t0, t1, count + 1)
 
 
@@ -201,7 +204,7 @@ def component_poses(record: BuildRecord, tracks: dict[str, RobotTrack]) -> dict[
         fixed = next((t for t, s in history if STATE_INDEX[s] >= STATE_INDEX["PositionFixed"]), None)
         installed = {g: record.pieces[g].installed_pose for g in gids}
         if lift is not None and fixed is not None and down is not None:
-            times = sample_times(lift, fixed, sample_step(record))
+            times = sample_times(lift, fixed, sample_step(record), MAX_LIFT_STEPS)
             fractions = np.zeros(len(times)) if fixed <= lift else (times - lift) / (fixed - lift)
             lifted = {g: _blend(down[g], installed[g], fractions) for g in gids}
             for index, t in enumerate(times):

@@ -3,11 +3,12 @@ a planner can read (:func:`blueprint`).
 
 Entities (paths are Rerun entity paths; each part escaped):
 
-- ``/building/<storey>/<IFC class>/<name>``: the element's mesh (local frame, lightened by
-  :func:`simplify`) with a Transform3D over time, coloured by its component's state; properties
-  ``global_id``, ``ifc_class``, ``name``, ``storey`` (with the mesh) and ``state`` (over time), all in
-  one chunk per element (:func:`_send_rows`). Elements of the same storey, class and name are told
-  apart by `` (2)``, `` (3)``, ... in file order (:func:`element_paths`);
+- ``/building/<storey>/<IFC class>/<name>``: the element's mesh (local frame, lightened; an assembly's
+  parts joined into one unit: :func:`bimrobot.replay.elements.drawn_record`) with a Transform3D over
+  time, coloured by its component's state; properties ``global_id``, ``ifc_class``, ``name``,
+  ``storey`` (and a unit's ``parts``, with the mesh) and ``state`` (over time), all in one chunk per
+  element (:func:`_send_rows`). Elements of the same storey, class and name are told apart by
+  `` (2)``, `` (3)``, ... in file order (:func:`bimrobot.replay.elements.element_paths`);
 - ``/ghost``: the work still to be built, translucent grey at its installed place from the start
   (static: on every timeline), as 4D tools show it; each element drawn 1 % smaller about its centre,
   so that the built element, once in place, hides it;
@@ -33,6 +34,9 @@ from pathlib import Path
 
 import numpy as np
 
+from bimrobot.replay.elements import (STATE_COLOURS, drawn_record, element_paths, element_properties, entity, mesh3d,
+                                       mesh_arrays)
+from bimrobot.replay.gantt import log_chart, schedule_bars
 from bimrobot.replay.inputs import INSTALLED, STATES, BuildRecord, node_id_of
 from bimrobot.replay.motion import component_poses, robot_tracks
 
@@ -40,24 +44,10 @@ APPLICATION_ID = "bimrobot"
 TIMELINE = "sim_time"
 CALENDAR = "calendar"
 
-#: Colours of the thesis' states (RGB): yard grey, transport blue, on site teal, positioning orange,
-#: fixed yellow, assembling red, assembled green.
-STATE_COLOURS = {
-    "OnYard": (150, 150, 150), "InTransit": (66, 133, 244), "Arrived": (0, 172, 193), "InLocation": (0, 172, 193),
-    "WorkingInPositioning": (255, 152, 0), "PositionFixed": (253, 216, 53), "WaitForAssembly": (253, 216, 53),
-    "WorkingInAssembly": (229, 57, 53), "Assembled": (67, 160, 71),
-}
 NODE_COLOURS = {"waiting": (140, 140, 140), "assembling": (255, 152, 0), "assembled": (67, 160, 71)}
 ROBOT_COLOURS = {"transport": (30, 136, 229), "positioning": (142, 36, 170), "assembly": (216, 27, 96)}
 #: Robot bodies: half sizes (x, y, z) in metres, by kind (simple boxes, not the real machines).
 ROBOT_HALF_SIZES = {"transport": (0.6, 0.4, 0.25), "positioning": (0.45, 0.45, 0.7), "assembly": (0.35, 0.35, 0.9)}
-
-
-def entity(*parts: str) -> str:
-    """A Rerun entity path from unescaped parts (GlobalIds may hold ``$``)."""
-    import rerun as rr
-
-    return "/" + "/".join(rr.escape_entity_path_part(p) for p in parts)
 
 
 class _Clock:
@@ -82,12 +72,6 @@ class _Clock:
         return out
 
 
-#: Most triangles one element is drawn with: a larger mesh is simplified (quadric decimation) to this
-#: many, so that a model of hundreds of elements opens in the web viewer in seconds (docs/replay.md).
-MAX_TRIANGLES = 200
-#: An element whose mesh spans less than this in every direction (m; bolts, anchors, inserts) is drawn
-#: as its oriented bounding box (12 triangles): at a building's scale it is a few pixels wide.
-TINY_M = 0.3
 #: The unbuilt work: translucent grey (RGBA), each element shrunk about its centre by this factor.
 GHOST_RGBA = (150, 150, 150, 100)
 GHOST_SHRINK = 0.99
@@ -95,13 +79,15 @@ GHOST_SHRINK = 0.99
 
 def write_rrd(record: BuildRecord, rrd: Path, start: dt.datetime | None = None, name: str | None = None) -> dict:
     """Write the replay of ``record`` to ``rrd`` (a path the caller made safe); return a summary dict
-    (entities, components, installed, last installation time, elements drawn simplified)."""
+    (elements, entities drawn for them, components, installed, last installation time, meshes drawn
+    simplified)."""
     import rerun as rr
 
     from bimrobot.core import io
     from bimrobot.replay.layout import blueprint
 
-    record, simplified = simplified_record(record)
+    elements = len(record.pieces)
+    record, simplified = drawn_record(record)
     rec = rr.RecordingStream(APPLICATION_ID, recording_id=f"bimrobot-replay-{name or Path(rrd).stem}",
                              batcher_config=_batcher(rr))
     rec.set_log_time_enabled(False)  # a replay is the same whenever it is written
@@ -120,7 +106,7 @@ def write_rrd(record: BuildRecord, rrd: Path, start: dt.datetime | None = None, 
         _log_robots(rec, clock, record, tracks)
         _log_nodes(rec, clock, record)
     summary = _log_progress(rec, clock, record)
-    summary["simplified"] = simplified
+    summary.update(pieces=elements, entities=len(record.pieces), simplified=simplified)
     if record.rcan is not None:  # what RCAN executed, and the physics bodies, on their own clocks
         from bimrobot.replay.record_rcan import log_physics, log_rcan
 
@@ -129,9 +115,7 @@ def write_rrd(record: BuildRecord, rrd: Path, start: dt.datetime | None = None, 
         summary["rcan_done"] = len(record.rcan.done)
         if record.rcan.bodies:
             summary.update(log_physics(rec, record, record.rcan))
-    if record.schedule:  # last: its time cursor reaches the end of the build, so the viewer's timeline
-        from bimrobot.replay.gantt import log_gantt  # ends there only once everything before is in
-
+    if record.schedule:  # last: its time cursor ends the viewer's timeline once everything before is in
         rec.flush()  # the rows still batched go to the file first (send_columns chunks are written at once)
         log_gantt(rec, record)
     rec.flush()
@@ -143,112 +127,6 @@ def _batcher(rr):
     """Few large chunks rather than many small ones (the SDK flushes every 8 ms by default): the web
     viewer takes a recording in chunk by chunk between frames, so fewer chunks load in fewer frames."""
     return rr.ChunkBatcherConfig(flush_tick=3600.0, flush_num_bytes=32 << 20, flush_num_rows=1 << 20)
-
-
-def element_paths(record: BuildRecord) -> dict[str, str]:
-    """GlobalId -> entity path ``/building/<storey>/<IFC class>/<name>`` (module docstring): the storey's
-    name (``no storey`` without one), the element's name (its GlobalId when it has none); elements
-    sharing all three get `` (2)``, `` (3)``, ... in file order."""
-    out: dict[str, str] = {}
-    used: set[str] = set()
-    for gid, piece in record.pieces.items():
-        storey = record.storeys.get(piece.storey_id or "", piece.storey_id or "no storey")
-        name = piece.name.strip() or gid
-        path, number = entity("building", storey, piece.ifc_class, name), 1
-        while path in used:
-            number += 1
-            path = entity("building", storey, piece.ifc_class, f"{name} ({number})")
-        used.add(path)
-        out[gid] = path
-    return out
-
-
-def simplified_record(record: BuildRecord, max_triangles: int = MAX_TRIANGLES) -> tuple[BuildRecord, int]:
-    """``record`` with every element mesh lightened for the viewer (:func:`simplify`), and how many were."""
-    import dataclasses
-
-    pieces, count = {}, 0
-    for gid, piece in record.pieces.items():
-        triangles = simplify(piece.triangles, max_triangles)
-        count += triangles is not piece.triangles
-        pieces[gid] = dataclasses.replace(piece, triangles=triangles) if triangles is not piece.triangles else piece
-    return dataclasses.replace(record, pieces=pieces), count
-
-
-def simplify(triangles: np.ndarray, max_triangles: int, tiny_m: float = TINY_M) -> np.ndarray:
-    """Triangles (k, 3, 3), local frame (m), lightened: a tiny part (:data:`TINY_M`) becomes its oriented
-    bounding box (12 triangles), a mesh of more than ``max_triangles`` is reduced to about that many
-    (trimesh's quadric decimation, through fast-simplification, on the welded mesh). The mesh itself
-    (the same array) when it is small enough or the decimator refuses it."""
-    span = np.ptp(triangles.reshape(-1, 3), axis=0) if len(triangles) else np.zeros(3)
-    if len(triangles) > 12 and span.max() < tiny_m:
-        return oriented_box(triangles)
-    if len(triangles) <= max_triangles:
-        return triangles
-    mesh = _welded(triangles)
-    try:
-        small = mesh.simplify_quadric_decimation(face_count=max_triangles)
-    except Exception:  # noqa: BLE001 - the decimator refuses some degenerate meshes: keep the full one
-        return triangles
-    if not 0 < len(small.faces) < len(triangles):
-        return triangles
-    return np.asarray(small.vertices)[np.asarray(small.faces)]
-
-
-def _welded(triangles: np.ndarray):
-    import trimesh
-
-    soup = triangles.reshape(-1, 3)
-    return trimesh.Trimesh(soup, np.arange(len(soup)).reshape(-1, 3), process=True)  # welds shared corners
-
-
-def oriented_box(triangles: np.ndarray) -> np.ndarray:
-    """The 12 triangles (outward, counter-clockwise) of a box around ``triangles`` along their principal
-    axes (the eigenvectors of the vertices' covariance: a bolt's box follows the bolt, however it is
-    turned in its local frame)."""
-    points = np.unique(triangles.reshape(-1, 3), axis=0)
-    centre = points.mean(axis=0)
-    _, axes = np.linalg.eigh(np.cov((points - centre).T) if len(points) > 1 else np.eye(3))
-    if np.linalg.det(axes) < 0:  # a right-handed frame keeps the faces' winding outward
-        axes[:, 0] = -axes[:, 0]
-    local = (points - centre) @ axes
-    low, high = local.min(axis=0), local.max(axis=0)
-    corners = np.array([[(low, high)[i >> k & 1][k] for k in range(3)] for i in range(8)]) @ axes.T + centre
-    return corners[BOX_FACES]
-
-
-#: The box's 12 triangles as corner indices (corner i has bit k set where it is at the high end of axis k),
-#: counter-clockwise seen from outside.
-BOX_FACES = np.array([[0, 2, 1], [1, 2, 3], [4, 5, 6], [5, 7, 6], [0, 1, 4], [1, 5, 4],
-                      [2, 6, 3], [3, 6, 7], [0, 4, 2], [2, 4, 6], [1, 3, 5], [3, 7, 5]])
-
-
-def _mesh_arrays(triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(vertices, triangle indices, normals) of a flat-shaded mesh: every triangle its own three
-    vertices with the face normal (float32 / uint32)."""
-    vertices = triangles.reshape(-1, 3)
-    normals = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
-    normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-12)
-    return (vertices.astype(np.float32), np.arange(len(vertices), dtype=np.uint32).reshape(-1, 3),
-            np.repeat(normals, 3, axis=0).astype(np.float32))
-
-
-def _mesh(rr, triangles: np.ndarray, rgb, alpha: int = 255) -> object:
-    """A flat-shaded mesh (:func:`_mesh_arrays`) of one colour (RGB 0-255, ``alpha`` 0-255)."""
-    vertices, indices, normals = _mesh_arrays(triangles)
-    return rr.Mesh3D(vertex_positions=vertices, triangle_indices=indices, vertex_normals=normals,
-                     albedo_factor=[*rgb, alpha])
-
-
-def _transform(rr, pose: np.ndarray):
-    return rr.Transform3D(translation=pose[:3, 3].astype(np.float32), mat3x3=pose[:3, :3].astype(np.float32))
-
-
-def element_properties(record: BuildRecord, gid: str) -> dict[str, str]:
-    """An element's properties shown on hover and selection: GlobalId, IFC class, name, storey."""
-    piece = record.pieces[gid]
-    return {"global_id": gid, "ifc_class": piece.ifc_class, "name": piece.name,
-            "storey": record.storeys.get(piece.storey_id or "", piece.storey_id or "")}
 
 
 def ghost_pieces(record: BuildRecord) -> list[str]:
@@ -283,7 +161,7 @@ def _log_ghost(rec, record: BuildRecord) -> None:
         world = piece.triangles @ pose[:3, :3].T + pose[:3, 3]
         centre = world.reshape(-1, 3).mean(axis=0)
         parts.append(centre + GHOST_SHRINK * (world - centre))
-    rec.log("/ghost", _mesh(rr, np.concatenate(parts), GHOST_RGBA[:3], GHOST_RGBA[3]), static=True)
+    rec.log("/ghost", mesh3d(rr, np.concatenate(parts), GHOST_RGBA[:3], GHOST_RGBA[3]), static=True)
 
 
 def _state_changes(record: BuildRecord) -> dict[str, list[tuple[float, str]]]:
@@ -371,7 +249,7 @@ class _Sparse:
 
 def _geometry_columns(rr, triangles: np.ndarray) -> list:
     """The mesh of :func:`_mesh` (without its colour) as columns of one row each."""
-    vertices, indices, normals = _mesh_arrays(triangles)
+    vertices, indices, normals = mesh_arrays(triangles)
     return _one_row(rr.Mesh3D.columns(vertex_positions=vertices, triangle_indices=indices, vertex_normals=normals))
 
 
@@ -446,15 +324,16 @@ def _node_phase(times: tuple[float, float], t: float) -> str:
 
 def _log_progress(rec, clock: _Clock, record: BuildRecord) -> dict:
     """Counts of components per state over time (``/progress/<state>``); returns the replay's summary.
-    A count is logged where it changes and just before (the rows between lie on the same line: the
-    plot is the same with fewer rows)."""
+    A count is logged only where it changes (and at the first and last time), drawn as steps (Rerun's
+    ``StepAfter`` interpolation: a count holds until its next row)."""
     import rerun as rr
 
     times, counts, current = _state_counts(record)
     for column, state in enumerate(STATES if record.states else ()):
         path = entity("progress", state)
-        rec.log(path, rr.SeriesLines(names=state, colors=[STATE_COLOURS[state]]), static=True)
-        keep = _turning_points(counts[:, column])
+        rec.log(path, rr.SeriesLines(names=state, colors=[STATE_COLOURS[state]],
+                                     interpolation_mode=rr.components.InterpolationMode.StepAfter), static=True)
+        keep = _changes(counts[:, column])
         rec.send_columns(path, indexes=clock.columns(times[keep]), columns=rr.Scalars.columns(scalars=counts[keep, column]))
     return {
         "pieces": len(record.pieces),
@@ -488,15 +367,13 @@ def _state_counts(record: BuildRecord) -> tuple[np.ndarray, np.ndarray, dict[str
     return np.array(times, dtype=float), np.array(counts, dtype=float).reshape(-1, len(STATES)), current
 
 
-def _turning_points(values: np.ndarray) -> np.ndarray:
-    """Indices of a series worth a row: the first, the last, and where it differs from the row before
-    or the row after (the rows left out lie on the line between their neighbours)."""
+def _changes(values: np.ndarray) -> np.ndarray:
+    """Indices of a series worth a row when drawn as steps: the first, the last, and where it differs
+    from the row before (the rows left out repeat the value before them)."""
     keep = np.zeros(len(values), dtype=bool)
     if len(values):
         keep[[0, -1]] = True
-        differs = values[1:] != values[:-1]
-        keep[1:] |= differs
-        keep[:-1] |= differs
+        keep[1:] |= values[1:] != values[:-1]
     return np.flatnonzero(keep)
 
 
@@ -509,3 +386,9 @@ def _last_installation(record: BuildRecord) -> float | None:
             last = t
         current[component] = state
     return last
+
+
+def log_gantt(rec, record: BuildRecord) -> int:
+    """The schedule's chart (:mod:`bimrobot.replay.gantt`), ``/gantt`` on ``sim_time``; returns the
+    number of bars."""
+    return log_chart(rec, "gantt", list(record.robots), schedule_bars(record), record.makespan, (TIMELINE,))

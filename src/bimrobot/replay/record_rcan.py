@@ -25,6 +25,8 @@ import logging
 import numpy as np
 
 from bimrobot.core.frames import xyzw_of_wxyz
+from bimrobot.replay.elements import STATE_COLOURS, element_paths, element_properties, entity, mesh3d, transform3d
+from bimrobot.replay.gantt import Bar, log_chart
 from bimrobot.replay.inputs import STATES, BuildRecord
 from bimrobot.replay.rcan import RcanRun
 
@@ -88,8 +90,6 @@ def log_physics(rec, record: BuildRecord, run: RcanRun) -> dict:
     """Log the recorded bodies on ``physics_time``; returns {components, robots} moved by the physics."""
     import rerun as rr
 
-    from bimrobot.replay.record import STATE_COLOURS, _mesh, element_paths, element_properties
-
     rec.reset_time()
     paths = element_paths(record)
     moved = set()
@@ -106,7 +106,7 @@ def log_physics(rec, record: BuildRecord, run: RcanRun) -> dict:
             offset = mesh_offset(record, run, component, gid)
             triangles = record.pieces[gid].triangles @ offset[:3, :3].T + offset[:3, 3]
             rec.set_time(PHYSICS_TIME, duration=changes[0][0])
-            rec.log(path, _mesh(rr, triangles, STATE_COLOURS[changes[0][1]]),
+            rec.log(path, mesh3d(rr, triangles, STATE_COLOURS[changes[0][1]]),
                     rr.AnyValues(state=changes[0][1], **element_properties(record, gid)))
             for t, state in changes[1:]:
                 rec.set_time(PHYSICS_TIME, duration=t)
@@ -127,8 +127,6 @@ def _log_unmoved(rec, record: BuildRecord, run: RcanRun, moved: set[str]) -> Non
     pieces of RCAN's components, which the physics would have brought (not drawn without a body)."""
     import rerun as rr
 
-    from bimrobot.replay.record import _mesh, _transform, element_paths, element_properties
-
     paths = element_paths(record)
     rcan_pieces = {g for a in run.activities for g in component_pieces(record, a.component_id)}
     rec.set_time(PHYSICS_TIME, duration=0.0)
@@ -136,14 +134,12 @@ def _log_unmoved(rec, record: BuildRecord, run: RcanRun, moved: set[str]) -> Non
         if gid in moved or gid in rcan_pieces:
             continue
         own = tuple(int(round(255 * c)) for c in piece.colour[:3])
-        rec.log(paths[gid], _mesh(rr, piece.triangles, own), _transform(rr, piece.installed_pose),
+        rec.log(paths[gid], mesh3d(rr, piece.triangles, own), transform3d(rr, piece.installed_pose),
                 rr.AnyValues(**element_properties(record, gid)))
 
 
 def _log_robot_bodies(rec, run: RcanRun, robot: str, links: list[str]) -> None:
     import rerun as rr
-
-    from bimrobot.replay.record import entity
 
     for body in links:
         track = run.bodies[body]
@@ -169,8 +165,6 @@ def log_rcan(rec, run: RcanRun) -> None:
     """Log what the RCAN run executed on ``rcan_time`` (module docstring): per robot a line per finished
     activity, the count it has done (a staircase) and, where starts were recorded, its Gantt bars."""
     import rerun as rr
-
-    from bimrobot.replay.record import entity
 
     rec.reset_time()
     # the mujoco backend's activity times are the seconds of its scene: shown on physics_time as well
@@ -220,8 +214,6 @@ def log_rcan_gantt(rec, run: RcanRun, timelines) -> int:
     and picking up as transport, positioning, installing as assembly), its id, kind, component and
     times on hover; ``/rcan_gantt/now`` the time cursor on ``timelines``. Nothing is drawn when no start
     was recorded (an older state database). Returns the number of bars."""
-    from bimrobot.replay.gantt import Bar, log_chart
-
     timed = timed_activities(run.activities)
     if not timed:
         return 0
