@@ -217,10 +217,10 @@ def test_a_shared_models_components_stand_where_every_output_says(column_build, 
 def test_an_assembly_is_installed_at_its_main_parts_origin_in_the_schedule_graph_and_rcan(shared_ifc):
     """A lifted assembly unit has one installed position: the simulation's unit takes its main (heaviest)
     part's placement and writes its origin as the schedule's TargetX/Y/Z; the graph and RCAN's plans
-    (``bimrobot.lbd.components.position``) give the same point. Before, they gave the bottom centre of
+    (``bimrobot.bim.components.position``) give the same point. Before, they gave the bottom centre of
     the parts' bounds: on MULTICOM-trappen_bordessen's landings 0.94 m away in x and 0.08 m lower."""
     from bimrobot.bim.reader import load_model
-    from bimrobot.lbd import components
+    from bimrobot.bim import components
     from bimrobot.sco.build import build_smart_model
 
     model = load_model(shared_ifc("MULTICOM-trappen_bordessen.ifc"))

@@ -6,7 +6,9 @@
 several products (which IFC forbids) is reported and the later products are keyed
 ``<GlobalId>#<step id>``, so no element is lost. ``bimrobot.bim.examples`` writes the thesis' example
 buildings; ``bimrobot.bim.split`` writes one IFC file per assembly or element;
-``bimrobot.bim.connections.infer_connections`` finds joints from touching geometry.
+``bimrobot.bim.connections.infer_connections`` finds joints from touching geometry;
+``bimrobot.bim.components`` says what robots build (an element, or an ``IfcElementAssembly`` lifted as one
+unit) and its weight, position and section.
 """
 
 from __future__ import annotations

@@ -57,12 +57,10 @@ def world_bounds(model: BuildingModel, global_id: str) -> np.ndarray | None:
 
 def position(model: BuildingModel, global_id: str) -> np.ndarray:
     """Where the component is installed, metres, world frame: an element's placement origin; for an
-    assembly, the origin of its main part (:func:`bimrobot.sco.build.main_part`, the heaviest), which
+    assembly, the origin of its main part (:func:`main_part`, the heaviest), which
     is the origin of the unit the simulation lifts and the schedule's ``TargetX/Y/Z``."""
     if global_id in model.elements:
         return model.elements[global_id].position
-    from bimrobot.sco.build import main_part
-
     return main_part(parts(model, global_id)).position
 
 
@@ -94,3 +92,17 @@ def storey_id(model: BuildingModel, global_id: str) -> str | None:
         return model.elements[global_id].storey_id
     assembly = model.assemblies[global_id]
     return assembly.storey_id or next((e.storey_id for e in parts(model, global_id) if e.storey_id), None)
+
+
+def main_part(parts: list[Element]) -> Element:
+    """The part whose placement an assembly unit takes (the heaviest; the first of equals): the unit's
+    origin, where the schedule, the graph and RCAN install it (issue 34: one position per component)."""
+    return max(parts, key=mass_proxy)
+
+
+def mass_proxy(element: Element) -> float:
+    """Weight in kg, or (weight unknown) bounding-box volume x steel density, to compare sizes."""
+    if element.weight_kg is not None:
+        return float(element.weight_kg)
+    extent = element.world_bounds[1] - element.world_bounds[0]
+    return float(np.prod(extent)) * 7850.0

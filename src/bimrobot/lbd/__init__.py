@@ -9,8 +9,6 @@
 * :mod:`bimrobot.schedule.msproject`: Microsoft Project XML (MSPDI) schedules, matched to the model.
 * :mod:`bimrobot.lbd.generation`: the questions RCAN's generation system asks the graph (ready activities).
 * :mod:`bimrobot.core.progress`: progress bars on stderr for long work.
-* :mod:`bimrobot.lbd.components`: what robots build, an element or a precast ``IfcElementAssembly``
-  lifted as one unit (weight, position, section of either).
 
 See docs/lbd.md.
 """

@@ -57,7 +57,7 @@ from rdflib import RDF, RDFS, XSD, Literal, Namespace, URIRef
 
 from bimrobot.core import io
 from bimrobot.core.errors import InputError
-from bimrobot.lbd import components
+from bimrobot.bim import components
 from bimrobot.core.progress import progress_bar
 from bimrobot.schedule.csv import Activity, Schedule
 from bimrobot.lbd.store import TripleStore, format_for, load_store, open_store, write_atomically
@@ -362,7 +362,7 @@ def build_graph(
     relations or inferred from geometry, with provenance, assembly points and method) go into the graph,
     and its prebuilt components start in their own state (PositionFixed, Assembled) instead of OnYard.
     ``pick_up``: GlobalId -> where the component waits on the yard (m, world; see
-    :func:`bimrobot.lbd.components.pick_up_positions`), written as ``brc:pickUpPosition`` of the
+    :func:`bimrobot.bim.components.pick_up_positions`), written as ``brc:pickUpPosition`` of the
     components that start OnYard. ``site``: the run's site with the building placed on it
     (:func:`bimrobot.site.site.site_for`), written as ``brc:modelOffsetX/Y`` (model -> site translation, m) and
     ``brc:siteDescription`` (the site file's keys as JSON) of the ``bot:Site``, so that RCAN run from the

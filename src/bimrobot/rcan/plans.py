@@ -15,7 +15,7 @@ from typing import Callable
 
 from bimrobot.bim.examples import RCAN_EXPERIMENTS
 from bimrobot.core.errors import InputError
-from bimrobot.lbd import components
+from bimrobot.bim import components
 from bimrobot.rcan.activities import SCHEDULE_DECOMPOSITION, ActivityKind, Pose, RcanActivity
 from bimrobot.core.tasks import Task
 
@@ -69,7 +69,7 @@ def plan_from_schedule(schedule, model=None, yard: tuple[float, float, float] = 
     """RCAN activities for every row of ``schedule`` (a :class:`bimrobot.schedule.csv.Schedule`).
 
     A row without a target position (an IFC work schedule's task) goes to its component's position
-    in ``model`` (an element's placement origin; see :mod:`bimrobot.lbd.components` for an assembly).
+    in ``model`` (an element's placement origin; see :mod:`bimrobot.bim.components` for an assembly).
 
     ``model`` (a BuildingModel, with :func:`bimrobot.bim.unknown_weight.apply_unknown_weight_rule`
     already applied) supplies component weights (kg; the allocator only gives a component to robots

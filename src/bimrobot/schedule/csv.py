@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Iterable, Iterator
 from bimrobot.core.errors import InputError
 from bimrobot.core.io import atomic_output_file
 from bimrobot.core.tasks import TASKS, Activity, Task
-from bimrobot.lbd.components import is_component
+from bimrobot.bim.components import is_component
 from bimrobot.schedule.limits import (
     LIMITS,
     MAX_COORDINATE_M,

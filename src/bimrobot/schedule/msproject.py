@@ -28,7 +28,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Iterator, NamedTuple
 
 from bimrobot.core.errors import InputError
-from bimrobot.lbd import components
+from bimrobot.bim import components
 from bimrobot.schedule.limits import check_file_size, id_problem
 from bimrobot.schedule.task_rows import TaskRow, schedule_from_task_rows
 

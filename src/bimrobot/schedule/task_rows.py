@@ -14,8 +14,8 @@ from typing import TYPE_CHECKING
 
 from bimrobot.core.errors import InputError
 from bimrobot.core.tasks import Activity, Task
-from bimrobot.lbd import components
-from bimrobot.lbd.components import is_component
+from bimrobot.bim import components
+from bimrobot.bim.components import is_component
 from bimrobot.schedule.limits import MAX_SECONDS, limit, too_many
 from bimrobot.schedule.schedule import Schedule, find_cycle
 

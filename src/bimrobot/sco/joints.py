@@ -10,9 +10,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from bimrobot.bim.components import mass_proxy
 from bimrobot.bim.model import BuildingModel, Connection, Element
 from bimrobot.sco.component import Component, ConnectionNode, Joint
-from bimrobot.sco.units import mass_proxy
 
 #: Classes whose elements are the fastening points of a joint when they reach into both its components.
 FASTENER_CLASSES = ("IfcMechanicalFastener", "IfcFastener")

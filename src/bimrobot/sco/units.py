@@ -11,6 +11,7 @@ import dataclasses
 
 import numpy as np
 
+from bimrobot.bim.components import main_part
 from bimrobot.bim.model import BuildingModel, Connection, Element, WeightSource
 from bimrobot.sco.prebuilt import ASSEMBLY_CLASS
 
@@ -98,17 +99,3 @@ def orient_inferred(connections: list[Connection], model: BuildingModel) -> list
             a, b = b, a
         oriented.append(Connection(a.global_id, b.global_id, inferred=True))
     return oriented
-
-
-def main_part(parts: list[Element]) -> Element:
-    """The part whose placement an assembly unit takes (the heaviest; the first of equals): the unit's
-    origin, where the schedule, the graph and RCAN install it (issue 34: one position per component)."""
-    return max(parts, key=mass_proxy)
-
-
-def mass_proxy(element: Element) -> float:
-    """Weight in kg, or (weight unknown) bounding-box volume x steel density, to compare sizes."""
-    if element.weight_kg is not None:
-        return float(element.weight_kg)
-    extent = element.world_bounds[1] - element.world_bounds[0]
-    return float(np.prod(extent)) * 7850.0
