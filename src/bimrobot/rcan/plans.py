@@ -99,52 +99,68 @@ def plan_from_schedule(schedule, model=None, yard: tuple[float, float, float] = 
     """
     facts = facts or model_facts(model)
     rows = schedule.topological_order()
-    assembled_later = {row.global_id for row in rows if row.activity == Task.ASSEMBLE}
-    known: dict[str, ComponentFacts] = {}
-    activities: list[RcanActivity] = []
-    last_of_row: dict[str, str] = {}
-    slots: dict[str, Pose] = {}
-    dropped: set[str] = set()  # components transported and set down at their drop-off, not yet positioned
-    on_yard: set[str] = set()  # components known to wait on the yard that no row has touched yet
-    placed_by: dict[str, str] = {}  # component -> last activity of the row that put it in place
+    planner = _RowPlanner(facts, yard, yard_spacing_m, standoff_m, reach_m,
+                          assembled_later={row.global_id for row in rows if row.activity == Task.ASSEMBLE})
     for row in rows:
+        planner.add(row)
+    return _robot_order(planner.activities, rows, planner.last_of_row)
+
+
+@dataclass
+class _RowPlanner:
+    """:func:`plan_from_schedule`'s pass over the schedule rows, in precedence order: what it knows of each
+    component (where it waits, whether it was set down or put in place) and the activities so far."""
+
+    facts: Callable[[str], ComponentFacts]
+    yard: tuple[float, float, float]
+    yard_spacing_m: float
+    standoff_m: float
+    reach_m: float
+    assembled_later: set[str]  # components an ``assemble`` row fixes
+    known: dict[str, ComponentFacts] = dataclasses.field(default_factory=dict)
+    activities: list[RcanActivity] = dataclasses.field(default_factory=list)
+    last_of_row: dict[str, str] = dataclasses.field(default_factory=dict)
+    slots: dict[str, Pose] = dataclasses.field(default_factory=dict)
+    dropped: set[str] = dataclasses.field(default_factory=set)  # transported and set down at their drop-off, not yet positioned
+    on_yard: set[str] = dataclasses.field(default_factory=set)  # known to wait on the yard, untouched by any row yet
+    placed_by: dict[str, str] = dataclasses.field(default_factory=dict)  # component -> last activity of the row that put it in place
+
+    def add(self, row) -> None:
+        """The RCAN activities of one schedule row (InputError for an activity RCAN does not know, or a row
+        without a GlobalId or target position)."""
         if row.activity not in SCHEDULE_DECOMPOSITION:
             raise InputError(f"schedule activity {row.id} has activity {row.activity!r}; RCAN knows "
                              f"{', '.join(SCHEDULE_DECOMPOSITION)}")
         gid = row.global_id
-        if gid and gid not in known:
-            known[gid] = facts(gid)
-            if known[gid].start_state == "OnYard":
-                on_yard.add(gid)
-        fact = known.get(gid, ComponentFacts())
+        fact = self._fact(gid)
         target = row.target if row.target is not None else fact.position
         if not gid or target is None:
             raise InputError(f"schedule activity {row.id} needs a GlobalId and a target position "
                              f"(TargetX/Y/Z, or the element's placement in --model) for RCAN")
-        if gid not in slots:
-            slots[gid] = Pose(*fact.pick_up) if fact.pick_up is not None else \
-                Pose(yard[0] + yard_spacing_m * len(slots), yard[1], yard[2])
-        where = "drop-off" if gid in dropped else "yard" if gid in on_yard else "in place"
-        installs = row.activity == Task.ASSEMBLE or (row.activity == Task.POSITION and gid not in assembled_later)
-        kinds, goals, lifts = _row_activities(row.activity, slots[gid], Pose(*target), standoff_m, where, installs,
-                                              reach_m)
-        on_yard.discard(gid)
+        if gid not in self.slots:
+            self.slots[gid] = Pose(*fact.pick_up) if fact.pick_up is not None else \
+                Pose(self.yard[0] + self.yard_spacing_m * len(self.slots), self.yard[1], self.yard[2])
+        where = "drop-off" if gid in self.dropped else "yard" if gid in self.on_yard else "in place"
+        installs = row.activity == Task.ASSEMBLE or (row.activity == Task.POSITION and gid not in self.assembled_later)
+        kinds, goals, lifts = _row_activities(row.activity, self.slots[gid], Pose(*target), self.standoff_m, where,
+                                              installs, self.reach_m)
+        self.on_yard.discard(gid)
         if row.activity == Task.TRANSPORT:
-            dropped.add(gid)
+            self.dropped.add(gid)
         else:
-            dropped.discard(gid)  # positioned (PositionFixed) or installed
-        previous = tuple(last_of_row[p] for p in row.predecessors)
-        if where == "in place" and gid in placed_by and placed_by[gid] not in previous:
+            self.dropped.discard(gid)  # positioned (PositionFixed) or installed
+        previous = tuple(self.last_of_row[p] for p in row.predecessors)
+        if where == "in place" and gid in self.placed_by and self.placed_by[gid] not in previous:
             # Work on a component in place waits for the row that put it there: a beam's two per-node
             # position rows both wait for its transport, not for each other, yet the second works on
             # the beam where the first installs it.
-            previous += (placed_by[gid],)
-        work_points = _work_points(row, slots[gid], Pose(*target), where)
+            previous += (self.placed_by[gid],)
+        work_points = _work_points(row, self.slots[gid], Pose(*target), where)
         for n, kind in enumerate(kinds, start=1):
             activity_id = f"{row.id}.{n}"
             frees = (kind is K.TRANSPORT and row.activity == Task.TRANSPORT) or \
                 (row.activity == Task.POSITION and kind is K.POSITION_FOR_INSTALLING)
-            activities.append(RcanActivity(
+            self.activities.append(RcanActivity(
                 activity_id=activity_id, component_id=gid, kind=kind, target=goals[kind],
                 weight_kg=fact.weight_kg, section_m=fact.section_m, size_m=fact.size_m, robot=row.robot,
                 predecessors=previous,
@@ -154,10 +170,17 @@ def plan_from_schedule(schedule, model=None, yard: tuple[float, float, float] = 
                 loads=where != "drop-off",
             ))
             previous = (activity_id,)
-        last_of_row[row.id] = previous[0]
+        self.last_of_row[row.id] = previous[0]
         if where != "in place" and row.activity != Task.TRANSPORT:
-            placed_by[gid] = previous[0]
-    return _robot_order(activities, rows, last_of_row)
+            self.placed_by[gid] = previous[0]
+
+    def _fact(self, gid: str | None) -> ComponentFacts:
+        """What is known of component ``gid`` (looked up once; one that starts OnYard waits on the yard)."""
+        if gid and gid not in self.known:
+            self.known[gid] = self.facts(gid)
+            if self.known[gid].start_state == "OnYard":
+                self.on_yard.add(gid)
+        return self.known.get(gid, ComponentFacts())
 
 
 def _work_points(row, slot: Pose, installed: Pose, where: str) -> dict[ActivityKind, Pose]:

@@ -9,86 +9,31 @@ and resumes from the state database when a previous run of the same plan was int
 
 from __future__ import annotations
 
-import hashlib
 import heapq
-import json
-import math
 import time
 import uuid
-from dataclasses import dataclass, field
 from typing import Callable, Iterable
 
 from bimrobot.site.fleet import Fleet
 from bimrobot.core.errors import InputError
 from bimrobot.rcan.activities import ActivityKind, RcanActivity
 from bimrobot.rcan.backends import DEFAULT_BACKEND
-from bimrobot.rcan.backends.info import ActivityResult
+from bimrobot.rcan.backends.interfaces import ActivityResult
 from bimrobot.rcan.broker import (ACTIVITY_TOPIC, DEAD_LETTER_TOPIC, RESULT_TOPIC, STATE_TOPIC, Broker, Message, Router,
                                   robot_topic)
 from bimrobot.rcan.generation import NodeGenerator, TaskAllocator
 from bimrobot.rcan.node import RcanNode
+from bimrobot.rcan.run_order import SimulatedOrder
+from bimrobot.rcan.run_report import RunReport, activity_timing, dependents, plan_signature
 from bimrobot.rcan.state_manager import DONE, ESCALATED, STARTED, EscalationReport, StateManager
+from bimrobot.rcan.waiting import WaitingActivities
+
+# The report (run_report.py), the simulated-time order (run_order.py) and the waiting activities
+# (waiting.py) have their own modules (issue 37); RunReport and plan_signature are re-exported here.
+__all__ = ["RcanSystem", "RunReport", "plan_signature", "run_plan"]
 
 
-@dataclass
-class RunReport:
-    """The outcome of a run. ``status``: ``completed``, ``escalated`` (some activity needs a technician)
-    or ``blocked`` (activities left that no free robot can take). Times: ``makespan_s`` simulated/robot
-    seconds, ``wall_s`` real seconds; ``latencies_s`` real seconds from sending each node to its result.
-    """
-
-    status: str
-    done: list[str]
-    escalations: list[EscalationReport]
-    component_states: dict[str, str]
-    makespan_s: float
-    wall_s: float
-    latencies_s: list[float] = field(default_factory=list)
-    resumed: int = 0
-    blocked: list[str] = field(default_factory=list)
-    #: blocked activity -> the escalated activity it waits for (directly or through its predecessors);
-    #: a blocked activity not in here waits for a robot that never became free
-    blocked_by: dict[str, str] = field(default_factory=dict)
-    #: activity -> the robot it was given to (the one the schedule assigned, unless re-allocated)
-    robots: dict[str, str] = field(default_factory=dict)
-    #: activity -> {robot, started_s, finished_s, result}, in plan order: ``result`` its status (done,
-    #: escalated, pending, started); the times robot seconds of a done activity, else None (unknown)
-    activities: dict[str, dict] = field(default_factory=dict)
-    #: what the backend measured, when it says (``mujoco``: placement error per installed component)
-    backend_summary: dict = field(default_factory=dict)
-
-    @property
-    def escalated(self) -> list[str]:
-        return [r.activity_id for r in self.escalations]
-
-
-def plan_signature(activities: list[RcanActivity]) -> str:
-    """A hash of the plan, so a state database is never resumed with a different plan."""
-    text = json.dumps([(a.activity_id, a.component_id, a.kind.value, a.target.as_tuple(), a.predecessors)
-                       for a in activities])
-    return hashlib.sha256(text.encode()).hexdigest()[:16]
-
-
-class _OrderedLog:
-    """The interaction log, printed in the same order every run: robots working at once report in the
-    order their threads finish, so lines are held and printed by simulated time (s), then plan order, then
-    stage (published, sent, result), then the order they were made in; a line is printed once
-    no node in flight can come before it (:meth:`RcanSystem._flush_log`)."""
-
-    def __init__(self, out: Callable[[str], None]):
-        self.out, self.at, self._held, self._count = out, (0.0, 0, -1), [], 0
-
-    def __call__(self, line: str) -> None:
-        self._count += 1
-        heapq.heappush(self._held, (*self.at, self._count, line))
-
-    def flush(self, until_s: float) -> None:
-        """Print, in order, every held line about a time before ``until_s`` (inf: all)."""
-        while self._held and (self._held[0][0] < until_s or until_s == math.inf):
-            self.out(heapq.heappop(self._held)[-1])
-
-
-class RcanSystem:
+class RcanSystem(WaitingActivities, SimulatedOrder):
     """Generation system + state manager + message routing, over one broker.
 
     ``log``: called with each line of the interaction log (component publishes, node instantiated,
@@ -138,101 +83,6 @@ class RcanSystem:
         self.log(f"[state manager] broker reconnected: re-sending {len(self._in_flight)} RCAN nodes")
         for node, attempt in list(self._in_flight.values()):
             self._send(node, attempt)
-
-    # --- waiting activities --------------------------------------------------------------------------
-    # An activity waits either for the robot committed to its component (``_held``, by component) or,
-    # when no robot is committed, for any idle capable robot (``_open``: one heap per set of capable
-    # robots, in plan order). A robot is idle when it neither works nor is committed to a component.
-    # Each dispatch looks only at what can have changed, so dispatching is linear in the activities.
-
-    def _enqueue(self, activity_id: str, attempt: int) -> None:
-        activity = self._plan[activity_id]
-        entry = (self._order[activity_id], activity_id, attempt)
-        if self.allocator.holder(activity.component_id) is not None:
-            self._held.setdefault(activity.component_id, []).append(entry)
-            self._recheck.add(activity.component_id)
-        else:
-            heapq.heappush(self._open_heap(activity), entry)
-
-    def _open_heap(self, activity: RcanActivity) -> list:
-        key = self.allocator.requirement(activity)
-        assigned = self.allocator.assigned(activity)
-        if assigned in self._down:  # the schedule's robot died in this run: any capable robot takes it
-            assigned = None
-        if assigned is not None:  # the schedule's robot only: the activity waits for it
-            key = (key, assigned)
-        if key not in self._groups:
-            capable = frozenset(r.name for r in self.allocator.capable(activity))
-            if assigned is not None:
-                if assigned not in capable:
-                    raise InputError(f"the schedule assigns '{activity.kind.label}' of component {activity.component_id} "
-                                     f"(activity {activity.activity_id}) to robot {assigned}, which cannot take it in "
-                                     f"{self.allocator.capabilities.source} (type, payload or gripper)")
-                capable = frozenset({assigned})
-            self._groups[key] = (capable, [])
-        return self._groups[key][1]
-
-    def _released(self, component_id: str) -> None:
-        """The robot committed to ``component_id`` lets go: it is idle again unless it works or holds
-        another component, and the component's waiting activities may go to any capable robot."""
-        robot = self.allocator.release(component_id)
-        if robot is not None and robot not in self._in_flight and not self.allocator.is_committed(robot):
-            self._set_idle(robot)
-        for entry in self._held.pop(component_id, ()):
-            heapq.heappush(self._open_heap(self._plan[entry[1]]), entry)
-
-    def _dispatch_waiting(self) -> None:
-        """Instantiate RCAN nodes for waiting activities whose robot is free, and send them."""
-        for component in self._recheck:  # activities waiting for their component's committed robot
-            holder = self.allocator.holder(component)
-            entries = self._held.get(component)
-            if not entries or holder is None or holder in self._in_flight:
-                continue
-            for n, (_, activity_id, attempt) in enumerate(entries):
-                if self.allocator.continues(self._plan[activity_id]):
-                    del entries[n]
-                    self._instantiate(self._plan[activity_id], attempt, holder)
-                    break
-        self._recheck.clear()
-        everyone = len(self._robot_order)
-        while self._idle:  # activities no robot is committed to, oldest first, to idle capable robots
-            best = None
-            for capable, heap in self._groups.values():
-                if heap and (best is None or heap[0] < best[1][0]) and (
-                        len(capable) == everyone or not self._idle.isdisjoint(capable)):
-                    best = (capable, heap)
-            if best is None:
-                return
-            capable, heap = best
-            entry = heapq.heappop(heap)
-            activity = self._plan[entry[1]]
-            if self.allocator.holder(activity.component_id) is not None:  # a robot took its component meanwhile
-                self._held.setdefault(activity.component_id, []).append(entry)
-                continue
-            named = activity.robot
-            robot = named if named in self._idle and named in capable else self._least_loaded_idle(capable)
-            self._instantiate(activity, entry[2], robot)
-
-    def _set_idle(self, robot: str) -> None:
-        if robot not in self._idle and robot not in self._down:
-            self._idle.add(robot)
-            heapq.heappush(self._idle_heap, (self.allocator.load(robot), self._robot_order[robot], robot))
-
-    def _least_loaded_idle(self, capable: frozenset) -> str:
-        """The idle robot of ``capable`` that took the fewest activities (ties: file order), from a heap
-        of idle robots, so choosing among 20,000 robots does not scan them all."""
-        aside, robot = [], None
-        while robot is None:
-            entry = heapq.heappop(self._idle_heap)
-            load, _, name = entry
-            if name not in self._idle or load != self.allocator.load(name):
-                continue  # stale: the robot took work since
-            if name in capable:
-                robot = name
-            aside.append(entry)
-        for entry in aside:
-            heapq.heappush(self._idle_heap, entry)
-        return robot
 
     def _instantiate(self, activity: RcanActivity, attempt: int, robot: str) -> None:
         node = self.generator.instantiate(activity, robot)
@@ -347,6 +197,34 @@ class RcanSystem:
         activities = list(activities)
         self._plan = {a.activity_id: a for a in activities}
         self._check_plan(activities)
+        self._open_journal(activities, retry_escalated)
+        self._begin(activities)
+        reconnections = getattr(self.broker, "reconnections", 0)
+        resumed, queued = self._restore(activities)
+        published = set(self._done) | queued | {n.activity_id for n, _ in self._in_flight.values()}
+        published |= {r.activity_id for r in self._escalations}
+        unmet, successors = self._links(activities)
+        ready = {i for i, n in unmet.items() if n == 0 and i not in published}
+        self._newly_done.clear()  # done before this run: already counted in ``unmet``
+        started = time.perf_counter()
+        messages: list[Message] = []
+        while True:
+            reconnections = self._turn(messages, reconnections, unmet, successors, ready, published)
+            self._flush_log()
+            if self.on_settled is not None:
+                self.on_settled(self._results_handled, len(self._in_flight))
+            if not self._in_flight:
+                break  # finished, or blocked: waiting activities that no free robot will ever take
+            if timeout_s is not None and time.perf_counter() - started > timeout_s:
+                self._flush_log(everything=True)
+                raise TimeoutError(f"RCAN run did not finish within {timeout_s:.0f} s; in flight: {sorted(self._in_flight)}")
+            wait_s = 0.0 if self._pending and self._releasable() else 0.05
+            messages = self.broker.receive(self.router.topics, timeout_s=wait_s)
+        self._flush_log(everything=True)
+        return self._report(activities, started, resumed)
+
+    def _open_journal(self, activities: list[RcanActivity], retry_escalated: bool) -> None:
+        """Tie the state database to this plan (InputError for another plan's) and register its activities."""
         store = self.state.store
         signature = plan_signature(activities)
         if store.meta("plan") not in (None, signature):
@@ -357,24 +235,26 @@ class RcanSystem:
         if retry_escalated:
             for activity_id in store.reopen_escalated():
                 self.log(f"[state manager] {activity_id} was escalated: retrying it")
+
+    def _begin(self, activities: list[RcanActivity]) -> None:
+        """The state of a new run: nothing in flight, done or waiting, every robot idle (then restored)."""
         self._run_token = uuid.uuid4().hex
         self._in_flight, self._sent_at, self._latencies = {}, {}, []
         self._sent_s, self._free_s, self._at_s = {}, {}, 0.0
         self._pending: list[tuple[float, int, int, Message]] = []  # results held back (simulated time)
         self._held_count = 0
         self._done, self._escalations, self._finished_s = set(), [], {}
-        reconnections = getattr(self.broker, "reconnections", 0)
         self._held, self._groups, self._recheck, self._newly_done, self._down = {}, {}, set(), [], set()
-        self._order = order = {a.activity_id: n for n, a in enumerate(activities)}
+        self._order = {a.activity_id: n for n, a in enumerate(activities)}
         self._robot_order = {name: n for n, name in enumerate(self.capabilities.names)}
         self._idle = set(self.capabilities.names)
         self._idle_heap = [(0, n, name) for n, name in enumerate(self.capabilities.names)]  # (load, order, robot)
-        resumed, queued = self._restore(activities)
-        published = set(self._done) | queued | {n.activity_id for n, _ in self._in_flight.values()}
-        published |= {r.activity_id for r in self._escalations}
-        # Which activities wait for which (done activities count as met), to publish in plan order,
-        # without rescanning the whole plan on every turn of the loop.
-        # ``after`` (a robot's schedule order) counts like a predecessor, but one that failed is met too.
+
+    def _links(self, activities: list[RcanActivity]) -> tuple[dict[str, int], dict[str, list[str]]]:
+        """Which activities wait for which (done activities count as met), to publish in plan order,
+        without rescanning the whole plan on every turn of the loop: (activity -> links unmet, activity ->
+        its successors). ``after`` (a robot's schedule order) counts like a predecessor, but one that
+        failed is met too (``_soft_successors``; ``_hard_successors`` cannot run once it failed)."""
         links = {a.activity_id: set(a.predecessors) | set(a.after) for a in activities}
         unmet = {i: len({p for p in ps if p not in self._done}) for i, ps in links.items()}
         successors: dict[str, list[str]] = {}
@@ -391,110 +271,37 @@ class RcanSystem:
                 self._hard_successors.setdefault(p, []).append(a.activity_id)
         self._settled: set[str] = set()
         self._newly_settled = [r.activity_id for r in self._escalations]
-        ready = {i for i, n in unmet.items() if n == 0 and i not in published}
-        self._newly_done.clear()  # done before this run: already counted in ``unmet``
-        started = time.perf_counter()
-        messages: list[Message] = []
-        while True:
-            # one turn: handle what came, publish what became ready, instantiate and post RCAN nodes;
-            # its journal writes are committed together before the next receive sends its posts
-            with store.batch():
-                for message in self._in_simulated_order(messages):
-                    self.router.dispatch(message)
-                if getattr(self.broker, "reconnections", 0) != reconnections:
-                    reconnections = self.broker.reconnections
-                    self._republish()
-                for finished in self._newly_done:
-                    for successor in successors.get(finished, ()):
-                        unmet[successor] -= 1
-                        if unmet[successor] == 0 and successor not in published:
-                            ready.add(successor)
-                self._newly_done.clear()
-                for soft in self._settle_failed():
-                    unmet[soft] -= 1
-                    if unmet[soft] == 0 and soft not in published:
-                        ready.add(soft)
-                for activity_id in sorted(ready, key=order.__getitem__):  # components publish what became ready
-                    published.add(activity_id)
-                    self.publish(self._plan[activity_id])
-                ready.clear()
-                self._dispatch_waiting()
-            self._flush_log()
-            if self.on_settled is not None:
-                self.on_settled(self._results_handled, len(self._in_flight))
-            if not self._in_flight:
-                break  # finished, or blocked: waiting activities that no free robot will ever take
-            if timeout_s is not None and time.perf_counter() - started > timeout_s:
-                self._flush_log(everything=True)
-                raise TimeoutError(f"RCAN run did not finish within {timeout_s:.0f} s; in flight: {sorted(self._in_flight)}")
-            wait_s = 0.0 if self._pending and self._releasable() else 0.05
-            messages = self.broker.receive(self.router.topics, timeout_s=wait_s)
-        self._flush_log(everything=True)
-        return self._report(activities, started, resumed)
+        return unmet, successors
 
-    # --- results in simulated-time order -------------------------------------------------------------
-    # Executor threads report in whatever order they finish in real time. With a backend that reports
-    # simulated times, a result is handled only when no robot still working can finish before it in
-    # simulated time, and results of one simulated time in plan order: which robot gets the next
-    # activity, and the component states, then follow simulated time, never thread timing.
+    def _turn(self, messages: list[Message], reconnections: int, unmet: dict[str, int],
+              successors: dict[str, list[str]], ready: set[str], published: set[str]) -> int:
+        """One turn: handle what came, publish what became ready, instantiate and post RCAN nodes; its
+        journal writes are committed together before the next receive sends its posts. Returns the
+        broker's reconnection count (a new one re-sends the nodes in flight)."""
+        with self.state.store.batch():
+            for message in self._in_simulated_order(messages):
+                self.router.dispatch(message)
+            if getattr(self.broker, "reconnections", 0) != reconnections:
+                reconnections = self.broker.reconnections
+                self._republish()
+            for finished in self._newly_done:
+                for successor in successors.get(finished, ()):
+                    unmet[successor] -= 1
+                    if unmet[successor] == 0 and successor not in published:
+                        ready.add(successor)
+            self._newly_done.clear()
+            for soft in self._settle_failed():
+                unmet[soft] -= 1
+                if unmet[soft] == 0 and soft not in published:
+                    ready.add(soft)
+            for activity_id in sorted(ready, key=self._order.__getitem__):  # components publish what became ready
+                published.add(activity_id)
+                self.publish(self._plan[activity_id])
+            ready.clear()
+            self._dispatch_waiting()
+        return reconnections
 
-    def _in_simulated_order(self, messages: list[Message]) -> list[Message]:
-        """``messages`` to handle in this turn: everything but results at once; with simulated time,
-        results are held and only those of the earliest simulated finish that is safe come out."""
-        if not self.simulated_time:
-            return messages
-        now = []
-        for message in messages:
-            result = message.payload.get("result", {}) if message.topic == RESULT_TOPIC else {}
-            flight = self._in_flight.get(result.get("robot"))
-            if not result or flight is None or flight[0].activity_id != result.get("activity_id"):
-                now.append(message)  # not a result, or a duplicate: handled (or dropped) at once
-                continue
-            order = self._order.get(result["activity_id"], -1)
-            self._held_count += 1  # a tie-breaker that never compares two messages
-            heapq.heappush(self._pending, (float(result.get("finished_s") or 0.0), order, self._held_count, message))
-        if self._releasable():
-            finish = self._pending[0][0]
-            while self._pending and self._pending[0][0] == finish:
-                now.append(heapq.heappop(self._pending)[3])
-        return now
-
-    def _releasable(self) -> bool:
-        """Whether the earliest held result (simulated finish f, s) is final: every robot in flight
-        whose result has not come was sent at a simulated time after f, so it finishes after f."""
-        if not self._pending:
-            return False
-        finish = self._pending[0][0]
-        reported = {m.payload["result"]["robot"] for _, _, _, m in self._pending}
-        return all(self._sent_s.get(robot, 0.0) > finish for robot in self._in_flight if robot not in reported)
-
-    @property
-    def simulated_time(self) -> bool:
-        """The backend reports simulated times: its results are handled in simulated-time order (see
-        ``_releasable``) and the log is printed in that order (:class:`_OrderedLog`). A backend on real
-        clocks (ros2) keeps a live log: each line is printed when it happens."""
-        return self._simulated_time
-
-    @simulated_time.setter
-    def simulated_time(self, value: bool) -> None:
-        self._simulated_time = value
-        if self._given_log is not None:
-            self.log = _OrderedLog(self._given_log) if value else self._given_log
-
-    # --- the printed log -----------------------------------------------------------------------------
-    def _log_at(self, at_s: float, phase: int, activity_id: str) -> None:
-        """The simulated time (s) the next log lines are about and their stage: an activity's publishing
-        (0) when it is ready, its dispatch (1) when it is ready and its robot free, its result (2) at its finish."""
-        if isinstance(self.log, _OrderedLog):
-            self.log.at = (at_s, self._order.get(activity_id, -1), phase)
-
-    def _flush_log(self, everything: bool = False) -> None:
-        """Print the held log lines that no node in flight can precede: those before the earliest
-        simulated time a node in flight was sent at (every line if ``everything``)."""
-        if isinstance(self.log, _OrderedLog):
-            until = math.inf if everything or not self._in_flight else min(self._sent_s.get(r, 0.0) for r in self._in_flight)
-            self.log.flush(until)
-
+    # --- failed activities and the plan -----------------------------------------------------------
     def _settle_failed(self) -> list[str]:
         """The soft-order links (``after``) met by failure: an escalated activity and every activity that
         waits for it will not run, so the activities that merely follow them in their robot's order may
@@ -578,7 +385,7 @@ class RcanSystem:
     def _report(self, activities, started: float, resumed: int) -> RunReport:
         escalated = {r.activity_id for r in self._escalations}
         blocked = [a.activity_id for a in activities if a.activity_id not in self._done and a.activity_id not in escalated]
-        blocked_by = _dependents(activities, [r.activity_id for r in self._escalations])
+        blocked_by = dependents(activities, [r.activity_id for r in self._escalations])
         status = "completed" if not blocked and not escalated else ("escalated" if escalated else "blocked")
         rows = self.state.store.activity_rows()
         return RunReport(
@@ -593,33 +400,8 @@ class RcanSystem:
             blocked=blocked,
             blocked_by={a: blocked_by[a] for a in blocked if a in blocked_by},
             robots={a: row["robot"] for a, row in rows.items() if row["robot"]},
-            activities={a.activity_id: _timing(rows.get(a.activity_id)) for a in activities},
+            activities={a.activity_id: activity_timing(rows.get(a.activity_id)) for a in activities},
         )
-
-
-def _timing(row: dict | None) -> dict:
-    """An activity's entry in :attr:`RunReport.activities` from its state database row."""
-    row = row or {}
-    done = row.get("status") == DONE  # times of an activity that is not done are unknown (None)
-    return {"robot": row.get("robot"), "started_s": row.get("started_s") if done else None,
-            "finished_s": row.get("finished_s") if done else None, "result": row.get("status") or "pending"}
-
-
-def _dependents(activities: list[RcanActivity], roots: list[str]) -> dict[str, str]:
-    """Activity -> the first of ``roots`` it depends on, directly or through predecessors (linear time)."""
-    successors: dict[str, list[str]] = {}
-    for a in activities:
-        for p in a.predecessors:
-            successors.setdefault(p, []).append(a.activity_id)
-    cause: dict[str, str] = {}
-    for root in roots:
-        stack = [root]
-        while stack:
-            for successor in successors.get(stack.pop(), ()):
-                if successor not in cause:
-                    cause[successor] = root
-                    stack.append(successor)
-    return cause
 
 
 def run_plan(
@@ -661,18 +443,13 @@ def _run_plan(activities, capabilities, backend, state_db, redis_url, spawn_exec
     from bimrobot.rcan.backends.info import RunContext
     from bimrobot.rcan.broker import InProcessBroker, RedisBroker
     from bimrobot.rcan.executor import RobotExecutor
-    from bimrobot.rcan.state_manager import RetryPolicy, StateStore
+    from bimrobot.rcan.state_manager import RetryPolicy
 
     activities = list(activities)
     backend_type = backend_class(backend)
     _check_features(backend, backend_type, activities)
     info = backend_type.backend_info()
-    store = StateStore(state_db, plan=plan_signature(activities))  # another plan's database: refused, unwritten
-    try:
-        store.lock()  # one run per state database
-    except BaseException:
-        store.db.close()
-        raise
+    store = _locked_store(state_db, activities)
     manager = StateManager(store, RetryPolicy(max_attempts), observers)
     try:
         broker = (RedisBroker(redis_url, group="rcan", consumer="coordinator", **redis_options) if redis_url
@@ -708,19 +485,37 @@ def _run_plan(activities, capabilities, backend, state_db, redis_url, spawn_exec
             report.backend_summary = backend_instance.summary()
         return report
     finally:
-        for executor in executors:
-            executor.stop.set()
-        if backend_instance is not None:
-            backend_instance.stop()
-        for thread in threads:
-            thread.join(timeout=5)
-        for executor in executors:
-            if executor.broker is not broker:
-                executor.broker.close()
-        if backend_instance is not None:
-            backend_instance.close()
-        broker.close()
-        store.close()
+        _shut_down(executors, threads, backend_instance, broker, store)
+
+
+def _locked_store(state_db: str, activities: list[RcanActivity]):
+    """The run's state database, locked (one run per database); another plan's database is refused unwritten."""
+    from bimrobot.rcan.state_manager import StateStore
+
+    store = StateStore(state_db, plan=plan_signature(activities))
+    try:
+        store.lock()
+    except BaseException:
+        store.db.close()
+        raise
+    return store
+
+
+def _shut_down(executors: list, threads: list, backend_instance, broker, store) -> None:
+    """Stop the executors and the backend, wait for their threads (5 s each at most), close what the run opened."""
+    for executor in executors:
+        executor.stop.set()
+    if backend_instance is not None:
+        backend_instance.stop()
+    for thread in threads:
+        thread.join(timeout=5)
+    for executor in executors:
+        if executor.broker is not broker:
+            executor.broker.close()
+    if backend_instance is not None:
+        backend_instance.close()
+    broker.close()
+    store.close()
 
 
 def _check_features(name: str, backend_type, activities: list[RcanActivity]) -> None:
