@@ -20,7 +20,7 @@ from pathlib import Path
 import networkx as nx
 
 from bimrobot.core.errors import InputError
-from bimrobot.schedule.ifc import WorkCalendar, working_datetime
+from bimrobot.site.working_time import WorkCalendar, working_datetime
 
 #: The thesis' component states in the order a component passes through them (chapter 4).
 STATES = ("OnYard", "InTransit", "Arrived", "InLocation", "WorkingInPositioning", "PositionFixed",

@@ -9,7 +9,7 @@ import os
 from pathlib import Path
 
 from bimrobot.core.errors import InputError
-from bimrobot.schedule.working_time import WorkCalendar
+from bimrobot.site.working_time import WorkCalendar
 
 #: Suffixes of ``--schedule-out``: what each writes (through ifc4d).
 SCHEDULE_EXPORTS = {".p6.xml": "Primavera P6 XML", ".xml": "Microsoft Project XML"}

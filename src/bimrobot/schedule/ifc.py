@@ -22,7 +22,7 @@ from pathlib import Path
 from bimrobot.core.errors import InputError
 from bimrobot.schedule.exports import SCHEDULE_EXPORTS, schedule_export_kind, write_schedule_export
 from bimrobot.schedule.task_rows import TaskRow, read_work_schedule
-from bimrobot.schedule.working_time import (
+from bimrobot.site.working_time import (
     WEEKDAY_NAMES,
     WorkCalendar,
     work_calendar_from,
@@ -31,8 +31,8 @@ from bimrobot.schedule.working_time import (
     working_seconds,
 )
 
-# Reading (task_rows.py), working time (working_time.py) and the Microsoft Project / P6 export
-# (exports.py) have their own modules (issue 37); callers import these names from here, as before.
+# Reading (task_rows.py), working time (bimrobot.site.working_time: the site's calendar) and the
+# Microsoft Project / P6 export (exports.py) have their own modules (issue 37); callers import these names from here, as before.
 __all__ = [
     "scheduled_model", "write_work_schedule", "write_scheduled_ifc", "check_ifc_out", "migrated_to_ifc4",
     "ScheduleFigures", "DURATION_TYPE", "SCHEDULE_EXPORTS", "schedule_export_kind", "write_schedule_export",

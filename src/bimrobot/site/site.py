@@ -35,9 +35,9 @@ from pathlib import Path
 
 import numpy as np
 
-from bimrobot.schedule.ifc import WorkCalendar, work_calendar_from
 from bimrobot.core.config import read_yaml_file
 from bimrobot.core.errors import InputError
+from bimrobot.site.working_time import WorkCalendar, work_calendar_from
 from bimrobot.core.schema import At, Choice, Custom, Integer, Points, Quantity, Rule, Vector, keys_of, read_keys, rule
 
 log = logging.getLogger(__name__)
@@ -76,7 +76,7 @@ class Site:
     is centred in it unless ``model_offset`` [dx, dy] (model frame -> site frame) is given.
     ``idle_robots``: "stay" (a robot with nothing to do waits where it finished; default) or "yard" (it
     drives back to the nearest yard position, as in the thesis, and can be called away on the way).
-    ``work_calendar``: working days and hours (:class:`bimrobot.schedule.ifc.WorkCalendar`).
+    ``work_calendar``: working days and hours (:class:`bimrobot.site.working_time.WorkCalendar`).
     """
 
     yard: tuple[tuple[float, float], ...] = field(metadata=rule(Points(POINT, "[x, y] positions in metres")))
