@@ -75,7 +75,7 @@ def record(out: str) -> None:
     from tests.reliability.test_config_mutants import HOSTILE, _parent, _paths
 
     logging.disable(logging.CRITICAL)
-    files = {"fleet-v2": ("fleet", resources.files("bimrobot.coordination").joinpath("fleets/site-crane.yaml").read_text()),
+    files = {"fleet-v2": ("fleet", resources.files("bimrobot.site").joinpath("fleets/site-crane.yaml").read_text()),
              "fleet-v1": ("fleet", V1_FLEET), "capabilities": ("fleet", CAPABILITIES), "site": ("site", SITE),
              "scenario": ("scenario", resources.files("bimrobot.assembly").joinpath("settings/E1S1.yaml").read_text())}
     results: dict[str, list[str]] = {}

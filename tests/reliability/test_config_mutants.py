@@ -205,9 +205,9 @@ def _check_schedule(path: Path) -> None:
 
 
 FAMILIES = {
-    "fleet": (lambda: _builtin("bimrobot.coordination", "fleets/site-crane.yaml"), "fleet.yaml", mutate_yaml, _check_fleet),
+    "fleet": (lambda: _builtin("bimrobot.site", "fleets/site-crane.yaml"), "fleet.yaml", mutate_yaml, _check_fleet),
     "site": (lambda: SITE, "site.yaml", mutate_yaml, _check_site),
-    "capabilities": (lambda: _builtin("bimrobot.coordination", "fleets/rcan-robots.yaml"), "robots.yaml", mutate_yaml, _check_capabilities),
+    "capabilities": (lambda: _builtin("bimrobot.site", "fleets/rcan-robots.yaml"), "robots.yaml", mutate_yaml, _check_capabilities),
     "scenario": (lambda: _builtin("bimrobot.assembly", "settings/E1S1.yaml"), "E1S1.yaml", mutate_yaml, _check_scenario),
     "schedule": (lambda: SCHEDULE, "schedule.csv", mutate_csv, _check_schedule),
 }
