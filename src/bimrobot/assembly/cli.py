@@ -45,7 +45,14 @@ def register(subparsers) -> None:
     )
     sub = parser.add_subparsers(dest="assembly_command", metavar="SUBCOMMAND")
     parser.set_defaults(func=lambda args: (parser.print_help(), 1)[1])
+    _add_optimum(sub)
+    _add_play(sub)
+    _add_validate(sub)
+    _add_from_ifc(sub)
 
+
+def _add_optimum(sub) -> None:
+    """``assembly optimum``: the reference table of optimal and random returns."""
     optimum = sub.add_parser(
         "optimum",
         help="optimal (exact planner) and random-policy returns",
@@ -61,6 +68,9 @@ def register(subparsers) -> None:
     optimum.add_argument("--json", metavar="FILE", help="also write the table as JSON to FILE")
     optimum.set_defaults(func=cmd_optimum)
 
+
+def _add_play(sub) -> None:
+    """``assembly play``: one episode, printed or as a GIF."""
     play = sub.add_parser(
         "play",
         help="play one episode with the planner, a random or a trained policy (GIF, text)",
@@ -77,6 +87,9 @@ def register(subparsers) -> None:
     play.add_argument("--ansi", action="store_true", help="print a text map of every step")
     play.set_defaults(func=cmd_play)
 
+
+def _add_validate(sub) -> None:
+    """``assembly validate``: check a scenario file."""
     validate = sub.add_parser(
         "validate",
         help="check a scenario YAML file",
@@ -87,6 +100,9 @@ def register(subparsers) -> None:
     validate.add_argument("scenario", help="scenario YAML file")
     validate.set_defaults(func=cmd_validate)
 
+
+def _add_from_ifc(sub) -> None:
+    """``assembly from-ifc``: a scenario from a storey of an IFC model."""
     from_ifc = sub.add_parser(
         "from-ifc",
         help="turn a storey's columns and beams into a custom scenario",
@@ -217,13 +233,9 @@ def _load_run_policy(spec: str):
 
 
 def cmd_play(args) -> int:
-    import gymnasium as gym
-
-    from bimrobot.assembly import make_env
-    from bimrobot.assembly.env import AssemblyEnv
-    from bimrobot.assembly.scenario import SETTINGS_DIR, load_scenario
+    from bimrobot.assembly.scenario import SETTINGS_DIR
     from bimrobot.core.errors import InputError
-    from bimrobot.core.io import atomic_output_file, check_output
+    from bimrobot.core.io import check_output
 
     render_mode = "rgb_array" if args.gif else ("ansi" if args.ansi else None)
     if not (math.isfinite(args.fps) and 0 < args.fps <= MAX_FPS):
@@ -235,20 +247,45 @@ def cmd_play(args) -> int:
     if args.gif:  # before the episode (and the policy's loading), so that a bad path costs nothing
         check_output(args.gif, folder=False, inputs=inputs, option="--gif")
     run_policy = None if args.policy in ("planner", "random") else _load_run_policy(args.policy)
+    env, name = _play_env(args, run_policy, render_mode)
+    policy = run_policy or _make_policy(args.policy, env.unwrapped, args.seed)
+    total, steps, placed, terminated, frames = _play_episode(env, policy, args)
+    outcome = "terminated: structure complete" if terminated else "truncated: time limit"
+    print(f"{name} seed {args.seed} policy {args.policy}: return {total:.4f} in {steps} steps ({outcome})")
+    print(f"placed in order: {', '.join(placed) if placed else 'nothing'}")
+    if args.gif:
+        _write_play_gif(frames, args, inputs)
+    env.close()
+    return 0
+
+
+def _play_env(args, run_policy, render_mode):
+    """The environment ``play`` runs (time-limited) and the name it prints: the --scenario file's, or the
+    setting given, the trained policy's, or E2S2."""
+    import gymnasium as gym
+
+    from bimrobot.assembly import make_env
+    from bimrobot.assembly.env import AssemblyEnv
+    from bimrobot.assembly.scenario import load_scenario
+    from bimrobot.core.errors import InputError
+
     if args.scenario:
         scenario = load_scenario(args.scenario)
         env = gym.wrappers.TimeLimit(AssemblyEnv(scenario=scenario, render_mode=render_mode), scenario.time_limit)
-        name = scenario.name
-    else:
-        name = args.setting or getattr(run_policy, "setting", None) or "E2S2"
-        _settings(name)
-        if len(name) != 4:
-            raise InputError("--setting: give one setting such as E2S2")
-        trained_on = getattr(run_policy, "setting", None)
-        if trained_on and trained_on != name:
-            print(f"note: the policy was trained on {trained_on}, playing it on {name}", file=sys.stderr)
-        env = make_env(name, render_mode=render_mode)
-    policy = run_policy or _make_policy(args.policy, env.unwrapped, args.seed)
+        return env, scenario.name
+    name = args.setting or getattr(run_policy, "setting", None) or "E2S2"
+    _settings(name)
+    if len(name) != 4:
+        raise InputError("--setting: give one setting such as E2S2")
+    trained_on = getattr(run_policy, "setting", None)
+    if trained_on and trained_on != name:
+        print(f"note: the policy was trained on {trained_on}, playing it on {name}", file=sys.stderr)
+    return make_env(name, render_mode=render_mode), name
+
+
+def _play_episode(env, policy, args):
+    """One episode from reset seed ``args.seed``: (return, steps, ids placed in order, terminated, GIF frames);
+    with --ansi (and no --gif) each step's text map is printed as it comes."""
     obs, info = env.reset(seed=args.seed)
     frames = []
     ansi = args.ansi and not args.gif
@@ -269,18 +306,18 @@ def cmd_play(args) -> int:
             frames.append(env.render())
         elif ansi:
             print(env.render())
-    outcome = "terminated: structure complete" if terminated else "truncated: time limit"
-    print(f"{name} seed {args.seed} policy {args.policy}: return {total:.4f} in {steps} steps ({outcome})")
-    print(f"placed in order: {', '.join(placed) if placed else 'nothing'}")
-    if args.gif:
-        from bimrobot.assembly.render import write_gif
+    return total, steps, placed, terminated, frames
 
-        frames += [frames[-1]] * int(args.fps)  # hold the last frame a second
-        with atomic_output_file(args.gif, inputs=inputs, option="--gif") as tmp:
-            write_gif(frames, tmp, args.fps)
-        print(f"wrote {args.gif} ({len(frames)} frames)")
-    env.close()
-    return 0
+
+def _write_play_gif(frames: list, args, inputs: list) -> None:
+    """The episode's frames as ``args.gif``, the last one held a second, written atomically."""
+    from bimrobot.assembly.render import write_gif
+    from bimrobot.core.io import atomic_output_file
+
+    frames += [frames[-1]] * int(args.fps)  # hold the last frame a second
+    with atomic_output_file(args.gif, inputs=inputs, option="--gif") as tmp:
+        write_gif(frames, tmp, args.fps)
+    print(f"wrote {args.gif} ({len(frames)} frames)")
 
 
 def cmd_validate(args) -> int:
