@@ -21,265 +21,24 @@ columns and beams, volume x density (steel 7850, concrete 2400 kg/m3) for the re
 connections (the thesis' Revit model had none); use
 :func:`bimrobot.bim.connections.infer_connections` to find its joints from touching geometry.
 """
-
 from __future__ import annotations
 
 import functools
-import math
-import uuid
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-import ifcopenshell
-import ifcopenshell.api.aggregate
-import ifcopenshell.api.context
-import ifcopenshell.api.geometry
 import ifcopenshell.api.material
-import ifcopenshell.api.project
-import ifcopenshell.api.pset
-import ifcopenshell.api.root
-import ifcopenshell.api.spatial
-import ifcopenshell.api.type
-import ifcopenshell.api.unit
-import ifcopenshell.guid
-import ifcopenshell.util.placement
 
-from bimrobot.core import io
+from bimrobot.bim.example_parts import (  # noqa: F401 (the parts are importable from here too)
+    BASE_PLATE_SIZE, BEAM_END_GAP, BEAM_WEIGHTS, BOLT_DIAMETER, CLIP_ANGLE, COLUMN_LENGTH, COLUMN_WEIGHT,
+    CONCRETE_DENSITY, FOOTING_SIZE, FRAME_SPAN_X, FRAME_SPAN_Y, GREENHOUSE_BAY, GREENHOUSE_COLUMN_HEIGHT,
+    GREENHOUSE_FOUNDATION, HEA100, IPE120, STEEL_DENSITY, W250X73, W310X38_7, ISection, _Author, _beam, _bolt,
+    _column, _footing, _frame, _translation)
+from bimrobot.bim.generated_buildings import (  # noqa: F401 (generated buildings, importable from here too)
+    BUILDING_KINDS, HOLLOW_CORE_KG_PER_M2, JOINT_GAP, PANEL_SLAB, PANEL_THICKNESS, PLANK_THICKNESS, PRECAST_BEAM,
+    PRECAST_COLUMN, SPLICE_PLATE, STEEL_CLIP, Layout, building_components, generated_building)
 
-STEEL_DENSITY = 7850.0  # kg/m3
-CONCRETE_DENSITY = 2400.0  # kg/m3
-
-
-@dataclass(frozen=True)
-class ISection:
-    """A hot-rolled I/H section, metres; ``mass_per_m`` in kg/m (catalogue value)."""
-
-    name: str
-    depth: float
-    width: float
-    web: float
-    flange: float
-    fillet: float
-    mass_per_m: float
-
-
-# Catalogue dimensions (AISC metric W shapes; Euronorm IPE/HEA).
-W250X73 = ISection("W250x73", 0.253, 0.254, 0.0086, 0.0142, 0.013, 72.9)
-W310X38_7 = ISection("W310x38.7", 0.310, 0.165, 0.0058, 0.0097, 0.008, 38.7)
-HEA100 = ISection("HEA100", 0.096, 0.100, 0.005, 0.008, 0.012, 16.7)
-IPE120 = ISection("IPE120", 0.120, 0.064, 0.0044, 0.0063, 0.007, 10.4)
-
-# Steel frame geometry (metres).
-FRAME_SPAN_X = 2.846
-FRAME_SPAN_Y = 3.500
-FOOTING_SIZE = (1.2, 1.2, 0.6)
-BASE_PLATE_SIZE = (0.40, 0.40, 0.025)
-COLUMN_LENGTH = 4.0
-COLUMN_WEIGHT = 289.81  # kg, thesis fig. 4.5
-BEAM_WEIGHTS = {FRAME_SPAN_X: 105.49, FRAME_SPAN_Y: 134.39}  # kg by span, thesis fig. 4.5
-BEAM_END_GAP = 0.012  # clearance between beam end and column face
-CLIP_ANGLE = (0.089, 0.089, 0.0095, 0.20)  # L89x89x9.5, leg, leg, thickness, length
-BOLT_DIAMETER = 0.020  # M20
-
-# Greenhouse geometry (metres).
-GREENHOUSE_BAY = 3.0
-GREENHOUSE_COLUMN_HEIGHT = 2.5
-GREENHOUSE_FOUNDATION = (0.6, 0.6, 0.5)
-
-_GUID_NAMESPACE = uuid.UUID("6f1c2a0e-8d4b-4c55-9a57-3b1e0c6d2f10")
-
-
-class _Author:
-    """Small helper around ifcopenshell.api for one model: ids, placement, representation, weight."""
-
-    def __init__(self, project_name: str, site_name: str):
-        self.file = ifcopenshell.api.project.create_file(version="IFC4")
-        self._names: set[str] = set()
-        self.project = self.entity("IfcProject", project_name)
-        units = [
-            ifcopenshell.api.unit.add_si_unit(self.file, unit_type="LENGTHUNIT"),
-            ifcopenshell.api.unit.add_si_unit(self.file, unit_type="AREAUNIT"),
-            ifcopenshell.api.unit.add_si_unit(self.file, unit_type="VOLUMEUNIT"),
-            ifcopenshell.api.unit.add_si_unit(self.file, unit_type="MASSUNIT", prefix="KILO"),
-            ifcopenshell.api.unit.add_si_unit(self.file, unit_type="PLANEANGLEUNIT"),
-        ]
-        ifcopenshell.api.unit.assign_unit(self.file, units=units)
-        model = ifcopenshell.api.context.add_context(self.file, context_type="Model")
-        self.body = ifcopenshell.api.context.add_context(
-            self.file, context_type="Model", context_identifier="Body", target_view="MODEL_VIEW", parent=model
-        )
-        self.site = self.entity("IfcSite", site_name)
-        self.building = self.entity("IfcBuilding", f"{project_name} building")
-        ifcopenshell.api.aggregate.assign_object(self.file, products=[self.site], relating_object=self.project)
-        ifcopenshell.api.aggregate.assign_object(self.file, products=[self.building], relating_object=self.site)
-        for spatial in (self.site, self.building):
-            ifcopenshell.api.geometry.edit_object_placement(self.file, product=spatial, matrix=np.eye(4))
-        self.steel = ifcopenshell.api.material.add_material(self.file, name="Steel S355", category="steel")
-        self.concrete = ifcopenshell.api.material.add_material(self.file, name="Concrete C30/37", category="concrete")
-
-    def entity(self, ifc_class: str, name: str, predefined_type: str | None = None):
-        """Create a rooted entity whose GlobalId is derived from its (unique) name."""
-        if name in self._names:
-            raise ValueError(f"duplicate example element name {name!r}")
-        self._names.add(name)
-        product = ifcopenshell.api.root.create_entity(
-            self.file, ifc_class=ifc_class, name=name, predefined_type=predefined_type
-        )
-        product.GlobalId = ifcopenshell.guid.compress(uuid.uuid5(_GUID_NAMESPACE, name).hex)
-        return product
-
-    def storey(self, name: str, elevation: float):
-        """An IfcBuildingStorey at ``elevation`` metres."""
-        storey = self.entity("IfcBuildingStorey", name)
-        storey.Elevation = elevation
-        ifcopenshell.api.aggregate.assign_object(self.file, products=[storey], relating_object=self.building)
-        placement = np.eye(4)
-        placement[2, 3] = elevation
-        ifcopenshell.api.geometry.edit_object_placement(self.file, product=storey, matrix=placement)
-        return storey
-
-    def place(self, product, storey, matrix: np.ndarray, material) -> None:
-        """Contain ``product`` in ``storey`` at the world ``matrix`` (4x4, metres) and give it a material."""
-        ifcopenshell.api.spatial.assign_container(self.file, products=[product], relating_structure=storey)
-        ifcopenshell.api.geometry.edit_object_placement(self.file, product=product, matrix=matrix)
-        ifcopenshell.api.material.assign_material(self.file, products=[product], type="IfcMaterial", material=material)
-
-    def extrusion(self, product, profile, depth: float, along_x: bool = False) -> None:
-        """Body: ``profile`` extruded ``depth`` metres along local z (or local x for beams)."""
-        axes = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0)) if along_x else (None, None)
-        representation = ifcopenshell.api.geometry.add_profile_representation(
-            self.file, context=self.body, profile=profile, depth=depth, placement_zx_axes=axes
-        )
-        ifcopenshell.api.geometry.assign_representation(self.file, product=product, representation=representation)
-
-    def i_profile(self, section: ISection):
-        profile = self.file.create_entity(
-            "IfcIShapeProfileDef",
-            ProfileType="AREA",
-            ProfileName=section.name,
-            OverallWidth=section.width,
-            OverallDepth=section.depth,
-            WebThickness=section.web,
-            FlangeThickness=section.flange,
-            FilletRadius=section.fillet,
-        )
-        return profile
-
-    def rectangle(self, x: float, y: float):
-        return self.file.create_entity("IfcRectangleProfileDef", ProfileType="AREA", XDim=x, YDim=y)
-
-    def circle(self, radius: float):
-        return self.file.create_entity("IfcCircleProfileDef", ProfileType="AREA", Radius=radius)
-
-    def angle(self, leg_y: float, leg_x: float, thickness: float):
-        return self.file.create_entity(
-            "IfcLShapeProfileDef", ProfileType="AREA", ProfileName=f"L{leg_y*1000:.0f}x{leg_x*1000:.0f}x{thickness*1000:.1f}",
-            Depth=leg_y, Width=leg_x, Thickness=thickness,
-        )
-
-    def weight(self, product, qto_name: str, kg: float, **extra: float) -> None:
-        """Attach ``NetWeight`` (an IfcQuantityWeight, kg) and any other quantities to ``product``."""
-        qto = ifcopenshell.api.pset.add_qto(self.file, product=product, name=qto_name)
-        ifcopenshell.api.pset.edit_qto(self.file, qto=qto, properties={"NetWeight": round(kg, 3), **extra})
-
-    def common(self, product, pset_name: str, **properties) -> None:
-        pset = ifcopenshell.api.pset.add_pset(self.file, product=product, name=pset_name)
-        ifcopenshell.api.pset.edit_pset(self.file, pset=pset, properties=properties)
-
-    def connect(self, name: str, relating, related, realizing: list, connection_type: str = "BOLTED"):
-        """An IfcRelConnectsWithRealizingElements: ``relating`` supports ``related`` through ``realizing``."""
-        relation = self.file.create_entity(
-            "IfcRelConnectsWithRealizingElements",
-            GlobalId=ifcopenshell.guid.compress(uuid.uuid5(_GUID_NAMESPACE, f"rel:{name}").hex),
-            Name=name,
-            RelatingElement=relating,
-            RelatedElement=related,
-            RealizingElements=realizing,
-            ConnectionType=connection_type,
-        )
-        return relation
-
-    def write(self, path: str | Path, what: str) -> Path:
-        """Write the file atomically through bimrobot's output policy (a file bimrobot wrote is replaced,
-        any other existing file is refused). The header's originating system carries the signature that
-        lets a later run recognise the file as bimrobot's."""
-        header = self.file.header.file_name
-        header.name = Path(path).name
-        header.originating_system = io.signature(f"example {what}")
-        header.preprocessor_version = f"IfcOpenShell {ifcopenshell.version}"
-        header.author = ("bimrobot",)
-        header.organization = ("",)
-        header.authorization = ""
-        with io.atomic_output_file(path) as tmp:
-            self.file.write(str(tmp))
-        return Path(path)
-
-
-def _frame(origin, x_axis, z_axis=(0.0, 0.0, 1.0)) -> np.ndarray:
-    """4x4 matrix with the given origin, x axis and z axis (y = z cross x)."""
-    x = np.asarray(x_axis, dtype=float)
-    z = np.asarray(z_axis, dtype=float)
-    x /= np.linalg.norm(x)
-    z /= np.linalg.norm(z)
-    matrix = np.eye(4)
-    matrix[:3, 0] = x
-    matrix[:3, 1] = np.cross(z, x)
-    matrix[:3, 2] = z
-    matrix[:3, 3] = origin
-    return matrix
-
-
-def _translation(x: float, y: float, z: float) -> np.ndarray:
-    matrix = np.eye(4)
-    matrix[:3, 3] = (x, y, z)
-    return matrix
-
-
-def _bolt(author: _Author, name: str, storey, matrix: np.ndarray, length: float):
-    """An M20 bolt along the local z of ``matrix`` (starting at its origin), with its steel weight."""
-    bolt = author.entity("IfcMechanicalFastener", name, predefined_type="BOLT")
-    bolt.NominalDiameter = BOLT_DIAMETER
-    bolt.NominalLength = length
-    author.place(bolt, storey, matrix, author.steel)
-    author.extrusion(bolt, author.circle(BOLT_DIAMETER / 2), length)
-    kg = math.pi * (BOLT_DIAMETER / 2) ** 2 * length * STEEL_DENSITY
-    author.weight(bolt, "Qto_MechanicalFastenerBaseQuantities", kg)
-    return bolt
-
-
-def _footing(author: _Author, name: str, storey, x: float, y: float, size: tuple[float, float, float]):
-    """A concrete pad footing whose top face is at z = 0, centred on (x, y)."""
-    footing = author.entity("IfcFooting", name, predefined_type="PAD_FOOTING")
-    author.place(footing, storey, _translation(x, y, -size[2]), author.concrete)
-    author.extrusion(footing, author.rectangle(size[0], size[1]), size[2])
-    volume = size[0] * size[1] * size[2]
-    author.weight(footing, "Qto_FootingBaseQuantities", volume * CONCRETE_DENSITY, NetVolume=volume)
-    author.common(footing, "Pset_FootingCommon", LoadBearing=True)
-    return footing
-
-
-def _column(author: _Author, name: str, storey, x: float, y: float, z: float, section: ISection, length: float, kg: float):
-    column = author.entity("IfcColumn", name, predefined_type="COLUMN")
-    author.place(column, storey, _translation(x, y, z), author.steel)
-    author.extrusion(column, author.i_profile(section), length)
-    author.weight(column, "Qto_ColumnBaseQuantities", kg, Length=length)
-    author.common(column, "Pset_ColumnCommon", Reference=section.name, LoadBearing=True, IsExternal=True)
-    return column
-
-
-def _beam(author: _Author, name: str, storey, start, direction, section: ISection, length: float, kg: float):
-    """A beam whose local x runs along ``direction`` from ``start`` (the centre of its end section)."""
-    beam = author.entity("IfcBeam", name, predefined_type="BEAM")
-    author.place(beam, storey, _frame(start, direction), author.steel)
-    author.extrusion(beam, author.i_profile(section), length, along_x=True)
-    author.weight(beam, "Qto_BeamBaseQuantities", kg, Length=length)
-    author.common(beam, "Pset_BeamCommon", Reference=section.name, LoadBearing=True, Span=length)
-    return beam
-
-
-#: Most bolts per connection node ``steel_frame(bolts_per_node=...)`` accepts (they must fit a clip angle).
 MAX_BOLTS_PER_NODE = 12
 
 
@@ -303,44 +62,50 @@ def steel_frame(path: str | Path, bolts_per_node: int | None = None) -> Path:
         raise InputError(f"bolts per node must be a whole number from 1 to {MAX_BOLTS_PER_NODE}, got {bolts_per_node!r}")
     author = _Author("Chapter 4 steel frame", "Construction site")
     level_1 = author.storey("Level 1", 0.0)
-    plate_thickness = BASE_PLATE_SIZE[2]
-    column_base = plate_thickness
-    column_top = column_base + COLUMN_LENGTH
+    column_top = BASE_PLATE_SIZE[2] + COLUMN_LENGTH
     level_2 = author.storey("Level 2", column_top)
-    beam_axis_z = column_top - W310X38_7.depth / 2
-
     corners = [(0.0, 0.0), (FRAME_SPAN_X, 0.0), (FRAME_SPAN_X, FRAME_SPAN_Y), (0.0, FRAME_SPAN_Y)]
-    columns = []
-    for index, (x, y) in enumerate(corners, start=1):
-        footing = _footing(author, f"Footing F{index}", level_1, x, y, FOOTING_SIZE)
-        plate = author.entity("IfcPlate", f"Base plate P{index}", predefined_type="BASE_PLATE")
-        author.place(plate, level_1, _translation(x, y, 0.0), author.steel)
-        author.extrusion(plate, author.rectangle(BASE_PLATE_SIZE[0], BASE_PLATE_SIZE[1]), plate_thickness)
-        plate_volume = BASE_PLATE_SIZE[0] * BASE_PLATE_SIZE[1] * plate_thickness
-        author.weight(plate, "Qto_PlateBaseQuantities", plate_volume * STEEL_DENSITY)
-        column = _column(author, f"Column C{index}", level_1, x, y, column_base, W250X73, COLUMN_LENGTH, COLUMN_WEIGHT)
-        columns.append(column)
+    columns = [_frame_column(author, level_1, index, x, y, bolts_per_node) for index, (x, y) in enumerate(corners, start=1)]
+    _frame_beams(author, level_2, corners, columns, column_top - W310X38_7.depth / 2, bolts_per_node)
+    return author.write(path, "steel-frame" if bolts_per_node is None else f"steel-frame, {bolts_per_node} bolts per node")
 
-        inner = W250X73.depth / 2 - W250X73.flange - BOLT_DIAMETER / 2 - 0.0003
-        if bolts_per_node is None:
-            # Anchor bolts through the plate corners into the footing.
-            anchors = [
-                _bolt(author, f"Anchor bolt P{index}-{k}", level_1, _translation(x + dx, y + dy, -0.32), 0.40)
-                for k, (dx, dy) in enumerate([(-0.15, -0.15), (0.15, -0.15), (0.15, 0.15), (-0.15, 0.15)], start=1)
-            ]
-            author.connect(f"F{index}-P{index}", footing, plate, anchors)
-            # Column bolts through the plate, just inside the column flanges.
-            offsets = [(-0.06, -inner), (0.06, -inner), (0.06, inner), (-0.06, inner)]
-        else:
-            offsets = [(dx, dy) for dx, dy in _two_rows(bolts_per_node, -0.09, 0.09, -inner, inner)]
-        column_bolts = [
-            _bolt(author, f"Column bolt C{index}-{k}", level_1, _translation(x + dx, y + dy, -0.005), 0.10)
-            for k, (dx, dy) in enumerate(offsets, start=1)
+
+def _frame_column(author: _Author, level_1, index: int, x: float, y: float, bolts_per_node: int | None):
+    """Footing F<index>, base plate P<index> and column C<index> at corner (x, y) (metres) with the bolts
+    joining them (none at the footing when ``bolts_per_node`` is given); returns the column."""
+    plate_thickness = BASE_PLATE_SIZE[2]
+    footing = _footing(author, f"Footing F{index}", level_1, x, y, FOOTING_SIZE)
+    plate = author.entity("IfcPlate", f"Base plate P{index}", predefined_type="BASE_PLATE")
+    author.place(plate, level_1, _translation(x, y, 0.0), author.steel)
+    author.extrusion(plate, author.rectangle(BASE_PLATE_SIZE[0], BASE_PLATE_SIZE[1]), plate_thickness)
+    plate_volume = BASE_PLATE_SIZE[0] * BASE_PLATE_SIZE[1] * plate_thickness
+    author.weight(plate, "Qto_PlateBaseQuantities", plate_volume * STEEL_DENSITY)
+    column = _column(author, f"Column C{index}", level_1, x, y, plate_thickness, W250X73, COLUMN_LENGTH, COLUMN_WEIGHT)
+
+    inner = W250X73.depth / 2 - W250X73.flange - BOLT_DIAMETER / 2 - 0.0003
+    if bolts_per_node is None:
+        # Anchor bolts through the plate corners into the footing.
+        anchors = [
+            _bolt(author, f"Anchor bolt P{index}-{k}", level_1, _translation(x + dx, y + dy, -0.32), 0.40)
+            for k, (dx, dy) in enumerate([(-0.15, -0.15), (0.15, -0.15), (0.15, 0.15), (-0.15, 0.15)], start=1)
         ]
-        author.connect(f"P{index}-C{index}", plate, column, column_bolts)
+        author.connect(f"F{index}-P{index}", footing, plate, anchors)
+        # Column bolts through the plate, just inside the column flanges.
+        offsets = [(-0.06, -inner), (0.06, -inner), (0.06, inner), (-0.06, inner)]
+    else:
+        offsets = [(dx, dy) for dx, dy in _two_rows(bolts_per_node, -0.09, 0.09, -inner, inner)]
+    column_bolts = [
+        _bolt(author, f"Column bolt C{index}-{k}", level_1, _translation(x + dx, y + dy, -0.005), 0.10)
+        for k, (dx, dy) in enumerate(offsets, start=1)
+    ]
+    author.connect(f"P{index}-C{index}", plate, column, column_bolts)
+    return column
 
-    # Beams between neighbouring columns: (start corner, end corner).
-    for start_index, end_index in [(0, 1), (1, 2), (3, 2), (0, 3)]:
+
+def _frame_beams(author: _Author, level_2, corners: list, columns: list, beam_axis_z: float,
+                 bolts_per_node: int | None) -> None:
+    """The four beams between neighbouring columns (metres; axis at ``beam_axis_z``), each end on a clip angle."""
+    for start_index, end_index in [(0, 1), (1, 2), (3, 2), (0, 3)]:  # (start corner, end corner)
         start_xy = np.array(corners[start_index])
         end_xy = np.array(corners[end_index])
         span = float(np.linalg.norm(end_xy - start_xy))
@@ -357,7 +122,6 @@ def steel_frame(path: str | Path, bolts_per_node: int | None = None) -> Path:
             joint_origin = np.r_[corners[column_index], 0.0] + into_beam * face
             _clip_angle_joint(author, f"{label}{end}", level_2, columns[column_index], beam,
                               _frame(joint_origin, into_beam), beam_axis_z, bolts_per_node)
-    return author.write(path, "steel-frame" if bolts_per_node is None else f"steel-frame, {bolts_per_node} bolts per node")
 
 
 #: The thesis' RCAN experiments (section 5.3.3): the component's GlobalId (the column's is the one the
@@ -470,369 +234,3 @@ def greenhouse(path: str | Path) -> Path:
 EXAMPLES = {"steel-frame": steel_frame, "greenhouse": greenhouse,
             **{f"rcan-experiment-{n}": functools.partial(rcan_experiment, n) for n in RCAN_EXPERIMENTS}}
 
-
-# --------------------------------------------------------------------------------------------------
-# Generated buildings (issue 38): steel frames, precast column-beam-slab frames and panel buildings of
-# any size, written with ifcopenshell.api so that every command reads them like a user's model. The
-# shape is drawn (seeded) by bimrobot.planning.generator; this part only writes it.
-# --------------------------------------------------------------------------------------------------
-
-#: The kinds of generated building (:class:`Layout`).
-BUILDING_KINDS = ("steel", "precast", "panel")
-
-HOLLOW_CORE_KG_PER_M2 = 280.0  # 200 mm hollow-core plank (HC200), kg per m2 of floor
-PRECAST_COLUMN = (0.40, 0.40)  # m, section
-PRECAST_BEAM = (0.40, 0.60)  # m, width x depth (rectangular beam carrying the planks on its top)
-PANEL_THICKNESS = 0.20  # m, solid precast wall panel
-PANEL_SLAB = 0.20  # m, solid precast floor slab
-PLANK_THICKNESS = 0.20  # m
-JOINT_GAP = 0.02  # m, grout or clearance between precast units
-SPLICE_PLATE = (0.40, 0.40, 0.02)  # m, steel column splice / base plate
-STEEL_CLIP = (0.20, 0.10, 0.20)  # m, clip-angle body as a box: along the beam, across, height
-
-
-@dataclass(frozen=True)
-class Layout:
-    """The shape of a generated building (metres, kg, z up; floors stacked at ``storey_height``).
-
-    ``kind``: ``steel`` (W columns and beams, splice or base plate under every column, a clip angle at
-    every beam end, ``bolts_per_node`` bolts at every connection node), ``precast`` (column, beam and
-    hollow-core plank units, each an IfcElementAssembly, joined by ``bolts_per_node`` dowels or weld
-    plates) or ``panel`` (wall panels on every bay side and one floor slab per bay, each an
-    IfcElementAssembly, joined by ``bolts_per_node`` dowels or welds).
-    ``nx`` x ``ny``: column grid lines (steel, precast) or bays (panel). ``bay_x``, ``bay_y``: grid
-    spacing (m). ``column``, ``beam``: steel sections (ignored by the concrete kinds).
-    """
-
-    kind: str
-    nx: int
-    ny: int
-    floors: int
-    bay_x: float
-    bay_y: float
-    storey_height: float
-    bolts_per_node: int
-    column: ISection = W250X73
-    beam: ISection = W310X38_7
-    name: str = "generated building"
-
-    def components(self) -> int:
-        """Robot-built components: the columns, beams, slabs and wall panels :func:`generated_building` writes."""
-        return building_components(self.kind, self.nx, self.ny, self.floors)
-
-
-def building_components(kind: str, nx: int, ny: int, floors: int) -> int:
-    """Robot-built components of a ``kind`` building of ``nx`` x ``ny`` grid lines (bays for ``panel``)
-    and ``floors`` floors: steel columns and beams; precast columns, beams and planks; panels and slabs."""
-    if kind == "steel":
-        return floors * (nx * ny + (nx - 1) * ny + nx * (ny - 1))
-    if kind == "precast":
-        return floors * (nx * ny + (nx - 1) * ny + (nx - 1) * (ny - 1))
-    return floors * ((nx + 1) * ny + nx * (ny + 1) + nx * ny)
-
-
-class _Typed:
-    """Shared bodies: one IfcTypeObject per distinct shape, holding its representation and its weight
-    (``NetWeight`` in the type's quantity set), so that a building of 10,000 components carries a few
-    dozen bodies and the geometry pass reads each once. Each occurrence gets its own Body representation
-    made of the type's one IfcMappedItem (identity transform); types are assigned in one batch per type."""
-
-    def __init__(self, author: _Author):
-        self.author = author
-        self.types: dict[str, object] = {}
-        self.items: dict[str, object] = {}
-        self.members: dict[str, list] = {}
-
-    def add(self, product, key: str, type_class: str, profile_fn, depth: float, kg: float, qto: str,
-            along_x: bool = False) -> None:
-        """Give ``product`` the body ``key``: ``profile_fn()`` extruded ``depth`` m, weighing ``kg``."""
-        file = self.author.file
-        if key not in self.types:
-            author = self.author
-            kind = ifcopenshell.api.root.create_entity(file, ifc_class=type_class, name=key)
-            kind.GlobalId = ifcopenshell.guid.compress(uuid.uuid5(_GUID_NAMESPACE, f"type:{key}").hex)
-            axes = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0)) if along_x else (None, None)
-            representation = ifcopenshell.api.geometry.add_profile_representation(
-                file, context=author.body, profile=profile_fn(), depth=depth, placement_zx_axes=axes)
-            ifcopenshell.api.geometry.assign_representation(file, product=kind, representation=representation)
-            author.weight(kind, qto, kg)
-            origin = file.create_entity("IfcCartesianPoint", Coordinates=(0.0, 0.0, 0.0))
-            operator = file.create_entity("IfcCartesianTransformationOperator3D", LocalOrigin=origin)
-            self.items[key] = file.create_entity("IfcMappedItem", MappingSource=kind.RepresentationMaps[0],
-                                                 MappingTarget=operator)
-            self.types[key] = kind
-            self.members[key] = []
-        body = file.create_entity("IfcShapeRepresentation", ContextOfItems=self.author.body, RepresentationIdentifier="Body",
-                                  RepresentationType="MappedRepresentation", Items=[self.items[key]])
-        product.Representation = file.create_entity("IfcProductDefinitionShape", Representations=[body])
-        self.members[key].append(product)
-
-    def assign(self) -> None:
-        for key, kind in self.types.items():
-            ifcopenshell.api.type.assign_type(self.author.file, related_objects=self.members[key], relating_type=kind,
-                                              should_map_representations=False)
-
-
-class _Builder:
-    """Writes one generated building. The project, units, storeys, types, bodies, quantities, containment,
-    aggregation, materials and type assignments go through ifcopenshell.api (the last four in one batch
-    per storey, assembly, material or type); the many occurrences, their placements and their fasteners
-    are created directly (``file.create_entity``), as ifcopenshell.api's per-product calls take 5-10 ms
-    each and a 10,000-component building has some 40,000 products and 100,000 fasteners."""
-
-    def __init__(self, layout: Layout):
-        self.layout = layout
-        self.author = _Author(layout.name, "Generated site")
-        self.typed = _Typed(self.author)
-        self.storeys = [self.author.storey(f"Level {k + 1}", k * layout.storey_height) for k in range(layout.floors + 1)]
-        self.contained: dict[int, list] = {}
-        self.parts: list[tuple[object, list]] = []
-        self.placed: list[tuple[object, object, np.ndarray]] = []  # product, parent placement holder, world matrix
-        self.materials: dict[int, list] = {}
-        self.counter = 0
-
-    def _id(self, name: str) -> str:
-        return ifcopenshell.guid.compress(uuid.uuid5(_GUID_NAMESPACE, name).hex)
-
-    def product(self, ifc_class: str, name: str, storey: int | None, matrix: np.ndarray, material,
-                predefined_type: str | None = None, parent=None):
-        """A new product at the world ``matrix``: contained in ``storey``, or a part of ``parent``."""
-        product = self.author.file.create_entity(ifc_class, GlobalId=self._id(name), Name=name)
-        if predefined_type is not None:
-            product.PredefinedType = predefined_type
-        if storey is not None:
-            self.contained.setdefault(storey, []).append(product)
-        self.placed.append((product, self.storeys[storey] if parent is None else parent, matrix))
-        if material is not None:
-            self.materials.setdefault(material.id(), [material]).append(product)
-        return product
-
-    def unit(self, ifc_class: str, name: str, storey: int, matrix: np.ndarray, material, predefined_type: str):
-        """(assembly, part): an IfcElementAssembly (a precast unit lifted as one) and its concrete part
-        ``ifc_class``, both at the world ``matrix``; the part's body is given by the caller."""
-        assembly = self.product("IfcElementAssembly", f"{name} unit", storey, matrix, None, predefined_type="USERDEFINED")
-        assembly.ObjectType = "PRECAST_UNIT"
-        part = self.product(ifc_class, name, None, matrix, material, predefined_type=predefined_type, parent=assembly)
-        self.parts.append((assembly, [part]))
-        return part
-
-    def connect(self, relating, related, storey: int, fastener: str, connection_type: str) -> None:
-        """``relating`` supports ``related`` through ``bolts_per_node`` fasteners (no bodies of their own)."""
-        file = self.author.file
-        fasteners = []
-        ifc_class = "IfcMechanicalFastener" if connection_type == "BOLTED" else "IfcFastener"
-        for _ in range(self.layout.bolts_per_node):
-            self.counter += 1
-            fasteners.append(file.create_entity(ifc_class, GlobalId=self._id(f"fastener:{self.counter}"),
-                                                Name=f"{fastener} {self.counter}"))
-        self.contained.setdefault(storey, []).extend(fasteners)
-        name = f"{relating.Name} - {related.Name}"
-        file.create_entity(
-            "IfcRelConnectsWithRealizingElements", GlobalId=self._id(f"rel:{name}"),
-            Name=name, RelatingElement=relating, RelatedElement=related, RealizingElements=fasteners,
-            ConnectionType=connection_type,
-        )
-
-    def write(self, path: str | Path) -> Path:
-        file = self.author.file
-        for storey, products in self.contained.items():  # before any placement: nothing to re-localise
-            ifcopenshell.api.spatial.assign_container(file, products=products, relating_structure=self.storeys[storey])
-        for assembly, parts in self.parts:
-            ifcopenshell.api.aggregate.assign_object(file, products=parts, relating_object=assembly)
-        world = {s.id(): np.linalg.inv(ifcopenshell.util.placement.get_local_placement(s.ObjectPlacement))
-                 for s in self.storeys}
-        for product, parent, matrix in self.placed:  # parents come first: storeys, then units, then parts
-            inverse = world[parent.id()]  # world -> parent frame
-            world[product.id()] = np.linalg.inv(matrix)
-            relative = inverse @ matrix
-            product.ObjectPlacement = file.create_entity(
-                "IfcLocalPlacement", PlacementRelTo=parent.ObjectPlacement, RelativePlacement=_axis2placement(file, relative))
-        for material, *products in self.materials.values():
-            ifcopenshell.api.material.assign_material(file, products=products, type="IfcMaterial", material=material)
-        self.typed.assign()
-        layout = self.layout
-        return self.author.write(path, f"generated {layout.kind} {layout.nx}x{layout.ny}x{layout.floors}")
-
-
-def _axis2placement(file, matrix: np.ndarray):
-    """An IfcAxis2Placement3D of the 4x4 ``matrix`` (metres): origin, z axis, x axis."""
-    def direction(v) -> object:
-        return file.create_entity("IfcDirection", DirectionRatios=tuple(float(round(c, 12)) for c in v))
-
-    origin = file.create_entity("IfcCartesianPoint", Coordinates=tuple(float(round(c, 9)) for c in matrix[:3, 3]))
-    return file.create_entity("IfcAxis2Placement3D", Location=origin, Axis=direction(matrix[:3, 2]),
-                              RefDirection=direction(matrix[:3, 0]))
-
-
-def generated_building(path: str | Path, layout: Layout) -> Path:
-    """Write the building of ``layout`` to ``path`` (IFC4, metres, kg) and return the path.
-
-    Storey k ("Level k+1", elevation k x ``storey_height``) holds the columns or wall panels of floor k;
-    the beams and slabs at the top of floor k belong to the storey above (as Revit and Tekla export).
-    Every joint is an IfcRelConnectsWithRealizingElements whose relating element supports the related
-    one; its fasteners are IfcMechanicalFastener (bolts, dowels) or IfcFastener (welds) without bodies.
-    """
-    from bimrobot.core.errors import InputError
-
-    if layout.kind not in BUILDING_KINDS:
-        raise InputError(f"building kind must be one of {', '.join(BUILDING_KINDS)}, got {layout.kind!r}")
-    builder = _Builder(layout)
-    {"steel": _steel_building, "precast": _precast_building, "panel": _panel_building}[layout.kind](builder)
-    return builder.write(path)
-
-
-def _steel_building(b: _Builder) -> None:
-    """Columns on plates (base plates on floor 0, splice plates on the column below), beams between
-    neighbouring columns at the top of each floor on clip angles: component -> connector relations, as
-    the built-in frame's (``column -> plate``, ``lower column -> plate``, ``column -> clip``, ``beam -> clip``)."""
-    lay, author, typed = b.layout, b.author, b.typed
-    col, beam_section = lay.column, lay.beam
-    plate_t = SPLICE_PLATE[2]
-    col_len = lay.storey_height - plate_t
-    half = col.depth / 2
-    grid = [(i, j, i * lay.bay_x, j * lay.bay_y) for i in range(lay.nx) for j in range(lay.ny)]
-    columns: dict[tuple[int, int, int], object] = {}
-    for k in range(lay.floors):
-        z0, z1 = k * lay.storey_height, (k + 1) * lay.storey_height
-        for i, j, x, y in grid:
-            if k == 0:  # a concrete pad, top face at z = 0: work of others (prebuilt), joined to nothing
-                footing = b.product("IfcFooting", f"Footing {i}-{j}", 0, _translation(x, y, -FOOTING_SIZE[2]),
-                                    author.concrete, predefined_type="PAD_FOOTING")
-                _box_body(typed, author, footing, "Pad footing 1.2x1.2x0.6", "IfcFootingType", FOOTING_SIZE,
-                          FOOTING_SIZE[0] * FOOTING_SIZE[1] * FOOTING_SIZE[2] * CONCRETE_DENSITY, "Qto_FootingBaseQuantities")
-            plate = b.product("IfcPlate", f"{'Base' if k == 0 else 'Splice'} plate {k}-{i}-{j}", k,
-                              _translation(x, y, z0), author.steel, predefined_type="USERDEFINED")
-            plate.ObjectType = "BASE_PLATE" if k == 0 else "SPLICE_PLATE"
-            typed.add(plate, "Plate 400x400x20", "IfcPlateType", lambda: author.rectangle(*SPLICE_PLATE[:2]),
-                      plate_t, SPLICE_PLATE[0] * SPLICE_PLATE[1] * plate_t * STEEL_DENSITY, "Qto_PlateBaseQuantities")
-            column = b.product("IfcColumn", f"Column {k}-{i}-{j}", k, _translation(x, y, z0 + plate_t), author.steel,
-                               predefined_type="COLUMN")
-            typed.add(column, f"{col.name} column {col_len:.3f} m", "IfcColumnType", lambda: author.i_profile(col),
-                      col_len, col.mass_per_m * col_len, "Qto_ColumnBaseQuantities")
-            columns[k, i, j] = column
-            b.connect(column, plate, k, "Bolt", "BOLTED")
-            if k > 0:
-                b.connect(columns[k - 1, i, j], plate, k, "Bolt", "BOLTED")
-        axis_z = z1 - beam_section.depth / 2
-        for i, j, x, y in grid:
-            for di, dj in ((1, 0), (0, 1)):
-                if i + di >= lay.nx or j + dj >= lay.ny:
-                    continue
-                direction = np.array([di, dj, 0.0])
-                span = lay.bay_x if di else lay.bay_y
-                length = round(span - 2 * (half + BEAM_END_GAP), 4)
-                start = np.array([x, y, axis_z]) + direction * (half + BEAM_END_GAP)
-                beam = b.product("IfcBeam", f"Beam {k}-{'xy'[dj]}-{i}-{j}", k + 1, _frame(start, direction), author.steel,
-                                 predefined_type="BEAM")
-                typed.add(beam, f"{beam_section.name} beam {length:.3f} m", "IfcBeamType",
-                          lambda: author.i_profile(beam_section), length, beam_section.mass_per_m * length,
-                          "Qto_BeamBaseQuantities", along_x=True)
-                for end, (ci, cj) in enumerate(((i, j), (i + di, j + dj))):
-                    into = direction if end == 0 else -direction
-                    origin = np.array([ci * lay.bay_x, cj * lay.bay_y, axis_z - STEEL_CLIP[2] / 2]) + into * half
-                    clip = b.product("IfcMember", f"Clip angle {k}-{'xy'[dj]}-{i}-{j}-{end}", k + 1,
-                                     _frame(origin, into), author.steel, predefined_type="USERDEFINED")
-                    clip.ObjectType = "CLIP_ANGLE"
-                    typed.add(clip, "Clip angle L89x89x9.5", "IfcMemberType",
-                              lambda: author.rectangle(STEEL_CLIP[0], STEEL_CLIP[1]), STEEL_CLIP[2],
-                              (0.089 + 0.089 - 0.0095) * 0.0095 * 0.20 * STEEL_DENSITY, "Qto_MemberBaseQuantities")
-                    b.connect(columns[k, ci, cj], clip, k + 1, "Bolt", "BOLTED")
-                    b.connect(beam, clip, k + 1, "Bolt", "BOLTED")
-
-
-def _box_body(typed: _Typed, author: _Author, product, key: str, type_class: str, size, kg: float, qto: str) -> None:
-    """A box body ``size`` (x, y, z; metres) with its local origin at the centre of its bottom face."""
-    typed.add(product, key, type_class, lambda: author.rectangle(size[0], size[1]), size[2], kg, qto)
-
-
-def _precast_building(b: _Builder) -> None:
-    """Column units (storey-high, each on the one below), beam units along x between column faces at the
-    top of each floor, one hollow-core plank unit per bay resting on the two beams (cut around the
-    columns); each unit an IfcElementAssembly of its concrete part. Joints: lower column -> column and column -> beam by dowels, beam -> plank by welds."""
-    lay, author, typed = b.layout, b.author, b.typed
-    cw, cd = PRECAST_COLUMN
-    bw, bd = PRECAST_BEAM
-    concrete = author.concrete
-    units: dict[tuple, object] = {}
-    for k in range(lay.floors):
-        z0, z1 = k * lay.storey_height, (k + 1) * lay.storey_height
-        height, base = lay.storey_height, z0  # a column stands on the one below; planks are cut around it
-        for i in range(lay.nx):
-            for j in range(lay.ny):
-                x, y = i * lay.bay_x, j * lay.bay_y
-                part = b.unit("IfcColumn", f"Precast column {k}-{i}-{j}", k, _translation(x, y, base), concrete, "COLUMN")
-                _box_body(typed, author, part, f"Precast column {cw:.2f}x{cd:.2f}x{height:.3f}", "IfcColumnType",
-                          (cw, cd, height), cw * cd * height * CONCRETE_DENSITY, "Qto_ColumnBaseQuantities")
-                units["c", k, i, j] = part
-                if k:
-                    b.connect(units["c", k - 1, i, j], part, k, "Grouted dowel", "BOLTED")
-        length = round(lay.bay_x - cw - 2 * JOINT_GAP, 4)
-        for i in range(lay.nx - 1):
-            for j in range(lay.ny):
-                start = (i * lay.bay_x + cw / 2 + JOINT_GAP + length / 2, j * lay.bay_y, z1 - bd)
-                part = b.unit("IfcBeam", f"Precast beam {k}-{i}-{j}", k + 1, _translation(*start), concrete, "BEAM")
-                _box_body(typed, author, part, f"Precast beam {length:.3f}x{bw:.2f}x{bd:.2f}", "IfcBeamType",
-                          (length, bw, bd), length * bw * bd * CONCRETE_DENSITY, "Qto_BeamBaseQuantities")
-                units["b", k, i, j] = part
-                for ci in (i, i + 1):
-                    b.connect(units["c", k, ci, j], part, k + 1, "Grouted dowel", "BOLTED")
-        span = round(lay.bay_y - 2 * JOINT_GAP, 4)  # from beam axis to beam axis: it bears on both
-        width = round(lay.bay_x - cw - 2 * JOINT_GAP, 4)
-        for i in range(lay.nx - 1):
-            for j in range(lay.ny - 1):
-                centre = ((i + 0.5) * lay.bay_x, (j + 0.5) * lay.bay_y, z1)
-                part = b.unit("IfcSlab", f"Hollow-core plank {k}-{i}-{j}", k + 1, _translation(*centre), concrete, "FLOOR")
-                _box_body(typed, author, part, f"Hollow-core plank {width:.3f}x{span:.3f}", "IfcSlabType",
-                          (width, span, PLANK_THICKNESS), width * span * HOLLOW_CORE_KG_PER_M2, "Qto_SlabBaseQuantities")
-                for bj in (j, j + 1):
-                    b.connect(units["b", k, i, bj], part, k + 1, "Weld plate", "WELDED")
-
-
-def _panel_building(b: _Builder) -> None:
-    """Wall panels on every side of every bay (storey-high, between slabs), one solid floor slab per
-    bay on the walls; each an IfcElementAssembly of its concrete part. Joints: slab below -> wall by
-    dowels, wall -> slab above by welds."""
-    lay, author, typed = b.layout, b.author, b.typed
-    t = PANEL_THICKNESS
-    concrete = author.concrete
-    slabs: dict[tuple[int, int, int], object] = {}
-    for k in range(lay.floors):
-        z0, z1 = k * lay.storey_height, (k + 1) * lay.storey_height
-        base = z0 + (PANEL_SLAB if k else 0.0)
-        height = round(z1 - base, 4)
-        walls: dict[tuple, object] = {}
-        for axis, (count_i, count_j) in (("x", (lay.nx, lay.ny + 1)), ("y", (lay.nx + 1, lay.ny))):
-            span = lay.bay_x if axis == "x" else lay.bay_y
-            length = round(span - t - 2 * JOINT_GAP, 4)
-            for i in range(count_i):
-                for j in range(count_j):
-                    if axis == "x":
-                        centre, size = ((i + 0.5) * lay.bay_x, j * lay.bay_y, base), (length, t, height)
-                    else:
-                        centre, size = (i * lay.bay_x, (j + 0.5) * lay.bay_y, base), (t, length, height)
-                    part = b.unit("IfcWall", f"Wall panel {k}-{axis}-{i}-{j}", k, _translation(*centre), concrete, "SOLIDWALL")
-                    _box_body(typed, author, part, f"Wall panel {size[0]:.3f}x{size[1]:.3f}x{height:.3f}", "IfcWallType",
-                              size, size[0] * size[1] * height * CONCRETE_DENSITY, "Qto_WallBaseQuantities")
-                    walls[axis, i, j] = part
-                    for bay in _bays_beside(axis, i, j, lay.nx, lay.ny):
-                        if k:
-                            b.connect(slabs[(k - 1, *bay)], part, k, "Grouted dowel", "BOLTED")
-        width, depth = round(lay.bay_x - t - 2 * JOINT_GAP, 4), round(lay.bay_y - t - 2 * JOINT_GAP, 4)
-        for i in range(lay.nx):
-            for j in range(lay.ny):
-                centre = ((i + 0.5) * lay.bay_x, (j + 0.5) * lay.bay_y, z1)
-                part = b.unit("IfcSlab", f"Floor slab {k}-{i}-{j}", k + 1, _translation(*centre), concrete, "FLOOR")
-                _box_body(typed, author, part, f"Floor slab {width:.3f}x{depth:.3f}", "IfcSlabType",
-                          (width, depth, PANEL_SLAB), width * depth * PANEL_SLAB * CONCRETE_DENSITY, "Qto_SlabBaseQuantities")
-                slabs[k, i, j] = part
-                for wall in (("x", i, j), ("x", i, j + 1), ("y", i, j), ("y", i + 1, j)):
-                    b.connect(walls[wall], part, k + 1, "Weld plate", "WELDED")
-
-
-def _bays_beside(axis: str, i: int, j: int, nx: int, ny: int) -> list[tuple[int, int]]:
-    """The bays (i, j) on either side of wall ``(axis, i, j)`` that exist."""
-    if axis == "x":
-        candidates = [(i, j - 1), (i, j)]
-    else:
-        candidates = [(i - 1, j), (i, j)]
-    return [(a, c) for a, c in candidates if 0 <= a < nx and 0 <= c < ny]
