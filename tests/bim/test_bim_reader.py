@@ -339,7 +339,7 @@ reader.load_model(sys.argv[1], processes=3)
 """
 
 
-@pytest.mark.skipif(not __import__("bimrobot.core.cores").cores.can_fork(), reason="geometry processes are forked on Linux only")
+@pytest.mark.skipif(not __import__("bimrobot.core.cores", fromlist=["can_fork"]).can_fork(), reason="geometry processes are forked on Linux only")
 @pytest.mark.parametrize("signum", ["SIGKILL", "SIGTERM"])
 def test_geometry_processes_die_with_the_reader(steel_frame_ifc, signum):
     # issue 35: `convert ... & kill $!` left a geometry process with parent 1, blocked for ever

@@ -4,9 +4,15 @@ import math
 
 import numpy as np
 import pytest
-from scipy.spatial.transform import Rotation
 
 from bimrobot.core import frames
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _heavy_imports():
+    """SciPy's Rotation (about 0.5 s of imports), imported when these tests run, not at collection."""
+    global Rotation
+    from scipy.spatial.transform import Rotation
 
 
 def _rotations():

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-import trimesh
 
 from bimrobot.bim.model import BuildingModel, Element, SkippedProduct, Storey, WeightSource
 
@@ -23,6 +22,8 @@ def box_element(global_id, ifc_class, extents, placement, weight_kg=None, storey
                 base_at_origin=True) -> Element:
     """An element whose local body is a box: with ``base_at_origin`` its bottom face centre is the local
     origin (like an IFC extrusion), else the box is centred."""
+    import trimesh  # here, not at collection (about 1 s of imports with SciPy and networkx)
+
     box = trimesh.creation.box(extents=extents)
     if base_at_origin:
         box.apply_translation((0, 0, extents[2] / 2))

@@ -4,9 +4,15 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from scipy.spatial.transform import Rotation
 
 from bimrobot.export.gazebo.layout import format_pose, pose_xyz_rpy, rigid
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _heavy_imports():
+    """SciPy's Rotation (about 0.5 s of imports), imported when these tests run, not at collection."""
+    global Rotation
+    from scipy.spatial.transform import Rotation
 
 
 @settings(max_examples=200)

@@ -1,9 +1,19 @@
 """Occupancy grids: what a robot's map must show at robot height."""
 
+from __future__ import annotations
+
 import numpy as np
-import trimesh
+import pytest
 
 from bimrobot.export.gazebo.navmap import grid_frame, occupancy
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _heavy_imports():
+    """trimesh (about 1 s of imports with SciPy and networkx), imported when these tests run, not at collection."""
+    global trimesh
+    import trimesh
+
 
 RESOLUTION = 0.05
 

@@ -9,13 +9,20 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import trimesh
 
 from bimrobot.core.errors import InputError
 from bimrobot.export.gazebo.check import problems, read_models, sdf_validator, validate_world
 from bimrobot.export.gazebo.package import ConvertOptions, build_package
 
 from .conftest import BEAM_SIZE, frame_model
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _heavy_imports():
+    """trimesh (about 1 s of imports with SciPy and networkx), imported when these tests run, not at collection."""
+    global trimesh
+    import trimesh
+
 
 needs_ign = pytest.mark.skipif(sdf_validator() is None, reason="`ign sdf` is not installed (ignition-tools)")
 

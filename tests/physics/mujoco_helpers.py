@@ -3,7 +3,7 @@
 import importlib.util
 from pathlib import Path
 
-_spec = importlib.util.spec_from_file_location("world_fixtures", Path(__file__).parents[1] / "world" / "conftest.py")
+_spec = importlib.util.spec_from_file_location("world_fixtures", Path(__file__).parents[1] / "export" / "conftest.py")
 world_fixtures = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(world_fixtures)
 

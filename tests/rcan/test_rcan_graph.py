@@ -10,7 +10,6 @@ import json
 import sqlite3
 
 import pytest
-import trimesh.transformations as tf
 
 from bimrobot.cli import main
 from bimrobot.lbd.graph import ConstructionGraph
@@ -87,6 +86,8 @@ def test_the_graph_plan_is_the_schedule_plan_with_the_yard_of_the_world_package(
     transported = {a.activity_id.rsplit(".", 1)[0] for a in from_graph if a.kind is K.TRANSPORT}
     picks = [a for a in from_graph if a.kind is K.PICK_UP and a.activity_id.rsplit(".", 1)[0] in transported]
     assert picks
+    import trimesh.transformations as tf  # here, not at collection
+
     for pick in picks:
         entry = poses[pick.component_id]
         pose = tf.euler_matrix(*entry["pose_xyz_rpy"][3:], "sxyz")

@@ -14,7 +14,7 @@ if importlib.util.find_spec("coacd") is None:
     pytest.skip("coacd is not installed (the physics extra)", allow_module_level=True)
 trimesh = pytest.importorskip("trimesh")
 
-from bimrobot.physics import collision  # noqa: E402
+from bimrobot.export.mujoco import collision  # noqa: E402
 from bimrobot.export.inertia import Body  # noqa: E402
 
 from .conftest import tally  # noqa: E402
@@ -67,7 +67,7 @@ def test_the_command_process_never_loads_coacd(tmp_path):
     body = angle_body()
     np.savez(tmp_path / "angle.npz", vertices=body.vertices, faces=body.faces)
     code = (f"import sys, numpy as np\n"
-            f"from bimrobot.physics import collision\nfrom bimrobot.export.inertia import Body\n"
+            f"from bimrobot.export.mujoco import collision\nfrom bimrobot.export.inertia import Body\n"
             f"collision.require_coacd()\nd = np.load({str(tmp_path / 'angle.npz')!r})\n"
             f"print(collision.collision_pieces(Body(d['vertices'], d['faces'])).method, 'coacd' in sys.modules)")
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)

@@ -4,24 +4,41 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-import torch as th
-from stable_baselines3 import DQN
-from stable_baselines3.common.type_aliases import ReplayBufferSamples
 
 from bimrobot.core.errors import InputError
-from bimrobot.rl.algorithms import (
-    DoubleDQN,
-    DuelingDQNPolicy,
-    DuelingQNetwork,
-    dueling_aggregate,
-    hyperparameters,
-    td_targets,
-)
 
-REWARDS = th.tensor([[1.0], [0.5], [-1.0]])
-DONES = th.tensor([[0.0], [1.0], [0.0]])
-NEXT_Q_TARGET = th.tensor([[1.0, 5.0], [2.0, 3.0], [4.0, -2.0]])
-NEXT_Q_ONLINE = th.tensor([[3.0, 1.0], [0.0, 4.0], [-1.0, 0.0]])
+
+@pytest.fixture(autouse=True, scope="module")
+def _heavy_imports():
+    """torch and Stable-Baselines3 (about 3 s of imports) and the tensors below, made when these tests
+    run, not at collection."""
+    global th, DQN, ReplayBufferSamples, DoubleDQN, DuelingDQNPolicy, DuelingQNetwork, dueling_aggregate
+    global hyperparameters, td_targets, REWARDS, DONES, NEXT_Q_TARGET, NEXT_Q_ONLINE
+    import torch as th
+    from stable_baselines3 import DQN
+    from stable_baselines3.common.type_aliases import ReplayBufferSamples
+
+    from bimrobot.rl.algorithms import (
+        DoubleDQN,
+        DuelingDQNPolicy,
+        DuelingQNetwork,
+        dueling_aggregate,
+        hyperparameters,
+        td_targets,
+    )
+
+    REWARDS = th.tensor([[1.0], [0.5], [-1.0]])
+    DONES = th.tensor([[0.0], [1.0], [0.0]])
+    NEXT_Q_TARGET = th.tensor([[1.0, 5.0], [2.0, 3.0], [4.0, -2.0]])
+    NEXT_Q_ONLINE = th.tensor([[3.0, 1.0], [0.0, 4.0], [-1.0, 0.0]])
+
+
+@pytest.fixture
+def algo_class(request):
+    """The algorithm class named by the test's parameter (imported by _heavy_imports)."""
+    return globals()[request.param]
+
+
 GAMMA = 0.9
 
 
@@ -51,7 +68,7 @@ def _cartpole_batch() -> ReplayBufferSamples:
     return ReplayBufferSamples(obs, th.tensor([[0], [1], [1]]), next_obs, DONES, REWARDS)
 
 
-@pytest.mark.parametrize("algo_class,double", [(DQN, False), (DoubleDQN, True)])
+@pytest.mark.parametrize("algo_class,double", [("DQN", False), ("DoubleDQN", True)], indirect=["algo_class"])
 def test_train_step_loss_uses_the_expected_target(algo_class, double):
     batch = _cartpole_batch()
     model = _model_with_fixed_batch(algo_class, batch)

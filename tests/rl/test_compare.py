@@ -6,7 +6,13 @@ import pytest
 
 from bimrobot.assembly.planner import reference_returns
 from bimrobot.cli import main
-from bimrobot.rl.benchmark import BenchmarkSpec, write_summary
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _heavy_imports():
+    """torch and Stable-Baselines3 (about 3 s of imports), imported when these tests run, not at collection."""
+    global BenchmarkSpec, write_summary
+    from bimrobot.rl.benchmark import BenchmarkSpec, write_summary
 
 
 def _returns_at(setting: str, score: float) -> float:

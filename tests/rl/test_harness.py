@@ -10,20 +10,36 @@ import pytest
 from bimrobot.assembly.planner import reference_returns
 from bimrobot.core.errors import InputError
 from bimrobot.core.io import MARKER
-from bimrobot.rl.benchmark import (
-    BenchmarkSpec,
-    aggregate,
-    markdown_table,
-    parse_seeds,
-    parse_settings,
-    parse_timesteps,
-    parse_timesteps_per_env,
-    run_benchmark,
-    summarise_finished,
-    time_to_score,
-)
-from bimrobot.rl.policy import load_policy
-from bimrobot.rl.train import TrainConfig, evaluate_run, train
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _heavy_imports():
+    """torch and Stable-Baselines3 (about 3 s of imports), imported when these tests run, not at collection."""
+    global BenchmarkSpec, aggregate, markdown_table, parse_seeds, parse_settings, parse_timesteps
+    global parse_timesteps_per_env, run_benchmark, summarise_finished, time_to_score, load_policy, TrainConfig
+    global evaluate_run, train
+    from bimrobot.rl.benchmark import (
+        BenchmarkSpec,
+        aggregate,
+        markdown_table,
+        parse_seeds,
+        parse_settings,
+        parse_timesteps,
+        parse_timesteps_per_env,
+        run_benchmark,
+        summarise_finished,
+        time_to_score,
+    )
+    from bimrobot.rl.policy import load_policy
+    from bimrobot.rl.train import TrainConfig, evaluate_run, train
+
+
+@pytest.fixture
+def config(request):
+    """The TrainConfig of the test's parameter (setting, algorithm, timesteps, keywords)."""
+    *args, keywords = request.param
+    return TrainConfig(*args, **keywords)
+
 
 TINY_PPO = {"n_envs": 8, "n_steps": 32, "batch_size": 64, "n_epochs": 1}
 TINY_DQN = {"n_envs": 4, "learning_starts": 200, "buffer_size": 2000}
@@ -99,12 +115,13 @@ def test_a_failing_run_leaves_no_run_dir(tmp_path):
 @pytest.mark.parametrize(
     "config,message",
     [
-        (TrainConfig("E5S1", "ppo", 10), "unknown setting 'E5S1'"),
-        (TrainConfig("E1S1", "sac", 10), "unknown algorithm 'sac'"),
-        (TrainConfig("E1S1", "ppo", 0), "--timesteps must be a number of env steps from 1 to 1e"),
-        (TrainConfig("E1S1", "ppo", 10, seed=-1), "--seed must be from 0 to 2147483647"),
-        (TrainConfig("E1S1", "dqn", 10, overrides={"buffer_size": 10**12}), "buffer_size must be >= 1 and <= 1e"),
+        (("E5S1", "ppo", 10, {}), "unknown setting 'E5S1'"),
+        (("E1S1", "sac", 10, {}), "unknown algorithm 'sac'"),
+        (("E1S1", "ppo", 0, {}), "--timesteps must be a number of env steps from 1 to 1e"),
+        (("E1S1", "ppo", 10, {"seed": -1}), "--seed must be from 0 to 2147483647"),
+        (("E1S1", "dqn", 10, {"overrides": {"buffer_size": 10**12}}), "buffer_size must be >= 1 and <= 1e"),
     ],
+    indirect=["config"],
 )
 def test_bad_training_requests_are_clear_errors(tmp_path, config, message):
     with pytest.raises(InputError, match=message):

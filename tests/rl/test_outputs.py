@@ -12,8 +12,15 @@ import pytest
 from bimrobot.cli import main
 from bimrobot.core.errors import InputError
 from bimrobot.core.io import MARKER, has_signature
-from bimrobot.rl.benchmark import BenchmarkSpec, benchmark_folder, write_summary
 from output_checks import snapshot
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _heavy_imports():
+    """torch and Stable-Baselines3 (about 3 s of imports), imported when these tests run, not at collection."""
+    global BenchmarkSpec, benchmark_folder, write_summary
+    from bimrobot.rl.benchmark import BenchmarkSpec, benchmark_folder, write_summary
+
 
 TINY_PPO = ["--set", "n_envs=8", "--set", "n_steps=32", "--set", "n_epochs=1"]
 TRAIN = ["rl", "train", "--setting", "E1S1", "--algo", "ppo", "--timesteps", "256", "--eval-episodes", "1",

@@ -6,8 +6,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from bimrobot.assembly.vector import AssemblySB3VecEnv
-from bimrobot.rl.shaping import DistanceShaping
+
+@pytest.fixture(autouse=True, scope="module")
+def _heavy_imports():
+    """numba and torch (about 3 s of imports), imported when these tests run, not at collection."""
+    global AssemblySB3VecEnv, DistanceShaping
+    from bimrobot.assembly.vector import AssemblySB3VecEnv
+    from bimrobot.rl.shaping import DistanceShaping
+
 
 X_PLUS, Y_PLUS, Z_MINUS = 2, 3, 5
 
