@@ -25,12 +25,14 @@ DEFAULT_PLANNERS = ("market", "market:quickest-finish", "rule:most-successors", 
                     "rule:shortest-handling", "cp-sat", "learned")
 
 
-def problem_for(model: str, fleet: str | None = None):
-    """(DispatchProblem per joint, fleet name, note) for an IFC path or a ``generated:KIND:...`` spec."""
+def problem_for(model: str, fleet: str | None = None, per_joint: bool = True):
+    """(DispatchProblem, fleet name, note) for an IFC path or a ``generated:KIND:...`` spec, per joint (the
+    benchmark's, CP-SAT's tasks) or, ``per_joint`` False, per node (``simulate``'s default)."""
     from bimrobot.coordination.simulation import ConstructionSimulation
     from bimrobot.planning.dispatch import simulate_problem
     from bimrobot.planning.generator import is_generated
 
+    granularity = ["--per-joint"] if per_joint else []
     if is_generated(model) and fleet is None and model.count(":") >= 2:
         from bimrobot.site.fleet import fleet_yaml
         from bimrobot.planning.generator import draw_fleet, draw_layout, draw_site, parse_spec
@@ -43,17 +45,17 @@ def problem_for(model: str, fleet: str | None = None):
             fleet_file, site_file = Path(folder) / "fleet.yaml", Path(folder) / "site.yaml"
             fleet_file.write_text(fleet_yaml(drawn, spec.text()), encoding="utf-8")
             site_file.write_text(site_yaml(draw_site(spec, layout), spec.text()), encoding="utf-8")
-            problem = simulate_problem([model, "--fleet", str(fleet_file), "--site", str(site_file), "--per-joint"])
+            problem = simulate_problem([model, "--fleet", str(fleet_file), "--site", str(site_file), *granularity])
         return problem, f"{drawn.name} (drawn)", ""
     fleet = fleet or "site-crane"
     try:
-        problem = simulate_problem([model, "--fleet", fleet, "--per-joint"])
+        problem = simulate_problem([model, "--fleet", fleet, *granularity])
         ConstructionSimulation(problem.smart, problem.fleet, problem.site, storey_elevations=problem.storey_elevations)
         return problem, fleet, ""
     except InputError as exc:  # the simulation's pre-flight check: the fleet cannot build some component
         if "cannot build" not in str(exc):
             raise
-    return simulate_problem([model, "--fleet", fleet, "--per-joint", "--prebuilt", PREBUILT]), fleet, f"prebuilt {PREBUILT}"
+    return simulate_problem([model, "--fleet", fleet, *granularity, "--prebuilt", PREBUILT]), fleet, f"prebuilt {PREBUILT}"
 
 
 def bench_model(model: str, planners=DEFAULT_PLANNERS, fleet: str | None = None, time_limit_s: float = 60.0,
@@ -61,7 +63,7 @@ def bench_model(model: str, planners=DEFAULT_PLANNERS, fleet: str | None = None,
     """One model's rows: each planner's makespan, gap to CP-SAT's bound, planning time, time per decision."""
     from bimrobot.planning.planners import plan
 
-    started = time.perf_counter()
+    started, started_cpu = time.perf_counter(), cpu_s()
     try:
         problem, fleet_name, note = problem_for(model, fleet)
         path, work = simple_bound(problem)  # also the simulation's pre-flight check of the fleet
@@ -70,10 +72,10 @@ def bench_model(model: str, planners=DEFAULT_PLANNERS, fleet: str | None = None,
         return {"model": model, "fleet": fleet or "site-crane", "note": f"not benchmarked: {exc}", "components": 0,
                 "read_s": None, "tasks": None, "lower_bound_s": None, "cpsat_status": None, "cpsat_method": None,
                 "rows": []}
-    read_s = time.perf_counter() - started
+    read_s, read_cpu_s = time.perf_counter() - started, cpu_s() - started_cpu
     components = sum(1 for c in problem.smart.components.values() if not c.prebuilt)
     entry = {"model": model, "fleet": fleet_name, "note": note, "components": components, "read_s": round(read_s, 2),
-             "tasks": _tasks(problem), "lower_bound_s": None, "cpsat_bound_s": None, "cpsat_status": None,
+             "read_cpu_s": round(read_cpu_s, 2), "tasks": _tasks(problem), "lower_bound_s": None, "cpsat_bound_s": None, "cpsat_status": None,
              "cpsat_method": None, "path_bound_s": round(path, 2), "work_bound_s": round(work, 2), "rows": []}
     order = [p for p in planners if p == "cp-sat"] + [p for p in planners if p != "cp-sat"]  # the bound first
     for name in order:
@@ -113,20 +115,56 @@ def bench_model(model: str, planners=DEFAULT_PLANNERS, fleet: str | None = None,
     return entry
 
 
+def cpu_s() -> float:
+    """CPU seconds of this process and of its finished children (the reader's worker processes)."""
+    import resource
+
+    children = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return time.process_time() + children.ru_utime + children.ru_stime
+
+
 def simple_bound(problem) -> tuple[float, float]:
     """Two lower bounds (s) of any run of ``problem`` on the simulation, cheap at any size: the longest
     path of shortest handling times through the task graph (floor gates included, travel left out), and
-    the total shortest handling time divided by the number of robots."""
+    the total shortest handling time divided by the number of robots. One task graph for both (the
+    numbers of ``planners``' longest-path and shortest-handling scores)."""
+    from bimrobot.coordination.market import handling_time, incapability
     from bimrobot.coordination.simulation import ConstructionSimulation
     from bimrobot.planning.dispatch import task_graph
-    from bimrobot.planning.planners import _scores
 
     sim = ConstructionSimulation(problem.smart, problem.fleet, problem.site, storey_elevations=problem.storey_elevations,
                                  per_node=problem.per_node)
     sim.start()
-    path = max(_scores(sim, "longest-path").values(), default=0.0)
-    work = -sum(_scores(sim, "shortest-handling").values())
-    return path, work / max(1, len(problem.fleet.robots))
+    graph = task_graph(sim)
+    specs = [r.spec for r in sim.build.robots.values()]
+    shortest = [0.0 if request is None else
+                min((handling_time(s, request) for s in specs if not incapability(s, request)), default=0.0)
+                for request in graph.requests]
+    after: list[list[int]] = [[] for _ in graph.keys]
+    for a, b in graph.edges.tolist():
+        after[a].append(b)
+    tail = [0.0] * len(graph.keys)  # longest remaining path from each task, its own handling included (s)
+    for i in reversed(_topological(after)):
+        tail[i] = shortest[i] + max((tail[j] for j in after[i]), default=0.0)
+    work = sum(shortest)
+    return max(tail, default=0.0), work / max(1, len(problem.fleet.robots))
+
+
+def _topological(after: list[list[int]]) -> list[int]:
+    """An order of the nodes in which each comes before those in ``after[i]`` (Kahn)."""
+    indegree = [0] * len(after)
+    for targets in after:
+        for j in targets:
+            indegree[j] += 1
+    order, ready = [], [i for i, d in enumerate(indegree) if d == 0]
+    while ready:
+        i = ready.pop()
+        order.append(i)
+        for j in after[i]:
+            indegree[j] -= 1
+            if indegree[j] == 0:
+                ready.append(j)
+    return order
 
 
 def _tasks(problem) -> int:

@@ -510,13 +510,31 @@ def own_extents(element: Element) -> tuple[float, float, float]:
         volume = abs(float(np.einsum("ij,ij->i", triangles[:, 0], np.cross(triangles[:, 1], triangles[:, 2])).sum())) / 6.0
         if 0 < volume < LOOSE_FILL * box:
             try:
-                import trimesh
-
-                _, oriented = trimesh.bounds.oriented_bounds(vertices)
+                oriented = _oriented_extents(vertices)
                 if float(np.prod(oriented)) < box:
                     extents = np.asarray(oriented)
             except Exception:  # a degenerate hull (flat or needle-thin body): keep the local box
                 pass
     return tuple(float(v) for v in extents)
+
+
+# ---- issue 38 (planning at 10,000 components): identical members share one body (one mapped
+# representation), so their tightest oriented box is measured once. Before: trimesh's hull for each of a
+# generated 10,000-component frame's members, most of build_smart_model's time.
+_ORIENTED: dict[bytes, np.ndarray] = {}  # digest of a body's local vertices -> its oriented extents (m)
+
+
+def _oriented_extents(vertices: np.ndarray) -> np.ndarray:
+    """trimesh's tightest oriented box extents (metres) of ``vertices`` (local frame), once per body."""
+    import hashlib
+
+    key = hashlib.blake2b(np.ascontiguousarray(vertices).tobytes(), digest_size=16).digest() + bytes(str(vertices.shape), "ascii")
+    if key not in _ORIENTED:
+        import trimesh
+
+        if len(_ORIENTED) >= 4096:
+            _ORIENTED.clear()
+        _ORIENTED[key] = np.asarray(trimesh.bounds.oriented_bounds(vertices)[1])
+    return _ORIENTED[key].copy()
 
 
