@@ -135,3 +135,90 @@ def test_the_guarded_planner_is_never_longer_than_the_market_and_says_which_plan
     assert last["chosen"] == ("policy" if last["policy_s"] <= last["market_s"] else "market")
     raw.dispatcher(frame)
     assert raw.last == {"policy_s": last["policy_s"], "market_s": None, "chosen": "policy"}
+
+
+# ---------------------------------------------------------------- the pilot teacher and the advised policy
+@pytest.fixture(scope="module")
+def piloted(frame):
+    """The pilot's decisions on the chapter-4 frame (padded to its own size)."""
+    from bimrobot.planning.learned import pilot_demonstrations, sizes
+
+    return pilot_demonstrations(frame, sizes(frame))
+
+
+def test_the_pilot_teacher_is_never_longer_than_the_market_and_its_labels_replay_its_schedule(piloted, frame):
+    """The pilot (the advisers' first choices tried, the market finishing) on the frame: a schedule no
+    longer than the market's (here shorter), and its recorded actions, replayed, give that schedule."""
+    observations, masks, actions, pilot_s, market_s = piloted
+    assert pilot_s <= market_s + 1e-9 and pilot_s < market_s - 1.0, (pilot_s, market_s)
+    assert len(observations) == len(masks) == len(actions) and all(m[a] for m, a in zip(masks, actions))
+    env = env_for(frame)
+    env.reset(seed=0)
+    done = truncated = False
+    for action in actions:
+        assert not (done or truncated)
+        _, _, done, truncated, _ = env.step(action)
+    assert done and env.result.makespan == pytest.approx(pilot_s, abs=1e-9)
+
+
+def test_the_advice_does_not_change_the_build_and_names_the_markets_next_award(frame):
+    """Reading the advisers' awards at every decision leaves the market's schedule as it was; the market
+    adviser's first award is the action MarketPolicy plays."""
+    from bimrobot.planning.dispatch import MarketPolicy
+    from bimrobot.planning.learned import ADVISERS, observe
+
+    _, alone = play(env_for(frame), MarketPolicy(), seed=0)
+    env, market = env_for(frame), MarketPolicy()
+    env.reset(seed=0)
+    done = truncated = False
+    first = True
+    while not (done or truncated):
+        obs = observe(env)
+        action = market(env)
+        if first:
+            node, robot = divmod(action, env.max_robots)
+            assert obs["advice"][node, robot, ADVISERS.index("market")] == 1.0
+            assert obs["order_in_kind"][node] >= 1 and obs["order_in_kind"].max() >= 1
+            first = False
+        _, _, done, truncated, _ = env.step(action)
+    assert env.result.makespan == pytest.approx(alone.makespan, abs=1e-9)
+
+
+def test_an_advised_policy_learns_the_pilot_and_plays_a_larger_building_after_loading(piloted, frame, tmp_path):
+    """30 seeded mini-batches of the pilot's 49 decisions: at least 80 % of them reproduced (the advice
+    shows each planner's next award); saved and loaded for a 3 x 2 x 1 frame, it assembles that building."""
+    from bimrobot.planning.learned import Advised, pilot_teacher, sizes
+
+    th.manual_seed(0)
+    model = new_model(Advised(env_for(frame)), seed=0)
+    demonstrations, taught = pilot_teacher([_Spec("frame", frame)], sizes(frame))
+    assert taught == {"frame": pytest.approx(piloted[3], abs=1e-3)}
+    assert len(demonstrations[2]) == 49
+    accuracy = imitate(model.policy, demonstrations, steps=30, seed=0, batch=16, lr=1e-2)
+    assert accuracy >= 0.8, accuracy
+    path = save(model, tmp_path / "advised.zip", {"command": "pytest", "seed": 0, "teacher": "pilot"})
+    big = frame_problem(size=(3, 2, 1))
+    planner = LearnedPlanner(path, guard=False)
+    _, result = planner.play(big)
+    assert all(c.state == State.ASSEMBLED for c in result.built.components.values())
+    assert planner.meta["teacher"] == "pilot"
+
+
+class _Spec(_Entry):
+    def __init__(self, spec, problem):
+        super().__init__(problem)
+        self.spec = spec
+
+
+def test_the_shipped_policy_says_how_it_was_trained_and_alone_is_not_longer_than_the_market_on_the_frame(frame):
+    """``--planner learned``'s policy: trained by one command with a seed, on generated buildings only; the
+    policy alone on the chapter-4 frame (fleet2) is no longer than the least-cost market."""
+    from bimrobot.planning.dispatch import MarketPolicy
+    from bimrobot.planning.learned import DEFAULT_POLICY
+
+    meta = read_meta(DEFAULT_POLICY)
+    assert meta["command"].startswith("bimrobot plan train --seed ") and isinstance(meta["seed"], int)
+    assert all(spec.startswith("generated:") for spec in meta["training_buildings"])
+    _, market = play(env_for(frame), MarketPolicy(), seed=0)
+    _, alone = LearnedPlanner(guard=False).play(frame)
+    assert alone.makespan <= market.makespan + 1e-9, (alone.makespan, market.makespan)

@@ -14,10 +14,17 @@ The policy (:class:`DispatchPolicy`, sb3-contrib's ``MaskableActorCriticPolicy``
 The padded arrays of the environment only give the batch shape, so the same weights run on any building:
 at inference the padding is the building's own size.
 
+The advised policy (the default since the second shipped policy) also sees, at each decision, the next
+awards of the market and of the priority rules (:data:`ADVISERS`, pair and wait features) and each ready
+task's place in the market's request heap (:data:`EXTRA_NODE_FEATURES`); it learns when to follow which.
+
 Training (:func:`train`, ``bimrobot plan train``) uses generated buildings only (real IFC models are the
-test set): behaviour cloning of the least-cost market's choices (a warm start), then PPO fine-tuning,
-with the reward divided by the market's makespan on the same building (per cent of it), so small and
-large buildings weigh alike. Seeded; bounded by steps, never by wall time.
+test set): behaviour cloning of a teacher (a warm start), then PPO fine-tuning, with the reward divided by
+the market's makespan on the same building (per cent of it), so small and large buildings weigh alike.
+The teacher is the pilot (:func:`pilot_demonstrations`): a rollout of the least-cost market that tries
+the advisers' first choices wherever they disagree and keeps the shortest schedule found, so it is never
+longer than the market; or the market itself (``teacher="market"``, the first policy, not advised).
+Seeded; bounded by steps, never by wall time.
 
 :class:`LearnedPlanner` plays a policy on a problem and replays its awards as a
 :class:`~bimrobot.coordination.market.Dispatcher` (the contract of ``bimrobot.planning.planners``).
@@ -29,6 +36,7 @@ from __future__ import annotations
 import json
 import shlex
 import tempfile
+import weakref
 import zipfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -73,31 +81,40 @@ class DispatchExtractor(nn.Module):
         self.actions = n * r + 1
         self.hidden = hidden
         self.features_dim = self.actions + hidden  # read by SB3; not a parameter shape
-        self.node_in = _mlp(len(NODE_FEATURES), hidden)
+        self.advisers = observation_space["advice"].shape[-1] if "advice" in observation_space.spaces else 0
+        extra = len(EXTRA_NODE_FEATURES) if self.advisers else 0
+        self.node_in = _mlp(len(NODE_FEATURES) + extra, hidden)
         self.robot_in = _mlp(len(ROBOT_FEATURES), hidden)
         self.passes = nn.ModuleList(nn.Sequential(nn.Linear(3 * hidden, hidden), nn.ReLU()) for _ in range(rounds))
         self.pair_node = nn.Linear(hidden, hidden)
         self.pair_robot = nn.Linear(hidden, hidden, bias=False)
         self.pair_context = nn.Linear(2 * hidden, hidden, bias=False)
-        self.pair_scalars = nn.Linear(PAIR_FEATURES, hidden, bias=False)
+        self.pair_scalars = nn.Linear(PAIR_FEATURES + self.advisers, hidden, bias=False)
         self.pair_out = nn.Sequential(nn.ReLU(), nn.Linear(hidden, hidden), nn.ReLU(), nn.Linear(hidden, 1))
-        self.wait = nn.Sequential(nn.Linear(2 * hidden, hidden), nn.ReLU(), nn.Linear(hidden, 1))
+        self.wait = nn.Sequential(nn.Linear(2 * hidden + self.advisers, hidden), nn.ReLU(), nn.Linear(hidden, 1))
         self.value = _mlp(2 * hidden, hidden)
 
     def forward(self, obs: dict) -> th.Tensor:
         node_mask = obs["node_mask"].float()  # (B, N)
         robot_mask = obs["robot_mask"].float()  # (B, R)
-        h = self.node_in(symlog(obs["node_features"])) * node_mask[..., None]  # (B, N, H)
+        nodes = obs["node_features"]
+        if self.advisers:
+            nodes = th.cat([nodes, obs["order_in_kind"][..., None]], dim=-1)
+        h = self.node_in(symlog(nodes)) * node_mask[..., None]  # (B, N, H)
         g = self.robot_in(symlog(obs["robot_features"])) * robot_mask[..., None]  # (B, R, H)
         for layer in self.passes:
             h = (h + layer(th.cat([h, *self._messages(h, obs)], dim=-1))) * node_mask[..., None]
         context = th.cat([_mean(h, node_mask), _mean(g, robot_mask)], dim=-1)  # (B, 2H)
         handling, travel = obs["handling_s"].float(), obs["travel_s"].float()
         scalars = th.stack([symlog(handling), symlog(travel), symlog(handling + travel), obs["compatibility"].float()], -1)
+        waiting = context
+        if self.advisers:
+            scalars = th.cat([scalars, obs["advice"].float()], dim=-1)
+            waiting = th.cat([context, obs["advice_wait"].float()], dim=-1)
         pair = (self.pair_node(h)[:, :, None, :] + self.pair_robot(g)[:, None, :, :]
                 + self.pair_scalars(scalars) + self.pair_context(context)[:, None, None, :])  # (B, N, R, H)
         logits = self.pair_out(pair).flatten(1)  # (B, N * R)
-        return th.cat([logits, self.wait(context), self.value(context)], dim=1)
+        return th.cat([logits, self.wait(waiting), self.value(context)], dim=1)
 
     @staticmethod
     def _messages(h: th.Tensor, obs: dict) -> tuple[th.Tensor, th.Tensor]:
@@ -153,6 +170,151 @@ class DispatchPolicy(MaskableActorCriticPolicy):
         self.action_net = nn.Identity()
         self.value_net = nn.Linear(self.mlp_extractor.latent_dim_vf, 1)
         self.optimizer = self.optimizer_class(self.parameters(), lr=lr_schedule(1), **self.optimizer_kwargs)
+
+
+# ---------------------------------------------------------------- advice: what the planners would do now
+#: the planners (``bimrobot.planning.planners`` names) whose awards at the current decision the advised
+#: policy sees, as pair features (1 for each one's first award, 0.5 for its later awards of the round) and
+#: wait features (1 where it would award nothing now)
+ADVISERS = ("market", "market:quickest-finish", "rule:most-successors", "rule:longest-path", "rule:nearest",
+            "rule:shortest-handling")
+#: node features the advised policy adds to ``NODE_FEATURES``: a ready task's place in its activity's
+#: request heap (1 = the market's next, 2 = the one after, ...; 0 = not ready): the market's order within a kind
+EXTRA_NODE_FEATURES = ("order_in_kind",)
+_ADVICE: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+
+
+def _adviser(name: str) -> Dispatcher:
+    from bimrobot.coordination.market import MarketDispatcher, make_evaluator
+    from bimrobot.planning.planners import RuleDispatcher
+
+    if name.startswith("rule:"):
+        return RuleDispatcher(name.split(":", 1)[1])
+    return MarketDispatcher(make_evaluator(name.split(":", 1)[1] if ":" in name else "least-cost", 0))
+
+
+def advice(env: DispatchEnv) -> dict:
+    """The advised policy's extra arrays at ``env``'s current decision (read-only on the simulation):
+    ``advice`` (max_tasks, max_robots, advisers), ``advice_wait`` (advisers,), ``order_in_kind`` (max_tasks,)."""
+    env = env.unwrapped
+    mine = _ADVICE.setdefault(env, {})
+    pairs = np.zeros((env.max_tasks, env.max_robots, len(ADVISERS)), np.float32)
+    wait = np.zeros(len(ADVISERS), np.float32)
+    order = np.zeros(env.max_tasks, np.float32)
+    if env.sim is None:
+        return {"advice": pairs, "advice_wait": wait, "order_in_kind": order}
+    if mine.get("sim") is not env.sim:  # a new episode: new advisers (the rules keep per-build scores)
+        mine.update(sim=env.sim, dispatchers=[_adviser(name) for name in ADVISERS])
+    for k, dispatcher in enumerate(mine["dispatchers"]):
+        awards = dispatcher.awards(env.sim) or []
+        wait[k] = not awards
+        for rank, award in enumerate(awards):
+            node, robot = divmod(env.action_of(award.request, award.robot), env.max_robots)
+            pairs[node, robot, k] = 1.0 if rank == 0 else 0.5
+    for pool in env.sim.build.pending.values():
+        for rank, request in enumerate(sorted(pool)):  # the heap's order: the request's priority
+            order[env._node_of(request)] = rank + 1
+    return {"advice": pairs, "advice_wait": wait, "order_in_kind": order}
+
+
+def advised_space(env: DispatchEnv) -> gym.spaces.Dict:
+    """``env``'s observation space with the :func:`advice` arrays."""
+    env = env.unwrapped
+    h = len(ADVISERS)
+    return gym.spaces.Dict({
+        **env.observation_space.spaces,
+        "advice": gym.spaces.Box(0.0, 1.0, (env.max_tasks, env.max_robots, h), np.float32),
+        "advice_wait": gym.spaces.Box(0.0, 1.0, (h,), np.float32),
+        "order_in_kind": gym.spaces.Box(0.0, float(env.max_tasks), (env.max_tasks,), np.float32),
+    })
+
+
+def observe(env: gym.Env, advised: bool = True) -> dict:
+    """The observation at ``env``'s current decision, with the :func:`advice` arrays when ``advised``."""
+    env = env.unwrapped
+    obs = env._observation()
+    return {**obs, **advice(env)} if advised else obs
+
+
+class Advised(gym.ObservationWrapper):
+    """``env`` whose observations carry the :func:`advice` arrays (for PPO on the advised policy)."""
+
+    def __init__(self, env: gym.Env):
+        super().__init__(env)
+        self.observation_space = advised_space(env)
+
+    def observation(self, observation: dict) -> dict:
+        return {**observation, **advice(self.env.unwrapped)}
+
+    def action_masks(self) -> np.ndarray:
+        return self.env.unwrapped.action_masks()
+
+
+# ---------------------------------------------------------------- the pilot: a better teacher than the market
+class _Sandbox(DispatchEnv):
+    """The environment without observations, for the pilot's rollouts (the same simulation, about 1.6 x
+    faster): only actions, masks and the result are read from it."""
+
+    def _observation(self) -> dict:
+        return {}
+
+
+def _complete(env: DispatchEnv, prefix: list[int]) -> tuple[float, list[int]]:
+    """Replay ``prefix`` on ``env`` from its start, then let the least-cost market finish the build:
+    (makespan s, every action)."""
+    obs, _ = env.reset(seed=0)
+    done = truncated = False
+    for action in prefix:
+        _, _, done, truncated, _ = env.step(action)
+    actions, market = list(prefix), MarketPolicy()
+    while not (done or truncated):
+        action = market(env)
+        actions.append(action)
+        _, _, done, truncated, _ = env.step(action)
+    return (float(env.result.makespan) if env.result is not None else float("inf")), actions
+
+
+def _candidates(env: DispatchEnv, arrays: dict) -> list[int]:
+    """The advisers' first choices now (awards, or waiting where that is valid), each once."""
+    chosen = []
+    for k in range(len(ADVISERS)):
+        if arrays["advice_wait"][k]:
+            action = env.wait_action if env.sim.can_wait() else None
+        else:
+            node, robot = np.argwhere(arrays["advice"][:, :, k] == 1.0)[0]
+            action = int(node) * env.max_robots + int(robot)
+        if action is not None and action not in chosen:
+            chosen.append(action)
+    return chosen
+
+
+def pilot_demonstrations(problem: DispatchProblem, pad: tuple[int, int, int]) -> tuple[list, list, list, float, float]:
+    """The pilot method (a fortified rollout of the least-cost market) on ``problem``: at each decision
+    where the :data:`ADVISERS` disagree, each of their first choices is tried and the market finishes the
+    build from there; the build follows the shortest complete schedule found so far, so its makespan is
+    never longer than the market's. Returns the advised observations, action masks and actions along that
+    schedule, its makespan and the market's (s)."""
+    env = DispatchEnv(problem, max_tasks=pad[0], max_robots=pad[1], max_edges=pad[2])
+    sandbox = _Sandbox(problem, max_tasks=pad[0], max_robots=pad[1], max_edges=pad[2])
+    best_s, best = _complete(sandbox, [])
+    market_s = best_s
+    env.reset(seed=0)
+    observations, masks, taken = [], [], []
+    done = truncated = False
+    while not (done or truncated):
+        obs = observe(env)
+        choices = _candidates(env, obs)
+        if len(choices) > 1:
+            for action in choices:
+                makespan, actions = _complete(sandbox, taken + [action])
+                if makespan < best_s - 1e-9:
+                    best_s, best = makespan, actions
+        action = best[len(taken)]
+        observations.append(obs)
+        masks.append(env.action_masks())
+        taken.append(action)
+        _, _, done, truncated, _ = env.step(action)
+    return observations, masks, taken, float(env.result.makespan), market_s
 
 
 # ---------------------------------------------------------------- buildings for training
@@ -248,31 +410,50 @@ def _pad(pool: list[PoolEntry]) -> tuple[int, int, int]:
     return max(n), max(r), max(e)
 
 
-def make_training_env(pool: list[PoolEntry], seed: int) -> gym.Env:
-    """One environment drawing the pool's buildings, padded to the largest of them, reward per cent of market."""
+def make_training_env(pool: list[PoolEntry], seed: int, advised: bool = True) -> gym.Env:
+    """One environment drawing the pool's buildings, padded to the largest of them, reward per cent of
+    market; with the :func:`advice` arrays in its observations when ``advised``."""
     n, r, e = _pad(pool)
     drawn = _Drawn(pool)
-    env = PerCentOfMarket(DispatchEnv(drawn, max_tasks=n, max_robots=r, max_edges=e), drawn)
+    inner = DispatchEnv(drawn, max_tasks=n, max_robots=r, max_edges=e)
+    env = PerCentOfMarket(Advised(inner) if advised else inner, drawn)
     env.reset(seed=seed)
     return env
 
 
 # ---------------------------------------------------------------- imitation of the market
-def market_demonstrations(pool: list[PoolEntry], pad: tuple[int, int, int]) -> tuple[dict, np.ndarray, np.ndarray]:
+def market_demonstrations(pool: list[PoolEntry], pad: tuple[int, int, int], advised: bool = False) -> tuple[dict, np.ndarray, np.ndarray]:
     """Every decision of the least-cost market on the pool's buildings, padded to ``pad``:
     (observations stacked per key, action masks (D, A), the market's actions (D,))."""
     observations, masks, actions = [], [], []
     for entry in pool:
         env = DispatchEnv(entry.problem, max_tasks=pad[0], max_robots=pad[1], max_edges=pad[2])
         policy = MarketPolicy()
-        obs, _ = env.reset(seed=0)
+        env.reset(seed=0)
         done = truncated = False
         while not (done or truncated):
+            observations.append(observe(env, advised))
             action = policy(env)
-            observations.append(obs)
             masks.append(env.action_masks())
             actions.append(action)
-            obs, _, done, truncated, _ = env.step(action)
+            _, _, done, truncated, _ = env.step(action)
+    return _stack(observations, masks, actions)
+
+
+def pilot_teacher(pool: list[PoolEntry], pad: tuple[int, int, int]) -> tuple[tuple[dict, np.ndarray, np.ndarray], dict]:
+    """The pilot's decisions (:func:`pilot_demonstrations`) on the pool's buildings, padded to ``pad``, as
+    demonstrations, and {spec: the pilot's makespan (s)}."""
+    observations, masks, actions, makespans = [], [], [], {}
+    for entry in pool:
+        obs, mask, taken, makespan, _ = pilot_demonstrations(entry.problem, pad)
+        observations += obs
+        masks += mask
+        actions += taken
+        makespans[entry.spec] = round(makespan, 3)
+    return _stack(observations, masks, actions), makespans
+
+
+def _stack(observations: list[dict], masks: list, actions: list) -> tuple[dict, np.ndarray, np.ndarray]:
     stacked = {k: np.stack([o[k] for o in observations]) for k in observations[0]}
     return stacked, np.stack(masks), np.array(actions, dtype=np.int64)
 
@@ -332,11 +513,19 @@ def new_model(env: gym.Env, seed: int, n_steps: int = 256, batch_size: int = 64,
                        clip_range=0.1, device="cpu", verbose=0)
 
 
+#: the teachers :func:`train` imitates: the pilot (:func:`pilot_demonstrations`, advised policy) or the
+#: least-cost market (the first policy's teacher, no advice)
+TEACHERS = ("pilot", "market")
+
+
 def train(seed: int, steps: int, imitation_steps: int = 400, specs=TRAIN_SPECS, command: str | None = None,
-          on_imitated=None) -> TrainResult:
-    """Train a policy on generated buildings: imitation of the market (``imitation_steps``, 0 for none),
+          on_imitated=None, teacher: str = "pilot") -> TrainResult:
+    """Train a policy on generated buildings: imitation of ``teacher`` (``imitation_steps``, 0 for none),
     then ``steps`` PPO env steps (0 for none). ``on_imitated(model, accuracy)`` is called between the two.
-    Seeded: the same arguments give the same weights."""
+    The pilot's policy is advised (:data:`ADVISERS`); the market's is not. Seeded: the same arguments give
+    the same weights."""
+    if teacher not in TEACHERS:
+        raise InputError(f"unknown teacher {teacher!r}: choose one of {', '.join(TEACHERS)}")
     if not 0 <= steps <= MAX_STEPS:
         raise InputError(f"--steps must be from 0 to {MAX_STEPS:,} env steps, got {steps}")
     if not 0 <= imitation_steps <= MAX_STEPS:
@@ -345,11 +534,15 @@ def train(seed: int, steps: int, imitation_steps: int = 400, specs=TRAIN_SPECS, 
         raise InputError(f"--seed must be a whole number >= 0, got {seed}")
     th.manual_seed(seed)
     pool = training_pool(seed, specs)
-    env = make_training_env(pool, seed)
+    advised = teacher == "pilot"
+    env = make_training_env(pool, seed, advised)
     model = new_model(env, seed)
-    accuracy = None
+    accuracy, taught = None, {}
     if imitation_steps:
-        demonstrations = market_demonstrations(pool, _pad(pool))
+        if advised:
+            demonstrations, taught = pilot_teacher(pool, _pad(pool))
+        else:
+            demonstrations = market_demonstrations(pool, _pad(pool))
         accuracy = imitate(model.policy, demonstrations, imitation_steps, seed)
         if on_imitated is not None:
             on_imitated(model, accuracy)
@@ -359,8 +552,10 @@ def train(seed: int, steps: int, imitation_steps: int = 400, specs=TRAIN_SPECS, 
         "command": command or shlex.join(["bimrobot", "plan", "train", "--seed", str(seed), "--steps", str(steps),
                                            "--imitation-steps", str(imitation_steps), "-o", "OUT"]),
         "seed": seed, "steps": steps, "imitation_steps": imitation_steps,
-        "imitation_accuracy": accuracy, "hidden": HIDDEN, "rounds": ROUNDS,
+        "imitation_accuracy": accuracy, "hidden": HIDDEN, "rounds": ROUNDS, "teacher": teacher,
+        "advisers": list(ADVISERS) if advised else [],
         "training_buildings": {p.spec: round(p.market_s, 3) for p in pool},
+        "teacher_makespans_s": taught,
         "note": "trained on generated buildings only; real IFC models are the test set",
     }
     return TrainResult(model, accuracy, pool, meta)
@@ -411,7 +606,10 @@ def load_policy(path: str | Path, env: gym.Env):
         raise InputError(f"{path} is not a saved policy zip ({type(exc).__name__})") from None
     if not params or "policy" not in params:
         raise InputError(f"{path} is not a saved policy zip: it holds no policy weights")
-    policy = DispatchPolicy(env.observation_space, env.action_space, lambda _: 0.0)
+    scalars = params["policy"].get("features_extractor.pair_scalars.weight")
+    advised = scalars is not None and scalars.shape[1] > PAIR_FEATURES
+    policy = DispatchPolicy(advised_space(env) if advised else env.unwrapped.observation_space, env.action_space,
+                            lambda _: 0.0)
     try:
         policy.load_state_dict(params["policy"])
     except RuntimeError:
@@ -429,7 +627,8 @@ class LearnedPolicy:
 
     def __call__(self, env: gym.Env) -> int:
         env = env.unwrapped
-        obs = {k: th.as_tensor(v[None]).float() for k, v in env._observation().items()}
+        advised = bool(self.policy.features_extractor.advisers)
+        obs = {k: th.as_tensor(v[None]).float() for k, v in observe(env, advised).items()}
         with th.no_grad():
             action = self.policy.get_distribution(obs, action_masks=env.action_masks()[None]).get_actions(deterministic=True)
         return int(action[0])
@@ -520,4 +719,5 @@ class ReplayDispatcher(Dispatcher):
 
 __all__ = ["DEFAULT_POLICY", "DispatchExtractor", "LearnedPlanner", "LearnedPolicy", "ReplayDispatcher", "train",
            "save", "load_policy", "read_meta", "imitate", "imitation_accuracy", "market_demonstrations",
-           "training_pool", "generated_problem", "env_for"]
+           "training_pool", "generated_problem", "env_for", "ADVISERS", "Advised", "advice", "observe",
+           "pilot_demonstrations", "pilot_teacher", "TEACHERS"]
