@@ -18,7 +18,7 @@ from bimrobot.site.fleet import Fleet
 from bimrobot.core.errors import InputError
 from bimrobot.rcan.activities import ActivityKind, RcanActivity
 from bimrobot.rcan.backends import DEFAULT_BACKEND
-from bimrobot.rcan.backends.interfaces import ActivityResult
+from bimrobot.rcan.backends.info import ActivityResult
 from bimrobot.rcan.broker import (ACTIVITY_TOPIC, DEAD_LETTER_TOPIC, RESULT_TOPIC, STATE_TOPIC, Broker, Message, Router,
                                   robot_topic)
 from bimrobot.rcan.generation import NodeGenerator, TaskAllocator
