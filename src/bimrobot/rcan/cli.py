@@ -24,15 +24,27 @@ RUN_EXAMPLES = """examples:
 
 def register(subparsers) -> None:
     """Add this part's sub-commands to the bimrobot parser."""
-    from bimrobot.bim.selection import add_selection_options
-    from bimrobot.bim.unknown_weight import add_unknown_weight_option
-
     rcan = subparsers.add_parser("rcan", help="RCAN: drive robots from construction activities (thesis ch. 5)",
                                  description="Robot Construction Action Nodes: the middle layer between smart "
                                              "components and robots.", epilog=RUN_EXAMPLES,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     commands = rcan.add_subparsers(dest="rcan_command", metavar="RCAN_COMMAND")
     rcan.set_defaults(func=lambda args: (rcan.print_help(), 1)[1])
+    _add_run(commands)
+    _add_executor(commands)
+    _add_capabilities(commands)
+
+    from bimrobot.rcan.backends import backend_commands
+
+    for register_commands in backend_commands():  # e.g. ros2's robot-node
+        register_commands(commands)
+
+
+def _add_run(commands) -> None:
+    """``rcan run``: an experiment, a schedule or a graph through RCAN. Long only because the command has
+    many options (one ``add_argument`` each)."""
+    from bimrobot.bim.selection import add_selection_options
+    from bimrobot.bim.unknown_weight import add_unknown_weight_option
 
     run = commands.add_parser("run", help="run an experiment or a whole schedule through RCAN",
                               description="Run the thesis' experiments or a schedule CSV through RCAN and print "
@@ -70,6 +82,9 @@ def register(subparsers) -> None:
     run.add_argument("-q", "--quiet", action="store_true", help="no interaction log, only the summary")
     run.set_defaults(func=_run)
 
+
+def _add_executor(commands) -> None:
+    """``rcan executor``: serve robots' nodes from Redis in this process."""
     executor = commands.add_parser("executor", help="serve robots' RCAN nodes from Redis in this process",
                                    description="A robot executor in its own process: takes RCAN nodes for its "
                                                "robots from Redis, drives the backend, sends results back.",
@@ -83,16 +98,14 @@ def register(subparsers) -> None:
                           help="worker threads: robots executed at the same time (default min(16, robots))")
     executor.set_defaults(func=_executor)
 
+
+def _add_capabilities(commands) -> None:
+    """``rcan capabilities``: Table 5.2 and the fleet's robots."""
     caps = commands.add_parser("capabilities", help="print Table 5.2 and the fleet's robots (what each performs)",
                                epilog="example:\n  bimrobot rcan capabilities --fleet my.yaml",
                                formatter_class=argparse.RawDescriptionHelpFormatter)
     _fleet_option(caps)
     caps.set_defaults(func=_capabilities)
-
-    from bimrobot.rcan.backends import backend_commands
-
-    for register_commands in backend_commands():  # e.g. ros2's robot-node
-        register_commands(commands)
 
 
 def _common(parser: argparse.ArgumentParser) -> None:
@@ -303,23 +316,11 @@ def _unknown_weight_notice(activities, model_given: bool) -> list[str]:
 
 
 def _run(args) -> int:
-    from bimrobot.core.io import atomic_output_file, signature
+    from bimrobot.rcan.backends import backend_class
     from bimrobot.rcan.state_manager import removed_unless_used
     from bimrobot.rcan.system import run_plan
 
-    if args.no_local_executors and not args.redis:
-        raise InputError("--no-local-executors needs --redis: executors in other processes talk through Redis")
-    if args.max_attempts < 1:
-        raise InputError(f"--max-attempts must be at least 1, got {args.max_attempts}")
-    if args.graph_out and not (args.graph or (args.schedule and (args.model or _is_ifc(args.schedule)))):
-        raise InputError("--graph-out needs --graph, or --schedule and --model: the graph links the model's elements "
-                         "and the schedule")
-    if args.model and not args.schedule:
-        raise InputError("--model is read with --schedule; the experiments and the graph bring their own components")
-    if not all(math.isfinite(v) and abs(v) <= 1e7 for v in args.yard):
-        raise InputError(f"--yard must be three finite coordinates within +-1e7 m, got {' '.join(map(str, args.yard))}")
-    if not (math.isfinite(args.standoff) and 0 <= args.standoff <= 100):
-        raise InputError(f"--standoff must be between 0 and 100 m, got {args.standoff}")
+    _check_run_args(args)
     options = _backend_options(args)
     redis_options = _redis_options(args)
     inputs = _inputs(args)
@@ -335,30 +336,17 @@ def _run(args) -> int:
 
         observers.append(GraphStateObserver(graph, activities))
     log = None if args.quiet else (lambda line: print(line, flush=True))
-    from bimrobot.rcan.backends import backend_class
-
     with removed_unless_used(args.state_db), backend_class(args.backend).around_run(args, offset):
         report = run_plan(activities, capabilities, backend=args.backend, state_db=args.state_db,
                           redis_url=args.redis, spawn_executors=not args.no_local_executors,
                           max_attempts=args.max_attempts, log=log, backend_options=options,
                           observers=observers, retry_escalated=args.retry_escalated, redis_options=redis_options,
                           reallocate=args.reallocate)
-    states = {}
-    for state in report.component_states.values():
-        states[state] = states.get(state, 0) + 1
-    print(f"== {report.status}: {len(report.done)}/{len(activities)} activities done"
-          + (f" ({report.resumed} re-sent after a resume)" if report.resumed else "")
-          + f"; components: {', '.join(f'{n} {s}' for s, n in sorted(states.items()))}; "
-          f"makespan {report.makespan_s:.1f} s (robot time), wall {report.wall_s:.2f} s", flush=True)
+    _print_summary(report, len(activities))
     _print_physics(report.backend_summary)
     _print_outcome(report)
     if args.report:
-        data = {"generator": signature("rcan run report"), **asdict(report)}
-        data["model_offset_xy_m"] = list(offset)  # model -> site: where a fleet's site homes were placed
-        data["unknown_weight"] = {**(weights.as_dict() if weights else {"rule": str(args.unknown_weight)}),
-                                  "components_with_unknown_weight": unknown}
-        with atomic_output_file(args.report, inputs=inputs, option="--report") as tmp:
-            tmp.write_text(json.dumps(data, indent=2, default=str), encoding="utf-8")
+        _write_report(args, report, offset, weights, unknown, inputs)
     if graph is not None and args.graph_out:
         from bimrobot.lbd.store import SUFFIX_FORMATS
 
@@ -366,6 +354,46 @@ def _run(args) -> int:
         graph.serialize(args.graph_out, format=fmt, inputs=inputs, option="--graph-out")
         print(f"construction graph with live states: {args.graph_out}", flush=True)
     return 0 if report.status == "completed" else 1
+
+
+def _check_run_args(args) -> None:
+    """The options of ``rcan run`` that need no file: combinations, attempts, yard (m) and stand-off (m)."""
+    if args.no_local_executors and not args.redis:
+        raise InputError("--no-local-executors needs --redis: executors in other processes talk through Redis")
+    if args.max_attempts < 1:
+        raise InputError(f"--max-attempts must be at least 1, got {args.max_attempts}")
+    if args.graph_out and not (args.graph or (args.schedule and (args.model or _is_ifc(args.schedule)))):
+        raise InputError("--graph-out needs --graph, or --schedule and --model: the graph links the model's elements "
+                         "and the schedule")
+    if args.model and not args.schedule:
+        raise InputError("--model is read with --schedule; the experiments and the graph bring their own components")
+    if not all(math.isfinite(v) and abs(v) <= 1e7 for v in args.yard):
+        raise InputError(f"--yard must be three finite coordinates within +-1e7 m, got {' '.join(map(str, args.yard))}")
+    if not (math.isfinite(args.standoff) and 0 <= args.standoff <= 100):
+        raise InputError(f"--standoff must be between 0 and 100 m, got {args.standoff}")
+
+
+def _print_summary(report, n_activities: int) -> None:
+    """The run's line: status, activities done, components per state, makespan (robot s) and wall time (s)."""
+    states = {}
+    for state in report.component_states.values():
+        states[state] = states.get(state, 0) + 1
+    print(f"== {report.status}: {len(report.done)}/{n_activities} activities done"
+          + (f" ({report.resumed} re-sent after a resume)" if report.resumed else "")
+          + f"; components: {', '.join(f'{n} {s}' for s, n in sorted(states.items()))}; "
+          f"makespan {report.makespan_s:.1f} s (robot time), wall {report.wall_s:.2f} s", flush=True)
+
+
+def _write_report(args, report, offset, weights, unknown: list[str], inputs: list) -> None:
+    """The --report file (JSON): the run report, the model -> site offset (m) and the unknown weights."""
+    from bimrobot.core.io import atomic_output_file, signature
+
+    data = {"generator": signature("rcan run report"), **asdict(report)}
+    data["model_offset_xy_m"] = list(offset)  # model -> site: where a fleet's site homes were placed
+    data["unknown_weight"] = {**(weights.as_dict() if weights else {"rule": str(args.unknown_weight)}),
+                              "components_with_unknown_weight": unknown}
+    with atomic_output_file(args.report, inputs=inputs, option="--report") as tmp:
+        tmp.write_text(json.dumps(data, indent=2, default=str), encoding="utf-8")
 
 
 def _print_physics(summary: dict) -> None:

@@ -143,6 +143,31 @@ class Ros2Backend(ExecutorBackend):
                 return failed(f"no ROS 2 action server {action_name(node.robot, node.kind)} within "
                               f"{self.server_timeout_s:g} s", lost=True)
             self._seen.add(key)
+        heard = [time.monotonic()]
+
+        def on_feedback(message) -> None:
+            heard[0] = time.monotonic()
+            if feedback and message.feedback.phase != HEARTBEAT:
+                feedback(float(message.feedback.progress), message.feedback.phase)
+
+        goal_handle = self._send_goal(client, self._goal(node, attempt, ready_at_s), on_feedback)
+        if goal_handle is None:
+            return failed(f"robot {node.robot} did not answer the {node.kind.label.lower()} goal within "
+                          f"{self.server_timeout_s:g} s", lost=True)
+        if not goal_handle.accepted:
+            return failed(f"robot {node.robot} rejected the {node.kind.label.lower()} goal")
+        future = goal_handle.get_result_async()
+        problem = self._watch(future, goal_handle, node, heard)
+        if problem is not None:
+            return failed(*problem)
+        r = future.result().result
+        if r.success and node.kind in (ActivityKind.MOVE_TO_COMPONENT, ActivityKind.TRANSPORT):
+            self._base[node.robot] = node.target
+        return ActivityResult(node.activity_id, attempt, node.robot, bool(r.success), r.message, r.started_s, r.finished_s)
+
+    def _goal(self, node: RcanNode, attempt: int, ready_at_s: float):
+        """The ``ConstructionActivity`` goal of ``node``: target pose (metres, yaw as a quaternion in ROS's
+        x, y, z, w order), weight in kg (NaN: unknown), the robot time it may start at (s)."""
         goal = self._action.Goal()
         goal.activity_id, goal.attempt, goal.component_id = node.activity_id, attempt, node.component_id
         goal.activity, goal.robot = node.kind.value, node.robot
@@ -154,44 +179,38 @@ class Ros2Backend(ExecutorBackend):
         goal.weight_kg = math.nan if weight is None else float(weight)  # NaN: unknown (a float field)
         goal.ready_at_s = float(ready_at_s)
         goal.release_after = bool(node.activity.releases_robot)
-        heard = [time.monotonic()]
+        return goal
 
-        def on_feedback(message) -> None:
-            heard[0] = time.monotonic()
-            if feedback and message.feedback.phase != HEARTBEAT:
-                feedback(float(message.feedback.progress), message.feedback.phase)
-
+    def _send_goal(self, client, goal, on_feedback):
+        """The goal handle the server answers with, or None when it does not answer within the server timeout."""
         goal_handle, answer_by = None, time.monotonic() + self.server_timeout_s
         while goal_handle is None and not self._closed.is_set() and time.monotonic() < answer_by:
             # DDS can lose a request (e.g. the first one just after discovery): the goal is sent again
             # after GOAL_RESEND_S without an answer; the robot runs an activity id once, so a copy is harmless
             wait_s = min(GOAL_RESEND_S, answer_by - time.monotonic())
             goal_handle = self._wait(client.send_goal_async(goal, feedback_callback=on_feedback), wait_s)
-        if goal_handle is None:
-            return failed(f"robot {node.robot} did not answer the {node.kind.label.lower()} goal within "
-                          f"{self.server_timeout_s:g} s", lost=True)
-        if not goal_handle.accepted:
-            return failed(f"robot {node.robot} rejected the {node.kind.label.lower()} goal")
-        future, deadline = goal_handle.get_result_async(), self.deadline_s(node)
+        return goal_handle
+
+    def _watch(self, future, goal_handle, node: RcanNode, heard: list[float]) -> tuple[str, bool] | None:
+        """Wait for the result ``future``; None when it came, else why the activity failed (message, robot
+        lost): the run stopped, no feedback within the liveness, or the deadline passed (goal cancelled)."""
+        deadline = self.deadline_s(node)
         started = heard[0] = time.monotonic()
         done = threading.Event()
         future.add_done_callback(lambda _: done.set())
         while not done.wait(0.2):
             now = time.monotonic()
             if self._closed.is_set():
-                return failed("the run stopped before the robot's result came")
+                return "the run stopped before the robot's result came", False
             if now - heard[0] > self.liveness_s:  # (the ROS graph lags: a dead server stays listed for ~20 s)
-                return failed(f"robot {node.robot} stopped answering: no feedback for {now - heard[0]:.1f} s "
-                              f"(liveness {self.liveness_s:g} s) during {node.kind.label.lower()}", lost=True)
+                return (f"robot {node.robot} stopped answering: no feedback for {now - heard[0]:.1f} s "
+                        f"(liveness {self.liveness_s:g} s) during {node.kind.label.lower()}", True)
             if now - started > deadline:
                 with contextlib.suppress(Exception):
                     goal_handle.cancel_goal_async()
-                return failed(f"no result from robot {node.robot} within its {deadline:.0f} s deadline "
-                              f"(expected {self.expected_s(node):.0f} robot s); the goal was cancelled")
-        r = future.result().result
-        if r.success and node.kind in (ActivityKind.MOVE_TO_COMPONENT, ActivityKind.TRANSPORT):
-            self._base[node.robot] = node.target
-        return ActivityResult(node.activity_id, attempt, node.robot, bool(r.success), r.message, r.started_s, r.finished_s)
+                return (f"no result from robot {node.robot} within its {deadline:.0f} s deadline "
+                        f"(expected {self.expected_s(node):.0f} robot s); the goal was cancelled", False)
+        return None
 
     def _wait(self, future, timeout_s: float):
         done = threading.Event()

@@ -77,48 +77,19 @@ def serve_robot_node(capabilities: Fleet, time_scale: float = 0.0, failure_proba
     from rclpy.action import ActionServer
     from rclpy.callback_groups import ReentrantCallbackGroup
     from rclpy.executors import MultiThreadedExecutor
+    from rclpy.signals import SignalHandlerOptions
 
-    from bimrobot.rcan.activities import Pose, RcanActivity
     from bimrobot.rcan.backends.sim import SimBackend
 
     robots_here = SimBackend(capabilities, db_path, time_scale, failure_probability, seed)  # the sim backend's features
     context = rclpy.Context()
-    from rclpy.signals import SignalHandlerOptions
-
     rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)  # SIGINT/SIGTERM: handled below
     node = rclpy.create_node("bimrobot_robots", context=context)
     group = ReentrantCallbackGroup()
     heart = _Heartbeat()
-
-    def make_callback(robot: str, kind: ActivityKind):
-        def execute(goal_handle):
-            g = goal_handle.request
-            q = g.target_pose.orientation
-            yaw = yaw_of_quat_xyzw(q.x, q.y, q.z, q.w)  # ROS's order
-            p = g.target_pose.position
-            activity = RcanActivity(g.activity_id, g.component_id, kind, Pose(p.x, p.y, p.z, yaw),
-                                    None if math.isnan(g.weight_kg) else g.weight_kg,
-                                    frees_robot=bool(g.release_after))
-            rcan_node = RcanNode(f"rcan/{g.activity_id}", activity, robot, "ros2")
-
-            def publish_feedback(progress: float, phase: str) -> None:
-                message = action.Feedback()
-                message.progress, message.phase = float(progress), phase
-                with contextlib.suppress(Exception):  # the goal may be gone (cancelled, client closed)
-                    goal_handle.publish_feedback(message)
-
-            with heart.beating(publish_feedback):  # liveness for the client while the robot works
-                outcome = robots_here.execute(rcan_node, int(g.attempt), float(g.ready_at_s), publish_feedback)
-            goal_handle.succeed()  # the action completed; success/failure of the activity is in the result
-            result = action.Result()
-            result.success, result.message = outcome.success, outcome.message
-            result.started_s, result.finished_s = outcome.started_s, outcome.finished_s
-            return result
-
-        return execute
-
     servers = [
-        ActionServer(node, action, action_name(robot, kind), make_callback(robot, kind), callback_group=group)
+        ActionServer(node, action, action_name(robot, kind), _goal_callback(robots_here, heart, action, robot, kind),
+                     callback_group=group)
         for robot, spec in capabilities.by_name.items() for kind in ActivityKind
         if spec.performs(kind) and (robots is None or robot in robots)
     ]
@@ -144,6 +115,39 @@ def serve_robot_node(capabilities: Fleet, time_scale: float = 0.0, failure_proba
         rclpy.shutdown(context=context)
         robots_here.close()
     return 0
+
+
+def _goal_callback(robots_here, heart: _Heartbeat, action, robot: str, kind: ActivityKind):
+    """The execute callback of the action server of ``robot``'s ``kind`` activities: the goal (pose in
+    metres, yaw in radians, weight in kg, NaN: unknown) becomes an RCAN node that ``robots_here`` (the sim
+    backend) executes, with heartbeats while it works; the action's result carries the activity's outcome."""
+    from bimrobot.rcan.activities import Pose, RcanActivity
+
+    def execute(goal_handle):
+        g = goal_handle.request
+        q = g.target_pose.orientation
+        yaw = yaw_of_quat_xyzw(q.x, q.y, q.z, q.w)  # ROS's order
+        p = g.target_pose.position
+        activity = RcanActivity(g.activity_id, g.component_id, kind, Pose(p.x, p.y, p.z, yaw),
+                                None if math.isnan(g.weight_kg) else g.weight_kg,
+                                frees_robot=bool(g.release_after))
+        rcan_node = RcanNode(f"rcan/{g.activity_id}", activity, robot, "ros2")
+
+        def publish_feedback(progress: float, phase: str) -> None:
+            message = action.Feedback()
+            message.progress, message.phase = float(progress), phase
+            with contextlib.suppress(Exception):  # the goal may be gone (cancelled, client closed)
+                goal_handle.publish_feedback(message)
+
+        with heart.beating(publish_feedback):  # liveness for the client while the robot works
+            outcome = robots_here.execute(rcan_node, int(g.attempt), float(g.ready_at_s), publish_feedback)
+        goal_handle.succeed()  # the action completed; success/failure of the activity is in the result
+        result = action.Result()
+        result.success, result.message = outcome.success, outcome.message
+        result.started_s, result.finished_s = outcome.started_s, outcome.finished_s
+        return result
+
+    return execute
 
 
 @contextlib.contextmanager
