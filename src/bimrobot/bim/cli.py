@@ -14,8 +14,14 @@ EXAMPLE_NAMES = ("steel-frame", "greenhouse", "rcan-experiment-1", "rcan-experim
 
 def register(subparsers) -> None:
     """Add this part's sub-commands to the bimrobot parser."""
-    raw = argparse.RawDescriptionHelpFormatter
+    _add_example(subparsers)
+    _add_inspect(subparsers)
+    _add_split(subparsers)
 
+
+def _add_example(subparsers) -> None:
+    """``bimrobot example``: write a built-in building."""
+    raw = argparse.RawDescriptionHelpFormatter
     example = subparsers.add_parser(
         "example",
         help="write a built-in example building (IFC4, metres)",
@@ -36,6 +42,10 @@ def register(subparsers) -> None:
     )
     example.set_defaults(func=_example)
 
+
+def _add_inspect(subparsers) -> None:
+    """``bimrobot inspect``: summarise a model."""
+    raw = argparse.RawDescriptionHelpFormatter
     inspect = subparsers.add_parser(
         "inspect",
         help="summarise what an IFC model holds",
@@ -56,6 +66,10 @@ def register(subparsers) -> None:
     )
     inspect.set_defaults(func=_inspect)
 
+
+def _add_split(subparsers) -> None:
+    """``bimrobot split``: one IFC file per assembly or element."""
+    raw = argparse.RawDescriptionHelpFormatter
     split = subparsers.add_parser(
         "split",
         help="write one IFC file per assembly or building element",
@@ -186,6 +200,35 @@ def summarize(model) -> dict:
     in ``suspect_by_class`` (count, kg, implied densities) and listed one by one, with the reason, under
     ``suspect_weights``. "missing" counts elements whose weight is unknown.
     """
+    suspect_weights = _suspect_weights(model)
+    per_storey = Counter(e.storey_id for e in model.elements.values())
+    return {
+        "file": str(model.source),
+        "schema": model.schema,
+        "project": model.project_name,
+        "site": model.site_name,
+        "units": model.units,
+        "elements": len(model.elements),
+        "classes": _by_class(model),
+        "storeys": [
+            {"GlobalId": s.global_id, "name": s.name, "elevation_m": s.elevation, "elements": per_storey.get(s.global_id, 0)}
+            for s in model.storeys
+        ],
+        "elements_without_storey": per_storey.get(None, 0),
+        "connections": {
+            "count": len(model.connections),
+            "types": dict(Counter(c.connection_type or "(none)" for c in model.connections)),
+        },
+        "weights": _weights(model, suspect_weights),
+        "suspect_by_class": _suspect_by_class(suspect_weights),
+        "goals_from_body": _goals_from_body(model),
+        "suspect_weights": suspect_weights,
+        "skipped": [{"GlobalId": s.global_id, "class": s.ifc_class, "name": s.name, "reason": s.reason} for s in model.skipped],
+    }
+
+
+def _suspect_weights(model) -> list[dict]:
+    """One row per element whose weight :func:`~bimrobot.bim.quantities.weight_check` finds implausible."""
     from bimrobot.bim.quantities import weight_check
 
     suspect_weights = []
@@ -204,7 +247,11 @@ def summarize(model) -> dict:
                     "reason": reason,
                 }
             )
-    suspect = {row["GlobalId"] for row in suspect_weights}
+    return suspect_weights
+
+
+def _by_class(model) -> dict[str, dict]:
+    """Per IFC class, sorted: element count, total weight (kg) and elements without a weight."""
     by_class: dict[str, dict] = {}
     for element in model.elements.values():
         row = by_class.setdefault(element.ifc_class, {"count": 0, "weight_kg": 0.0, "weights_missing": 0})
@@ -215,12 +262,29 @@ def summarize(model) -> dict:
             row["weight_kg"] += element.weight_kg
     for row in by_class.values():
         row["weight_kg"] = round(row["weight_kg"], 3)
-    per_storey = Counter(e.storey_id for e in model.elements.values())
+    return dict(sorted(by_class.items()))
+
+
+def _weights(model, suspect_weights: list[dict]) -> dict:
+    """How many weights were found, missing and suspect, by source (count and kg), and the totals (kg)."""
     sources = Counter(e.weight_source.value for e in model.elements.values())
     found = [e for e in model.elements.values() if e.weight_kg is not None]
     source_kg: dict[str, float] = {}
     for element in found:
         source_kg[element.weight_source.value] = source_kg.get(element.weight_source.value, 0.0) + element.weight_kg
+    return {
+        "found": len(found),
+        "missing": sources.get("unknown", 0),
+        "suspect": len(suspect_weights),
+        "by_source": dict(sources),
+        "by_source_kg": {source: round(kg, 3) for source, kg in source_kg.items()},
+        "total_kg": round(sum(e.weight_kg for e in found), 3),
+        "suspect_kg": round(sum(row["weight_kg"] for row in suspect_weights), 3),
+    }
+
+
+def _suspect_by_class(suspect_weights: list[dict]) -> dict[str, dict]:
+    """The suspect weights per class, most first: count, kg, the range of implied densities (kg/m3), an example."""
     suspect_by_class: dict[str, dict] = {}
     for row in suspect_weights:
         entry = suspect_by_class.setdefault(row["class"], {"count": 0, "weight_kg": 0.0, "implied_kg_m3": [], "example": row["GlobalId"]})
@@ -231,44 +295,20 @@ def summarize(model) -> dict:
         implied = [v for v in entry.pop("implied_kg_m3") if v == v]
         entry["weight_kg"] = round(entry["weight_kg"], 3)
         entry["implied_kg_m3"] = [round(min(implied), 1), round(max(implied), 1)] if implied else None
+    return dict(sorted(suspect_by_class.items(), key=lambda item: (-item[1]["count"], item[0])))
+
+
+def _goals_from_body(model) -> dict:
+    """The elements whose position was taken from their body, not their placement (count, by class, each)."""
+    relocated = getattr(model, "relocated", ())
     return {
-        "file": str(model.source),
-        "schema": model.schema,
-        "project": model.project_name,
-        "site": model.site_name,
-        "units": model.units,
-        "elements": len(model.elements),
-        "classes": dict(sorted(by_class.items())),
-        "storeys": [
-            {"GlobalId": s.global_id, "name": s.name, "elevation_m": s.elevation, "elements": per_storey.get(s.global_id, 0)}
-            for s in model.storeys
+        "count": len(relocated),
+        "by_class": dict(Counter(r.ifc_class for r in relocated).most_common()),
+        "elements": [
+            {"GlobalId": r.global_id, "class": r.ifc_class, "name": r.name, "moved_m": r.distance_m,
+             "file_origin_m": list(r.file_origin), "origin_m": list(r.origin)}
+            for r in relocated
         ],
-        "elements_without_storey": per_storey.get(None, 0),
-        "connections": {
-            "count": len(model.connections),
-            "types": dict(Counter(c.connection_type or "(none)" for c in model.connections)),
-        },
-        "weights": {
-            "found": len(found),
-            "missing": sources.get("unknown", 0),
-            "suspect": len(suspect_weights),
-            "by_source": dict(sources),
-            "by_source_kg": {source: round(kg, 3) for source, kg in source_kg.items()},
-            "total_kg": round(sum(e.weight_kg for e in found), 3),
-            "suspect_kg": round(sum(row["weight_kg"] for row in suspect_weights), 3),
-        },
-        "suspect_by_class": dict(sorted(suspect_by_class.items(), key=lambda item: (-item[1]["count"], item[0]))),
-        "goals_from_body": {
-            "count": len(getattr(model, "relocated", ())),
-            "by_class": dict(Counter(r.ifc_class for r in getattr(model, "relocated", ())).most_common()),
-            "elements": [
-                {"GlobalId": r.global_id, "class": r.ifc_class, "name": r.name, "moved_m": r.distance_m,
-                 "file_origin_m": list(r.file_origin), "origin_m": list(r.origin)}
-                for r in getattr(model, "relocated", ())
-            ],
-        },
-        "suspect_weights": suspect_weights,
-        "skipped": [{"GlobalId": s.global_id, "class": s.ifc_class, "name": s.name, "reason": s.reason} for s in model.skipped],
     }
 
 

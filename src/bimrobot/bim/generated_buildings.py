@@ -21,7 +21,7 @@ import ifcopenshell.api.type
 import ifcopenshell.guid
 import ifcopenshell.util.placement
 
-from bimrobot.bim.example_parts import (BEAM_END_GAP, CLIP_ANGLE, CONCRETE_DENSITY, FOOTING_SIZE, STEEL_DENSITY,
+from bimrobot.bim.example_parts import (BEAM_END_GAP, CONCRETE_DENSITY, FOOTING_SIZE, STEEL_DENSITY,
                                         W250X73, W310X38_7, ISection, _Author, _frame, _translation, _GUID_NAMESPACE)
 
 #: The kinds of generated building (:class:`Layout`).
