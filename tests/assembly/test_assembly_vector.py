@@ -8,11 +8,19 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import bimrobot.assembly as assembly
-import bimrobot.assembly.vector as vector
 from bimrobot.assembly.env import AssemblyEnv
 from bimrobot.assembly.planner import plan
-from bimrobot.assembly.vector import AssemblySB3VecEnv, AssemblyVectorEnv, BatchedAssemblySim
 from bimrobot.core.errors import InputError
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _heavy_imports():
+    """bimrobot.assembly.vector with numba (about 0.6 s of imports), imported when these tests run, not at
+    collection."""
+    global vector, AssemblySB3VecEnv, AssemblyVectorEnv, BatchedAssemblySim
+    import bimrobot.assembly.vector as vector
+    from bimrobot.assembly.vector import AssemblySB3VecEnv, AssemblyVectorEnv, BatchedAssemblySim
+
 
 INVERSE = {0: 2, 1: 3, 2: 0, 3: 1, 4: 5, 5: 4}
 

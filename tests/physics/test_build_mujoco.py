@@ -1,14 +1,16 @@
 """`bimrobot build --backend mujoco`: the chapter-4 steel frame's schedule executed by robots acting
 physically in MuJoCo."""
 
+import importlib.util
 import json
 import os
 
 import pytest
 
-pytest.importorskip("mujoco")
-pytest.importorskip("mink")
-pytest.importorskip("pyastar2d")
+# found, not imported: MuJoCo and mink cost about 1 s of imports, paid when the tests run, not at collection
+MISSING = [name for name in ("mujoco", "mink", "pyastar2d") if importlib.util.find_spec(name) is None]
+if MISSING:
+    pytest.skip(f"{', '.join(MISSING)} not installed (the physics extra)", allow_module_level=True)
 
 from bimrobot.bim.examples import steel_frame  # noqa: E402
 from bimrobot.cli import main  # noqa: E402

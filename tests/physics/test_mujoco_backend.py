@@ -1,24 +1,34 @@
 """The `mujoco` RCAN backend: robots of the family build the thesis' experiments physically in MuJoCo."""
 
 import dataclasses
+import importlib.util
 import re
 import time
 
 import numpy as np
 import pytest
 
-pytest.importorskip("mujoco")
-pytest.importorskip("mink")
-pytest.importorskip("pyastar2d")
+# found, not imported: MuJoCo and mink cost about 1 s of imports, paid when the tests run, not at collection
+MISSING = [name for name in ("mujoco", "mink", "pyastar2d") if importlib.util.find_spec(name) is None]
+if MISSING:
+    pytest.skip(f"{', '.join(MISSING)} not installed (the physics extra)", allow_module_level=True)
 
 from bimrobot.physics.robot import robot_model  # noqa: E402
-from bimrobot.physics.site import MujocoSite  # noqa: E402
 from bimrobot.rcan.activities import ActivityKind  # noqa: E402
 from bimrobot.rcan.backends import create_backend  # noqa: E402
 from bimrobot.rcan.generation import load_capabilities  # noqa: E402
 from bimrobot.rcan.node import RcanNode  # noqa: E402
 from bimrobot.rcan.plans import experiment  # noqa: E402
 from bimrobot.rcan.system import run_plan  # noqa: E402
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _heavy_imports():
+    """The MuJoCo site (MuJoCo, mink and trimesh: about 2 s of imports), imported when these tests run,
+    not at collection."""
+    global MujocoSite
+    from bimrobot.physics.site import MujocoSite
+
 
 PLACED = re.compile(r"placement error ([0-9.]+) mm, ([0-9.]+) degrees")
 

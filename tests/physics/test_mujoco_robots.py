@@ -1,24 +1,35 @@
 """The robot family from the capability table: a base's footprint from ``footprint_m``, and the heavy
 variant moving a component over 100 kg that the UR5 cannot lift."""
 
+import importlib.util
 import re
 
 import numpy as np
 
 import pytest
 
-pytest.importorskip("mujoco")
-pytest.importorskip("mink")
-pytest.importorskip("pyastar2d")
+# found, not imported: MuJoCo and mink cost about 1 s of imports, paid when the tests run, not at collection
+MISSING = [name for name in ("mujoco", "mink", "pyastar2d") if importlib.util.find_spec(name) is None]
+if MISSING:
+    pytest.skip(f"{', '.join(MISSING)} not installed (the physics extra)", allow_module_level=True)
 
 from bimrobot.core.errors import InputError  # noqa: E402
-from bimrobot.physics.site import Blocked, MotionFailed  # noqa: E402
 from bimrobot.rcan.activities import ActivityKind, Pose, RcanActivity  # noqa: E402
 from bimrobot.rcan.backends import create_backend  # noqa: E402
 from bimrobot.rcan.generation import load_capabilities  # noqa: E402
 from bimrobot.rcan.node import RcanNode  # noqa: E402
 
 from mujoco_helpers import ROBOT_TYPES, ur5_robots_at  # noqa: E402
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _heavy_imports():
+    """The MuJoCo site (MuJoCo, mink and trimesh: about 2 s of imports), imported when these tests run,
+    not at collection."""
+    global Blocked, MotionFailed
+    from bimrobot.physics.site import Blocked, MotionFailed
+
+
 TABLE = ROBOT_TYPES + """robots:
   narrow:
     types: [mobile_base, manipulator, gripper]

@@ -1,18 +1,31 @@
 """`convert --target mujoco`: the MJCF scene loads in MuJoCo, holds the BIM masses, and stands still."""
 
+import importlib.util
+
 import numpy as np
 import pytest
 
-mujoco = pytest.importorskip("mujoco")
+# found, not imported: MuJoCo is imported when the tests run, not at collection
+if importlib.util.find_spec("mujoco") is None:
+    pytest.skip("mujoco not installed (the physics extra)", allow_module_level=True)
 
 from bimrobot.bim.model import Element, WeightSource  # noqa: E402
-from bimrobot.export.mujoco.collision import collision_pieces  # noqa: E402
 from bimrobot.export.gazebo.package import ConvertOptions, build_package  # noqa: E402
-from bimrobot.export.inertia import Body  # noqa: E402
 
 from mujoco_helpers import world_fixtures  # noqa: E402
 
 frame_model, translation = world_fixtures.frame_model, world_fixtures.translation
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _heavy_imports():
+    """MuJoCo, and trimesh with SciPy for the bodies (about 1.5 s of imports), imported when these tests
+    run, not at collection."""
+    global mujoco, collision_pieces, Body
+    import mujoco
+
+    from bimrobot.export.inertia import Body
+    from bimrobot.export.mujoco.collision import collision_pieces
 
 ANGLE_ID = "3Angle$000000000000000"
 
