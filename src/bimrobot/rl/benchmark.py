@@ -13,7 +13,8 @@ after every finished run, rewrites the summary in ``out/``:
 
 Finished runs are skipped, so an interrupted benchmark continues where it stopped: the output folder is
 therefore kept in place while the grid runs (:func:`benchmark_folder`), not built aside and renamed at the
-end like other outputs; each run dir inside it is still written atomically.
+end like other outputs; each run dir inside it is still written atomically. The folder's policy is
+:mod:`bimrobot.rl.benchmark_folder`.
 """
 
 from __future__ import annotations
@@ -27,20 +28,20 @@ import os
 import re
 import shutil
 import signal
-import sys
 import tempfile
 import threading
 import time
-import uuid
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Iterable, Iterator
+from typing import Any, Callable, Iterable
 
 import numpy as np
 
 from bimrobot.core.errors import InputError
-from bimrobot.core.io import MARKER, check_output, describe_folder, signature
+from bimrobot.core.io import signature
 from bimrobot.rl.algorithms import ALGORITHMS, MAX_TIMESTEPS, get_algorithm
+from bimrobot.rl.benchmark_folder import (BENCHMARK_KIND, _LEGACY_HEADING,  # noqa: F401 (importable from here)
+                                          benchmark_folder)
 from bimrobot.rl.compare import SCORE_GOAL, THESIS_BEST_SCORE
 from bimrobot.rl.train import LAST_EPISODES, TrainConfig, train
 
@@ -128,143 +129,6 @@ def parse_timesteps_per_env(text: str | None) -> dict[str, int]:
             raise InputError(f"--timesteps-per-env: cannot read {part!r}; write e.g. E1=1e5,E4=2e6")
         budgets[key] = parse_timesteps(value, f"--timesteps-per-env {key}")
     return budgets
-
-
-# ------------------------------------------------------------------------------------ the output folder
-
-BENCHMARK_KIND = "rl benchmark"
-_LEGACY_HEADING = "# Assembly-planning benchmark results"
-
-
-def _marker_kind(folder: Path) -> str | None:
-    try:
-        return json.loads((folder / MARKER).read_text(encoding="utf-8")).get("kind")
-    except (OSError, ValueError, AttributeError):
-        return None
-
-
-def _is_legacy_benchmark(folder: Path) -> bool:
-    """A benchmark folder written before output folders carried :data:`bimrobot.core.io.MARKER`: its grid.json
-    (with a spec and runs) and a table.md under the benchmark's own heading."""
-    try:
-        grid = json.loads((folder / "grid.json").read_text(encoding="utf-8"))
-        with open(folder / "table.md", encoding="utf-8") as handle:
-            head = [handle.readline().rstrip("\n") for _ in range(2)]
-    except (OSError, ValueError):
-        return False
-    return isinstance(grid, dict) and "spec" in grid and "runs" in grid and _LEGACY_HEADING in head
-
-
-def _existing_benchmark(out: str | Path, option: str) -> Path | None:
-    """The resolved folder when ``out`` is a benchmark folder bimrobot wrote (to be continued), else None.
-    The current directory is refused even then, as everywhere."""
-    path = Path(out).resolve()
-    if not path.is_dir():
-        return None
-    if (path / MARKER).is_file():
-        if _marker_kind(path) != BENCHMARK_KIND:
-            return None
-    elif not _is_legacy_benchmark(path):
-        return None
-    cwd = Path.cwd().resolve()
-    if cwd == path or path in cwd.parents:
-        check_output(out, folder=True, option=option)  # raises: the current directory
-    return path
-
-
-def _finished_runs(folder: Path) -> list[Path]:
-    runs = folder / "runs"
-    return [run for run in runs.iterdir() if (run / "results.json").is_file()] if runs.is_dir() else []
-
-
-def _write_marker(folder: Path) -> None:
-    from bimrobot import __version__
-
-    marker = {"kind": BENCHMARK_KIND, "inputs": [], "bimrobot": __version__,
-              "written": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
-    (folder / MARKER).write_text(json.dumps(marker, indent=2), encoding="utf-8")
-
-
-@contextlib.contextmanager
-def benchmark_folder(out: str | Path, *, option: str = "-o", create: bool = True) -> Iterator[Path]:
-    """The benchmark's output folder (resolved), under :mod:`bimrobot.core.io`'s policy adapted to a folder that
-    grows run by run and must survive an interruption so that the grid can be resumed.
-
-    * a benchmark folder bimrobot wrote (its marker says ``"rl benchmark"``, or it has the grid.json and
-      table.md of a benchmark from before markers) is continued: its finished runs of this grid are reused
-      and the summary rewritten; one line on stderr says so;
-    * a new or empty folder is created and marked at once;
-    * another folder bimrobot wrote (a ``simulate`` output, a run dir, ...) is replaced, saying so: it is
-      moved aside at once, put back if the benchmark fails before its first run finishes, deleted otherwise;
-    * everything :func:`bimrobot.core.io.check_output` refuses is refused (the current directory, a file, a
-      non-empty folder bimrobot did not write, a path under a file, a symlink to any of those).
-
-    If the benchmark fails or is interrupted before any run has finished, what this call created is
-    removed (no empty output folder is left). With ``create=False`` (``--summary-only``) only an existing
-    benchmark folder is accepted.
-    """
-    path = Path(out)
-    folder = _existing_benchmark(path, option)
-    if folder is not None:
-        if not (folder / MARKER).is_file():
-            _write_marker(folder)  # a benchmark folder from before markers: bimrobot's, now marked
-        if create:
-            finished = len(_finished_runs(folder))
-            print(f"bimrobot: continuing the benchmark in {path} ({finished} finished run{'' if finished == 1 else 's'}); "
-                  "finished runs of this grid are reused and the summary is rewritten", file=sys.stderr)
-        yield folder
-        return
-    replaced = check_output(path, folder=True, option=option)
-    if not create:
-        raise InputError(f"{path / 'runs'} holds no finished run of this grid")
-    folder = path.resolve()
-    backup = None
-    if replaced is not None:
-        print(f"bimrobot: replacing {path} ({describe_folder(replaced)}) with a benchmark folder", file=sys.stderr)
-        backup = folder.with_name(f".{folder.name}.{uuid.uuid4().hex[:8]}.old")
-        folder.rename(backup)
-    created = [node for node in (folder, *folder.parents) if not node.exists()]
-    try:
-        folder.mkdir(parents=True, exist_ok=True)
-        _write_marker(folder)
-        (folder / "runs").mkdir(exist_ok=True)
-    except OSError as exc:
-        for node in created:
-            shutil.rmtree(node, ignore_errors=True) if node == folder else _rmdir_quietly(node)
-        if backup is not None:
-            backup.rename(folder)
-        raise InputError(f"{option} {path}: cannot write there ({exc.strerror})") from None
-    try:
-        yield folder
-    except BaseException:
-        if not _finished_runs(folder):
-            _undo(folder, created, backup)
-            backup = None
-        raise
-    finally:
-        if backup is not None:
-            shutil.rmtree(backup, ignore_errors=True)
-
-
-def _rmdir_quietly(folder: Path) -> None:
-    try:
-        folder.rmdir()
-    except OSError:
-        pass
-
-
-def _undo(folder: Path, created: list[Path], backup: Path | None) -> None:
-    """Remove what :func:`benchmark_folder` made of ``folder`` (no run finished), and put back what it replaced."""
-    if folder in created or backup is not None:
-        shutil.rmtree(folder, ignore_errors=True)
-    else:  # a folder that was empty before: empty again
-        shutil.rmtree(folder / "runs", ignore_errors=True)
-        (folder / MARKER).unlink(missing_ok=True)
-    for node in created:
-        if node != folder:
-            _rmdir_quietly(node)
-    if backup is not None:
-        backup.rename(folder)
 
 
 @dataclass
@@ -521,12 +385,19 @@ def _fmt(mean: float | None, se: float | None, score: float | None) -> str:
 
 def markdown_table(rows: list[dict[str, Any]], spec: BenchmarkSpec, command: str) -> str:
     """Table 6.1's layout (settings x algorithms) twice, for training and greedy evaluation, plus the goal check."""
-    algos = list(spec.algos)
     by_cell = {(r["setting"], r["algo"]): r for r in rows}
-    settings = list(spec.settings)
+    lines = _table_preamble(rows, spec, command)
+    for title, key in (("Last 100 training episodes", "train"), ("20 greedy evaluation episodes", "eval")):
+        lines += _score_table(title, key, by_cell, spec)
+    lines += _goal_check(by_cell, spec)
+    return "\n".join(lines)
+
+
+def _table_preamble(rows: list[dict[str, Any]], spec: BenchmarkSpec, command: str) -> list[str]:
+    """The lines above the tables: heading, command, profile, shaping, seeds, budgets, runs finished."""
     finished = sum(r["seeds"] for r in rows)
     total = len(spec.settings) * len(spec.algos) * len(spec.seeds)
-    lines = [
+    return [
         f"<!-- {signature('rl benchmark table')} -->",
         _LEGACY_HEADING,
         "",
@@ -537,38 +408,47 @@ def markdown_table(rows: list[dict[str, Any]], spec: BenchmarkSpec, command: str
         + (f"; potential-based distance shaping of the training reward ({spec.shaping_metric} distance), scale "
            f"{spec.shaping:g} (reported returns "
            "are the environment's own)" if spec.shaping else "; no reward shaping")
-        + f"; seeds {spec.seeds}; env steps per run: " + ", ".join(f"{s} {spec.budget(s):,}" for s in settings) + ".",
+        + f"; seeds {spec.seeds}; env steps per run: " + ", ".join(f"{s} {spec.budget(s):,}" for s in spec.settings) + ".",
         f"Finished runs: {finished} of {total}"
         + ("." if finished == total else "; cells marked [n/m seeds] have fewer seeds, 'not run' cells none."),
         "Cells: mean ± standard error over seeds of the mean return, (normalised score "
         "`(return - random) / (optimal - random)` of that mean). Best per row in bold.",
         "",
     ]
-    for title, key in (("Last 100 training episodes", "train"), ("20 greedy evaluation episodes", "eval")):
-        lines += [f"## {title}", "", "| setting | " + " | ".join(algos) + " |", "|---" * (len(algos) + 1) + "|"]
-        for setting in settings:
-            cells = [by_cell.get((setting, a)) for a in algos]
-            scores = [c[f"{key}_score"] if c and c[f"{key}_score"] is not None else -np.inf for c in cells]
-            best = int(np.argmax(scores))
-            texts = []
-            for i, cell in enumerate(cells):
-                text = _fmt(cell[f"{key}_mean"], cell[f"{key}_se"], cell[f"{key}_score"]) if cell else "not run"
-                if cell and i == best and scores[i] > -np.inf:
-                    text = f"**{text}**"
-                if cell and cell["seeds"] < len(spec.seeds):
-                    text += f" [{cell['seeds']}/{len(spec.seeds)} seeds]"
-                texts.append(text)
-            lines.append(f"| {setting} | " + " | ".join(texts) + " |")
-        lines.append("")
-    lines += [
+
+
+def _score_table(title: str, key: str, by_cell: dict, spec: BenchmarkSpec) -> list[str]:
+    """One settings x algorithms table of ``key`` (train or eval) returns and scores, the best per row in bold."""
+    algos = list(spec.algos)
+    lines = [f"## {title}", "", "| setting | " + " | ".join(algos) + " |", "|---" * (len(algos) + 1) + "|"]
+    for setting in spec.settings:
+        cells = [by_cell.get((setting, a)) for a in algos]
+        scores = [c[f"{key}_score"] if c and c[f"{key}_score"] is not None else -np.inf for c in cells]
+        best = int(np.argmax(scores))
+        texts = []
+        for i, cell in enumerate(cells):
+            text = _fmt(cell[f"{key}_mean"], cell[f"{key}_se"], cell[f"{key}_score"]) if cell else "not run"
+            if cell and i == best and scores[i] > -np.inf:
+                text = f"**{text}**"
+            if cell and cell["seeds"] < len(spec.seeds):
+                text += f" [{cell['seeds']}/{len(spec.seeds)} seeds]"
+            texts.append(text)
+        lines.append(f"| {setting} | " + " | ".join(texts) + " |")
+    lines.append("")
+    return lines
+
+
+def _goal_check(by_cell: dict, spec: BenchmarkSpec) -> list[str]:
+    """The best algorithm per setting against the goal score and the thesis' best cell."""
+    lines = [
         "## Goal check: best algorithm per setting against the thesis' best cell",
         "",
         "| setting | best algorithm | score (train, last 100) | score (greedy eval) | thesis best | >= 0.9 | beats thesis "
         "| seeds reaching 0.9 | median env steps to 0.9 | median wall time to 0.9 |",
         "|---|---|---|---|---|---|---|---|---|---|",
     ]
-    for setting in settings:
-        candidates = [by_cell[(setting, a)] for a in algos if (setting, a) in by_cell]
+    for setting in spec.settings:
+        candidates = [by_cell[(setting, a)] for a in spec.algos if (setting, a) in by_cell]
         if not candidates:
             lines.append(f"| {setting} | not run | | | {THESIS_BEST_SCORE[setting]:.2f} | | | | | |")
             continue
@@ -583,7 +463,7 @@ def markdown_table(rows: list[dict[str, Any]], spec: BenchmarkSpec, command: str
             f"| {f'{wall:.0f} s' if wall is not None else '-'} |"
         )
     lines.append("")
-    return "\n".join(lines)
+    return lines
 
 
 def _num(value: float | None) -> str:

@@ -28,25 +28,36 @@ COMPARE_EXAMPLE = """example:
 
 def register(subparsers) -> None:
     """Add this part's sub-commands to the bimrobot parser."""
-    from bimrobot.rl.names import ALGORITHM_NAMES, PROFILE_NAMES, SHAPING_METRICS
-
     rl = subparsers.add_parser("rl", help="DRL assembly planning: train, evaluate, benchmark (thesis ch. 6)",
                                description="Train and benchmark DRL agents on the assembly-planning settings.")
     commands = rl.add_subparsers(dest="rl_command", metavar="RL_COMMAND")
     rl.set_defaults(func=lambda args: (rl.print_help(), 1)[1])
+    _add_train(commands)
+    _add_eval(commands)
+    _add_benchmark(commands)
+    _add_compare(commands)
 
-    def common(parser: argparse.ArgumentParser) -> None:
-        parser.add_argument("--profile", choices=list(PROFILE_NAMES), default="thesis",
-                            help="hyperparameters: 'thesis' = appendix A.1 (default), 'fast' = more envs and larger "
-                                 "batches for a small CPU budget (see docs/rl.md)")
-        parser.add_argument("--shaping", type=float, default=0.0, metavar="SCALE",
-                            help="potential-based distance shaping of the training reward (0 = off, default); "
-                                 "reported returns are always the env's own")
-        parser.add_argument("--shaping-metric", choices=list(SHAPING_METRICS), default="path",
-                            help="the shaping's distance to the nearest free slot: 'path' = shortest path of "
-                                 "unblocked moves (default), 'manhattan' = L1, blind to obstacles")
-        parser.add_argument("--eval-episodes", type=int, default=20, help="greedy evaluation episodes (default 20)")
-        parser.add_argument("--threads", type=int, default=1, help="torch threads per run (default 1)")
+
+def _common(parser: argparse.ArgumentParser) -> None:
+    """The training options ``train`` and ``benchmark`` share: profile, shaping, evaluation, threads."""
+    from bimrobot.rl.names import PROFILE_NAMES, SHAPING_METRICS
+
+    parser.add_argument("--profile", choices=list(PROFILE_NAMES), default="thesis",
+                        help="hyperparameters: 'thesis' = appendix A.1 (default), 'fast' = more envs and larger "
+                             "batches for a small CPU budget (see docs/rl.md)")
+    parser.add_argument("--shaping", type=float, default=0.0, metavar="SCALE",
+                        help="potential-based distance shaping of the training reward (0 = off, default); "
+                             "reported returns are always the env's own")
+    parser.add_argument("--shaping-metric", choices=list(SHAPING_METRICS), default="path",
+                        help="the shaping's distance to the nearest free slot: 'path' = shortest path of "
+                             "unblocked moves (default), 'manhattan' = L1, blind to obstacles")
+    parser.add_argument("--eval-episodes", type=int, default=20, help="greedy evaluation episodes (default 20)")
+    parser.add_argument("--threads", type=int, default=1, help="torch threads per run (default 1)")
+
+
+def _add_train(commands) -> None:
+    """``rl train``: one algorithm on one setting."""
+    from bimrobot.rl.names import ALGORITHM_NAMES
 
     train = commands.add_parser("train", help="train one algorithm on one setting", epilog=TRAIN_EXAMPLE,
                                 formatter_class=argparse.RawDescriptionHelpFormatter,
@@ -61,9 +72,12 @@ def register(subparsers) -> None:
     train.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                        help="override one hyperparameter, e.g. --set ent_coef=0.05 (JSON values); repeatable")
     train.add_argument("--no-progress", action="store_true", help="no progress bar")
-    common(train)
+    _common(train)
     train.set_defaults(func=_train)
 
+
+def _add_eval(commands) -> None:
+    """``rl eval``: greedy evaluation of a run dir."""
     evaluate = commands.add_parser("eval", help="greedy evaluation of a trained run dir", epilog=EVAL_EXAMPLE,
                                    formatter_class=argparse.RawDescriptionHelpFormatter,
                                    description="Run the run dir's policy greedily and print returns and normalised score.")
@@ -72,6 +86,11 @@ def register(subparsers) -> None:
     evaluate.add_argument("--seed", type=int, default=None, help="first reset seed (default: the run's seed + 10000)")
     evaluate.add_argument("--json", action="store_true", help="print the result as JSON")
     evaluate.set_defaults(func=_eval)
+
+
+def _add_benchmark(commands) -> None:
+    """``rl benchmark``: the settings x algorithms x seeds grid."""
+    from bimrobot.rl.names import ALGORITHM_NAMES
 
     bench = commands.add_parser("benchmark", help="the settings x algorithms x seeds grid, Table 6.1 style",
                                 epilog=BENCHMARK_EXAMPLE, formatter_class=argparse.RawDescriptionHelpFormatter,
@@ -90,9 +109,12 @@ def register(subparsers) -> None:
     _output(bench, default="benchmark", help="output folder (default benchmark/)")
     bench.add_argument("--summary-only", action="store_true",
                        help="train nothing: rewrite the table and plots from the runs of this grid that have finished")
-    common(bench)
+    _common(bench)
     bench.set_defaults(func=_benchmark)
 
+
+def _add_compare(commands) -> None:
+    """``rl compare``: one table from several benchmark folders."""
     compare = commands.add_parser("compare", help="one Table 6.1 from several benchmark output folders",
                                   epilog=COMPARE_EXAMPLE, formatter_class=argparse.RawDescriptionHelpFormatter,
                                   description="Put the algorithms of several benchmark grids side by side (scores, "
