@@ -34,9 +34,15 @@ QUERY_EXAMPLES = """examples:
 
 def register(subparsers) -> None:
     """Add this part's sub-commands to the ``bimrobot`` parser."""
+    _add_graph(subparsers)
+    _add_query(subparsers)
+
+
+def _add_graph(subparsers) -> None:
+    """``bimrobot graph``: the model, the schedule, the output and its store, what the graph holds. Long only
+    because the command has many options (one ``add_argument`` each)."""
     from bimrobot.bim.selection import add_prebuilt_option, add_selection_options
     from bimrobot.bim.unknown_weight import add_unknown_weight_option
-    from bimrobot.lbd.graph import query_names
 
     graph = subparsers.add_parser(
         "graph",
@@ -69,6 +75,15 @@ def register(subparsers) -> None:
         "with its parts as bot:hasSubElement, the unit that is lifted)",
     )
     add_prebuilt_option(graph)  # a selector, as for `bimrobot simulate` (bimrobot.bim.selection)
+    _add_graph_run_options(graph)
+    add_selection_options(graph, built=True)
+    add_unknown_weight_option(graph)
+    graph.set_defaults(func=graph_command)
+
+
+def _add_graph_run_options(graph: argparse.ArgumentParser) -> None:
+    """The options of ``graph`` about the run the schedule belongs to: the work schedule written out
+    (--ifc-out, --schedule-out, --start), and the site, fleet and world package the graph holds."""
     graph.add_argument(
         "--ifc-out", type=Path, metavar="FILE.ifc",
         help="also write a copy of the model with the schedule as an IfcWorkSchedule (summary tasks per storey "
@@ -99,9 +114,11 @@ def register(subparsers) -> None:
     )
     graph.add_argument("--start", metavar="ISO", help="date-time of t = 0 s for --ifc-out / --schedule-out (default: "
                        "the schedule's own, else today 08:00; outside working hours, the next working period)")
-    add_selection_options(graph, built=True)
-    add_unknown_weight_option(graph)
-    graph.set_defaults(func=graph_command)
+
+
+def _add_query(subparsers) -> None:
+    """``bimrobot query``: a SPARQL query on a construction graph."""
+    from bimrobot.lbd.graph import query_names
 
     query = subparsers.add_parser(
         "query",
@@ -135,10 +152,7 @@ def graph_command(args, model=None, ifc=None) -> int:
     BuildingModel of that file already read with the same selection and unknown-weight rule, and ``ifc``
     its parse, which ``--ifc-out`` writes the schedule into (``bimrobot build`` reads the file once for
     every stage); None reads them here."""
-    from bimrobot.core import io
-    from bimrobot.bim import load_model
-    from bimrobot.lbd.graph import DEFAULT_BASE, build_graph, checked_base
-    from bimrobot.schedule.csv import load_schedule, load_schedule_ifc
+    from bimrobot.lbd.graph import DEFAULT_BASE, checked_base
     from bimrobot.lbd.store import format_for
 
     if args.store != "memory" and args.store_path is None:
@@ -151,6 +165,21 @@ def graph_command(args, model=None, ifc=None) -> int:
     format_for(args.output, args.format)  # fail on a bad suffix before the slow work
     base = checked_base(args.base or DEFAULT_BASE)
     started = time.perf_counter()
+    model, schedule = _model_and_schedule(args, model)
+    options = _graph_options(args, model, base)
+    triples = _build_and_write(args, model, schedule, options, inputs)
+    _print_graph_summary(args, model, schedule, options["smart"], triples, time.perf_counter() - started)
+    if args.ifc_out is not None or args.schedule_out is not None:
+        _write_work_schedule(args, schedule, calendar, inputs, ifc)
+    return 0
+
+
+def _model_and_schedule(args, model=None):
+    """The model (read here when not given, with the command's selection and unknown-weight rule; the rule's
+    note printed) and the schedule of --schedule or --ifc-schedule (None without either)."""
+    from bimrobot.bim import load_model
+    from bimrobot.schedule.csv import load_schedule, load_schedule_ifc
+
     if model is None:
         from bimrobot.sco.build import prebuilt_selector
 
@@ -164,14 +193,19 @@ def graph_command(args, model=None, ifc=None) -> int:
         schedule = load_schedule(args.schedule, model=model)
     elif args.ifc_schedule:
         schedule = load_schedule_ifc(args.model, model=model)
+    return model, schedule
+
+
+def _graph_options(args, model, base: str) -> dict:
+    """What :func:`bimrobot.lbd.graph.build_graph` is given besides the model and schedule: base IRI,
+    properties, assemblies, the smart model's joints, the run's site, its fleet and the pick-up positions."""
+    from bimrobot.site.fleet import load_fleet, schedule_fleet
     from bimrobot.site.site import site_for
 
     site = site_for(args.site, model.elements.values())  # the run's site, held by the graph
     smart = _smart_model(model, args, site.assembly_points_per_joint)
     options = {"base": base, "properties": not args.no_properties, "assemblies": not args.by_element, "smart": smart,
                "site": site}
-    from bimrobot.site.fleet import load_fleet, schedule_fleet
-
     fleet = load_fleet(args.fleet) if args.fleet else schedule_fleet(args.schedule) if args.schedule else None
     if fleet is not None:
         options["fleet"] = fleet  # given, else the one `simulate` wrote beside the schedule
@@ -179,6 +213,13 @@ def graph_command(args, model=None, ifc=None) -> int:
         from bimrobot.lbd.package import pick_up_positions
 
         options["pick_up"] = pick_up_positions(args.package, model, args.model)
+    return options
+
+
+def _build_and_write(args, model, schedule, options: dict, inputs: list) -> int:
+    """Build the graph in the chosen store and write it to -o; the number of triples."""
+    from bimrobot.core import io
+    from bimrobot.lbd.graph import build_graph
 
     def build_and_write(store: str, path) -> int:
         graph = build_graph(model, schedule, store=store, path=path, **options)
@@ -191,12 +232,16 @@ def graph_command(args, model=None, ifc=None) -> int:
     if args.store == "oxigraph":
         # Built in a temporary sibling folder that becomes --store-path only when everything worked.
         with io.atomic_output_dir(args.store_path, kind="graph (Oxigraph store)", inputs=inputs, option="--store-path") as tmp:
-            triples = build_and_write("oxigraph", tmp)
-    else:
-        # The memory store is only a way to the file here: an in-memory Oxigraph store builds and writes
-        # large graphs several times faster than rdflib (same triples), when the oxigraph extra is installed.
-        fast = args.store == "memory" and _oxigraph_installed()
-        triples = build_and_write("oxigraph-memory" if fast else args.store, args.store_path if args.store == "sparql" else None)
+            return build_and_write("oxigraph", tmp)
+    # The memory store is only a way to the file here: an in-memory Oxigraph store builds and writes
+    # large graphs several times faster than rdflib (same triples), when the oxigraph extra is installed.
+    fast = args.store == "memory" and _oxigraph_installed()
+    return build_and_write("oxigraph-memory" if fast else args.store, args.store_path if args.store == "sparql" else None)
+
+
+def _print_graph_summary(args, model, schedule, smart, triples: int, seconds: float) -> None:
+    """What the graph holds (triples, elements, assemblies, storeys, connections, joints, activities), the
+    tasks that name nothing of the model, and where the store is."""
     activities = len(schedule.activities) + len(schedule.phases) if schedule else 0
     assemblies = 0 if args.by_element else len(model.assemblies)
     joints = ""
@@ -207,7 +252,7 @@ def graph_command(args, model=None, ifc=None) -> int:
         f"{args.output}: {triples} triples, {len(model.elements)} elements"
         + (f" ({assemblies} assemblies)" if assemblies else "")
         + f", {len(model.storeys)} storeys, {len(model.connections)} connections{joints}, {activities} activities "
-        f"({time.perf_counter() - started:.1f} s)"
+        f"({seconds:.1f} s)"
     )
     if schedule is not None and schedule.unmatched:
         first = schedule[schedule.unmatched[0]]
@@ -215,9 +260,6 @@ def graph_command(args, model=None, ifc=None) -> int:
               f"the model (e.g. {first.id} {first.name!r}); they are in the graph as activities without a component")
     if args.store != "memory":
         print(f"{'Oxigraph store' if args.store == 'oxigraph' else 'SPARQL endpoint'}: {args.store_path}")
-    if args.ifc_out is not None or args.schedule_out is not None:
-        _write_work_schedule(args, schedule, calendar, inputs, ifc)
-    return 0
 
 
 def _check_work_schedule_outputs(args, inputs: list):
