@@ -230,70 +230,21 @@ class ThesisSimulation:
     # ---------------------------------------------------------------- run
     def run(self) -> ThesisResult:
         smart = self.smart
-        self.robots = {}
-        for index, spec in enumerate(self.fleet.robots):
-            home = self.site.robot_start(index, self.fleet.home_on_site(spec, self.base.offset))
-            self.robots[spec.name] = ThesisRobot(spec, np.array(home, dtype=float))
-        self.pending = {k: [] for k in KINDS}
-        self.tasks: list[ThesisTask] = []
-        self.lines: list[str] = []
-        self.counter = 0
-        self.positioned: set[str] = set()
-        self.step_times = {rule: [] for rule in STEP_TIME_RULES}
-        work_nodes = self._work_nodes()
+        self._start()
         to_build = [c for c in smart.components.values() if not c.prebuilt]
-        # Units of floor work: every work node, and every component without nodes (positioned as a whole).
-        floor_units: dict[int, int] = {}
-        for node in work_nodes:
-            floor_units[node.level] = floor_units.get(node.level, 0) + 1
-        for c in to_build:
-            if not c.connection_nodes:
-                floor_units[c.floor] = floor_units.get(c.floor, 0) + 1
+        floor_units = self._floor_units(to_build)
         self.done_on_floor: dict[int, int] = {f: 0 for f in floor_units}
         floors = sorted(floor_units)
         self.floor = floors[0]
         floor_steps: list[int] = []
-        transport_published: set[str] = set()
-        node_published: set[str] = set()
-        body_published: set[str] = set()
+        published: tuple[set[str], set[str], set[str]] = (set(), set(), set())  # transports, nodes, bodies
         step = 0
         while floors:
             step += 1
             if step > self.max_steps:
                 raise BimrobotError(f"the thesis loop did not finish within {self.max_steps} steps")
-            self.lines += ["-" * 48, f"Start a new construction step, NO.{step}, in {self.floor + 1} floor", "-" * 48,
-                           "Get components requirement from site", ""]
-            # Transport requests: components whose carriers stand (RCC).
-            for c in sorted(to_build, key=lambda c: (c.floor, c.bottom_z, c.id)):
-                if c.id in transport_published or c.floor > self.floor:
-                    continue
-                supporters = smart.robot_supporters(c.id)
-                if all(self._stands(s) for s in supporters):
-                    transport_published.add(c.id)
-                    self._publish(Task.TRANSPORT, c, None, "RCC", smart.supporters[c.id], step)
-            awarded = {k: [] for k in KINDS}
-            finished: list[float] = []
-            phases: list[float] = []
-            for kind in KINDS:
-                if kind == Task.POSITION:
-                    self._release_positioning(to_build, node_published, body_published, step)
-                self.lines.append(f"Publish {KIND_WORDS[kind]} requirements to robot")
-                self._award(kind, step, awarded)
-                for robot in self.robots.values():
-                    if robot.task is not None and robot.task.kind == kind:
-                        phases.append(self._advance(robot, step, finished))
-                self.lines.append("")
-            self.step_times["awarded"].append(max((t for k in KINDS for t in awarded[k]), default=0.0))
-            self.step_times["finished"].append(max(finished, default=0.0))
-            self.step_times["phase"].append(max(phases, default=0.0))
-            self.step_times["per-kind"].append(sum(max(awarded[k], default=0.0) for k in KINDS))
-            # Floor check (Listing 4.1) at the end of the step.
-            while floors and self.done_on_floor[self.floor] == floor_units[self.floor]:
-                floor_steps.append(step)
-                self.lines.append(f"Floor {self.floor + 1} is complete after step {step}")
-                floors.pop(0)
-                if floors:
-                    self.floor = floors[0]
+            phases = self._step(step, to_build, *published)
+            self._close_floors(step, floors, floor_units, floor_steps)
             if floors and not phases:  # no robot worked: nothing can change any more
                 waiting = [t.id for k in KINDS for t in self.pending[k]]
                 raise BimrobotError(
@@ -305,6 +256,70 @@ class ThesisSimulation:
             table = THESIS_TABLE_4_2[self.fleet.name]
         return ThesisResult(smart.source, self.fleet.name, self.step_time, step, list(self.robots.values()),
                             self.tasks, self.step_times, floor_steps, self.lines, table, built=smart)
+
+    def _start(self) -> None:
+        """The run's state before step 1: robots at their starts on the site, no request, an empty log."""
+        self.robots = {}
+        for index, spec in enumerate(self.fleet.robots):
+            home = self.site.robot_start(index, self.fleet.home_on_site(spec, self.base.offset))
+            self.robots[spec.name] = ThesisRobot(spec, np.array(home, dtype=float))
+        self.pending = {k: [] for k in KINDS}
+        self.tasks: list[ThesisTask] = []
+        self.lines: list[str] = []
+        self.counter = 0
+        self.positioned: set[str] = set()
+        self.step_times = {rule: [] for rule in STEP_TIME_RULES}
+
+    def _floor_units(self, to_build) -> dict[int, int]:
+        """Units of floor work per floor: every work node, and every component without nodes (positioned as a whole)."""
+        floor_units: dict[int, int] = {}
+        for node in self._work_nodes():
+            floor_units[node.level] = floor_units.get(node.level, 0) + 1
+        for c in to_build:
+            if not c.connection_nodes:
+                floor_units[c.floor] = floor_units.get(c.floor, 0) + 1
+        return floor_units
+
+    def _step(self, step: int, to_build, transport_published: set, node_published: set, body_published: set) -> list[float]:
+        """One construction step: transport requests of components whose carriers stand (RCC), positioning
+        requests (ACC), then per kind the awards and one phase of every robot's work; records the step's
+        times under every rule and returns the phases worked (s; none: no robot worked)."""
+        self.lines += ["-" * 48, f"Start a new construction step, NO.{step}, in {self.floor + 1} floor", "-" * 48,
+                       "Get components requirement from site", ""]
+        for c in sorted(to_build, key=lambda c: (c.floor, c.bottom_z, c.id)):
+            if c.id in transport_published or c.floor > self.floor:
+                continue
+            supporters = self.smart.robot_supporters(c.id)
+            if all(self._stands(s) for s in supporters):
+                transport_published.add(c.id)
+                self._publish(Task.TRANSPORT, c, None, "RCC", self.smart.supporters[c.id], step)
+        awarded = {k: [] for k in KINDS}
+        finished: list[float] = []
+        phases: list[float] = []
+        for kind in KINDS:
+            if kind == Task.POSITION:
+                self._release_positioning(to_build, node_published, body_published, step)
+            self.lines.append(f"Publish {KIND_WORDS[kind]} requirements to robot")
+            self._award(kind, step, awarded)
+            for robot in self.robots.values():
+                if robot.task is not None and robot.task.kind == kind:
+                    phases.append(self._advance(robot, step, finished))
+            self.lines.append("")
+        self.step_times["awarded"].append(max((t for k in KINDS for t in awarded[k]), default=0.0))
+        self.step_times["finished"].append(max(finished, default=0.0))
+        self.step_times["phase"].append(max(phases, default=0.0))
+        self.step_times["per-kind"].append(sum(max(awarded[k], default=0.0) for k in KINDS))
+        return phases
+
+    def _close_floors(self, step: int, floors: list[int], floor_units: dict[int, int], floor_steps: list[int]) -> None:
+        """Floor check (Listing 4.1) at the end of the step: every floor whose work is all done is closed
+        (``floors`` loses it, ``floor_steps`` records the step) and work moves to the next one."""
+        while floors and self.done_on_floor[self.floor] == floor_units[self.floor]:
+            floor_steps.append(step)
+            self.lines.append(f"Floor {self.floor + 1} is complete after step {step}")
+            floors.pop(0)
+            if floors:
+                self.floor = floors[0]
 
     def _release_positioning(self, to_build, node_published: set, body_published: set, step: int) -> None:
         """Nodes whose component and joint partners have arrived ask to be positioned (ACC)."""
