@@ -47,6 +47,8 @@ from bimrobot.core.tasks import Task
 SCALE = 100  # solver time unit: 0.01 s
 #: Above this many tasks the build is solved floor by floor (:func:`solve_optimal`).
 WHOLE_TASKS = 400
+#: The share of the time limit spent on each floor alone, for its least duration (:func:`_floor_bounds`).
+FLOOR_SHARE = 0.3
 
 
 @dataclass
@@ -132,6 +134,11 @@ class _Problem:
     homes: dict[str, np.ndarray]
     ready: dict[str, float]
     free_start: bool = False
+    #: where each robot may stand at the start (site frame, m): its first drive is the shortest from any
+    #: of them (for a lower bound); None: from ``homes``
+    starts: dict[str, list] | None = None
+    #: floor -> its least duration (ticks) known from a solve of that floor alone
+    floor_least: dict[int, int] = field(default_factory=dict)
 
 
 @dataclass
@@ -188,7 +195,8 @@ def _build(cp_model, problem: _Problem, hint: dict | None):
         return _ticks(float(np.hypot(*(np.asarray(b) - np.asarray(a)))) / speed[robot])
 
     mine = {r.name: [t for t in tasks if (t.key, r.name) in handling] for r in fleet.robots}
-    first_drive = {(t.key, r): 0 if problem.free_start else drive(problem.homes[r], t.request.start, r)
+    starts = problem.starts or {r: [xy] for r, xy in problem.homes.items()}
+    first_drive = {(t.key, r): 0 if problem.free_start else min(drive(xy, t.request.start, r) for xy in starts[r])
                    for r, ts in mine.items() for t in ts}
     shortest_in = {}
     for r, ts in mine.items():
@@ -290,7 +298,7 @@ def _build(cp_model, problem: _Problem, hint: dict | None):
     busy_min = {(t.key, r): handling[t.key, r] + min(shortest_in[t.key, r], horizon) for t in tasks for r in
                 (x.name for x in capable[t.key])}
     travel = _Visits(model, assigned, handling, busy_min, drive)
-    _floor_loads(model, tasks, gates, ancestors, capable, busy_min, assigned, travel)
+    known_bound = _floor_loads(model, tasks, gates, ancestors, capable, busy_min, assigned, travel, problem.floor_least)
     makespan = model.NewIntVar(0, horizon, "makespan")
     model.AddMaxEquality(makespan, list(end.values()))
     for gate in gates.values():  # a gate is never later than the last end: lets the floor loads bound the makespan
@@ -300,16 +308,20 @@ def _build(cp_model, problem: _Problem, hint: dict | None):
         variables = dict(assigned=assigned, depart=depart, start=start, end=end, arcs=arcs_of, sizes=sizes,
                          gates=gates, makespan=makespan, visited=travel.visited)
         hinted = _add_hint(model, hint, problem, handling, drive, first_drive, ready, variables)
-        return model, (makespan, assigned, depart, start, end, capable, hinted)
-    return model, (makespan, assigned, depart, start, end, capable, None)
+        return model, (makespan, assigned, depart, start, end, capable, hinted, known_bound)
+    return model, (makespan, assigned, depart, start, end, capable, None, known_bound)
 
 
-def _floor_loads(model, tasks, gates, ancestors, capable, busy_min, assigned, travel) -> None:
+def _floor_loads(model, tasks, gates, ancestors, capable, busy_min, assigned, travel, floor_least) -> int:
     """Redundant, for the bound: on each floor f, the work of floor f that a robot does fits between the
     gate below (or time 0) plus the shortest lead-in before any of it can start, and the floor's own gate
     (every joint of floors <= f done) less the shortest run-out after it. With the robot literals this
-    is linear, so the relaxation balances each floor's work over the robots that can do it."""
+    is linear, so the relaxation balances each floor's work over the robots that can do it. Returns the
+    sum over floors of each floor's least duration known before solving (ticks): a lower bound of the
+    makespan, since each gate follows the one below."""
+    least = 0
     for floor, gate in gates.items():
+        known = 0
         below = [f for f in gates if f < floor]
         opening = gates[max(below)] if below else 0
         mine = sorted((t for t in tasks if t.floor == floor), key=lambda t: bin(ancestors[t.key]).count("1"))
@@ -345,12 +357,14 @@ def _floor_loads(model, tasks, gates, ancestors, capable, busy_min, assigned, tr
         for pair, work in pairs.items():
             if len(pair) == 2 and len(work) > 1:
                 lead = min(head[t.key] for t in work) + min(tail[t.key] for t in work)
-                model.Add(gate - opening - lead >= _two_robot_bound(work, pair, busy_min))
+                known = max(known, lead + _two_robot_bound(work, pair, busy_min))
                 if len(counted) == len(mine):
-                    model.Add(gate - opening - lead >= travel.two_robot_bound(work, pair))
-        staged = _staged_bound(pairs, head, tail, busy_min)
-        if staged:
-            model.Add(gate - opening >= staged)
+                    known = max(known, lead + travel.two_robot_bound(work, pair))
+        known = max(known, _staged_bound(pairs, head, tail, busy_min), floor_least.get(floor, 0))
+        if known:
+            model.Add(gate - opening >= known)
+        least += known
+    return least
 
 
 def _fastest(costs: dict[str, list[int]], count: int) -> int:
@@ -420,31 +434,34 @@ class _Visits:
         """The least time (ticks) two robots need for ``work`` that only they can do, with their drives:
         min over splits of the larger load, a split choosing per point how many of its tasks each robot
         takes (the cheapest of them, for a bound), each robot paying the shortest drive into every point
-        it works at, less its largest such drive (subset sums in ticks)."""
+        it works at, less its largest such drive (subset sums in ticks, or in coarser units rounded down
+        where the floor is large)."""
         points, moving = self._points(work)
         if moving:
             return 0
         cost = {r: {here: sorted(self.handling[t.key, r] for t in ts) for here, ts in points.items()} for r in pair}
         near = {r: {here: self._nearest(r, here, ts, work) for here, ts in points.items()} for r in pair}
         a, b = pair
-        size = sum(sum(c) + near[a][here] for here, c in cost[a].items()) + 1
-        if size * sum(len(ts) + 1 for ts in points.values()) > 6e7:
-            return 0  # too large to enumerate; the linear loads still hold
+        terms = sum(len(ts) + 1 for ts in points.values())
+        ticks = sum(sum(c) + near[a][here] for here, c in cost[a].items()) + 1
+        unit = max(1, math.ceil(ticks * terms / 4e7))  # coarser than a tick on large floors; sums round down
+        size = ticks // unit + 1
         never = np.iinfo(np.int64).max // 4
-        best_b = np.full(size, never, dtype=np.int64)  # ticks on a -> least ticks on b
+        best_b = np.full(size, never, dtype=np.int64)  # units on a -> least units on b
         best_b[0] = 0
         for here, ts in points.items():
             merged = np.full(size, never, dtype=np.int64)
             for on_a in range(len(ts) + 1):
                 on_b = len(ts) - on_a
-                add_a = sum(cost[a][here][:on_a]) + (near[a][here] if on_a else 0)
-                add_b = sum(cost[b][here][:on_b]) + (near[b][here] if on_b else 0)
+                add_a = (sum(cost[a][here][:on_a]) + (near[a][here] if on_a else 0)) // unit
+                add_b = (sum(cost[b][here][:on_b]) + (near[b][here] if on_b else 0)) // unit
                 shifted = np.full(size, never, dtype=np.int64)
                 shifted[add_a:] = best_b[:size - add_a] if add_a else best_b
                 merged = np.minimum(merged, shifted + add_b)
             best_b = merged
-        loads = np.maximum(np.arange(size) - max(near[a].values()), best_b - max(near[b].values()))
-        return max(0, int(loads.min()))
+        slack_a, slack_b = -(-max(near[a].values()) // unit), -(-max(near[b].values()) // unit)
+        loads = np.maximum(np.arange(size) - slack_a, best_b - slack_b)
+        return max(0, int(loads.min()) * unit)
 
     def _nearest(self, name: str, here, ts: list[_Task], work: list[_Task]) -> int:
         return min((self.drive(u.request.end, ts[0].request.start, name) for u in work
@@ -502,27 +519,38 @@ def _two_robot_bound(work: list[_Task], pair: tuple[str, str], busy_min) -> int:
     return int(loads.min()) * SCALE
 
 
-def _add_hint(model, hint: dict, problem: _Problem, handling, drive, first_drive, ready, v: dict) -> None:
-    """The market's assignment and order (``hint``: task key -> (robot, depart s, end s)) as CP-SAT's first
-    solution, every variable given: the tasks are re-timed in the model's own units (0.01 s, rounded up),
-    in the market's order, each as early as its predecessors, its robot and the drive allow, so that the
-    hint is feasible as it stands and the best found is never longer than the market's schedule."""
+def _add_hint(model, hints, problem: _Problem, handling, drive, first_drive, ready, v: dict) -> dict | None:
+    """The market's assignment and order (``hints``: task key -> (robot, depart s, end s), or a list of
+    such schedules, the shortest once re-timed is taken) as CP-SAT's first solution, every variable
+    given: the tasks are re-timed in the model's own units (0.01 s, rounded up), in the schedule's order,
+    each as early as its predecessors, its robot and the drive allow, so that the hint is feasible as it
+    stands and the best found is never longer than the market's schedule."""
     tasks = problem.tasks
-    if any(t.key not in hint or (t.key, hint[t.key][0]) not in v["assigned"] for t in tasks):
-        return None  # a partial hint would only mislead the search
     keys = {t.key for t in tasks}
     ends = {t.key: t.request.end for t in tasks}
-    times: dict[str, tuple[int, int, int]] = {}  # task -> (depart, start, end) in ticks
-    last: dict[str, str | None] = {r.name: None for r in problem.fleet.robots}
-    free = dict(ready)
-    true_arcs = set()
-    for t in sorted(tasks, key=lambda t: (hint[t.key][1], hint[t.key][2])):
-        robot, before = hint[t.key][0], last[hint[t.key][0]]
-        leave = max([free[robot]] + [times[p][2] for p in t.predecessors if p in keys])
-        way = first_drive[t.key, robot] if before is None else drive(ends[before], t.request.start, robot)
-        times[t.key] = (leave, leave + way, leave + way + handling[t.key, robot])
-        true_arcs.add((robot, before, t.key))
-        last[robot], free[robot] = t.key, times[t.key][2]
+
+    def retime(hint: dict):
+        """The hint's tasks in its order, each as early as possible: (times, arcs, last) or None."""
+        if any(t.key not in hint or (t.key, hint[t.key][0]) not in v["assigned"] for t in tasks):
+            return None  # a partial hint would only mislead the search
+        times: dict[str, tuple[int, int, int]] = {}  # task -> (depart, start, end) in ticks
+        last: dict[str, str | None] = {r.name: None for r in problem.fleet.robots}
+        free = dict(ready)
+        true_arcs = set()
+        for t in sorted(tasks, key=lambda t: (hint[t.key][1], hint[t.key][2])):
+            robot, before = hint[t.key][0], last[hint[t.key][0]]
+            leave = max([free[robot]] + [times[p][2] for p in t.predecessors if p in keys])
+            way = first_drive[t.key, robot] if before is None else drive(ends[before], t.request.start, robot)
+            times[t.key] = (leave, leave + way, leave + way + handling[t.key, robot])
+            true_arcs.add((robot, before, t.key))
+            last[robot], free[robot] = t.key, times[t.key][2]
+        return times, true_arcs, last
+
+    candidates = [(hint, retime(hint)) for hint in (hints if isinstance(hints, list) else [hints]) if hint]
+    candidates = [(hint, timed) for hint, timed in candidates if timed]
+    if not candidates:
+        return None
+    hint, (times, true_arcs, last) = min(candidates, key=lambda c: max((x[2] for x in c[1][0].values()), default=0))
     for robot, key in last.items():
         true_arcs.add((robot, key, None))  # (robot, None, None): the robot does nothing
     for (key, name), lit in v["assigned"].items():
@@ -545,10 +573,10 @@ def _add_hint(model, hint: dict, problem: _Problem, handling, drive, first_drive
     return {key: (hint[key][0], *values) for key, values in times.items()}
 
 
-def _solve(problem: _Problem, hint: dict | None, time_limit_s: float, workers: int, seed: int,
+def _solve(problem: _Problem, hint: dict | list | None, time_limit_s: float, workers: int, seed: int,
            deterministic_limit: float | None) -> _Solved:
     cp_model = require_extra("ortools.sat.python.cp_model", "optimize")
-    model, (makespan, assigned, depart, start, end, capable, hinted) = _build(cp_model, problem, hint)
+    model, (makespan, assigned, depart, start, end, capable, hinted, least) = _build(cp_model, problem, hint)
     solver = cp_model.CpSolver()
     solver.parameters.max_time_in_seconds = time_limit_s
     if deterministic_limit is not None:
@@ -560,7 +588,7 @@ def _solve(problem: _Problem, hint: dict | None, time_limit_s: float, workers: i
         bound = solver.BestObjectiveBound()
         return _Solved(
             makespan=max(x[3] for x in hinted.values()) / SCALE,
-            bound=max(0.0, bound / SCALE) if math.isfinite(bound) else 0.0,
+            bound=max(least, bound if math.isfinite(bound) else 0) / SCALE,
             status="FEASIBLE",
             assignment={k: x[0] for k, x in hinted.items()},
             depart={k: x[1] / SCALE for k, x in hinted.items()},
@@ -573,7 +601,7 @@ def _solve(problem: _Problem, hint: dict | None, time_limit_s: float, workers: i
     tasks = problem.tasks
     return _Solved(
         makespan=solver.Value(makespan) / SCALE,
-        bound=solver.BestObjectiveBound() / SCALE,
+        bound=max(least, solver.BestObjectiveBound()) / SCALE,
         status=solver.StatusName(status),
         assignment={t.key: next(r.name for r in capable[t.key] if solver.Value(assigned[t.key, r.name])) for t in tasks},
         depart={t.key: solver.Value(depart[t.key]) / SCALE for t in tasks},
@@ -636,12 +664,51 @@ def solve_optimal(
     given, hinted = market_hint(smart, fleet, site, storey_elevations, tasks) if hint else (None, None)
     limits = dict(workers=workers, seed=seed, deterministic_limit=deterministic_limit)
     if len(tasks) <= whole_tasks:
-        solved = _solve(_Problem(tasks, fleet, homes, {r.name: 0.0 for r in fleet.robots}), given,
+        least, work, joined = _floor_bounds(tasks, fleet, homes, given, time_limit_s * FLOOR_SHARE, limits)
+        solved = _solve(_Problem(tasks, fleet, homes, {r.name: 0.0 for r in fleet.robots}, floor_least=least),
+                        [given, joined] if given else None,
                         max(time_limit_s - (time.perf_counter() - started), 1.0), **limits)
         return OptimalSchedule(solved.makespan, solved.bound, solved.status, solved.assignment, solved.start,
                                len(tasks), "whole", time.perf_counter() - started, hinted,
-                               deterministic_s=solved.deterministic_s)
+                               deterministic_s=solved.deterministic_s + work)
     return _by_floor(tasks, fleet, homes, given, hinted, time_limit_s, started, limits)
+
+
+def _floor_bounds(tasks, fleet, homes, given, time_limit_s, limits) -> tuple[dict[int, int], float]:
+    """Each floor's least duration (ticks), where floors cannot overlap (every task of a floor after the
+    floor gate below and before its own): the bound of that floor solved alone, from time 0, every robot
+    standing where it may be when the floor opens (home, or the end of any of its tasks below; for each
+    task the nearest of them). Returns {floor: ticks} ({} where floors may overlap or with one floor)
+    the solves' deterministic time and their schedules one after the other (an order for a hint)."""
+    floors = sorted({t.floor for t in tasks})
+    locals_ = {}
+    for floor in floors:
+        mine = [t for t in tasks if t.floor == floor]
+        keys = {t.key for t in mine}
+        locals_[floor] = [_Task(t.key, t.activity, t.request, [p for p in t.predecessors if p in keys], None, t.floor)
+                          for t in mine]
+        if not (_all_feed_a_joint(locals_[floor]) and (floor == floors[0] or _all_after_the_gate(mine))):
+            return {}, 0.0, None
+    if len(floors) < 2:
+        return {}, 0.0, None
+    least, work, below, joined, clock = {}, 0.0, [], {}, 0.0
+    for floor in floors:
+        local = locals_[floor]
+        keys = {t.key for t in local}
+        starts = {r.name: [homes[r.name]] + [np.asarray(t.request.end, dtype=float) for t in below
+                                             if not incapability(r, t.request)] for r in fleet.robots}
+        shifted = None
+        if given and keys <= given.keys():  # the market's schedule of this floor, moved to begin at 0
+            opening = min(given[k][1] for k in keys)
+            shifted = {k: (given[k][0], given[k][1] - opening, given[k][2] - opening) for k in keys}
+        solved = _solve(_Problem(local, fleet, homes, {r.name: 0.0 for r in fleet.robots}, starts=starts), shifted,
+                        max(1.0, time_limit_s * len(local) / len(tasks)), **limits)
+        least[floor] = int(round(solved.bound * SCALE))
+        work += solved.deterministic_s
+        below += local
+        joined.update({k: (robot, clock + solved.depart[k], clock + solved.end[k]) for k, robot in solved.assignment.items()})
+        clock += solved.makespan
+    return least, work, joined
 
 
 def _by_floor(tasks, fleet, homes, given, hinted, time_limit_s, started, limits) -> OptimalSchedule:
