@@ -4,16 +4,17 @@ import numpy as np
 import pytest
 
 from bimrobot.export.gazebo.check import inertia_problem
-from bimrobot.export.inertia import DEFAULT_DENSITY_KG_M3, mass_properties
 
 from .conftest import box_element, translation
 
 
 @pytest.fixture(autouse=True, scope="module")
 def _heavy_imports():
-    """trimesh (about 1 s of imports with SciPy and networkx), imported when these tests run, not at collection."""
-    global trimesh
+    """trimesh and SciPy (about 1 s of imports, with networkx), imported when these tests run, not at collection."""
+    global trimesh, DEFAULT_DENSITY_KG_M3, mass_properties
     import trimesh
+
+    from bimrobot.export.inertia import DEFAULT_DENSITY_KG_M3, mass_properties
 
 
 def test_box_beam_gets_its_bim_mass_and_the_exact_box_tensor():

@@ -16,13 +16,16 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from bimrobot.core.io import printable
 from bimrobot.export.gazebo import meshes
-from bimrobot.export import inertia as physics
 from bimrobot.export.gazebo import sdf
+
+if TYPE_CHECKING:
+    from bimrobot.export import inertia as physics
 
 
 @dataclass
@@ -85,6 +88,8 @@ def write_merged_model(models_dir: Path, merged: MergedModel, items: list, versi
     collision = _concatenate([(moved(item.geometry.collision[0], f), item.geometry.collision[1]) for item, f in zip(items, frames)])
     mass, centre, inertia = combined_mass([(item.mass, f) for item, f in zip(items, frames)])
 
+    from bimrobot.export.inertia import symmetric_positive  # with trimesh and SciPy: imported by the work
+
     folder = models_dir / merged.name
     folder.mkdir()
     (folder / "meshes").mkdir()
@@ -98,7 +103,7 @@ def write_merged_model(models_dir: Path, merged: MergedModel, items: list, versi
         static=True,
         mass=mass,
         center_of_mass=centre,
-        inertia=physics.symmetric_positive(inertia),
+        inertia=symmetric_positive(inertia),
         visual_uri=f"model://{merged.name}/meshes/{visual_file}",
         collision_uri=f"model://{merged.name}/meshes/{collision_file}",
     )

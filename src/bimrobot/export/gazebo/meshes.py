@@ -17,11 +17,13 @@ from __future__ import annotations
 import logging
 from pathlib import Path
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-import trimesh
 
 from bimrobot.core.errors import MissingExtraError
-from bimrobot.export.inertia import Body, convex_hull
+if TYPE_CHECKING:
+    from bimrobot.export.inertia import Body
 
 CLASS_COLOURS: dict[str, tuple[float, float, float, float]] = {
     "IfcBeam": (0.45, 0.55, 0.70, 1.0),
@@ -117,6 +119,8 @@ def collision_mesh(body: Body, method: str, max_triangles: int) -> tuple[np.ndar
             return _decimated(body.vertices, body.faces, max_triangles)
         vertices, faces = body.hull
         if len(faces) > max_triangles:
+            from bimrobot.export.inertia import convex_hull  # SciPy's Qhull: imported by the work that needs it
+
             try:
                 smaller = convex_hull(_decimated(body.vertices, body.faces, max_triangles)[0])
             except MissingExtraError:  # without the decimator a hull over budget is still a hull
@@ -134,6 +138,8 @@ def _decimated(vertices: np.ndarray, faces: np.ndarray, max_triangles: int) -> t
     if len(faces) <= max_triangles:
         return vertices, faces
     _require_decimator()
+    import trimesh  # imported by the work that needs it (about 1 s with SciPy and networkx)
+
     try:
         mesh = trimesh.Trimesh(vertices, faces, process=False).simplify_quadric_decimation(face_count=max_triangles)
     except Exception:  # the decimator refuses some degenerate meshes: keep the full body

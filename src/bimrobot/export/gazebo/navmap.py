@@ -20,7 +20,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import trimesh
 import yaml
 from PIL import Image, ImageDraw
 import shapely
@@ -200,6 +199,8 @@ def _distinct_segments(segments: np.ndarray) -> np.ndarray:
 
 def _clipped_projected_triangles(vertices: np.ndarray, faces: np.ndarray, low: float, high: float) -> np.ndarray:
     """Triangles clipped to low <= z <= high, projected to xy (k, 3, 2); vertical ones dropped."""
+    import trimesh  # imported by the work that needs it (about 1 s with SciPy and networkx)
+
     v, f = vertices, faces
     if v[:, 2].min() < low:
         v, f = trimesh.intersections.slice_faces_plane(v, f, np.array([0.0, 0, 1]), np.array([0.0, 0, low]))[:2]
@@ -215,6 +216,8 @@ def _clipped_projected_triangles(vertices: np.ndarray, faces: np.ndarray, low: f
 
 def _section_polygons(vertices: np.ndarray, faces: np.ndarray, z: float) -> list[Polygon]:
     """The solid regions of the cross-section at height z (even-odd over the cut loops)."""
+    import trimesh
+
     face_z = vertices[:, 2][faces]
     faces = faces[(face_z.min(axis=1) <= z) & (face_z.max(axis=1) >= z)]  # the faces the plane meets
     if len(faces) == 0:

@@ -28,9 +28,9 @@ from collections import Counter
 from dataclasses import asdict, dataclass, field, replace
 from functools import cached_property
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-from tqdm import tqdm
 
 from bimrobot.core import io
 from bimrobot.bim.model import BuildingModel, Element, WeightSource
@@ -44,11 +44,13 @@ from bimrobot.export.gazebo import layout
 from bimrobot.export.gazebo import merge
 from bimrobot.export.gazebo import meshes
 from bimrobot.export.gazebo import navmap
-from bimrobot.export import inertia as physics
 from bimrobot.core import pool
 from bimrobot.export.gazebo import sdf
 from bimrobot.core.names import ros_package_name, safe_name, slug
 from bimrobot.export.gazebo.render import PREVIEW_MAX_TRIANGLES, draw_preview, render_preview
+
+if TYPE_CHECKING:  # mass properties need trimesh and SciPy: imported where the bodies are made
+    from bimrobot.export import inertia as physics
 
 log = logging.getLogger(__name__)
 
@@ -205,6 +207,9 @@ def build_package(
     Elements of unknown weight get their mass by ``options.unknown_weight`` when the model was read
     (``load_model(unknown_weight=...)``, the refusal listing them by class); a model read without the rule
     (or built in memory) gets it here, in place. ``report["unknown_weight"]`` says what was assumed.
+
+    The steps: check the inputs and the output, lay the elements out (:func:`_lay_out`), write the models,
+    maps, worlds, launch files and the picture (:func:`_write_package`), then the report and README.
     """
     options = options or ConvertOptions()
     options.validate()
@@ -225,87 +230,127 @@ def build_package(
         unknown = apply_unknown_weight_rule(model.elements.values(), options.unknown_weight, source)
     _refuse_weightless(model, options, source)
     with io.atomic_output_dir(out_dir, kind="convert", inputs=inputs) as tmp:
-        tick = time.perf_counter()
-        converted, skipped = _prepare_elements(model, options, progress)
-        if not converted:
-            raise InputError(f"{source}: none of the {len(model.elements)} elements has a usable solid mesh")
-        triangles = sum(len(item.body.faces) for item in converted)  # the preview's, as report["converted"]
-        drawing = options.preview and triangles <= PREVIEW_MAX_TRIANGLES
-        if options.layout == "yard":  # the yard lays parts on their centre of mass: needed before placing
-            for item in converted:
-                item.finish(options)
-        ground_z = ground_height(model, [item.element for item in converted])
-        yard = _place(converted, ground_z, options)
-        merged = _merged_models(model, converted, options) if options.merge_static else []
-        # preview.png is drawn from the meshes in memory while the workers write the models, unless
-        # merged models (whose DAEs join many elements) are in the picture: those are read back at the end.
-        in_memory_preview = drawing and not merged and options.target in ("sim", "both", "mujoco")
-        timings["prepare"] = time.perf_counter() - tick
-
-        # Models and maps are made by every core (bimrobot.core.pool) while this process writes the
-        # worlds and launch files and draws preview.png; results come back as the tasks finish. The maps
-        # (the longest tasks) come first.
-        tick = time.perf_counter()
-        plan = _plan_maps(model, converted, options, ground_z) if options.maps else _MapPlan([], (0.0, 0.0), (1, 1))
-        (tmp / "models").mkdir()
-        if plan.levels:
-            (tmp / "maps").mkdir()
-        pool.shared.update(converted=converted, merged=merged, models_dir=tmp / "models", options=options,
-                           source=source, maps_dir=tmp / "maps", map_plan=plan)
-        model_tasks = _model_tasks(converted, merged, options)
-        map_tasks = [("map", level) for level in range(len(plan.levels))]
-        tasks = map_tasks + model_tasks
-        drawn: dict[int, dict] = {}
-        try:
-            parallel = len(converted) >= POOL_MIN_ELEMENTS or options.workers is not None
-            with pool.Tasks(_model_task, tasks, options.workers, parallel) as running:
-                world_files = _write_worlds(tmp / "worlds", world_name, converted, merged, options, ground_z)
-                _write_launch_and_ros(tmp, package, world_name, world_files, source, options)
-                if in_memory_preview:  # this process would wait for the workers: it draws the picture meanwhile
-                    painting = time.perf_counter()
-                    preview = draw_preview(tmp, world_name, _preview_models(converted))
-                    timings["preview"] = time.perf_counter() - painting
-                bar = tqdm(total=len(converted), desc="models", unit="element", disable=not progress, leave=False)
-                for results in running.results():
-                    _apply_results(converted, merged, drawn, results)
-                    bar.update(len(results[0]))
-                bar.close()
-        finally:
-            pool.shared.clear()
-        maps = [drawn[level] for level in sorted(drawn)]
-        timings["models_and_maps"] = time.perf_counter() - tick
+        laid = _lay_out(model, options, progress, source, timings)
+        world_files, maps, preview = _write_package(tmp, model, laid, package, world_name, source, options, progress,
+                                                    timings)
         timings["total"] = time.perf_counter() - started + (load_seconds or 0.0)
-
-        report = _report(model, package, world_name, world_files, converted, skipped, maps, yard, options, timings)
-        if merged:
-            report["merged_models"] = [m.as_report() for m in merged]
-        report["counts"]["models"] = len(converted) - sum(len(m.members) for m in merged) + len(merged)
-        report["unknown_weight"] = _unknown_weight_report(unknown, converted, options)
-        duplicates = _duplicate_keys(converted)
-        if duplicates:
-            report["duplicate_global_ids"] = duplicates
-        report["ground_z_m"] = ground_z
-        report["warnings"] = _warnings(converted, options, ground_z)
-        if options.target == "mujoco":  # the MJCF scene beside the package (bimrobot.export.mujoco.scene)
-            from bimrobot.export.mujoco.scene import write_scene
-
-            report["mujoco"] = write_scene(tmp, converted, options, ground_z, yard)
-        for warning in report["warnings"]:
-            log.info("%s", warning)  # the CLI prints them in its summary
+        report = _full_report(tmp, model, laid, package, world_name, world_files, maps, unknown, options, timings)
         # preview.png: a picture of the world (None: too large, or not asked for); drawn above from the
         # meshes in memory, or here from the package's files (merged models)
-        if in_memory_preview:
+        if laid.in_memory_preview:
             report["preview"] = preview
         else:
             tick = time.perf_counter()
-            report["preview"] = render_preview(tmp, triangles) if drawing else None
+            report["preview"] = render_preview(tmp, laid.triangles) if laid.drawing else None
             timings["preview"] = time.perf_counter() - tick
             timings["total"] += timings["preview"]
         report["timings_s"]["preview"] = round(timings.get("preview", 0.0), 4)
         report["timings_s"]["total"] = round(timings["total"], 4)
         (tmp / "report.json").write_text(json.dumps(report, indent=2), encoding="utf-8")
         (tmp / "README.md").write_text(_readme(report), encoding="utf-8")
-    log.info("wrote %s: %d models, %d skipped", out_dir, len(converted), len(skipped))
+    log.info("wrote %s: %d models, %d skipped", out_dir, len(laid.converted), len(laid.skipped))
+    return report
+
+
+@dataclass
+class _LaidOut:
+    """The elements on their way into the package, placed (:func:`_lay_out`), and what follows from them."""
+
+    converted: list[_Converted]
+    skipped: list[dict]
+    triangles: int  # visual triangles of the converted elements (the preview's, as report["converted"])
+    drawing: bool  # whether preview.png is drawn
+    ground_z: float  # m, world frame
+    yard: layout.Yard | None
+    merged: list[merge.MergedModel]
+    in_memory_preview: bool  # drawn from the meshes in memory while the models are written
+
+
+def _lay_out(model: BuildingModel, options: ConvertOptions, progress: bool, source: str,
+             timings: dict[str, float]) -> _LaidOut:
+    """The elements' bodies, the ground, every element's pose (installed or on the yard) and the merged
+    models; ``timings["prepare"]`` (s)."""
+    tick = time.perf_counter()
+    converted, skipped = _prepare_elements(model, options, progress)
+    if not converted:
+        raise InputError(f"{source}: none of the {len(model.elements)} elements has a usable solid mesh")
+    triangles = sum(len(item.body.faces) for item in converted)
+    drawing = options.preview and triangles <= PREVIEW_MAX_TRIANGLES
+    if options.layout == "yard":  # the yard lays parts on their centre of mass: needed before placing
+        for item in converted:
+            item.finish(options)
+    ground_z = ground_height(model, [item.element for item in converted])
+    yard = _place(converted, ground_z, options)
+    merged = _merged_models(model, converted, options) if options.merge_static else []
+    # preview.png is drawn from the meshes in memory while the workers write the models, unless
+    # merged models (whose DAEs join many elements) are in the picture: those are read back at the end.
+    in_memory_preview = drawing and not merged and options.target in ("sim", "both", "mujoco")
+    timings["prepare"] = time.perf_counter() - tick
+    return _LaidOut(converted, skipped, triangles, drawing, ground_z, yard, merged, in_memory_preview)
+
+
+def _write_package(tmp: Path, model: BuildingModel, laid: _LaidOut, package: str, world_name: str, source: str,
+                   options: ConvertOptions, progress: bool, timings: dict[str, float]):
+    """Write the models, maps, worlds and launch files into ``tmp``, and draw preview.png from memory when
+    ``laid.in_memory_preview``; return (world files, map report entries, the picture's name or None).
+
+    Models and maps are made by every core (bimrobot.core.pool) while this process writes the worlds
+    and launch files and draws preview.png; results come back as the tasks finish. The maps (the
+    longest tasks) come first. ``timings["models_and_maps"]``, ``["preview"]`` (s)."""
+    converted, merged = laid.converted, laid.merged
+    tick = time.perf_counter()
+    plan = _plan_maps(model, converted, options, laid.ground_z) if options.maps else _MapPlan([], (0.0, 0.0), (1, 1))
+    (tmp / "models").mkdir()
+    if plan.levels:
+        (tmp / "maps").mkdir()
+    pool.shared.update(converted=converted, merged=merged, models_dir=tmp / "models", options=options,
+                       source=source, maps_dir=tmp / "maps", map_plan=plan)
+    tasks = [("map", level) for level in range(len(plan.levels))] + _model_tasks(converted, merged, options)
+    drawn: dict[int, dict] = {}
+    preview = None
+    try:
+        parallel = len(converted) >= POOL_MIN_ELEMENTS or options.workers is not None
+        with pool.Tasks(_model_task, tasks, options.workers, parallel) as running:
+            world_files = _write_worlds(tmp / "worlds", world_name, converted, merged, options, laid.ground_z)
+            _write_launch_and_ros(tmp, package, world_name, world_files, source, options)
+            if laid.in_memory_preview:  # this process would wait for the workers: it draws the picture meanwhile
+                painting = time.perf_counter()
+                preview = draw_preview(tmp, world_name, _preview_models(converted))
+                timings["preview"] = time.perf_counter() - painting
+            bar = _bar(None, progress, total=len(converted), desc="models", unit="element")
+            for results in running.results():
+                _apply_results(converted, merged, drawn, results)
+                bar.update(len(results[0]))
+            bar.close()
+    finally:
+        pool.shared.clear()
+    timings["models_and_maps"] = time.perf_counter() - tick
+    return world_files, [drawn[level] for level in sorted(drawn)], preview
+
+
+def _full_report(tmp: Path, model: BuildingModel, laid: _LaidOut, package: str, world_name: str,
+                 world_files: dict[str, str], maps: list[dict], unknown: UnknownWeights, options: ConvertOptions,
+                 timings: dict[str, float]) -> dict:
+    """The report of the written package (report.json but its preview and final timings); writes the
+    MuJoCo scene beside the package for ``--target mujoco``."""
+    converted, merged = laid.converted, laid.merged
+    report = _report(model, package, world_name, world_files, converted, laid.skipped, maps, laid.yard, options,
+                     timings)
+    if merged:
+        report["merged_models"] = [m.as_report() for m in merged]
+    report["counts"]["models"] = len(converted) - sum(len(m.members) for m in merged) + len(merged)
+    report["unknown_weight"] = _unknown_weight_report(unknown, converted, options)
+    duplicates = _duplicate_keys(converted)
+    if duplicates:
+        report["duplicate_global_ids"] = duplicates
+    report["ground_z_m"] = laid.ground_z
+    report["warnings"] = _warnings(converted, options, laid.ground_z)
+    if options.target == "mujoco":  # the MJCF scene beside the package (bimrobot.export.mujoco.scene)
+        from bimrobot.export.mujoco.scene import write_scene
+
+        report["mujoco"] = write_scene(tmp, converted, options, laid.ground_z, laid.yard)
+    for warning in report["warnings"]:
+        log.info("%s", warning)  # the CLI prints them in its summary
     return report
 
 
@@ -386,6 +431,32 @@ def _duplicate_keys(converted: list) -> dict[str, list[str]]:
     return {gid: keys for gid, keys in groups.items() if len(keys) > 1}
 
 
+def _bar(iterable, progress: bool, **options):
+    """A tqdm progress bar over ``iterable`` (None: updated by hand), shown only with ``progress``;
+    tqdm is imported only then."""
+    if progress:
+        from tqdm import tqdm
+
+        return tqdm(iterable, leave=False, **options)
+    return _NoBar(iterable)
+
+
+class _NoBar:
+    """What the code uses of a tqdm bar when none is shown: iteration, update and close."""
+
+    def __init__(self, iterable):
+        self.iterable = iterable
+
+    def __iter__(self):
+        return iter(self.iterable)
+
+    def update(self, count: int = 1) -> None:
+        pass
+
+    def close(self) -> None:
+        pass
+
+
 def _prepare_elements(model: BuildingModel, options: ConvertOptions, progress: bool):
     """Each element with its body (duplicate vertices merged, once per distinct IFC geometry); the
     collision meshes and mass properties follow in the processes that write the models."""
@@ -395,13 +466,15 @@ def _prepare_elements(model: BuildingModel, options: ConvertOptions, progress: b
     ]
     elements = list(model.elements.values())
     geometries: dict[tuple[int, int], _Geometry] = {}  # IFC files share one mesh between many elements
-    for element in tqdm(elements, desc="meshes", unit="element", disable=not progress, leave=False):
+    from bimrobot.export.inertia import Body
+
+    for element in _bar(elements, progress, desc="meshes", unit="element"):
         if len(element.faces) == 0 or len(element.vertices) < 3:
             skipped.append(_skip(element, "its body has no triangles"))
             continue
         key = (id(element.vertices), id(element.faces))
         if key not in geometries:
-            geometries[key] = _Geometry(physics.Body(element.vertices, element.faces))
+            geometries[key] = _Geometry(Body(element.vertices, element.faces))
         geometry = geometries[key]
         if len(geometry.body.faces) == 0:
             skipped.append(_skip(element, "its body has only degenerate triangles"))
