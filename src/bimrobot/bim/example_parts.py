@@ -80,6 +80,8 @@ class _Author:
     def __init__(self, project_name: str, site_name: str):
         self.file = ifcopenshell.api.project.create_file(version="IFC4")
         self._names: set[str] = set()
+        self._stable_ids: set[str] = set()
+        self._key = project_name
         self.project = self.entity("IfcProject", project_name)
         units = [
             ifcopenshell.api.unit.add_si_unit(self.file, unit_type="LENGTHUNIT"),
@@ -110,8 +112,39 @@ class _Author:
         product = ifcopenshell.api.root.create_entity(
             self.file, ifc_class=ifc_class, name=name, predefined_type=predefined_type
         )
-        product.GlobalId = ifcopenshell.guid.compress(uuid.uuid5(_GUID_NAMESPACE, name).hex)
+        product.GlobalId = self.stable_id(name)
         return product
+
+    def stable_id(self, name: str) -> str:
+        """The GlobalId of the entity called ``name`` in this file: the same on every run (a UUID 5 of the
+        name), so two runs write the same file."""
+        global_id = ifcopenshell.guid.compress(uuid.uuid5(_GUID_NAMESPACE, name).hex)
+        self._stable_ids.add(global_id)
+        return global_id
+
+    def _settle_global_ids(self) -> None:
+        """Make the file the same on every run: every rooted entity that ifcopenshell.api keyed at random
+        (relations, property and quantity sets) gets a GlobalId derived from the project, its class and its
+        rank among that class's such entities in creation order, and relations list their members by step id."""
+        ranks: dict[str, int] = {}
+        for entity in sorted(self.file.by_type("IfcRoot"), key=lambda e: e.id()):
+            if entity.GlobalId in self._stable_ids:
+                continue
+            rank = ranks.get(entity.is_a(), 0)
+            ranks[entity.is_a()] = rank + 1
+            key = f"{self._key}/{entity.is_a()}/{rank}"
+            entity.GlobalId = ifcopenshell.guid.compress(uuid.uuid5(_GUID_NAMESPACE, key).hex)
+        # ifcopenshell.api fills a relation's members from a Python set, whose order changes between runs;
+        # these are unordered SETs in IFC (IfcRelNests' list is ordered and left alone)
+        for relation in self.file.by_type("IfcRelationship"):
+            if relation.is_a("IfcRelNests"):
+                continue
+            for attribute in ("RelatedObjects", "RelatedElements"):
+                members = getattr(relation, attribute, None) if hasattr(relation, attribute) else None
+                if members and len(members) > 1:
+                    setattr(relation, attribute, sorted(members, key=lambda member: member.id()))
+        for assignment in self.file.by_type("IfcUnitAssignment"):
+            assignment.Units = sorted(assignment.Units, key=lambda unit: unit.id())
 
     def storey(self, name: str, elevation: float):
         """An IfcBuildingStorey at ``elevation`` metres."""
@@ -175,7 +208,7 @@ class _Author:
         """An IfcRelConnectsWithRealizingElements: ``relating`` supports ``related`` through ``realizing``."""
         relation = self.file.create_entity(
             "IfcRelConnectsWithRealizingElements",
-            GlobalId=ifcopenshell.guid.compress(uuid.uuid5(_GUID_NAMESPACE, f"rel:{name}").hex),
+            GlobalId=self.stable_id(f"rel:{name}"),
             Name=name,
             RelatingElement=relating,
             RelatedElement=related,
@@ -188,6 +221,7 @@ class _Author:
         """Write the file atomically through bimrobot's output policy (a file bimrobot wrote is replaced,
         any other existing file is refused). The header's originating system carries the signature that
         lets a later run recognise the file as bimrobot's."""
+        self._settle_global_ids()
         header = self.file.header.file_name
         header.name = Path(path).name
         header.originating_system = io.signature(f"example {what}")

@@ -5,7 +5,6 @@ shape is drawn (seeded) by :mod:`bimrobot.planning.generator`; this module only 
 
 from __future__ import annotations
 
-import uuid
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -18,11 +17,10 @@ import ifcopenshell.api.material
 import ifcopenshell.api.root
 import ifcopenshell.api.spatial
 import ifcopenshell.api.type
-import ifcopenshell.guid
 import ifcopenshell.util.placement
 
 from bimrobot.bim.example_parts import (BEAM_END_GAP, CONCRETE_DENSITY, FOOTING_SIZE, STEEL_DENSITY,
-                                        W250X73, W310X38_7, ISection, _Author, _frame, _translation, _GUID_NAMESPACE)
+                                        W250X73, W310X38_7, ISection, _Author, _frame, _translation)
 
 #: The kinds of generated building (:class:`Layout`).
 BUILDING_KINDS = ("steel", "precast", "panel")
@@ -97,7 +95,7 @@ class _Typed:
         if key not in self.types:
             author = self.author
             kind = ifcopenshell.api.root.create_entity(file, ifc_class=type_class, name=key)
-            kind.GlobalId = ifcopenshell.guid.compress(uuid.uuid5(_GUID_NAMESPACE, f"type:{key}").hex)
+            kind.GlobalId = author.stable_id(f"type:{key}")
             axes = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0)) if along_x else (None, None)
             representation = ifcopenshell.api.geometry.add_profile_representation(
                 file, context=author.body, profile=profile_fn(), depth=depth, placement_zx_axes=axes)
@@ -139,7 +137,7 @@ class _Builder:
         self.counter = 0
 
     def _id(self, name: str) -> str:
-        return ifcopenshell.guid.compress(uuid.uuid5(_GUID_NAMESPACE, name).hex)
+        return self.author.stable_id(name)
 
     def product(self, ifc_class: str, name: str, storey: int | None, matrix: np.ndarray, material,
                 predefined_type: str | None = None, parent=None):
