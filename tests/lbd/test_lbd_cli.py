@@ -5,10 +5,16 @@ from __future__ import annotations
 import json
 
 import pytest
-import rdflib
 
 from bimrobot.bim.examples import steel_frame
 from bimrobot.cli import main
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _heavy_imports():
+    """rdflib (about 0.3 s of imports with the graph module), imported when these tests run, not at collection."""
+    global rdflib
+    import rdflib
 
 
 @pytest.fixture(scope="module")

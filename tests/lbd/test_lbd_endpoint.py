@@ -14,8 +14,14 @@ import pytest
 
 from bimrobot.cli import main
 from bimrobot.core.errors import InputError
-from bimrobot.lbd.graph import ConstructionGraph, build_graph
 from bimrobot.schedule.csv import load_schedule_csv
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _heavy_imports():
+    """rdflib (about 0.3 s of imports with the graph module), imported when these tests run, not at collection."""
+    global ConstructionGraph, build_graph
+    from bimrobot.lbd.graph import ConstructionGraph, build_graph
 
 
 def oxigraph_binary() -> str:

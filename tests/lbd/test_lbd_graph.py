@@ -6,14 +6,21 @@ from __future__ import annotations
 import json
 
 import pytest
-import rdflib
-import rdflib.compare
-from rdflib import RDF
 
 from bimrobot.core.errors import InputError
-from bimrobot.lbd.graph import BOT, BRC, DICE, DICP, VOCABULARY_FILE, ConstructionGraph, build_graph, query_names
 from bimrobot.schedule.csv import load_schedule_csv, load_schedule_ifc
 from shared_data import shared_file
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _heavy_imports():
+    """rdflib (about 0.3 s of imports with the graph module), imported when these tests run, not at collection."""
+    global rdflib, RDF, BOT, BRC, DICE, DICP, VOCABULARY_FILE, ConstructionGraph, build_graph, query_names
+    import rdflib
+    import rdflib.compare
+    from rdflib import RDF
+
+    from bimrobot.lbd.graph import BOT, BRC, DICE, DICP, VOCABULARY_FILE, ConstructionGraph, build_graph, query_names
 
 
 @pytest.fixture(scope="module")

@@ -6,15 +6,21 @@ from __future__ import annotations
 
 
 import pytest
-from rdflib import RDF
 
 from bimrobot.cli import main
-from bimrobot.lbd.generation import ALLOWED_STATES, ready_activities
-from bimrobot.lbd.graph import BRC, build_graph
 from bimrobot.schedule.csv import load_schedule_csv
 from bimrobot.sco import build_smart_model
 from shared_data import SHARED_IFC
 
+
+@pytest.fixture(autouse=True, scope="module")
+def _heavy_imports():
+    """rdflib (about 0.3 s of imports with the graph module), imported when these tests run, not at collection."""
+    global RDF, ALLOWED_STATES, ready_activities, BRC, build_graph
+    from rdflib import RDF
+
+    from bimrobot.lbd.generation import ALLOWED_STATES, ready_activities
+    from bimrobot.lbd.graph import BRC, build_graph
 
 
 @pytest.fixture(scope="module")

@@ -6,8 +6,14 @@ from __future__ import annotations
 import pytest
 
 from bimrobot.cli import main
-from bimrobot.lbd.graph import COMPONENT_STATES, build_graph
 from bimrobot.schedule.csv import load_schedule_csv
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _heavy_imports():
+    """rdflib (about 0.3 s of imports with the graph module), imported when these tests run, not at collection."""
+    global COMPONENT_STATES, build_graph
+    from bimrobot.lbd.graph import COMPONENT_STATES, build_graph
 
 
 def test_component_states_are_the_sco_state_machine_names():

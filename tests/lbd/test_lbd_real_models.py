@@ -6,11 +6,19 @@ from __future__ import annotations
 
 
 import pytest
-import rdflib
 
 from bimrobot.cli import main
-from bimrobot.lbd.graph import BOT
 from shared_data import SHARED_IFC, shared_models
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _heavy_imports():
+    """rdflib (about 0.3 s of imports with the graph module), imported when these tests run, not at collection."""
+    global rdflib, BOT
+    import rdflib
+
+    from bimrobot.lbd.graph import BOT
+
 
 MODELS = [path.name for path in shared_models()]
 

@@ -12,10 +12,16 @@ import sqlite3
 import pytest
 
 from bimrobot.cli import main
-from bimrobot.lbd.graph import ConstructionGraph
 from bimrobot.schedule.csv import Activity, Schedule, load_schedule_csv
 from bimrobot.rcan.activities import ActivityKind as K
 from bimrobot.rcan.plans import ComponentFacts, plan_from_graph, plan_from_schedule
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _heavy_imports():
+    """rdflib (about 0.3 s of imports with the graph module), imported when these tests run, not at collection."""
+    global ConstructionGraph
+    from bimrobot.lbd.graph import ConstructionGraph
 
 
 @pytest.fixture(scope="module")
