@@ -12,6 +12,7 @@ units) is comparable across machines and loads; the load average is printed with
 
     .venv/bin/python bench/planning_cpsat.py                      # the default ladder, 600 s per instance
     .venv/bin/python bench/planning_cpsat.py --time-limit 120 --only 2x2x1:fleet1 4x3x2:fleet2
+    .venv/bin/python bench/planning_cpsat.py --deterministic-limit 30 --time-limit 3600 --only 3x2x2:fleet2
     .venv/bin/python bench/planning_cpsat.py --generate           # generation time and size, 10 to 10,000 components
 
 Goal (issue 38): where CP-SAT proves the optimum, up to at least 200 tasks within 10 minutes on a
@@ -31,7 +32,7 @@ LADDER = ["2x1x1:fleet2", "2x2x1:fleet1", "2x2x1:fleet2", "3x2x1:fleet2", "3x2x2
           "4x3x2:fleet2", "4x4x3:fleet2", "6x6x4:fleet2"]
 
 
-def solve(item: str, time_limit: float, workers: int, whole_tasks: int) -> dict:
+def solve(item: str, time_limit: float, workers: int, whole_tasks: int, deterministic: float | None = None) -> dict:
     from bimrobot.bim.selection import DEFAULT_PREBUILT
     from bimrobot.coordination.inputs import load_building
     from bimrobot.site.fleet import load_fleet
@@ -43,7 +44,7 @@ def solve(item: str, time_limit: float, workers: int, whole_tasks: int) -> dict:
     smart = build_smart_model(model, prebuilt_classes=DEFAULT_PREBUILT)
     wall, cpu = time.perf_counter(), time.process_time()
     schedule = solve_optimal(smart, load_fleet(fleet), storey_elevations=elevations, time_limit_s=time_limit,
-                             workers=workers, whole_tasks=whole_tasks)
+                             workers=workers, whole_tasks=whole_tasks, deterministic_limit=deterministic)
     return {"frame": frame, "fleet": fleet, "tasks": schedule.tasks, "method": schedule.method,
             "proved": schedule.status == "OPTIMAL", "best_s": schedule.makespan, "bound_s": schedule.lower_bound,
             "gap_pct": 100 * schedule.gap, "market_s": schedule.hinted_s,
@@ -59,7 +60,7 @@ def run_ladder(args) -> None:
           "| wall (s) | wall / limit | CPU (s) | deterministic (s) | load at the end |")
     print("|---|---|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
     for item in args.only or LADDER:
-        r = solve(item, args.time_limit, args.workers, args.whole_tasks)
+        r = solve(item, args.time_limit, args.workers, args.whole_tasks, args.deterministic_limit)
         print(f"| {r['frame']} | {r['fleet']} | {r['tasks']} | {r['method']} | {'yes' if r['proved'] else 'no'} | "
               f"{r['best_s']:.1f} | {r['bound_s']:.1f} | {r['gap_pct']:.2f} % | {r['market_s']:.1f} | "
               f"{r['market_over_bound_pct']:.2f} % | {r['best_s'] / r['market_s']:.4f} | {r['wall_s']:.1f} | "
@@ -87,6 +88,8 @@ def run_generate(args) -> None:
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--time-limit", type=float, default=600.0, help="seconds per instance (default 600)")
+    parser.add_argument("--deterministic-limit", type=float, default=None,
+                        help="CP-SAT's deterministic time per solve (its own work units: the same work under any load)")
     parser.add_argument("--workers", type=int, default=2, help="CP-SAT threads (default 2: this machine's cores)")
     parser.add_argument("--whole-tasks", type=int, default=400, help="above this many tasks, solve floor by floor")
     parser.add_argument("--only", nargs="*", help="instances FRAME:FLEET, e.g. 4x3x2:fleet2")

@@ -17,7 +17,12 @@ The model (times in seconds, solved in units of 0.01 s):
   ``start[u] >= depart[u] + travel(t -> u)``), arcs that contradict a precedence left out;
 - redundant, for the bound: per robot a NoOverlap of its busy intervals [depart, end] (each at least
   its handling plus the shortest drive into it), and per group of tasks that the same robots can do a
-  Cumulative of capacity the group's size.
+  Cumulative of capacity the group's size;
+- per floor, between the gate below and its own gate: each robot's work and its drives, counted once
+  per point it works at (:class:`_Visits`); for two robots that share work, the fastest split of it
+  (subset sums); the two-stage bound (:func:`_staged_bound`); and, where floors cannot overlap, the
+  bound of that floor solved alone (:func:`_floor_bounds`), whose schedules, one floor after the other,
+  are a second hint next to the market's.
 
 Where the whole model is too big (more than ``whole_tasks`` tasks), the build is solved floor by floor
 (the floor gate makes floors follow each other): each floor starts when the one below is done, with
