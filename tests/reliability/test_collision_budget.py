@@ -12,14 +12,22 @@ import pytest
 # `import rclpy` (the ROS 2 tests of the same run) crash with SIGSEGV
 if importlib.util.find_spec("coacd") is None:
     pytest.skip("coacd is not installed (the physics extra)", allow_module_level=True)
-trimesh = pytest.importorskip("trimesh")
-
-from bimrobot.export.mujoco import collision  # noqa: E402
-from bimrobot.export.inertia import Body  # noqa: E402
+if importlib.util.find_spec("trimesh") is None:
+    pytest.skip("trimesh is not installed", allow_module_level=True)
 
 from .conftest import tally  # noqa: E402
 
 pytestmark = pytest.mark.chaos
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _heavy_imports():
+    """trimesh and SciPy (about 1 s of imports, with networkx), imported when these tests run, not at collection."""
+    global trimesh, collision, Body
+    import trimesh
+
+    from bimrobot.export.inertia import Body
+    from bimrobot.export.mujoco import collision
 
 
 def angle_body(length: float = 1.2, leg: float = 0.1, thickness: float = 0.01) -> Body:
