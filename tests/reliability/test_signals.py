@@ -161,7 +161,7 @@ def with_suppressed_kill(pid: int) -> None:
 def test_an_interrupt_python_discarded_in_a_finalizer_stops_the_command():
     # issue 35: 2 of 20 Ctrl-C let `simulate` finish and exit 0; the interrupt landed in a weakref
     # callback, where Python prints "Exception ignored" and goes on. The CLI delivers it again.
-    from bimrobot import cli
+    from bimrobot.core import signals
 
     class Thing:
         pass
@@ -170,7 +170,7 @@ def test_an_interrupt_python_discarded_in_a_finalizer_stops_the_command():
         raise KeyboardInterrupt  # as the signal handler raises it when Ctrl-C comes during the callback
 
     stopped = False
-    with cli._stop_signals_unwind():
+    with signals.stop_signals_unwind():
         thing = Thing()
         watch = weakref.ref(thing, landed_here)
         try:
@@ -195,9 +195,10 @@ def test_every_stop_signal_stops_a_command_like_ctrl_c(monkeypatch, signame):
     # in-process: the handler raises Stopped, main returns 128 + the signal's number, and the previous
     # handlers are back afterwards
     from bimrobot import cli
+    from bimrobot.core import signals
 
     signum = getattr(signal, signame)
-    before = {s: signal.getsignal(s) for s in cli.STOP_SIGNALS}
+    before = {s: signal.getsignal(s) for s in signals.STOP_SIGNALS}
 
     def stopped(args):
         os.kill(os.getpid(), signum)
@@ -206,7 +207,7 @@ def test_every_stop_signal_stops_a_command_like_ctrl_c(monkeypatch, signame):
 
     monkeypatch.setattr("bimrobot.assembly.cli.cmd_optimum", stopped)
     assert cli.main(["assembly", "optimum", "--setting", "E1S1"]) == 128 + signum
-    assert {s: signal.getsignal(s) for s in cli.STOP_SIGNALS} == before
+    assert {s: signal.getsignal(s) for s in signals.STOP_SIGNALS} == before
     tally("signals")
 
 
@@ -239,6 +240,7 @@ def test_a_stop_left_set_inside_a_c_extension_stops_the_command(monkeypatch, cap
     # entity_instance__get_inverse> returned a result with an exception set" (the stop as its cause):
     # exit 1 and a traceback. It is the stop: 128 + the signal, no traceback.
     from bimrobot import cli
+    from bimrobot.core import signals
 
     signum = getattr(signal, signame)
 
@@ -246,7 +248,7 @@ def test_a_stop_left_set_inside_a_c_extension_stops_the_command(monkeypatch, cap
         try:
             os.kill(os.getpid(), signum)
             _spin()
-        except cli.Stopped as stop:  # what CPython does when a C function returns with the stop set
+        except signals.Stopped as stop:  # what CPython does when a C function returns with the stop set
             raise SystemError("<built-in function entity_instance__get_inverse> returned a result with an "
                               "exception set") from stop
         return 0

@@ -104,15 +104,19 @@ class _Author:
         self.steel = ifcopenshell.api.material.add_material(self.file, name="Steel S355", category="steel")
         self.concrete = ifcopenshell.api.material.add_material(self.file, name="Concrete C30/37", category="concrete")
 
-    def entity(self, ifc_class: str, name: str, predefined_type: str | None = None):
-        """Create a rooted entity whose GlobalId is derived from its (unique) name."""
+    def entity(self, ifc_class: str, name: str, predefined_type: str | None = None, global_id: str | None = None):
+        """Create a rooted entity whose GlobalId is ``global_id`` or else derived from its (unique) name."""
         if name in self._names:
             raise ValueError(f"duplicate example element name {name!r}")
         self._names.add(name)
         product = ifcopenshell.api.root.create_entity(
             self.file, ifc_class=ifc_class, name=name, predefined_type=predefined_type
         )
-        product.GlobalId = self.stable_id(name)
+        if global_id is None:
+            product.GlobalId = self.stable_id(name)
+        else:
+            product.GlobalId = global_id
+            self._stable_ids.add(global_id)
         return product
 
     def stable_id(self, name: str) -> str:

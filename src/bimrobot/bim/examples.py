@@ -147,8 +147,8 @@ def rcan_experiment(number: int, path: str | Path) -> Path:
     author = _Author(f"RCAN experiment {number}", "Test site")
     storey = author.storey("Ground floor", 0.0)
     name = "Scale column" if ifc_class == "IfcColumn" else "Scale footing"
-    product = author.entity(ifc_class, name, predefined_type="COLUMN" if ifc_class == "IfcColumn" else "PAD_FOOTING")
-    product.GlobalId = global_id
+    product = author.entity(ifc_class, name, predefined_type="COLUMN" if ifc_class == "IfcColumn" else "PAD_FOOTING",
+                            global_id=global_id)
     material = author.steel if ifc_class == "IfcColumn" else author.concrete
     if ifc_class == "IfcColumn":
         material = ifcopenshell.api.material.add_material(author.file, name="Aluminium 6061", category="aluminium")

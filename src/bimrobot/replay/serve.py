@@ -183,12 +183,12 @@ def serve_until_stopped(rrd: Path, port: int, announce) -> int:
     """Serve ``rrd`` in the web viewer (:func:`serve_web`), call ``announce(url)`` and wait until the
     viewer server ends or bimrobot is stopped; either way stop Rerun's server (its whole process group)
     and remove its temporary folder before returning. Ctrl-C (SIGINT), SIGTERM and SIGHUP all unwind
-    through here (bimrobot.cli turns the latter two into :class:`bimrobot.cli.Stopped`, a
+    through here (bimrobot.cli turns the latter two into :class:`bimrobot.core.signals.Stopped`, a
     KeyboardInterrupt, for the command's duration; here too when called outside it), and a second
     signal during the clean-up does not cut it short. Returns 1 when the server ended by itself."""
-    from bimrobot.cli import _stop_signals_unwind
+    from bimrobot.core.signals import stop_signals_unwind
 
-    with _stop_signals_unwind():
+    with stop_signals_unwind():
         viewer = serve_web(rrd, web_port=port)
         try:
             announce(viewer.url)
