@@ -11,7 +11,8 @@ from bimrobot.planning.optimal import task_graph
 from bimrobot.coordination.simulation import ConstructionSimulation, simulate
 from bimrobot.core.errors import InputError
 from bimrobot.planning.dispatch import frame_problem
-from bimrobot.planning.planners import PLANNERS, RuleDispatcher, _request_key, _scores, plan, planner_for
+from bimrobot.planning.planners import PLANNERS, plan, planner_for
+from bimrobot.planning.rules import RuleDispatcher, _request_key, _scores
 from bimrobot.core.tasks import Task
 
 #: CP-SAT in tests: one worker and CP-SAT's deterministic time, so every machine finds the same plan

@@ -186,7 +186,7 @@ _ADVICE: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
 
 def _adviser(name: str) -> Dispatcher:
     from bimrobot.coordination.market import MarketDispatcher, make_evaluator
-    from bimrobot.planning.planners import RuleDispatcher
+    from bimrobot.planning.rules import RuleDispatcher
 
     if name.startswith("rule:"):
         return RuleDispatcher(name.split(":", 1)[1])

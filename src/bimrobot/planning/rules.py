@@ -1,0 +1,129 @@
+"""Priority rules as dispatchers of the one event simulation (issue 38), named ``rule:NAME`` by
+:mod:`bimrobot.planning.planners`.
+
+- ``most-successors``, ``longest-path``, ``shortest-handling``: at each allocation round the ready tasks
+  are taken in the rule's order (most tasks after it, directly or not; longest remaining path of shortest
+  handling times, the critical path; shortest handling time); each goes to the capable idle robot that
+  finishes it soonest (travel + handling; ties: robot name).
+- ``nearest``: the (ready task, idle robot) pair with the shortest drive first, again and again.
+
+Deterministic. Times in seconds, positions (x, y) in metres in the site frame.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from bimrobot.coordination.market import Award, Dispatcher, incapability, propose, handling_time
+from bimrobot.core.errors import InputError
+
+RULES = ("most-successors", "longest-path", "nearest", "shortest-handling")
+
+
+def _request_key(sim, request) -> str:
+    """The task graph's node of a published request (:func:`bimrobot.planning.dispatch.request_key`)."""
+    from bimrobot.planning.dispatch import request_key
+
+    return request_key(sim, request)
+
+
+def _scores(sim, rule: str) -> dict[str, float]:
+    """Each task's priority under ``rule`` (higher first): its number of successors (direct or not), or
+    its longest remaining path in seconds (its own and its successors' shortest handling times, gates 0),
+    or minus its shortest handling time (s)."""
+    from bimrobot.planning.dispatch import task_graph
+
+    graph = task_graph(sim)
+    n = len(graph.keys)
+    after: list[list[int]] = [[] for _ in range(n)]
+    indegree = np.zeros(n, dtype=np.int64)
+    for a, b in graph.edges:
+        after[a].append(int(b))
+        indegree[b] += 1
+    order, ready = [], [i for i in range(n) if indegree[i] == 0]
+    while ready:  # topological order (Kahn)
+        i = ready.pop()
+        order.append(i)
+        for j in after[i]:
+            indegree[j] -= 1
+            if indegree[j] == 0:
+                ready.append(j)
+    specs = [r.spec for r in sim.build.robots.values()]
+
+    def shortest(request) -> float:
+        if request is None:
+            return 0.0
+        return min((handling_time(s, request) for s in specs if not incapability(s, request)), default=0.0)
+
+    if rule == "shortest-handling":
+        return {k: -shortest(r) for k, r in zip(graph.keys, graph.requests)}
+    if rule == "longest-path":
+        tail = [0.0] * n
+        for i in reversed(order):
+            tail[i] = shortest(graph.requests[i]) + max((tail[j] for j in after[i]), default=0.0)
+        return dict(zip(graph.keys, tail))
+    below = [0] * n  # successors as a bit set per task
+    for i in reversed(order):
+        bits = 0
+        for j in after[i]:
+            bits |= below[j] | (1 << j)
+        below[i] = bits
+    return {k: float(bits.bit_count()) for k, bits in zip(graph.keys, below)}
+
+
+class RuleDispatcher(Dispatcher):
+    """A priority rule (module docstring) as the simulation's dispatcher; ``rule`` one of :data:`RULES`."""
+
+    def __init__(self, rule: str):
+        if rule not in RULES:
+            raise InputError(f"unknown rule {rule!r}: choose one of {', '.join(RULES)}")
+        self.rule, self.name = rule, f"rule:{rule}"
+        self._scores: dict[str, float] | None = None
+        self._sim = None
+        self._key: dict[str, float] = {}  # request id -> its score under the rule
+
+    def awards(self, sim) -> list[Award]:
+        if self._sim is not sim:
+            self._sim, self._scores = sim, (None if self.rule == "nearest" else _scores(sim, self.rule))
+            self._key = {}
+        now = sim.build.env.now
+        idle = {a: set(names) for a, names in sim.build.idle.items()}
+        pending = [r for pool in sim.build.pending.values() for r in pool]
+        chosen: list[Award] = []
+        if self.rule == "nearest":
+            return self._nearest(sim, pending, idle, now)
+        for r in pending:
+            if r.id not in self._key:
+                self._key[r.id] = self._scores.get(_request_key(sim, r), 0.0)
+        pending.sort(key=lambda r: (-self._key[r.id], r.priority))
+        for request in pending:
+            if not any(idle.values()):
+                break
+            proposals = [propose(sim.build.robots[n].spec, sim.position_now(sim.build.robots[n]), now, True, request)
+                         for n in sorted(idle[request.activity]) if not incapability(sim.build.robots[n].spec, request)]
+            if proposals:
+                best = min(proposals, key=lambda p: (p.cost, p.robot))
+                chosen.append(Award(request, best.robot, best, len(proposals)))
+                for names in idle.values():
+                    names.discard(best.robot)
+        return chosen
+
+    def _nearest(self, sim, pending, idle, now) -> list[Award]:
+        """The shortest drive first: all (task, idle robot) pairs, nearest first (ties: task priority, name)."""
+        pairs = []
+        for request in pending:
+            for name in idle[request.activity]:
+                robot = sim.build.robots[name]
+                if not incapability(robot.spec, request):
+                    p = propose(robot.spec, sim.position_now(robot), now, True, request)
+                    pairs.append((p.distance, request.priority, name, request, p))
+        pairs.sort(key=lambda x: x[:3])
+        chosen, busy, given = [], set(), set()
+        for _, _, name, request, p in pairs:
+            if name in busy or request.id in given:
+                continue
+            bidders = sum(1 for q in pairs if q[3] is request)
+            chosen.append(Award(request, name, p, bidders))
+            busy.add(name)
+            given.add(request.id)
+        return chosen
