@@ -199,9 +199,11 @@ TRAIN_EXAMPLES = """examples:
   bimrobot plan train --seed 1 --steps 0 --imitation-steps 2000 -o runs/imitation-s1/   # imitation only
 
 Trains on generated buildings only (steel, precast, panel; bimrobot.planning.generator, drawn from the
-seed): behaviour cloning of the least-cost market, then MaskablePPO fine-tuning with a size-independent
-policy (docs/planning.md, "Learned planner"). Writes policy.zip (use it with --planner PATH.zip),
-imitation.zip (the policy after imitation, before PPO) and train.json (command, seed, accuracy, the
+seed): behaviour cloning of a teacher, then MaskablePPO fine-tuning with a size-independent policy
+(docs/planning.md, "Learned planner"). The teacher is the pilot (at each decision where the market and the
+priority rules disagree, it tries each and lets the market finish; it keeps the shortest build, so it is
+never longer than the market) or the least-cost market (--teacher market). Writes policy.zip (use it with
+--planner PATH.zip), imitation.zip (the policy after imitation, before PPO) and train.json (command, seed, accuracy, the
 training buildings and the market's makespan on each). Bounded by steps, never by wall time; one torch thread.
 """
 
@@ -209,12 +211,14 @@ training buildings and the market's makespan on each). Bounded by steps, never b
 def register_train(commands) -> None:
     """Add ``plan train``."""
     train = commands.add_parser(
-        "train", help="train the learned planner on generated buildings (imitation of the market, then PPO)",
+        "train", help="train the learned planner on generated buildings (imitation of a teacher, then PPO)",
         epilog=TRAIN_EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     train.add_argument("--seed", type=int, default=0, help="seed of the training buildings, weights and PPO (default 0)")
     train.add_argument("--steps", type=int, default=4096, help="PPO env steps after imitation (default 4096; 0: imitation only)")
-    train.add_argument("--imitation-steps", type=int, default=400, help="behaviour-cloning mini-batches of the market's choices (default 400; 0: none)")
+    train.add_argument("--imitation-steps", type=int, default=400, help="behaviour-cloning mini-batches of the teacher's choices (default 400; 0: none)")
+    train.add_argument("--teacher", choices=("pilot", "market"), default="pilot",
+                       help="whose decisions are imitated: the pilot (market and rules tried, the shortest kept; default) or the least-cost market")
     train.add_argument("-o", "--output", required=True, help="output folder (new, or one `plan train` wrote)")
     train.set_defaults(func=run_train)
 
@@ -229,13 +233,14 @@ def run_train(args) -> int:
 
     check_output(args.output, folder=True, kind="plan-train")  # refused before the long work
     command = shlex.join(["bimrobot", "plan", "train", "--seed", str(args.seed), "--steps", str(args.steps),
-                          "--imitation-steps", str(args.imitation_steps), "-o", args.output])
+                          "--imitation-steps", str(args.imitation_steps),
+                          *(["--teacher", args.teacher] if args.teacher != "pilot" else []), "-o", args.output])
     imitated: dict = {}
 
     def keep(model, accuracy):
         imitated["zip"] = policy_bytes(model, {"stage": "after imitation, before PPO", "imitation_accuracy": accuracy})
 
-    result = train(args.seed, args.steps, args.imitation_steps, command=command, on_imitated=keep)
+    result = train(args.seed, args.steps, args.imitation_steps, command=command, on_imitated=keep, teacher=args.teacher)
     with atomic_output_dir(args.output, kind="plan-train") as tmp:
         save(result.model, tmp / "policy.zip", result.meta)
         if imitated:
