@@ -313,8 +313,15 @@ def _build(cp_model, problem: _Problem, hint: dict | None):
         variables = dict(assigned=assigned, depart=depart, start=start, end=end, arcs=arcs_of, sizes=sizes,
                          gates=gates, makespan=makespan, visited=travel.visited)
         hinted = _add_hint(model, hint, problem, handling, drive, first_drive, ready, variables)
-        return model, (makespan, assigned, depart, start, end, capable, hinted, known_bound)
-    return model, (makespan, assigned, depart, start, end, capable, None, known_bound)
+    else:
+        hinted = None
+
+    def justify(found: dict) -> dict:
+        """The solver's schedule (task -> (robot, depart, end) ticks), every task as early as its
+        order allows: CP-SAT's solutions may wait where nothing makes them (ticks)."""
+        return _retime(tasks, fleet, found, handling, drive, first_drive, ready)[0]
+
+    return model, (makespan, assigned, depart, start, end, capable, hinted, known_bound, justify)
 
 
 def _floor_loads(model, tasks, gates, ancestors, capable, busy_min, assigned, travel, floor_least) -> int:
@@ -524,6 +531,26 @@ def _two_robot_bound(work: list[_Task], pair: tuple[str, str], busy_min) -> int:
     return int(loads.min()) * SCALE
 
 
+def _retime(tasks: list[_Task], fleet: Fleet, hint: dict, handling, drive, first_drive, ready):
+    """A schedule's tasks (``hint``: task key -> (robot, depart, end), any unit) in its order per robot,
+    each as early as its predecessors, its robot and the drive allow: (times: task -> (depart, start,
+    end) in ticks, arcs, each robot's last task)."""
+    keys = {t.key for t in tasks}
+    ends = {t.key: t.request.end for t in tasks}
+    times: dict[str, tuple[int, int, int]] = {}
+    last: dict[str, str | None] = {r.name: None for r in fleet.robots}
+    free = dict(ready)
+    true_arcs = set()
+    for t in sorted(tasks, key=lambda t: (hint[t.key][1], hint[t.key][2])):
+        robot, before = hint[t.key][0], last[hint[t.key][0]]
+        leave = max([free[robot]] + [times[p][2] for p in t.predecessors if p in keys])
+        way = first_drive[t.key, robot] if before is None else drive(ends[before], t.request.start, robot)
+        times[t.key] = (leave, leave + way, leave + way + handling[t.key, robot])
+        true_arcs.add((robot, before, t.key))
+        last[robot], free[robot] = t.key, times[t.key][2]
+    return times, true_arcs, last
+
+
 def _add_hint(model, hints, problem: _Problem, handling, drive, first_drive, ready, v: dict) -> dict | None:
     """The market's assignment and order (``hints``: task key -> (robot, depart s, end s), or a list of
     such schedules, the shortest once re-timed is taken) as CP-SAT's first solution, every variable
@@ -535,21 +562,9 @@ def _add_hint(model, hints, problem: _Problem, handling, drive, first_drive, rea
     ends = {t.key: t.request.end for t in tasks}
 
     def retime(hint: dict):
-        """The hint's tasks in its order, each as early as possible: (times, arcs, last) or None."""
         if any(t.key not in hint or (t.key, hint[t.key][0]) not in v["assigned"] for t in tasks):
             return None  # a partial hint would only mislead the search
-        times: dict[str, tuple[int, int, int]] = {}  # task -> (depart, start, end) in ticks
-        last: dict[str, str | None] = {r.name: None for r in problem.fleet.robots}
-        free = dict(ready)
-        true_arcs = set()
-        for t in sorted(tasks, key=lambda t: (hint[t.key][1], hint[t.key][2])):
-            robot, before = hint[t.key][0], last[hint[t.key][0]]
-            leave = max([free[robot]] + [times[p][2] for p in t.predecessors if p in keys])
-            way = first_drive[t.key, robot] if before is None else drive(ends[before], t.request.start, robot)
-            times[t.key] = (leave, leave + way, leave + way + handling[t.key, robot])
-            true_arcs.add((robot, before, t.key))
-            last[robot], free[robot] = t.key, times[t.key][2]
-        return times, true_arcs, last
+        return _retime(tasks, problem.fleet, hint, handling, drive, first_drive, ready)
 
     candidates = [(hint, retime(hint)) for hint in (hints if isinstance(hints, list) else [hints]) if hint]
     candidates = [(hint, timed) for hint, timed in candidates if timed]
@@ -581,7 +596,7 @@ def _add_hint(model, hints, problem: _Problem, handling, drive, first_drive, rea
 def _solve(problem: _Problem, hint: dict | list | None, time_limit_s: float, workers: int, seed: int,
            deterministic_limit: float | None) -> _Solved:
     cp_model = require_extra("ortools.sat.python.cp_model", "optimize")
-    model, (makespan, assigned, depart, start, end, capable, hinted, least) = _build(cp_model, problem, hint)
+    model, (makespan, assigned, depart, start, end, capable, hinted, least, justify) = _build(cp_model, problem, hint)
     solver = cp_model.CpSolver()
     solver.parameters.max_time_in_seconds = time_limit_s
     if deterministic_limit is not None:
@@ -604,14 +619,16 @@ def _solve(problem: _Problem, hint: dict | list | None, time_limit_s: float, wor
     if status not in (cp_model.OPTIMAL, cp_model.FEASIBLE):
         raise InputError(f"CP-SAT found no schedule within {time_limit_s} s (status {solver.StatusName(status)})")
     tasks = problem.tasks
+    robot = {t.key: next(r.name for r in capable[t.key] if solver.Value(assigned[t.key, r.name])) for t in tasks}
+    timed = justify({t.key: (robot[t.key], solver.Value(depart[t.key]), solver.Value(end[t.key])) for t in tasks})
     return _Solved(
-        makespan=solver.Value(makespan) / SCALE,
+        makespan=max(x[2] for x in timed.values()) / SCALE,
         bound=max(least, solver.BestObjectiveBound()) / SCALE,
         status=solver.StatusName(status),
-        assignment={t.key: next(r.name for r in capable[t.key] if solver.Value(assigned[t.key, r.name])) for t in tasks},
-        depart={t.key: solver.Value(depart[t.key]) / SCALE for t in tasks},
-        start={t.key: solver.Value(start[t.key]) / SCALE for t in tasks},
-        end={t.key: solver.Value(end[t.key]) / SCALE for t in tasks},
+        assignment=robot,
+        depart={k: x[0] / SCALE for k, x in timed.items()},
+        start={k: x[1] / SCALE for k, x in timed.items()},
+        end={k: x[2] / SCALE for k, x in timed.items()},
         deterministic_s=solver.response_proto.deterministic_time,
     )
 
