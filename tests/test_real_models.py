@@ -100,7 +100,7 @@ def test_the_package_is_valid_and_names_nothing_generic(pipeline):
     """convert's package (default options) says what it wrote, passes bimrobot's own checks, and gives
     no world, model or map a tool-default name ("Undefined", "Default", "Topography : Surface")."""
     from bimrobot.export.gazebo.check import problems
-    from bimrobot.export.gazebo.package import GENERIC_SITE_NAMES
+    from bimrobot.export.gazebo.naming import GENERIC_SITE_NAMES
 
     out = pipeline["work"] / "pkg"
     report = json.loads((out / "report.json").read_text())

@@ -280,7 +280,7 @@ def test_bad_options_are_refused_with_the_option_named(tmp_path, options, messag
     ],
 )
 def test_world_is_named_by_the_site_unless_the_site_name_is_a_tool_default(site, source, expected):
-    from bimrobot.export.gazebo.package import world_name_of
+    from bimrobot.export.gazebo.naming import world_name_of
 
     model = frame_model()
     model.site_name, model.source = site, Path(source) if source else None
@@ -440,7 +440,7 @@ def test_a_failing_conversion_leaves_nothing(tmp_path, monkeypatch):
     def fail(*args, **kwargs):
         raise InputError("stop here")
 
-    monkeypatch.setattr(package_module, "_report", fail)  # after the models are written
+    monkeypatch.setattr(package_module, "package_report", fail)  # after the models are written
     with pytest.raises(InputError, match="stop here"):
         build_package(frame_model(), tmp_path / "pkg", ConvertOptions())
     assert list(tmp_path.iterdir()) == []

@@ -22,10 +22,9 @@ from __future__ import annotations
 
 import json
 import logging
-import re
 import time
 from collections import Counter
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -33,12 +32,12 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from bimrobot.core import io
-from bimrobot.bim.model import BuildingModel, Element, WeightSource
-from bimrobot.bim.unknown_weight import UnknownWeightRule, UnknownWeights, apply_unknown_weight_rule
+from bimrobot.bim.model import BuildingModel, Element
+from bimrobot.bim.unknown_weight import UnknownWeights, apply_unknown_weight_rule
 from bimrobot.core.cores import frozen_heap
 from bimrobot.core.errors import InputError
 from bimrobot.core.io import printable
-from bimrobot.site.site import Site, site_for
+from bimrobot.site.site import site_for
 from bimrobot.export.gazebo import launch
 from bimrobot.export.gazebo import layout
 from bimrobot.export.gazebo import merge
@@ -48,75 +47,15 @@ from bimrobot.core import pool
 from bimrobot.export.gazebo import sdf
 from bimrobot.core.names import ros_package_name, safe_name, slug
 from bimrobot.export.gazebo.render import PREVIEW_MAX_TRIANGLES, draw_preview, render_preview
+from bimrobot.export.gazebo.naming import map_name, world_name_of
+from bimrobot.export.gazebo.options import ConvertOptions
+from bimrobot.export.gazebo.package_report import (duplicate_keys, package_report, readme_text, unknown_weight_report,
+                                                   warnings_of)
 
 if TYPE_CHECKING:  # mass properties need trimesh and SciPy: imported where the bodies are made
     from bimrobot.export import inertia as physics
 
 log = logging.getLogger(__name__)
-
-TARGETS = ("sim", "classic", "both", "mujoco")  # mujoco: the sim package + mujoco/scene.xml
-LAYOUTS = ("installed", "yard")
-COLLISIONS = ("convex", "decimated")
-
-
-@dataclass
-class ConvertOptions:
-    """How to convert. Lengths in metres, densities in kg/m^3.
-
-    ``static``: None means static models for the installed layout and dynamic ones on the yard (where
-    robots pick them up). ``merge_static``: merge the static elements into one model per storey and
-    IFC class, except the components robots handle: the classes in ``keep_separate`` (IFC class names,
-    subclasses count), which keep one model per element. ``workers``: processes for the per-model
-    work (default: every core). ``map_band``: (low, high) above each storey's elevation. ``max_triangles``:
-    triangle budget of each collision mesh. ``unknown_weight``: the rule for elements without a weight
-    in the model (:mod:`bimrobot.bim.unknown_weight`; default: volume x 2400 kg/m3). ``preview``: draw
-    ``preview.png``, a picture of the world (:mod:`bimrobot.export.gazebo.render`).
-    """
-
-    target: str = "sim"
-    static: bool | None = None
-    layout: str = "installed"
-    collision: str = "convex"
-    max_triangles: int = 500
-    map_resolution: float = 0.05
-    map_band: tuple[float, float] = (0.1, 1.5)
-    map_margin: float = 1.0
-    package_name: str | None = None
-    unknown_weight: UnknownWeightRule = field(default_factory=UnknownWeightRule)
-    maps: bool = True
-    merge_static: bool = False
-    keep_separate: tuple[str, ...] = ()
-    workers: int | None = None
-    preview: bool = True  # skipped above render.PREVIEW_MAX_TRIANGLES visual triangles
-    site: Site | None = None  # where the yard is (--layout yard); None: bimrobot.site.site.site_for decides
-
-    def validate(self) -> None:
-        """Raise InputError naming the first option that is out of range."""
-        checks = [
-            (self.target in TARGETS, f"--target must be one of {', '.join(TARGETS)}, not {self.target!r}"),
-            (self.layout in LAYOUTS, f"--layout must be one of {', '.join(LAYOUTS)}, not {self.layout!r}"),
-            (self.collision in COLLISIONS, f"--collision must be one of {', '.join(COLLISIONS)}, not {self.collision!r}"),
-            (self.max_triangles >= 4, f"--max-triangles must be at least 4 (a tetrahedron), not {self.max_triangles}"),
-            (self.map_resolution > 0, f"--map-resolution must be positive, not {self.map_resolution}"),
-            (self.map_band[0] < self.map_band[1], f"--map-band must be LOW HIGH with LOW < HIGH, not {self.map_band}"),
-            (self.map_margin >= 0, f"--map-margin must not be negative, not {self.map_margin}"),
-            (isinstance(self.unknown_weight, UnknownWeightRule),
-             f"--unknown-weight must be a density in kg/m3 or 'refuse', not {self.unknown_weight!r}"),
-            (not self.merge_static or self.is_static,
-             "--merge-static merges static models, but these models are dynamic (--dynamic or --layout yard): "
-             "leave out --merge-static or use --static"),
-            (not self.keep_separate or self.merge_static, "--keep-separate only applies with --merge-static"),
-            (self.workers is None or self.workers >= 1, f"workers must be at least 1, not {self.workers}"),
-        ]
-        for ok, message in checks:
-            if not ok:
-                raise InputError(message)
-
-    @property
-    def is_static(self) -> bool:
-        """Whether the models are static (fixed in the world)."""
-        return self.static if self.static is not None else self.layout == "installed"
-
 
 @dataclass
 class _Geometry:
@@ -247,7 +186,7 @@ def build_package(
         report["timings_s"]["preview"] = round(timings.get("preview", 0.0), 4)
         report["timings_s"]["total"] = round(timings["total"], 4)
         (tmp / "report.json").write_text(json.dumps(report, indent=2), encoding="utf-8")
-        (tmp / "README.md").write_text(_readme(report), encoding="utf-8")
+        (tmp / "README.md").write_text(readme_text(report), encoding="utf-8")
     log.info("wrote %s: %d models, %d skipped", out_dir, len(laid.converted), len(laid.skipped))
     return report
 
@@ -334,17 +273,17 @@ def _full_report(tmp: Path, model: BuildingModel, laid: _LaidOut, package: str, 
     """The report of the written package (report.json but its preview and final timings); writes the
     MuJoCo scene beside the package for ``--target mujoco``."""
     converted, merged = laid.converted, laid.merged
-    report = _report(model, package, world_name, world_files, converted, laid.skipped, maps, laid.yard, options,
+    report = package_report(model, package, world_name, world_files, converted, laid.skipped, maps, laid.yard, options,
                      timings)
     if merged:
         report["merged_models"] = [m.as_report() for m in merged]
     report["counts"]["models"] = len(converted) - sum(len(m.members) for m in merged) + len(merged)
-    report["unknown_weight"] = _unknown_weight_report(unknown, converted, options)
-    duplicates = _duplicate_keys(converted)
+    report["unknown_weight"] = unknown_weight_report(unknown, converted, options)
+    duplicates = duplicate_keys(converted)
     if duplicates:
         report["duplicate_global_ids"] = duplicates
     report["ground_z_m"] = laid.ground_z
-    report["warnings"] = _warnings(converted, options, laid.ground_z)
+    report["warnings"] = warnings_of(converted, options, laid.ground_z, _world_extent(converted))
     if options.target == "mujoco":  # the MJCF scene beside the package (bimrobot.export.mujoco.scene)
         from bimrobot.export.mujoco.scene import write_scene
 
@@ -352,51 +291,6 @@ def _full_report(tmp: Path, model: BuildingModel, laid: _LaidOut, package: str, 
     for warning in report["warnings"]:
         log.info("%s", warning)  # the CLI prints them in its summary
     return report
-
-
-def final_path(text: str) -> str:
-    """``text`` with a resumable command's partial folder (``.NAME.partial``, :func:`bimrobot.core.io.partial_folder`)
-    replaced by the folder it becomes when the command finishes (``NAME``): e.g. ``build``'s
-    ``out/.b.partial/site.yaml`` is ``out/b/site.yaml`` once the build is renamed into place. Other text
-    is returned unchanged."""
-    return re.sub(r"(^|/)\.([^/]+)\.partial(?=/|$)", r"\1\2", text)
-
-
-GENERIC_SITE_NAMES = {"", "site", "default", "default_site", "surface", "topography", "topography_surface",
-                      "unnamed", "my_site", "undefined", "none", "null", "unknown", "untitled", "project",
-                      "default_project", "building", "default_building", "world"}
-"""Slugs of names authoring tools write by default (Revit: "Topography : Surface", "Default"; Tekla:
-"Undefined"; IfcOpenShell: "My Site"); they do not name a world, a map or a file."""
-
-GENERIC_STOREY_NAMES = {"", "undefined", "default", "storey", "building_storey", "level", "unnamed", "none",
-                        "null", "unknown", "untitled"}
-"""Slugs of storey names that say nothing (Tekla exports one storey named "Undefined")."""
-
-
-def _is_generic(name: str, generic: set[str]) -> bool:
-    # "Site #1", "Level 2" keep a number: "site_1" is generic, "level_2" is not (a storey needs its number);
-    # "表面:335313" slugs to "335313": a number alone names nothing.
-    return name in generic or name.replace("_", "").isdigit() or bool(re.fullmatch(r"(site|default)_\d+", name))
-
-
-def world_name_of(model: BuildingModel) -> str:
-    """The world's name and file stem: the IfcSite's name, unless it is a tool default ("Undefined",
-    "Default", "Topography : Surface", ...); then the IFC file's name, then the project's, then "building"."""
-    candidates = [model.site_name or "", model.source.stem if model.source else "", model.project_name or ""]
-    for candidate in candidates:
-        name = slug(candidate, "")
-        if not _is_generic(name, GENERIC_SITE_NAMES):
-            return name
-    return "building"
-
-
-def _map_name(storey_name: str, index: int) -> str:
-    """File stem of a storey's map: its name (``storey_2`` for a storey named "2"), or ``storey_<n>``
-    (n from 1, lowest first) for a name that says nothing ("Undefined", "Default", empty)."""
-    name = slug(storey_name, "")
-    if name.isdigit():
-        return f"storey_{name}"
-    return f"storey_{index}" if _is_generic(name, GENERIC_STOREY_NAMES) else name
 
 
 def _refuse_weightless(model: BuildingModel, options: ConvertOptions, source: str) -> None:
@@ -410,25 +304,6 @@ def _refuse_weightless(model: BuildingModel, options: ConvertOptions, source: st
             f"{source}: {len(bad)} element(s) have a weight of 0 kg or less in the model ({classes}, e.g. "
             f"{printable(bad[0].global_id)}) and --unknown-weight is refuse; give a density such as --unknown-weight 2400"
         )
-
-
-def _unknown_weight_report(unknown: UnknownWeights, converted: list, options: ConvertOptions) -> dict:
-    """``unknown.as_dict()`` plus the one-line message; elements that had no closed volume for the rule
-    get the mass physics gave them (the same density over their convex hull or box)."""
-    entry = unknown.as_dict()
-    for item in converted:
-        if item.element.global_id in entry["elements"] and entry["elements"][item.element.global_id] is None:
-            entry["elements"][item.element.global_id] = round(item.mass.mass, 3)
-    entry["message"] = unknown.message()
-    return entry
-
-
-def _duplicate_keys(converted: list) -> dict[str, list[str]]:
-    """GlobalId -> the model names of the elements that share it (keys ``<GlobalId>#<step id>``)."""
-    groups: dict[str, list[str]] = {}
-    for item in converted:
-        groups.setdefault(item.element.global_id.split("#")[0], []).append(item.element.global_id)
-    return {gid: keys for gid, keys in groups.items() if len(keys) > 1}
 
 
 def _bar(iterable, progress: bool, **options):
@@ -507,7 +382,7 @@ def _merged_models(model: BuildingModel, converted: list[_Converted], options: C
             groups.setdefault((item.element.storey_id, cls), []).append(index)
     storeys = {s.global_id: s.name for s in model.storeys}
     ordered = sorted(model.storeys, key=lambda s: s.elevation)
-    storey_slugs = {s.global_id: _map_name(s.name, index) for index, s in enumerate(ordered, start=1)}  # as the maps
+    storey_slugs = {s.global_id: map_name(s.name, index) for index, s in enumerate(ordered, start=1)}  # as the maps
     taken = {item.name for item in converted}
     merged = []
     for (storey_id, cls), members in groups.items():
@@ -734,7 +609,7 @@ def _plan_maps(model: BuildingModel, converted: list[_Converted], options: Conve
     used: set[str] = set()
     planned = []
     for index, (storey_id, storey_name, elevation) in enumerate(levels, start=1):
-        name = _map_name(storey_name, index) if storey_id else "site"
+        name = map_name(storey_name, index) if storey_id else "site"
         if name in used:
             name = f"{name}_{safe_name(storey_id) if storey_id else len(used)}"
         used.add(name)
@@ -762,183 +637,3 @@ def _write_map(maps_dir: Path, converted: list[_Converted], plan: _MapPlan, leve
         "size_px": [plan.shape[1], plan.shape[0]],
         "occupied_cells": int(occupied.sum()),
     }
-
-
-FAR_FROM_ORIGIN_M = 1000.0
-"""Beyond this distance from the world origin, single-precision meshes and physics lose millimetres."""
-
-
-def _warnings(converted: list[_Converted], options: ConvertOptions, ground_z: float) -> list[str]:
-    """Things a user should know before starting the simulation (also logged)."""
-    warnings = []
-    extent = _world_extent(converted)
-    if not options.is_static:
-        below = [item.name for item in converted if item.world_vertices[:, 2].min() < ground_z - 1e-6]
-        if below:
-            warnings.append(
-                f"{len(below)} dynamic model(s) reach below the ground plane at z = {ground_z:g} m (e.g. {below[0]}); "
-                "the physics engine will push them up at the start: use --static, --layout yard or --exclude their class"
-            )
-    suspect = [(item, reason) for item in converted if (reason := _suspect_weight(item))]
-    if suspect:
-        item, reason = suspect[0]
-        warnings.append(
-            f"{len(suspect)} model(s) have a weight from the model that is not plausible, e.g. {item.element.ifc_class} "
-            f"{printable(item.element.name)!r} ({item.element.global_id}): {reason}; their masses are as the model "
-            "says (report.json: weight_suspect; correct the model's weights, or --exclude them)"
-        )
-    # say what is far out: the building itself (its IFC coordinates), or only the yard the site puts it on
-    installed = max(float(np.abs(item.element.world_bounds).max()) for item in converted)
-    distance = float(np.abs(extent).max())
-    if installed > FAR_FROM_ORIGIN_M:
-        warnings.append(
-            f"the model lies up to {installed:.0f} m from the world origin; Gazebo's single-precision meshes and "
-            "physics lose accuracy that far out: move the IFC project origin near the building"
-        )
-    elif distance > FAR_FROM_ORIGIN_M:
-        source = options.site.source if options.site is not None else "the site"
-        warnings.append(
-            f"the yard lies up to {distance:.0f} m from the world origin while the building stands within "
-            f"{installed:.0f} m of it; Gazebo's single-precision meshes and physics lose accuracy that far out: "
-            f"give a --site whose yard is near the building ({source})"
-        )
-    return warnings
-
-
-def _suspect_weight(item: _Converted) -> str | None:
-    """Why the weight the model gives an element is not plausible (the rule `bimrobot inspect` applies:
-    :func:`bimrobot.bim.quantities.weight_check`), or None."""
-    from bimrobot.bim.quantities import weight_check
-
-    element = item.element
-    return weight_check(element.weight_kg, element.weight_source, element.volume_m3, element.density_kg_m3)
-
-
-def _report(model, package, world_name, world_files, converted, skipped, maps, yard, options, timings) -> dict:
-    entries = []
-    for item in converted:
-        element, mass = item.element, item.mass
-        x, y, z, roll, pitch, yaw = layout.pose_xyz_rpy(item.pose)
-        entries.append({
-            "global_id": element.global_id,
-            "model": item.model,
-            "ifc_class": element.ifc_class,
-            "name": element.name,
-            "storey_id": element.storey_id,
-            "material": element.material,
-            "mass_kg": round(mass.mass, 6),
-            "weight_source": _weight_source(element, mass, options),
-            "bim_weight_kg": element.weight_kg,
-            "volume_m3": round(mass.volume, 9),
-            "inertia_from": mass.inertia_method,
-            "center_of_mass_m": [round(float(v), 6) for v in mass.center_of_mass],
-            "visual_triangles": int(len(item.body.faces)),
-            "collision_triangles": int(item.collision_triangles),
-            "pose_xyz_rpy": [round(v, 9) for v in (x, y, z, roll, pitch, yaw)],
-        })
-        suspect = _suspect_weight(item)
-        if suspect:
-            entries[-1]["weight_suspect"] = suspect
-    counts_by_source: dict[str, int] = {}
-    for entry in entries:
-        counts_by_source[entry["weight_source"]] = counts_by_source.get(entry["weight_source"], 0) + 1
-    by_class: dict[str, int] = {}
-    for entry in entries:
-        by_class[entry["ifc_class"]] = by_class.get(entry["ifc_class"], 0) + 1
-    options_dict = json.loads(json.dumps(asdict(options), default=str))  # a work calendar's times as "07:00:00"
-    options_dict["static"] = options.is_static
-    if options_dict.get("site"):  # a site file in a build's partial folder: where it is once the build is done
-        options_dict["site"]["source"] = final_path(options_dict["site"]["source"])
-    return {
-        "generator": io.signature("convert"),
-        "source": str(model.source) if model.source else None,
-        "schema": model.schema,
-        "project": model.project_name,
-        "site": model.site_name,
-        "units": model.units,
-        "package": package,
-        "world": world_name,
-        "world_files": {key: f"worlds/{value}" for key, value in world_files.items()},
-        "options": options_dict,
-        "counts": {
-            "converted": len(entries),
-            "skipped": len(skipped),
-            "by_class": dict(sorted(by_class.items())),
-            "weight_sources": dict(sorted(counts_by_source.items())),
-            "storeys": len(model.storeys),
-            "connections": len(model.connections),
-            "maps": len(maps),
-            "total_mass_kg": round(sum(e["mass_kg"] for e in entries), 3),
-        },
-        "converted": entries,
-        "skipped": skipped,
-        "maps": maps,
-        "yard": None if yard is None else {"bounds_xy_m": yard.bounds.round(6).tolist(), "ground_z_m": yard.ground_z},
-        "timings_s": {key: round(value, 4) for key, value in timings.items()},
-    }
-
-
-def _weight_source(element: Element, mass: physics.MassProperties, options: ConvertOptions) -> str:
-    """Where the model's mass came from, in words (the same words for both ways of assuming it)."""
-    if element.weight_source is WeightSource.ASSUMED or mass.mass_assumed:  # the material the rule chose
-        assumed = element.weight_assumed_as or f"{options.unknown_weight.density_kg_m3:g} kg/m3"
-        return f"assumed: volume x {assumed} (--unknown-weight)"
-    return element.weight_source.value
-
-
-def _readme(report: dict) -> str:
-    counts = report["counts"]
-    worlds = ", ".join(f"`{path}`" for path in report["world_files"].values())
-    assumed = sum(1 for e in report["converted"] if e["weight_source"].startswith("assumed"))
-    lines = [
-        f"# {report['package']}: Gazebo package of {printable(Path(report['source'] or 'model').name)}",
-        "",
-        f"{report['generator'][:1].upper()}{report['generator'][1:]}: {counts['converted']} building elements as Gazebo models "
-        f"(total {counts['total_mass_kg']} kg), {counts['skipped']} products skipped (see `report.json`).",
-        "",
-        f"- `worlds/`: {worlds} (ground, sun, physics, every element at its "
-        f"{'yard pick-up' if report['options']['layout'] == 'yard' else 'installed'} pose)",
-        "- `models/<id>/`: one model per element, named by its IFC GlobalId made file-safe (`$` -> `-`); "
-        "visual `meshes/<id>.dae` (metres, Z up), collision `meshes/<id>_collision.stl` "
-        f"({report['options']['collision']}, <= {report['options']['max_triangles']} triangles), "
-        f"{'static' if report['options']['static'] else 'dynamic'}",
-        *([f"- `models/merged_<storey>_<class>/`: {sum(m['elements'] for m in report['merged_models'])} static "
-           f"elements merged into {len(report['merged_models'])} models, one per storey and IFC class "
-           "(`--merge-static`; report.json names each element's model)"] if report.get("merged_models") else []),
-        "- `maps/<storey>.pgm/.yaml`: occupancy grids per storey for Nav2 map_server "
-        f"(band {report['options']['map_band'][0]}..{report['options']['map_band'][1]} m above the storey)",
-        "- `report.json`: every element's mass and weight source, the skipped products and why, timings",
-        "",
-    ]
-    if assumed:
-        lines += [
-            f"{assumed} element(s) had no weight in the BIM: their mass is volume x "
-            f"{report['options']['unknown_weight']['density_kg_m3']:g} kg/m3 (`--unknown-weight`; see "
-            "`weight_source` and `unknown_weight` in report.json).",
-            "",
-        ]
-    lines += [
-        "## Gazebo Sim with ROS 2 (Jazzy / Harmonic)",
-        "",
-        "```bash",
-        "# as a ROS package",
-        "cp -r . ~/ros2_ws/src/" + report["package"] + " && cd ~/ros2_ws && colcon build && source install/setup.bash",
-        f"ros2 launch {report['package']} gz_sim.launch.py",
-        "# or straight from this folder",
-        "ros2 launch launch/gz_sim.launch.py",
-        "# or Gazebo alone",
-        "GZ_SIM_RESOURCE_PATH=$PWD/models gz sim -r worlds/" + report["world"] + ".sdf",
-        "```",
-        "",
-        "The world lists no `<plugin>`, so Gazebo Sim loads its default systems; if you add a plugin, "
-        "add the Physics, UserCommands and SceneBroadcaster systems too.",
-        "",
-        "A map for Nav2: `ros2 run nav2_map_server map_server --ros-args -p yaml_filename:=maps/<storey>.yaml`.",
-        "",
-        "## Gazebo Classic with ROS 1 (end of life)",
-        "",
-        "Convert with `--target classic` (or `both`), then `roslaunch launch/gazebo_classic.launch`, or "
-        "`GAZEBO_MODEL_PATH=$PWD/models gazebo worlds/" + report["world"] + ".world`.",
-        "",
-    ]
-    return "\n".join(lines)
