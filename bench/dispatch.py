@@ -7,7 +7,7 @@
 For each building: ``simulate`` with the least-cost market, then the same build in ``bimrobot/Dispatch-v0``
 driven by ``MarketPolicy`` (the same schedule; checked). ``NXxNYxFLOORS`` is the in-memory steel frame
 (``bimrobot.coordination.generate.generated_frame``, fleet2, its derived site); ``generated:KIND:...`` a
-generated IFC building (``bimrobot.planning.generator``, written once into its cache) with the fleet and
+generated IFC building (``bimrobot.site.generated``, written once into its cache) with the fleet and
 site drawn for it. The environment is padded to the building's own size, as the learned planner pads
 it (``--pad pow2``: to the next powers of two). Times are this process's CPU seconds (the machine may be
 shared; min over ``--repeat``), with the numba pass of the earliest starts loaded before. Printed:

@@ -68,7 +68,7 @@ def run_ladder(args) -> None:
 
 
 def run_generate(args) -> None:
-    from bimrobot.planning.generator import generate
+    from bimrobot.site.generated import generate
 
     print("| kind | asked | components | grid | wall (s) | CPU (s) | IFC (MB) | CPU per component (ms) |")
     print("|---|---:|---:|---|---:|---:|---:|---:|")

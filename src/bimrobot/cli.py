@@ -98,7 +98,7 @@ def parser_for(argv: list[str]) -> argparse.ArgumentParser:
 
 
 def _generated_models(args) -> None:
-    """Issue 38: an argument ``generated:KIND:...`` (a generated building, :mod:`bimrobot.planning.generator`)
+    """Issue 38: an argument ``generated:KIND:...`` (a generated building, :mod:`bimrobot.site.generated`)
     names its IFC file, written once into the cache, so that every command reads it like a user's model.
     The in-memory frame ``generated:NXxNYxFLOORS`` is left to the commands that know it."""
     from pathlib import Path
@@ -108,7 +108,7 @@ def _generated_models(args) -> None:
             return [resolved(v) for v in value]
         text = str(value) if isinstance(value, (str, Path)) else ""
         if text.startswith("generated:"):
-            from bimrobot.planning.generator import is_generated, model_path
+            from bimrobot.site.generated import is_generated, model_path
 
             return type(value)(model_path(text)) if is_generated(text) else value
         return value

@@ -196,7 +196,7 @@ def test_the_kept_up_observation_is_the_rebuilt_one_on_a_generated_building(tmp_
     """A generated precast frame of two floors (gates, its drawn fleet and site), a seeded random choice
     among the valid actions (waiting included), padded wider than the building."""
     from bimrobot.planning.dispatch import simulate_problem
-    from bimrobot.planning.generator import generate
+    from bimrobot.site.generated import generate
     from bimrobot.site.fleet import fleet_yaml
     from bimrobot.site.site import site_yaml
 

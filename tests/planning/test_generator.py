@@ -10,7 +10,7 @@ from bimrobot.bim.examples import CONCRETE_DENSITY, HOLLOW_CORE_KG_PER_M2, PRECA
 from bimrobot.cli import main
 from bimrobot.coordination.simulation import simulate
 from bimrobot.core.errors import InputError
-from bimrobot.planning.generator import draw_fleet, draw_layout, generate, grid_for, is_generated, parse_spec
+from bimrobot.site.generated import draw_fleet, draw_layout, generate, grid_for, is_generated, parse_spec
 from bimrobot.sco import build_smart_model
 
 

@@ -1,6 +1,6 @@
 """Generated buildings (issue 38): steel frames, precast column-beam-slab frames and panel buildings of
 any size, written with ifcopenshell.api so that every command reads them like a user's model. The
-shape is drawn (seeded) by :mod:`bimrobot.planning.generator`; this module only writes it (metres, kg, z up).
+shape is drawn (seeded) by :mod:`bimrobot.site.generated`; this module only writes it (metres, kg, z up).
 """
 
 from __future__ import annotations

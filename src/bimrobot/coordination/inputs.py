@@ -41,9 +41,9 @@ def load_building(spec: str, include: str | None = None, exclude: str | None = N
 
             model.unknown_weights = UnknownWeights(unknown_weight)  # every generated element has its weight
     else:
-        # issue 38: generated:KIND:... is a generated IFC file (bimrobot.planning.generator), read as a user's
+        # issue 38: generated:KIND:... is a generated IFC file (bimrobot.site.generated), read as a user's
         if spec.startswith("generated:"):
-            from bimrobot.planning.generator import model_path
+            from bimrobot.site.generated import model_path
 
             spec = str(model_path(spec))
         path = Path(spec)

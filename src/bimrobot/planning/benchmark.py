@@ -30,12 +30,12 @@ def problem_for(model: str, fleet: str | None = None, per_joint: bool = True):
     benchmark's, CP-SAT's tasks) or, ``per_joint`` False, per node (``simulate``'s default)."""
     from bimrobot.coordination.simulation import ConstructionSimulation
     from bimrobot.planning.dispatch import simulate_problem
-    from bimrobot.planning.generator import is_generated
+    from bimrobot.site.generated import is_generated
 
     granularity = ["--per-joint"] if per_joint else []
     if is_generated(model) and fleet is None and model.count(":") >= 2:
         from bimrobot.site.fleet import fleet_yaml
-        from bimrobot.planning.generator import draw_fleet, draw_layout, draw_site, parse_spec
+        from bimrobot.site.generated import draw_fleet, draw_layout, draw_site, parse_spec
         from bimrobot.site.site import site_yaml
 
         spec = parse_spec(model)

@@ -21,7 +21,7 @@ def register(subparsers) -> None:
     """Add ``plan`` and its sub-command ``export`` to the bimrobot parser."""
     from bimrobot.bim.selection import add_prebuilt_option, add_selection_options
     from bimrobot.bim.unknown_weight import add_unknown_weight_option
-    from bimrobot.coordination.cli import _ranged
+    from bimrobot.coordination.options import ranged
     from bimrobot.sco.build import MAX_TOLERANCE_M
 
     plan = subparsers.add_parser("plan", help="assembly planning: the planning problem as data")
@@ -36,7 +36,7 @@ def register(subparsers) -> None:
     export.add_argument("-o", "--output", required=True, help="the instance file (.json): a new file, or one bimrobot wrote (replaced atomically)")
     add_prebuilt_option(export)
     export.add_argument(
-        "--tolerance", type=_ranged(float, 0.0, MAX_TOLERANCE_M, "m", low_inclusive=False), default=0.01,
+        "--tolerance", type=ranged(float, 0.0, MAX_TOLERANCE_M, "m", low_inclusive=False), default=0.01,
         help=f"metres, > 0 and <= {MAX_TOLERANCE_M:g}; bodies this close count as touching (default 0.01)",
     )
     export.add_argument("--by-element", action="store_true", help="build element by element even when the model groups them into assemblies")
@@ -66,7 +66,7 @@ def run_export(args) -> int:
     return 0
 
 
-# --- issue 38: `plan generate`, generated buildings for training (bimrobot.planning.generator) -------------
+# --- issue 38: `plan generate`, generated buildings for training (bimrobot.site.generated) -------------
 
 GENERATE_EXAMPLES = """examples:
   bimrobot plan generate --kind precast --grid 4x3x5 --seed 7 -o precast_7/
@@ -83,7 +83,7 @@ same building. Real IFC models are the test set: never generate them, never trai
 
 def _register_generate(commands) -> None:
     """Add ``plan generate``."""
-    from bimrobot.planning.generator import KINDS, MAX_COMPONENTS
+    from bimrobot.site.generated import KINDS, MAX_COMPONENTS
 
     generate = commands.add_parser(
         "generate", help="write a generated building (IFC), its random fleet and its site",
@@ -107,7 +107,7 @@ def run_generate(args) -> int:
     from bimrobot.site.fleet import fleet_yaml
     from bimrobot.core.errors import InputError
     from bimrobot.core.io import atomic_output_dir, signature
-    from bimrobot.planning.generator import generate, parse_spec, summary
+    from bimrobot.site.generated import generate, parse_spec, summary
     from bimrobot.site.site import site_yaml
 
     if args.seed < 0:
@@ -148,7 +148,7 @@ and benchmark.json. Planning times are wall times: compare them on one machine.
 
 def _register_benchmark(commands) -> None:
     """Add ``plan benchmark``."""
-    from bimrobot.coordination.cli import _ranged
+    from bimrobot.coordination.options import ranged
 
     bench = commands.add_parser(
         "benchmark", help="every planner on the same buildings: makespan, gap to CP-SAT's bound, planning time",
@@ -158,9 +158,9 @@ def _register_benchmark(commands) -> None:
                        help="IFC files or generated:KIND:NXxNYxF|N[:seed=S] specs")
     bench.add_argument("--planners", help="comma-separated planner names (default: all; learned where installed)")
     bench.add_argument("--fleet", help="fleet for every model (default: site-crane, or the generated building's own)")
-    bench.add_argument("--time-limit", type=_ranged(float, 0.0, 86_400.0, "s", low_inclusive=False), default=60.0,
+    bench.add_argument("--time-limit", type=ranged(float, 0.0, 86_400.0, "s", low_inclusive=False), default=60.0,
                        help="CP-SAT's wall-clock limit per model, seconds (default 60)")
-    bench.add_argument("--cpsat-max-tasks", type=_ranged(int, 1, 1_000_000, ""), default=20_000,
+    bench.add_argument("--cpsat-max-tasks", type=ranged(int, 1, 1_000_000, ""), default=20_000,
                        help="larger models get no CP-SAT run (no bound), default 20000 tasks")
     bench.add_argument("-o", "--output", required=True, help="output folder (new, or one `plan benchmark` wrote)")
     bench.set_defaults(func=run_benchmark)
@@ -198,7 +198,7 @@ TRAIN_EXAMPLES = """examples:
   bimrobot plan train --seed 0 --steps 4096 -o runs/dispatch-s0/
   bimrobot plan train --seed 1 --steps 0 --imitation-steps 2000 -o runs/imitation-s1/   # imitation only
 
-Trains on generated buildings only (steel, precast, panel; bimrobot.planning.generator, drawn from the
+Trains on generated buildings only (steel, precast, panel; bimrobot.site.generated, drawn from the
 seed): behaviour cloning of a teacher, then MaskablePPO fine-tuning with a size-independent policy
 (docs/planning.md, "Learned planner"). The teacher is the pilot (at each decision where the market and the
 priority rules disagree, it tries each and lets the market finish; it keeps the shortest build, so it is

@@ -78,12 +78,11 @@ def simulate_problem(argv: list[str]) -> DispatchProblem:
     """The problem that ``bimrobot simulate ARGV`` runs, read by simulate's own parser and readers
     (model, ``--fleet``, ``--site``, ``--prebuilt``, selection, ``--per-joint``, ``--breakdown``, ...).
     Give no ``-o``: nothing is written."""
-    from bimrobot.cli import parser_for
     from bimrobot.coordination.inputs import prepare
+    from bimrobot.coordination.options import simulate_parser
 
     with tempfile.TemporaryDirectory() as folder:
-        argv = ["simulate", *argv, "-o", str(Path(folder) / "unused")]
-        args = parser_for(argv).parse_args(argv)
+        args = simulate_parser().parse_args([*argv, "-o", str(Path(folder) / "unused")])
         if args.mode != "event":
             raise InputError("the dispatching environment runs the event simulation, not --mode thesis")
         _, elevations, fleet, site, _, smart_model = prepare(args, "simulate")

@@ -334,10 +334,10 @@ class PoolEntry:
 
 def generated_problem(spec: str) -> DispatchProblem:
     """The problem of a generated building (``generated:KIND:GRID:seed=S``) with its own random fleet and
-    site (:mod:`bimrobot.planning.generator`), as ``simulate`` reads it."""
+    site (:mod:`bimrobot.site.generated`), as ``simulate`` reads it."""
     from bimrobot.site.fleet import fleet_yaml
     from bimrobot.planning.dispatch import simulate_problem
-    from bimrobot.planning.generator import generate, parse_spec
+    from bimrobot.site.generated import generate, parse_spec
     from bimrobot.site.site import site_yaml
 
     parsed = parse_spec(spec)
