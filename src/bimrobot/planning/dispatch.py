@@ -12,28 +12,25 @@ frame (z up).
 
 from __future__ import annotations
 
-import tempfile
 from collections import deque
-from dataclasses import dataclass
-from pathlib import Path
 from typing import Callable
 
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from bimrobot.site.fleet import Fleet, Site, load_fleet
+from bimrobot.site.fleet import Fleet
 from bimrobot.coordination.market import Dispatcher, MarketDispatcher, handling_time, incapability, make_evaluator
 from bimrobot.coordination.simulation import ConstructionSimulation, SimulationResult
 from bimrobot.core.errors import BimrobotError, InputError
-from bimrobot.sco.build import SmartModel
-from bimrobot.sco.states import State
 from bimrobot.core.tasks import Task
+from bimrobot.planning.dispatch_observation import _depths, _in_edges, _levels, _mask, _starts_pass, rebuild_observation
+from bimrobot.planning.dispatch_problem import (KINDS, DispatchProblem, TaskGraph, frame_problem, request_key,
+                                                simulate_problem, task_graph, task_key)
 
 ENV_ID = "bimrobot/Dispatch-v0"
 #: bound of every observed number (metres, seconds, kg): finite, far beyond any site or build (about 32 years)
 BOUND = 1e9
-KINDS = ("transport", "position", "assemble", "gate")
 STATES = ("waiting", "ready", "running", "done")
 #: columns of ``node_features``
 NODE_FEATURES = (
@@ -46,152 +43,6 @@ ROBOT_FEATURES = (
     "x_site_m", "y_site_m", "speed_m_s", "does_transport", "does_position", "does_assemble",
     "busy", "free_in_s", "broken",
 )
-
-
-@dataclass(frozen=True)
-class DispatchProblem:
-    """One build to plan: the smart model, the fleet, the site (placed on the building), the storey
-    elevations (m), the task granularity (``per_node`` as ``simulate``'s default, else per joint) and
-    breakdowns ((robot, time s[, repair s]) as ``simulate --breakdown``)."""
-
-    smart: SmartModel
-    fleet: Fleet
-    site: Site | None = None
-    storey_elevations: list[float] | None = None
-    per_node: bool = True
-    breakdowns: tuple = ()
-
-
-def frame_problem(fleet: str = "fleet2", per_node: bool = True, size: tuple[int, int, int] = (2, 2, 1)) -> DispatchProblem:
-    """A generated steel frame (no IFC file) of ``size`` = (columns along x, along y, storeys), built by
-    ``fleet`` on its site; the default is the thesis' chapter-4 frame."""
-    from bimrobot.coordination.generate import generated_frame
-    from bimrobot.sco.build import build_smart_model
-    from bimrobot.site.site import site_for
-
-    model = generated_frame(*size)
-    return DispatchProblem(build_smart_model(model), load_fleet(fleet), site_for(None, model.elements.values()),
-                           [s.elevation for s in model.storeys], per_node)
-
-
-def simulate_problem(argv: list[str]) -> DispatchProblem:
-    """The problem that ``bimrobot simulate ARGV`` runs, read by simulate's own parser and readers
-    (model, ``--fleet``, ``--site``, ``--prebuilt``, selection, ``--per-joint``, ``--breakdown``, ...).
-    Give no ``-o``: nothing is written."""
-    from bimrobot.coordination.inputs import prepare
-    from bimrobot.coordination.options import simulate_parser
-
-    with tempfile.TemporaryDirectory() as folder:
-        args = simulate_parser().parse_args([*argv, "-o", str(Path(folder) / "unused")])
-        if args.mode != "event":
-            raise InputError("the dispatching environment runs the event simulation, not --mode thesis")
-        _, elevations, fleet, site, _, smart_model = prepare(args, "simulate")
-    return DispatchProblem(smart_model(), fleet, site, elevations, not args.per_joint, tuple(args.breakdown))
-
-
-def task_key(activity: str, component: str, joint: str | None, node: str | None) -> str:
-    """The graph node of a published request: ``transport:<component>``, ``position:<node or component>``,
-    ``assemble:<node or joint>`` (per node or per joint)."""
-    if activity == Task.ASSEMBLE:
-        return f"assemble:{node or joint}"
-    if activity == Task.POSITION:
-        return f"position:{node or component}"
-    return f"transport:{component}"
-
-
-def request_key(sim, request) -> str:
-    """The task graph's node (:func:`task_key`) of a request published in ``sim``, a running
-    :class:`~bimrobot.coordination.simulation.ConstructionSimulation` (per node when ``sim.per_node``)."""
-    node = request.node_ids[0] if request.node_ids and sim.per_node else None
-    return task_key(request.activity, request.component_id, request.joint_id, node)
-
-
-@dataclass
-class TaskGraph:
-    """The build's tasks and floor gates as a graph: ``keys[i]`` names node i, ``requests[i]`` is its
-    task request (None for a gate), ``edges`` (E, 2) are precedences (before, after). ``groups`` (E,):
-    the edges of one group release their ``after`` node once the first of them is done (per node: a
-    component stands once its first node is positioned); a node waits for all its groups."""
-
-    keys: list[str]
-    kinds: np.ndarray
-    requests: list
-    edges: np.ndarray
-    groups: np.ndarray
-
-    @property
-    def any_of(self) -> np.ndarray:
-        """(E,) True for an edge that is one of several alternatives of its group."""
-        return np.bincount(self.groups, minlength=len(self.groups))[self.groups] > 1 if len(self.groups) else np.zeros(0, bool)
-
-
-def task_graph(sim: ConstructionSimulation) -> TaskGraph:
-    """The tasks ``sim`` will publish, with what waits for what: transport after the positioning of what a
-    component rests on and after the gate of the floor below; positioning after the transport (per node:
-    after the transports of the joint's partners too, ACC); assembly after the positioning of its members
-    (per node: of its node). One gate per floor closes it: after every assembly (and every positioning of
-    a part without nodes) of the floor, and after the gate below. Call after ``sim.start()``."""
-    smart, per_node = sim.smart, sim.per_node
-    keys, kinds, requests, edges = [], [], [], []
-    index: dict[str, int] = {}
-
-    def add(key, kind, request):
-        index[key] = len(keys)
-        keys.append(key)
-        kinds.append(KINDS.index(kind))
-        requests.append(request)
-
-    position_of: dict[str, list[str]] = {}  # component -> its positioning tasks
-    built = [c for c in smart.components.values() if not c.prebuilt]
-    for c in built:
-        add(f"transport:{c.id}", "transport", sim.request_for(Task.TRANSPORT, c))
-        if per_node and c.connection_nodes:
-            position_of[c.id] = [f"position:{n.id}" for n in c.connection_nodes]
-            for n in c.connection_nodes:
-                add(f"position:{n.id}", "position", sim.request_for(Task.POSITION, c, node=n))
-        else:
-            position_of[c.id] = [f"position:{c.id}"]
-            add(f"position:{c.id}", "position", sim.request_for(Task.POSITION, c))
-    closes: dict[int, list[str]] = {}  # floor -> the tasks that close it
-    if per_node:
-        for c in built:
-            for n in c.connection_nodes:
-                if n.state != State.ASSEMBLED:
-                    add(f"assemble:{n.id}", "assemble", sim.request_for(Task.ASSEMBLE, c, node=n))
-                    edges.append((f"position:{n.id}", f"assemble:{n.id}"))
-                    closes.setdefault(n.level, []).append(f"assemble:{n.id}")
-                    joint = smart.joints[n.joint_id]
-                    for partner in joint.component_ids:
-                        if partner != c.id and not smart.components[partner].prebuilt and not sim.rests_on(partner, c.id):
-                            edges.append((f"transport:{partner}", f"position:{n.id}"))
-    else:
-        for joint in sim.joints_to_build():
-            members = [smart.components[g] for g in joint.component_ids]
-            add(f"assemble:{joint.id}", "assemble", sim.request_for(Task.ASSEMBLE, members[0], joint))
-            closes.setdefault(joint.floor, []).append(f"assemble:{joint.id}")
-            before = [p for m in members if not m.prebuilt for p in position_of[m.id]]
-            before += [p for m in members if m.prebuilt for s in smart.robot_supporters(m.id) for p in position_of[s]]
-            edges += [(p, f"assemble:{joint.id}") for p in dict.fromkeys(before)]
-    for c in built:
-        if not c.connection_nodes:
-            closes.setdefault(c.floor, []).append(position_of[c.id][0])
-    floors = len(smart.floors)
-    for f in range(floors - 1):
-        add(f"gate:{f}", "gate", None)
-        edges += [(k, f"gate:{f}") for k in closes.get(f, ())]
-        if f:
-            edges.append((f"gate:{f - 1}", f"gate:{f}"))
-    for c in built:
-        edges += [(f"transport:{c.id}", p) for p in position_of[c.id]]
-        edges += [(p, f"transport:{c.id}", f"{s}>{c.id}") for s in smart.robot_supporters(c.id) for p in position_of.get(s, ())]
-        if c.floor:
-            edges.append((f"gate:{c.floor - 1}", f"transport:{c.id}"))
-    unique = list(dict.fromkeys(e if len(e) == 3 else (*e, None) for e in edges))
-    pairs = np.array([(index[a], index[b]) for a, b, _ in unique], dtype=np.int64).reshape(-1, 2)
-    group_ids: dict = {}
-    groups = [group_ids.setdefault(g if g is not None else ("edge", i), len(group_ids)) for i, (_, _, g) in enumerate(unique)]
-    return TaskGraph(keys, np.array(kinds, dtype=np.int64), requests, pairs, np.array(groups, dtype=np.int64))
-
 
 class AgentDispatcher(Dispatcher):
     """The dispatcher of the environment: the simulation stops at each decision point for the agent."""
@@ -607,195 +458,6 @@ class DispatchEnv(gym.Env):
         return f"t = {self.sim.build.env.now:.1f} s, decision {self.decisions}: " + ", ".join(f"{v} {k}" for k, v in counts.items())
 
 
-def rebuild_observation(env: DispatchEnv) -> dict:
-    """The observation of ``env`` now, rebuilt from nothing: node states replayed from the whole event
-    log, gates closed, earliest starts level by level through the precedence graph, travel of every task
-    and robot. The definition the environment's kept-up arrays must equal (bit for bit); it leaves ``env``
-    as it is. Seconds, metres (site frame x, y; model frame z)."""
-    env = env.unwrapped
-    graph, sim = env.graph, env.sim
-    n, now = len(graph.keys), float(sim.build.env.now)
-    state, finished_at, request_node = np.zeros(n, np.int64), np.full(n, np.nan), {}
-    for event in sim.build.events:
-        kind = event["event"]
-        if kind == "task_request":
-            node = env.graph_index[task_key(event["activity"], event["component"], event["joint"], event["node"])]
-            request_node[event["request"]], state[node] = node, 1
-        elif kind in ("award", "reauction"):
-            state[request_node[event["request"]]] = 2 if kind == "award" else 1
-        elif kind == "finish":
-            node = request_node[event["request"]]
-            state[node], finished_at[node] = 3, event["time"]
-    robots = [sim.build.robots[name] for name in env.robot_names]
-    running_until = np.full(n, np.nan)
-    for robot in robots:
-        if robot.task is not None:
-            running_until[env.graph_index[request_key(sim, robot.task)]] = robot.free_at
-    gates = graph.kinds == KINDS.index("gate")
-    for i in np.flatnonzero(gates & (state != 3)):
-        before = graph.edges[graph.edges[:, 1] == i, 0]
-        if np.all(state[before] == 3):
-            state[i], finished_at[i] = 3, np.max(finished_at[before], initial=0.0)
-    start = _level_starts(env, state, finished_at, now, running_until, gates)
-    nodes = env.static.copy()
-    nodes[np.arange(n), 10 + state] = 1.0
-    nodes[:n, 14] = start - now
-    robot_features = env.robot_static.copy()
-    where = np.zeros((env.max_robots, 2))
-    for j, robot in enumerate(robots):
-        busy = robot.task is not None
-        here = sim.where(robot)
-        where[j] = robot.end_position if busy else here
-        robot_features[j, 0:2] = here
-        robot_features[j, 6:9] = (busy, max(0.0, robot.free_at - now) if busy else 0.0, robot.broken)
-    travel = np.zeros((env.max_tasks, env.max_robots), np.float32)
-    k = len(robots)
-    distance = np.hypot(*(env.start_xy[:n, None, :] - where[None, :k, :]).transpose(2, 0, 1))
-    travel[:n, :k] = np.where(env.capable[:n, :k], distance / env.speeds[None, :], 0.0)
-    return {
-        "node_features": nodes,
-        "node_mask": _mask(env.max_tasks, n),
-        "robot_features": robot_features,
-        "robot_mask": _mask(env.max_robots, k),
-        "precedence": env.precedence.copy(),
-        "precedence_mask": _mask(env.max_edges, len(graph.edges)),
-        "precedence_any": env.precedence_any.copy(),
-        "compatibility": env.capable.astype(np.int8),
-        "handling_s": env.handling.copy(),
-        "travel_s": travel,
-        "time_s": np.array([now], np.float32),
-    }
-
-
-def _level_starts(env: DispatchEnv, state, finished_at, now: float, running_until, gates) -> np.ndarray:
-    """Earliest start (s) of every node: now for ready, running and done work; for waiting work the
-    latest earliest finish of what it waits for (shortest handling, no travel; a gate takes none), the
-    first of a group of alternatives counting. Level by level (numpy), the definition."""
-    graph = env.graph
-    # waiting nodes: overwritten level by level before anything after them reads them
-    finish = np.where(state == 3, finished_at, now)
-    finish = np.where(state == 2, np.nan_to_num(running_until, nan=now), finish)
-    ready = state == 1
-    finish[ready] = now + env.shortest[ready]
-    start = np.full(len(state), now)
-    bound = np.full(len(state), now)
-    first = np.full(len(env.group_after), np.inf)  # per group: the first of its alternatives to finish
-    for level, into in env.levels:
-        todo = level[state[level] == 0]
-        if todo.size == 0:
-            continue
-        groups = graph.groups[into]
-        np.minimum.at(first, groups, finish[graph.edges[into, 0]])
-        np.maximum.at(bound, env.group_after[groups], first[groups])
-        start[todo] = bound[todo]
-        finish[todo] = bound[todo] + np.where(gates[todo], 0.0, env.shortest[todo])
-    return start
-
-
-def _earliest_starts_pass(order, node_groups, group_edges, sources, state, finished_at, running_until, shortest, adds,
-                          now, start, finish, nodes):
-    """Compiled by numba (:func:`_starts_pass`): :func:`_level_starts` in one pass, written into column
-    14 of ``nodes`` as seconds from ``now``. ``order``: the nodes of depth >= 1 by depth; node v's
-    alternative groups are ``node_groups[v]:node_groups[v + 1]``, group g's edges
-    ``group_edges[g]:group_edges[g + 1]``, their first nodes ``sources``. Same arithmetic as the levels
-    (float32 for a ready node's finish, NaN kept by min and max), so the same bits."""
-    now32 = np.float32(now)
-    for i in range(state.size):
-        s = state[i]
-        if s == 3:
-            finish[i] = finished_at[i]
-        elif s == 2:
-            f = running_until[i]
-            if f != f:
-                f = now
-            elif f == np.inf:
-                f = 1.7976931348623157e308  # nan_to_num's largest finite float
-            elif f == -np.inf:
-                f = -1.7976931348623157e308
-            finish[i] = f
-        elif s == 1:
-            finish[i] = now32 + shortest[i]
-        else:
-            finish[i] = now
-        start[i] = now
-    for v in order:
-        if state[v] != 0:
-            continue
-        bound = now
-        for g in range(node_groups[v], node_groups[v + 1]):
-            first = np.inf
-            for e in range(group_edges[g], group_edges[g + 1]):
-                x = finish[sources[e]]
-                if x < first or x != x:
-                    first = x
-            if first > bound or first != first:
-                bound = first
-        start[v] = bound
-        finish[v] = bound + np.float64(adds[v])
-    for i in range(state.size):
-        nodes[i, 14] = start[i] - now
-
-
-_PASS = []
-
-
-def _starts_pass():
-    """:func:`_earliest_starts_pass` compiled (numba, cached next to this file; compiled on first use)."""
-    if not _PASS:
-        from numba import njit
-
-        _PASS.append(njit(cache=True)(_earliest_starts_pass))
-    return _PASS[0]
-
-
-def _mask(size: int, real: int) -> np.ndarray:
-    mask = np.zeros(size, np.int8)
-    mask[:real] = 1
-    return mask
-
-
-def _depths(n: int, edges: np.ndarray) -> np.ndarray:
-    """(n,) each node's depth in the precedence graph (longest path from a source, in edges)."""
-    depth = np.zeros(n, np.int64)
-    indegree = np.bincount(edges[:, 1], minlength=n) if len(edges) else np.zeros(n, np.int64)
-    after: list[list[int]] = [[] for _ in range(n)]
-    for a, b in edges.tolist():
-        after[a].append(b)
-    queue = deque(np.flatnonzero(indegree == 0).tolist())
-    seen = 0
-    while queue:
-        a = queue.popleft()
-        seen += 1
-        for b in after[a]:
-            depth[b] = max(depth[b], depth[a] + 1)
-            indegree[b] -= 1
-            if indegree[b] == 0:
-                queue.append(b)
-    if seen < n:
-        raise BimrobotError("the task graph has a cycle")
-    return depth
-
-
-def _levels(depth: np.ndarray, edges: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
-    """(nodes, the edges into them) per depth, from depth 1 on: each node's predecessors lie at smaller depths."""
-    into = depth[edges[:, 1]] if len(edges) else np.zeros(0, np.int64)
-    return [(np.flatnonzero(depth == d), np.flatnonzero(into == d)) for d in range(1, int(depth.max(initial=0)) + 1)]
-
-
-def _in_edges(n: int, edges: np.ndarray, groups: np.ndarray, depth: np.ndarray):
-    """The precedences as :func:`_earliest_starts_pass` reads them: (the nodes of depth >= 1 by depth,
-    per node the range of its groups, per group the range of its edges, the edges' first nodes)."""
-    order = np.flatnonzero(depth >= 1)
-    order = order[np.argsort(depth[order], kind="stable")]
-    if not len(edges):
-        return order, np.zeros(n + 1, np.int64), np.zeros(1, np.int64), np.zeros(0, np.int64)
-    by = np.lexsort((groups, edges[:, 1]))  # edges by the node they lead into, then by group
-    after, group = edges[by, 1], groups[by]
-    first = np.flatnonzero(np.r_[True, (group[1:] != group[:-1]) | (after[1:] != after[:-1])])
-    group_edges = np.r_[first, len(by)].astype(np.int64)
-    node_groups = np.searchsorted(after[first], np.arange(n + 1)).astype(np.int64)
-    return order, node_groups, group_edges, np.ascontiguousarray(edges[by, 0], dtype=np.int64)
-
 
 class MarketPolicy:
     """The market as a policy of :class:`DispatchEnv`: at each allocation round it plays the awards the
@@ -825,6 +487,11 @@ def play(env: gym.Env, policy, seed: int | None = None) -> tuple[float, Simulati
         _, reward, done, truncated, _ = env.step(policy(env))
         total += reward
     return total, env.unwrapped.result
+
+
+__all__ = ["ENV_ID", "BOUND", "KINDS", "STATES", "NODE_FEATURES", "ROBOT_FEATURES", "DispatchProblem", "frame_problem",
+           "simulate_problem", "task_key", "request_key", "TaskGraph", "task_graph", "AgentDispatcher", "DispatchEnv",
+           "rebuild_observation", "MarketPolicy", "play"]
 
 
 def _register() -> None:
