@@ -1,0 +1,220 @@
+"""Redundant constraints and cuts of the CP-SAT model (:mod:`bimrobot.planning.optimal`), for its
+lower bound: per floor, each robot's work and drives between the gate below and the floor's own gate
+(:func:`_floor_loads`, :class:`_Visits`), the fastest split of work two robots share (subset sums) and
+the two-stage bound (:func:`_staged_bound`). Times in ticks (0.01 s)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from bimrobot.core.tasks import Task
+from bimrobot.planning.optimal_graph import SCALE, _Task
+
+
+def _floor_loads(model, tasks, gates, ancestors, capable, busy_min, assigned, travel, floor_least) -> int:
+    """Redundant, for the bound: on each floor f, the work of floor f that a robot does fits between the
+    gate below (or time 0) plus the shortest lead-in before any of it can start, and the floor's own gate
+    (every joint of floors <= f done) less the shortest run-out after it. With the robot literals this
+    is linear, so the relaxation balances each floor's work over the robots that can do it. Returns the
+    sum over floors of each floor's least duration known before solving (ticks): a lower bound of the
+    makespan, since each gate follows the one below."""
+    least = 0
+    for floor, gate in gates.items():
+        known = 0
+        below = [f for f in gates if f < floor]
+        opening = gates[max(below)] if below else 0
+        mine = sorted((t for t in tasks if t.floor == floor), key=lambda t: bin(ancestors[t.key]).count("1"))
+        keys = {t.key for t in mine}
+        gated = {t.key for t in mine if not below or (t.gate_floor == floor)}
+        head: dict[str, int] = {}
+        for t in mine:  # ancestors first (fewer ancestors first is a topological order within the floor)
+            preds = [p for p in t.predecessors if p in keys]
+            if not below or t.key in gated or any(p in gated for p in preds):
+                gated.add(t.key)
+                head[t.key] = max((head[p] + min(busy_min[p, r.name] for r in capable[p]) for p in preds if p in head), default=0)
+        tail = {t.key: 0 for t in mine if t.key in head and t.activity == Task.ASSEMBLE}  # it ends by the gate
+        successors: dict[str, list[str]] = {}
+        for t in mine:
+            for p in t.predecessors:
+                if p in keys:
+                    successors.setdefault(p, []).append(t.key)
+        for t in sorted(mine, key=lambda t: -bin(ancestors[t.key]).count("1")):  # successors first
+            after = [u for u in successors.get(t.key, ()) if u in tail]
+            if t.key in head and t.key not in tail and after:
+                tail[t.key] = max(min(busy_min[u, r.name] for r in capable[u]) + tail[u] for u in after)
+        counted = [t for t in mine if t.key in head and t.key in tail]
+        robots = {r.name for t in counted for r in capable[t.key]}
+        for name in robots:
+            work = [t for t in counted if (t.key, name) in assigned]
+            lead = min(head[t.key] for t in work) + min(tail[t.key] for t in work)
+            model.Add(sum(assigned[t.key, name] * busy_min[t.key, name] for t in work) <= gate - opening - lead)
+            if len(counted) == len(mine):  # the window holds all of the floor's work: count its drives
+                model.Add(travel.load(name, work) <= gate - opening - lead)
+        pairs: dict[tuple[str, ...], list[_Task]] = {}
+        for t in counted:
+            pairs.setdefault(tuple(r.name for r in capable[t.key]), []).append(t)
+        for pair, work in pairs.items():
+            if len(pair) == 2 and len(work) > 1:
+                lead = min(head[t.key] for t in work) + min(tail[t.key] for t in work)
+                known = max(known, lead + _two_robot_bound(work, pair, busy_min))
+                if len(counted) == len(mine):
+                    known = max(known, lead + travel.two_robot_bound(work, pair))
+        known = max(known, _staged_bound(pairs, head, tail, busy_min), floor_least.get(floor, 0))
+        if known:
+            model.Add(gate - opening >= known)
+        least += known
+    return least
+
+
+def _fastest(costs: dict[str, list[int]], count: int) -> int:
+    """The least time (ticks) one or two robots need for ``count`` of their tasks, whichever: each robot
+    takes the cheapest of its own ``costs`` (sorted ascending), for every split of the count."""
+    lists = list(costs.values())
+    if len(lists) == 1:
+        return sum(lists[0][:count]) if count <= len(lists[0]) else 1 << 40
+    a, b = lists
+    best = 1 << 40
+    for on_a in range(max(0, count - len(b)), min(count, len(a)) + 1):
+        best = min(best, max(sum(a[:on_a]), sum(b[:count - on_a])))
+    return best
+
+
+def _staged_bound(groups: dict[tuple[str, ...], list[_Task]], head, tail, busy_min) -> int:
+    """A floor's least duration (ticks) from its two stages, e.g. positioning then assembly: every task
+    of a later group J waits for some task of an earlier group P (one or two robots each). Before the k-th
+    P task can end (E_k: the earliest, over splits of k between P's robots, from P's earliest start), at
+    most the k-1 P tasks with the most J successors are done, so the rest of J, at least n - released
+    tasks, starts after E_k and needs J's robots for at least their fastest split; then the run-out."""
+    best = 0
+    for later_robots, later in groups.items():
+        if len(later_robots) > 2 or len(later) < 2:
+            continue
+        for earlier_robots, earlier in groups.items():
+            if earlier_robots == later_robots or len(earlier_robots) > 2:
+                continue
+            keys = {t.key for t in earlier}
+            feeds = {t.key: 0 for t in earlier}
+            if not all(any(p in keys for p in t.predecessors) for t in later):
+                continue
+            for t in later:
+                for p in t.predecessors:
+                    if p in keys:
+                        feeds[p] += 1
+            released = sorted(feeds.values(), reverse=True)
+            first = min(head[t.key] for t in earlier)
+            run_out = min(tail[t.key] for t in later)
+            cost_p = {r: sorted(busy_min[t.key, r] for t in earlier) for r in earlier_robots}
+            cost_j = {r: sorted(busy_min[t.key, r] for t in later) for r in later_robots}
+            for k in range(1, len(earlier) + 1):
+                left = len(later) - sum(released[:k - 1])
+                if left <= 0:
+                    break
+                best = max(best, first + _fastest(cost_p, k) + _fastest(cost_j, left) + run_out)
+    return best
+
+
+class _Visits:
+    """A robot's drives, for the bound: tasks that begin and end at one point (positioning, assembly)
+    share that point with others, so each one's shortest drive in is 0; but a robot that does work at n
+    points drives into each of them at least once. ``load(robot, work)`` is the robot's handling of
+    ``work`` plus, per point it visits, the shortest drive into that point from the end of any other of
+    ``work``'s tasks, less the largest such drive (the first point may be where the robot already stands).
+    Ticks (0.01 s)."""
+
+    def __init__(self, model, assigned, handling, busy_min, drive):
+        self.model, self.assigned, self.handling, self.busy_min, self.drive = model, assigned, handling, busy_min, drive
+        self.visited = {}  # (robot, point) -> literal: the robot does some work there
+
+    @staticmethod
+    def _point(xy) -> tuple[int, int]:
+        return tuple(int(round(float(c) * 100)) for c in np.asarray(xy, dtype=float)[:2])
+
+    def two_robot_bound(self, work: list[_Task], pair: tuple[str, str]) -> int:
+        """The least time (ticks) two robots need for ``work`` that only they can do, with their drives:
+        min over splits of the larger load, a split choosing per point how many of its tasks each robot
+        takes (the cheapest of them, for a bound), each robot paying the shortest drive into every point
+        it works at, less its largest such drive (subset sums in ticks, or in coarser units rounded down
+        where the floor is large)."""
+        points, moving = self._points(work)
+        if moving:
+            return 0
+        cost = {r: {here: sorted(self.handling[t.key, r] for t in ts) for here, ts in points.items()} for r in pair}
+        near = {r: {here: self._nearest(r, here, ts, work) for here, ts in points.items()} for r in pair}
+        a, b = pair
+        terms = sum(len(ts) + 1 for ts in points.values())
+        ticks = sum(sum(c) + near[a][here] for here, c in cost[a].items()) + 1
+        unit = max(1, math.ceil(ticks * terms / 4e7))  # coarser than a tick on large floors; sums round down
+        size = ticks // unit + 1
+        never = np.iinfo(np.int64).max // 4
+        best_b = np.full(size, never, dtype=np.int64)  # units on a -> least units on b
+        best_b[0] = 0
+        for here, ts in points.items():
+            merged = np.full(size, never, dtype=np.int64)
+            for on_a in range(len(ts) + 1):
+                on_b = len(ts) - on_a
+                add_a = (sum(cost[a][here][:on_a]) + (near[a][here] if on_a else 0)) // unit
+                add_b = (sum(cost[b][here][:on_b]) + (near[b][here] if on_b else 0)) // unit
+                shifted = np.full(size, never, dtype=np.int64)
+                shifted[add_a:] = best_b[:size - add_a] if add_a else best_b
+                merged = np.minimum(merged, shifted + add_b)
+            best_b = merged
+        slack_a, slack_b = -(-max(near[a].values()) // unit), -(-max(near[b].values()) // unit)
+        loads = np.maximum(np.arange(size) - slack_a, best_b - slack_b)
+        return max(0, int(loads.min()) * unit)
+
+    def _nearest(self, name: str, here, ts: list[_Task], work: list[_Task]) -> int:
+        return min((self.drive(u.request.end, ts[0].request.start, name) for u in work
+                    if self._point(u.request.end) != here), default=0)
+
+    def _points(self, work: list[_Task]):
+        points: dict[tuple[int, int], list[_Task]] = {}
+        moving = []  # tasks that end elsewhere than they begin: their own shortest drive in stands
+        for t in work:
+            here = self._point(t.request.start)
+            (points.setdefault(here, []) if here == self._point(t.request.end) else moving).append(t)
+        return points, moving
+
+    def load(self, name: str, work: list[_Task]):
+        points: dict[tuple[int, int], list[_Task]] = {}
+        moving = []  # tasks that end elsewhere than they begin: their own shortest drive in stands
+        for t in work:
+            here = self._point(t.request.start)
+            (points.setdefault(here, []) if here == self._point(t.request.end) else moving).append(t)
+        nearest = {}
+        for here, ts in points.items():
+            gaps = [self.drive(u.request.end, ts[0].request.start, name) for u in work if self._point(u.request.end) != here]
+            nearest[here] = min(gaps, default=0)
+        terms = [self.assigned[t.key, name] * self.handling[t.key, name] for ts in points.values() for t in ts]
+        for here, ts in points.items():
+            key = (name, here, tuple(sorted(t.key for t in ts)))
+            if key not in self.visited:
+                self.visited[key] = lit = self.model.NewBoolVar(f"visits[{name},{here}]")
+                for t in ts:
+                    self.model.AddImplication(self.assigned[t.key, name], lit)
+            terms.append(self.visited[key] * nearest[here])
+        return sum(terms) - max(nearest.values(), default=0) + sum(
+            self.assigned[t.key, name] * self.busy_min[t.key, name] for t in moving)
+
+
+def _two_robot_bound(work: list[_Task], pair: tuple[str, str], busy_min) -> int:
+    """The least time (ticks) two robots need for ``work`` that only they can do, each task on one of
+    them with its least busy time there: min over splits of the larger load (subset sums, in whole
+    seconds rounded down, so never above the true least). The relaxation splits tasks in fractions;
+    this cut keeps each task whole."""
+    a, b = pair
+    cost_a = [busy_min[t.key, a] // SCALE for t in work]
+    cost_b = [busy_min[t.key, b] // SCALE for t in work]
+    size = sum(cost_a) + 1
+    if size * len(work) > 5e7:
+        return 0  # too large to enumerate; the linear loads still hold
+    best_b = np.full(size, np.iinfo(np.int64).max // 4, dtype=np.int64)  # load on a -> least load on b
+    best_b[0] = 0
+    for ca, cb in zip(cost_a, cost_b):
+        on_b = best_b + cb
+        on_a = np.full(size, np.iinfo(np.int64).max // 4, dtype=np.int64)
+        on_a[ca:] = best_b[:size - ca] if ca else best_b
+        best_b = np.minimum(on_a, on_b)
+    loads = np.maximum(np.arange(size), best_b)
+    return int(loads.min()) * SCALE
