@@ -84,43 +84,79 @@ def floor_gates(tasks: list[dict]) -> tuple[list[dict], list[dict]]:
 def build_instance(smart, fleet, site, storey_elevations=None) -> dict:
     """The planning instance (a JSON-ready dict) of ``smart`` (a SmartModel) built by ``fleet`` on ``site``
     (placed on the building, :func:`bimrobot.site.site.site_for`); ``storey_elevations`` in metres."""
-    from bimrobot.coordination.market import handling_time, incapability
     from bimrobot.planning.optimal import task_graph
     from bimrobot.coordination.simulation import ConstructionSimulation
 
     sim = ConstructionSimulation(smart, fleet, site, storey_elevations=storey_elevations)
     graph = task_graph(sim.smart, sim)
+    tasks = [_task_row(t, sim, fleet) for t in graph]
+    precedences = _precedences(graph)
+    gates, gate_edges = floor_gates(tasks)
+    precedences += gate_edges
+    return {
+        "bimrobot": _signature(),
+        "version": VERSION,
+        "units": {**UNITS, "model_frame": "the IFC's world frame, z up", "site_frame": "model frame + model_offset (x, y), z up"},
+        "model": str(smart.source),
+        "fleet": fleet.name,
+        "mode": "per-joint",
+        "release": RELEASE,
+        "duration": DURATION,
+        "rules": RULES,
+        "site": _site_row(sim),
+        "robots": _robot_rows(fleet, sim),
+        "tasks": tasks,
+        "gates": gates,
+        "precedences": precedences,
+    }
+
+
+def _task_row(t, sim, fleet) -> dict:
+    """One task of the graph as the instance writes it: what it moves or joins, where (site frame, m),
+    and its handling time (s) on each robot that can do it."""
+    from bimrobot.coordination.market import handling_time, incapability
+
+    kind = str(t.activity)
+    request = t.request
+    component = sim.smart.components[request.component_id]
+    joint = sim.smart.joints[request.joint_id] if request.joint_id else None
+    capable = [r for r in fleet.robots if not incapability(r, request)]
+    return {
+        "id": t.key,
+        "kind": kind,
+        "component": component.id,
+        "joint": joint.id if joint else None,
+        "joint_components": list(joint.component_ids) if joint else None,
+        "floor": int(request.floor),
+        "mass_kg": None if component.weight_kg is None else round(float(component.weight_kg), 3),
+        "position_m": _xyz(joint.position if joint else component.target_position),
+        "nodes": int(request.nodes) if kind == "position" else None,
+        "points": int(request.points) if kind == "assemble" else None,
+        "reach_m": round(float(request.reach_needed), 4),
+        "start_site_m": _xy(request.start),
+        "end_site_m": _xy(request.end),
+        "handling_s": {r.name: round(handling_time(r, request), 6) for r in capable},
+    }
+
+
+def _precedences(graph) -> list[dict]:
+    """The graph's precedences between its tasks with the rule that makes each; the floor gate is left
+    out (:func:`floor_gates` says it once per floor)."""
     known = {t.key for t in graph}
-    tasks, precedences = [], []
+    precedences = []
     for t in graph:
         kind = str(t.activity)
-        request = t.request
-        component = sim.smart.components[request.component_id]
-        joint = sim.smart.joints[request.joint_id] if request.joint_id else None
-        capable = [r for r in fleet.robots if not incapability(r, request)]
-        tasks.append({
-            "id": t.key,
-            "kind": kind,
-            "component": component.id,
-            "joint": joint.id if joint else None,
-            "joint_components": list(joint.component_ids) if joint else None,
-            "floor": int(request.floor),
-            "mass_kg": None if component.weight_kg is None else round(float(component.weight_kg), 3),
-            "position_m": _xyz(joint.position if joint else component.target_position),
-            "nodes": int(request.nodes) if kind == "position" else None,
-            "points": int(request.points) if kind == "assemble" else None,
-            "reach_m": round(float(request.reach_needed), 4),
-            "start_site_m": _xy(request.start),
-            "end_site_m": _xy(request.end),
-            "handling_s": {r.name: round(handling_time(r, request), 6) for r in capable},
-        })
         for p in t.predecessors:
             if kind == "transport" and p.startswith("assemble:"):
                 continue  # a floor gate: said once per floor below
             if p in known:
                 precedences.append({"before": p, "after": t.key, "rule": _rule(kind)})
-    gates, gate_edges = floor_gates(tasks)
-    precedences += gate_edges
+    return precedences
+
+
+def _robot_rows(fleet, sim) -> list[dict]:
+    """The fleet's robots as the instance writes them: capabilities, speeds, times, limits and home
+    (site frame, m)."""
     robots = []
     for index, spec in enumerate(fleet.robots):
         home = sim.site.robot_start(index, fleet.home_on_site(spec, sim.offset))
@@ -139,27 +175,17 @@ def build_instance(smart, fleet, site, storey_elevations=None) -> dict:
             "methods": list(spec.methods),
             "home_site_m": _xy(home),
         })
+    return robots
+
+
+def _site_row(sim) -> dict:
+    """The site as the instance writes it: the model offset, the yard and the robots' homes (site frame, m)."""
     return {
-        "bimrobot": _signature(),
-        "version": VERSION,
-        "units": {**UNITS, "model_frame": "the IFC's world frame, z up", "site_frame": "model frame + model_offset (x, y), z up"},
-        "model": str(smart.source),
-        "fleet": fleet.name,
-        "mode": "per-joint",
-        "release": RELEASE,
-        "duration": DURATION,
-        "rules": RULES,
-        "site": {
-            "source": sim.site.source,
-            "model_offset": _xy(sim.offset),
-            "yard_site_m": [_xy(p) for p in sim.site.yard],
-            "robot_home_site_m": [_xy(p) for p in sim.site.robot_home],
-            "idle_robots": sim.site.idle_robots,
-        },
-        "robots": robots,
-        "tasks": tasks,
-        "gates": gates,
-        "precedences": precedences,
+        "source": sim.site.source,
+        "model_offset": _xy(sim.offset),
+        "yard_site_m": [_xy(p) for p in sim.site.yard],
+        "robot_home_site_m": [_xy(p) for p in sim.site.robot_home],
+        "idle_robots": sim.site.idle_robots,
     }
 
 
