@@ -43,6 +43,81 @@ def box_element(gid: str, ifc_class: str, name: str, storey: str, low, high, wei
     )
 
 
+#: Half the flange of a W250x73 column (254 mm), m.
+_HALF_COLUMN = 0.127
+
+
+class _Frame:
+    """The elements, bolted connections and skipped bolts of a frame as they are generated."""
+
+    def __init__(self, bolts_per_node: int):
+        self.bolts_per_node = bolts_per_node
+        self.elements: dict[str, Element] = {}
+        self.connections: list[Connection] = []
+        self.skipped: list[SkippedProduct] = []
+        self.bolt_count = 0
+
+    def bolts(self, n: int) -> tuple[str, ...]:
+        """``n`` new bolts, listed as skipped products (no geometry)."""
+        ids = []
+        for _ in range(n):
+            self.bolt_count += 1
+            gid = f"bolt-{self.bolt_count}"
+            ids.append(gid)
+            self.skipped.append(SkippedProduct(gid, "IfcMechanicalFastener", "M20 bolt", "generated without geometry"))
+        return tuple(ids)
+
+    def relate(self, relating: str, related: str) -> None:
+        """Bolt ``related`` to ``relating`` with one node of bolts."""
+        self.connections.append(Connection(relating, related, self.bolts(self.bolts_per_node), "BOLTED"))
+
+    def add(self, element: Element) -> str:
+        self.elements[element.global_id] = element
+        return element.global_id
+
+
+def _columns(frame: _Frame, k: int, nx: int, ny: int, bay_x: float, bay_y: float, height: float, storey: str) -> None:
+    """Floor ``k``'s columns on their plates, each plate on a footing (ground floor) or on the column
+    below (a splice). Metres, z up; kg."""
+    half_col = _HALF_COLUMN
+    z0, z1 = k * height, (k + 1) * height
+    for i in range(nx):
+        for j in range(ny):
+            x, y = i * bay_x, j * bay_y
+            column = frame.add(box_element(f"column-{k}-{i}-{j}", "IfcColumn", "W250x73", storey, (x - half_col, y - half_col, z0 + 0.02), (x + half_col, y + half_col, z1), COLUMN_KG_PER_M * (height - 0.02)))
+            plate = frame.add(box_element(f"plate-{k}-{i}-{j}", "IfcPlate", "Base plate" if k == 0 else "Splice plate", storey, (x - 0.2, y - 0.2, z0), (x + 0.2, y + 0.2, z0 + 0.02), 25.0))
+            frame.relate(column, plate)
+            if k == 0:
+                footing = frame.add(box_element(f"footing-{i}-{j}", "IfcFooting", "Isolated footing", storey, (x - 0.6, y - 0.6, -0.6), (x + 0.6, y + 0.6, 0.0), 2000.0))
+                frame.relate(footing, plate)
+            else:
+                frame.relate(f"column-{k - 1}-{i}-{j}", plate)
+
+
+def _beams(frame: _Frame, k: int, nx: int, ny: int, bay_x: float, bay_y: float, height: float, beam_storey: str) -> None:
+    """Floor ``k``'s beams along x and y at the top of its columns, each end on a clip angle bolted to
+    the column and to the beam. Metres, z up; kg."""
+    half_col = _HALF_COLUMN
+    z1 = (k + 1) * height
+    for i in range(nx):
+        for j in range(ny):
+            x, y = i * bay_x, j * bay_y
+            for di, dj, axis in ((1, 0, "x"), (0, 1, "y")):
+                if i + di >= nx or j + dj >= ny:
+                    continue
+                x2, y2 = (i + di) * bay_x, (j + dj) * bay_y
+                span = (bay_x if axis == "x" else bay_y) - 2 * half_col
+                if axis == "x":
+                    low, high = (x + half_col, y - 0.0825, z1 - 0.31), (x2 - half_col, y + 0.0825, z1)
+                else:
+                    low, high = (x - 0.0825, y + half_col, z1 - 0.31), (x + 0.0825, y2 - half_col, z1)
+                beam = frame.add(box_element(f"beam-{k}-{axis}-{i}-{j}", "IfcBeam", "W310x38.7", beam_storey, low, high, BEAM_KG_PER_M * span))
+                for end, (cx, cy, ci, cj) in enumerate(((x, y, i, j), (x2, y2, i + di, j + dj))):
+                    clip = frame.add(box_element(f"clip-{beam}-{end}", "IfcPlate", "Clip angle", beam_storey, (cx - 0.15, cy - 0.15, z1 - 0.25), (cx + 0.15, cy + 0.15, z1 - 0.05), 3.0))
+                    frame.relate(f"column-{k}-{ci}-{cj}", clip)
+                    frame.relate(beam, clip)
+
+
 def generated_frame(
     nx: int = 2,
     ny: int = 2,
@@ -60,60 +135,12 @@ def generated_frame(
     """
     storey_count = floors + 1 if beams_on_storey_above else floors
     storeys = [Storey(f"storey-{k}", f"Level {k + 1}", k * height) for k in range(storey_count)]
-    elements: dict[str, Element] = {}
-    connections: list[Connection] = []
-    skipped: list[SkippedProduct] = []
-    bolt_counter = [0]
-
-    def bolts(n: int) -> tuple[str, ...]:
-        ids = []
-        for _ in range(n):
-            bolt_counter[0] += 1
-            gid = f"bolt-{bolt_counter[0]}"
-            ids.append(gid)
-            skipped.append(SkippedProduct(gid, "IfcMechanicalFastener", "M20 bolt", "generated without geometry"))
-        return tuple(ids)
-
-    def relate(relating: str, related: str) -> None:
-        connections.append(Connection(relating, related, bolts(bolts_per_node), "BOLTED"))
-
-    def add(element: Element) -> str:
-        elements[element.global_id] = element
-        return element.global_id
-
-    half_col = 0.127  # W250x73: 254 mm flange
+    frame = _Frame(bolts_per_node)
     for k in range(floors):
-        z0, z1 = k * height, (k + 1) * height
         storey = storeys[k].global_id
         beam_storey = storeys[k + 1].global_id if beams_on_storey_above else storey
-        for i in range(nx):
-            for j in range(ny):
-                x, y = i * bay_x, j * bay_y
-                column = add(box_element(f"column-{k}-{i}-{j}", "IfcColumn", "W250x73", storey, (x - half_col, y - half_col, z0 + 0.02), (x + half_col, y + half_col, z1), COLUMN_KG_PER_M * (height - 0.02)))
-                plate = add(box_element(f"plate-{k}-{i}-{j}", "IfcPlate", "Base plate" if k == 0 else "Splice plate", storey, (x - 0.2, y - 0.2, z0), (x + 0.2, y + 0.2, z0 + 0.02), 25.0))
-                relate(column, plate)
-                if k == 0:
-                    footing = add(box_element(f"footing-{i}-{j}", "IfcFooting", "Isolated footing", storey, (x - 0.6, y - 0.6, -0.6), (x + 0.6, y + 0.6, 0.0), 2000.0))
-                    relate(footing, plate)
-                else:
-                    relate(f"column-{k - 1}-{i}-{j}", plate)
-        for i in range(nx):
-            for j in range(ny):
-                x, y = i * bay_x, j * bay_y
-                for di, dj, axis in ((1, 0, "x"), (0, 1, "y")):
-                    if i + di >= nx or j + dj >= ny:
-                        continue
-                    x2, y2 = (i + di) * bay_x, (j + dj) * bay_y
-                    span = (bay_x if axis == "x" else bay_y) - 2 * half_col
-                    if axis == "x":
-                        low, high = (x + half_col, y - 0.0825, z1 - 0.31), (x2 - half_col, y + 0.0825, z1)
-                    else:
-                        low, high = (x - 0.0825, y + half_col, z1 - 0.31), (x + 0.0825, y2 - half_col, z1)
-                    beam = add(box_element(f"beam-{k}-{axis}-{i}-{j}", "IfcBeam", "W310x38.7", beam_storey, low, high, BEAM_KG_PER_M * span))
-                    for end, (cx, cy, ci, cj) in enumerate(((x, y, i, j), (x2, y2, i + di, j + dj))):
-                        clip = add(box_element(f"clip-{beam}-{end}", "IfcPlate", "Clip angle", beam_storey, (cx - 0.15, cy - 0.15, z1 - 0.25), (cx + 0.15, cy + 0.15, z1 - 0.05), 3.0))
-                        relate(f"column-{k}-{ci}-{cj}", clip)
-                        relate(beam, clip)
+        _columns(frame, k, nx, ny, bay_x, bay_y, height, storey)
+        _beams(frame, k, nx, ny, bay_x, bay_y, height, beam_storey)
     return BuildingModel(
         source=None,
         schema="generated",
@@ -121,9 +148,9 @@ def generated_frame(
         site_name="generated",
         units={"length": "METRE", "length_scale_to_m": 1.0, "mass": "KILOGRAM"},
         storeys=storeys,
-        elements=elements,
-        connections=connections,
-        skipped=skipped,
+        elements=frame.elements,
+        connections=frame.connections,
+        skipped=frame.skipped,
     )
 
 
