@@ -26,6 +26,10 @@ the advisers' first choices wherever they disagree and keeps the shortest schedu
 longer than the market; or the market itself (``teacher="market"``, the first policy, not advised).
 Seeded; bounded by steps, never by wall time.
 
+The advice and the pilot live in :mod:`bimrobot.planning.learned_advice`, the training buildings and the
+demonstrations in :mod:`bimrobot.planning.learned_pool` (their public names are importable from here too);
+the network stays here, where saved policies name it (``bimrobot.planning.learned.DispatchPolicy``).
+
 :class:`LearnedPlanner` plays a policy on a problem and replays its awards as a
 :class:`~bimrobot.coordination.market.Dispatcher` (the contract of ``bimrobot.planning.planners``).
 Times in seconds, positions in metres (site frame x, y; model frame z, z up), masses in kg.
@@ -35,8 +39,6 @@ from __future__ import annotations
 
 import json
 import shlex
-import tempfile
-import weakref
 import zipfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -49,7 +51,12 @@ from torch import nn
 
 from bimrobot.coordination.market import Award, Dispatcher, propose
 from bimrobot.core.errors import InputError
-from bimrobot.planning.dispatch import NODE_FEATURES, ROBOT_FEATURES, DispatchEnv, DispatchProblem, MarketPolicy, play
+from bimrobot.planning.dispatch import NODE_FEATURES, ROBOT_FEATURES, DispatchProblem
+from bimrobot.planning.learned_advice import (ADVISERS, EXTRA_NODE_FEATURES, Advised, advice, advised_space, observe,
+                                              pilot_demonstrations)
+from bimrobot.planning.learned_pool import (TRAIN_SPECS, PerCentOfMarket, PoolEntry, _pad, env_for, generated_problem,
+                                            make_training_env, market_demonstrations, pilot_teacher, sizes,
+                                            training_pool)
 
 #: the policy shipped with the package (``--planner learned``)
 DEFAULT_POLICY = Path(__file__).parent / "policies" / "dispatch.zip"
@@ -172,292 +179,9 @@ class DispatchPolicy(MaskableActorCriticPolicy):
         self.optimizer = self.optimizer_class(self.parameters(), lr=lr_schedule(1), **self.optimizer_kwargs)
 
 
-# ---------------------------------------------------------------- advice: what the planners would do now
-#: the planners (``bimrobot.planning.planners`` names) whose awards at the current decision the advised
-#: policy sees, as pair features (1 for each one's first award, 0.5 for its later awards of the round) and
-#: wait features (1 where it would award nothing now)
-ADVISERS = ("market", "market:quickest-finish", "rule:most-successors", "rule:longest-path", "rule:nearest",
-            "rule:shortest-handling")
-#: node features the advised policy adds to ``NODE_FEATURES``: a ready task's place in its activity's
-#: request heap (1 = the market's next, 2 = the one after, ...; 0 = not ready): the market's order within a kind
-EXTRA_NODE_FEATURES = ("order_in_kind",)
-_ADVICE: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
 
 
-def _adviser(name: str) -> Dispatcher:
-    from bimrobot.coordination.market import MarketDispatcher, make_evaluator
-    from bimrobot.planning.rules import RuleDispatcher
-
-    if name.startswith("rule:"):
-        return RuleDispatcher(name.split(":", 1)[1])
-    return MarketDispatcher(make_evaluator(name.split(":", 1)[1] if ":" in name else "least-cost", 0))
-
-
-def advice(env: DispatchEnv) -> dict:
-    """The advised policy's extra arrays at ``env``'s current decision (read-only on the simulation):
-    ``advice`` (max_tasks, max_robots, advisers), ``advice_wait`` (advisers,), ``order_in_kind`` (max_tasks,)."""
-    env = env.unwrapped
-    mine = _ADVICE.setdefault(env, {})
-    pairs = np.zeros((env.max_tasks, env.max_robots, len(ADVISERS)), np.float32)
-    wait = np.zeros(len(ADVISERS), np.float32)
-    order = np.zeros(env.max_tasks, np.float32)
-    if env.sim is None:
-        return {"advice": pairs, "advice_wait": wait, "order_in_kind": order}
-    if mine.get("sim") is not env.sim:  # a new episode: new advisers (the rules keep per-build scores)
-        mine.update(sim=env.sim, dispatchers=[_adviser(name) for name in ADVISERS])
-    for k, dispatcher in enumerate(mine["dispatchers"]):
-        awards = dispatcher.awards(env.sim) or []
-        wait[k] = not awards
-        for rank, award in enumerate(awards):
-            node, robot = divmod(env.action_of(award.request, award.robot), env.max_robots)
-            pairs[node, robot, k] = 1.0 if rank == 0 else 0.5
-    for pool in env.sim.build.pending.values():
-        for rank, request in enumerate(sorted(pool)):  # the heap's order: the request's priority
-            order[env._node_of(request)] = rank + 1
-    return {"advice": pairs, "advice_wait": wait, "order_in_kind": order}
-
-
-def advised_space(env: DispatchEnv) -> gym.spaces.Dict:
-    """``env``'s observation space with the :func:`advice` arrays."""
-    env = env.unwrapped
-    h = len(ADVISERS)
-    return gym.spaces.Dict({
-        **env.observation_space.spaces,
-        "advice": gym.spaces.Box(0.0, 1.0, (env.max_tasks, env.max_robots, h), np.float32),
-        "advice_wait": gym.spaces.Box(0.0, 1.0, (h,), np.float32),
-        "order_in_kind": gym.spaces.Box(0.0, float(env.max_tasks), (env.max_tasks,), np.float32),
-    })
-
-
-def observe(env: gym.Env, advised: bool = True) -> dict:
-    """The observation at ``env``'s current decision, with the :func:`advice` arrays when ``advised``."""
-    env = env.unwrapped
-    obs = env._observation()
-    return {**obs, **advice(env)} if advised else obs
-
-
-class Advised(gym.ObservationWrapper):
-    """``env`` whose observations carry the :func:`advice` arrays (for PPO on the advised policy)."""
-
-    def __init__(self, env: gym.Env):
-        super().__init__(env)
-        self.observation_space = advised_space(env)
-
-    def observation(self, observation: dict) -> dict:
-        return {**observation, **advice(self.env.unwrapped)}
-
-    def action_masks(self) -> np.ndarray:
-        return self.env.unwrapped.action_masks()
-
-
-# ---------------------------------------------------------------- the pilot: a better teacher than the market
-class _Sandbox(DispatchEnv):
-    """The environment without observations, for the pilot's rollouts (the same simulation, about 1.6 x
-    faster): only actions, masks and the result are read from it."""
-
-    def _observation(self) -> dict:
-        return {}
-
-
-def _complete(env: DispatchEnv, prefix: list[int]) -> tuple[float, list[int]]:
-    """Replay ``prefix`` on ``env`` from its start, then let the least-cost market finish the build:
-    (makespan s, every action)."""
-    obs, _ = env.reset(seed=0)
-    done = truncated = False
-    for action in prefix:
-        _, _, done, truncated, _ = env.step(action)
-    actions, market = list(prefix), MarketPolicy()
-    while not (done or truncated):
-        action = market(env)
-        actions.append(action)
-        _, _, done, truncated, _ = env.step(action)
-    return (float(env.result.makespan) if env.result is not None else float("inf")), actions
-
-
-def _candidates(env: DispatchEnv, arrays: dict) -> list[int]:
-    """The advisers' first choices now (awards, or waiting where that is valid), each once."""
-    chosen = []
-    for k in range(len(ADVISERS)):
-        if arrays["advice_wait"][k]:
-            action = env.wait_action if env.sim.can_wait() else None
-        else:
-            node, robot = np.argwhere(arrays["advice"][:, :, k] == 1.0)[0]
-            action = int(node) * env.max_robots + int(robot)
-        if action is not None and action not in chosen:
-            chosen.append(action)
-    return chosen
-
-
-def pilot_demonstrations(problem: DispatchProblem, pad: tuple[int, int, int]) -> tuple[list, list, list, float, float]:
-    """The pilot method (a fortified rollout of the least-cost market) on ``problem``: at each decision
-    where the :data:`ADVISERS` disagree, each of their first choices is tried and the market finishes the
-    build from there; the build follows the shortest complete schedule found so far, so its makespan is
-    never longer than the market's. Returns the advised observations, action masks and actions along that
-    schedule, its makespan and the market's (s)."""
-    env = DispatchEnv(problem, max_tasks=pad[0], max_robots=pad[1], max_edges=pad[2])
-    sandbox = _Sandbox(problem, max_tasks=pad[0], max_robots=pad[1], max_edges=pad[2])
-    best_s, best = _complete(sandbox, [])
-    market_s = best_s
-    env.reset(seed=0)
-    observations, masks, taken = [], [], []
-    done = truncated = False
-    while not (done or truncated):
-        obs = observe(env)
-        choices = _candidates(env, obs)
-        if len(choices) > 1:
-            for action in choices:
-                makespan, actions = _complete(sandbox, taken + [action])
-                if makespan < best_s - 1e-9:
-                    best_s, best = makespan, actions
-        action = best[len(taken)]
-        observations.append(obs)
-        masks.append(env.action_masks())
-        taken.append(action)
-        _, _, done, truncated, _ = env.step(action)
-    return observations, masks, taken, float(env.result.makespan), market_s
-
-
-# ---------------------------------------------------------------- buildings for training
-#: the generated buildings of the training pool: (kind, grid) drawn with the run's seed
-TRAIN_SPECS = (("steel", "2x2x2"), ("steel", "3x2x1"), ("steel", "2x3x2"), ("steel", "3x3x1"),
-               ("precast", "2x2x2"), ("precast", "3x2x1"), ("panel", "2x2x1"), ("panel", "3x2x1"))
-
-
-@dataclass
-class PoolEntry:
-    """One training building: its spec, problem and the least-cost market's makespan on it (s)."""
-
-    spec: str
-    problem: DispatchProblem
-    market_s: float
-
-
-def generated_problem(spec: str) -> DispatchProblem:
-    """The problem of a generated building (``generated:KIND:GRID:seed=S``) with its own random fleet and
-    site (:mod:`bimrobot.site.generated`), as ``simulate`` reads it."""
-    from bimrobot.site.fleet import fleet_yaml
-    from bimrobot.planning.dispatch import simulate_problem
-    from bimrobot.site.generated import generate, parse_spec
-    from bimrobot.site.site import site_yaml
-
-    parsed = parse_spec(spec)
-    with tempfile.TemporaryDirectory(prefix="bimrobot-train-") as folder:
-        made = generate(parsed, Path(folder) / "building.ifc")
-        (Path(folder) / "fleet.yaml").write_text(fleet_yaml(made.fleet, parsed.text()), encoding="utf-8")
-        (Path(folder) / "site.yaml").write_text(site_yaml(made.site, parsed.text()), encoding="utf-8")
-        return simulate_problem([str(made.path), "--fleet", str(Path(folder) / "fleet.yaml"),
-                                 "--site", str(Path(folder) / "site.yaml")])
-
-
-def sizes(problem: DispatchProblem) -> tuple[int, int, int]:
-    """(tasks + gates, robots, precedences) of ``problem``: its own padding."""
-    from bimrobot.coordination.simulation import ConstructionSimulation
-    from bimrobot.planning.dispatch import AgentDispatcher, task_graph
-
-    sim = ConstructionSimulation(problem.smart, problem.fleet, problem.site, breakdowns=problem.breakdowns,
-                                 storey_elevations=problem.storey_elevations, per_node=problem.per_node,
-                                 dispatcher=AgentDispatcher())
-    sim.start()
-    graph = task_graph(sim)
-    return len(graph.keys), len(problem.fleet.robots), len(graph.edges)
-
-
-def env_for(problem: DispatchProblem) -> DispatchEnv:
-    """The environment of ``problem`` padded to its own size."""
-    n, r, e = sizes(problem)
-    return DispatchEnv(problem, max_tasks=n, max_robots=r, max_edges=max(e, 1))
-
-
-def training_pool(seed: int, specs=TRAIN_SPECS) -> list[PoolEntry]:
-    """Generated buildings of ``specs``, each drawn with ``seed`` (and its index), with the market's makespan."""
-    pool = []
-    for i, (kind, grid) in enumerate(specs):
-        spec = f"generated:{kind}:{grid}:seed={seed * 100 + i}"
-        problem = generated_problem(spec)
-        _, result = play(env_for(problem), MarketPolicy(), seed=0)
-        pool.append(PoolEntry(spec, problem, float(result.makespan)))
-    return pool
-
-
-class _Drawn:
-    """The ``problem`` callable of a training environment: a building of the pool drawn at each reset."""
-
-    def __init__(self, pool: list[PoolEntry]):
-        self.pool, self.last = pool, 0
-
-    def __call__(self, rng: np.random.Generator) -> DispatchProblem:
-        self.last = int(rng.integers(len(self.pool)))
-        return self.pool[self.last].problem
-
-
-class PerCentOfMarket(gym.Wrapper):
-    """Reward in per cent of the market's makespan on the drawn building (return = -100 x makespan / market)."""
-
-    def __init__(self, env: DispatchEnv, drawn: _Drawn):
-        super().__init__(env)
-        self.drawn = drawn
-
-    def step(self, action):
-        obs, reward, done, truncated, info = self.env.step(action)
-        return obs, 100.0 * reward / self.drawn.pool[self.drawn.last].market_s, done, truncated, info
-
-    def action_masks(self) -> np.ndarray:
-        return self.env.unwrapped.action_masks()
-
-
-def _pad(pool: list[PoolEntry]) -> tuple[int, int, int]:
-    n, r, e = zip(*(sizes(p.problem) for p in pool))
-    return max(n), max(r), max(e)
-
-
-def make_training_env(pool: list[PoolEntry], seed: int, advised: bool = True) -> gym.Env:
-    """One environment drawing the pool's buildings, padded to the largest of them, reward per cent of
-    market; with the :func:`advice` arrays in its observations when ``advised``."""
-    n, r, e = _pad(pool)
-    drawn = _Drawn(pool)
-    inner = DispatchEnv(drawn, max_tasks=n, max_robots=r, max_edges=e)
-    env = PerCentOfMarket(Advised(inner) if advised else inner, drawn)
-    env.reset(seed=seed)
-    return env
-
-
-# ---------------------------------------------------------------- imitation of the market
-def market_demonstrations(pool: list[PoolEntry], pad: tuple[int, int, int], advised: bool = False) -> tuple[dict, np.ndarray, np.ndarray]:
-    """Every decision of the least-cost market on the pool's buildings, padded to ``pad``:
-    (observations stacked per key, action masks (D, A), the market's actions (D,))."""
-    observations, masks, actions = [], [], []
-    for entry in pool:
-        env = DispatchEnv(entry.problem, max_tasks=pad[0], max_robots=pad[1], max_edges=pad[2])
-        policy = MarketPolicy()
-        env.reset(seed=0)
-        done = truncated = False
-        while not (done or truncated):
-            observations.append(observe(env, advised))
-            action = policy(env)
-            masks.append(env.action_masks())
-            actions.append(action)
-            _, _, done, truncated, _ = env.step(action)
-    return _stack(observations, masks, actions)
-
-
-def pilot_teacher(pool: list[PoolEntry], pad: tuple[int, int, int]) -> tuple[tuple[dict, np.ndarray, np.ndarray], dict]:
-    """The pilot's decisions (:func:`pilot_demonstrations`) on the pool's buildings, padded to ``pad``, as
-    demonstrations, and {spec: the pilot's makespan (s)}."""
-    observations, masks, actions, makespans = [], [], [], {}
-    for entry in pool:
-        obs, mask, taken, makespan, _ = pilot_demonstrations(entry.problem, pad)
-        observations += obs
-        masks += mask
-        actions += taken
-        makespans[entry.spec] = round(makespan, 3)
-    return _stack(observations, masks, actions), makespans
-
-
-def _stack(observations: list[dict], masks: list, actions: list) -> tuple[dict, np.ndarray, np.ndarray]:
-    stacked = {k: np.stack([o[k] for o in observations]) for k in observations[0]}
-    return stacked, np.stack(masks), np.array(actions, dtype=np.int64)
-
-
+# ---------------------------------------------------------------- imitation: behaviour cloning of a teacher
 def imitate(policy, demonstrations, steps: int, seed: int, batch: int = 32, lr: float = 1e-3) -> float:
     """Behaviour cloning: ``steps`` Adam steps of cross-entropy between the masked policy and the market's
     actions, mini-batches drawn with ``seed``. Returns the accuracy (0-1) of the greedy policy on them."""
@@ -720,4 +444,5 @@ class ReplayDispatcher(Dispatcher):
 __all__ = ["DEFAULT_POLICY", "DispatchExtractor", "LearnedPlanner", "LearnedPolicy", "ReplayDispatcher", "train",
            "save", "load_policy", "read_meta", "imitate", "imitation_accuracy", "market_demonstrations",
            "training_pool", "generated_problem", "env_for", "ADVISERS", "Advised", "advice", "observe",
-           "pilot_demonstrations", "pilot_teacher", "TEACHERS"]
+           "pilot_demonstrations", "pilot_teacher", "TEACHERS", "TRAIN_SPECS", "PoolEntry", "PerCentOfMarket",
+           "make_training_env", "sizes", "EXTRA_NODE_FEATURES", "advised_space"]

@@ -1,0 +1,163 @@
+"""What the learned planner's advised policy sees besides the environment, and its teacher (issue 38).
+
+The advice (:func:`advice`): at each decision the next awards of the market and of the priority rules
+(:data:`ADVISERS`, pair and wait features) and each ready task's place in the market's request heap
+(:data:`EXTRA_NODE_FEATURES`). The pilot (:func:`pilot_demonstrations`): a rollout of the least-cost
+market that tries the advisers' first choices wherever they disagree and keeps the shortest schedule
+found, so it is never longer than the market.
+
+Times in seconds, positions in metres (site frame x, y; model frame z, z up), masses in kg.
+"""
+
+from __future__ import annotations
+
+import weakref
+
+import gymnasium as gym
+import numpy as np
+
+from bimrobot.coordination.market import Dispatcher
+from bimrobot.planning.dispatch import DispatchEnv, DispatchProblem, MarketPolicy
+
+#: the planners (``bimrobot.planning.planners`` names) whose awards at the current decision the advised
+#: policy sees, as pair features (1 for each one's first award, 0.5 for its later awards of the round) and
+#: wait features (1 where it would award nothing now)
+ADVISERS = ("market", "market:quickest-finish", "rule:most-successors", "rule:longest-path", "rule:nearest",
+            "rule:shortest-handling")
+#: node features the advised policy adds to ``NODE_FEATURES``: a ready task's place in its activity's
+#: request heap (1 = the market's next, 2 = the one after, ...; 0 = not ready): the market's order within a kind
+EXTRA_NODE_FEATURES = ("order_in_kind",)
+_ADVICE: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+
+
+def _adviser(name: str) -> Dispatcher:
+    from bimrobot.coordination.market import MarketDispatcher, make_evaluator
+    from bimrobot.planning.rules import RuleDispatcher
+
+    if name.startswith("rule:"):
+        return RuleDispatcher(name.split(":", 1)[1])
+    return MarketDispatcher(make_evaluator(name.split(":", 1)[1] if ":" in name else "least-cost", 0))
+
+
+def advice(env: DispatchEnv) -> dict:
+    """The advised policy's extra arrays at ``env``'s current decision (read-only on the simulation):
+    ``advice`` (max_tasks, max_robots, advisers), ``advice_wait`` (advisers,), ``order_in_kind`` (max_tasks,)."""
+    env = env.unwrapped
+    mine = _ADVICE.setdefault(env, {})
+    pairs = np.zeros((env.max_tasks, env.max_robots, len(ADVISERS)), np.float32)
+    wait = np.zeros(len(ADVISERS), np.float32)
+    order = np.zeros(env.max_tasks, np.float32)
+    if env.sim is None:
+        return {"advice": pairs, "advice_wait": wait, "order_in_kind": order}
+    if mine.get("sim") is not env.sim:  # a new episode: new advisers (the rules keep per-build scores)
+        mine.update(sim=env.sim, dispatchers=[_adviser(name) for name in ADVISERS])
+    for k, dispatcher in enumerate(mine["dispatchers"]):
+        awards = dispatcher.awards(env.sim) or []
+        wait[k] = not awards
+        for rank, award in enumerate(awards):
+            node, robot = divmod(env.action_of(award.request, award.robot), env.max_robots)
+            pairs[node, robot, k] = 1.0 if rank == 0 else 0.5
+    for pool in env.sim.build.pending.values():
+        for rank, request in enumerate(sorted(pool)):  # the heap's order: the request's priority
+            order[env._node_of(request)] = rank + 1
+    return {"advice": pairs, "advice_wait": wait, "order_in_kind": order}
+
+
+def advised_space(env: DispatchEnv) -> gym.spaces.Dict:
+    """``env``'s observation space with the :func:`advice` arrays."""
+    env = env.unwrapped
+    h = len(ADVISERS)
+    return gym.spaces.Dict({
+        **env.observation_space.spaces,
+        "advice": gym.spaces.Box(0.0, 1.0, (env.max_tasks, env.max_robots, h), np.float32),
+        "advice_wait": gym.spaces.Box(0.0, 1.0, (h,), np.float32),
+        "order_in_kind": gym.spaces.Box(0.0, float(env.max_tasks), (env.max_tasks,), np.float32),
+    })
+
+
+def observe(env: gym.Env, advised: bool = True) -> dict:
+    """The observation at ``env``'s current decision, with the :func:`advice` arrays when ``advised``."""
+    env = env.unwrapped
+    obs = env._observation()
+    return {**obs, **advice(env)} if advised else obs
+
+
+class Advised(gym.ObservationWrapper):
+    """``env`` whose observations carry the :func:`advice` arrays (for PPO on the advised policy)."""
+
+    def __init__(self, env: gym.Env):
+        super().__init__(env)
+        self.observation_space = advised_space(env)
+
+    def observation(self, observation: dict) -> dict:
+        return {**observation, **advice(self.env.unwrapped)}
+
+    def action_masks(self) -> np.ndarray:
+        return self.env.unwrapped.action_masks()
+
+
+# ---------------------------------------------------------------- the pilot: a better teacher than the market
+class _Sandbox(DispatchEnv):
+    """The environment without observations, for the pilot's rollouts (the same simulation, about 1.6 x
+    faster): only actions, masks and the result are read from it."""
+
+    def _observation(self) -> dict:
+        return {}
+
+
+def _complete(env: DispatchEnv, prefix: list[int]) -> tuple[float, list[int]]:
+    """Replay ``prefix`` on ``env`` from its start, then let the least-cost market finish the build:
+    (makespan s, every action)."""
+    obs, _ = env.reset(seed=0)
+    done = truncated = False
+    for action in prefix:
+        _, _, done, truncated, _ = env.step(action)
+    actions, market = list(prefix), MarketPolicy()
+    while not (done or truncated):
+        action = market(env)
+        actions.append(action)
+        _, _, done, truncated, _ = env.step(action)
+    return (float(env.result.makespan) if env.result is not None else float("inf")), actions
+
+
+def _candidates(env: DispatchEnv, arrays: dict) -> list[int]:
+    """The advisers' first choices now (awards, or waiting where that is valid), each once."""
+    chosen = []
+    for k in range(len(ADVISERS)):
+        if arrays["advice_wait"][k]:
+            action = env.wait_action if env.sim.can_wait() else None
+        else:
+            node, robot = np.argwhere(arrays["advice"][:, :, k] == 1.0)[0]
+            action = int(node) * env.max_robots + int(robot)
+        if action is not None and action not in chosen:
+            chosen.append(action)
+    return chosen
+
+
+def pilot_demonstrations(problem: DispatchProblem, pad: tuple[int, int, int]) -> tuple[list, list, list, float, float]:
+    """The pilot method (a fortified rollout of the least-cost market) on ``problem``: at each decision
+    where the :data:`ADVISERS` disagree, each of their first choices is tried and the market finishes the
+    build from there; the build follows the shortest complete schedule found so far, so its makespan is
+    never longer than the market's. Returns the advised observations, action masks and actions along that
+    schedule, its makespan and the market's (s)."""
+    env = DispatchEnv(problem, max_tasks=pad[0], max_robots=pad[1], max_edges=pad[2])
+    sandbox = _Sandbox(problem, max_tasks=pad[0], max_robots=pad[1], max_edges=pad[2])
+    best_s, best = _complete(sandbox, [])
+    market_s = best_s
+    env.reset(seed=0)
+    observations, masks, taken = [], [], []
+    done = truncated = False
+    while not (done or truncated):
+        obs = observe(env)
+        choices = _candidates(env, obs)
+        if len(choices) > 1:
+            for action in choices:
+                makespan, actions = _complete(sandbox, taken + [action])
+                if makespan < best_s - 1e-9:
+                    best_s, best = makespan, actions
+        action = best[len(taken)]
+        observations.append(obs)
+        masks.append(env.action_masks())
+        taken.append(action)
+        _, _, done, truncated, _ = env.step(action)
+    return observations, masks, taken, float(env.result.makespan), market_s
