@@ -231,7 +231,7 @@ def _floor_bounds(tasks, fleet, homes, given, time_limit_s, limits) -> tuple[dic
         shifted = None
         if given and keys <= given.keys():  # the market's schedule of this floor, moved to begin at 0
             opening = min(given[k][1] for k in keys)
-            shifted = {k: (given[k][0], given[k][1] - opening, given[k][2] - opening) for k in keys}
+            shifted = {k: (given[k][0], given[k][1] - opening, given[k][2] - opening) for k in sorted(keys)}
         solved = _solve(_Problem(local, fleet, homes, {r.name: 0.0 for r in fleet.robots}, starts=starts), shifted,
                         max(1.0, time_limit_s * len(local) / len(tasks)), **limits)
         least[floor] = int(round(solved.bound * SCALE))
@@ -261,7 +261,7 @@ def _by_floor(tasks, fleet, homes, given, hinted, time_limit_s, started, limits)
         shifted = None
         if given and keys <= given.keys():  # the market's schedule of this floor, moved to begin at the release
             offset = max(0.0, clock - min(given[k][1] for k in keys))
-            shifted = {k: (given[k][0], given[k][1] + offset, given[k][2] + offset) for k in keys}
+            shifted = {k: (given[k][0], given[k][1] + offset, given[k][2] + offset) for k in sorted(keys)}
         solved = _solve(_Problem(local, fleet, where, release), shifted, budget * 0.7, **limits)
         relaxed = _solve(_Problem(local, fleet, where, {r.name: 0.0 for r in fleet.robots}, free_start=True),
                          shifted, budget * 0.3, **limits)  # the hint, re-timed there, keeps it from failing

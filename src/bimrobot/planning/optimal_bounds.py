@@ -45,7 +45,7 @@ def _floor_loads(model, tasks, gates, ancestors, capable, busy_min, assigned, tr
             if t.key in head and t.key not in tail and after:
                 tail[t.key] = max(min(busy_min[u, r.name] for r in capable[u]) + tail[u] for u in after)
         counted = [t for t in mine if t.key in head and t.key in tail]
-        robots = {r.name for t in counted for r in capable[t.key]}
+        robots = sorted({r.name for t in counted for r in capable[t.key]})  # a fixed order: constraints in the same order in every process
         for name in robots:
             work = [t for t in counted if (t.key, name) in assigned]
             lead = min(head[t.key] for t in work) + min(tail[t.key] for t in work)
