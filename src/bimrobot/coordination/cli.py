@@ -111,6 +111,22 @@ def run_simulate(args, model=None) -> int:
             (tmp / "plan.json").write_text(plan_record(args.planner, result, stats), encoding="utf-8")
         (tmp / "site.yaml").write_text(site_yaml(site, "this simulation"), encoding="utf-8")
         (tmp / RUN_FLEET_FILE).write_text(fleet_yaml(fleet, "this simulation"), encoding="utf-8")  # the schedule's fleet
+    _print_smart_model(smart, weights)
+    print(f"fleet {fleet.name}, {'evaluator' if stats is None else 'planner'} {result.evaluator}: makespan {result.makespan:.1f} s, {result.steps} steps, "
+          f"fleet utilisation {result.utilisation:.1%}")
+    print(format_robot_table(result))
+    if stats is not None:
+        from bimrobot.planning.planners import plan_line
+
+        print(plan_line(result, stats))
+    print(f"output: {Path(args.output).resolve()}/ (events.log, events.jsonl, robots.csv, summary.json, states.json, schedule.csv"
+          f"{'' if args.no_gantt else ', gantt.png'}{'' if stats is None else ', plan.json'})")
+    return 0
+
+
+def _print_smart_model(smart, weights) -> None:
+    """What ``simulate`` says about the smart model before the result: components, nodes, joints, and
+    what was inferred, assumed, unknown or left out."""
     info = smart.summary()
     units = f", {info['assembly_units']} of them assembly units" if info["assembly_units"] else ""
     later = f", {len(info['prebuilt_after_supports'])} made once what they rest on is placed" if info["prebuilt_after_supports"] else ""
@@ -130,16 +146,6 @@ def run_simulate(args, model=None) -> int:
               f"cannot verify them (listed under components_without_weight in summary.json)")
     if smart.duplicates:
         print(f"not built: {len(smart.duplicates)} elements duplicating a connected element in place (listed in summary.json)")
-    print(f"fleet {fleet.name}, {'evaluator' if stats is None else 'planner'} {result.evaluator}: makespan {result.makespan:.1f} s, {result.steps} steps, "
-          f"fleet utilisation {result.utilisation:.1%}")
-    print(format_robot_table(result))
-    if stats is not None:
-        from bimrobot.planning.planners import plan_line
-
-        print(plan_line(result, stats))
-    print(f"output: {Path(args.output).resolve()}/ (events.log, events.jsonl, robots.csv, summary.json, states.json, schedule.csv"
-          f"{'' if args.no_gantt else ', gantt.png'}{'' if stats is None else ', plan.json'})")
-    return 0
 
 
 def _planner(args, smart, fleet, site, elevations):

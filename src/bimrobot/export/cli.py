@@ -27,7 +27,8 @@ README. Start it with:  ros2 launch frame_pkg/launch/gz_sim.launch.py
 
 
 def register(subparsers) -> None:
-    """Add this part's sub-commands to the bimrobot parser."""
+    """Add this part's sub-commands to the bimrobot parser. Long only because ``convert`` has many options,
+    one ``add_argument`` each (issue 37 allows it, said here)."""
     parser = subparsers.add_parser(
         "convert",
         help="convert an IFC model into a Gazebo package (worlds, models, launch files, maps)",

@@ -49,33 +49,37 @@ def suspect_weight(item) -> str | None:
     return weight_check(element.weight_kg, element.weight_source, element.volume_m3, element.density_kg_m3)
 
 
+def _entry(item, options: ConvertOptions) -> dict:
+    """One converted element's entry in report.json (kg, m, m^3, radians)."""
+    element, mass = item.element, item.mass
+    x, y, z, roll, pitch, yaw = layout.pose_xyz_rpy(item.pose)
+    entry = {
+        "global_id": element.global_id,
+        "model": item.model,
+        "ifc_class": element.ifc_class,
+        "name": element.name,
+        "storey_id": element.storey_id,
+        "material": element.material,
+        "mass_kg": round(mass.mass, 6),
+        "weight_source": weight_source_words(element, mass, options),
+        "bim_weight_kg": element.weight_kg,
+        "volume_m3": round(mass.volume, 9),
+        "inertia_from": mass.inertia_method,
+        "center_of_mass_m": [round(float(v), 6) for v in mass.center_of_mass],
+        "visual_triangles": int(len(item.body.faces)),
+        "collision_triangles": int(item.collision_triangles),
+        "pose_xyz_rpy": [round(v, 9) for v in (x, y, z, roll, pitch, yaw)],
+    }
+    suspect = suspect_weight(item)
+    if suspect:
+        entry["weight_suspect"] = suspect
+    return entry
+
+
 def package_report(model, package, world_name, world_files, converted, skipped, maps, yard, options, timings) -> dict:
     """report.json of a package: every element's mass, weight source, pose and triangles, the skipped
     products, the options, the maps, the yard and the timings (s)."""
-    entries = []
-    for item in converted:
-        element, mass = item.element, item.mass
-        x, y, z, roll, pitch, yaw = layout.pose_xyz_rpy(item.pose)
-        entries.append({
-            "global_id": element.global_id,
-            "model": item.model,
-            "ifc_class": element.ifc_class,
-            "name": element.name,
-            "storey_id": element.storey_id,
-            "material": element.material,
-            "mass_kg": round(mass.mass, 6),
-            "weight_source": weight_source_words(element, mass, options),
-            "bim_weight_kg": element.weight_kg,
-            "volume_m3": round(mass.volume, 9),
-            "inertia_from": mass.inertia_method,
-            "center_of_mass_m": [round(float(v), 6) for v in mass.center_of_mass],
-            "visual_triangles": int(len(item.body.faces)),
-            "collision_triangles": int(item.collision_triangles),
-            "pose_xyz_rpy": [round(v, 9) for v in (x, y, z, roll, pitch, yaw)],
-        })
-        suspect = suspect_weight(item)
-        if suspect:
-            entries[-1]["weight_suspect"] = suspect
+    entries = [_entry(item, options) for item in converted]
     counts_by_source: dict[str, int] = {}
     for entry in entries:
         counts_by_source[entry["weight_source"]] = counts_by_source.get(entry["weight_source"], 0) + 1
