@@ -42,12 +42,12 @@ from bimrobot.export.gazebo import launch
 from bimrobot.export.gazebo import layout
 from bimrobot.export.gazebo import merge
 from bimrobot.export.gazebo import meshes
-from bimrobot.export.gazebo import navmap
 from bimrobot.core import pool
 from bimrobot.export.gazebo import sdf
 from bimrobot.core.names import ros_package_name, safe_name, slug
 from bimrobot.export.gazebo.render import PREVIEW_MAX_TRIANGLES, draw_preview, render_preview
 from bimrobot.export.gazebo.naming import map_name, world_name_of
+from bimrobot.export.gazebo.storey_maps import MapPlan, plan_maps, write_map
 from bimrobot.export.gazebo.options import ConvertOptions
 from bimrobot.export.gazebo.package_report import (duplicate_keys, package_report, readme_text, unknown_weight_report,
                                                    warnings_of)
@@ -238,7 +238,7 @@ def _write_package(tmp: Path, model: BuildingModel, laid: _LaidOut, package: str
     longest tasks) come first. ``timings["models_and_maps"]``, ``["preview"]`` (s)."""
     converted, merged = laid.converted, laid.merged
     tick = time.perf_counter()
-    plan = _plan_maps(model, converted, options, laid.ground_z) if options.maps else _MapPlan([], (0.0, 0.0), (1, 1))
+    plan = plan_maps(model, _world_extent(converted), options, laid.ground_z) if options.maps else MapPlan([], (0.0, 0.0), (1, 1))
     (tmp / "models").mkdir()
     if plan.levels:
         (tmp / "maps").mkdir()
@@ -440,7 +440,7 @@ def _model_task(task) -> tuple[list, dict | None]:
     converted, options = pool.shared["converted"], pool.shared["options"]
     models_dir, source = pool.shared["models_dir"], pool.shared["source"]
     if kind == "map":
-        entry = _write_map(pool.shared["maps_dir"], converted, pool.shared["map_plan"], payload, options)
+        entry = write_map(pool.shared["maps_dir"], converted, pool.shared["map_plan"], payload, options)
         return [], {"map": payload, "entry": entry}
     if kind == "merged":
         merged = pool.shared["merged"][payload]
@@ -590,50 +590,3 @@ def _write_launch_and_ros(tmp: Path, package: str, world_name: str, world_files:
         (launch_dir / "gazebo_classic.launch").write_text(text, encoding="utf-8")
     (tmp / "package.xml").write_text(launch.package_xml(package, source_name), encoding="utf-8")
     (tmp / "CMakeLists.txt").write_text(launch.cmakelists(package), encoding="utf-8")
-
-
-@dataclass
-class _MapPlan:
-    """The maps to draw: one level per storey (name, storey id and name, elevation, band) in one grid frame."""
-
-    levels: list[tuple[str, str | None, str, float, tuple[float, float]]]
-    origin: tuple[float, float]
-    shape: tuple[int, int]
-
-
-def _plan_maps(model: BuildingModel, converted: list[_Converted], options: ConvertOptions, ground_z: float) -> _MapPlan:
-    extent = _world_extent(converted)
-    origin, shape = navmap.grid_frame(extent[:, :2], options.map_margin, options.map_resolution)
-    storeys = sorted(model.storeys, key=lambda s: s.elevation)
-    levels = [(s.global_id, s.name, s.elevation) for s in storeys] or [(None, "site", ground_z)]
-    used: set[str] = set()
-    planned = []
-    for index, (storey_id, storey_name, elevation) in enumerate(levels, start=1):
-        name = map_name(storey_name, index) if storey_id else "site"
-        if name in used:
-            name = f"{name}_{safe_name(storey_id) if storey_id else len(used)}"
-        used.add(name)
-        band = (elevation + options.map_band[0], elevation + options.map_band[1])
-        planned.append((name, storey_id, storey_name, elevation, band))
-    return _MapPlan(planned, origin, shape)
-
-
-def _write_map(maps_dir: Path, converted: list[_Converted], plan: _MapPlan, level: int, options: ConvertOptions) -> dict:
-    """Draw and write one storey's map; return its report entry."""
-    name, storey_id, storey_name, elevation, band = plan.levels[level]
-    bodies = [(item.world_vertices, item.body.faces) for item in converted]
-    occupied = navmap.occupancy(bodies, band, plan.origin, plan.shape, options.map_resolution)
-    grid = navmap.OccupancyGrid(name, storey_id, storey_name, elevation, band, options.map_resolution, plan.origin, occupied)
-    pgm, yaml_file = navmap.write_map(grid, maps_dir)
-    return {
-        "image": f"maps/{pgm.name}",
-        "yaml": f"maps/{yaml_file.name}",
-        "storey_id": storey_id,
-        "storey_name": storey_name,
-        "elevation_m": elevation,
-        "band_z_m": list(band),
-        "resolution_m": options.map_resolution,
-        "origin_m": list(plan.origin),
-        "size_px": [plan.shape[1], plan.shape[0]],
-        "occupied_cells": int(occupied.sum()),
-    }
