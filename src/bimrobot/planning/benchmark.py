@@ -127,44 +127,18 @@ def simple_bound(problem) -> tuple[float, float]:
     """Two lower bounds (s) of any run of ``problem`` on the simulation, cheap at any size: the longest
     path of shortest handling times through the task graph (floor gates included, travel left out), and
     the total shortest handling time divided by the number of robots. One task graph for both (the
-    numbers of ``planners``' longest-path and shortest-handling scores)."""
-    from bimrobot.coordination.market import handling_time, incapability
+    numbers of the longest-path and shortest-handling rules, :mod:`bimrobot.planning.rules`)."""
     from bimrobot.coordination.simulation import ConstructionSimulation
     from bimrobot.planning.dispatch import task_graph
+    from bimrobot.planning.rules import remaining_paths, shortest_handling
 
     sim = ConstructionSimulation(problem.smart, problem.fleet, problem.site, storey_elevations=problem.storey_elevations,
                                  per_node=problem.per_node)
     sim.start()
     graph = task_graph(sim)
-    specs = [r.spec for r in sim.build.robots.values()]
-    shortest = [0.0 if request is None else
-                min((handling_time(s, request) for s in specs if not incapability(s, request)), default=0.0)
-                for request in graph.requests]
-    after: list[list[int]] = [[] for _ in graph.keys]
-    for a, b in graph.edges.tolist():
-        after[a].append(b)
-    tail = [0.0] * len(graph.keys)  # longest remaining path from each task, its own handling included (s)
-    for i in reversed(_topological(after)):
-        tail[i] = shortest[i] + max((tail[j] for j in after[i]), default=0.0)
+    shortest = shortest_handling(sim, graph.requests)
     work = sum(shortest)
-    return max(tail, default=0.0), work / max(1, len(problem.fleet.robots))
-
-
-def _topological(after: list[list[int]]) -> list[int]:
-    """An order of the nodes in which each comes before those in ``after[i]`` (Kahn)."""
-    indegree = [0] * len(after)
-    for targets in after:
-        for j in targets:
-            indegree[j] += 1
-    order, ready = [], [i for i, d in enumerate(indegree) if d == 0]
-    while ready:
-        i = ready.pop()
-        order.append(i)
-        for j in after[i]:
-            indegree[j] -= 1
-            if indegree[j] == 0:
-                ready.append(j)
-    return order
+    return max(remaining_paths(graph, shortest), default=0.0), work / max(1, len(problem.fleet.robots))
 
 
 def _tasks(problem) -> int:

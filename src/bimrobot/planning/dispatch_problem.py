@@ -99,6 +99,22 @@ class TaskGraph:
         """(E,) True for an edge that is one of several alternatives of its group."""
         return np.bincount(self.groups, minlength=len(self.groups))[self.groups] > 1 if len(self.groups) else np.zeros(0, bool)
 
+    def successors(self) -> list[list[int]]:
+        """``successors()[i]``: the nodes that node i directly precedes (edge order)."""
+        after: list[list[int]] = [[] for _ in self.keys]
+        for a, b in self.edges.tolist():
+            after[a].append(b)
+        return after
+
+    def topological_order(self) -> list[int]:
+        """The nodes in an order where each comes before every node it precedes (networkx)."""
+        import networkx as nx
+
+        graph = nx.DiGraph()
+        graph.add_nodes_from(range(len(self.keys)))
+        graph.add_edges_from(self.edges.tolist())
+        return list(nx.topological_sort(graph))
+
 
 @dataclass
 class _Builder:

@@ -12,8 +12,6 @@ Deterministic. Times in seconds, positions (x, y) in metres in the site frame.
 
 from __future__ import annotations
 
-import numpy as np
-
 from bimrobot.coordination.market import Award, Dispatcher, incapability, propose, handling_time
 from bimrobot.core.errors import InputError
 
@@ -27,43 +25,36 @@ def _request_key(sim, request) -> str:
     return request_key(sim, request)
 
 
+def shortest_handling(sim, requests) -> list[float]:
+    """Each request's shortest handling time (s) over the robots that can do it; 0 for a gate (None) or a
+    task no robot can do."""
+    specs = [r.spec for r in sim.build.robots.values()]
+    return [0.0 if request is None else
+            min((handling_time(s, request) for s in specs if not incapability(s, request)), default=0.0)
+            for request in requests]
+
+
+def remaining_paths(graph, shortest: list[float]) -> list[float]:
+    """Each node's longest remaining path through ``graph`` (s): its own and its successors' ``shortest``
+    handling times (gates 0, travel left out)."""
+    after, tail = graph.successors(), [0.0] * len(graph.keys)
+    for i in reversed(graph.topological_order()):
+        tail[i] = shortest[i] + max((tail[j] for j in after[i]), default=0.0)
+    return tail
+
+
 def _scores(sim, rule: str) -> dict[str, float]:
     """Each task's priority under ``rule`` (higher first): its number of successors (direct or not), or
-    its longest remaining path in seconds (its own and its successors' shortest handling times, gates 0),
-    or minus its shortest handling time (s)."""
+    its longest remaining path in seconds (:func:`remaining_paths`), or minus its shortest handling time (s)."""
     from bimrobot.planning.dispatch import task_graph
 
     graph = task_graph(sim)
-    n = len(graph.keys)
-    after: list[list[int]] = [[] for _ in range(n)]
-    indegree = np.zeros(n, dtype=np.int64)
-    for a, b in graph.edges:
-        after[a].append(int(b))
-        indegree[b] += 1
-    order, ready = [], [i for i in range(n) if indegree[i] == 0]
-    while ready:  # topological order (Kahn)
-        i = ready.pop()
-        order.append(i)
-        for j in after[i]:
-            indegree[j] -= 1
-            if indegree[j] == 0:
-                ready.append(j)
-    specs = [r.spec for r in sim.build.robots.values()]
-
-    def shortest(request) -> float:
-        if request is None:
-            return 0.0
-        return min((handling_time(s, request) for s in specs if not incapability(s, request)), default=0.0)
-
     if rule == "shortest-handling":
-        return {k: -shortest(r) for k, r in zip(graph.keys, graph.requests)}
+        return {k: -s for k, s in zip(graph.keys, shortest_handling(sim, graph.requests))}
     if rule == "longest-path":
-        tail = [0.0] * n
-        for i in reversed(order):
-            tail[i] = shortest(graph.requests[i]) + max((tail[j] for j in after[i]), default=0.0)
-        return dict(zip(graph.keys, tail))
-    below = [0] * n  # successors as a bit set per task
-    for i in reversed(order):
+        return dict(zip(graph.keys, remaining_paths(graph, shortest_handling(sim, graph.requests))))
+    after, below = graph.successors(), [0] * len(graph.keys)  # successors as a bit set per task
+    for i in reversed(graph.topological_order()):
         bits = 0
         for j in after[i]:
             bits |= below[j] | (1 << j)
