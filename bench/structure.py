@@ -68,12 +68,19 @@ def may_import(importer: str, imported_part: str) -> bool:
 
 
 def upward(graph: nx.DiGraph) -> list[tuple[str, str]]:
-    """The imports (importer, imported) that point up the layers, sorted; a command module
-    (:func:`command_modules`) may import any part, but no module may import a command module of a
-    higher part."""
+    """The imports (importer, imported) that point up the layers, sorted: a command module
+    (:func:`command_modules`) may import any part; any other module may import neither a part above its
+    own nor the command module of another part."""
     commands = command_modules()
-    return sorted((a, b) for a, b in graph.edges
-                  if a not in commands and (b in commands and part_of(b) != part_of(a) or not may_import(part_of(a), part_of(b))))
+
+    def points_up(importer: str, imported: str) -> bool:
+        if importer in commands:
+            return False
+        if imported in commands and part_of(imported) != part_of(importer):
+            return True
+        return not may_import(part_of(importer), part_of(imported))
+
+    return sorted((a, b) for a, b in graph.edges if points_up(a, b))
 
 
 def module_name(path: Path) -> str:

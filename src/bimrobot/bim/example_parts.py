@@ -144,7 +144,7 @@ class _Author:
             if relation.is_a("IfcRelNests"):
                 continue
             for attribute in ("RelatedObjects", "RelatedElements"):
-                members = getattr(relation, attribute, None) if hasattr(relation, attribute) else None
+                members = getattr(relation, attribute, None)
                 if members and len(members) > 1:
                     setattr(relation, attribute, sorted(members, key=lambda member: member.id()))
         for assignment in self.file.by_type("IfcUnitAssignment"):
