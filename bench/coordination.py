@@ -42,7 +42,7 @@ def bench_fleet():
 
 
 def bench_site():
-    from bimrobot.site.fleet import Site
+    from bimrobot.site.site import Site
 
     return Site(
         yard=tuple((-5.0, 3.0 * k) for k in range(GRID)),

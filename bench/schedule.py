@@ -25,7 +25,9 @@ GRID = 20
 
 def synthetic_schedule(smart):
     """Transport, position and one assemble per connection node for every component to build (chained)."""
-    from bimrobot.schedule.csv import PREDEFINED_TYPE, Activity, Schedule
+    from bimrobot.schedule.csv import PREDEFINED_TYPE
+    from bimrobot.core.tasks import Activity
+    from bimrobot.schedule.schedule import Schedule
 
     activities, clock = [], 0.0
     for component in smart.components.values():

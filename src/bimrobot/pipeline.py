@@ -341,7 +341,8 @@ def _check_inputs(args) -> BuildModel:
     minutes the stages take). A fleet that cannot build the model is refused by the first stage.
     Returns the build's model: the one parse of the file, which the stages' BuildingModel is read from."""
     from bimrobot.bim.selection import check_selection
-    from bimrobot.site.fleet import load_fleet, load_site
+    from bimrobot.site.fleet import load_fleet
+    from bimrobot.site.site import load_site
 
     if not args.model.is_file():
         raise InputError(f"model file {str(args.model)!r} does not exist")

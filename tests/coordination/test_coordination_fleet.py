@@ -5,7 +5,8 @@ import dataclasses
 import numpy as np
 import pytest
 
-from bimrobot.site.fleet import RobotSpec, default_site, load_fleet, load_site
+from bimrobot.site.fleet import RobotSpec, load_fleet
+from bimrobot.site.site import default_site, load_site
 from bimrobot.coordination.market import BidProposal, TaskRequest, incapability, make_evaluator, propose
 from bimrobot.core.errors import InputError
 

@@ -3,7 +3,8 @@
 import pytest
 
 from bimrobot.bim.model import BuildingModel, Connection, Storey
-from bimrobot.site.fleet import Site, load_fleet
+from bimrobot.site.fleet import load_fleet
+from bimrobot.site.site import Site
 from bimrobot.coordination.generate import box_element, generated_frame
 from bimrobot.coordination.simulation import simulate
 from bimrobot.core.errors import BimrobotError, InputError

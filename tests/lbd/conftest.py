@@ -7,7 +7,9 @@ import pytest
 
 from shared_data import SHARED_ONTOLOGIES
 
-from bimrobot.schedule.csv import ACTIVITY_TASK_TYPES, Activity, Schedule, write_schedule_csv
+from bimrobot.schedule.csv import ACTIVITY_TASK_TYPES, write_schedule_csv
+from bimrobot.core.tasks import Activity
+from bimrobot.schedule.schedule import Schedule
 
 
 @pytest.fixture(scope="session")

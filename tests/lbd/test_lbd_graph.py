@@ -8,7 +8,8 @@ import json
 import pytest
 
 from bimrobot.core.errors import InputError
-from bimrobot.schedule.csv import load_schedule_csv, load_schedule_ifc
+from bimrobot.schedule.csv import load_schedule_csv
+from bimrobot.schedule.task_rows import load_schedule_ifc
 from shared_data import shared_file
 
 
@@ -20,7 +21,8 @@ def _heavy_imports():
     import rdflib.compare
     from rdflib import RDF
 
-    from bimrobot.lbd.graph import BOT, BRC, DICE, DICP, VOCABULARY_FILE, ConstructionGraph, build_graph, query_names
+    from bimrobot.lbd.graph import ConstructionGraph, build_graph, query_names
+    from bimrobot.lbd.terms import BOT, BRC, DICE, DICP, VOCABULARY_FILE
 
 
 @pytest.fixture(scope="module")
@@ -59,7 +61,7 @@ def test_element_properties_weight_class_position(graph, frame_model):
     xyz = [g.value(position, p).toPython() for p in (DICE.hasX, DICE.hasY, DICE.hasZ)]
     assert xyz == pytest.approx(column.position.tolist())
     # property sets, as read from the IFC file
-    from bimrobot.lbd.graph import PROPS
+    from bimrobot.lbd.terms import PROPS
 
     assert g.value(iri, PROPS["Pset_ColumnCommon.Reference"]).toPython() == "W250x73"
     assert g.value(iri, PROPS["Pset_ColumnCommon.LoadBearing"]).toPython() is True
@@ -301,7 +303,7 @@ def test_custom_base_is_kept_when_reopened(frame_model, schedule, tmp_path):
 def test_turtle_keeps_full_double_precision(frame_model, schedule, tmp_path):
     import dataclasses
 
-    from bimrobot.schedule.csv import Schedule
+    from bimrobot.schedule.schedule import Schedule
 
     first = dataclasses.replace(schedule.activities[0], target=(123.4567891, -0.000123456789, 98765.4321))
     graph = build_graph(frame_model, Schedule([first]))
@@ -319,7 +321,8 @@ def precast_model():
 
 
 def test_precast_assemblies_are_elements_with_their_parts_as_sub_elements(precast_model, ontology_file, tmp_path):
-    from bimrobot.schedule.csv import Activity, Schedule
+    from bimrobot.core.tasks import Activity
+    from bimrobot.schedule.schedule import Schedule
 
     model = precast_model
     assert model.assemblies, "the Tekla export groups its parts into assemblies"

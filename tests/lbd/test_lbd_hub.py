@@ -20,7 +20,8 @@ def _heavy_imports():
     from rdflib import RDF
 
     from bimrobot.lbd.generation import ALLOWED_STATES, ready_activities
-    from bimrobot.lbd.graph import BRC, build_graph
+    from bimrobot.lbd.graph import build_graph
+    from bimrobot.lbd.terms import BRC
 
 
 @pytest.fixture(scope="module")

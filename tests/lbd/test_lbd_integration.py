@@ -13,7 +13,8 @@ from bimrobot.schedule.csv import load_schedule_csv
 def _heavy_imports():
     """rdflib (about 0.3 s of imports with the graph module), imported when these tests run, not at collection."""
     global COMPONENT_STATES, build_graph
-    from bimrobot.lbd.graph import COMPONENT_STATES, build_graph
+    from bimrobot.lbd.graph import build_graph
+    from bimrobot.lbd.terms import COMPONENT_STATES
 
 
 def test_component_states_are_the_sco_state_machine_names():

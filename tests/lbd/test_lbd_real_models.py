@@ -17,7 +17,7 @@ def _heavy_imports():
     global rdflib, BOT
     import rdflib
 
-    from bimrobot.lbd.graph import BOT
+    from bimrobot.lbd.terms import BOT
 
 
 MODELS = [path.name for path in shared_models()]

@@ -6,7 +6,8 @@ from __future__ import annotations
 import pytest
 
 from bimrobot.core.errors import InputError
-from bimrobot.schedule.csv import load_schedule_csv, load_schedule_ifc, write_schedule_csv
+from bimrobot.schedule.csv import load_schedule_csv, write_schedule_csv
+from bimrobot.schedule.task_rows import load_schedule_ifc
 from shared_data import shared_file
 
 HEADER = "Identification,Name,PredefinedType,Activity,GlobalId,Robot,Start,Finish,Duration,Predecessors,TargetX,TargetY,TargetZ,Storey\n"
@@ -219,7 +220,7 @@ def test_an_id_with_a_control_character_or_a_space_is_refused_in_one_sentence(tm
 
 
 def test_the_writer_refuses_what_the_reader_would_refuse_and_quotes_free_text(tmp_path):
-    from bimrobot.schedule.csv import Activity
+    from bimrobot.core.tasks import Activity
 
     def activity(**changes) -> Activity:
         fields = dict(id="A1", name="Lift, then\r\nturn \"slowly\"", activity="transport", global_id="COL",

@@ -10,7 +10,9 @@ import pytest
 from bimrobot.cli import main
 from bimrobot.core.errors import InputError
 from bimrobot.schedule.msproject import load_schedule_msproject
-from bimrobot.schedule.csv import Activity, Schedule, load_schedule, load_schedule_csv
+from bimrobot.schedule.csv import load_schedule, load_schedule_csv
+from bimrobot.core.tasks import Activity
+from bimrobot.schedule.schedule import Schedule
 from shared_data import SHARED, SHARED_IFC
 
 PLANNING = SHARED / "data" / "schedules" / "schependomlaan-planning.xml"

@@ -17,7 +17,9 @@ import pytest
 
 from bimrobot.schedule.ifc import WorkCalendar, working_datetime, working_days
 from bimrobot.cli import main
-from bimrobot.schedule.csv import Activity, Schedule, load_schedule_csv
+from bimrobot.schedule.csv import load_schedule_csv
+from bimrobot.core.tasks import Activity
+from bimrobot.schedule.schedule import Schedule
 
 FRIDAY_LATE = "2026-03-06T15:50:00"  # the frame's 19 minutes of work run over the weekend
 MSP = {"p": "http://schemas.microsoft.com/project"}

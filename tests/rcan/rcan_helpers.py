@@ -4,7 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from bimrobot.schedule.csv import Activity, write_schedule_csv
+from bimrobot.schedule.csv import write_schedule_csv
+from bimrobot.core.tasks import Activity
 from bimrobot.rcan.generation import parse_capabilities
 
 TABLE_5_2 = {

@@ -12,7 +12,9 @@ import sqlite3
 import pytest
 
 from bimrobot.cli import main
-from bimrobot.schedule.csv import Activity, Schedule, load_schedule_csv
+from bimrobot.schedule.csv import load_schedule_csv
+from bimrobot.core.tasks import Activity
+from bimrobot.schedule.schedule import Schedule
 from bimrobot.rcan.activities import ActivityKind as K
 from bimrobot.rcan.plans import ComponentFacts, plan_from_graph, plan_from_schedule
 

@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 from bimrobot.cli import main
-from bimrobot.rcan.state_manager import APPLICATION_ID, is_state_db
+from bimrobot.rcan.state_db import APPLICATION_ID, is_state_db
 from rcan_helpers import frame_schedule, write_capabilities
 from output_checks import snapshot
 

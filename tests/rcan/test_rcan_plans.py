@@ -8,7 +8,8 @@ from pathlib import Path
 import pytest
 
 from bimrobot.core.errors import InputError
-from bimrobot.schedule.csv import Activity, Schedule
+from bimrobot.core.tasks import Activity
+from bimrobot.schedule.schedule import Schedule
 from bimrobot.rcan.activities import ActivityKind as K
 from bimrobot.rcan.generation import TaskAllocator, parse_capabilities
 from bimrobot.rcan.plans import plan_from_schedule, unknown_weight_components

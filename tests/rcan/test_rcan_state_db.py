@@ -20,7 +20,8 @@ from bimrobot.rcan.backends.sim import SimBackend
 from bimrobot.rcan.generation import load_capabilities
 from bimrobot.rcan.node import RcanNode
 from bimrobot.rcan.plans import experiment
-from bimrobot.rcan.state_manager import APPLICATION_ID, StateStore
+from bimrobot.rcan.state_manager import StateStore
+from bimrobot.rcan.state_db import APPLICATION_ID
 from bimrobot.rcan.system import run_plan
 
 from rcan_helpers import done_count

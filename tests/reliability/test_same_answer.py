@@ -7,7 +7,8 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-from bimrobot.schedule.csv import Activity, Schedule
+from bimrobot.core.tasks import Activity
+from bimrobot.schedule.schedule import Schedule
 
 
 def _frame_schedule(model) -> Schedule:

@@ -19,7 +19,8 @@ from output_checks import snapshot
 def _heavy_imports():
     """torch and Stable-Baselines3 (about 3 s of imports), imported when these tests run, not at collection."""
     global BenchmarkSpec, benchmark_folder, write_summary
-    from bimrobot.rl.benchmark import BenchmarkSpec, benchmark_folder, write_summary
+    from bimrobot.rl.benchmark import BenchmarkSpec, write_summary
+    from bimrobot.rl.benchmark_folder import benchmark_folder
 
 
 TINY_PPO = ["--set", "n_envs=8", "--set", "n_steps=32", "--set", "n_epochs=1"]

@@ -77,7 +77,8 @@ def prepare(args, kind: str | None, model=None, folder: bool = True):
     unknown-weight rule (``bimrobot build`` reads it once for every stage); None reads it here.
     ``folder``: the output is a folder (simulate, allocators), else one file (``plan export``, kind None).
     """
-    from bimrobot.site.fleet import load_fleet, load_site
+    from bimrobot.site.fleet import load_fleet
+    from bimrobot.site.site import load_site
     from bimrobot.core.io import check_output
     from bimrobot.sco.build import build_smart_model, prebuilt_rule, prebuilt_selector
     from bimrobot.site.site import site_for

@@ -9,7 +9,7 @@ import json
 from pathlib import Path
 
 from bimrobot.coordination.schedule import write_schedule_csv
-from bimrobot.coordination.simulation import SimulationResult
+from bimrobot.coordination.run_state import SimulationResult
 
 ACTIVITY_COLOURS = {"transport": "#4C72B0", "position": "#DD8452", "assemble": "#55A868"}
 

@@ -10,12 +10,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from bimrobot.schedule.csv import (
-    COLUMNS,
-    PREDEFINED_TYPE,
-    Activity,
-    is_schedule_csv,
-)
+from bimrobot.schedule.csv import COLUMNS, PREDEFINED_TYPE, is_schedule_csv
+from bimrobot.core.tasks import Activity
 from bimrobot.schedule.csv import load_schedule_csv as _load_schedule
 from bimrobot.schedule.csv import write_schedule_csv as _write_schedule
 from bimrobot.core.tasks import Task

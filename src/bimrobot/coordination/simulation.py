@@ -27,7 +27,8 @@ from dataclasses import replace
 import numpy as np
 import simpy
 
-from bimrobot.site.fleet import ACTIVITIES, Fleet, Site, default_site
+from bimrobot.site.fleet import ACTIVITIES, Fleet
+from bimrobot.site.site import Site, default_site
 from bimrobot.coordination.market import (
     Award,
     Dispatcher,

@@ -32,7 +32,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from bimrobot.site.fleet import Fleet, RobotSpec, Site
+from bimrobot.site.fleet import Fleet, RobotSpec
+from bimrobot.site.site import Site
 from bimrobot.coordination.market import TaskRequest, incapability
 from bimrobot.coordination.simulation import ConstructionSimulation
 from bimrobot.core.errors import BimrobotError, InputError

@@ -152,7 +152,8 @@ def graph_command(args, model=None, ifc=None) -> int:
     BuildingModel of that file already read with the same selection and unknown-weight rule, and ``ifc``
     its parse, which ``--ifc-out`` writes the schedule into (``bimrobot build`` reads the file once for
     every stage); None reads them here."""
-    from bimrobot.lbd.graph import DEFAULT_BASE, checked_base
+    from bimrobot.lbd.graph import checked_base
+    from bimrobot.lbd.terms import DEFAULT_BASE
     from bimrobot.lbd.store import format_for
 
     if args.store != "memory" and args.store_path is None:
@@ -178,7 +179,8 @@ def _model_and_schedule(args, model=None):
     """The model (read here when not given, with the command's selection and unknown-weight rule; the rule's
     note printed) and the schedule of --schedule or --ifc-schedule (None without either)."""
     from bimrobot.bim import load_model
-    from bimrobot.schedule.csv import load_schedule, load_schedule_ifc
+    from bimrobot.schedule.csv import load_schedule
+    from bimrobot.schedule.task_rows import load_schedule_ifc
 
     if model is None:
         from bimrobot.sco.build import prebuilt_selector

@@ -66,9 +66,7 @@ from bimrobot.lbd.terms import (
     COMPONENT_STATES,
     DEFAULT_BASE,
     DICE,
-    DICP,
     PREFIXES,
-    PROPS,
     QUERY_DIR,
     VOCABULARY_FILE,
     Triple,
@@ -76,15 +74,8 @@ from bimrobot.lbd.terms import (
     quoted,
     state_name,
 )
-from bimrobot.schedule.csv import Schedule
+from bimrobot.schedule.schedule import Schedule
 
-# The terms (terms.py) and the triples of a model (graph_writer.py) have their own modules (issue 37);
-# their callers import these names from here, as before.
-__all__ = [
-    "ConstructionGraph", "build_graph", "checked_base", "load_query", "bind_values", "query_names",
-    "vocabulary_triples", "ACTIVITY_STATES", "BOT", "BRC", "COMPONENT_STATES", "DEFAULT_BASE", "DICE", "DICP",
-    "PREFIXES", "PROPS", "QUERY_DIR", "VOCABULARY_FILE",
-]
 
 if TYPE_CHECKING:  # pragma: no cover
     from bimrobot.bim.model import BuildingModel

@@ -24,7 +24,8 @@ from bimrobot.lbd.terms import (
     literal,
     property_iri,
 )
-from bimrobot.schedule.csv import Activity, Schedule
+from bimrobot.core.tasks import Activity
+from bimrobot.schedule.schedule import Schedule
 
 if TYPE_CHECKING:  # pragma: no cover
     from bimrobot.bim.model import BuildingModel

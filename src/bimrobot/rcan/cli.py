@@ -229,7 +229,7 @@ def _inputs(args) -> list:
 def _check_outputs(args, inputs: list) -> None:
     """The output policy for --report, --graph-out and --state-db, before anything is read or run."""
     from bimrobot.core.io import check_output
-    from bimrobot.rcan.state_manager import is_state_db
+    from bimrobot.rcan.state_db import is_state_db
 
     outputs = {}
     for option, path in (("--report", getattr(args, "report", None)), ("--graph-out", getattr(args, "graph_out", None))):
@@ -317,7 +317,7 @@ def _unknown_weight_notice(activities, model_given: bool) -> list[str]:
 
 def _run(args) -> int:
     from bimrobot.rcan.backends import backend_class
-    from bimrobot.rcan.state_manager import removed_unless_used
+    from bimrobot.rcan.state_db import removed_unless_used
     from bimrobot.rcan.system import run_plan
 
     _check_run_args(args)
@@ -451,7 +451,7 @@ def _executor(args) -> int:
         raise InputError("rcan executor needs --redis URL: it serves robots for a coordinator in another process")
     if args.state_db != ":memory:":
         from bimrobot.core.io import check_output
-        from bimrobot.rcan.state_manager import is_state_db
+        from bimrobot.rcan.state_db import is_state_db
 
         check_output(args.state_db, folder=False, inputs=_inputs(args), option="--state-db", recognise=is_state_db)
     capabilities, _ = _fleet_capabilities(args)

@@ -267,7 +267,8 @@ def plan_from_graph(graph, yard: tuple[float, float, float] = (-10.0, -10.0, 0.0
     state, weight, size, goal and pick-up position) are selected with SPARQL (``lbd/queries/rcan_plan.rq``)
     and broken down as :func:`plan_from_schedule` does. ``graph``: a
     :class:`bimrobot.lbd.graph.ConstructionGraph` with a schedule (``bimrobot graph --schedule``)."""
-    from bimrobot.schedule.csv import Activity, Schedule
+    from bimrobot.core.tasks import Activity
+    from bimrobot.schedule.schedule import Schedule
 
     rows = graph.query("rcan_plan")
     if not rows:
@@ -343,7 +344,8 @@ def experiment(number: int) -> Experiment:
     from bimrobot.bim import load_model
     from bimrobot.bim.examples import rcan_experiment
     from bimrobot.lbd.graph import build_graph
-    from bimrobot.schedule.csv import Activity, Schedule
+    from bimrobot.core.tasks import Activity
+    from bimrobot.schedule.schedule import Schedule
 
     if number not in RCAN_EXPERIMENTS:
         raise InputError(f"there is no experiment {number}: the thesis has experiments 1, 2 and 3")

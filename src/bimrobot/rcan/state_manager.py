@@ -30,8 +30,8 @@ from bimrobot.core.errors import InputError
 from bimrobot.rcan.activities import ActivityKind
 from bimrobot.rcan.backends.info import ActivityResult
 from bimrobot.rcan.node import RcanNode
-from bimrobot.rcan.state_db import (APPLICATION_ID, SCHEMA, _alive, _process_start, check_plan,  # noqa: F401
-                                    connect_state_db, is_state_db, removed_unless_used, stored_plan, write_lock)
+from bimrobot.rcan.state_db import (SCHEMA, _alive, _process_start, check_plan, connect_state_db,
+                                    is_state_db, write_lock)  # noqa: F401 (is_state_db: replay/ still imports it from here)
 from bimrobot.sco.states import Event, State, at_least, next_state
 
 log = logging.getLogger(__name__)

@@ -28,9 +28,6 @@ from bimrobot.rcan.run_report import RunReport, activity_timing, dependents, pla
 from bimrobot.rcan.state_manager import DONE, ESCALATED, STARTED, EscalationReport, StateManager
 from bimrobot.rcan.waiting import WaitingActivities
 
-# The report (run_report.py), the simulated-time order (run_order.py) and the waiting activities
-# (waiting.py) have their own modules (issue 37); RunReport and plan_signature are re-exported here.
-__all__ = ["RcanSystem", "RunReport", "plan_signature", "run_plan"]
 
 
 class RcanSystem(WaitingActivities, SimulatedOrder):
@@ -430,7 +427,7 @@ def run_plan(
     ``claim_idle_s``, ``max_deliveries``). ``reallocate``: give each activity to any capable robot
     instead of the robot the schedule assigned (:class:`~bimrobot.rcan.generation.TaskAllocator`).
     """
-    from bimrobot.rcan.state_manager import removed_unless_used
+    from bimrobot.rcan.state_db import removed_unless_used
 
     with removed_unless_used(state_db):  # a run that fails before its first activity leaves no state file
         return _run_plan(activities, capabilities, backend, state_db, redis_url, spawn_executors, max_attempts,

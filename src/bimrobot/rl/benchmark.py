@@ -40,8 +40,7 @@ import numpy as np
 from bimrobot.core.errors import InputError
 from bimrobot.core.io import signature
 from bimrobot.rl.algorithms import ALGORITHMS, MAX_TIMESTEPS, get_algorithm
-from bimrobot.rl.benchmark_folder import (BENCHMARK_KIND, _LEGACY_HEADING,  # noqa: F401 (importable from here)
-                                          benchmark_folder)
+from bimrobot.rl.benchmark_folder import _LEGACY_HEADING, benchmark_folder
 from bimrobot.rl.compare import SCORE_GOAL, THESIS_BEST_SCORE
 from bimrobot.rl.train import LAST_EPISODES, TrainConfig, train
 

@@ -21,7 +21,6 @@ from bimrobot.core.io import atomic_output_file
 from bimrobot.core.tasks import TASKS, Activity, Task
 from bimrobot.bim.components import is_component
 from bimrobot.schedule.limits import (
-    LIMITS,
     MAX_COORDINATE_M,
     MAX_SECONDS,
     TIME_TOLERANCE_S,
@@ -30,8 +29,8 @@ from bimrobot.schedule.limits import (
     limit,
     too_many,
 )
-from bimrobot.schedule.schedule import Schedule, find_cycle, precedence_graph
-from bimrobot.schedule.task_rows import load_schedule_ifc, schedule_from_task_rows
+from bimrobot.schedule.schedule import Schedule, find_cycle
+from bimrobot.schedule.task_rows import load_schedule_ifc
 
 if TYPE_CHECKING:  # pragma: no cover
     from bimrobot.bim.model import BuildingModel
@@ -426,26 +425,3 @@ def _check_writable(a: Activity) -> None:
                          "so it cannot be written to a schedule CSV")
 
 
-# Schedule (schedule.py), the limits (limits.py) and IfcTask rows (task_rows.py) have their own modules
-# (issue 37); the names below from them are re-exported for the callers that import them from here.
-__all__ = [
-    "LIMITS",
-    "check_file_size",
-    "id_problem",
-    "limit",
-    "too_many",
-    "precedence_graph",
-    "schedule_from_task_rows",
-    "ACTIVITY_TASK_TYPES",
-    "COLUMNS",
-    "CSV_COLUMNS",
-    "PREDEFINED_TYPE",
-    "is_schedule_csv",
-    "Activity",
-    "Schedule",
-    "find_cycle",
-    "load_schedule",
-    "load_schedule_csv",
-    "load_schedule_ifc",
-    "write_schedule_csv",
-]

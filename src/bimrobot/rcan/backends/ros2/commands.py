@@ -37,7 +37,7 @@ def robot_node(args) -> int:
     cli._check_backend_options(args)
     if args.state_db != ":memory:":
         from bimrobot.core.io import check_output
-        from bimrobot.rcan.state_manager import is_state_db
+        from bimrobot.rcan.state_db import is_state_db
 
         check_output(args.state_db, folder=False, inputs=cli._inputs(args), option="--state-db", recognise=is_state_db)
     capabilities, _ = cli._fleet_capabilities(args)

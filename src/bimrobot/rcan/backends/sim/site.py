@@ -20,7 +20,7 @@ from bimrobot.site.fleet import Fleet, RobotSpec
 from bimrobot.rcan.activities import Pose
 from bimrobot.rcan.backends.info import ActivityResult
 from bimrobot.rcan.node import RcanNode
-from bimrobot.rcan.state_manager import connect_state_db, write_lock
+from bimrobot.rcan.state_db import connect_state_db, write_lock
 
 #: A feature's step: (site, robot spec, robot state (:meth:`KinematicSite.robot_state`), node) ->
 #: (duration s, error or None, the robot's and the component's state changes)
