@@ -8,8 +8,7 @@ from __future__ import annotations
 import argparse
 import math
 
-#: Longest time (s) a breakdown, a repair or the CP-SAT limit may take: 1e9 s is 31 years.
-MAX_SECONDS = 1e9
+from bimrobot.core.config import MAX_SECONDS
 
 
 def breakdown(text: str) -> tuple[str, float, float | None]:

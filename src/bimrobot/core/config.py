@@ -27,6 +27,8 @@ from bimrobot.core.errors import InputError
 #: No number in a configuration file may exceed this in magnitude (metres, seconds, kg, counts):
 #: 1e9 s is 31 years, 1e9 m is beyond the Moon, 1e9 kg is a hundred Eiffel towers.
 MAX_MAGNITUDE = 1e9
+#: Longest time (s) any input may give: a schedule's span, a breakdown, a repair, a solver's limit.
+MAX_SECONDS = MAX_MAGNITUDE
 
 
 class LineDict(dict):

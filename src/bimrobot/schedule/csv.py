@@ -16,13 +16,13 @@ import os
 from pathlib import Path
 from typing import TYPE_CHECKING, Iterable, Iterator
 
+from bimrobot.core.config import MAX_SECONDS
 from bimrobot.core.errors import InputError
 from bimrobot.core.io import atomic_output_file
 from bimrobot.core.tasks import TASKS, Activity, Task
 from bimrobot.bim.components import is_component
 from bimrobot.schedule.limits import (
     MAX_COORDINATE_M,
-    MAX_SECONDS,
     TIME_TOLERANCE_S,
     check_file_size,
     id_problem,

@@ -11,8 +11,6 @@ from bimrobot.core.errors import InputError
 
 #: Slack allowed when comparing times (s): CSV floats are printed with limited precision.
 TIME_TOLERANCE_S = 1e-6
-#: Largest time in a schedule (s): 1e9 s is 31 years, the bound of every number bimrobot reads.
-MAX_SECONDS = 1e9
 #: Largest coordinate of a target position (m): georeferenced site coordinates (UTM northings reach
 #: 1e7 m) fit, a number beyond any site does not.
 MAX_COORDINATE_M = 1e7

@@ -16,7 +16,8 @@ from bimrobot.core.errors import InputError
 from bimrobot.core.tasks import Activity, Task
 from bimrobot.bim import components
 from bimrobot.bim.components import is_component
-from bimrobot.schedule.limits import MAX_SECONDS, limit, too_many
+from bimrobot.core.config import MAX_SECONDS
+from bimrobot.schedule.limits import limit, too_many
 from bimrobot.schedule.schedule import Schedule, find_cycle
 
 if TYPE_CHECKING:  # pragma: no cover
