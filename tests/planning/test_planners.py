@@ -11,7 +11,7 @@ from bimrobot.planning.optimal import task_graph
 from bimrobot.coordination.simulation import ConstructionSimulation, simulate
 from bimrobot.core.errors import InputError
 from bimrobot.planning.dispatch import frame_problem
-from bimrobot.planning.planners import PLANNERS, plan, planner_for
+from bimrobot.planning.planners import PLANNERS, PORTFOLIO, plan, planner_for
 from bimrobot.planning.rules import RuleDispatcher, _request_key, _scores
 from bimrobot.core.tasks import Task
 
@@ -39,7 +39,8 @@ def test_every_planner_builds_the_frame_respecting_precedences_and_capabilities(
     waits for (the support, floor gate, transport-position and joint-member rules of optimal.task_graph)."""
     problem = frame_problem(per_node=False)
     result, stats = plan(name, problem, **(CPSAT if name == "cp-sat" else {}))
-    assert result.evaluator == ("least-cost" if name == "market" else name.removeprefix("market:"))
+    member = stats.notes["portfolio_chosen"] if name == "portfolio" else name  # the portfolio runs its shortest member
+    assert result.evaluator == ("least-cost" if member == "market" else member.removeprefix("market:"))
     sim = ConstructionSimulation(problem.smart, problem.fleet, problem.site, storey_elevations=problem.storey_elevations)
     tasks = task_graph(sim.smart, sim)
     done = _by_task(sim.smart, result)
@@ -117,3 +118,15 @@ def test_the_benchmark_bounds_every_planner_from_below():
     for row in entry["rows"]:
         assert row["makespan_s"] >= entry["lower_bound_s"] and row["gap_pct"] >= 0 and row["decisions"] == 10
     assert "| generated:2x1x1, fleet2 | 3 | 10 |" in markdown([entry], 60.0)
+
+
+def test_the_portfolio_runs_the_shortest_of_its_members():
+    """`--planner portfolio` executes the shortest of the six dispatching planners' schedules, exactly: its
+    makespan is the minimum of the members played one by one, so never longer than the market's."""
+    problem = frame_problem(per_node=False)
+    alone = {name: plan(name, problem)[0].makespan for name in PORTFOLIO}
+    result, stats = plan("portfolio", problem)
+    assert result.makespan == pytest.approx(min(alone.values()), abs=1e-9)
+    assert result.makespan <= alone["market"]
+    assert stats.notes["portfolio_makespans_s"] == {k: round(v, 3) for k, v in alone.items()}
+    assert alone[stats.notes["portfolio_chosen"]] == min(alone.values())

@@ -90,8 +90,8 @@ def add_simulate_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(  # issue 38: bimrobot.planning.planners
         "--planner", metavar="NAME",
         help="who plans the build (default: the market with --evaluator): market, market:quickest-finish, "
-        "rule:most-successors, rule:longest-path, rule:nearest, rule:shortest-handling, cp-sat (with --per-joint), "
-        "learned, or a policy file PATH.zip; plan.json says what planning cost",
+        "rule:most-successors, rule:longest-path, rule:nearest, rule:shortest-handling, portfolio (the shortest of "
+        "those six), cp-sat (with --per-joint), learned, or a policy file PATH.zip; plan.json says what planning cost",
     )
     parser.add_argument("--breakdown", type=breakdown, action="append", default=[], metavar="ROBOT@SECONDS[+REPAIR]", help="the robot breaks down at that time, for good or for REPAIR seconds (repeatable)")
     parser.add_argument("--no-gantt", action="store_true", help="skip the Gantt chart (faster on big buildings)")

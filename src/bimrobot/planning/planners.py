@@ -14,6 +14,9 @@ Names (:func:`planner_for`):
   remaining path of shortest handling times, the critical path; shortest handling time); each goes to the
   capable idle robot that finishes it soonest (travel + handling; ties: robot name).
 - ``rule:nearest``: the (ready task, idle robot) pair with the shortest drive first, again and again.
+- ``portfolio``: every planner above played on the problem in the event simulation, the shortest schedule
+  kept (the first in :data:`PORTFOLIO`'s order on a tie). Cheap planners, several runs: the price is one
+  simulation per member.
 - ``cp-sat``: :func:`bimrobot.planning.optimal.solve_optimal`'s schedule replayed: each task goes to
   the robot CP-SAT chose, and each robot takes its tasks in CP-SAT's start order, each as soon as it is
   published and the robot is free (per joint only: CP-SAT's tasks are per joint).
@@ -38,7 +41,9 @@ from bimrobot.core.errors import InputError
 from bimrobot.planning.rules import RULES, RuleDispatcher, _request_key
 
 #: the names :func:`planner_for` knows, in the order the CLI lists them (``PATH.zip`` besides)
-PLANNERS = ("market", "market:quickest-finish", *(f"rule:{r}" for r in RULES), "cp-sat", "learned")
+PLANNERS = ("market", "market:quickest-finish", *(f"rule:{r}" for r in RULES), "portfolio", "cp-sat", "learned")
+#: the members of ``portfolio``: the dispatching planners that need no solver and no policy
+PORTFOLIO = ("market", "market:quickest-finish", *(f"rule:{r}" for r in RULES))
 DEFAULT = "market"
 #: CP-SAT's limits when it plans for the CLI: wall seconds, deterministic seconds, one worker (reproducible)
 CPSAT_TIME_LIMIT_S = 60.0
@@ -185,6 +190,19 @@ def _cpsat(problem, stats: PlanStats, time_limit_s: float = CPSAT_TIME_LIMIT_S,
     return replay
 
 
+def _portfolio(problem, stats: PlanStats, **_) -> Dispatcher:
+    """Play every :data:`PORTFOLIO` member on ``problem``, keep the shortest makespan (s; the first in
+    order on a tie) and return a fresh dispatcher of that member: the planners are deterministic, so the
+    run it drives repeats the member's schedule. Each member's makespan goes into ``stats.notes``."""
+    started, cpu = time.perf_counter(), time.process_time()
+    makespans = {name: float(plan(name, problem)[0].makespan) for name in PORTFOLIO}
+    chosen = min(PORTFOLIO, key=lambda name: makespans[name])  # min keeps the first of equals
+    stats.solve_s += time.perf_counter() - started
+    stats.solve_cpu_s += time.process_time() - cpu
+    stats.notes.update(portfolio_chosen=chosen, portfolio_makespans_s={k: round(v, 3) for k, v in makespans.items()})
+    return _REGISTRY[chosen].make(problem, stats)
+
+
 def _learned(path: str | None) -> Callable:
     def make(problem, stats, **_):
         if path is not None and not Path(path).is_file():
@@ -210,6 +228,7 @@ _REGISTRY: dict[str, Planner] = {
     "market": Planner("market", "the thesis' market, least-cost (simulate's default)", _market("least-cost")),
     "market:quickest-finish": Planner("market:quickest-finish", "the market, quickest-finish", _market("quickest-finish")),
     **{f"rule:{r}": Planner(f"rule:{r}", f"priority rule: {r.replace('-', ' ')}", _rule(r)) for r in RULES},
+    "portfolio": Planner("portfolio", "the shortest of the market's and the rules' schedules", _portfolio),
     "cp-sat": Planner("cp-sat", "CP-SAT's schedule replayed (per joint)", _cpsat),
     "learned": Planner("learned", "the learned policy shipped with bimrobot", _learned(None)),
 }
@@ -280,6 +299,8 @@ def plan_line(result, stats: PlanStats) -> str:
     """One line for the terminal: planning time, decisions, and CP-SAT's objective against the run."""
     text = f"planned by {result.evaluator}: {stats.planning_s:.2f} s planning, {stats.decisions} decisions"
     notes = stats.notes
+    if "portfolio_chosen" in notes:
+        text += f"; portfolio: {notes['portfolio_chosen']} was shortest of {len(notes['portfolio_makespans_s'])}"
     if "cpsat_makespan_s" in notes:
         text += (f"; CP-SAT's own objective {notes['cpsat_makespan_s']:.1f} s ({notes['cpsat_status']}, lower bound "
                  f"{notes['cpsat_lower_bound_s']:.1f} s), executed {result.makespan:.1f} s")
