@@ -12,6 +12,8 @@ Deterministic. Times in seconds, positions (x, y) in metres in the site frame.
 
 from __future__ import annotations
 
+import numpy as np
+
 from bimrobot.coordination.market import Award, Dispatcher, incapability, propose, handling_time
 from bimrobot.core.errors import InputError
 
@@ -83,15 +85,21 @@ class RuleDispatcher(Dispatcher):
         chosen: list[Award] = []
         if self.rule == "nearest":
             return self._nearest(sim, pending, idle, now)
+        # only work some idle robot may take can be awarded: the rest is neither scored nor sorted
+        pending = [r for r in pending if idle.get(r.activity)]
         for r in pending:
             if r.id not in self._key:
                 self._key[r.id] = self._scores.get(_request_key(sim, r), 0.0)
         pending.sort(key=lambda r: (-self._key[r.id], r.priority))
+        where = {}  # robot name -> where it bids from (site frame, m), asked once per round
         for request in pending:
             if not any(idle.values()):
                 break
-            proposals = [propose(sim.build.robots[n].spec, sim.position_now(sim.build.robots[n]), now, True, request)
-                         for n in sorted(idle[request.activity]) if not incapability(sim.build.robots[n].spec, request)]
+            names = [n for n in sorted(idle[request.activity]) if not incapability(sim.build.robots[n].spec, request)]
+            for n in names:
+                if n not in where:
+                    where[n] = sim.position_now(sim.build.robots[n])
+            proposals = [propose(sim.build.robots[n].spec, where[n], now, True, request) for n in names]
             if proposals:
                 best = min(proposals, key=lambda p: (p.cost, p.robot))
                 chosen.append(Award(request, best.robot, best, len(proposals)))
@@ -101,20 +109,22 @@ class RuleDispatcher(Dispatcher):
 
     def _nearest(self, sim, pending, idle, now) -> list[Award]:
         """The shortest drive first: all (task, idle robot) pairs, nearest first (ties: task priority, name)."""
-        pairs = []
+        where = {name: sim.position_now(sim.build.robots[name]) for names in idle.values() for name in names}
+        pairs, bidders = [], {}
         for request in pending:
             for name in idle[request.activity]:
-                robot = sim.build.robots[name]
-                if not incapability(robot.spec, request):
-                    p = propose(robot.spec, sim.position_now(robot), now, True, request)
-                    pairs.append((p.distance, request.priority, name, request, p))
+                if not incapability(sim.build.robots[name].spec, request):
+                    # the drive as propose() measures it; the full proposal only for the pairs awarded
+                    distance = float(np.hypot(*(request.start - where[name])))
+                    pairs.append((distance, request.priority, name, request))
+                    bidders[request.id] = bidders.get(request.id, 0) + 1
         pairs.sort(key=lambda x: x[:3])
         chosen, busy, given = [], set(), set()
-        for _, _, name, request, p in pairs:
+        for _, _, name, request in pairs:
             if name in busy or request.id in given:
                 continue
-            bidders = sum(1 for q in pairs if q[3] is request)
-            chosen.append(Award(request, name, p, bidders))
+            p = propose(sim.build.robots[name].spec, where[name], now, True, request)
+            chosen.append(Award(request, name, p, bidders[request.id]))
             busy.add(name)
             given.add(request.id)
         return chosen
