@@ -8,7 +8,8 @@ market's makespan (CP-SAT's first solution) and how far above the bound it is, a
 time. Ratios are against the market measured in the same run (best / market) and against the time
 limit (time / limit). Wall time on a shared 2-core machine is disturbed by other processes; the CPU
 time is the solver's own work (``--workers`` threads), and CP-SAT's deterministic time (its own work
-units) is comparable across machines and loads; the load average is printed with each row.
+units) is comparable across machines and loads; the load average at the start and end of each row is
+printed with it, and each floor's own bound (solved alone; ``P`` where proved optimal).
 
     .venv/bin/python bench/planning_cpsat.py                      # the default ladder, 600 s per instance
     .venv/bin/python bench/planning_cpsat.py --time-limit 120 --only 2x2x1:fleet1 4x3x2:fleet2
@@ -42,7 +43,7 @@ def solve(item: str, time_limit: float, workers: int, whole_tasks: int, determin
     frame, fleet = item.split(":")
     model, elevations = load_building(f"generated:{frame}")
     smart = build_smart_model(model, prebuilt_classes=DEFAULT_PREBUILT)
-    wall, cpu = time.perf_counter(), time.process_time()
+    wall, cpu, load = time.perf_counter(), time.process_time(), os.getloadavg()[0]
     schedule = solve_optimal(smart, load_fleet(fleet), storey_elevations=elevations, time_limit_s=time_limit,
                              workers=workers, whole_tasks=whole_tasks, deterministic_limit=deterministic)
     return {"frame": frame, "fleet": fleet, "tasks": schedule.tasks, "method": schedule.method,
@@ -50,21 +51,23 @@ def solve(item: str, time_limit: float, workers: int, whole_tasks: int, determin
             "gap_pct": 100 * schedule.gap, "market_s": schedule.hinted_s,
             "market_over_bound_pct": 100 * (schedule.hinted_s - schedule.lower_bound) / schedule.hinted_s,
             "wall_s": time.perf_counter() - wall, "cpu_s": time.process_time() - cpu,
-            "deterministic_s": schedule.deterministic_s, "load": os.getloadavg()[0]}
+            "deterministic_s": schedule.deterministic_s, "load_start": load, "load": os.getloadavg()[0],
+            "floors": "/".join(f"{'P' if row['status'] == 'OPTIMAL' else '-'}{row['bound_s']:.1f}" for row in schedule.floors)}
 
 
 def run_ladder(args) -> None:
     print(f"CP-SAT, {args.workers} workers, {args.time_limit:g} s per instance, whole model up to {args.whole_tasks} tasks, "
           f"{os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f} at the start")
     print("| frame | fleet | tasks | method | proved | best (s) | bound (s) | gap | market (s) | market over bound | best / market "
-          "| wall (s) | wall / limit | CPU (s) | deterministic (s) | load at the end |")
-    print("|---|---|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+          "| wall (s) | wall / limit | CPU (s) | deterministic (s) | load at start, end | floor bounds (s; P: proved) |")
+    print("|---|---|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|")
     for item in args.only or LADDER:
         r = solve(item, args.time_limit, args.workers, args.whole_tasks, args.deterministic_limit)
         print(f"| {r['frame']} | {r['fleet']} | {r['tasks']} | {r['method']} | {'yes' if r['proved'] else 'no'} | "
               f"{r['best_s']:.1f} | {r['bound_s']:.1f} | {r['gap_pct']:.2f} % | {r['market_s']:.1f} | "
               f"{r['market_over_bound_pct']:.2f} % | {r['best_s'] / r['market_s']:.4f} | {r['wall_s']:.1f} | "
-              f"{r['wall_s'] / args.time_limit:.2f} | {r['cpu_s']:.1f} | {r['deterministic_s']:.1f} | {r['load']:.1f} |", flush=True)
+              f"{r['wall_s'] / args.time_limit:.2f} | {r['cpu_s']:.1f} | {r['deterministic_s']:.1f} | "
+              f"{r['load_start']:.1f}, {r['load']:.1f} | {r['floors']} |", flush=True)
 
 
 def run_generate(args) -> None:

@@ -61,7 +61,7 @@ from bimrobot.planning.optimal_model import _build, _Problem  # noqa: F401
 #: Above this many tasks the build is solved floor by floor (:func:`solve_optimal`).
 WHOLE_TASKS = 400
 #: The share of the time limit spent on each floor alone, for its least duration (:func:`_floor_bounds`).
-FLOOR_SHARE = 0.3
+FLOOR_SHARE = 0.6
 
 
 @dataclass
@@ -195,22 +195,27 @@ def solve_optimal(
     given, hinted = market_hint(smart, fleet, site, storey_elevations, tasks) if hint else (None, None)
     limits = dict(workers=workers, seed=seed, deterministic_limit=deterministic_limit)
     if len(tasks) <= whole_tasks:
-        least, work, joined = _floor_bounds(tasks, fleet, homes, given, time_limit_s * FLOOR_SHARE, limits)
+        least, work, joined, rows = _floor_bounds(tasks, fleet, homes, given, time_limit_s * FLOOR_SHARE, limits)
         solved = _solve(_Problem(tasks, fleet, homes, {r.name: 0.0 for r in fleet.robots}, floor_least=least),
                         [given, joined] if given else None,
                         max(time_limit_s - (time.perf_counter() - started), 1.0), **limits)
         return OptimalSchedule(solved.makespan, solved.bound, solved.status, solved.assignment, solved.start,
-                               len(tasks), "whole", time.perf_counter() - started, hinted,
+                               len(tasks), "whole", time.perf_counter() - started, hinted, rows,
                                deterministic_s=solved.deterministic_s + work)
     return _by_floor(tasks, fleet, homes, given, hinted, time_limit_s, started, limits)
 
 
-def _floor_bounds(tasks, fleet, homes, given, time_limit_s, limits) -> tuple[dict[int, int], float]:
+def _floor_bounds(tasks, fleet, homes, given, time_limit_s, limits):
     """Each floor's least duration (ticks), where floors cannot overlap (every task of a floor after the
     floor gate below and before its own): the bound of that floor solved alone, from time 0, every robot
     standing where it may be when the floor opens (home, or the end of any of its tasks below; for each
-    task the nearest of them). Returns {floor: ticks} ({} where floors may overlap or with one floor)
-    the solves' deterministic time and their schedules one after the other (an order for a hint)."""
+    task the nearest of them). Valid because the floors follow each other: the whole makespan is the sum
+    of the floors' durations, and no floor, whatever the robots did below, is shorter than its optimum
+    from the best of those starts. Where every floor is proved optimal, the whole model's bound is their
+    sum from the start, and a schedule that reaches it is proved optimal. ``time_limit_s`` (s) is shared
+    by task count; time a floor leaves unused passes to the floors above. Returns {floor: ticks} ({}
+    where floors may overlap or with one floor), the solves' deterministic time, their schedules one
+    after the other (an order for a hint) and one row per floor (tasks, best_s, bound_s, status)."""
     floors = sorted({t.floor for t in tasks})
     locals_ = {}
     for floor in floors:
@@ -219,10 +224,11 @@ def _floor_bounds(tasks, fleet, homes, given, time_limit_s, limits) -> tuple[dic
         locals_[floor] = [_Task(t.key, t.activity, t.request, [p for p in t.predecessors if p in keys], None, t.floor)
                           for t in mine]
         if not (_all_feed_a_joint(locals_[floor]) and (floor == floors[0] or _all_after_the_gate(mine))):
-            return {}, 0.0, None
+            return {}, 0.0, None, []
     if len(floors) < 2:
-        return {}, 0.0, None
-    least, work, below, joined, clock = {}, 0.0, [], {}, 0.0
+        return {}, 0.0, None, []
+    least, work, below, joined, clock, rows = {}, 0.0, [], {}, 0.0, []
+    deadline, left = time.perf_counter() + time_limit_s, len(tasks)
     for floor in floors:
         local = locals_[floor]
         keys = {t.key for t in local}
@@ -233,13 +239,16 @@ def _floor_bounds(tasks, fleet, homes, given, time_limit_s, limits) -> tuple[dic
             opening = min(given[k][1] for k in keys)
             shifted = {k: (given[k][0], given[k][1] - opening, given[k][2] - opening) for k in sorted(keys)}
         solved = _solve(_Problem(local, fleet, homes, {r.name: 0.0 for r in fleet.robots}, starts=starts), shifted,
-                        max(1.0, time_limit_s * len(local) / len(tasks)), **limits)
+                        max(1.0, (deadline - time.perf_counter()) * len(local) / left), **limits)
+        left -= len(local)
         least[floor] = int(round(solved.bound * SCALE))
+        rows.append({"floor": floor, "tasks": len(local), "best_s": solved.makespan, "bound_s": solved.bound,
+                     "status": solved.status})
         work += solved.deterministic_s
         below += local
         joined.update({k: (robot, clock + solved.depart[k], clock + solved.end[k]) for k, robot in solved.assignment.items()})
         clock += solved.makespan
-    return least, work, joined
+    return least, work, joined, rows
 
 
 def _by_floor(tasks, fleet, homes, given, hinted, time_limit_s, started, limits) -> OptimalSchedule:

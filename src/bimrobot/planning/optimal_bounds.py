@@ -13,11 +13,13 @@ from bimrobot.core.tasks import Task
 from bimrobot.planning.optimal_graph import SCALE, _Task
 
 
-def _floor_loads(model, tasks, gates, ancestors, capable, busy_min, assigned, travel, floor_least) -> int:
+def _floor_loads(model, tasks, gates, ancestors, capable, busy_min, assigned, travel, floor_least, first=None) -> int:
     """Redundant, for the bound: on each floor f, the work of floor f that a robot does fits between the
     gate below (or time 0) plus the shortest lead-in before any of it can start, and the floor's own gate
     (every joint of floors <= f done) less the shortest run-out after it. With the robot literals this
-    is linear, so the relaxation balances each floor's work over the robots that can do it. Returns the
+    is linear, so the relaxation balances each floor's work over the robots that can do it. On the lowest
+    floor, ``first`` ((robot, task) -> the literal of the robot's first task) adds that task's own lead-in
+    (:func:`_first_lead`). Returns the
     sum over floors of each floor's least duration known before solving (ticks): a lower bound of the
     makespan, since each gate follows the one below."""
     least = 0
@@ -52,6 +54,9 @@ def _floor_loads(model, tasks, gates, ancestors, capable, busy_min, assigned, tr
             model.Add(sum(assigned[t.key, name] * busy_min[t.key, name] for t in work) <= gate - opening - lead)
             if len(counted) == len(mine):  # the window holds all of the floor's work: count its drives
                 model.Add(travel.load(name, work) <= gate - opening - lead)
+            if not below and first:
+                _first_lead(model, name, work, head, tail, first, travel if len(counted) == len(mine) else None,
+                            assigned, busy_min, gate)
         pairs: dict[tuple[str, ...], list[_Task]] = {}
         for t in counted:
             pairs.setdefault(tuple(r.name for r in capable[t.key]), []).append(t)
@@ -66,6 +71,16 @@ def _floor_loads(model, tasks, gates, ancestors, capable, busy_min, assigned, tr
             model.Add(gate - opening >= known)
         least += known
     return least
+
+
+def _first_lead(model, name, work, head, tail, first, travel, assigned, busy_min, gate) -> None:
+    """On the lowest floor (from time 0): robot ``name`` departs for its first task t no earlier than
+    t's own lead-in ``head[t]`` (ticks), then does all its work of the floor, one task after the other,
+    before the floor's gate less the shortest run-out. Linear in the robot's first-task literals, which
+    are all false where its first task is on another floor (then this is the plain window, weaker)."""
+    starts = sum(first[name, t.key] * head[t.key] for t in work if (name, t.key) in first)
+    load = travel.load(name, work) if travel else sum(assigned[t.key, name] * busy_min[t.key, name] for t in work)
+    model.Add(starts + load <= gate - min(tail[t.key] for t in work))
 
 
 def _fastest(costs: dict[str, list[int]], count: int) -> int:

@@ -234,7 +234,9 @@ def _build(cp_model, problem: _Problem, hint: dict | None):
     busy_min = {(t.key, r): c.handling[t.key, r] + min(c.shortest_in[t.key, r], c.horizon) for t in tasks for r in
                 (x.name for x in c.capable[t.key])}
     travel = _Visits(model, v.assigned, c.handling, busy_min, c.drive)
-    known_bound = _floor_loads(model, tasks, v.gates, ancestors, c.capable, busy_min, v.assigned, travel, problem.floor_least)
+    first = {(name, key): lit for (name, before, key), lit in v.arcs.items() if before is None and key is not None}
+    known_bound = _floor_loads(model, tasks, v.gates, ancestors, c.capable, busy_min, v.assigned, travel,
+                               problem.floor_least, first)
     makespan = _makespan(model, v, c.horizon)
     if hint:
         variables = dict(assigned=v.assigned, depart=v.depart, start=v.start, end=v.end, arcs=v.arcs, sizes=v.sizes,
