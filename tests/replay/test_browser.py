@@ -1,8 +1,10 @@
 """The replay in a real browser: Rerun's web viewer on 127.0.0.1, headless Chromium, WebGL via SwiftShader.
 
-Two times on the timeline (early in the build and its end), a screenshot at each: the 3D view must not
-be blank, and it must change where the structure grew (more of it coloured as assembled at the end).
-A browser without WebGL fails the test rather than passing on a blank canvas. Every request the page
+The built-in steel frame and the shared model with the most elements (MULTICOM-Prefab, drawn as
+boxes by state: it opens within a minute of a tiny recording, docs/evidence/replay.md). Two times on
+the timeline (early in the build and its end), a screenshot at each: the 3D view must not be blank,
+and it must change where the structure grew (more of it coloured as assembled at the end). A browser
+without WebGL fails the test rather than passing on a blank canvas. Every request the page
 makes is recorded: none may leave 127.0.0.1 (Rerun's analytics are stopped by the page's policy).
 """
 
@@ -195,10 +197,17 @@ def _assembled_green(view: np.ndarray) -> np.ndarray:
     return (g > r + 40) & (g > b + 40)
 
 
-def test_web_viewer_shows_the_structure_growing(browser, frame_pair_replay, tmp_path):
+@pytest.fixture(params=["steel frame", "MULTICOM-Prefab"])
+def replay_to_open(request):
+    """(rrd, summary): the built-in steel frame's replay (each element its mesh), and that of the shared
+    model with the most elements, MULTICOM-Prefab (boxes by state; skipped without ../shared)."""
+    return request.getfixturevalue("frame_pair_replay" if request.param == "steel frame" else "prefab_pair_replay")
+
+
+def test_web_viewer_shows_the_structure_growing(browser, replay_to_open, tmp_path):
     from bimrobot.replay.serve import serve_web
 
-    rrd, summary = frame_pair_replay
+    rrd, summary = replay_to_open
     with serve_web(rrd) as viewer:
         browser.get(viewer.url + "&persist=0")
         webgl = browser.execute_script("const c = document.createElement('canvas'); return !!(c.getContext('webgl2') || c.getContext('webgl'))")

@@ -16,7 +16,7 @@ from pathlib import Path
 
 
 def write_replay(out_dir, rrd_path, *, model=None, start: dt.datetime | None = None,
-                 simulation=None, building=None) -> dict:
+                 simulation=None, building=None, draw: str = "auto") -> dict:
     """Write the replay of the build in ``out_dir`` to ``rrd_path`` (through bimrobot.core.io's output policy).
 
     ``out_dir``: a `bimrobot build` output folder, a `convert` package folder when ``simulation``
@@ -25,6 +25,9 @@ def write_replay(out_dir, rrd_path, *, model=None, start: dt.datetime | None = N
     ``start``: calendar date-time of the build's second 0 (adds a ``calendar`` timeline).
     ``building``: the BuildingModel of the build's IFC file, already read (``bimrobot build`` reads it once
     for every stage); None reads the file.
+    ``draw``: the building as "meshes" (each element's own, lightened), "boxes" (each component's box,
+    grouped by state: few entities, a large model opens sooner in the web viewer) or "auto" (boxes for
+    a large model, :func:`bimrobot.replay.compact.is_large`).
     Returns a summary: pieces, components, robots, nodes, installed, last_installation_s, makespan_s.
     """
     from bimrobot.core import io
@@ -42,7 +45,8 @@ def write_replay(out_dir, rrd_path, *, model=None, start: dt.datetime | None = N
     else:
         record = load_build(folders, Path(model) if model is not None else None, building)
     with io.atomic_output_file(rrd_path, inputs=record.inputs) as tmp:
-        summary = write_rrd(record, tmp, start=start, name=Path(rrd_path).stem)
+        summary = write_rrd(record, tmp, start=start, name=Path(rrd_path).stem,
+                            compact={"auto": None, "meshes": False, "boxes": True}[draw])
     return summary
 
 

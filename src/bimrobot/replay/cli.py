@@ -30,7 +30,7 @@ def register(subparsers) -> None:
         help="4D replay of a simulated build in Rerun: the structure growing, robots, Gantt, states",
         description="Turn a `bimrobot build` output folder (or a `simulate` folder and a `convert --layout yard` "
         "package) into a Rerun recording that opens framed on the building: every element a mesh named by storey, "
-        "class and name (its GlobalId a property), the work still to be built ghosted in grey, components "
+        "class and name (its GlobalId a property; on a large model each component a box, grouped by state), the work still to be built ghosted in grey, components "
         "travelling from the yard with their transport robots into place, coloured by the thesis' states, a "
         "per-robot Gantt of bars and the number of components per state over time. With --serve and an existing "
         ".rrd, serve that recording as it is.",
@@ -48,6 +48,10 @@ def register(subparsers) -> None:
                         help="the IFC file, when it is no longer where the package's report.json says")
     parser.add_argument("--start", type=_date_time, metavar="ISO",
                         help="calendar date-time of the build's start, e.g. 2026-03-02T07:00 (adds a calendar timeline)")
+    parser.add_argument("--draw", choices=("auto", "meshes", "boxes"), default="auto",
+                        help="the building as each element's mesh, or as each component's box grouped by state "
+                        "(few entities: a large model opens in the web viewer in a fraction of the time); auto (default): "
+                        "boxes above 100 pieces drawn, an assembly's parts counting as one (docs/replay.md)")
     parser.add_argument("--serve", action="store_true",
                         help="then serve it with Rerun's web viewer on 127.0.0.1 and print the URL (Ctrl-C stops it)")
     parser.add_argument("--web-port", type=int, default=0, metavar="PORT",
@@ -83,12 +87,14 @@ def replay_command(args, model=None) -> int:
         raise InputError(f"--web-port {args.web_port} is not a port number (0-65535; 0 picks a free one)")
     simulation = args.folders[1] if len(args.folders) == 2 else None
     summary = write_replay(args.folders[0], args.output, model=args.model, start=args.start, simulation=simulation,
-                           building=model)
+                           building=model, draw=args.draw)
     last = summary["last_installation_s"]
     if summary["components"]:
         print(f"{args.output}: {summary['pieces']} elements, {summary['components']} components "
               f"({summary['installed']} installed, the last at {'-' if last is None else f'{last:,.1f}'} s), "
-              f"{summary['robots']} robots, {summary['nodes']} connection nodes")
+              f"{summary['robots']} robots, {summary['nodes']} connection nodes"
+              + ("; drawn as boxes by state (--draw meshes for each element's mesh)"
+                 if summary.get("drawn") == "boxes by state" else ""))
     else:
         print(f"{args.output}: {summary['pieces']} elements")
     if "rcan_activities" in summary:
@@ -113,7 +119,8 @@ def _serve_existing(args) -> int:
     if args.output is not None:
         raise InputError(f"-o {args.output}: {rrd} is served as it is; -o names a new recording, written from a "
                          "build folder")
-    for option, value in (("--model", args.model), ("--start", args.start)):
+    for option, value in (("--model", args.model), ("--start", args.start),
+                          ("--draw", None if args.draw == "auto" else args.draw)):
         if value is not None:
             raise InputError(f"{option}: {rrd} is served as it was recorded; {option} applies when a recording is "
                              "written from a build folder")

@@ -148,15 +148,23 @@ def oriented_box(triangles: np.ndarray) -> np.ndarray:
     """The 12 triangles (outward, counter-clockwise) of a box around ``triangles`` along their principal
     axes (the eigenvectors of the vertices' covariance: a bolt's box follows the bolt, however it is
     turned in its local frame)."""
+    centre, axes, half = principal_box(triangles)
+    corners = np.array([[(-half, half)[i >> k & 1][k] for k in range(3)] for i in range(8)]) @ axes.T + centre
+    return corners[BOX_FACES]
+
+
+def principal_box(triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(centre (3,), axes (3, 3), half sizes (3,)) of the box around ``triangles`` along their principal
+    axes (:func:`oriented_box`), in the triangles' frame (m): ``axes``' columns are the box's x, y, z
+    (a right-handed rotation) and ``centre`` the box's middle."""
     points = np.unique(triangles.reshape(-1, 3), axis=0)
-    centre = points.mean(axis=0)
-    _, axes = np.linalg.eigh(np.cov((points - centre).T) if len(points) > 1 else np.eye(3))
+    mean = points.mean(axis=0)
+    _, axes = np.linalg.eigh(np.cov((points - mean).T) if len(points) > 1 else np.eye(3))
     if np.linalg.det(axes) < 0:  # a right-handed frame keeps the faces' winding outward
         axes[:, 0] = -axes[:, 0]
-    local = (points - centre) @ axes
+    local = (points - mean) @ axes
     low, high = local.min(axis=0), local.max(axis=0)
-    corners = np.array([[(low, high)[i >> k & 1][k] for k in range(3)] for i in range(8)]) @ axes.T + centre
-    return corners[BOX_FACES]
+    return mean + axes @ ((low + high) / 2), axes, (high - low) / 2
 
 
 #: The box's 12 triangles as corner indices (corner i has bit k set where it is at the high end of axis k),

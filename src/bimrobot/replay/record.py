@@ -8,7 +8,9 @@ Entities (paths are Rerun entity paths; each part escaped):
   time, coloured by its component's state; properties ``global_id``, ``ifc_class``, ``name``,
   ``storey`` (and a unit's ``parts``, with the mesh) and ``state`` (over time), all in one chunk per
   element (:func:`_send_rows`). Elements of the same storey, class and name are told apart by
-  `` (2)``, `` (3)``, ... in file order (:func:`bimrobot.replay.elements.element_paths`);
+  `` (2)``, `` (3)``, ... in file order (:func:`bimrobot.replay.elements.element_paths`). A large model
+  is drawn instead as ``/building/<state>``, each component its box, grouped by state
+  (:mod:`bimrobot.replay.compact`: a few entities open in the web viewer in a fraction of the time);
 - ``/ghost``: the work still to be built, translucent grey at its installed place from the start
   (static: on every timeline), as 4D tools show it; each element drawn 1 % smaller about its centre,
   so that the built element, once in place, hides it;
@@ -34,6 +36,7 @@ from pathlib import Path
 
 import numpy as np
 
+from bimrobot.replay.compact import is_large, log_compact
 from bimrobot.replay.elements import (STATE_COLOURS, drawn_record, element_paths, element_properties, entity, mesh3d,
                                        mesh_arrays)
 from bimrobot.replay.gantt import log_chart, schedule_bars
@@ -77,10 +80,12 @@ GHOST_RGBA = (150, 150, 150, 100)
 GHOST_SHRINK = 0.99
 
 
-def write_rrd(record: BuildRecord, rrd: Path, start: dt.datetime | None = None, name: str | None = None) -> dict:
+def write_rrd(record: BuildRecord, rrd: Path, start: dt.datetime | None = None, name: str | None = None,
+              compact: bool | None = None) -> dict:
     """Write the replay of ``record`` to ``rrd`` (a path the caller made safe); return a summary dict
     (elements, entities drawn for them, components, installed, last installation time, meshes drawn
-    simplified)."""
+    simplified, ``drawn``: "meshes" or "boxes by state"). ``compact``: draw the building as boxes by state
+    (:mod:`bimrobot.replay.compact`); None: when the model is large (:func:`bimrobot.replay.compact.is_large`)."""
     import rerun as rr
 
     from bimrobot.core import io
@@ -99,14 +104,11 @@ def write_rrd(record: BuildRecord, rrd: Path, start: dt.datetime | None = None, 
     clock = _Clock(rec, start)
     paths = element_paths(record)
     _log_ghost(rec, record)
-    if record.schedule:  # a build: the simulated schedule on sim_time
-        tracks = robot_tracks(record)
-        poses = component_poses(record, tracks)
-        _log_pieces(rec, clock, record, poses, paths)
-        _log_robots(rec, clock, record, tracks)
-        _log_nodes(rec, clock, record)
+    compact = bool(record.schedule) and (is_large(record) if compact is None else compact)
+    entities = _log_build(rec, clock, record, paths, compact) if record.schedule else len(record.pieces)
     summary = _log_progress(rec, clock, record)
-    summary.update(pieces=elements, entities=len(record.pieces), simplified=simplified)
+    summary.update(pieces=elements, entities=entities, simplified=simplified,
+                   drawn="boxes by state" if compact else "meshes")
     if record.rcan is not None:  # what RCAN executed, and the physics bodies, on their own clocks
         from bimrobot.replay.record_rcan import log_physics, log_rcan
 
@@ -121,6 +123,21 @@ def write_rrd(record: BuildRecord, rrd: Path, start: dt.datetime | None = None, 
     rec.flush()
     rec.disconnect()
     return summary
+
+
+def _log_build(rec, clock: _Clock, record: BuildRecord, paths: dict[str, str], compact: bool) -> int:
+    """The simulated build on sim_time: the building (each element's mesh, or boxes by state when
+    ``compact``), the robots and the nodes; returns the entities drawn for the building."""
+    tracks = robot_tracks(record)
+    poses = component_poses(record, tracks)
+    if compact:
+        entities = log_compact(rec, clock, record, poses, _node_times(record))
+    else:
+        _log_pieces(rec, clock, record, poses, paths)
+        entities = len(record.pieces)
+    _log_robots(rec, clock, record, tracks)
+    _log_nodes(rec, clock, record)
+    return entities
 
 
 def _batcher(rr):
