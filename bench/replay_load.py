@@ -7,7 +7,8 @@ recording opened in the same browser in the same run (issue 36: "opens in the we
 The model (``--model``, default ``../shared/data/ifc/MULTICOM-Prefab.ifc``) is converted
 (``convert --layout yard``) and simulated (``simulate --fleet site-crane --prebuilt IfcFooting,IfcPile
 --unknown-weight 2400``) once into ``--work`` (kept there for later runs), then replayed
-(``write_replay``, timed). The reference is a recording that holds none of our data: one box and one
+(``write_replay``, timed; ``--draw`` as ``replay --draw``: by default a model this large is drawn as boxes
+by state, ``--draw meshes`` times each element's mesh). The reference is a recording that holds none of our data: one box and one
 line of two points, with the replay's own layout (blueprint), so the same panels open.
 
 Each recording is served as ``replay --serve`` serves it (:func:`bimrobot.replay.serve.serve_web`) and
@@ -216,6 +217,8 @@ def main(argv: list[str] | None = None) -> int:
                         help="other recordings of the same build to time beside it (variants)")
     parser.add_argument("--replay", type=Path, help="time this recording of the build instead of writing one")
     parser.add_argument("--shots", type=Path, help="save each recording's screenshot when its panels are drawn")
+    parser.add_argument("--draw", choices=("auto", "meshes", "boxes"), default="auto",
+                        help="how the written replay draws the building (as `replay --draw`)")
     args = parser.parse_args(argv)
     import signal
 
@@ -230,9 +233,9 @@ def main(argv: list[str] | None = None) -> int:
     if args.replay is None:
         rrd.unlink(missing_ok=True)
         started = time.monotonic()
-        summary = write_replay(package, rrd, simulation=simulation)
-        print(f"{args.model.name}: {summary['pieces']} elements, {summary['components']} components; "
-              f"write_replay {time.monotonic() - started:.1f} s")
+        summary = write_replay(package, rrd, simulation=simulation, draw=args.draw)
+        print(f"{args.model.name}: {summary['pieces']} elements, {summary['components']} components, drawn as "
+              f"{summary['drawn']}; write_replay {time.monotonic() - started:.1f} s")
     from bimrobot.replay.inputs import read_schedule
 
     makespan = max(row["Finish"] for row in read_schedule(simulation / "schedule.csv"))
