@@ -62,8 +62,8 @@ def state_rows(events: dict[str, list[tuple[float, str, object]]]) -> dict[str, 
     """State -> [(time s, pieces in that state then, their poses)], a row at each time the state's set of
     pieces or one of their poses changes (pieces in ``events``' order; a piece with no pose yet is left out)."""
     by_time = defaultdict(list)
-    for gid, piece_events_ in events.items():
-        for t, kind, value in piece_events_:
+    for gid, history in events.items():
+        for t, kind, value in history:
             by_time[t].append((gid, kind, value))
     pose, state, rows = {}, {}, defaultdict(list)
     for t in sorted(by_time):
@@ -111,15 +111,15 @@ def log_compact(rec, clock, record: BuildRecord, poses: dict, node_times: dict) 
     shapes = {gid: principal_box(piece.triangles) for gid, piece in record.pieces.items()}
     labels = {gid: label(record, gid) for gid in record.pieces}
     rows = state_rows(piece_events(record, poses, node_times))
-    for name, state_rows_ in rows.items():
-        boxes = [world_boxes(shapes, members, member_poses) for _, members, member_poses in state_rows_]
-        lengths = [len(members) for _, members, _ in state_rows_]
+    for name, timeline in rows.items():
+        boxes = [world_boxes(shapes, members, member_poses) for _, members, member_poses in timeline]
+        lengths = [len(members) for _, members, _ in timeline]
         rgb = STATE_COLOURS.get(name, UNSCHEDULED_RGB)
         columns = list(rr.Boxes3D.columns(
             centers=np.concatenate([b[0] for b in boxes]), half_sizes=np.concatenate([b[1] for b in boxes]),
             quaternions=np.concatenate([b[2] for b in boxes]),
-            labels=[labels[g] for _, members, _ in state_rows_ for g in members]).partition(lengths))
+            labels=[labels[g] for _, members, _ in timeline for g in members]).partition(lengths))
         rec.log(entity("building", name), rr.Boxes3D.from_fields(colors=[rgb], fill_mode="solid", show_labels=False),
                 static=True)
-        rec.send_columns(entity("building", name), indexes=clock.columns([t for t, _, _ in state_rows_]), columns=columns)
+        rec.send_columns(entity("building", name), indexes=clock.columns([t for t, _, _ in timeline]), columns=columns)
     return len(rows)
