@@ -11,6 +11,7 @@ them up; `simulate` and `rcan` use the same site.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -46,6 +47,15 @@ def pose_xyz_rpy(matrix: np.ndarray) -> tuple[float, float, float, float, float,
     """(x, y, z, roll, pitch, yaw) of a rigid transform: metres and radians, SDF's fixed-axis
     convention (rotation = Rz(yaw) Ry(pitch) Rx(roll))."""
     matrix = np.asarray(matrix, float)
+    return _pose_of(matrix.shape, matrix.tobytes())
+
+
+@functools.lru_cache(maxsize=1 << 14)
+def _pose_of(shape: tuple[int, ...], data: bytes) -> tuple[float, float, float, float, float, float]:
+    """:func:`pose_xyz_rpy` of the matrix of ``shape`` whose float64 numbers are ``data``, computed once
+    per matrix: `convert` asks for each model's pose four times (its SDF, the world's include, the
+    report and the picture)."""
+    matrix = np.frombuffer(data).reshape(shape)
     if np.abs(matrix[:3, :3] @ matrix[:3, :3].T - np.eye(3)).max() > 1e-9:
         matrix = rigid(matrix)
     roll, pitch, yaw = rpy_of(matrix[:3, :3])

@@ -40,6 +40,7 @@ from bimrobot.core.io import printable
 from bimrobot.site.site import site_for
 from bimrobot.export.gazebo import launch
 from bimrobot.export.gazebo import layout
+from bimrobot.export.gazebo.bodies import Geometries, Geometry
 from bimrobot.export.gazebo import merge
 from bimrobot.export.gazebo import meshes
 from bimrobot.core import pool
@@ -58,35 +59,12 @@ if TYPE_CHECKING:  # mass properties need trimesh and SciPy: imported where the 
 log = logging.getLogger(__name__)
 
 @dataclass
-class _Geometry:
-    """One distinct IFC geometry (shared by every element that uses it) and its mesh files' content
-    (made by :meth:`finish` in the process that writes the models)."""
-
-    body: physics.Body
-    collision: tuple[np.ndarray, np.ndarray] | None = None
-    stl: bytes = b""
-    dae: dict[str, str] = field(default_factory=dict)  # IFC class -> DAE text (colour per class)
-
-    def finish(self, options: "ConvertOptions") -> None:
-        """Collision mesh and its STL, once per geometry."""
-        if self.collision is None:
-            self.collision = meshes.collision_mesh(self.body, options.collision, options.max_triangles)
-            self.stl = meshes.stl_bytes(*self.collision)
-
-    def dae_for(self, ifc_class: str) -> str:
-        if ifc_class not in self.dae:
-            self.dae[ifc_class] = meshes.dae_text(self.body.vertices, self.body.faces, ifc_class,
-                                                  meshes.colour_of(ifc_class))
-        return self.dae[ifc_class]
-
-
-@dataclass
 class _Converted:
     """One element on its way into the package."""
 
     element: Element
     name: str
-    geometry: _Geometry
+    geometry: Geometry
     mass: physics.MassProperties | None = None
     pose: np.ndarray = field(default_factory=lambda: np.eye(4))
     model: str = ""  # the model that holds it: its own (``name``) or a merged one
@@ -127,9 +105,9 @@ def convert(
     io.check_output(out_dir, folder=True, inputs=[ifc_path])  # before the long read
     with frozen_heap():  # no full garbage collections through every library object on the way
         started = time.perf_counter()
-        # Element.properties is not needed to convert: only what the weights need is read.
+        # Element.properties and the assemblies are not needed to convert: only what the weights need is read.
         model = load_model(ifc_path, include=include, exclude=exclude, progress=progress, properties=False,
-                           unknown_weight=options.unknown_weight)
+                           unknown_weight=options.unknown_weight, assemblies=False)
         load_seconds = time.perf_counter() - started
         return build_package(model, out_dir, options, progress, load_seconds)
 
@@ -340,17 +318,12 @@ def _prepare_elements(model: BuildingModel, options: ConvertOptions, progress: b
         {"global_id": s.global_id, "ifc_class": s.ifc_class, "name": s.name, "reason": s.reason} for s in model.skipped
     ]
     elements = list(model.elements.values())
-    geometries: dict[tuple[int, int], _Geometry] = {}  # IFC files share one mesh between many elements
-    from bimrobot.export.inertia import Body
-
+    geometries = Geometries()
     for element in _bar(elements, progress, desc="meshes", unit="element"):
         if len(element.faces) == 0 or len(element.vertices) < 3:
             skipped.append(_skip(element, "its body has no triangles"))
             continue
-        key = (id(element.vertices), id(element.faces))
-        if key not in geometries:
-            geometries[key] = _Geometry(Body(element.vertices, element.faces))
-        geometry = geometries[key]
+        geometry = geometries.of(element)
         if len(geometry.body.faces) == 0:
             skipped.append(_skip(element, "its body has only degenerate triangles"))
             continue

@@ -49,9 +49,13 @@ def mesh_triangles(models: list[tuple[str, str, np.ndarray, np.ndarray, str]]) -
     from bimrobot.export.gazebo.meshes import POSITION_FORMAT, number_text
 
     triangles, colours = [], []
+    rounded: dict[tuple[int, int], np.ndarray] = {}  # models sharing a mesh (the same arrays) share its corners
     for _, pose_text, vertices, faces, colour_text in sorted(models, key=lambda m: Path(m[0], "model.sdf")):
-        positions = np.array(number_text(POSITION_FORMAT, vertices.ravel().tolist()).split(), float).reshape(-1, 3)
-        local = positions[faces.ravel()].reshape(-1, 3, 3)
+        key = (id(vertices), id(faces))
+        if key not in rounded:
+            positions = np.array(number_text(POSITION_FORMAT, vertices.ravel().tolist()).split(), float).reshape(-1, 3)
+            rounded[key] = positions[faces.ravel()].reshape(-1, 3, 3)
+        local = rounded[key]
         pose = _pose_matrix(pose_text)
         triangles.append(local @ pose[:3, :3].T + pose[:3, 3])
         colours.append(np.tile(np.array(colour_text.split(), float), (len(local), 1)))
