@@ -194,7 +194,8 @@ def test_the_kept_up_observation_is_the_rebuilt_one_bit_for_bit_on_the_frame():
 
 def test_the_kept_up_observation_is_the_rebuilt_one_on_a_generated_building(tmp_path):
     """A generated precast frame of two floors (gates, its drawn fleet and site), a seeded random choice
-    among the valid actions (waiting included), padded wider than the building."""
+    among the valid actions (waiting included), padded wider than the building; observed through the
+    read-only views (``copy_observation=False``), which a caller cannot write into."""
     from bimrobot.planning.dispatch import simulate_problem
     from bimrobot.site.generated import generate
     from bimrobot.site.fleet import fleet_yaml
@@ -205,6 +206,9 @@ def test_the_kept_up_observation_is_the_rebuilt_one_on_a_generated_building(tmp_
     (tmp_path / "site.yaml").write_text(site_yaml(made.site, "test"), encoding="utf-8")
     problem = simulate_problem([str(made.path), "--fleet", str(tmp_path / "fleet.yaml"), "--site", str(tmp_path / "site.yaml")])
     rng = np.random.default_rng(11)
-    env = DispatchEnv(problem, max_tasks=256, max_robots=12, max_edges=1024)
+    env = DispatchEnv(problem, max_tasks=256, max_robots=12, max_edges=1024, copy_observation=False)
     decisions = _same_as_rebuilt_at_every_decision(env, lambda e: int(rng.choice(np.flatnonzero(e.action_masks()))))
     assert decisions > len(env.graph.keys) // 2 and env.result is not None
+    obs, _ = env.reset(seed=0)
+    with pytest.raises(ValueError, match="read-only"):
+        obs["travel_s"][0, 0] = 1.0

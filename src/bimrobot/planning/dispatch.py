@@ -24,7 +24,8 @@ from bimrobot.coordination.market import Dispatcher, MarketDispatcher, handling_
 from bimrobot.coordination.simulation import ConstructionSimulation, SimulationResult
 from bimrobot.core.errors import BimrobotError, InputError
 from bimrobot.core.tasks import Task
-from bimrobot.planning.dispatch_observation import _depths, _in_edges, _levels, _mask, _starts_pass, rebuild_observation
+from bimrobot.planning.dispatch_observation import (_depths, _in_edges, _levels, _mask, _read_only, _starts_pass,
+                                                    _travel_pass, rebuild_observation)
 from bimrobot.planning.dispatch_problem import (KINDS, DispatchProblem, TaskGraph, frame_problem, request_key,
                                                 simulate_problem, task_graph, task_key)
 
@@ -115,7 +116,10 @@ class DispatchEnv(gym.Env):
     reset (e.g. generated buildings for training), or None for the chapter-4 steel frame with fleet2
     (:func:`frame_problem`). ``max_tasks`` (tasks + floor gates), ``max_robots``, ``max_edges``: the
     padded sizes; a larger building is refused with one sentence. ``max_decisions``: truncation
-    (default 8 x nodes + 64).
+    (default 8 x nodes + 64). ``copy_observation`` (default True, gymnasium's contract): every
+    observation is new data; False hands out read-only views of the arrays the environment keeps up,
+    valid until the next ``step`` or ``reset`` (the caller copies what it keeps; for a planner that
+    reads each observation once, e.g. the learned planner on a large building).
 
     ## Version History
     * v0: initial version (issue 38).
@@ -124,13 +128,15 @@ class DispatchEnv(gym.Env):
     metadata = {"render_modes": ["ansi"], "render_fps": 4}
 
     def __init__(self, problem: DispatchProblem | Callable | None = None, max_tasks: int = 512, max_robots: int = 16,
-                 max_edges: int = 2048, max_decisions: int | None = None, render_mode: str | None = None):
+                 max_edges: int = 2048, max_decisions: int | None = None, render_mode: str | None = None,
+                 copy_observation: bool = True):
         if min(max_tasks, max_robots, max_edges) < 1:
             raise InputError(f"max_tasks, max_robots and max_edges must be at least 1, got {max_tasks}, {max_robots}, {max_edges}")
         self.problem = problem if problem is not None else frame_problem()
         self.max_tasks, self.max_robots, self.max_edges = max_tasks, max_robots, max_edges
         self.max_decisions = max_decisions
         self.render_mode = render_mode
+        self.copy_observation = copy_observation
         n, r, e = max_tasks, max_robots, max_edges
         self.wait_action = n * r
         self.action_space = spaces.Discrete(n * r + 1)
@@ -171,7 +177,7 @@ class DispatchEnv(gym.Env):
         if done:
             raise BimrobotError(f"{problem.smart.source}: nothing to decide, the build needs no robot")
         self._ended = False
-        return self._observation(), info
+        return self._handout(), info
 
     def step(self, action):
         if self.sim is None or self._ended:
@@ -198,7 +204,7 @@ class DispatchEnv(gym.Env):
         truncated = not done and self.decisions >= self._decision_limit
         self._ended = done or truncated
         info.update(invalid_action=invalid, decisions=self.decisions)
-        return self._observation(), reward, done, truncated, info
+        return self._handout(), reward, done, truncated, info
 
     def _to_next_decision(self) -> tuple[bool, dict]:
         """Run the simulation to the next decision point (False) or to its end (True)."""
@@ -333,11 +339,14 @@ class DispatchEnv(gym.Env):
 
     def _set_up_buffers(self, n: int, r: int, depth: np.ndarray) -> None:
         """The arrays the observation keeps between decisions and updates where the last decision changed
-        something: node states, the gates' open predecessors, travel columns, earliest starts."""
+        something: node states, the gates' open predecessors, travel columns, earliest starts; and the
+        read-only views of them that :meth:`_observation` hands out."""
         graph = self.graph
         self._gates = graph.kinds == KINDS.index("gate")
         self._adds = np.where(self._gates, 0.0, self.shortest)  # what a waiting node's finish adds to its start (s)
         self._order, self._node_groups, self._group_edges, self._sources = _in_edges(n, graph.edges, graph.groups, depth)
+        self._is_root = (depth == 0).astype(np.int8)  # a waiting root finishes "now" (no level computes it)
+        self._waiting = n  # nodes still waiting; ``_order`` is cut down to them as they leave
         into_gate = self._gates[graph.edges[:, 1]] if len(graph.edges) else np.zeros(0, bool)
         self._open_before = np.bincount(graph.edges[into_gate, 1], minlength=n)  # per gate: predecessors not done
         self._gates_after: dict[int, list[int]] = {}
@@ -347,14 +356,23 @@ class DispatchEnv(gym.Env):
         self._gate_before = {g: graph.edges[graph.edges[:, 1] == g, 0] for g in self._gate_nodes}
         self._nodes = self.static.copy()
         self._nodes[np.arange(n), 10] = 1.0  # every node waiting
+        self._robots = self.robot_static.copy()
+        self._time = np.zeros(1, np.float32)
         self._travel = np.zeros((self.max_tasks, self.max_robots), np.float32)
         self._travel_from = np.full((r, 2), np.nan)  # where each robot's travel column was computed from
         self._rows = [np.flatnonzero(self.capable[:n, j]) for j in range(r)]
         self._rows_xy = [self.start_xy[rows] for rows in self._rows]
-        self._start, self._finish = np.empty(n), np.empty(n)
+        self._finish = np.empty(n)
         self._running_until = np.full(n, np.nan)
         self._running: list[int] = []
-        self._observed, self._last = None, {}
+        self._observed = None
+        fixed = self._fixed
+        self._views = {key: _read_only(value) for key, value in (
+            ("node_features", self._nodes), ("node_mask", fixed["node_mask"]), ("robot_features", self._robots),
+            ("robot_mask", fixed["robot_mask"]), ("precedence", fixed["precedence"]),
+            ("precedence_mask", fixed["precedence_mask"]), ("precedence_any", fixed["precedence_any"]),
+            ("compatibility", fixed["compatibility"]), ("handling_s", fixed["handling_s"]), ("travel_s", self._travel),
+            ("time_s", self._time))}
 
     def _height(self, request, component) -> float:
         if request.node_ids and request.activity != Task.TRANSPORT:
@@ -364,11 +382,15 @@ class DispatchEnv(gym.Env):
         return float(component.target_position[2])
 
     def _set_state(self, node: int, state: int) -> None:
-        """Node ``node`` is now in ``state`` (index into :data:`STATES`): its one-hot, the gates after it."""
+        """Node ``node`` is now in ``state`` (index into :data:`STATES`): its one-hot, the gates after it;
+        a node that stops waiting starts now (earliest start 0 s from now, for good: none waits again)."""
         old = int(self.state[node])
         self.state[node] = state
         self._nodes[node, 10 + old] = 0.0
         self._nodes[node, 10 + state] = 1.0
+        if old == 0 and state != 0:
+            self._nodes[node, 14] = 0.0
+            self._waiting -= 1
         if state == 3 and old != 3:
             for gate in self._gates_after.get(node, ()):
                 self._open_before[gate] -= 1
@@ -402,44 +424,47 @@ class DispatchEnv(gym.Env):
                 self._set_state(gate, 3)
 
     def _observation(self) -> dict:
-        """The observation now. Kept between decisions: node states follow the new events, the gates
-        their counts of open predecessors, a robot's travel column is recomputed only when where it drives
-        from changed; the earliest starts, which move with the clock, are one compiled pass over the
-        waiting nodes. The values are those of :func:`rebuild_observation` (tests compare them)."""
+        """The observation now, as read-only views of the arrays kept between decisions (valid until the
+        next step): node states follow the new events, the gates their counts of open predecessors, a
+        robot's travel column is recomputed only when where it drives from changed; the earliest starts,
+        which move with the clock, are one compiled pass over the nodes still waiting. The values are
+        those of :func:`rebuild_observation` (tests compare them)."""
         now = float(self.sim.build.env.now)
         key = (self._episode, self.decisions, len(self.sim.build.events), now)
         if key == self._observed:  # asked again with nothing changed (a policy reading the last step's)
-            return {k: v.copy() for k, v in self._last.items()}
+            return self._views
         self._follow_events()
         self._close_gates()
         robots = [self.sim.build.robots[name] for name in self.robot_names]
         self._update_starts(now, robots)
-        robot_features = self.robot_static.copy()
         for j, robot in enumerate(robots):
             busy = robot.task is not None
             here = self.sim.where(robot)
-            robot_features[j, 0:2] = here
-            robot_features[j, 6:9] = (busy, max(0.0, robot.free_at - now) if busy else 0.0, robot.broken)
+            self._robots[j, 0:2] = here
+            self._robots[j, 6:9] = (busy, max(0.0, robot.free_at - now) if busy else 0.0, robot.broken)
             self._update_travel(j, robot.end_position if busy else here)
-        fixed = self._fixed  # copied too: every observation is new data (gymnasium's contract)
-        self._last = {
-            "node_features": self._nodes, "node_mask": fixed["node_mask"], "robot_features": robot_features,
-            "robot_mask": fixed["robot_mask"], "precedence": fixed["precedence"], "precedence_mask": fixed["precedence_mask"],
-            "precedence_any": fixed["precedence_any"], "compatibility": fixed["compatibility"],
-            "handling_s": fixed["handling_s"], "travel_s": self._travel, "time_s": np.array([now], np.float32),
-        }
+        self._time[0] = now
         self._observed = key
-        return {k: v.copy() for k, v in self._last.items()}
+        return self._views
+
+    def _handout(self) -> dict:
+        """The observation as ``reset`` and ``step`` return it: new arrays (``copy_observation``, gymnasium's
+        contract) or the read-only views themselves, in a new dict."""
+        views = self._observation()
+        return {k: v.copy() for k, v in views.items()} if self.copy_observation else dict(views)
 
     def _update_starts(self, now: float, robots: list) -> None:
-        """Column ``earliest_start_s`` of every node (see :func:`_earliest_starts_pass`)."""
+        """Column ``earliest_start_s`` of the waiting nodes (see :func:`_earliest_starts_pass`); the order
+        of the pass is cut down to the waiting nodes once fewer than half of it still wait."""
         for node in self._running:
             self._running_until[node] = np.nan
         self._running = [self._node_of(robot.task) for robot in robots if robot.task is not None]
         for node, robot in zip(self._running, (robot for robot in robots if robot.task is not None)):
             self._running_until[node] = robot.free_at
-        _starts_pass()(self._order, self._node_groups, self._group_edges, self._sources, self.state, self._finished_at,
-                       self._running_until, self.shortest, self._adds, now, self._start, self._finish, self._nodes)
+        if 2 * self._waiting < len(self._order):
+            self._order = self._order[self.state[self._order] == 0]
+        _starts_pass()(self._order, self._node_groups, self._group_edges, self._sources, self.state, self._is_root,
+                       self._finished_at, self._running_until, self.shortest, self._adds, now, self._finish, self._nodes)
 
     def _update_travel(self, j: int, where) -> None:
         """Robot ``j``'s travel column (s to every task it can do, from ``where``, site frame m), when
@@ -448,8 +473,7 @@ class DispatchEnv(gym.Env):
         if self._travel_from[j, 0] == x and self._travel_from[j, 1] == y:
             return
         self._travel_from[j] = (x, y)
-        xy = self._rows_xy[j]
-        self._travel[self._rows[j], j] = np.hypot(xy[:, 0] - x, xy[:, 1] - y) / self.speeds[j]
+        _travel_pass()(self._rows[j], self._rows_xy[j], x, y, float(self.speeds[j]), self._travel, j)
 
     def render(self):
         if self.render_mode != "ansi" or self.sim is None:

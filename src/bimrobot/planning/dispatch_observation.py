@@ -1,12 +1,14 @@
 """The observation of the dispatching environment rebuilt from nothing (:func:`rebuild_observation`, the
 definition its kept-up arrays must equal bit for bit) and the precedence-graph arithmetic both share:
-depths and levels, earliest starts level by level (numpy) and in one compiled pass (numba).
+depths and levels, earliest starts level by level (numpy) and in one compiled pass (numba), and the
+compiled travel column of a robot.
 
 Units: seconds, metres (site frame x, y; model frame z, z up).
 """
 
 from __future__ import annotations
 
+import math
 from collections import deque
 
 import numpy as np
@@ -101,32 +103,16 @@ def _level_starts(env, state, finished_at, now: float, running_until, gates) -> 
     return start
 
 
-def _earliest_starts_pass(order, node_groups, group_edges, sources, state, finished_at, running_until, shortest, adds,
-                          now, start, finish, nodes):
-    """Compiled by numba (:func:`_starts_pass`): :func:`_level_starts` in one pass, written into column
-    14 of ``nodes`` as seconds from ``now``. ``order``: the nodes of depth >= 1 by depth; node v's
-    alternative groups are ``node_groups[v]:node_groups[v + 1]``, group g's edges
-    ``group_edges[g]:group_edges[g + 1]``, their first nodes ``sources``. Same arithmetic as the levels
-    (float32 for a ready node's finish, NaN kept by min and max), so the same bits."""
+def _earliest_starts_pass(order, node_groups, group_edges, sources, state, is_root, finished_at, running_until,
+                          shortest, adds, now, finish, nodes):
+    """Compiled by numba (:func:`_starts_pass`): :func:`_level_starts` for the waiting nodes in ``order``
+    (by depth, all of depth >= 1; others in it are skipped), written into column 14 of ``nodes`` as
+    seconds from ``now`` (the other nodes' 0 is kept there by the environment). Node v's alternative
+    groups are ``node_groups[v]:node_groups[v + 1]``, group g's edges ``group_edges[g]:group_edges[g + 1]``,
+    their first nodes ``sources``; a source's finish comes from its state (done: when it finished;
+    running: when its robot is free; ready: now + its shortest handling, in float32; waiting: this pass's
+    ``finish``, a root's now). Same arithmetic as the levels (NaN kept by min and max), so the same bits."""
     now32 = np.float32(now)
-    for i in range(state.size):
-        s = state[i]
-        if s == 3:
-            finish[i] = finished_at[i]
-        elif s == 2:
-            f = running_until[i]
-            if f != f:
-                f = now
-            elif f == np.inf:
-                f = 1.7976931348623157e308  # nan_to_num's largest finite float
-            elif f == -np.inf:
-                f = -1.7976931348623157e308
-            finish[i] = f
-        elif s == 1:
-            finish[i] = now32 + shortest[i]
-        else:
-            finish[i] = now
-        start[i] = now
     for v in order:
         if state[v] != 0:
             continue
@@ -134,27 +120,74 @@ def _earliest_starts_pass(order, node_groups, group_edges, sources, state, finis
         for g in range(node_groups[v], node_groups[v + 1]):
             first = np.inf
             for e in range(group_edges[g], group_edges[g + 1]):
-                x = finish[sources[e]]
+                u = sources[e]
+                s = state[u]
+                if s == 3:
+                    x = finished_at[u]
+                elif s == 2:
+                    x = running_until[u]
+                    if x != x:
+                        x = now
+                    elif x == np.inf:
+                        x = 1.7976931348623157e308  # nan_to_num's largest finite float
+                    elif x == -np.inf:
+                        x = -1.7976931348623157e308
+                elif s == 1:
+                    x = now32 + shortest[u]
+                elif is_root[u]:
+                    x = now
+                else:
+                    x = finish[u]
                 if x < first or x != x:
                     first = x
             if first > bound or first != first:
                 bound = first
-        start[v] = bound
         finish[v] = bound + np.float64(adds[v])
-    for i in range(state.size):
-        nodes[i, 14] = start[i] - now
+        nodes[v, 14] = bound - now
 
 
-_PASS = []
+def _travel_column(rows, xy, x, y, speed, travel, j):
+    """Compiled by numba (:func:`_travel_pass`): column ``j`` of ``travel`` at ``rows``, the driving time
+    (s) from (x, y) to each row's point ``xy`` (site frame, m) at ``speed`` (m/s), stored as float32: the
+    bits of ``np.hypot(dx, dy) / speed`` of :func:`rebuild_observation`, at the cost of a square root.
+    sqrt(dx^2 + dy^2) / speed is within a few float64 ulps (about 1e-15) of hypot's; where every value
+    within 1e-14 of it rounds to the same float32, so does hypot's, else (about one in 10^7) hypot decides."""
+    for k in range(rows.size):
+        dx = xy[k, 0] - x
+        dy = xy[k, 1] - y
+        d = math.sqrt(dx * dx + dy * dy) / speed
+        if np.float32(d * (1.0 - 1e-14)) != np.float32(d * (1.0 + 1e-14)):
+            d = math.hypot(dx, dy) / speed
+        travel[rows[k], j] = d
+
+
+_COMPILED: dict = {}
+
+
+def _compiled(function):
+    """``function`` compiled by numba (cached next to this file; compiled on first use)."""
+    if function.__name__ not in _COMPILED:
+        from numba import njit
+
+        _COMPILED[function.__name__] = njit(cache=True)(function)
+    return _COMPILED[function.__name__]
 
 
 def _starts_pass():
-    """:func:`_earliest_starts_pass` compiled (numba, cached next to this file; compiled on first use)."""
-    if not _PASS:
-        from numba import njit
+    """:func:`_earliest_starts_pass` compiled."""
+    return _compiled(_earliest_starts_pass)
 
-        _PASS.append(njit(cache=True)(_earliest_starts_pass))
-    return _PASS[0]
+
+def _travel_pass():
+    """:func:`_travel_column` compiled."""
+    return _compiled(_travel_column)
+
+
+def _read_only(array: np.ndarray) -> np.ndarray:
+    """A view of ``array`` that cannot be written through (the environment's kept arrays, handed out)."""
+    view = array.view()
+    view.flags.writeable = False
+    return view
 
 
 def _mask(size: int, real: int) -> np.ndarray:

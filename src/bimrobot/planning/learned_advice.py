@@ -43,24 +43,35 @@ def advice(env: DispatchEnv) -> dict:
     """The advised policy's extra arrays at ``env``'s current decision (read-only on the simulation):
     ``advice`` (max_tasks, max_robots, advisers), ``advice_wait`` (advisers,), ``order_in_kind`` (max_tasks,)."""
     env = env.unwrapped
-    mine = _ADVICE.setdefault(env, {})
+    awarded, wait, order = advice_sparse(env)
     pairs = np.zeros((env.max_tasks, env.max_robots, len(ADVISERS)), np.float32)
+    for (node, robot), values in awarded.items():
+        pairs[node, robot] = values
+    return {"advice": pairs, "advice_wait": wait, "order_in_kind": order}
+
+
+def advice_sparse(env: DispatchEnv) -> tuple[dict, np.ndarray, np.ndarray]:
+    """:func:`advice` without the dense pair array: ({(node, robot): the advisers' values (advisers,)} of
+    the pairs some adviser awards now, ``advice_wait``, ``order_in_kind``)."""
+    env = env.unwrapped
+    mine = _ADVICE.setdefault(env, {})
+    awarded: dict = {}
     wait = np.zeros(len(ADVISERS), np.float32)
     order = np.zeros(env.max_tasks, np.float32)
     if env.sim is None:
-        return {"advice": pairs, "advice_wait": wait, "order_in_kind": order}
+        return awarded, wait, order
     if mine.get("sim") is not env.sim:  # a new episode: new advisers (the rules keep per-build scores)
         mine.update(sim=env.sim, dispatchers=[_adviser(name) for name in ADVISERS])
     for k, dispatcher in enumerate(mine["dispatchers"]):
         awards = dispatcher.awards(env.sim) or []
         wait[k] = not awards
         for rank, award in enumerate(awards):
-            node, robot = divmod(env.action_of(award.request, award.robot), env.max_robots)
-            pairs[node, robot, k] = 1.0 if rank == 0 else 0.5
+            pair = divmod(env.action_of(award.request, award.robot), env.max_robots)
+            awarded.setdefault(pair, np.zeros(len(ADVISERS), np.float32))[k] = 1.0 if rank == 0 else 0.5
     for pool in env.sim.build.pending.values():
         for rank, request in enumerate(sorted(pool)):  # the heap's order: the request's priority
             order[env._node_of(request)] = rank + 1
-    return {"advice": pairs, "advice_wait": wait, "order_in_kind": order}
+    return awarded, wait, order
 
 
 def advised_space(env: DispatchEnv) -> gym.spaces.Dict:
@@ -76,10 +87,16 @@ def advised_space(env: DispatchEnv) -> gym.spaces.Dict:
 
 
 def observe(env: gym.Env, advised: bool = True) -> dict:
-    """The observation at ``env``'s current decision, with the :func:`advice` arrays when ``advised``."""
+    """The observation at ``env``'s current decision, with the :func:`advice` arrays when ``advised``. The
+    environment's arrays are read-only views, valid until its next step: :func:`kept` copies them."""
     env = env.unwrapped
-    obs = env._observation()
+    obs = dict(env._observation())
     return {**obs, **advice(env)} if advised else obs
+
+
+def kept(obs: dict) -> dict:
+    """A copy of an observation from :func:`observe`, to keep beyond the environment's next step."""
+    return {k: v.copy() for k, v in obs.items()}
 
 
 class Advised(gym.ObservationWrapper):
@@ -156,7 +173,7 @@ def pilot_demonstrations(problem: DispatchProblem, pad: tuple[int, int, int]) ->
                 if makespan < best_s - 1e-9:
                     best_s, best = makespan, actions
         action = best[len(taken)]
-        observations.append(obs)
+        observations.append(kept(obs))
         masks.append(env.action_masks())
         taken.append(action)
         _, _, done, truncated, _ = env.step(action)

@@ -16,7 +16,7 @@ import gymnasium as gym
 import numpy as np
 
 from bimrobot.planning.dispatch import DispatchEnv, DispatchProblem, MarketPolicy, play
-from bimrobot.planning.learned_advice import Advised, observe, pilot_demonstrations
+from bimrobot.planning.learned_advice import Advised, kept, observe, pilot_demonstrations
 
 # ---------------------------------------------------------------- buildings for training
 #: the generated buildings of the training pool: (kind, grid) drawn with the run's seed
@@ -63,10 +63,10 @@ def sizes(problem: DispatchProblem) -> tuple[int, int, int]:
     return len(graph.keys), len(problem.fleet.robots), len(graph.edges)
 
 
-def env_for(problem: DispatchProblem) -> DispatchEnv:
-    """The environment of ``problem`` padded to its own size."""
+def env_for(problem: DispatchProblem, copy_observation: bool = True) -> DispatchEnv:
+    """The environment of ``problem`` padded to its own size (``copy_observation``: see :class:`DispatchEnv`)."""
     n, r, e = sizes(problem)
-    return DispatchEnv(problem, max_tasks=n, max_robots=r, max_edges=max(e, 1))
+    return DispatchEnv(problem, max_tasks=n, max_robots=r, max_edges=max(e, 1), copy_observation=copy_observation)
 
 
 def training_pool(seed: int, specs=TRAIN_SPECS) -> list[PoolEntry]:
@@ -133,7 +133,7 @@ def market_demonstrations(pool: list[PoolEntry], pad: tuple[int, int, int], advi
         env.reset(seed=0)
         done = truncated = False
         while not (done or truncated):
-            observations.append(observe(env, advised))
+            observations.append(kept(observe(env, advised)))
             action = policy(env)
             masks.append(env.action_masks())
             actions.append(action)
