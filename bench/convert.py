@@ -22,6 +22,7 @@ ratio <= 1.5.
     .venv/bin/python bench/convert.py --baseline /tmp/old/src   # also an older bimrobot (its src/), same run
     .venv/bin/python bench/convert.py --files ../shared/data/ifc/MULTICOM-Prefab.ifc --replicate 9  # 2,709 elements
     .venv/bin/python bench/convert.py --whole-process --repeat 2   # only the whole processes (CPU and wall)
+    .venv/bin/python bench/convert.py --whole-process --baseline /tmp/old/src   # and an older bimrobot's, in turn
 """
 
 from __future__ import annotations
@@ -127,13 +128,14 @@ def product_ids(path: Path, workdir: Path) -> Path:
     return out
 
 
-def whole_process(argv: list[str], cwd: Path) -> tuple[float, float]:
+def whole_process(argv: list[str], cwd: Path, src: Path | None = None) -> tuple[float, float]:
     """(wall s, CPU s) of running ``argv`` to its exit, as a user waits: wall from start to exit, CPU the
     user + system time of the process and every descendant it waited for (its geometry processes); it
-    must exit 0. CPU is the figure to compare on a loaded machine, where wall includes other work."""
+    must exit 0. CPU is the figure to compare on a loaded machine, where wall includes other work.
+    ``src``: import bimrobot from that folder (an older version) instead."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     start = time.perf_counter()
-    result = subprocess.run(argv, cwd=cwd, capture_output=True, text=True, check=False)
+    result = subprocess.run(argv, cwd=cwd, capture_output=True, text=True, check=False, env=_env(src))
     seconds = time.perf_counter() - start
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     if result.returncode != 0:
@@ -141,19 +143,30 @@ def whole_process(argv: list[str], cwd: Path) -> tuple[float, float]:
     return seconds, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
 
 
-def bench_whole_process(path: Path, ids: Path, index: int, workdir: Path) -> dict:
+def bench_whole_process(path: Path, ids: Path, index: int, workdir: Path, baseline: Path | None = None) -> dict:
     """One pair of whole-process runs: the reference at its best thread count (least CPU, and least
-    wall), then ``bimrobot convert``."""
+    wall), then ``bimrobot convert``; with ``baseline`` (an older bimrobot's src/), its convert too."""
     from bimrobot.bim.reader import GEOMETRY_LIBRARY, default_threads
 
     references = [whole_process([sys.executable, "-c", IFCOPENSHELL_ALONE, str(path), str(threads), str(ids),
                                  GEOMETRY_LIBRARY], workdir) for threads in sorted({1, default_threads()})]
     out = workdir / f"{path.stem}_process_{index}"
-    convert = whole_process([sys.executable, "-m", "bimrobot", "convert", str(path), "-o", str(out), "--no-progress"],
-                            workdir)
+    command = [sys.executable, "-m", "bimrobot", "convert", str(path), "-o", str(out), "--no-progress"]
+    convert = whole_process(command, workdir)
     shutil.rmtree(out, ignore_errors=True)
-    return {"iterate_s": min(wall for wall, _ in references), "iterate_cpu_s": min(cpu for _, cpu in references),
-            "convert_s": convert[0], "convert_cpu_s": convert[1]}
+    run = {"iterate_s": min(wall for wall, _ in references), "iterate_cpu_s": min(cpu for _, cpu in references),
+           "convert_s": convert[0], "convert_cpu_s": convert[1]}
+    if baseline is not None:
+        run["baseline_cpu_s"] = whole_process(command, workdir, src=baseline)[1]
+        shutil.rmtree(out, ignore_errors=True)
+    return run
+
+
+def _env(src: Path | None) -> dict | None:
+    """The environment of a child that imports bimrobot from ``src`` (None: this one's)."""
+    if src is None:
+        return None
+    return dict(os.environ, PYTHONPATH=os.pathsep.join([str(src), os.environ.get("PYTHONPATH", "")]).rstrip(os.pathsep))
 
 
 def _peak_mb() -> float:
@@ -162,11 +175,8 @@ def _peak_mb() -> float:
 
 def run_child(*args: str, src: Path | None = None) -> dict:
     """Run this script as a child; ``src``: import bimrobot from that folder (an older version) instead."""
-    env = None
-    if src is not None:
-        env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(src), os.environ.get("PYTHONPATH", "")]).rstrip(os.pathsep))
     result = subprocess.run([sys.executable, __file__, "--child", *args], capture_output=True, text=True, check=False,
-                            env=env)
+                            env=_env(src))
     if result.returncode != 0:
         raise RuntimeError(f"bench child {args} failed:\n{result.stderr[-2000:]}")
     return json.loads(result.stdout.strip().splitlines()[-1])
@@ -190,7 +200,7 @@ def bench_file(path: Path, repeat: int, workdir: Path, baseline: Path | None = N
         if baseline is not None:
             older.append((iterate, run_child("convert", str(path), str(workdir / f"{path.stem}_{index}_old"), src=baseline)))
     for index in range(repeat):
-        processes.append(bench_whole_process(path, ids, index, workdir))
+        processes.append(bench_whole_process(path, ids, index, workdir, baseline if not in_process else None))
     elements = len(json.loads(ids.read_text()))  # the products both read
     geometry_cpu_s = run_child("iterate", str(path), "1")["cpu_seconds"]  # one thread: CPU s = the geometry's work
     return {"file": path.name, "runs": runs, "baseline": older, "processes": processes, "elements": elements,
@@ -394,6 +404,21 @@ def process_table(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
+def baseline_process_table(rows: list[dict], baseline: Path) -> str:
+    """Whole-process CPU of an older bimrobot's ``convert`` (``--baseline``) and of this one, run in turn
+    against the same IfcOpenShell-alone run: median CPU s and min/median/max of each ratio."""
+    lines = [f"| file | IfcOpenShell alone CPU s | {baseline} convert CPU s | ratio min/med/max | this version CPU s "
+             "| ratio min/med/max |", "|---|---:|---:|---:|---:|---:|"]
+    for row in rows:
+        runs = row["processes"]
+        old = [run["baseline_cpu_s"] / run["iterate_cpu_s"] for run in runs]
+        new = [run["convert_cpu_s"] / run["iterate_cpu_s"] for run in runs]
+        lines.append(f"| {row['file']} | {statistics.median(r['iterate_cpu_s'] for r in runs):.2f} | "
+                     f"{statistics.median(r['baseline_cpu_s'] for r in runs):.2f} | {_spread(old)} | "
+                     f"{statistics.median(r['convert_cpu_s'] for r in runs):.2f} | {_spread(new)} |")
+    return "\n".join(lines)
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--files", nargs="*", type=Path, help="IFC files (default: shared data + examples)")
@@ -434,7 +459,10 @@ def main(argv: list[str] | None = None) -> int:
         print(table(rows))
     print("\nWhole process (interpreter start, imports, work, exit), as a user waits:\n")
     print(process_table(rows))
-    if args.baseline:
+    if args.baseline and args.whole_process:
+        print(f"\nSame run, whole processes, {args.baseline} (baseline) against this version:\n")
+        print(baseline_process_table(rows, args.baseline))
+    elif args.baseline:
         print(f"\nSame run, {args.baseline} (baseline) against this version, ratio to the iterator min/median/max:\n")
         print("| file | baseline | this version |\n|---|---:|---:|")
         for row in rows:
