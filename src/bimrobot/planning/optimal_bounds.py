@@ -1,7 +1,8 @@
 """Redundant constraints and cuts of the CP-SAT model (:mod:`bimrobot.planning.optimal`), for its
 lower bound: per floor, each robot's work and drives between the gate below and the floor's own gate
 (:func:`_floor_loads`, :class:`_Visits`), the fastest split of work two robots share (subset sums) and
-the two-stage bound (:func:`_staged_bound`). Times in ticks (0.01 s)."""
+the two-stage bound (:func:`_staged_bound`), and on the lowest floor each robot's start after its first
+task's lead-in (:func:`_first_lead`). Times in ticks (0.01 s)."""
 
 from __future__ import annotations
 
