@@ -41,7 +41,6 @@ from bimrobot.site.site import site_for
 from bimrobot.export.gazebo import launch
 from bimrobot.export.gazebo import layout
 from bimrobot.export.gazebo.bodies import Geometries, Geometry
-from bimrobot.export.gazebo import merge
 from bimrobot.export.gazebo import meshes
 from bimrobot.core import pool
 from bimrobot.export.gazebo import sdf
@@ -55,6 +54,7 @@ from bimrobot.export.gazebo.package_report import (duplicate_keys, package_repor
 
 if TYPE_CHECKING:  # mass properties need trimesh and SciPy: imported where the bodies are made
     from bimrobot.export import inertia as physics
+    from bimrobot.export.gazebo import merge  # --merge-static only: imported by the work that needs it
 
 log = logging.getLogger(__name__)
 
@@ -337,6 +337,7 @@ def _merged_models(model: BuildingModel, converted: list[_Converted], options: C
     models (bimrobot.export.gazebo.merge); set each member's ``model``. Raises InputError for a class name the
     schema does not have."""
     from bimrobot.bim.reader import class_lineage  # bim/ owns the IFC schema
+    from bimrobot.export.gazebo import merge
 
     keep = set()
     for name in options.keep_separate:
@@ -416,6 +417,8 @@ def _model_task(task) -> tuple[list, dict | None]:
         entry = write_map(pool.shared["maps_dir"], converted, pool.shared["map_plan"], payload, options)
         return [], {"map": payload, "entry": entry}
     if kind == "merged":
+        from bimrobot.export.gazebo import merge
+
         merged = pool.shared["merged"][payload]
         items = [converted[i] for i in merged.members]
         for item in items:

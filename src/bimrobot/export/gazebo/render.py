@@ -13,7 +13,6 @@ import numpy as np
 
 from bimrobot.core import io
 from bimrobot.core.frames import sdf_pose_matrix as pose_matrix  # the SDF pose's transform, said in bimrobot.core.frames
-from bimrobot.export.gazebo.check import read_models
 
 
 def _pose_matrix(text: str) -> np.ndarray:
@@ -22,6 +21,8 @@ def _pose_matrix(text: str) -> np.ndarray:
 
 def world_triangles(package: Path, world_file: str | None = None) -> tuple[np.ndarray, np.ndarray]:
     """All visual triangles of the world in world coordinates (k, 3, 3) and their RGBA colours (k, 4)."""
+    from bimrobot.export.gazebo.check import read_models  # reading a package back: not convert's own picture
+
     package = Path(package)
     world_path = package / world_file if world_file else sorted((package / "worlds").glob("*"))[0]
     world = ET.parse(world_path).getroot()
