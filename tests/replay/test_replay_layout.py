@@ -119,20 +119,36 @@ def test_the_gantt_has_one_bar_per_activity_at_its_times(frame_build, frame_reco
 
 
 def test_the_eye_frames_the_building_and_the_panels_follow_the_timeline(frame_record):
-    """Every corner of the building is inside the 3D view's field of view (55 degrees), the eye looks
-    at its centre; the schedule's panels come first for a build, RCAN's alone for an RCAN run."""
-    from bimrobot.replay.layout import FIELD_OF_VIEW_DEG, building_bounds, building_eye, main_timeline
+    """Seen through the 3D view's eye (Rerun's: 55 degrees vertical, a view 1.5 times as wide as
+    high), every corner of every element's box is on screen, the building is centred and fills 85-90 %
+    of the view's height or width (MULTICOM-Prefab's eye once kept it to a third of the view in the
+    browser: a cone inside the vertical field of view, around its bounding box's empty corners); the
+    schedule's panels come first for a build."""
+    from bimrobot.replay.layout import (EYE_DIRECTION, FILL, VIEW_ASPECT, building_eye, building_points,
+                                        main_timeline, screen_position)
 
     eye = building_eye(frame_record)
     position = np.array(eye.position.as_arrow_array().to_pylist()[0])
     target = np.array(eye.look_target.as_arrow_array().to_pylist()[0])
-    low, high = building_bounds(frame_record)
-    assert np.allclose(target, (low + high) / 2)
-    corners = np.array([[x, y, z] for x in (low[0], high[0]) for y in (low[1], high[1]) for z in (low[2], high[2])])
-    axis = (target - position) / np.linalg.norm(target - position)
-    rays = (corners - position) / np.linalg.norm(corners - position, axis=1, keepdims=True)
-    angles = np.degrees(np.arccos(rays @ axis))
-    assert FIELD_OF_VIEW_DEG / 2 * 0.7 < angles.max() < FIELD_OF_VIEW_DEG / 2  # inside, and filling most of it
+    assert np.allclose((position - target) / np.linalg.norm(position - target),
+                       EYE_DIRECTION / np.linalg.norm(EYE_DIRECTION))  # from the south-east, above
+    seen = screen_position(position, target, building_points(frame_record))
+    # independent of screen_position: a camera of Rerun's built from position and target alone
+    forward = (target - position) / np.linalg.norm(target - position)
+    right = np.cross(forward, [0.0, 0.0, 1.0])
+    right /= np.linalg.norm(right)
+    up = np.cross(right, forward)
+    rays = building_points(frame_record) - position
+    depth = rays @ forward
+    assert depth.min() > 0  # nothing behind the eye
+    half = np.tan(np.radians(55.0) / 2)
+    seen_again = np.stack([rays @ right / depth / (half * VIEW_ASPECT), rays @ up / depth / half], axis=1)
+    assert np.allclose(seen, seen_again)
+    reach = np.abs(seen).max(axis=0)
+    assert reach.max() == pytest.approx(FILL, abs=0.01) and FILL >= 0.85  # fills the height or the width
+    assert np.all(reach <= FILL + 0.01)  # nothing cut off
+    middle = (seen.min(axis=0) + seen.max(axis=0)) / 2
+    assert np.abs(middle).max() < 0.02  # centred
     assert main_timeline(frame_record) == "sim_time"
 
 

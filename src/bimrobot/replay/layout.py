@@ -1,7 +1,7 @@
 """The replay's blueprint: what the viewer shows when a recording opens (Rerun's ``rerun.blueprint``).
 
 - the 3D view, left, looks at the building (not the whole site) from the south-east and above, as
-  close as lets the whole building fit the view (:func:`building_eye`);
+  close as lets the whole building fit the view, centred in it (:func:`building_eye`);
 - on the right one set of panels per timeline the recording has, as tabs: the schedule's
   (``sim_time``: the Gantt of bars, components per state, the activities) and RCAN's (``rcan_time``
   and ``physics_time``: RCAN's Gantt, activities done, RCAN's activities); the tab of the timeline
@@ -19,8 +19,13 @@ from bimrobot.replay.inputs import BuildRecord
 #: field of view the distance is chosen for (degrees; Rerun's default eye).
 EYE_DIRECTION = np.array([0.55, -0.7, 0.45])
 FIELD_OF_VIEW_DEG = 55.0
-#: Share of the half field of view the building's farthest corner may take (1.0: at the view's edge).
-FILL = 0.8
+#: Width / height of the 3D view the eye is framed for: 3/5 of the window beside the panels, above
+#: the expanded time panel (a 1280 x 800 browser window: 755 x 445 pixels, 1.7; a 1920 x 1080 screen
+#: about 1.5). A wider view leaves room at the sides; a narrower one, down to 1.5 x FILL (1.35), still shows
+#: the whole building.
+VIEW_ASPECT = 1.5
+#: Share of the view's half width and half height the building may take (1.0: to the view's edge).
+FILL = 0.9
 SCHEDULE_TAB = "Schedule (sim_time)"
 RCAN_TAB = "RCAN (rcan_time, physics_time)"
 
@@ -97,29 +102,63 @@ def building_bounds(record: BuildRecord) -> tuple[np.ndarray, np.ndarray]:
     return boxes.min(axis=0), boxes.max(axis=0)
 
 
+def building_points(record: BuildRecord) -> np.ndarray:
+    """(N, 3) the corners of each element's box at its installed pose (m): the building's outline,
+    tighter than the corners of its one bounding box (a sparse building leaves those in empty air)."""
+    signs = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)])
+    boxes = np.array([p.world_bounds(p.installed_pose) for p in record.pieces.values()])  # (n, 2, 3)
+    return boxes[:, signs, [0, 1, 2]].reshape(-1, 3)
+
+
+def screen_position(eye: np.ndarray, target: np.ndarray, points: np.ndarray, aspect: float = VIEW_ASPECT) -> np.ndarray:
+    """(N, 2) where ``points`` appear in a 3D view looking from ``eye`` at ``target`` with z up, as
+    Rerun's eye projects them (vertical field of view :data:`FIELD_OF_VIEW_DEG`, ``aspect`` width /
+    height): x right and y up, -1 and 1 at the view's edges; a point behind the eye is at infinity."""
+    right, up, back = _eye_axes(eye - target)
+    relative = points - eye
+    depth = np.maximum(-(relative @ back), 1e-9)
+    half = np.tan(np.radians(FIELD_OF_VIEW_DEG) / 2)
+    return np.stack([relative @ right / depth / (half * aspect), relative @ up / depth / half], axis=1)
+
+
 def building_eye(record: BuildRecord):
-    """The 3D eye framing the building: looking at its centre from :data:`EYE_DIRECTION`, as close as
-    lets every corner of its bounding box lie within :data:`FILL` of the half field of view; z up."""
+    """The 3D eye framing the building: looking from :data:`EYE_DIRECTION`, z up, as close as keeps
+    every element within :data:`FILL` of the view's half width and half height (a view of
+    :data:`VIEW_ASPECT`), with the building centred in the view (:func:`frame_points`)."""
     import rerun.blueprint as rrb
 
-    low, high = building_bounds(record)
-    centre = (low + high) / 2
-    corners = np.array([[x, y, z] for x in (low[0], high[0]) for y in (low[1], high[1]) for z in (low[2], high[2])])
+    eye, target = frame_points(building_points(record))
+    return rrb.EyeControls3D(position=eye, look_target=target, eye_up=[0.0, 0.0, 1.0])
+
+
+def frame_points(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(eye, target) in metres: the eye along :data:`EYE_DIRECTION` from the target, at the distance
+    where the farthest of ``points`` reaches :data:`FILL` of the view's edge (bisection), the target
+    moved (a few rounds) until the points' extent on screen is centred."""
     direction = EYE_DIRECTION / np.linalg.norm(EYE_DIRECTION)
-    limit = FILL * np.radians(FIELD_OF_VIEW_DEG) / 2
-    near, far = 0.01, 100.0 * max(float(np.linalg.norm(high - low)), 1.0)
-    for _ in range(60):  # bisection: the corners' largest angle from the view axis falls with distance
-        distance = (near + far) / 2
-        near, far = (distance, far) if corner_angle(centre + distance * direction, centre, corners) > limit else (near, distance)
-    return rrb.EyeControls3D(position=centre + far * direction, look_target=centre, eye_up=[0.0, 0.0, 1.0])
+    low, high = points.min(axis=0), points.max(axis=0)
+    target, size = (low + high) / 2, max(float(np.linalg.norm(high - low)), 1.0)
+    for _ in range(6):
+        near, far = 0.01, 100.0 * size
+        for _ in range(60):  # bisection: the farthest point's place on screen falls with the distance
+            distance = (near + far) / 2
+            reach = np.abs(screen_position(target + distance * direction, target, points)).max()
+            near, far = (distance, far) if reach > FILL else (near, distance)
+        eye = target + far * direction
+        on_screen = screen_position(eye, target, points)
+        middle = (on_screen.min(axis=0) + on_screen.max(axis=0)) / 2
+        right, up, _ = _eye_axes(direction)
+        half = np.tan(np.radians(FIELD_OF_VIEW_DEG) / 2)  # the shift at the target's depth
+        target = target + far * half * (middle[0] * VIEW_ASPECT * right + middle[1] * up)
+    return target + far * direction, target
 
 
-def corner_angle(eye: np.ndarray, target: np.ndarray, corners: np.ndarray) -> float:
-    """The largest angle (radians) between the view axis (eye -> target) and a ray to a corner."""
-    axis = (target - eye) / np.linalg.norm(target - eye)
-    rays = corners - eye
-    rays = rays / np.maximum(np.linalg.norm(rays, axis=1, keepdims=True), 1e-12)
-    return float(np.arccos(np.clip(rays @ axis, -1.0, 1.0)).max())
+def _eye_axes(backward: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Unit right, up and back axes of an eye whose back axis is ``backward`` (target -> eye), z up."""
+    back = backward / np.linalg.norm(backward)
+    right = np.cross([0.0, 0.0, 1.0], back)
+    right = right / np.linalg.norm(right)
+    return right, np.cross(back, right), back
 
 
 def main_timeline(record: BuildRecord | None) -> str:
