@@ -45,13 +45,18 @@ def test_every_robot_kind_of_a_fleet_bids_for_its_own_task():
                           "assembly": (Task.ASSEMBLE,), "mobile_manipulator": TASKS}
 
 
-def test_the_simulation_and_the_schedule_file_share_one_activity_record():
+def test_the_simulation_and_the_schedule_file_share_one_activity_record(tmp_path):
     # One schedule row type: a row the simulation records is the row the CSV reader gives back, so
     # every field (aborted included) and the duration mean the same everywhere.
-    from bimrobot.coordination import simulation
-    from bimrobot.schedule import csv as schedule
     from bimrobot.core.tasks import Activity
+    from bimrobot.planning.dispatch import frame_problem
+    from bimrobot.planning.planners import plan
+    from bimrobot.schedule.csv import load_schedule_csv, write_schedule_csv
 
-    assert simulation.Activity is schedule.Activity is Activity
+    recorded = plan("market", frame_problem())[0].activities
+    assert recorded and all(type(a) is Activity for a in recorded)
+    read_back = load_schedule_csv(write_schedule_csv(recorded, tmp_path / "schedule.csv")).activities
+    assert all(type(a) is Activity for a in read_back)
+    assert [(a.id, a.activity, a.global_id, a.robot) for a in read_back] == [(a.id, a.activity, a.global_id, a.robot) for a in recorded]
     row = Activity("A1", "Transport C1", Task.TRANSPORT, "C1", "crane", 2.0, 7.5, target=(1.0, 0.0, 3.0))
     assert row.duration == 5.5 and not row.aborted and row.predefined_type == ""

@@ -46,9 +46,9 @@ from bimrobot.core.errors import BimrobotError, InputError
 from bimrobot.sco.build import SmartModel, gc_paused
 from bimrobot.sco.component import Component, Joint
 from bimrobot.sco.states import Event, State, at_least
-from bimrobot.core.tasks import TASKS, Activity, Task  # Activity: the one schedule row, re-exported here
+from bimrobot.core.tasks import TASKS, Task
 
-__all__ = ["ConstructionSimulation", "SimulationResult", "BuildState", "RobotStats", "Activity", "simulate"]
+__all__ = ["ConstructionSimulation", "simulate"]
 
 log = logging.getLogger(__name__)
 

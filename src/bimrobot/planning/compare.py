@@ -9,7 +9,8 @@ import statistics
 from pathlib import Path
 from typing import Callable
 
-from bimrobot.site.fleet import Fleet, Site
+from bimrobot.site.fleet import Fleet
+from bimrobot.site.site import Site
 from bimrobot.coordination.simulation import simulate
 from bimrobot.core.errors import BimrobotError
 from bimrobot.sco.build import SmartModel

@@ -21,7 +21,8 @@ from gymnasium import spaces
 
 from bimrobot.site.fleet import Fleet
 from bimrobot.coordination.market import Dispatcher, MarketDispatcher, handling_time, incapability, make_evaluator
-from bimrobot.coordination.simulation import ConstructionSimulation, SimulationResult
+from bimrobot.coordination.simulation import ConstructionSimulation
+from bimrobot.coordination.run_state import SimulationResult
 from bimrobot.core.errors import BimrobotError, InputError
 from bimrobot.core.tasks import Task
 from bimrobot.planning.dispatch_observation import (_depths, _in_edges, _levels, _mask, _read_only, _starts_pass,

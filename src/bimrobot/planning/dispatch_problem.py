@@ -13,7 +13,8 @@ from pathlib import Path
 
 import numpy as np
 
-from bimrobot.site.fleet import Fleet, Site, load_fleet
+from bimrobot.site.fleet import Fleet, load_fleet
+from bimrobot.site.site import Site
 from bimrobot.coordination.simulation import ConstructionSimulation
 from bimrobot.core.errors import InputError
 from bimrobot.sco.build import SmartModel

@@ -48,7 +48,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from bimrobot.site.fleet import Fleet, Site
+from bimrobot.site.fleet import Fleet
+from bimrobot.site.site import Site
 from bimrobot.coordination.market import incapability
 from bimrobot.coordination.simulation import ConstructionSimulation
 from bimrobot.core.errors import InputError, require_extra

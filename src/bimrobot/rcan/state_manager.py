@@ -30,8 +30,7 @@ from bimrobot.core.errors import InputError
 from bimrobot.rcan.activities import ActivityKind
 from bimrobot.rcan.backends.info import ActivityResult
 from bimrobot.rcan.node import RcanNode
-from bimrobot.rcan.state_db import (SCHEMA, _alive, _process_start, check_plan, connect_state_db,
-                                    is_state_db, write_lock)  # noqa: F401 (is_state_db: replay/ still imports it from here)
+from bimrobot.rcan.state_db import SCHEMA, _alive, _process_start, check_plan, connect_state_db, write_lock
 from bimrobot.sco.states import Event, State, at_least, next_state
 
 log = logging.getLogger(__name__)

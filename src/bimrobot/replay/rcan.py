@@ -110,7 +110,7 @@ def state_db_of(folder: Path) -> Path | None:
 
 def load_rcan_run(folder: Path) -> RcanRun:
     """Read an RCAN run folder (module docstring); InputError when its report or database is not RCAN's."""
-    from bimrobot.rcan.state_manager import is_state_db
+    from bimrobot.rcan.state_db import is_state_db
 
     report_path = folder / "report.json"
     try:

@@ -54,7 +54,7 @@ from pathlib import Path
 from bimrobot.core.config import check_keys, line_of, parse_yaml, read_yaml_file
 from bimrobot.core.errors import InputError
 from bimrobot.sco.timing import RobotTimes
-from bimrobot.site.site import SITE_COORDINATE_LIMIT_M, Site  # noqa: F401 (Site: planning/ still imports it from here)
+from bimrobot.site.site import SITE_COORDINATE_LIMIT_M
 from bimrobot.core.schema import (At, Choice, Coordinates, Custom, Name, Ordered, Quantity, Subset, Vector, keys_of,
                                   quantities_of, read_keys, rule, rules_of)
 from bimrobot.core.tasks import KIND_TASKS, TASKS, ActivityKind, Task
