@@ -8,11 +8,18 @@ Makespans in simulated seconds; no timing.
 
     .venv/bin/python bench/learned_policy.py [POLICY.zip]                 # default: the shipped policy
     .venv/bin/python bench/learned_policy.py --validation A.zip B.zip ...   # pick among policies
+    .venv/bin/python bench/learned_policy.py --scale generated:steel:100:seed=0 generated:steel:1000:seed=0 [--reference]
 
 ``--validation`` plays each policy alone on generated buildings that no training run draws (seeds from
 9,000), larger than the training ones, and prints each policy's mean and worst makespan in per cent of the
 market's: how a policy is chosen without looking at the real models (docs/planning.md, "How it was chosen":
 the lowest mean among those never longer than the market on any of them).
+
+``--scale`` measures the shipped policy's planning cost on generated buildings (per node, the drawn fleet
+and site, as ``bench/dispatch.py``): this process's CPU seconds of the policy alone and of the guarded
+planner (policy and market), per decision, and where the policy's go (observation, advice, network; the
+rest is the environment's simulation). ``--reference`` also plays sb3-contrib's path (every pair scored)
+and checks that it takes the same actions.
 """
 
 import sys
@@ -64,6 +71,45 @@ def validation(paths) -> None:
     print("| worst | | " + " | ".join(f"{max(r) - 100:+.2f} %" for r in ratios) + " |")
 
 
+def scale(specs, reference: bool) -> None:
+    """CPU seconds of the shipped policy alone and guarded, per decision, on each generated building."""
+    import time
+
+    from bimrobot.planning.benchmark import problem_for
+    from bimrobot.planning.learned import LearnedPolicy, load_policy, sizes
+
+    th.set_num_threads(1)
+    from bimrobot.planning.dispatch import DispatchEnv
+
+    DispatchEnv().reset(seed=0)  # the numba passes loaded (or compiled) outside the measured runs
+    print("| building | nodes | decisions | policy CPU s | ms per decision | observation | advice | network | "
+          "environment | guarded CPU s | sb3 path ms per decision |")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+    for spec in specs:
+        problem = problem_for(spec, per_joint=False)[0]
+        planner = LearnedPlanner(None, guard=False)
+        policy = LearnedPolicy(load_policy(planner.path, env_for(problem)))
+        start = time.process_time()
+        awards, result = planner.play(problem, policy)
+        alone = time.process_time() - start
+        decisions = policy.decisions
+        start = time.process_time()
+        LearnedPlanner(None, guard=True).dispatcher(problem)
+        guarded = time.process_time() - start
+        ms = {k: 1000 * v / decisions for k, v in policy.cpu.items()}
+        rest = 1000 * alone / decisions - sum(ms.values())
+        sb3 = ""
+        if reference:
+            full = LearnedPolicy(policy.policy, fast=False)
+            start = time.process_time()
+            same, _ = planner.play(problem, full)
+            sb3 = f"{1000 * (time.process_time() - start) / decisions:.2f}"
+            assert same == awards, "the fast greedy choice must be sb3-contrib's"
+        print(f"| {spec} | {sizes(problem)[0]:,} | {decisions:,} | {alone:.1f} | {1000 * alone / decisions:.2f} | "
+              f"{ms['observation']:.2f} | {ms['advice']:.2f} | {ms['network']:.2f} | {rest:.2f} | {guarded:.1f} | {sb3} |",
+              flush=True)
+
+
 def main(path) -> None:
     th.set_num_threads(1)
     planner = LearnedPlanner(path)
@@ -86,5 +132,7 @@ def main(path) -> None:
 if __name__ == "__main__":
     if sys.argv[1:2] == ["--validation"]:
         validation(sys.argv[2:])
+    elif sys.argv[1:2] == ["--scale"]:
+        scale([a for a in sys.argv[2:] if a != "--reference"], "--reference" in sys.argv)
     else:
         main(sys.argv[1] if len(sys.argv) > 1 else DEFAULT_POLICY)

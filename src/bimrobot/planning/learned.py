@@ -37,8 +37,11 @@ Times in seconds, positions in metres (site frame x, y; model frame z, z up), ma
 
 from __future__ import annotations
 
+import contextlib
 import json
 import shlex
+import time
+import warnings
 import zipfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -52,7 +55,7 @@ from torch import nn
 from bimrobot.coordination.market import Award, Dispatcher, propose
 from bimrobot.core.errors import InputError
 from bimrobot.planning.dispatch import NODE_FEATURES, ROBOT_FEATURES, DispatchProblem
-from bimrobot.planning.learned_advice import (ADVISERS, EXTRA_NODE_FEATURES, Advised, advice, advised_space, observe,
+from bimrobot.planning.learned_advice import (ADVISERS, EXTRA_NODE_FEATURES, Advised, advice, advice_sparse, advised_space, observe,
                                               pilot_demonstrations)
 from bimrobot.planning.learned_pool import (TRAIN_SPECS, PerCentOfMarket, PoolEntry, _pad, env_for, generated_problem,
                                             make_training_env, market_demonstrations, pilot_teacher, sizes,
@@ -102,6 +105,17 @@ class DispatchExtractor(nn.Module):
         self.value = _mlp(2 * hidden, hidden)
 
     def forward(self, obs: dict) -> th.Tensor:
+        h, g, context = self.embed(obs)
+        advice = obs["advice"].float() if self.advisers else None
+        scalars = self._scalars(obs["handling_s"].float(), obs["travel_s"].float(), obs["compatibility"].float(), advice)
+        pair = (self.pair_node(h)[:, :, None, :] + self.pair_robot(g)[:, None, :, :]
+                + self.pair_scalars(scalars) + self.pair_context(context)[:, None, None, :])  # (B, N, R, H)
+        logits = self.pair_out(pair).flatten(1)  # (B, N * R)
+        return th.cat([logits, self.wait(self._waiting(context, obs)), self.value(context)], dim=1)
+
+    def embed(self, obs: dict) -> tuple[th.Tensor, th.Tensor, th.Tensor]:
+        """(node embeddings (B, N, H) after the message passing, robot embeddings (B, R, H), the pooled
+        context (B, 2H)): what every logit reads; the whole graph, O(nodes + edges)."""
         node_mask = obs["node_mask"].float()  # (B, N)
         robot_mask = obs["robot_mask"].float()  # (B, R)
         nodes = obs["node_features"]
@@ -111,17 +125,28 @@ class DispatchExtractor(nn.Module):
         g = self.robot_in(symlog(obs["robot_features"])) * robot_mask[..., None]  # (B, R, H)
         for layer in self.passes:
             h = (h + layer(th.cat([h, *self._messages(h, obs)], dim=-1))) * node_mask[..., None]
-        context = th.cat([_mean(h, node_mask), _mean(g, robot_mask)], dim=-1)  # (B, 2H)
-        handling, travel = obs["handling_s"].float(), obs["travel_s"].float()
-        scalars = th.stack([symlog(handling), symlog(travel), symlog(handling + travel), obs["compatibility"].float()], -1)
-        waiting = context
-        if self.advisers:
-            scalars = th.cat([scalars, obs["advice"].float()], dim=-1)
-            waiting = th.cat([context, obs["advice_wait"].float()], dim=-1)
-        pair = (self.pair_node(h)[:, :, None, :] + self.pair_robot(g)[:, None, :, :]
-                + self.pair_scalars(scalars) + self.pair_context(context)[:, None, None, :])  # (B, N, R, H)
-        logits = self.pair_out(pair).flatten(1)  # (B, N * R)
-        return th.cat([logits, self.wait(waiting), self.value(context)], dim=1)
+        return h, g, th.cat([_mean(h, node_mask), _mean(g, robot_mask)], dim=-1)
+
+    def pair_logits(self, h: th.Tensor, g: th.Tensor, context: th.Tensor, pairs: dict) -> th.Tensor:
+        """The logits of some (task, robot) pairs of one observation (batch 1): ``pairs`` holds their
+        ``node`` and ``robot`` indices (K,), ``handling_s``, ``travel_s``, ``compatibility`` (K,) and, advised,
+        ``advice`` (K, advisers). Per pair the arithmetic of :meth:`forward`, on K pairs instead of all."""
+        scalars = self._scalars(pairs["handling_s"], pairs["travel_s"], pairs["compatibility"], pairs.get("advice"))
+        pair = (self.pair_node(h[0, pairs["node"]]) + self.pair_robot(g[0, pairs["robot"]])
+                + self.pair_scalars(scalars) + self.pair_context(context))  # (K, H)
+        return self.pair_out(pair)[:, 0]
+
+    def wait_logit(self, context: th.Tensor, obs: dict) -> th.Tensor:
+        """The wait logit (B, 1), as :meth:`forward`'s."""
+        return self.wait(self._waiting(context, obs))
+
+    def _waiting(self, context: th.Tensor, obs: dict) -> th.Tensor:
+        return th.cat([context, obs["advice_wait"].float()], dim=-1) if self.advisers else context
+
+    def _scalars(self, handling: th.Tensor, travel: th.Tensor, compatible: th.Tensor, advice) -> th.Tensor:
+        """Per pair: handling, travel, their sum (s, symlog), compatible[, the advisers' awards]."""
+        scalars = th.stack([symlog(handling), symlog(travel), symlog(handling + travel), compatible], -1)
+        return th.cat([scalars, advice], dim=-1) if self.advisers else scalars
 
     @staticmethod
     def _messages(h: th.Tensor, obs: dict) -> tuple[th.Tensor, th.Tensor]:
@@ -344,18 +369,84 @@ def load_policy(path: str | Path, env: gym.Env):
 
 # ---------------------------------------------------------------- the planner
 class LearnedPolicy:
-    """``policy(env) -> action``: the greedy masked choice of a loaded policy on a :class:`DispatchEnv`."""
+    """``policy(env) -> action``: the greedy masked choice of a loaded policy on a :class:`DispatchEnv`,
+    the valid action of the highest logit (the first in action order on a tie), as sb3-contrib's
+    deterministic action. ``fast`` (default): the embedding runs over the whole graph, the pair scores
+    only for the valid awards, and a decision with one valid action takes it without the network;
+    False: sb3-contrib's masked distribution over every (task, robot) pair (tests compare the two).
+    ``cpu`` adds up this process's CPU seconds in the observation, the advice and the network over its
+    ``decisions``, of which ``forced`` had one valid action."""
 
-    def __init__(self, policy):
+    def __init__(self, policy, fast: bool = True):
         self.policy = policy
+        self.fast = fast
+        self.cpu = {"observation": 0.0, "advice": 0.0, "network": 0.0}
+        self.decisions = self.forced = 0
+        self._edges: tuple = (None, None)
 
     def __call__(self, env: gym.Env) -> int:
         env = env.unwrapped
+        self.decisions += 1
+        return self._fast(env) if self.fast else self._full(env)
+
+    def _full(self, env) -> int:
         advised = bool(self.policy.features_extractor.advisers)
-        obs = {k: th.as_tensor(v[None]).float() for k, v in observe(env, advised).items()}
+        with _writable_ignored():
+            obs = {k: th.as_tensor(v[None]).float() for k, v in observe(env, advised).items()}
         with th.no_grad():
             action = self.policy.get_distribution(obs, action_masks=env.action_masks()[None]).get_actions(deterministic=True)
         return int(action[0])
+
+    def _fast(self, env) -> int:
+        start = time.process_time()
+        actions = sorted({env.action_of(request, robot) for request, robot in env.sim.decision_candidates()})
+        if env.sim.can_wait():
+            actions.append(env.wait_action)
+        if len(actions) == 1:
+            self.forced += 1
+            return actions[0]
+        views = env._observation()
+        obs = self._tensors(env, views)
+        extractor = self.policy.features_extractor
+        nodes, robots = np.divmod(np.array(actions[: len(actions) - (actions[-1] == env.wait_action)], np.int64), env.max_robots)
+        pairs = {"node": th.from_numpy(nodes), "robot": th.from_numpy(robots),
+                 **{k: th.from_numpy(np.ascontiguousarray(views[k][nodes, robots])).float()
+                    for k in ("handling_s", "travel_s", "compatibility")}}
+        advised = time.process_time()
+        if extractor.advisers:
+            awarded, wait, order = advice_sparse(env)
+            obs.update(advice_wait=th.from_numpy(wait)[None], order_in_kind=th.from_numpy(order)[None])
+            empty = np.zeros(len(ADVISERS), np.float32)
+            pairs["advice"] = th.from_numpy(np.array([awarded.get(p, empty) for p in zip(nodes.tolist(), robots.tolist())],
+                                                     np.float32).reshape(len(nodes), len(ADVISERS)))
+        network = time.process_time()
+        with th.no_grad():
+            h, g, context = extractor.embed(obs)
+            logits = extractor.pair_logits(h, g, context, pairs)
+            if actions[-1] == env.wait_action:
+                logits = th.cat([logits, extractor.wait_logit(context, obs)[0]])
+        self.cpu["observation"] += advised - start
+        self.cpu["advice"] += network - advised
+        self.cpu["network"] += time.process_time() - network
+        return actions[int(th.argmax(logits))]
+
+    def _tensors(self, env, views: dict) -> dict:
+        """The embedding's inputs (batch 1) as float tensors, read from the environment's arrays without a
+        copy where they are float32; the precedences once per episode."""
+        with _writable_ignored():
+            if self._edges[0] != (id(env), env._episode):
+                self._edges = ((id(env), env._episode), th.as_tensor(views["precedence"][None]).long(),
+                               th.as_tensor(views["precedence_mask"][None]).float())
+            obs = {k: th.as_tensor(views[k][None]).float() for k in ("node_features", "node_mask", "robot_features", "robot_mask")}
+        return {**obs, "precedence": self._edges[1], "precedence_mask": self._edges[2]}
+
+
+@contextlib.contextmanager
+def _writable_ignored():
+    """Silences torch's warning on a read-only numpy array (the environment's views; never written)."""
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", "The given NumPy array is not writable")
+        yield
 
 
 class LearnedPlanner:
@@ -379,16 +470,16 @@ class LearnedPlanner:
     def play(self, problem: DispatchProblem, policy=None):
         """(the awards [(time s, task key, robot)], the simulation result) of the loaded policy (or of
         ``policy(env) -> action``, e.g. :class:`~bimrobot.planning.dispatch.MarketPolicy`) on ``problem``."""
-        env = env_for(problem)
+        env = env_for(problem, copy_observation=False)  # the policy reads each observation once
         policy = policy or LearnedPolicy(load_policy(self.path, env))
-        obs, _ = env.reset(seed=0)
+        env.reset(seed=0)
         awards, done, truncated = [], False, False
         while not (done or truncated):
             action = policy(env)
             if action != env.wait_action and env._valid(action):
                 node, robot = divmod(action, env.max_robots)
                 awards.append((float(env.sim.build.env.now), env.graph.keys[node], env.robot_names[robot]))
-            obs, _, done, truncated, _ = env.step(action)
+            _, _, done, truncated, _ = env.step(action)
         return awards, env.result
 
     def dispatcher(self, problem: DispatchProblem) -> Dispatcher:
