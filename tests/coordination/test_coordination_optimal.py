@@ -13,7 +13,8 @@ from bimrobot.sco import build_smart_model
 
 pytest.importorskip("ortools")
 
-from bimrobot.planning.optimal import solve_optimal, task_graph  # noqa: E402
+from bimrobot.planning.optimal import solve_optimal
+from bimrobot.planning.optimal_graph import task_graph
 
 #: CP-SAT's deterministic time per solve (its own work units, the same on every machine), one worker
 LIMITS = dict(workers=1, deterministic_limit=0.5, time_limit_s=600.0)

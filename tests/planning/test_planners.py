@@ -7,7 +7,7 @@ import pytest
 
 from bimrobot.cli import main
 from bimrobot.coordination.market import incapability
-from bimrobot.planning.optimal import task_graph
+from bimrobot.planning.optimal_graph import task_graph
 from bimrobot.coordination.simulation import ConstructionSimulation, simulate
 from bimrobot.core.errors import InputError
 from bimrobot.planning.dispatch import frame_problem

@@ -52,7 +52,7 @@ def _predecessors(instance) -> dict[str, dict[str, str]]:
 def test_one_gate_per_floor_says_what_every_lower_joint_said(frame):
     """Version 2: the frame's transports of floor 2 wait for the one gate of floor 1, which waits for every
     joint assembly of floor 1: the same order as task_graph's full list, in far fewer edges."""
-    from bimrobot.planning.optimal import task_graph
+    from bimrobot.planning.optimal_graph import task_graph
     from bimrobot.coordination.simulation import ConstructionSimulation
 
     _, smart, fleet, site, elevations = frame

@@ -137,7 +137,7 @@ def test_a_prebuilt_slab_on_a_robot_built_beam_is_made_once_the_beam_is_placed(t
 
 def test_the_cp_sat_task_graph_follows_supports_through_a_prebuilt_slab():
     pytest.importorskip("ortools")
-    from bimrobot.planning.optimal import task_graph
+    from bimrobot.planning.optimal_graph import task_graph
     from bimrobot.coordination.simulation import ConstructionSimulation
 
     smart = build_smart_model(_slab_on_a_robot_built_beam(), prebuilt_classes=("IfcWall", "IfcSlab"))

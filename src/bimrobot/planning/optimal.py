@@ -55,11 +55,9 @@ from bimrobot.coordination.simulation import ConstructionSimulation
 from bimrobot.core.errors import InputError, require_extra
 from bimrobot.sco.build import SmartModel
 from bimrobot.core.tasks import Task
-# the tasks, the CP-SAT model and its bounds live in siblings; their names stay importable from here
-from bimrobot.planning.optimal_graph import (  # noqa: F401
-    SCALE, _all_after_the_gate, _all_feed_a_joint, _Task, task_graph,
-)
-from bimrobot.planning.optimal_model import _build, _Problem  # noqa: F401
+# the tasks (optimal_graph), the CP-SAT model (optimal_model) and its bounds live in siblings
+from bimrobot.planning.optimal_graph import SCALE, _all_after_the_gate, _all_feed_a_joint, _Task, task_graph
+from bimrobot.planning.optimal_model import _build, _Problem
 
 #: Above this many tasks the build is solved floor by floor (:func:`solve_optimal`).
 WHOLE_TASKS = 400

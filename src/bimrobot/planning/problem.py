@@ -84,7 +84,7 @@ def floor_gates(tasks: list[dict]) -> tuple[list[dict], list[dict]]:
 def build_instance(smart, fleet, site, storey_elevations=None) -> dict:
     """The planning instance (a JSON-ready dict) of ``smart`` (a SmartModel) built by ``fleet`` on ``site``
     (placed on the building, :func:`bimrobot.site.site.site_for`); ``storey_elevations`` in metres."""
-    from bimrobot.planning.optimal import task_graph
+    from bimrobot.planning.optimal_graph import task_graph
     from bimrobot.coordination.simulation import ConstructionSimulation
 
     sim = ConstructionSimulation(smart, fleet, site, storey_elevations=storey_elevations)
