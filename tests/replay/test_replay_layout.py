@@ -331,3 +331,13 @@ def test_a_large_model_is_few_entities_of_boxes_by_state_and_ends_as_the_same_bu
                               for c, h, q in zip(row["centers"], row["half_sizes"], row["quaternions"])])
     low, high = building_bounds(drawn)
     assert np.allclose(corners.min(axis=0), low, atol=0.02) and np.allclose(corners.max(axis=0), high, atol=0.02)
+
+
+def test_a_recording_with_nothing_to_draw_gets_a_free_eye(frame_record):
+    """No piece to frame (every element left out of the drawing): the layout still builds, with Rerun's own
+    eye, instead of failing on an empty outline."""
+    import dataclasses
+
+    from bimrobot.replay.layout import blueprint
+
+    assert blueprint(dataclasses.replace(frame_record, pieces={})) is not None

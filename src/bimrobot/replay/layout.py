@@ -34,7 +34,7 @@ def blueprint(record: BuildRecord | None = None):
     """The default layout (module docstring); without ``record``, the schedule's panels and a free eye."""
     import rerun.blueprint as rrb
 
-    eye = building_eye(record) if record is not None else None
+    eye = building_eye(record) if record is not None and record.pieces else None  # nothing drawn: a free eye
     tabs = []
     if record is None or record.schedule:
         tabs.append(_schedule_panels(record))
