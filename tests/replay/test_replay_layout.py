@@ -306,8 +306,8 @@ def test_a_large_model_is_few_entities_of_boxes_by_state_and_ends_as_the_same_bu
     build every piece is an assembled (green) box labelled with its GlobalId, but the bolts of no
     scheduled joint (standing as the model has them from the start, as in the full replay), and the
     boxes span the building's bounding box (its meshes at their installed places) to within 2 cm."""
-    from bimrobot.replay.compact import COMPACT_FROM, UNSCHEDULED, is_large
-    from bimrobot.replay.elements import drawn_record, entity
+    from bimrobot.replay.compact import COMPACT_FROM, is_large
+    from bimrobot.replay.elements import UNSCHEDULED, drawn_record, entity
     from bimrobot.replay.inputs import STATES
     from bimrobot.replay.layout import building_bounds
     from bimrobot.replay.record import write_rrd

@@ -23,14 +23,14 @@ from collections import defaultdict
 
 import numpy as np
 
-from bimrobot.replay.elements import STATE_COLOURS, element_properties, entity, principal_box
+from bimrobot.replay.elements import (STATE_COLOURS, UNSCHEDULED, element_properties, entity, piece_timelines,
+                                       principal_box)
 from bimrobot.replay.inputs import INSTALLED, BuildRecord
 
 #: Above this many drawn pieces (an assembly's parts joined into one) a build is drawn compact (module
 #: docstring; `replay --help` says it too). The steel frame (88) keeps its meshes, MULTICOM-Prefab (118) not.
 COMPACT_FROM = 100
-#: The group of pieces the fleet does not build (work of others, or outside the simulated selection).
-UNSCHEDULED = "not in the schedule"
+#: The colour of the pieces the fleet does not build (:data:`bimrobot.replay.elements.UNSCHEDULED`).
 UNSCHEDULED_RGB = (120, 120, 120)
 
 
@@ -43,14 +43,13 @@ def piece_events(record: BuildRecord, poses: dict, node_times: dict) -> dict[str
     """Piece -> [(time s, "pose" or "state", 4x4 pose or state name)], as the full replay draws it
     (bimrobot.replay.record._log_pieces): a component's poses and states; a joint's bolt or plate in place
     from its joint's assembly start, assembling, then installed at its end; anything else as the model has it."""
-    changes = {gid: history for component, history in record.states.items() for gid in record.parts.get(component, [])}
-    realizing = {r: node for node in record.nodes.values() for r in node.realizing}
     out = {}
-    for gid, piece in record.pieces.items():
-        if gid in changes:
-            events = [(t, "pose", pose) for t, pose in poses.get(gid) or []] + [(t, "state", s) for t, s in changes[gid]]
-        elif gid in realizing and realizing[gid].node_id in node_times:
-            begin, end = node_times[realizing[gid].node_id]
+    for gid, (kind, when) in piece_timelines(record, node_times).items():
+        piece = record.pieces[gid]
+        if kind == "component":
+            events = [(t, "pose", pose) for t, pose in poses.get(gid) or []] + [(t, "state", s) for t, s in when]
+        elif kind == "joint":
+            begin, end = when
             events = [(begin, "pose", piece.installed_pose), (begin, "state", "WorkingInAssembly"), (end, "state", INSTALLED)]
         else:
             events = [(0.0, "pose", piece.installed_pose), (0.0, "state", UNSCHEDULED)]

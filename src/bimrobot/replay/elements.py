@@ -194,6 +194,31 @@ def transform3d(rr, pose: np.ndarray):
     return rr.Transform3D(translation=pose[:3, 3].astype(np.float32), mat3x3=pose[:3, :3].astype(np.float32))
 
 
+#: The state of a piece the fleet does not build (work of others, or outside the simulated selection).
+UNSCHEDULED = "not in the schedule"
+
+
+def piece_timelines(record: BuildRecord, node_times: dict[str, tuple[float, float]]) -> dict[str, tuple]:
+    """Piece -> how a build shows it, for every way of drawing it (meshes or boxes by state):
+
+    - ``("component", [(time s, state)])``: a part of a component the schedule builds, with that
+      component's states;
+    - ``("joint", (begin s, end s))``: a bolt, plate or weld of a joint the schedule assembles
+      (``node_times``: node -> its first assembly start and last finish), brought from ``begin``;
+    - ``("model", None)``: not built by the fleet, as the model has it from 0 s (:data:`UNSCHEDULED`)."""
+    changes = {gid: history for component, history in record.states.items() for gid in record.parts.get(component, [])}
+    realizing = {r: node for node in record.nodes.values() for r in node.realizing}
+    out = {}
+    for gid in record.pieces:
+        if gid in changes:
+            out[gid] = ("component", changes[gid])
+        elif gid in realizing and realizing[gid].node_id in node_times:
+            out[gid] = ("joint", node_times[realizing[gid].node_id])
+        else:
+            out[gid] = ("model", None)
+    return out
+
+
 def element_properties(record: BuildRecord, gid: str) -> dict[str, str]:
     """An element's properties shown on hover and selection: GlobalId, IFC class, name, storey; a unit
     of several elements (:func:`join_units`) also ``parts``, its parts' GlobalIds."""

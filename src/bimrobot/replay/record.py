@@ -37,8 +37,8 @@ from pathlib import Path
 import numpy as np
 
 from bimrobot.replay.compact import is_large, log_compact
-from bimrobot.replay.elements import (STATE_COLOURS, drawn_record, element_paths, element_properties, entity, mesh3d,
-                                       mesh_arrays)
+from bimrobot.replay.elements import (STATE_COLOURS, UNSCHEDULED, drawn_record, element_paths, element_properties,
+                                       entity, mesh3d, mesh_arrays, piece_timelines)
 from bimrobot.replay.gantt import log_chart, schedule_bars
 from bimrobot.replay.inputs import INSTALLED, STATES, BuildRecord, node_id_of
 from bimrobot.replay.motion import component_poses, robot_tracks
@@ -181,36 +181,25 @@ def _log_ghost(rec, record: BuildRecord) -> None:
     rec.log("/ghost", mesh3d(rr, np.concatenate(parts), GHOST_RGBA[:3], GHOST_RGBA[3]), static=True)
 
 
-def _state_changes(record: BuildRecord) -> dict[str, list[tuple[float, str]]]:
-    """Piece -> [(time, state)] from its component (the first change at time 0 at the latest)."""
-    out = {}
-    for component, history in record.states.items():
-        for gid in record.parts.get(component, []):
-            out[gid] = history
-    return out
-
-
 def _log_pieces(rec, clock: _Clock, record: BuildRecord, poses: dict, paths: dict[str, str]) -> None:
     """Each element's mesh (at 0 s, or when its joint is assembled), pose and state over time: one
     chunk per element (:func:`_send_rows`), so that the viewer takes a large model in few pieces."""
-    changes = _state_changes(record)
-    realizing = {r: node for node in record.nodes.values() for r in node.realizing}
-    node_times = _node_times(record)
-    for gid, piece in record.pieces.items():
+    for gid, (kind, when) in piece_timelines(record, _node_times(record)).items():
+        piece = record.pieces[gid]
         own_rgb = tuple(int(round(255 * c)) for c in piece.colour[:3])
-        if gid in changes:
-            history = changes[gid]
+        if kind == "component":
+            history = when
             moves = poses.get(gid) or []
             rows = [(0.0, "mesh", STATE_COLOURS[history[0][1]])] + [(t, "pose", pose) for t, pose in moves]
             rows += [(t, "colour", STATE_COLOURS[state]) for t, state in history] + [(t, "state", s) for t, s in history]
-        elif gid in realizing and realizing[gid].node_id in node_times:
+        elif kind == "joint":
             # a bolt, plate or weld of a joint: brought by the assembly robot, shown from the joint's assembly
-            begin, end = node_times[realizing[gid].node_id]
+            begin, end = when
             rows = [(begin, "mesh", NODE_COLOURS["assembling"]), (begin, "pose", piece.installed_pose),
                     (begin, "state", "WorkingInAssembly"), (end, "colour", own_rgb), (end, "state", INSTALLED)]
         else:
             # not built by the fleet (work of others, or not in the simulated selection): as the model has it
-            rows = [(0.0, "mesh", own_rgb), (0.0, "pose", piece.installed_pose), (0.0, "state", "not in the schedule")]
+            rows = [(0.0, "mesh", own_rgb), (0.0, "pose", piece.installed_pose), (0.0, "state", UNSCHEDULED)]
         _send_rows(rec, clock, paths[gid], piece.triangles, rows, element_properties(record, gid))
 
 
