@@ -230,13 +230,16 @@ class DispatchEnv(gym.Env):
     def action_masks(self) -> np.ndarray:
         """Valid actions (bool, ``action_space.n``): ready task x idle capable robot, and waiting."""
         mask = np.zeros(self.action_space.n, dtype=bool)
-        if self.sim is None or self._ended:
-            mask[self.wait_action] = True
-            return mask
-        for request, robot in self.sim.decision_candidates():
-            mask[self._node_of(request) * self.max_robots + self.robot_index[robot]] = True
-        mask[self.wait_action] = self.sim.can_wait()
+        mask[self.valid_actions()] = True
         return mask
+
+    def valid_actions(self) -> list[int]:
+        """The valid actions in increasing order (waiting, the last action, among them when it is valid):
+        :meth:`action_masks` without the dense mask, whose size grows with tasks x robots."""
+        if self.sim is None or self._ended:
+            return [self.wait_action]
+        actions = sorted({self.action_of(request, robot) for request, robot in self.sim.decision_candidates()})
+        return actions + [self.wait_action] if self.sim.can_wait() else actions
 
     def _valid(self, action: int) -> bool:
         """Whether ``action`` is valid now (one entry of :meth:`action_masks`, without building the mask)."""

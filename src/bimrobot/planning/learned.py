@@ -399,9 +399,7 @@ class LearnedPolicy:
 
     def _fast(self, env) -> int:
         start = time.process_time()
-        actions = sorted({env.action_of(request, robot) for request, robot in env.sim.decision_candidates()})
-        if env.sim.can_wait():
-            actions.append(env.wait_action)
+        actions = env.valid_actions()
         if len(actions) == 1:
             self.forced += 1
             return actions[0]
