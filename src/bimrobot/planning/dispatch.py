@@ -25,7 +25,7 @@ from bimrobot.coordination.simulation import ConstructionSimulation
 from bimrobot.coordination.run_state import SimulationResult
 from bimrobot.core.errors import BimrobotError, InputError
 from bimrobot.core.tasks import Task
-from bimrobot.planning.dispatch_observation import (_depths, _in_edges, _levels, _mask, _read_only, _starts_pass,
+from bimrobot.planning.dispatch_observation import (_in_edges, _levels, _mask, _read_only, _starts_pass,
                                                     _travel_pass, rebuild_observation)
 from bimrobot.planning.dispatch_problem import (KINDS, DispatchProblem, TaskGraph, frame_problem, request_key,
                                                 simulate_problem, task_graph, task_key)
@@ -329,7 +329,7 @@ class DispatchEnv(gym.Env):
         self.precedence[: len(graph.edges)] = graph.edges
         self.precedence_any = np.zeros(self.max_edges, np.int8)
         self.precedence_any[: len(graph.edges)] = graph.any_of
-        depth = _depths(n, graph.edges)
+        depth = graph.depths()
         self.levels = _levels(depth, graph.edges)  # (nodes, indices of the edges into them) per depth
         self.group_after = np.zeros(int(graph.groups.max(initial=-1)) + 1, np.int64)
         self.group_after[graph.groups] = graph.edges[:, 1]

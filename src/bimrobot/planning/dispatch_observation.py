@@ -9,11 +9,9 @@ Units: seconds, metres (site frame x, y; model frame z, z up).
 from __future__ import annotations
 
 import math
-from collections import deque
 
 import numpy as np
 
-from bimrobot.core.errors import BimrobotError
 from bimrobot.planning.dispatch_problem import KINDS, request_key, task_key
 
 
@@ -194,28 +192,6 @@ def _mask(size: int, real: int) -> np.ndarray:
     mask = np.zeros(size, np.int8)
     mask[:real] = 1
     return mask
-
-
-def _depths(n: int, edges: np.ndarray) -> np.ndarray:
-    """(n,) each node's depth in the precedence graph (longest path from a source, in edges)."""
-    depth = np.zeros(n, np.int64)
-    indegree = np.bincount(edges[:, 1], minlength=n) if len(edges) else np.zeros(n, np.int64)
-    after: list[list[int]] = [[] for _ in range(n)]
-    for a, b in edges.tolist():
-        after[a].append(b)
-    queue = deque(np.flatnonzero(indegree == 0).tolist())
-    seen = 0
-    while queue:
-        a = queue.popleft()
-        seen += 1
-        for b in after[a]:
-            depth[b] = max(depth[b], depth[a] + 1)
-            indegree[b] -= 1
-            if indegree[b] == 0:
-                queue.append(b)
-    if seen < n:
-        raise BimrobotError("the task graph has a cycle")
-    return depth
 
 
 def _levels(depth: np.ndarray, edges: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:

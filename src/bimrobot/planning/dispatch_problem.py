@@ -16,7 +16,7 @@ import numpy as np
 from bimrobot.site.fleet import Fleet, load_fleet
 from bimrobot.site.site import Site
 from bimrobot.coordination.simulation import ConstructionSimulation
-from bimrobot.core.errors import InputError
+from bimrobot.core.errors import BimrobotError, InputError
 from bimrobot.sco.build import SmartModel
 from bimrobot.sco.states import State
 from bimrobot.core.tasks import Task
@@ -111,10 +111,29 @@ class TaskGraph:
         """The nodes in an order where each comes before every node it precedes (networkx)."""
         import networkx as nx
 
+        return list(nx.topological_sort(self._digraph()))
+
+    def depths(self) -> np.ndarray:
+        """(n,) each node's depth: the longest path from a source, in edges (its topological generation,
+        networkx). A cycle is refused (BimrobotError)."""
+        import networkx as nx
+
+        depth = np.zeros(len(self.keys), np.int64)
+        try:
+            for d, generation in enumerate(nx.topological_generations(self._digraph())):
+                depth[generation] = d
+        except nx.NetworkXUnfeasible:
+            raise BimrobotError("the task graph has a cycle") from None
+        return depth
+
+    def _digraph(self):
+        """The precedences as a networkx DiGraph over the node indices."""
+        import networkx as nx
+
         graph = nx.DiGraph()
         graph.add_nodes_from(range(len(self.keys)))
         graph.add_edges_from(self.edges.tolist())
-        return list(nx.topological_sort(graph))
+        return graph
 
 
 @dataclass

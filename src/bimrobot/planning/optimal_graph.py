@@ -65,27 +65,22 @@ def _ticks(seconds: float) -> int:
 
 def _closure(tasks: list[_Task]) -> dict[str, int]:
     """Each task's ancestors (within ``tasks``) as a bit set over ``tasks``' order (Python ints)."""
+    import networkx as nx
+
     index = {t.key: i for i, t in enumerate(tasks)}
     preds = {t.key: [p for p in t.predecessors if p in index] for t in tasks}
-    waiting = {key: len(ps) for key, ps in preds.items()}
-    children: dict[str, list[str]] = {}
-    for key, ps in preds.items():
-        for p in ps:
-            children.setdefault(p, []).append(key)
-    ready = [key for key, n in waiting.items() if n == 0]
+    graph = nx.DiGraph()
+    graph.add_nodes_from(preds)
+    graph.add_edges_from((p, key) for key, ps in preds.items() for p in ps)
     ancestors: dict[str, int] = {}
-    while ready:  # Kahn's order: every task after its predecessors
-        key = ready.pop()
-        bits = 0
-        for p in preds[key]:
-            bits |= (1 << index[p]) | ancestors[p]
-        ancestors[key] = bits
-        for child in children.get(key, ()):
-            waiting[child] -= 1
-            if waiting[child] == 0:
-                ready.append(child)
-    if len(ancestors) < len(tasks):
-        raise InputError("the task graph has a cycle: no schedule can satisfy its precedences")
+    try:
+        for key in nx.topological_sort(graph):  # every task after its predecessors
+            bits = 0
+            for p in preds[key]:
+                bits |= (1 << index[p]) | ancestors[p]
+            ancestors[key] = bits
+    except nx.NetworkXUnfeasible:
+        raise InputError("the task graph has a cycle: no schedule can satisfy its precedences") from None
     return ancestors
 
 
