@@ -291,6 +291,28 @@ def last_building_rows(rrd) -> dict[str, dict[str, list]]:
     return out
 
 
+def first_building_rows(rrd) -> dict[str, dict[str, list]]:
+    """Entity path -> {component: its first logged value, "sim_time": that row's time (s; None when
+    static)} of the /building entities, read with Rerun's chunk reader."""
+    from rerun.chunk import RrdReader
+
+    out: dict[str, dict[str, list]] = {}
+    for chunk in RrdReader(rrd).stream():
+        if not chunk.entity_path.startswith("/building/"):
+            continue
+        batch = chunk.to_record_batch()
+        names = [n for n in batch.schema.names if not n.startswith("rerun.") and n not in ("sim_time", "calendar")]
+        times = batch.column("sim_time").cast("int64").to_numpy() / 1e9 if "sim_time" in batch.schema.names else None
+        row = out.setdefault(chunk.entity_path, {})
+        for name in names:
+            values = batch.column(name).to_pylist()
+            first = next((i for i, v in enumerate(values) if v is not None), None)
+            if first is not None and name.split(":")[-1] not in row:
+                row[name.split(":")[-1]] = values[first]
+                row.setdefault("sim_time", None if times is None else float(times[first]))
+    return out
+
+
 def box_corners(centre, half, quaternion) -> np.ndarray:
     from scipy.spatial.transform import Rotation
 
@@ -302,10 +324,9 @@ def test_a_large_model_is_few_entities_of_boxes_by_state_and_ends_as_the_same_bu
     """A large model drawn compact (bimrobot.replay.compact: each component its box, grouped by state),
     so that the web viewer has a few entities to take in instead of one per element (MULTICOM-Prefab: 7
     instead of 118, docs/evidence/replay.md). The steel frame written compact: its 88 pieces (12
-    components, their bolts and plates) are at most one entity per state, no mesh; at the end of the
-    build every piece is an assembled (green) box labelled with its GlobalId, but the bolts of no
-    scheduled joint (standing as the model has them from the start, as in the full replay), and the
-    boxes span the building's bounding box (its meshes at their installed places) to within 2 cm."""
+    components, their bolts and plates) are at most one entity per state; at the end of the build every
+    piece the build places is an assembled (green) box labelled with its GlobalId, and with the pieces
+    no robot builds (below) they span the building's bounding box (its meshes installed) to within 2 cm."""
     from bimrobot.replay.compact import COMPACT_FROM, is_large
     from bimrobot.replay.elements import UNSCHEDULED, drawn_record, entity
     from bimrobot.replay.inputs import STATES
@@ -319,18 +340,53 @@ def test_a_large_model_is_few_entities_of_boxes_by_state_and_ends_as_the_same_bu
     summary = write_rrd(record, rrd, compact=True)
     assert summary["drawn"] == "boxes by state"
     rows = last_building_rows(rrd)
-    assert set(rows) <= {entity("building", s) for s in (*STATES, UNSCHEDULED)}
-    assert summary["entities"] == len(rows) <= 10
+    rows.pop(entity("building", UNSCHEDULED))
+    context = first_building_rows(rrd)[entity("building", UNSCHEDULED)]  # one row
+    assert set(rows) <= {entity("building", s) for s in STATES}
+    assert summary["entities"] == len(rows) + 1 <= 10
     assert not any("vertex_positions" in row for row in rows.values())  # boxes, not meshes
-    standing = [rows[entity("building", "Assembled")], rows[entity("building", UNSCHEDULED)]]
-    gids = [[label.rsplit("(", 1)[1].rstrip(")") for label in row["labels"]] for row in standing]
-    assert len(gids[0]) == 76 and len(gids[1]) == 12  # 12 bolts of no scheduled joint stand as the model has them
-    assert set(gids[0]) | set(gids[1]) == set(drawn.pieces)
-    assert all(not row.get("labels") for row in rows.values() if not any(row is s for s in standing))
-    corners = np.concatenate([box_corners(c, h, q) for row in standing
-                              for c, h, q in zip(row["centers"], row["half_sizes"], row["quaternions"])])
+    assembled = [label.rsplit("(", 1)[1].rstrip(")") for label in rows[entity("building", "Assembled")]["labels"]]
+    assert len(assembled) == 76 and set(assembled) | set(context["global_id"]) == set(drawn.pieces)
+    assert all(not row.get("labels") for path, row in rows.items() if path != entity("building", "Assembled"))
+    corners = np.concatenate([box_corners(c, h, q) for c, h, q in zip(*(rows[entity("building", "Assembled")][k]
+                                                                        for k in ("centers", "half_sizes", "quaternions")))])
+    corners = np.concatenate([corners, np.array(context["vertex_positions"])])
     low, high = building_bounds(drawn)
     assert np.allclose(corners.min(axis=0), low, atol=0.02) and np.allclose(corners.max(axis=0), high, atol=0.02)
+
+
+def test_boxes_show_what_no_robot_builds_as_the_meshes_do(frame_record, frame_replay, tmp_path):
+    """The pieces no robot builds (the frame's 4 base plates and 8 clip angles, of no scheduled joint)
+    are the existing context,
+    as Bonsai and Synchro show elements outside the schedule, not work: the boxes by state draw them as
+    the meshes do, from 0 s, each its real shape at its installed place in its own colour (they were
+    grey boxes, looking like the unbuilt work's grey ghost)."""
+    from bimrobot.replay.elements import UNSCHEDULED, drawn_record, entity, own_rgb
+    from bimrobot.replay.record import write_rrd
+
+    drawn, _ = drawn_record(frame_record)
+    rrd = tmp_path / "boxes.rrd"
+    write_rrd(frame_record, rrd, compact=True)
+    context = first_building_rows(rrd)[entity("building", UNSCHEDULED)]
+    assert context["sim_time"] == 0.0 and context["state"] == [UNSCHEDULED]
+    gids = context["global_id"]
+    assert sorted(drawn.pieces[g].ifc_class for g in gids) == ["IfcMember"] * 8 + ["IfcPlate"] * 4
+    meshes = first_building_rows(frame_replay[0])  # the same pieces in the meshes mode: one entity each
+    drawn_as_meshes = [row for row in meshes.values() if row.get("global_id", [None])[0] in gids]
+    assert len(drawn_as_meshes) == 12 and all(row["state"] == [UNSCHEDULED] for row in drawn_as_meshes)
+    # the same triangles at the same places (the meshes mode: each mesh with its installed pose; Rerun
+    # keeps a 3x3 matrix column by column, so the stored rows are the rotation's columns)
+    placed = [np.array(row["vertex_positions"]) @ np.array(row["mat3x3"]).reshape(3, 3) + row["translation"]
+              for row in sorted(drawn_as_meshes, key=lambda row: gids.index(row["global_id"][0]))]
+    assert np.allclose(np.array(context["vertex_positions"]), np.concatenate(placed), atol=1e-4)
+    # each in its own colour, as the meshes mode colours it, not the ghost's grey
+    assert all(rgba_bytes(row["albedo_factor"][0]) == own_rgb(drawn.pieces[row["global_id"][0]]) for row in drawn_as_meshes)
+    assert set(map(rgba_bytes, context["vertex_colors"])) == {own_rgb(drawn.pieces[g]) for g in gids}
+
+
+def rgba_bytes(packed: int) -> tuple[int, int, int]:
+    """The RGB of a colour as Rerun stores it (0xRRGGBBAA)."""
+    return packed >> 24 & 255, packed >> 16 & 255, packed >> 8 & 255
 
 
 def test_a_recording_with_nothing_to_draw_gets_a_free_eye(frame_record):

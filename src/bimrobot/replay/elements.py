@@ -190,6 +190,11 @@ def mesh3d(rr, triangles: np.ndarray, rgb, alpha: int = 255) -> object:
                      albedo_factor=[*rgb, alpha])
 
 
+def own_rgb(piece: Piece) -> tuple[int, int, int]:
+    """The piece's own colour (the model's, RGB 0-255): how an element no robot builds is drawn."""
+    return tuple(int(round(255 * c)) for c in piece.colour[:3])
+
+
 def transform3d(rr, pose: np.ndarray):
     return rr.Transform3D(translation=pose[:3, 3].astype(np.float32), mat3x3=pose[:3, :3].astype(np.float32))
 

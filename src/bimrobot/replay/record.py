@@ -38,7 +38,7 @@ import numpy as np
 
 from bimrobot.replay.compact import is_large, log_compact
 from bimrobot.replay.elements import (STATE_COLOURS, UNSCHEDULED, drawn_record, element_paths, element_properties,
-                                       entity, mesh3d, mesh_arrays, piece_timelines)
+                                       entity, mesh3d, mesh_arrays, own_rgb, piece_timelines)
 from bimrobot.replay.gantt import log_chart, schedule_bars
 from bimrobot.replay.inputs import INSTALLED, STATES, BuildRecord, node_id_of
 from bimrobot.replay.motion import component_poses, robot_tracks
@@ -186,7 +186,7 @@ def _log_pieces(rec, clock: _Clock, record: BuildRecord, poses: dict, paths: dic
     chunk per element (:func:`_send_rows`), so that the viewer takes a large model in few pieces."""
     for gid, (kind, when) in piece_timelines(record, _node_times(record)).items():
         piece = record.pieces[gid]
-        own_rgb = tuple(int(round(255 * c)) for c in piece.colour[:3])
+        own = own_rgb(piece)
         if kind == "component":
             history = when
             moves = poses.get(gid) or []
@@ -196,10 +196,10 @@ def _log_pieces(rec, clock: _Clock, record: BuildRecord, poses: dict, paths: dic
             # a bolt, plate or weld of a joint: brought by the assembly robot, shown from the joint's assembly
             begin, end = when
             rows = [(begin, "mesh", NODE_COLOURS["assembling"]), (begin, "pose", piece.installed_pose),
-                    (begin, "state", "WorkingInAssembly"), (end, "colour", own_rgb), (end, "state", INSTALLED)]
+                    (begin, "state", "WorkingInAssembly"), (end, "colour", own), (end, "state", INSTALLED)]
         else:
             # not built by the fleet (work of others, or not in the simulated selection): as the model has it
-            rows = [(0.0, "mesh", own_rgb), (0.0, "pose", piece.installed_pose), (0.0, "state", UNSCHEDULED)]
+            rows = [(0.0, "mesh", own), (0.0, "pose", piece.installed_pose), (0.0, "state", UNSCHEDULED)]
         _send_rows(rec, clock, paths[gid], piece.triangles, rows, element_properties(record, gid))
 
 
