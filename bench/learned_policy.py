@@ -9,6 +9,13 @@ Makespans in simulated seconds; no timing.
     .venv/bin/python bench/learned_policy.py [POLICY.zip]                 # default: the shipped policy
     .venv/bin/python bench/learned_policy.py --validation A.zip B.zip ...   # pick among policies
     .venv/bin/python bench/learned_policy.py --scale generated:steel:100:seed=0 generated:steel:1000:seed=0 [--reference]
+    .venv/bin/python bench/learned_policy.py --search [--budget N] [MODEL ...]  # the search on the real models
+
+``--search`` plans each model per joint with site-crane (as ``bimrobot plan benchmark``; default: the ten
+buildable shared models) with the learned planner's decision-time search (``--budget`` rollouts,
+default 400) and the same search on the advisers' choices only (``rollout``, the ablation): makespans
+against the market, the portfolio and CP-SAT's figures of docs/planning.md, this process's CPU seconds,
+rollouts used; each searched schedule executed by ``simulate`` (asserted equal to the plan, no fallback).
 
 ``--validation`` plays each policy alone on generated buildings that no training run draws (seeds from
 9,000), larger than the training ones, and prints each policy's mean and worst makespan in per cent of the
@@ -129,8 +136,60 @@ def main(path) -> None:
               flush=True)
 
 
+#: CP-SAT's best schedule and lower bound (s) per joint with site-crane, from ``bimrobot plan benchmark``
+#: of 2026-11-28 (docs/planning.md, "Shared real models": one worker, 90 s; None: no schedule found)
+CPSAT = {"AC20-FZK-Haus.ifc": (None, None), "GEELEN-Breedplaat_V1.ifc": (8195.9, 6657.5),
+         "IfcOpenHouse_IFC4.ifc": (1252.2, 1252.2), "MULTICOM-Prefab.ifc": (28770.7, None),
+         "MULTICOM-trappen_bordessen.ifc": (3000.8, 3000.6), "ROOT-staal.ifczip": (30298.4, None),
+         "column-extruded-solid.ifc": (749.5, 749.5), "construction-scheduling-task.ifc": (5341.7, 4914.1),
+         "ifcColumn.ifc": (1121.3, 1121.3), "ifcUnit.ifc": (6071.9, 6030.4)}
+
+
+def searched(models, budget: int) -> None:
+    """The search with the policy and without it (the ablation) on each model, against the baselines."""
+    import time
+
+    from bimrobot.planning.benchmark import problem_for
+    from bimrobot.planning.learned import LearnedPolicy, load_policy
+    from bimrobot.planning.learned_search import AwardsReplay, awards_of, search
+
+    th.set_num_threads(1)
+    print(f"budget {budget} rollouts; CPU s of this process; per cent against the market")
+    print("| model | actions | market (s) | portfolio (s) | policy alone | learned (s) | vs market | vs portfolio | "
+          "CP-SAT best / bound (s) | learned vs bound | rollouts | CPU s | ablation (s) | vs market | rollouts | CPU s |")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+    for model in models:
+        problem = problem_for(SHARED + model if "/" not in model and not model.startswith("generated:") else model)[0]
+        rows = []
+        for guided in (True, False):
+            start = time.process_time()
+            env = env_for(problem, copy_observation=False)
+            found = search(problem, LearnedPolicy(load_policy(DEFAULT_POLICY, env)) if guided else None, budget, env=env)
+            cpu = time.process_time() - start
+            awards, _ = awards_of(problem, found.actions)
+            replay = AwardsReplay(awards)
+            run = simulate(problem.smart, problem.fleet, problem.site, "least-cost", 0, problem.breakdowns,
+                           problem.storey_elevations, per_node=problem.per_node, dispatcher=replay)
+            assert abs(run.makespan - found.makespan_s) < 1e-6 and replay.fallbacks == 0, (run.makespan, found.makespan_s)
+            rows.append((found, cpu))
+        (mine, cpu), (ablation, cpu_ab) = rows
+        market, best = mine.market_s, mine.portfolio_s
+        cpsat, bound = CPSAT.get(model.rsplit("/", 1)[-1], (None, None))
+        pct = lambda x, ref: f"{100.0 * (x - ref) / ref:+.1f} %"  # noqa: E731
+        print(f"| {model} | {len(mine.actions)} | {market:,.1f} | {best:,.1f} ({mine.portfolio_chosen}) | "
+              f"{mine.policy_s:,.1f} | {mine.makespan_s:,.1f} | {pct(mine.makespan_s, market)} | {pct(mine.makespan_s, best)} | "
+              f"{'-' if cpsat is None else f'{cpsat:,.1f}'} / {'-' if bound is None else f'{bound:,.1f}'} | "
+              f"{'-' if bound is None else pct(mine.makespan_s, bound)} | {mine.rollouts} | {cpu:.1f} | "
+              f"{ablation.makespan_s:,.1f} | {pct(ablation.makespan_s, market)} | {ablation.rollouts} | {cpu_ab:.1f} |", flush=True)
+
+
 if __name__ == "__main__":
-    if sys.argv[1:2] == ["--validation"]:
+    if sys.argv[1:2] == ["--search"]:
+        args = sys.argv[2:]
+        budget = int(args[args.index("--budget") + 1]) if "--budget" in args else 400
+        names = [a for i, a in enumerate(args) if a != "--budget" and (i == 0 or args[i - 1] != "--budget")]
+        searched(names or list(CPSAT), budget)
+    elif sys.argv[1:2] == ["--validation"]:
         validation(sys.argv[2:])
     elif sys.argv[1:2] == ["--scale"]:
         scale([a for a in sys.argv[2:] if a != "--reference"], "--reference" in sys.argv)

@@ -84,7 +84,7 @@ def test_the_learned_planners_schedule_respects_every_precedence(imitated, frame
     """simulate with the planner's dispatcher: the policy's own schedule (same makespan), every component
     assembled, no activity before its predecessors, no robot doing two things at once."""
     path, *_ = imitated
-    planner = LearnedPlanner(path, guard=False)
+    planner = LearnedPlanner(path, guard=False, search=0)
     _, played = planner.play(frame)
     replay = planner.dispatcher(frame)
     result = simulate(frame.smart, frame.fleet, frame.site, "least-cost", 0, (), frame.storey_elevations,
@@ -124,7 +124,7 @@ def test_the_guarded_planner_is_never_longer_than_the_market_and_says_which_plan
 
     path, *_ = imitated
     _, market = play(env_for(frame), MarketPolicy(), seed=0)
-    guarded, raw = LearnedPlanner(path), LearnedPlanner(path, guard=False)
+    guarded, raw = LearnedPlanner(path, search=0), LearnedPlanner(path, guard=False, search=0)
     replay = guarded.dispatcher(frame)
     result = simulate(frame.smart, frame.fleet, frame.site, "least-cost", 0, (), frame.storey_elevations,
                       per_node=frame.per_node, dispatcher=replay)
@@ -222,7 +222,7 @@ def test_the_shipped_policy_says_how_it_was_trained_and_the_planner_is_not_longe
     assert meta["teacher"] == "pilot" and meta["advisers"] == list(ADVISERS)
     assert all(spec.startswith("generated:") for spec in meta["training_buildings"])
     _, market = play(env_for(frame), MarketPolicy(), seed=0)
-    planner = LearnedPlanner()
+    planner = LearnedPlanner(search=0)  # learned:greedy
     planner.dispatcher(frame)
     assert min(planner.last["policy_s"], planner.last["market_s"]) <= market.makespan + 1e-9
     assert planner.last["policy_s"] <= 1.005 * market.makespan, (planner.last, market.makespan)

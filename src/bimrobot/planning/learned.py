@@ -52,7 +52,7 @@ import torch as th
 from sb3_contrib.common.maskable.policies import MaskableActorCriticPolicy
 from torch import nn
 
-from bimrobot.coordination.market import Award, Dispatcher, propose
+from bimrobot.coordination.market import Dispatcher
 from bimrobot.core.errors import InputError
 from bimrobot.planning.dispatch import NODE_FEATURES, ROBOT_FEATURES, DispatchProblem
 from bimrobot.planning.learned_advice import (ADVISERS, EXTRA_NODE_FEATURES, Advised, advice, advice_sparse, advised_space, observe,
@@ -60,6 +60,7 @@ from bimrobot.planning.learned_advice import (ADVISERS, EXTRA_NODE_FEATURES, Adv
 from bimrobot.planning.learned_pool import (TRAIN_SPECS, PerCentOfMarket, PoolEntry, _pad, env_for, generated_problem,
                                             make_training_env, market_demonstrations, pilot_teacher, sizes,
                                             training_pool)
+from bimrobot.planning.learned_search import AwardsReplay
 
 #: the policy shipped with the package (``--planner learned``)
 DEFAULT_POLICY = Path(__file__).parent / "policies" / "dispatch.zip"
@@ -398,11 +399,26 @@ class LearnedPolicy:
         return int(action[0])
 
     def _fast(self, env) -> int:
-        start = time.process_time()
         actions = env.valid_actions()
         if len(actions) == 1:
             self.forced += 1
             return actions[0]
+        return actions[int(th.argmax(self._logits(env, actions)))]
+
+    def ranked(self, env: gym.Env, advised: tuple | None = None) -> list[int]:
+        """The valid actions, highest logit first (action order among equal logits): the greedy choice
+        first. ``advised``: :func:`advice_sparse`'s result at this decision, when the caller has it."""
+        env = env.unwrapped
+        actions = env.valid_actions()
+        if len(actions) == 1:
+            return actions
+        order = th.argsort(-self._logits(env, actions, advised), stable=True)
+        return [actions[int(i)] for i in order]
+
+    def _logits(self, env, actions: list[int], advised: tuple | None = None) -> th.Tensor:
+        """The logits of the valid ``actions`` (waiting last where valid): the graph embedded once, the
+        pairs scored only for the valid awards."""
+        start = time.process_time()
         views = env._observation()
         obs = self._tensors(env, views)
         extractor = self.policy.features_extractor
@@ -410,9 +426,9 @@ class LearnedPolicy:
         pairs = {"node": th.from_numpy(nodes), "robot": th.from_numpy(robots),
                  **{k: th.from_numpy(np.ascontiguousarray(views[k][nodes, robots])).float()
                     for k in ("handling_s", "travel_s", "compatibility")}}
-        advised = time.process_time()
+        advised_at = time.process_time()
         if extractor.advisers:
-            awarded, wait, order = advice_sparse(env)
+            awarded, wait, order = advised if advised is not None else advice_sparse(env)
             obs.update(advice_wait=th.from_numpy(wait)[None], order_in_kind=th.from_numpy(order)[None])
             empty = np.zeros(len(ADVISERS), np.float32)
             pairs["advice"] = th.from_numpy(np.array([awarded.get(p, empty) for p in zip(nodes.tolist(), robots.tolist())],
@@ -423,10 +439,10 @@ class LearnedPolicy:
             logits = extractor.pair_logits(h, g, context, pairs)
             if actions[-1] == env.wait_action:
                 logits = th.cat([logits, extractor.wait_logit(context, obs)[0]])
-        self.cpu["observation"] += advised - start
-        self.cpu["advice"] += network - advised
+        self.cpu["observation"] += advised_at - start
+        self.cpu["advice"] += network - advised_at
         self.cpu["network"] += time.process_time() - network
-        return actions[int(th.argmax(logits))]
+        return logits
 
     def _tensors(self, env, views: dict) -> dict:
         """The embedding's inputs (batch 1) as float tensors, read from the environment's arrays without a
@@ -448,21 +464,31 @@ def _writable_ignored():
 
 
 class LearnedPlanner:
-    """A learned policy as a planner: ``dispatcher(problem)`` plays the policy on ``problem`` (padded to
-    its own size) and returns a :class:`~bimrobot.coordination.market.Dispatcher` that replays its awards
-    at the same times, so ``simulate`` with it gives the policy's schedule. ``path`` None: the shipped
+    """A learned policy as a planner: ``dispatcher(problem)`` plans ``problem`` (padded to its own size)
+    and returns a :class:`~bimrobot.coordination.market.Dispatcher` that replays the plan's awards at the
+    same times, so ``simulate`` with it gives the planned schedule. ``path`` None: the shipped
     :data:`DEFAULT_POLICY`.
 
-    ``guard`` (default True), the "never worse" rule: the planner also plays the least-cost market on the
-    same problem in the same event simulation and replays whichever schedule is shorter (the policy's on
-    a tie). ``last`` says, after each ``dispatcher`` call, both makespans (s) and which plan won."""
+    ``search`` (rollouts, default :data:`~bimrobot.planning.learned_search.DEFAULT_BUDGET`): the policy
+    proposes and rollouts decide (:func:`bimrobot.planning.learned_search.search`): the plan starts from
+    the shortest of the portfolio's schedules and the policy's greedy one, so it is never longer than the
+    portfolio's nor the market's. ``search=0``: the policy plays alone, greedily; then ``guard`` (default
+    True), the "never worse" rule, also plays the least-cost market on the same problem in the same event
+    simulation and replays whichever schedule is shorter (the policy's on a tie). ``last`` says, after
+    each ``dispatcher`` call, the makespans (s) and which plan won; with the search, the budget and the
+    rollouts used too."""
 
-    def __init__(self, path: str | Path | None = None, guard: bool = True):
+    def __init__(self, path: str | Path | None = None, guard: bool = True, search: int | None = None):
+        from bimrobot.planning.learned_search import DEFAULT_BUDGET
+
         self.path = Path(path) if path is not None else DEFAULT_POLICY
         if not self.path.is_file():
             raise InputError(f"{self.path}: no such policy file" + (" (no learned policy ships with this version)" if path is None else ""))
         self.meta = read_meta(self.path)
         self.guard = guard
+        self.search = DEFAULT_BUDGET if search is None else int(search)
+        if self.search < 0:
+            raise InputError(f"the learned planner's search budget must be 0 or more rollouts, got {self.search}")
         self.last: dict = {}
 
     def play(self, problem: DispatchProblem, policy=None):
@@ -481,6 +507,8 @@ class LearnedPlanner:
         return awards, env.result
 
     def dispatcher(self, problem: DispatchProblem) -> Dispatcher:
+        if self.search:
+            return self._searched(problem)
         awards, result = self.play(problem)
         self.last = {"policy_s": float(result.makespan), "market_s": None, "chosen": "policy"}
         if self.guard:
@@ -492,42 +520,21 @@ class LearnedPlanner:
                 awards, self.last["chosen"] = market_awards, "market"
         return ReplayDispatcher(awards)
 
+    def _searched(self, problem: DispatchProblem) -> Dispatcher:
+        """The policy with decision-time search (:func:`bimrobot.planning.learned_search.search`)."""
+        from bimrobot.planning.learned_search import awards_of, search
 
-class ReplayDispatcher(Dispatcher):
-    """Replays recorded awards: at each allocation round, those recorded at the current time (s) whose
-    task is pending and robot idle, in their order. Should the run ever leave the recording (nothing to
-    replay while no robot works), the least-cost market decides that round (counted in ``fallbacks``)."""
+        env = env_for(problem, copy_observation=False)
+        found = search(problem, LearnedPolicy(load_policy(self.path, env)), self.search, env=env)
+        awards, _ = awards_of(problem, found.actions)
+        self.last = {**found.notes(), "policy_s": found.policy_s, "chosen": "search"}
+        return ReplayDispatcher(awards)
+
+
+class ReplayDispatcher(AwardsReplay):
+    """Replays the learned planner's recorded awards (:class:`~bimrobot.planning.learned_search.AwardsReplay`)."""
 
     name = "learned"
-
-    def __init__(self, awards: list[tuple[float, str, str]]):
-        from bimrobot.coordination.market import MarketDispatcher, make_evaluator
-
-        self.remaining = list(awards)
-        self.market = MarketDispatcher(make_evaluator("least-cost", 0))
-        self.fallbacks = 0
-
-    def awards(self, sim) -> list[Award]:
-        from bimrobot.planning.dispatch import request_key as _request_key
-
-        now = sim.build.env.now
-        ready = {_request_key(sim, r): r for pool in sim.build.pending.values() for r in pool}
-        chosen, used, keep = [], set(), []
-        for entry in self.remaining:
-            time, key, name = entry
-            request = ready.get(key)
-            if abs(time - now) < 1e-9 and request is not None and name not in used and name in sim.build.idle[request.activity]:
-                robot = sim.build.robots[name]
-                chosen.append(Award(request, name, propose(robot.spec, sim.position_now(robot), now, True, request), 1))
-                used.add(name)
-                del ready[key]
-            else:
-                keep.append(entry)
-        self.remaining = keep
-        if not chosen and not any(r.task is not None for r in sim.build.robots.values()):
-            chosen = self.market.awards(sim)
-            self.fallbacks += bool(chosen)
-        return chosen
 
 
 __all__ = ["DEFAULT_POLICY", "DispatchExtractor", "LearnedPlanner", "LearnedPolicy", "ReplayDispatcher", "train",

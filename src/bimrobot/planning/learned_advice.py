@@ -122,19 +122,95 @@ class _Sandbox(DispatchEnv):
         return {}
 
 
-def _complete(env: DispatchEnv, prefix: list[int]) -> tuple[float, list[int]]:
-    """Replay ``prefix`` on ``env`` from its start, then let the least-cost market finish the build:
-    (makespan s, every action)."""
+def _complete(env: DispatchEnv, prefix: list[int], completer=None) -> tuple[float, list[int]]:
+    """Replay ``prefix`` on ``env`` from its start, then let ``completer`` (a policy ``policy(env) ->
+    action``; None: the least-cost market) finish the build: (makespan s, every action)."""
     obs, _ = env.reset(seed=0)
     done = truncated = False
     for action in prefix:
         _, _, done, truncated, _ = env.step(action)
-    actions, market = list(prefix), MarketPolicy()
+    actions, completer = list(prefix), completer if completer is not None else MarketPolicy()
     while not (done or truncated):
-        action = market(env)
+        action = completer(env)
         actions.append(action)
         _, _, done, truncated, _ = env.step(action)
     return (float(env.result.makespan) if env.result is not None else float("inf")), actions
+
+
+class PlannerPolicy:
+    """A planner of :data:`ADVISERS` (a ``bimrobot.planning.planners`` name) as a policy of
+    :class:`DispatchEnv`, as :class:`MarketPolicy` is for the market: at each allocation round it plays
+    the awards the planner's dispatcher makes, in its order, then waits. A fresh dispatcher per episode
+    (the rules keep per-build scores)."""
+
+    def __init__(self, name: str):
+        self.name = name
+        self._sim = self._round = None
+        self._plan: list = []
+
+    def __call__(self, env: gym.Env) -> int:
+        env = env.unwrapped
+        if self._sim is not env.sim:
+            self._sim, self._dispatcher, self._round = env.sim, _adviser(self.name), None
+        if self._round != env.round_id:
+            self._round, self._plan = env.round_id, list(self._dispatcher.awards(env.sim) or [])[::-1]
+        if self._plan:
+            award = self._plan.pop()
+            return env.action_of(award.request, award.robot)
+        return env.wait_action
+
+
+def completer(name: str):
+    """A fresh policy that plays planner ``name`` (:data:`ADVISERS`): the market's own policy for
+    ``market`` (``simulate``'s run exactly), :class:`PlannerPolicy` otherwise."""
+    return MarketPolicy() if name == "market" else PlannerPolicy(name)
+
+
+class Rollouts:
+    """The incumbent of a fortified rollout and the rollouts that may replace it.
+
+    ``best`` is the shortest complete schedule found so far, (makespan s, every action); a search
+    follows it. :meth:`explore` completes the build from ``taken + [candidate]`` with each of the
+    ``completers`` (planner names of :data:`ADVISERS`) on ``sandbox`` (the event simulation replayed
+    from its start) and keeps any shorter schedule. ``budget`` bounds the rollouts run (None: no bound);
+    ``used`` counts them; a prefix already completed by the same planner is not run again."""
+
+    def __init__(self, sandbox: DispatchEnv, best: tuple[float, list[int]], completers=("market",), budget: int | None = None):
+        self.sandbox, self.best = sandbox, best
+        self.completers, self.budget = tuple(completers), budget
+        self.used = 0
+        self._seen: set = set()
+
+    @property
+    def left(self) -> float:
+        return float("inf") if self.budget is None else self.budget - self.used
+
+    def complete(self, prefix: list[int], name: str = "market") -> tuple[float, list[int]] | None:
+        """One rollout (counted), the incumbent updated; None when the budget is spent or it ran before."""
+        key = (name, tuple(prefix))
+        if self.left < 1 or key in self._seen:
+            return None
+        self._seen.add(key)
+        self.used += 1
+        makespan, actions = _complete(self.sandbox, prefix, completer(name))
+        if makespan < self.best[0] - 1e-9:
+            self.best = (makespan, actions)
+        return makespan, actions
+
+    def explore(self, taken: list[int], candidates, limit: float = float("inf")) -> int:
+        """Complete the build from each candidate next action (in order) with each completer, at most
+        ``limit`` rollouts: returns those run."""
+        before = self.used
+        for action in candidates:
+            for name in self.completers:
+                if self.used - before >= limit:
+                    return self.used - before
+                self.complete(taken + [action], name)
+        return self.used - before
+
+    def next_action(self, taken: list[int]) -> int:
+        """The incumbent's action after ``taken`` (a prefix of it)."""
+        return self.best[1][len(taken)]
 
 
 def _candidates(env: DispatchEnv, arrays: dict) -> list[int]:
@@ -159,8 +235,8 @@ def pilot_demonstrations(problem: DispatchProblem, pad: tuple[int, int, int]) ->
     schedule, its makespan and the market's (s)."""
     env = DispatchEnv(problem, max_tasks=pad[0], max_robots=pad[1], max_edges=pad[2])
     sandbox = _Sandbox(problem, max_tasks=pad[0], max_robots=pad[1], max_edges=pad[2])
-    best_s, best = _complete(sandbox, [])
-    market_s = best_s
+    rollouts = Rollouts(sandbox, _complete(sandbox, []))
+    market_s = rollouts.best[0]
     env.reset(seed=0)
     observations, masks, taken = [], [], []
     done = truncated = False
@@ -168,11 +244,8 @@ def pilot_demonstrations(problem: DispatchProblem, pad: tuple[int, int, int]) ->
         obs = observe(env)
         choices = _candidates(env, obs)
         if len(choices) > 1:
-            for action in choices:
-                makespan, actions = _complete(sandbox, taken + [action])
-                if makespan < best_s - 1e-9:
-                    best_s, best = makespan, actions
-        action = best[len(taken)]
+            rollouts.explore(taken, choices)
+        action = rollouts.next_action(taken)
         observations.append(kept(obs))
         masks.append(env.action_masks())
         taken.append(action)

@@ -20,9 +20,14 @@ Names (:func:`planner_for`):
 - ``cp-sat``: :func:`bimrobot.planning.optimal.solve_optimal`'s schedule replayed: each task goes to
   the robot CP-SAT chose, and each robot takes its tasks in CP-SAT's start order, each as soon as it is
   published and the robot is free (per joint only: CP-SAT's tasks are per joint).
-- ``learned`` and ``PATH.zip``: a learned policy, :class:`bimrobot.planning.learned.LearnedPlanner`
-  (imported only when asked for). The contract: ``LearnedPlanner(path)`` (``path`` None for the policy
-  shipped with the package) is a ``Dispatcher``, or has ``dispatcher(problem) -> Dispatcher``.
+- ``rollout``: the portfolio's best schedule improved by rollouts (the learned planner's search,
+  :mod:`bimrobot.planning.learned_search`, on the advisers' first choices only: no policy).
+- ``learned`` and ``PATH.zip``: a learned policy with decision-time search,
+  :class:`bimrobot.planning.learned.LearnedPlanner` (imported only when asked for): the policy proposes,
+  rollouts decide, never longer than the portfolio. ``learned:greedy``: the shipped policy alone,
+  guarded by the market (``LearnedPlanner(path, search=0)``). The contract: ``LearnedPlanner(path)``
+  (``path`` None for the policy shipped with the package) is a ``Dispatcher``, or has
+  ``dispatcher(problem) -> Dispatcher``.
 
 All planners are deterministic. Times in seconds, positions (x, y) in metres in the site frame.
 """
@@ -41,7 +46,8 @@ from bimrobot.core.errors import InputError
 from bimrobot.planning.rules import RULES, RuleDispatcher, _request_key
 
 #: the names :func:`planner_for` knows, in the order the CLI lists them (``PATH.zip`` besides)
-PLANNERS = ("market", "market:quickest-finish", *(f"rule:{r}" for r in RULES), "portfolio", "cp-sat", "learned")
+PLANNERS = ("market", "market:quickest-finish", *(f"rule:{r}" for r in RULES), "portfolio", "rollout", "cp-sat", "learned",
+            "learned:greedy")
 #: the members of ``portfolio``: the dispatching planners that need no solver and no policy
 PORTFOLIO = ("market", "market:quickest-finish", *(f"rule:{r}" for r in RULES))
 DEFAULT = "market"
@@ -203,8 +209,9 @@ def _portfolio(problem, stats: PlanStats, **_) -> Dispatcher:
     return _REGISTRY[chosen].make(problem, stats)
 
 
-def _learned(path: str | None) -> Callable:
-    def make(problem, stats, **_):
+def _learned(path: str | None, greedy: bool = False) -> Callable:
+    """``search``: the rollouts of the policy's decision-time search (None: the default budget)."""
+    def make(problem, stats, search: int | None = None, **_):
         if path is not None and not Path(path).is_file():
             raise InputError(f"--planner {path}: no such policy file")
         try:
@@ -214,14 +221,31 @@ def _learned(path: str | None) -> Callable:
                 raise
             raise InputError("--planner learned: no learned policy is installed (bimrobot.planning.learned is "
                              "missing from this bimrobot)") from None
-        # the policy plays the whole build (and the market beside it) here: that is its planning time
+        # the policy plays the whole build (and the search's rollouts) here: that is its planning time
         started, cpu = time.perf_counter(), time.process_time()
-        planner = LearnedPlanner(path)
+        planner = LearnedPlanner(path, search=0 if greedy else search)
         dispatcher = planner if isinstance(planner, Dispatcher) else planner.dispatcher(problem)
         stats.solve_s += time.perf_counter() - started
         stats.solve_cpu_s += time.process_time() - cpu
+        stats.notes.update(getattr(planner, "last", {}))
         return dispatcher
     return make
+
+
+def _rollout(problem, stats: PlanStats, search: int | None = None, **_) -> Dispatcher:
+    """The learned planner's search without a policy: the portfolio's best schedule, improved by rollouts
+    of the advisers' first choices (:func:`bimrobot.planning.learned_search.search`, ``policy`` None;
+    ``search`` rollouts, None: the default budget)."""
+    from bimrobot.planning.learned_search import DEFAULT_BUDGET, AwardsReplay, awards_of
+    from bimrobot.planning.learned_search import search as rollouts
+
+    started, cpu = time.perf_counter(), time.process_time()
+    found = rollouts(problem, None, DEFAULT_BUDGET if search is None else search)
+    awards, _ = awards_of(problem, found.actions)
+    stats.solve_s += time.perf_counter() - started
+    stats.solve_cpu_s += time.process_time() - cpu
+    stats.notes.update(found.notes())
+    return AwardsReplay(awards)
 
 
 _REGISTRY: dict[str, Planner] = {
@@ -229,8 +253,11 @@ _REGISTRY: dict[str, Planner] = {
     "market:quickest-finish": Planner("market:quickest-finish", "the market, quickest-finish", _market("quickest-finish")),
     **{f"rule:{r}": Planner(f"rule:{r}", f"priority rule: {r.replace('-', ' ')}", _rule(r)) for r in RULES},
     "portfolio": Planner("portfolio", "the shortest of the market's and the rules' schedules", _portfolio),
+    "rollout": Planner("rollout", "the portfolio's best improved by rollouts of the advisers' choices", _rollout),
     "cp-sat": Planner("cp-sat", "CP-SAT's schedule replayed (per joint)", _cpsat),
-    "learned": Planner("learned", "the learned policy shipped with bimrobot", _learned(None)),
+    "learned": Planner("learned", "the learned policy shipped with bimrobot, with decision-time search", _learned(None)),
+    "learned:greedy": Planner("learned:greedy", "the shipped learned policy alone, guarded by the market",
+                              _learned(None, greedy=True)),
 }
 
 
@@ -247,7 +274,7 @@ def planner_for(name: str) -> Planner:
 def dispatcher_for(name: str, problem, stats: PlanStats | None = None, **options) -> Dispatcher:
     """The dispatcher that carries out planner ``name``'s plan of ``problem`` (a ``DispatchProblem``),
     timed into ``stats``. ``options``: the planner's own (CP-SAT: ``time_limit_s``, ``deterministic_s``,
-    ``workers``)."""
+    ``workers``; ``learned``, ``PATH.zip`` and ``rollout``: ``search``, the rollouts)."""
     stats = stats if stats is not None else PlanStats()
     return Timed(planner_for(name).make(problem, stats, **options), stats)
 
@@ -301,6 +328,10 @@ def plan_line(result, stats: PlanStats) -> str:
     notes = stats.notes
     if "portfolio_chosen" in notes:
         text += f"; portfolio: {notes['portfolio_chosen']} was shortest of {len(notes['portfolio_makespans_s'])}"
+    if "search_rollouts" in notes:
+        greedy = "" if notes.get("policy_greedy_s") is None else f"policy alone {notes['policy_greedy_s']:.1f} s, "
+        text += (f"; search: {greedy}portfolio {notes['portfolio_s']:.1f} s ({notes['portfolio_member']}), "
+                 f"{notes['search_rollouts']} of {notes['search_budget']} rollouts, planned {notes['planned_s']:.1f} s")
     if "cpsat_makespan_s" in notes:
         text += (f"; CP-SAT's own objective {notes['cpsat_makespan_s']:.1f} s ({notes['cpsat_status']}, lower bound "
                  f"{notes['cpsat_lower_bound_s']:.1f} s), executed {result.makespan:.1f} s")

@@ -1,0 +1,86 @@
+"""The learned planner's decision-time search (bimrobot.planning.learned_search): the policy proposes,
+rollouts decide. Its schedule is never longer than the portfolio's nor the market's, simulate executes
+exactly the planned schedule, the budget bounds the rollouts, and plan.json says what the search did.
+On the generated chapter-4 frame per joint (28 tasks) with a few rollouts; one torch thread."""
+
+import json
+
+import pytest
+import torch as th
+
+from bimrobot.coordination.simulation import simulate
+from bimrobot.core.errors import InputError
+from bimrobot.planning.dispatch import frame_problem
+from bimrobot.planning.learned_search import search
+from bimrobot.planning.planners import plan, plan_record
+from bimrobot.sco.states import State
+
+th.set_num_threads(1)
+
+
+@pytest.fixture(scope="module")
+def frame():
+    return frame_problem(per_node=False)
+
+
+@pytest.fixture(scope="module")
+def baselines(frame):
+    """The market's and the portfolio's makespans (s) on the frame, each executed by the event simulation."""
+    return plan("market", frame)[0].makespan, plan("portfolio", frame)[0].makespan
+
+
+@pytest.fixture(scope="module")
+def searched(frame):
+    """The shipped policy with a search of 12 rollouts on the frame, planned and executed by simulate."""
+    from bimrobot.planning.learned import LearnedPlanner
+
+    planner = LearnedPlanner(search=12)
+    replay = planner.dispatcher(frame)
+    result = simulate(frame.smart, frame.fleet, frame.site, "least-cost", 0, (), frame.storey_elevations,
+                      per_node=frame.per_node, dispatcher=replay)
+    return planner.last, replay, result
+
+
+def test_the_search_is_never_longer_than_the_portfolio_nor_the_market(searched, baselines):
+    last, _, result = searched
+    market, portfolio = baselines
+    assert last["market_s"] == pytest.approx(market, abs=1e-3)
+    assert last["portfolio_s"] == pytest.approx(portfolio, abs=1e-3)
+    assert result.makespan <= portfolio + 1e-6 <= market + 1e-6
+    assert result.makespan <= last["policy_greedy_s"] + 1e-6  # the policy's own schedule is a starting point too
+
+
+def test_simulate_executes_exactly_the_searched_schedule(searched):
+    last, replay, result = searched
+    assert result.makespan == pytest.approx(last["planned_s"], abs=1e-3)
+    assert replay.fallbacks == 0 and not replay.remaining
+    assert all(c.state == State.ASSEMBLED for c in result.built.components.values())
+    finish = {a.id: a.finish for a in result.activities}
+    assert all(a.start >= finish[p] - 1e-9 for a in result.activities for p in a.predecessors)
+
+
+@pytest.mark.parametrize("budget", [0, 3])
+def test_the_budget_bounds_the_rollouts(frame, baselines, budget):
+    """The search without a policy (the ``rollout`` planner, the ablation): at most ``budget`` rollouts;
+    with none it is the portfolio's schedule."""
+    found = search(frame, None, budget)
+    assert found.rollouts <= budget and found.budget == budget
+    assert found.makespan_s <= baselines[1] + 1e-6
+    if budget == 0:
+        assert found.makespan_s == pytest.approx(baselines[1], abs=1e-9) and found.passes == 0
+
+
+def test_plan_json_records_the_budget_the_rollouts_and_each_makespan(frame):
+    result, stats = plan("learned", frame, search=4)
+    record = json.loads(plan_record("learned", result, stats))
+    assert record["planner"] == "learned" and record["search_budget"] == 4 and 0 <= record["search_rollouts"] <= 4
+    assert record["makespan_s"] == pytest.approx(record["planned_s"], abs=2e-3)
+    assert record["planned_s"] <= record["portfolio_s"] <= record["market_s"]
+    assert record["policy_greedy_s"] > 0 and record["search_started_from"] in ("policy", record["portfolio_member"])
+
+
+def test_a_negative_budget_is_refused_in_one_sentence():
+    from bimrobot.planning.learned import LearnedPlanner
+
+    with pytest.raises(InputError, match="search budget must be 0 or more rollouts"):
+        LearnedPlanner(search=-1)
