@@ -296,7 +296,7 @@ def register(subparsers) -> None:
                         help="RCAN's sim robots: real seconds slept per simulated second (default 0, as fast as possible)")
     parser.add_argument("--planner", metavar="NAME",
                         help="who plans the build, as simulate --planner (default the market): market, "
-                        "market:quickest-finish, rule:NAME, portfolio, cp-sat (per joint), learned or PATH.zip")
+                        "market:quickest-finish, rule:NAME, portfolio, rollout, cp-sat (per joint), learned, learned:greedy or PATH.zip")
     add_selection_options(parser, built=True)
     add_unknown_weight_option(parser)
     parser.set_defaults(func=build_command)

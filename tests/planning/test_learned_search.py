@@ -84,3 +84,19 @@ def test_a_negative_budget_is_refused_in_one_sentence():
 
     with pytest.raises(InputError, match="search budget must be 0 or more rollouts"):
         LearnedPlanner(search=-1)
+
+
+def test_the_search_as_a_teacher_labels_its_own_schedule(baselines):
+    """``plan train --teacher search``: the decisions along the search's schedule on a training building
+    (here the frame, per joint, 4 rollouts), one advised observation per action, its makespan no longer
+    than the portfolio's."""
+    from bimrobot.planning.learned import sizes
+    from bimrobot.planning.learned_search import search_teacher
+
+    class Entry:
+        spec, problem = "frame", frame_problem(per_node=False)
+
+    (obs, masks, actions), taught = search_teacher([Entry()], sizes(Entry.problem), budget=4)
+    assert len(actions) == len(masks) == len(obs["advice"]) >= 28
+    assert all(masks[i, a] for i, a in enumerate(actions))
+    assert taught["frame"] <= baselines[1] + 1e-3

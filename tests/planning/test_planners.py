@@ -112,12 +112,16 @@ def test_the_benchmark_bounds_every_planner_from_below():
     shortest handling times or the work per robot, CP-SAT left out), with the gap in per cent."""
     from bimrobot.planning.benchmark import bench_model, markdown
 
-    entry = bench_model("generated:2x1x1", ("market", "rule:nearest", "rule:longest-path"), fleet="fleet2", log=lambda _: None)
-    assert [r["planner"] for r in entry["rows"]] == ["market", "rule:nearest", "rule:longest-path"]
+    names = ("market", "rule:nearest", "rule:longest-path", "rollout")
+    entry = bench_model("generated:2x1x1", names, fleet="fleet2", log=lambda _: None)
+    assert [r["planner"] for r in entry["rows"]] == list(names)
     assert entry["tasks"] == 10 and entry["bound_from"] in ("critical path", "work / robots")
     for row in entry["rows"]:
         assert row["makespan_s"] >= entry["lower_bound_s"] and row["gap_pct"] >= 0 and row["decisions"] == 10
     assert "| generated:2x1x1, fleet2 | 3 | 10 |" in markdown([entry], 60.0)
+    searched = entry["rows"][-1]  # the search: its rollouts counted, never longer than the market
+    assert 0 <= searched["search_rollouts"] <= searched["search_budget"] == 400
+    assert searched["makespan_s"] <= entry["rows"][0]["makespan_s"]
 
 
 def test_the_portfolio_runs_the_shortest_of_its_members():

@@ -91,7 +91,9 @@ def add_simulate_options(parser: argparse.ArgumentParser) -> None:
         "--planner", metavar="NAME",
         help="who plans the build (default: the market with --evaluator): market, market:quickest-finish, "
         "rule:most-successors, rule:longest-path, rule:nearest, rule:shortest-handling, portfolio (the shortest of "
-        "those six), cp-sat (with --per-joint), learned, or a policy file PATH.zip; plan.json says what planning cost",
+        "those six), rollout (the portfolio's best improved by rollouts), cp-sat (with --per-joint), learned (the shipped "
+        "policy with a search of 400 rollouts), learned:greedy (the policy alone), or a policy file PATH.zip; plan.json "
+        "says what planning cost",
     )
     parser.add_argument("--breakdown", type=breakdown, action="append", default=[], metavar="ROBOT@SECONDS[+REPAIR]", help="the robot breaks down at that time, for good or for REPAIR seconds (repeatable)")
     parser.add_argument("--no-gantt", action="store_true", help="skip the Gantt chart (faster on big buildings)")

@@ -20,7 +20,8 @@ from pathlib import Path
 from bimrobot.core.errors import BimrobotError, InputError
 
 PREBUILT = "IfcFooting,IfcSlab,IfcWall"
-#: the planners benchmarked by default (``learned`` where a policy is installed)
+#: the planners benchmarked by default (``learned`` where a policy is installed: the policy with its search of
+#: 400 rollouts, each a whole simulation, so by far the dearest after CP-SAT)
 DEFAULT_PLANNERS = ("market", "market:quickest-finish", "rule:most-successors", "rule:longest-path", "rule:nearest",
                     "rule:shortest-handling", "cp-sat", "learned")
 
@@ -92,6 +93,8 @@ def bench_model(model: str, planners=DEFAULT_PLANNERS, fleet: str | None = None,
                        cpu_ms_per_decision=_round(stats.cpu_ms_per_decision, 3),
                        run_s=round(time.perf_counter() - t0, 2))
             notes = stats.notes
+            if "search_rollouts" in notes:  # the learned planner's and rollout's search
+                row.update({k: notes[k] for k in ("search_budget", "search_rollouts", "policy_greedy_s", "portfolio_s")})
             if "cpsat_lower_bound_s" in notes:
                 entry.update(tasks=notes["cpsat_tasks"], cpsat_bound_s=round(notes["cpsat_lower_bound_s"], 2),
                              cpsat_status=notes["cpsat_status"], cpsat_method=notes["cpsat_method"])

@@ -218,8 +218,9 @@ def register_train(commands) -> None:
     train.add_argument("--steps", type=int, default=4096, help="PPO env steps after imitation (default 4096; 0: imitation only)")
     train.add_argument("--imitation-steps", type=int, default=400, help="behaviour-cloning mini-batches of the teacher's choices (default 400; 0: none)")
     # learned.TEACHERS, written out: importing learned would load torch for every `bimrobot plan` command
-    train.add_argument("--teacher", choices=("pilot", "market"), default="pilot",
-                       help="whose decisions are imitated: the pilot (market and rules tried, the shortest kept; default) or the least-cost market")
+    train.add_argument("--teacher", choices=("pilot", "market", "search"), default="pilot",
+                       help="whose decisions are imitated: the pilot (market and rules tried, the shortest kept; default), the "
+                       "least-cost market, or the search (--planner rollout: the portfolio's best improved by 400 rollouts)")
     train.add_argument("-o", "--output", required=True, help="output folder (new, or one `plan train` wrote)")
     train.set_defaults(func=run_train)
 

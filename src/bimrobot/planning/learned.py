@@ -263,9 +263,10 @@ def new_model(env: gym.Env, seed: int, n_steps: int = 256, batch_size: int = 64,
                        clip_range=0.1, device="cpu", verbose=0)
 
 
-#: the teachers :func:`train` imitates: the pilot (:func:`pilot_demonstrations`, advised policy) or the
-#: least-cost market (the first policy's teacher, no advice)
-TEACHERS = ("pilot", "market")
+#: the teachers :func:`train` imitates: the pilot (:func:`pilot_demonstrations`, advised policy), the
+#: least-cost market (the first policy's teacher, no advice), or the search without a policy (the
+#: ``rollout`` planner, :func:`bimrobot.planning.learned_search.search_teacher`, advised)
+TEACHERS = ("pilot", "market", "search")
 
 
 def train(seed: int, steps: int, imitation_steps: int = 400, specs=TRAIN_SPECS, command: str | None = None,
@@ -284,12 +285,16 @@ def train(seed: int, steps: int, imitation_steps: int = 400, specs=TRAIN_SPECS, 
         raise InputError(f"--seed must be a whole number >= 0, got {seed}")
     th.manual_seed(seed)
     pool = training_pool(seed, specs)
-    advised = teacher == "pilot"
+    advised = teacher != "market"
     env = make_training_env(pool, seed, advised)
     model = new_model(env, seed)
     accuracy, taught = None, {}
     if imitation_steps:
-        if advised:
+        if teacher == "search":
+            from bimrobot.planning.learned_search import search_teacher
+
+            demonstrations, taught = search_teacher(pool, _pad(pool))
+        elif advised:
             demonstrations, taught = pilot_teacher(pool, _pad(pool))
         else:
             demonstrations = market_demonstrations(pool, _pad(pool))

@@ -185,3 +185,25 @@ class AwardsReplay(Dispatcher):
             chosen = self.market.awards(sim)
             self.fallbacks += bool(chosen)
         return chosen
+
+
+def search_teacher(pool, pad: tuple[int, int, int], budget: int = DEFAULT_BUDGET):
+    """The search without a policy (``rollout``) as a teacher: on each training building, padded to
+    ``pad``, its schedule's decisions as advised demonstrations ((observations stacked per key, masks,
+    actions), as :func:`~bimrobot.planning.learned_pool.pilot_teacher`), and {spec: its makespan (s)}."""
+    from bimrobot.planning.learned_advice import kept, observe
+    from bimrobot.planning.learned_pool import _stack
+
+    observations, masks, actions, makespans = [], [], [], {}
+    for entry in pool:
+        env = DispatchEnv(entry.problem, max_tasks=pad[0], max_robots=pad[1], max_edges=pad[2])
+        found = search(entry.problem, None, budget, env=env)
+        env.reset(seed=0)
+        for action in found.actions:
+            observations.append(kept(observe(env)))
+            masks.append(env.action_masks())
+            actions.append(action)
+            env.step(action)
+        assert env.result is not None and abs(env.result.makespan - found.makespan_s) < 1e-6
+        makespans[entry.spec] = round(found.makespan_s, 3)
+    return _stack(observations, masks, actions), makespans
