@@ -32,13 +32,28 @@ def frame_replay(frame_build, tmp_path_factory):
 
 
 @pytest.fixture(scope="session")
-def frame_pair_replay(frame_build, tmp_path_factory):
+def frame_pair(steel_frame_ifc, tmp_path_factory):
+    """(package, simulation): the steel frame's `convert --layout yard` package and its `simulate` folder
+    with fleet2 on the thesis' site, without the rest of a build (graph, RCAN, report, replay): what
+    a replay of the schedule needs, in a third of a build's time."""
+    root = tmp_path_factory.mktemp("frame-pair")
+    common = ["--no-progress"]
+    assert main(["convert", str(steel_frame_ifc), "-o", str(root / "pkg"), "--layout", "yard", "--no-preview",
+                 "--no-maps", *common]) == 0
+    assert main(["simulate", str(steel_frame_ifc), "--fleet", "fleet2", "-o", str(root / "sim"), "--no-gantt",
+                 *common]) == 0
+    return root / "pkg", root / "sim"
+
+
+@pytest.fixture(scope="session")
+def frame_pair_replay(frame_pair, tmp_path_factory):
     """(rrd path, summary) of the steel frame's replay from its `convert` package and `simulate` folder
-    (the build without RCAN's timelines: a lighter recording for the browser)."""
+    (:func:`frame_pair`: no RCAN timelines, a lighter recording for the browser)."""
     from bimrobot.replay import write_replay
 
+    package, simulation = frame_pair
     rrd = tmp_path_factory.mktemp("pair-replay") / "frame.rrd"
-    summary = write_replay(frame_build / "package", rrd, simulation=frame_build / "simulation")
+    summary = write_replay(package, rrd, simulation=simulation)
     return rrd, summary
 
 

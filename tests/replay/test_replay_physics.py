@@ -154,21 +154,66 @@ def test_the_rcan_activities_are_on_their_own_timelines(experiment_run, experime
     assert physics["/rcan/husky_ur5:TextLog:text"].dropna().map(lambda v: v[0]).tolist() == texts
 
 
-def test_a_builds_rcan_folder_with_a_trajectory_adds_the_physics(frame_build, experiment_run, tmp_path):
-    """A build whose rcan/ holds a trajectory CSV (here experiment 1's run put in place of the frame's):
-    the schedule's replay is unchanged and the physics robots join it on physics_time."""
+def meshes_on_the_timeline(frame) -> set[str]:
+    """The entities with a mesh in ``frame`` (read on one timeline: the columns of others are empty)."""
+    return {c.split(":")[0] for c in frame.columns if c.endswith("Mesh3D:vertex_positions") and frame[c].notna().any()}
+
+
+@pytest.fixture(scope="module")
+def physics_build(frame_build, experiment_run, tmp_path_factory):
+    """A build whose rcan/ holds a trajectory CSV (experiment 1's run put in place of the frame's) and
+    its replays: {draw: (rrd, summary)} for "meshes" and "boxes"."""
     import shutil
 
     from bimrobot.replay import write_replay
 
     run, _ = experiment_run
-    build = tmp_path / "out"
+    build = tmp_path_factory.mktemp("physics-build") / "out"
     shutil.copytree(frame_build, build)
     shutil.rmtree(build / "rcan")
     shutil.copytree(run, build / "rcan")
-    summary = write_replay(build, tmp_path / "b.rrd", model=frame_build.parent / "frame.ifc")
+    replays = {}
+    for draw in ("meshes", "boxes"):
+        rrd = build.parent / f"{draw}.rrd"
+        replays[draw] = rrd, write_replay(build, rrd, model=frame_build.parent / "frame.ifc", draw=draw)
+    return build, replays
+
+
+def test_a_builds_rcan_folder_with_a_trajectory_adds_the_physics(physics_build):
+    """A build whose rcan/ holds a trajectory CSV (here experiment 1's run put in place of the frame's):
+    the schedule's replay is unchanged and the physics robots join it on physics_time."""
+    _, replays = physics_build
+    rrd, summary = replays["meshes"]
     assert summary["installed"] == 12 and summary["rcan_done"] == 5
     # the experiment's column is no element of the frame: only the robots are drawn from the physics
     assert summary["physics_robots"] == 3 and summary["physics_components"] == 0
-    paths, _ = read_back(tmp_path / "b.rrd", ["/bodies/husky_ur5/base"], "physics_time")
+    paths, _ = read_back(rrd, ["/bodies/husky_ur5/base"], "physics_time")
     assert "/bodies/husky_ur5/base" in paths and "/robots/TransportRobot11" in paths
+
+
+def test_on_a_large_model_what_the_physics_did_not_move_is_one_entity(physics_build):
+    """A large model's physics (``--draw boxes``, the default on MULTICOM-Prefab): the web viewer's time
+    to open grows with the entities on a timeline, so only the components the physics moved keep an
+    entity of their own; the elements it did not move (here all 88 of the frame: experiment 1's column is
+    none of them) stand in one mesh, ``/building/not moved by the physics``, with the same triangles at
+    the same places as the meshes replay's one entity each."""
+    from bimrobot.replay.elements import entity
+    from bimrobot.replay.record_rcan import UNMOVED
+
+    _, replays = physics_build
+    unmoved = entity("building", UNMOVED)
+    _, each = read_back(replays["meshes"][0], ["/building/**"], "physics_time")
+    _, one = read_back(replays["boxes"][0], ["/building/**"], "physics_time")
+    drawn = meshes_on_the_timeline(each)
+    assert len(drawn) == 88 and unmoved not in drawn
+    assert meshes_on_the_timeline(one) == {unmoved}
+    gids = one[f"{unmoved}:global_id"].dropna().iloc[0].tolist()
+    assert sorted(gids) == sorted(each[f"{path}:global_id"].dropna().iloc[0][0] for path in drawn)
+    vertices = np.array(one[f"{unmoved}:Mesh3D:vertex_positions"].dropna().iloc[0].tolist())
+    placed = []
+    for gid in gids:
+        path = next(p for p in drawn if each[f"{p}:global_id"].dropna().iloc[0][0] == gid)
+        local = np.array(each[f"{path}:Mesh3D:vertex_positions"].dropna().iloc[0].tolist())
+        turn = np.array(each[f"{path}:Transform3D:mat3x3"].dropna().iloc[0][0]).reshape(3, 3)  # column by column
+        placed.append(local @ turn + np.array(each[f"{path}:Transform3D:translation"].dropna().iloc[0][0]))
+    assert np.allclose(vertices, np.concatenate(placed), atol=1e-4)

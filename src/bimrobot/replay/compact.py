@@ -119,8 +119,7 @@ def log_compact(rec, clock, record: BuildRecord, poses: dict, node_times: dict) 
     context = context_pieces(record, node_times)
     if context:
         rec.send_columns(entity("building", UNSCHEDULED), indexes=clock.columns([0.0]),
-                         columns=[c.partition([len(c.component_batch.as_arrow_array())])
-                                  for c in context_columns(rr, record, context)])
+                         columns=context_columns(rr, record, context, UNSCHEDULED))
 
     shapes = {gid: principal_box(piece.triangles) for gid, piece in record.pieces.items()}
     labels = {gid: label(record, gid) for gid in record.pieces}
@@ -151,11 +150,12 @@ def context_mesh(record: BuildRecord, gids: list[str]) -> tuple[np.ndarray, np.n
     return np.concatenate(triangles), np.concatenate(colours).astype(np.uint8)
 
 
-def context_columns(rr, record: BuildRecord, gids: list[str]) -> list:
+def context_columns(rr, record: BuildRecord, gids: list[str], state: str) -> list:
     """The columns of one row drawing the pieces ``gids`` as :func:`context_mesh` (flat shaded), with
-    their GlobalIds as its ``global_id`` property and ``state`` :data:`UNSCHEDULED`."""
+    their GlobalIds as its ``global_id`` property and ``state`` as its ``state``."""
     triangles, colours = context_mesh(record, gids)
     vertices, indices, normals = mesh_arrays(triangles)
-    return [*rr.Mesh3D.columns(vertex_positions=vertices, triangle_indices=indices, vertex_normals=normals,
-                               vertex_colors=colours),
-            *rr.AnyValues.columns(global_id=list(gids)), *rr.AnyValues.columns(state=[UNSCHEDULED])]
+    columns = [*rr.Mesh3D.columns(vertex_positions=vertices, triangle_indices=indices, vertex_normals=normals,
+                                  vertex_colors=colours),
+               *rr.AnyValues.columns(global_id=list(gids)), *rr.AnyValues.columns(state=[state])]
+    return [c.partition([len(c.component_batch.as_arrow_array())]) for c in columns]

@@ -104,7 +104,8 @@ def write_rrd(record: BuildRecord, rrd: Path, start: dt.datetime | None = None, 
     clock = _Clock(rec, start)
     paths = element_paths(record)
     _log_ghost(rec, record)
-    compact = bool(record.schedule) and (is_large(record) if compact is None else compact)
+    large = is_large(record) if compact is None else compact
+    compact = bool(record.schedule) and large
     entities = _log_build(rec, clock, record, paths, compact) if record.schedule else len(record.pieces)
     summary = _log_progress(rec, clock, record)
     summary.update(pieces=elements, entities=entities, simplified=simplified,
@@ -116,7 +117,7 @@ def write_rrd(record: BuildRecord, rrd: Path, start: dt.datetime | None = None, 
         summary["rcan_activities"] = len(record.rcan.activities)
         summary["rcan_done"] = len(record.rcan.done)
         if record.rcan.bodies:
-            summary.update(log_physics(rec, record, record.rcan))
+            summary.update(log_physics(rec, record, record.rcan, together=large))
     if record.schedule:  # last: its time cursor ends the viewer's timeline once everything before is in
         rec.flush()  # the rows still batched go to the file first (send_columns chunks are written at once)
         log_gantt(rec, record)

@@ -6,7 +6,10 @@ Timelines (each its own clock, so that none is mistaken for the simulated schedu
   physics moved follows its recorded body pose (Transform3D = the body's pose, as the trajectory CSV
   gives it); the element's mesh rides on that body (see :func:`mesh_offset`). Robots are drawn from
   their recorded links under ``/bodies/<robot>``: a marker box on the base, a point per link and a
-  line through the arm's links. Elements the physics run did not move stand at their installed pose.
+  line through the arm's links. Elements the physics run did not move stand at their installed pose,
+  each its own entity, or, on a large model (:func:`bimrobot.replay.compact.is_large`), all of them in
+  one, ``/building/not moved by the physics`` (their real shapes in their own colours, one mesh): the web
+  viewer's time to open grows with the entities on a timeline, and only the moving ones need their own.
 - ``rcan_time``: the RCAN run's own clock (the backend's simulated seconds; with the mujoco backend the
   same clock as ``physics_time``): ``/rcan/<robot>`` one text line per activity the robot finished,
   ``/rcan_gantt/<robot>`` a Gantt bar per done activity, from its recorded start to its finish (2D
@@ -25,7 +28,8 @@ import logging
 import numpy as np
 
 from bimrobot.core.frames import xyzw_of_wxyz
-from bimrobot.replay.elements import STATE_COLOURS, element_paths, element_properties, entity, mesh3d, transform3d
+from bimrobot.replay.elements import (STATE_COLOURS, element_paths, element_properties, entity, mesh3d, own_rgb,
+                                       transform3d)
 from bimrobot.replay.gantt import Bar, log_chart
 from bimrobot.replay.inputs import STATES, BuildRecord
 from bimrobot.replay.rcan import RcanRun
@@ -86,8 +90,13 @@ def component_pieces(record: BuildRecord, component: str) -> list[str]:
     return [component] if component in record.pieces else []
 
 
-def log_physics(rec, record: BuildRecord, run: RcanRun) -> dict:
-    """Log the recorded bodies on ``physics_time``; returns {components, robots} moved by the physics."""
+#: The one entity of the elements the physics did not move, on a large model (module docstring).
+UNMOVED = "not moved by the physics"
+
+
+def log_physics(rec, record: BuildRecord, run: RcanRun, together: bool = False) -> dict:
+    """Log the recorded bodies on ``physics_time``; returns {components, robots} moved by the physics.
+    ``together``: the elements it did not move as one entity (:data:`UNMOVED`), not one each."""
     import rerun as rr
 
     rec.reset_time()
@@ -114,7 +123,7 @@ def log_physics(rec, record: BuildRecord, run: RcanRun) -> dict:
             rec.send_columns(path, indexes=[rr.TimeColumn(PHYSICS_TIME, duration=track.times)],
                              columns=rr.Transform3D.columns(translation=track.xyz, quaternion=xyzw_of_wxyz(track.quat_wxyz)))
             moved.add(gid)
-    _log_unmoved(rec, record, run, moved)
+    _log_unmoved(rec, record, run, moved, together)
     robots = run.robot_links()
     for robot, links in robots.items():
         _log_robot_bodies(rec, run, robot, links)
@@ -122,19 +131,26 @@ def log_physics(rec, record: BuildRecord, run: RcanRun) -> dict:
     return {"physics_components": len(moved), "physics_robots": len(robots)}
 
 
-def _log_unmoved(rec, record: BuildRecord, run: RcanRun, moved: set[str]) -> None:
+def _log_unmoved(rec, record: BuildRecord, run: RcanRun, moved: set[str], together: bool) -> None:
     """Elements the physics did not move: at their installed pose from 0 s in their own colour, except the
-    pieces of RCAN's components, which the physics would have brought (not drawn without a body)."""
+    pieces of RCAN's components, which the physics would have brought (not drawn without a body); each
+    its own entity, or all in one mesh when ``together``."""
     import rerun as rr
 
-    paths = element_paths(record)
+    from bimrobot.replay.compact import context_columns
+
     rcan_pieces = {g for a in run.activities for g in component_pieces(record, a.component_id)}
+    unmoved = [gid for gid in record.pieces if gid not in moved and gid not in rcan_pieces]
+    if together:
+        if unmoved:
+            rec.send_columns(entity("building", UNMOVED), indexes=[rr.TimeColumn(PHYSICS_TIME, duration=[0.0])],
+                             columns=context_columns(rr, record, unmoved, UNMOVED))
+        return
+    paths = element_paths(record)
     rec.set_time(PHYSICS_TIME, duration=0.0)
-    for gid, piece in record.pieces.items():
-        if gid in moved or gid in rcan_pieces:
-            continue
-        own = tuple(int(round(255 * c)) for c in piece.colour[:3])
-        rec.log(paths[gid], mesh3d(rr, piece.triangles, own), transform3d(rr, piece.installed_pose),
+    for gid in unmoved:
+        piece = record.pieces[gid]
+        rec.log(paths[gid], mesh3d(rr, piece.triangles, own_rgb(piece)), transform3d(rr, piece.installed_pose),
                 rr.AnyValues(**element_properties(record, gid)))
 
 
