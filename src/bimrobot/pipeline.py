@@ -193,11 +193,11 @@ def _write_placed_site(folder: Path) -> None:
 
 STAGES = (  # the simulation first: it refuses a fleet that cannot build the model before the package is written
     Stage("simulation", "build simulation (market, SimPy)",
-          lambda a, d: ["simulate", str(a.model), "--fleet", str(a.fleet), "-o", str(d / "simulation"), "--no-progress",
+          lambda a, d: ["simulate", str(a.model), "--fleet", str(a.fleet), "-o", str(d / "simulation"),
                         "--prebuilt", a.prebuilt, *(["--by-element"] if a.by_element else []),
                         *_site(a), *_selection(a), *_weights(a), *_planner(a)], _simulate),
     Stage("package", "Gazebo package (components on the yard)",
-          lambda a, d: ["convert", str(a.model), "-o", str(d / "package"), "--layout", "yard", "--no-progress",
+          lambda a, d: ["convert", str(a.model), "-o", str(d / "package"), "--layout", "yard",
                         "--package-name", _package_name(a), *_placed_site(d), *_selection(a), *_weights(a)],
           _convert),
     Stage("graph", "knowledge graph (BOT + DiCon + schedule, joints, pick-up positions) and the IFC work schedule",
@@ -344,6 +344,7 @@ def _check_inputs(args) -> BuildModel:
     from bimrobot.site.fleet import load_fleet
     from bimrobot.site.site import load_site
 
+    _check_extras(args)
     if not args.model.is_file():
         raise InputError(f"model file {str(args.model)!r} does not exist")
     load_fleet(args.fleet)
@@ -356,6 +357,17 @@ def _check_inputs(args) -> BuildModel:
     shared = BuildModel(args)
     check_selection(args.model, args.include, args.exclude, args.prebuilt, ifc=shared.ifc)
     return shared
+
+
+def _check_extras(args) -> None:
+    """Name a missing extra the stages need with its install command before any work (issue 36): the
+    replay (rerun) always, the physics (mujoco) with ``--backend mujoco``. The report's extra is not
+    needed: without it the build writes the README's key figures and says how to get report.html."""
+    from bimrobot.core.errors import require_extra
+
+    require_extra("rerun", "replay")
+    if getattr(args, "backend", None) == "mujoco":
+        require_extra("mujoco", "physics")
 
 
 def _run_stage(stage: Stage, args, folder: Path, shared: BuildModel) -> int:

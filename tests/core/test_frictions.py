@@ -14,6 +14,9 @@ from bimrobot.cli import main
     (["rl", "train", "--setting", "E1S1", "--algo", "ppo", "-o", "{tmp}/runs"], "stable_baselines3", "rl"),
     (["rl", "benchmark", "--settings", "E1S1", "-o", "{tmp}/runs"], "stable_baselines3", "rl"),
     (["convert", "{tmp}/model.ifc", "-o", "{tmp}/pkg", "--target", "mujoco"], "mujoco", "physics"),
+    # build: its last stage is the replay, and --backend mujoco runs RCAN's robots in MuJoCo
+    (["build", "{tmp}/model.ifc", "-o", "{tmp}/out"], "rerun", "replay"),
+    (["build", "{tmp}/model.ifc", "-o", "{tmp}/out", "--backend", "mujoco"], "mujoco", "physics"),
 ])
 def test_a_missing_extra_is_named_with_its_install_command_before_any_work(tmp_path, monkeypatch, capsys,
                                                                              argv, module, extra):

@@ -67,6 +67,20 @@ def _outcome(out: Path) -> tuple[dict, dict]:
     return activities, components
 
 
+def test_build_leaves_each_stage_its_progress_bar(frame, tmp_path):
+    """On a terminal a stage shows its progress bar (issue 36: the build hid them all; the bars stay off
+    where stderr is no terminal, as in a log or this test): no stage is run with --no-progress."""
+    from bimrobot.cli import parser_for
+    from bimrobot.pipeline import STAGES
+
+    build = ["build", str(frame), "-o", str(tmp_path / "out")]
+    args = parser_for(build).parse_args(build)
+    args.unknown_weight_text = args.unknown_weight.text  # as build_command sets it for the stages
+    for stage in STAGES:
+        argv = stage.argv(args, tmp_path / "out")
+        assert getattr(parser_for(argv).parse_args(argv), "no_progress", False) is False, stage.name
+
+
 def test_build_writes_every_stage_and_says_what_each_file_is(built):
     for path in ("package/worlds/construction_site.sdf", "simulation/schedule.csv", "simulation/events.log",
                  "graph.ttl", "rcan/report.json", "rcan/state.db", "build.rrd", "README.md", "build.json"):
