@@ -270,3 +270,28 @@ def test_an_oxigraph_store_queried_since_is_still_bimrobots_but_a_file_added_to_
     assert "bimrobot: replacing " in capsys.readouterr().err
     (target / "notes.txt").write_text("mine")
     _refused_unchanged(target, "'notes.txt' \\(added\\)", kind=kind)
+
+
+def test_the_marker_lists_the_bytes_on_disk_whether_written_with_noted_digests_or_not(tmp_path):
+    """Files written through bimrobot.core.written are not read back for the marker; one rewritten
+    after its digest was noted (another size) is hashed anew, and a package replaced later is checked
+    against the true digests."""
+    from bimrobot.core import written
+
+    target = tmp_path / "out"
+    with atomic_output_dir(target, kind="test") as tmp:
+        (tmp / "meshes").mkdir()
+        written.write_text(tmp / "meshes" / "a.dae", "<COLLADA/>\n")
+        written.write_bytes(tmp / "b.stl", b"solid b")
+        written.write_text(tmp / "c.sdf", "<sdf/>")
+        (tmp / "c.sdf").write_text("<sdf version='1.9'/>")  # changed after the note
+        (tmp / "d.txt").write_text("not noted")
+    listed = json.loads((target / MARKER).read_text())["files"]
+    assert set(listed) == {"meshes", "b.stl", "c.sdf", "d.txt", "meshes/a.dae"}
+    for name, entry in listed.items():
+        if "sha256" in entry:
+            data = (target / name).read_bytes()
+            assert entry == {"size": len(data), "sha256": hashlib.sha256(data).hexdigest()}, name
+    assert not [p for p in written.take_notes() if p.startswith(str(tmp))]  # spent notes are dropped
+    _write_ours(target, "second")  # the true digests: the folder is still bimrobot's, and replaced
+    assert (target / "result.txt").read_text() == "second"

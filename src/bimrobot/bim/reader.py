@@ -19,7 +19,7 @@ import logging
 import os
 import re
 from pathlib import Path
-from typing import Iterable, Iterator
+from typing import Callable, Iterable, Iterator
 
 import numpy as np
 
@@ -119,6 +119,7 @@ def load_model(
     unknown_weight=None,
     ifc: ifcopenshell.file | None = None,
     assemblies: bool = True,
+    meanwhile: Callable[[], object] | None = None,
 ) -> BuildingModel:
     """Read ``path`` (IFC2X3, IFC4 or IFC4X3_ADD2) into a BuildingModel (metres, z up, kg).
 
@@ -136,15 +137,14 @@ def load_model(
     those empty and reads only what the weights need (weight quantities, weight properties by name),
     which is what ``convert`` does: reading every value costs up to 0.7 ms per element.
     ``prebuilt``: a ``--prebuilt`` selector, evaluated here (``model.prebuilt_ids``) for
-    :func:`bimrobot.sco.build.prebuilt_rule`. ``unknown_weight``: an
-    :class:`~bimrobot.bim.unknown_weight.UnknownWeightRule` applied once, here, to every element without
-    a weight in the model (``model.unknown_weights`` says what it did); None leaves them unknown.
+    :func:`bimrobot.sco.build.prebuilt_rule`. ``unknown_weight``: an :class:`~bimrobot.bim.unknown_weight.UnknownWeightRule`
+    applied once, here, to every element without a weight (``model.unknown_weights`` says what it did).
     An element whose local placement lies away from its body (Revit's stair flights, columns and slabs
     placed at (0, 0, 0) with their bodies metres away) gets its origin moved onto the body
     (:func:`anchor_to_bodies`; ``model.relocated`` lists them), so every consumer reads the body's place.
-    ``ifc``: the file ``path`` already parsed by :func:`open_ifc` (``bimrobot build`` parses it once to
-    check its selectors, then reads the model from that parse); None parses it here. ``assemblies``:
-    False leaves ``model.assemblies`` empty (``convert`` has no use for them: 0.1-0.2 s on Tekla precast).
+    ``ifc``: the file ``path`` already parsed by :func:`open_ifc` (``bimrobot build`` parses it once to check
+    its selectors); None parses it here. ``assemblies``: False leaves ``model.assemblies`` empty (``convert`` has no use for them: 0.1-0.2 s on Tekla precast).
+    ``meanwhile``: called once while forked processes compute the geometry (after the read without fork).
     Raises :class:`~bimrobot.core.errors.InputError` naming the file when it is missing, not IFC, truncated,
     of an unsupported schema, or holds no element with solid geometry.
     """
@@ -157,7 +157,7 @@ def load_model(
     materials = MaterialDensities(ifc)  # each material definition walked once, before any fork
     shares = _shares(candidates, processes, threads)
     read = _ShareReader(ifc, shown_name(path), mass_scale, keys, materials, properties)
-    found = _read_shares(read, shares, progress, threads)
+    found = _read_shares(read, shares, progress, threads, meanwhile)
     skipped = _skipped(candidates, found, keys)
     if not found.elements:
         raise InputError(f"{shown_name(path)} contains no element with solid geometry ({len(skipped)} products without a solid body)")
@@ -356,9 +356,11 @@ def _shares(candidates: list, processes: int | None, threads: int | None) -> lis
     return [candidates[start::count] for start in range(count)]
 
 
-def _read_shares(read: _ShareReader, shares: list[list], progress: bool, threads: int | None) -> _Found:
+def _read_shares(read: _ShareReader, shares: list[list], progress: bool, threads: int | None,
+                 meanwhile: Callable[[], object] | None = None) -> _Found:
     """Read every share in a forked process of its own, all at the same time (the parsed file is
-    inherited, not reread); their findings come back pickled and errors in a child are raised here.
+    inherited, not reread), while this process does ``meanwhile`` (in this thread: nothing else runs here
+    when it forks); their findings come back pickled and errors in a child are raised here.
     The geometry kernel never runs in this process: where it crashes on a malformed product (a
     reference of the wrong type, say: SIGSEGV or SIGFPE in its C++), the child dies and this process
     raises InputError naming the file. Where fork is unsafe, the one share is read here."""
@@ -371,14 +373,19 @@ def _read_shares(read: _ShareReader, shares: list[list], progress: bool, threads
         bar = tqdm(total=sum(len(share) for share in shares), unit="element", desc="geometry")
     if not can_fork():
         try:
-            return read(shares[0], threads, bar)
+            found = read(shares[0], threads, bar)
         finally:
             if bar is not None:
                 bar.close()
+        if meanwhile is not None:  # the iterator holds the GIL: a thread would not overlap it
+            meanwhile()
+        return found
     children = []
     child_threads = threads if len(shares) == 1 else (threads or 1)  # one share: the iterator's own threads
     try:
         _fork_children(read, shares, child_threads, children)
+        if meanwhile is not None:
+            meanwhile()
         return _collect(read, shares, children, bar)
     finally:
         for child, receiving in children:

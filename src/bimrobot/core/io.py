@@ -32,6 +32,7 @@ import hashlib
 import json
 import os
 import shutil
+import stat
 import sys
 import tempfile
 import uuid
@@ -39,6 +40,7 @@ from pathlib import Path
 from typing import Callable, Iterable, Iterator
 
 from bimrobot import __version__
+from bimrobot.core import written
 from bimrobot.core.errors import InputError
 
 #: The file that marks a folder as written by bimrobot (JSON: kind, inputs, version, time, and the
@@ -149,23 +151,43 @@ def file_digest(path: Path) -> str:
 def manifest(folder: Path) -> dict[str, dict]:
     """Every entry under ``folder`` (symbolic links not followed), by its path relative to ``folder``
     ('/'-separated): ``{"size": bytes, "sha256": hex}`` for a file, ``{"dir": True}`` for a folder,
-    ``{"link": target}`` for a symbolic link. The markers themselves (:data:`MARKER`,
-    :data:`PARTIAL_MARKER` at the top) are left out: they are bimrobot's bookkeeping, not content."""
+    ``{"link": target}`` for a symbolic link, in :func:`os.walk`'s order (a folder's subfolders, then
+    its files, then each subfolder's entries). The markers themselves (:data:`MARKER`,
+    :data:`PARTIAL_MARKER` at the top) are left out: they are bimrobot's bookkeeping, not content. A
+    file written through :mod:`bimrobot.core.written` and unchanged since is not read again."""
     entries: dict[str, dict] = {}
-    for root, dirs, files in os.walk(folder):
-        base = Path(root)
-        for name in dirs + files:
-            path = base / name
-            key = path.relative_to(folder).as_posix()
-            if key in (MARKER, PARTIAL_MARKER):
-                continue
-            if path.is_symlink():
-                entries[key] = {"link": os.readlink(path)}
-            elif path.is_dir():
-                entries[key] = {"dir": True}
-            else:
-                entries[key] = {"size": path.stat().st_size, "sha256": file_digest(path)}
+    _list_folder(os.path.abspath(folder), "", entries)
     return entries
+
+
+def _list_folder(folder: str, prefix: str, entries: dict[str, dict]) -> None:
+    """Add the entries of ``folder`` (absolute) to ``entries``, their keys after ``prefix``, then those
+    of each subfolder (not followed through a symbolic link), as :func:`manifest` describes."""
+    folders, files = [], []
+    try:
+        with os.scandir(folder) as listing:
+            for entry in listing:
+                try:
+                    (folders if entry.is_dir() else files).append(entry)
+                except OSError:
+                    files.append(entry)
+    except OSError:
+        return
+    for entry in folders + files:
+        key = prefix + entry.name
+        if key in (MARKER, PARTIAL_MARKER):
+            continue
+        info = entry.stat(follow_symlinks=False)
+        if stat.S_ISLNK(info.st_mode):
+            entries[key] = {"link": os.readlink(entry.path)}
+        elif stat.S_ISDIR(info.st_mode):
+            entries[key] = {"dir": True}
+        else:
+            digest = written.noted_digest(entry.path, info) or file_digest(Path(entry.path))
+            entries[key] = {"size": info.st_size, "sha256": digest}
+    for entry in folders:
+        if not entry.is_symlink():
+            _list_folder(entry.path, prefix + entry.name + "/", entries)
 
 
 def _differences(folder: Path, listed: dict, managed: Iterable[str] = ()) -> list[str]:
@@ -379,6 +401,8 @@ def atomic_output_dir(
         shutil.rmtree(tmp, ignore_errors=True)
         _remove_empty(created)
         raise
+    finally:
+        written.forget_under(tmp)  # the digests noted of its files (bimrobot.core.written) are spent
 
 
 def _finish_folder(tmp: Path, target: str | os.PathLike, *, kind: str, inputs: list[Path], option: str) -> None:
@@ -515,3 +539,5 @@ def resumable_output_dir(
         shutil.rmtree(staging, ignore_errors=True)
         _remove_empty(created)
         raise
+    finally:
+        written.forget_under(staging)

@@ -9,10 +9,12 @@ travel back. Where ``fork`` is not available, or the job is small, the same func
 
 from __future__ import annotations
 
+import functools
 import multiprocessing
 import os
 from collections.abc import Callable, Iterable, Iterator
 
+from bimrobot.core import written
 from bimrobot.core.cores import bind_to_parent, can_fork, cores, frozen_heap
 
 shared: dict = {}
@@ -26,7 +28,8 @@ class Tasks:
     """Run ``function`` over ``tasks`` on ``workers`` forked processes, started at once in the background;
     :meth:`results` yields each task's result in completion order. With one worker, or fewer than
     :data:`MIN_TASKS_FOR_POOL` tasks, or ``parallel=False``, the tasks run in-process when
-    :meth:`results` is iterated.
+    :meth:`results` is iterated. The digests of the files a worker's task wrote through
+    :mod:`bimrobot.core.written` come back with its result (the output marker then need not read them).
     Use as a context manager: leaving it stops the workers (also when an error leaves it)."""
 
     def __init__(self, function: Callable, tasks: Iterable, workers: int | None = None, parallel: bool = True):
@@ -39,7 +42,7 @@ class Tasks:
             with frozen_heap():  # the workers' collections do not copy every page they inherit
                 # the workers die with this process (bimrobot.core.cores.bind_to_parent), however it ends
                 self._pool = multiprocessing.get_context("fork").Pool(workers, bind_to_parent, (os.getpid(),))
-            self._pending = self._pool.imap_unordered(function, self._tasks)
+            self._pending = self._pool.imap_unordered(functools.partial(_with_notes, function), self._tasks)
 
     @property
     def parallel(self) -> bool:
@@ -47,7 +50,9 @@ class Tasks:
 
     def results(self) -> Iterator:
         if self._pending is not None:
-            yield from self._pending
+            for result, notes in self._pending:
+                written.add_notes(notes)
+                yield result
         else:
             yield from map(self._function, self._tasks)
 
@@ -61,6 +66,12 @@ class Tasks:
         # would wait for the pool's housekeeping thread, which wakes only every 0.1 s).
         self._pool.terminate()
         self._pool.join()
+
+
+def _with_notes(function: Callable, task) -> tuple:
+    """In a worker: ``function(task)`` and the notes of the files it wrote (:func:`bimrobot.core.written.take_notes`)."""
+    result = function(task)
+    return result, written.take_notes()
 
 
 def balanced_chunks(groups: list[list[int]], costs: list[float], count: int) -> list[list[int]]:

@@ -42,7 +42,7 @@ from bimrobot.export.gazebo import launch
 from bimrobot.export.gazebo import layout
 from bimrobot.export.gazebo.bodies import Geometries, Geometry
 from bimrobot.export.gazebo import meshes
-from bimrobot.core import pool
+from bimrobot.core import pool, written
 from bimrobot.export.gazebo import sdf
 from bimrobot.core.names import ros_package_name, safe_name, slug
 from bimrobot.export.gazebo.render import PREVIEW_MAX_TRIANGLES, draw_preview, render_preview
@@ -106,10 +106,18 @@ def convert(
     with frozen_heap():  # no full garbage collections through every library object on the way
         started = time.perf_counter()
         # Element.properties and the assemblies are not needed to convert: only what the weights need is read.
+        # trimesh and SciPy (the bodies' hulls and mass integrals) are imported while the geometry is computed
         model = load_model(ifc_path, include=include, exclude=exclude, progress=progress, properties=False,
-                           unknown_weight=options.unknown_weight, assemblies=False)
+                           unknown_weight=options.unknown_weight, assemblies=False, meanwhile=_import_body_libraries)
         load_seconds = time.perf_counter() - started
         return build_package(model, out_dir, options, progress, load_seconds)
+
+
+def _import_body_libraries() -> None:
+    """Import trimesh and SciPy (:mod:`bimrobot.export.inertia`: the bodies' hulls and mass integrals),
+    1.2 s of CPU, which :func:`convert` has done while the forked processes compute the geometry (a
+    user waits less wherever a core is free of the geometry for a while)."""
+    from bimrobot.export import inertia  # noqa: F401
 
 
 def build_package(
@@ -498,8 +506,9 @@ def _write_model(models_dir: Path, item: _Converted, options: ConvertOptions, so
     visual_file = f"{item.name}.dae"
     collision_file = f"{item.name}_collision.stl"
     element = item.element
-    (folder / "meshes" / visual_file).write_text(item.geometry.dae_for(element.ifc_class), encoding="utf-8")
-    (folder / "meshes" / collision_file).write_bytes(item.geometry.stl)
+    # written.*: the output marker takes these files' digests from the bytes written (bimrobot.core.written)
+    written.write_text(folder / "meshes" / visual_file, item.geometry.dae_for(element.ifc_class))
+    written.write_bytes(folder / "meshes" / collision_file, item.geometry.stl)
     spec = sdf.ModelSpec(
         name=item.name,
         pose=item.pose,
@@ -511,9 +520,9 @@ def _write_model(models_dir: Path, item: _Converted, options: ConvertOptions, so
         collision_uri=f"model://{item.name}/meshes/{collision_file}",
     )
     for version, file_name in versions.items():
-        (folder / file_name).write_text(sdf.model_sdf(spec, version), encoding="utf-8")
+        written.write_text(folder / file_name, sdf.model_sdf(spec, version))
     description = f'{element.ifc_class} "{printable(element.name)}" (IFC GlobalId {printable(element.global_id)}) from {source}'
-    (folder / "model.config").write_text(sdf.model_config(item.name, versions, description), encoding="utf-8")
+    written.write_text(folder / "model.config", sdf.model_config(item.name, versions, description))
 
 
 def _world_extent(converted: list[_Converted]) -> np.ndarray:
