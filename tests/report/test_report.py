@@ -176,6 +176,30 @@ def test_page_renders_without_rcan_and_package(frame_build, tmp_path, capsys):
     assert bars == len(_schedule(copy))
 
 
+def test_a_portfolio_build_shows_the_markets_gap_to_the_shortest_plan(frame_build, tmp_path):
+    """Issue 36: the market's gap to the best planner, when one ran. The frame's simulation planned
+    again by the portfolio (every planner run, the shortest plan kept, plan.json): the README's key
+    figures and the page name the shortest plan and how much longer the market's was; a build planned
+    by the market alone shows no such figure."""
+    from bimrobot.report import readme_figures
+
+    assert "planners compared" not in _readme_figures(frame_build)
+    copy = tmp_path / "build"
+    shutil.copytree(frame_build, copy, ignore=shutil.ignore_patterns("*.rrd", "*.ttl", "simulation"))
+    assert main(["simulate", str(frame_build.parent / "frame.ifc"), "--fleet", "fleet2", "--planner", "portfolio",
+                 "-o", str(copy / "simulation"), "--no-gantt", "--no-progress"]) == 0
+    makespans = json.loads((copy / "simulation" / "plan.json").read_text())["portfolio_makespans_s"]
+    best = min(makespans, key=makespans.get)
+    gap = makespans["market"] - makespans[best]
+    line = next(line for line in readme_figures(copy).splitlines() if line.startswith("| planners compared |"))
+    assert f"{best} {makespans[best]:,.3f} s, the shortest of {len(makespans)} plans" in line
+    assert (f"the market's plan {makespans['market']:,.3f} s, {gap:,.3f} s or {gap / makespans[best]:.1%} longer" in line
+            if gap > 0
+            else "the market's plan is as short" in line)
+    assert main(["report", str(copy)]) == 0
+    assert 'data-figure="planners compared"' in _page(copy)
+
+
 def test_report_command_refuses_what_is_not_a_build_and_keeps_foreign_files(frame_build, tmp_path, capsys):
     assert main(["report", str(tmp_path)]) == 2
     error = capsys.readouterr().err

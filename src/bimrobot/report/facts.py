@@ -73,6 +73,9 @@ class BuildFacts:
     build: dict = field(default_factory=dict)
     critical_path: CriticalPath | None = None
     missing: list[str] = field(default_factory=list)
+    #: ``simulation/plan.json`` when the build was planned with ``--planner`` (which planner, and with a
+    #: portfolio every member's makespan, ``portfolio_makespans_s``), else None
+    plan: dict | None = None
     #: the IFC model of the build (:class:`bimrobot.bim.BuildingModel`), or None with ``model_note`` saying why
     building_model: object | None = None
     model_note: str = ""
@@ -131,6 +134,7 @@ def read_build(folder: str | Path, start: str | dt.datetime | None = None,
     summary = _json(folder, "simulation/summary.json", missing) or {}
     package = _json(folder, "package/report.json", missing) or {}
     rcan = _json(folder, "rcan/report.json", missing)
+    plan = _json(folder, "simulation/plan.json", []) if (folder / "simulation" / "plan.json").is_file() else None
     schedule = _schedule(folder, missing)
     states = _states(folder, missing)
     robots = summary.get("robots") or _robots_csv(folder, missing)
@@ -154,7 +158,7 @@ def read_build(folder: str | Path, start: str | dt.datetime | None = None,
         start=start_time, calendar=calendar, calendar_source=calendar_source,
         makespan_s=_number(summary.get("makespan_s")), fleet_utilisation=_number(summary.get("fleet_utilisation")),
         schedule=schedule, states=states, robots=robots, components=_components(schedule, states, package, building_model),
-        summary=summary, package=package, rcan=rcan, build=build, missing=missing, building_model=building_model,
+        summary=summary, package=package, rcan=rcan, plan=plan, build=build, missing=missing, building_model=building_model,
         model_note=model_note,
     )
     facts.critical_path = critical_path(schedule) if schedule else None

@@ -62,7 +62,25 @@ def key_figures(facts: BuildFacts) -> list[tuple[str, str, str]]:
         ("critical path", f"{len(path.activities)} activities" if path else UNKNOWN,
          critical_text(facts, count=False) if path else ""),
         ("RCAN run", *rcan_text(facts)),
+        *([("planners compared", *compared)] if (compared := planners_text(facts)) else []),
     ]
+
+
+def planners_text(facts: BuildFacts) -> tuple[str, str] | None:
+    """When the build was planned by a portfolio (``--planner portfolio``: several planners run, the
+    shortest plan kept): the shortest with its makespan, and the market's gap to it; else None."""
+    makespans = (facts.plan or {}).get("portfolio_makespans_s")
+    if not isinstance(makespans, dict) or not makespans:
+        return None
+    best = min(makespans, key=lambda name: (float(makespans[name]), name))
+    shortest = float(makespans[best])
+    figure = f"{best} {shortest:,.3f} s, the shortest of {len(makespans)} plans"
+    market = makespans.get("market")
+    if market is None:
+        return figure, "the market was not among them"
+    gap = float(market) - shortest
+    return figure, ("the market's plan is as short" if gap <= 0 else
+                    f"the market's plan {float(market):,.3f} s, {gap:,.3f} s or {gap / shortest:.1%} longer")
 
 
 def critical_text(facts: BuildFacts, count: bool = True) -> str:
