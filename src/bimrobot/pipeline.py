@@ -525,7 +525,7 @@ Fleet: `{args.fleet}`; site: {_site_source(folder)} (`site.yaml`). Units: metres
 | `rcan/report.json` | the RCAN run: each activity with its robot, result and times; escalated and blocked work | `jq` |
 | `rcan/state.db` | RCAN's state database (journal, component states); the build resumes from it | `sqlite3` |
 | `rcan/graph-after-rcan.ttl` | the graph with the states after the RCAN run | `bimrobot query` |
-{_trajectory_row(folder)}{_work_schedule_row(args)}| `build.rrd` | 4D replay: the structure growing, components travelling from the yard with their robots, states, a Gantt you can scrub (docs/replay.md) | `rerun build.rrd`, or `bimrobot replay out/ -o view.rrd --serve` for the web viewer |
+{_trajectory_row(folder)}{_work_schedule_row(args)}| `build.rrd` | 4D replay: the structure growing, components travelling from the yard with their robots, states, a Gantt you can scrub (docs/replay.md) | `rerun build.rrd`, or `bimrobot replay --serve build.rrd` for the web viewer (serves it as it is, writes nothing) |
 | `build.json` | the inputs, options, the time of each stage, and how often the build parsed the IFC file and read its geometry (`ifc_reads`, `geometry_passes`: once each) | `jq` |
 """
 

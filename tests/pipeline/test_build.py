@@ -88,6 +88,7 @@ def test_build_writes_every_stage_and_says_what_each_file_is(built):
     readme = (built / "README.md").read_text()
     for path in ("package/", "simulation/schedule.csv", "graph.ttl", "rcan/report.json"):
         assert f"`{path}`" in readme
+    assert "`bimrobot replay --serve build.rrd`" in readme  # the web viewer on the recording, nothing written again
     assert not list(built.parent.glob(".out.*")), "no staging folder is left behind"
     assert not (built / ".stages.json").exists()
 
