@@ -362,12 +362,17 @@ def _check_inputs(args) -> BuildModel:
 def _check_extras(args) -> None:
     """Name a missing extra the stages need with its install command before any work (issue 36): the
     replay (rerun) always, the physics (mujoco) with ``--backend mujoco``. The report's extra is not
-    needed: without it the build writes the README's key figures and says how to get report.html."""
+    needed: without it the build writes the README's key figures, so it is named here (one line on
+    stderr) and the build goes on."""
+    from bimrobot import report
     from bimrobot.core.errors import require_extra
 
     require_extra("rerun", "replay")
     if getattr(args, "backend", None) == "mujoco":
         require_extra("mujoco", "physics")
+    if report.missing_packages():
+        print(f"report: report.html will not be written (only the README's key figures): {report.INSTALL_HINT}",
+              file=sys.stderr, flush=True)
 
 
 def _run_stage(stage: Stage, args, folder: Path, shared: BuildModel) -> int:

@@ -31,6 +31,19 @@ def test_a_missing_extra_is_named_with_its_install_command_before_any_work(tmp_p
     assert sorted(p.name for p in tmp_path.iterdir()) == ["model.ifc"]  # nothing written
 
 
+def test_build_names_the_missing_report_extra_before_any_work_and_goes_on(tmp_path, monkeypatch, capsys):
+    """The report's extra is optional (the README's key figures need none of it), so a build without it is
+    not refused, but told before the first stage: here the note comes before the model file's error."""
+    (tmp_path / "model.ifc").write_text("not IFC")
+    monkeypatch.setitem(__import__("sys").modules, "plotly", None)
+    assert main(["build", str(tmp_path / "model.ifc"), "-o", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert err[0] == ("report: report.html will not be written (only the README's key figures): "
+                      "pip install 'bimrobot[report]' (plotly, jinja2)")
+    assert len(err) == 2 and "model.ifc" in err[1] and "Traceback" not in err[1]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["model.ifc"]  # nothing written
+
+
 def test_fleet_names_forgive_case_and_suggest_the_nearest():
     from bimrobot.site.fleet import load_fleet
     from bimrobot.core.errors import InputError
