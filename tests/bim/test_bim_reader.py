@@ -264,9 +264,18 @@ def _same_element(a, b) -> bool:
 
 def test_geometry_read_by_two_processes_gives_the_same_model(shared_ifc):
     # Tekla's precast stairs: 150 elements, 9 outermost assemblies, 36 realizing-element connections
+    import multiprocessing
+
+    from bimrobot.bim import reader
+    from bimrobot.core.cores import can_fork
+
     path = shared_ifc("MULTICOM-trappen_bordessen.ifc")
     alone = load_model(path, processes=1, properties=False)
-    shared = load_model(path, processes=2, properties=False)
+    # the caller's own work (convert imports trimesh and SciPy) runs once, while the two processes compute
+    during: list[int] = []
+    shared = reader.load_model(path, processes=2, properties=False,
+                               meanwhile=lambda: during.append(len(multiprocessing.active_children())))
+    assert during == ([2] if can_fork() else [0])
     assert list(shared.elements) == list(alone.elements)  # every element, in the file's order
     assert all(_same_element(shared.elements[key], alone.elements[key]) for key in alone.elements)
     assert shared.connections == alone.connections and len(shared.connections) == 36
