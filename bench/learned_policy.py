@@ -9,7 +9,7 @@ Makespans in simulated seconds; no timing.
     .venv/bin/python bench/learned_policy.py [POLICY.zip]                 # default: the shipped policy
     .venv/bin/python bench/learned_policy.py --validation A.zip B.zip ...   # pick among policies
     .venv/bin/python bench/learned_policy.py --scale generated:steel:100:seed=0 generated:steel:1000:seed=0 [--reference]
-    .venv/bin/python bench/learned_policy.py --search [--budget N] [MODEL ...]  # the search on the real models
+    .venv/bin/python bench/learned_policy.py --search [--budget N] [--no-ablation] [MODEL ...]  # the search
 
 ``--search`` plans each model per joint with site-crane (as ``bimrobot plan benchmark``; default: the ten
 buildable shared models) with the learned planner's decision-time search (``--budget`` rollouts,
@@ -72,7 +72,7 @@ def validation(paths) -> None:
         for planner, mine in zip(planners, ratios):
             _, result = planner.play(problem)
             mine.append(100.0 * result.makespan / market.makespan)
-            cells.append(f"{mine[-1] - 100:+.1f} %")
+            cells.append(f"{mine[-1] - 100:+.2f} %")
         print(f"| {spec} | {market.makespan:,.1f} | " + " | ".join(cells) + " |", flush=True)
     print("| mean | | " + " | ".join(f"{sum(r) / len(r) - 100:+.2f} %" for r in ratios) + " |")
     print("| worst | | " + " | ".join(f"{max(r) - 100:+.2f} %" for r in ratios) + " |")
@@ -101,7 +101,7 @@ def scale(specs, reference: bool) -> None:
         alone = time.process_time() - start
         decisions = policy.decisions
         start = time.process_time()
-        LearnedPlanner(None, guard=True).dispatcher(problem)
+        LearnedPlanner(None, guard=True, search=0).dispatcher(problem)
         guarded = time.process_time() - start
         ms = {k: 1000 * v / decisions for k, v in policy.cpu.items()}
         rest = 1000 * alone / decisions - sum(ms.values())
@@ -119,7 +119,7 @@ def scale(specs, reference: bool) -> None:
 
 def main(path) -> None:
     th.set_num_threads(1)
-    planner = LearnedPlanner(path)
+    planner = LearnedPlanner(path, search=0)  # learned:greedy: the policy alone, guarded
     print("| model | market (s) | policy (s) | policy vs market | guarded planner (s) | plan used |")
     print("|---|---:|---:|---:|---:|---|")
     for name, problem in problems():
@@ -145,8 +145,8 @@ CPSAT = {"AC20-FZK-Haus.ifc": (None, None), "GEELEN-Breedplaat_V1.ifc": (8195.9,
          "ifcColumn.ifc": (1121.3, 1121.3), "ifcUnit.ifc": (6071.9, 6030.4)}
 
 
-def searched(models, budget: int) -> None:
-    """The search with the policy and without it (the ablation) on each model, against the baselines."""
+def searched(models, budget: int, ablation: bool = True) -> None:
+    """The search with the policy and, ``ablation``, without it, on each model, against the baselines."""
     import time
 
     from bimrobot.planning.benchmark import problem_for
@@ -161,7 +161,7 @@ def searched(models, budget: int) -> None:
     for model in models:
         problem = problem_for(SHARED + model if "/" not in model and not model.startswith("generated:") else model)[0]
         rows = []
-        for guided in (True, False):
+        for guided in (True, False)[: 1 + ablation]:
             start = time.process_time()
             env = env_for(problem, copy_observation=False)
             found = search(problem, LearnedPolicy(load_policy(DEFAULT_POLICY, env)) if guided else None, budget, env=env)
@@ -172,7 +172,7 @@ def searched(models, budget: int) -> None:
                            problem.storey_elevations, per_node=problem.per_node, dispatcher=replay)
             assert abs(run.makespan - found.makespan_s) < 1e-6 and replay.fallbacks == 0, (run.makespan, found.makespan_s)
             rows.append((found, cpu))
-        (mine, cpu), (ablation, cpu_ab) = rows
+        (mine, cpu), (other, cpu_ab) = rows if ablation else (rows[0], (None, 0.0))
         market, best = mine.market_s, mine.portfolio_s
         cpsat, bound = CPSAT.get(model.rsplit("/", 1)[-1], (None, None))
         pct = lambda x, ref: f"{100.0 * (x - ref) / ref:+.1f} %"  # noqa: E731
@@ -180,15 +180,16 @@ def searched(models, budget: int) -> None:
               f"{mine.policy_s:,.1f} | {mine.makespan_s:,.1f} | {pct(mine.makespan_s, market)} | {pct(mine.makespan_s, best)} | "
               f"{'-' if cpsat is None else f'{cpsat:,.1f}'} / {'-' if bound is None else f'{bound:,.1f}'} | "
               f"{'-' if bound is None else pct(mine.makespan_s, bound)} | {mine.rollouts} | {cpu:.1f} | "
-              f"{ablation.makespan_s:,.1f} | {pct(ablation.makespan_s, market)} | {ablation.rollouts} | {cpu_ab:.1f} |", flush=True)
+              + (f"{other.makespan_s:,.1f} | {pct(other.makespan_s, market)} | {other.rollouts} | {cpu_ab:.1f} |"
+                 if other is not None else "not run | | | |"), flush=True)
 
 
 if __name__ == "__main__":
     if sys.argv[1:2] == ["--search"]:
         args = sys.argv[2:]
         budget = int(args[args.index("--budget") + 1]) if "--budget" in args else 400
-        names = [a for i, a in enumerate(args) if a != "--budget" and (i == 0 or args[i - 1] != "--budget")]
-        searched(names or list(CPSAT), budget)
+        names = [a for i, a in enumerate(args) if a not in ("--budget", "--no-ablation") and (i == 0 or args[i - 1] != "--budget")]
+        searched(names or list(CPSAT), budget, "--no-ablation" not in args)
     elif sys.argv[1:2] == ["--validation"]:
         validation(sys.argv[2:])
     elif sys.argv[1:2] == ["--scale"]:
