@@ -4,18 +4,26 @@ schedule, run by simulate's own event simulation, respects every precedence. On 
 (no IFC file), one torch thread, seeded."""
 
 import pytest
-import torch as th
 
 from bimrobot.coordination.simulation import simulate
 from bimrobot.core.errors import InputError
 from bimrobot.planning.dispatch import frame_problem, play
-from bimrobot.planning.learned import (
-    LearnedPlanner, LearnedPolicy, env_for, imitate, imitation_accuracy, load_policy,
-    market_demonstrations, new_model, read_meta, save,
-)
 from bimrobot.sco.states import State
 
-th.set_num_threads(1)
+
+@pytest.fixture(autouse=True, scope="module")
+def _heavy_imports():
+    """torch, Stable-Baselines3 and the learned planner (about 2.5 s of imports), imported when these tests
+    run, not at collection (tests/conftest.py); one torch thread."""
+    global th, LearnedPlanner, LearnedPolicy, env_for, imitate, imitation_accuracy, load_policy
+    global market_demonstrations, new_model, read_meta, save
+    import torch as th
+    from bimrobot.planning.learned import (
+        LearnedPlanner, LearnedPolicy, env_for, imitate, imitation_accuracy, load_policy,
+        market_demonstrations, new_model, read_meta, save,
+    )
+
+    th.set_num_threads(1)
 
 
 @pytest.fixture(scope="module")

@@ -6,7 +6,6 @@ On the generated chapter-4 frame per joint (28 tasks) with a few rollouts; one t
 import json
 
 import pytest
-import torch as th
 
 from bimrobot.coordination.simulation import simulate
 from bimrobot.core.errors import InputError
@@ -15,7 +14,14 @@ from bimrobot.planning.learned_search import search
 from bimrobot.planning.planners import plan, plan_record
 from bimrobot.sco.states import State
 
-th.set_num_threads(1)
+
+@pytest.fixture(autouse=True, scope="module")
+def _heavy_imports():
+    """One torch thread; torch itself (about 2 s of imports) is imported when these tests run, not at
+    collection (tests/conftest.py)."""
+    import torch
+
+    torch.set_num_threads(1)
 
 
 @pytest.fixture(scope="module")

@@ -5,13 +5,22 @@ large model drawn as boxes by state."""
 from __future__ import annotations
 
 import csv
+import importlib.util
 import json
 
 import numpy as np
 import pytest
 
-rr = pytest.importorskip("rerun")
-pytest.importorskip("datafusion", reason="Rerun's dataframe API needs rerun-sdk[catalog] (datafusion)")
+# found, not imported (tests/conftest.py): the extras these tests need
+MISSING = [name for name in ("rerun", "datafusion") if importlib.util.find_spec(name) is None]
+pytestmark = pytest.mark.skipif(bool(MISSING), reason=f"needs {', '.join(MISSING)}, not installed")
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _heavy_imports():
+    """rerun (about 1 s of imports with its dataframe API), imported when these tests run, not at collection."""
+    global rr
+    import rerun as rr
 
 
 @pytest.fixture(scope="module")

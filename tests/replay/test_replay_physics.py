@@ -3,15 +3,24 @@
 from __future__ import annotations
 
 import csv
+import importlib.util
 
 import numpy as np
 import pytest
 
 from bimrobot.cli import main
 
-rr = pytest.importorskip("rerun")
-pytest.importorskip("datafusion", reason="Rerun's dataframe API needs rerun-sdk[catalog] (datafusion)")
-pytest.importorskip("mujoco", reason="the mujoco RCAN backend needs MuJoCo")
+# found, not imported (tests/conftest.py): the extras these tests need
+MISSING = [name for name in ("rerun", "datafusion", "mujoco") if importlib.util.find_spec(name) is None]
+pytestmark = pytest.mark.skipif(bool(MISSING), reason=f"needs {', '.join(MISSING)}, not installed")
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _heavy_imports():
+    """rerun (about 1 s of imports with its dataframe API), imported when these tests run, not at collection."""
+    global rr
+    import rerun as rr
+
 
 COLUMN = "267VPu8ab9991QBA3MI3UN"  # the column of the thesis' RCAN experiment 1
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import importlib.util
 import json
 
 import numpy as np
@@ -10,12 +11,19 @@ import pytest
 
 from bimrobot.cli import main
 
-rr = pytest.importorskip("rerun")
-pytest.importorskip("datafusion", reason="Rerun's dataframe API needs rerun-sdk[catalog] (datafusion)")
+# found, not imported (tests/conftest.py): the extras these tests need
+MISSING = [name for name in ("rerun", "datafusion") if importlib.util.find_spec(name) is None]
+pytestmark = pytest.mark.skipif(bool(MISSING), reason=f"needs {', '.join(MISSING)}, not installed")
 
 
-#: Column C1 of the steel frame (GlobalId 3Ua8LTHWPNNemz8Gs8JfMy): named by storey, class and name.
-COLUMN_C1 = "/building/" + "/".join(rr.escape_entity_path_part(p) for p in ("Level 1", "IfcColumn", "Column C1"))
+@pytest.fixture(autouse=True, scope="module")
+def _heavy_imports():
+    """rerun (about 1 s of imports with its dataframe API), imported when these tests run, not at collection."""
+    global rr, COLUMN_C1
+    import rerun as rr
+
+    #: Column C1 of the steel frame (GlobalId 3Ua8LTHWPNNemz8Gs8JfMy): named by storey, class and name.
+    COLUMN_C1 = "/building/" + "/".join(rr.escape_entity_path_part(p) for p in ("Level 1", "IfcColumn", "Column C1"))
 
 
 def read_back(rrd):

@@ -3,6 +3,7 @@ lying in the temporary folder when bimrobot is stopped, whichever signal stops i
 
 from __future__ import annotations
 
+import importlib.util
 import os
 import signal
 import subprocess
@@ -15,7 +16,9 @@ import pytest
 
 from bimrobot.cli import main
 
-pytest.importorskip("rerun")
+# found, not imported (tests/conftest.py): rerun costs about 0.5 s of imports at collection otherwise
+pytestmark = pytest.mark.skipif(importlib.util.find_spec("rerun") is None,
+                                reason="the replay needs rerun-sdk: pip install 'bimrobot[replay]'")
 
 
 def processes_naming(text: str) -> list[int]:

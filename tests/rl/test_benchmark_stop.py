@@ -9,9 +9,13 @@ import sys
 import time
 from pathlib import Path
 
+import importlib.util
+
 import pytest
 
-pytest.importorskip("sb3_contrib")
+# found, not imported: sb3-contrib pulls in torch (about 2.5 s) at collection otherwise (tests/conftest.py)
+pytestmark = pytest.mark.skipif(importlib.util.find_spec("sb3_contrib") is None,
+                                reason="the rl benchmark needs sb3-contrib: pip install 'bimrobot[rl]'")
 
 
 def _children(pid: int) -> list[int]:
