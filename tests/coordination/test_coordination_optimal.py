@@ -1,6 +1,8 @@
 """The CP-SAT schedule (bimrobot.planning.optimal) at scale: deterministic limits, never longer than the
 market it starts from, a lower bound and its gap, and floor-by-floor solving for large builds."""
 
+import importlib.util
+
 import pytest
 
 from bimrobot.bim.selection import DEFAULT_PREBUILT
@@ -11,10 +13,12 @@ from bimrobot.coordination.simulation import ConstructionSimulation, simulate
 from bimrobot.core.errors import InputError
 from bimrobot.sco import build_smart_model
 
-pytest.importorskip("ortools")
-
-from bimrobot.planning.optimal import solve_optimal
+from bimrobot.planning.optimal import solve_optimal  # imports OR-Tools only when it solves
 from bimrobot.planning.optimal_graph import task_graph
+
+# found, not imported (tests/conftest.py): OR-Tools costs about 0.5 s of imports at collection otherwise
+pytestmark = pytest.mark.skipif(importlib.util.find_spec("ortools") is None,
+                                reason="CP-SAT needs OR-Tools: pip install 'bimrobot[optimize]'")
 
 #: CP-SAT's deterministic time per solve (its own work units, the same on every machine), one worker
 LIMITS = dict(workers=1, deterministic_limit=0.5, time_limit_s=600.0)

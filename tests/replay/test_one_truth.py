@@ -30,7 +30,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
-from scipy.spatial.transform import Rotation
 
 from bimrobot.cli import main
 
@@ -70,6 +69,8 @@ def graph_positions(out: Path) -> tuple[dict[str, np.ndarray], dict[str, np.ndar
 
 def pose_matrix(xyz_rpy) -> np.ndarray:
     """4x4 of an SDF pose (x y z roll pitch yaw: fixed axes, R = Rz(yaw) Ry(pitch) Rx(roll)), via scipy."""
+    from scipy.spatial.transform import Rotation  # here, not at collection (about 0.5 s of imports)
+
     matrix = np.eye(4)
     matrix[:3, :3] = Rotation.from_euler("xyz", xyz_rpy[3:]).as_matrix()
     matrix[:3, 3] = xyz_rpy[:3]
