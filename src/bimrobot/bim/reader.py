@@ -1,7 +1,7 @@
 """Read an IFC file into a :class:`~bimrobot.bim.model.BuildingModel` in one geometry-iterator pass.
 
 All geometry comes from ifcopenshell's geometry iterator in local coordinates, one pass over the products
-(shared by one forked process per core, each with its own iterator over every n-th product): each shape's
+(shared by one forked process per core, each with its own iterator over a share of about equal cost): each shape's
 matrix is the element's placement (local -> world, metres) and its vertices are in the element's local
 frame, so ``world = placement @ local``. Shapes that share a representation (mapped items, types) share
 their vertex and face arrays. Kernel: ``hybrid-cgal-simple-opencascade`` (CGAL where it can, OpenCASCADE
@@ -58,6 +58,7 @@ from bimrobot.bim.ifc_file import (
 from bimrobot.bim.model import BuildingModel, Element, mesh_volume
 from bimrobot.bim.quantities import MaterialDensities
 from bimrobot.bim.selection import describe, select_products
+from bimrobot.bim.shares import balanced_shares, geometry_costs
 from bimrobot.core.errors import InputError
 
 # The file (ifc_file.py) and the entities' data (entities.py) have their own modules (issue 37); callers
@@ -127,8 +128,8 @@ def load_model(
     ``"IfcColumn, IfcBeam"`` or ``"IfcElement, ! IfcFurnishingElement"``, or lists of class names;
     subclasses count, so ``"IfcBuildingElement"`` takes walls, beams, ...
     ``progress``: show a tqdm bar over the geometry pass. ``processes``: forked processes that share the
-    geometry pass, each with its own iterator over every n-th product (default: every core, at most 8;
-    one below :data:`MIN_PRODUCTS_TO_SHARE` products or where fork is unsafe). ``threads``: the
+    geometry pass, each with its own iterator over a share of about equal guessed cost (default: every
+    core, at most 8; one below :data:`MIN_PRODUCTS_TO_SHARE` products or where fork is unsafe). ``threads``: the
     iterator's own threads in each process (default: one where several processes share the pass, else
     every core, at most 8). Geometry iterators in separate processes scale where the iterator's threads
     do not: on this project's 2-core build machine two threads bought 0-35 % over one thread (and on
@@ -155,7 +156,7 @@ def load_model(
     mass_scale, mass_name = mass_unit(ifc)
     candidates, keys = _candidates(ifc, path, include, exclude)
     materials = MaterialDensities(ifc)  # each material definition walked once, before any fork
-    shares = _shares(candidates, processes, threads)
+    shares = _shares(ifc, candidates, processes, threads)
     read = _ShareReader(ifc, shown_name(path), mass_scale, keys, materials, properties)
     found = _read_shares(read, shares, progress, threads, meanwhile)
     skipped = _skipped(candidates, found, keys)
@@ -345,15 +346,16 @@ class _ShareReader:
         return found
 
 
-def _shares(candidates: list, processes: int | None, threads: int | None) -> list[list]:
-    """The products each process reads: every n-th one (neighbours in a file are alike, so the shares
-    cost about the same). One share where forking would not pay, or cannot be done safely."""
+def _shares(ifc: ifcopenshell.file, candidates: list, processes: int | None, threads: int | None) -> list[list]:
+    """The products each process reads: shares of about equal guessed geometry cost
+    (:mod:`bimrobot.bim.shares`), each in file order. One share where forking would not pay, or
+    cannot be done safely."""
     from bimrobot.core.cores import can_fork
 
     count = processes or (1 if threads else default_threads())
     if count <= 1 or len(candidates) < MIN_PRODUCTS_TO_SHARE or not can_fork():
         return [candidates]
-    return [candidates[start::count] for start in range(count)]
+    return balanced_shares(candidates, count, geometry_costs(ifc, candidates))
 
 
 def _read_shares(read: _ShareReader, shares: list[list], progress: bool, threads: int | None,

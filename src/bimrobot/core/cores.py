@@ -56,6 +56,24 @@ def frozen_heap():
 _frozen_depth = 0  # how many frozen_heap blocks are open in this process
 
 
+def quick_exit() -> None:
+    """Let this process end without the cyclic garbage collector's walks over every object it holds.
+
+    Registers :func:`gc.freeze` as an exit handler (:mod:`atexit`; once however often called). At exit
+    the interpreter collects while it tears its modules down, and with trimesh, SciPy, networkx and
+    IfcOpenShell loaded that took 0.21 s (measured from a process's last line to its end; 0.03 s with
+    the objects frozen): a tenth of what a user waits for ``bimrobot convert`` on a small model. The
+    other exit handlers still run, the standard streams are flushed and reference counting frees what
+    it frees; only objects caught in reference cycles are left to the operating system unfinalized,
+    which Python does not promise to finalize at exit anyway. A caller that runs a command in process
+    (a test) ends that way too, when it ends.
+    """
+    import atexit
+
+    atexit.unregister(gc.freeze)
+    atexit.register(gc.freeze)
+
+
 PR_SET_PDEATHSIG = 1  # <linux/prctl.h>
 PARENT_WATCH_S = 0.5
 """Where the kernel cannot kill a child with its parent, how often the child checks for its parent (s)."""
