@@ -114,15 +114,15 @@ class Advised(gym.ObservationWrapper):
 
 
 # ---------------------------------------------------------------- the pilot: a better teacher than the market
-class _Sandbox(DispatchEnv):
-    """The environment without observations, for the pilot's rollouts (the same simulation, about 1.6 x
-    faster): only actions, masks and the result are read from it."""
+class RolloutEnv(DispatchEnv):
+    """The environment without observations, for rollouts (the pilot's and the search's; the same
+    simulation, about 1.6 x faster): only actions, masks and the result are read from it."""
 
     def _observation(self) -> dict:
         return {}
 
 
-def _complete(env: DispatchEnv, prefix: list[int], completer=None) -> tuple[float, list[int]]:
+def complete_build(env: DispatchEnv, prefix: list[int], completer=None) -> tuple[float, list[int]]:
     """Replay ``prefix`` on ``env`` from its start, then let ``completer`` (a policy ``policy(env) ->
     action``; None: the least-cost market) finish the build: (makespan s, every action)."""
     obs, _ = env.reset(seed=0)
@@ -192,7 +192,7 @@ class Rollouts:
             return None
         self._seen.add(key)
         self.used += 1
-        makespan, actions = _complete(self.sandbox, prefix, completer(name))
+        makespan, actions = complete_build(self.sandbox, prefix, completer(name))
         if makespan < self.best[0] - 1e-9:
             self.best = (makespan, actions)
         return makespan, actions
@@ -234,8 +234,8 @@ def pilot_demonstrations(problem: DispatchProblem, pad: tuple[int, int, int]) ->
     never longer than the market's. Returns the advised observations, action masks and actions along that
     schedule, its makespan and the market's (s)."""
     env = DispatchEnv(problem, max_tasks=pad[0], max_robots=pad[1], max_edges=pad[2])
-    sandbox = _Sandbox(problem, max_tasks=pad[0], max_robots=pad[1], max_edges=pad[2])
-    rollouts = Rollouts(sandbox, _complete(sandbox, []))
+    sandbox = RolloutEnv(problem, max_tasks=pad[0], max_robots=pad[1], max_edges=pad[2])
+    rollouts = Rollouts(sandbox, complete_build(sandbox, []))
     market_s = rollouts.best[0]
     env.reset(seed=0)
     observations, masks, taken = [], [], []

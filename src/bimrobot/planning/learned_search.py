@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 
 from bimrobot.coordination.market import Award, Dispatcher, MarketDispatcher, make_evaluator, propose
 from bimrobot.planning.dispatch import DispatchEnv, DispatchProblem, request_key
-from bimrobot.planning.learned_advice import ADVISERS, Rollouts, _complete, _Sandbox, advice_sparse, completer
+from bimrobot.planning.learned_advice import ADVISERS, RolloutEnv, Rollouts, advice_sparse, complete_build, completer
 from bimrobot.planning.learned_pool import sizes
 
 #: rollouts for ``--planner learned`` (each one a whole episode of the event simulation)
@@ -74,13 +74,13 @@ def search(problem: DispatchProblem, policy=None, budget: int = DEFAULT_BUDGET, 
     pad = sizes(problem)
     env = env if env is not None else DispatchEnv(problem, max_tasks=pad[0], max_robots=pad[1], max_edges=max(pad[2], 1),
                                                   copy_observation=False)
-    sandbox = _Sandbox(problem, max_tasks=env.max_tasks, max_robots=env.max_robots, max_edges=env.max_edges)
-    members = {name: _complete(sandbox, [], completer(name)) for name in ADVISERS}  # ADVISERS == the portfolio
+    sandbox = RolloutEnv(problem, max_tasks=env.max_tasks, max_robots=env.max_robots, max_edges=env.max_edges)
+    members = {name: complete_build(sandbox, [], completer(name)) for name in ADVISERS}  # ADVISERS == the portfolio
     chosen = min(ADVISERS, key=lambda name: members[name][0])  # the first of equals
     best, started = members[chosen], chosen
     policy_s = None
     if policy is not None:
-        greedy = _complete(env, [], policy)
+        greedy = complete_build(env, [], policy)
         policy_s = greedy[0]
         if greedy[0] < best[0] - 1e-9:
             best, started = greedy, "policy"
@@ -142,7 +142,7 @@ def awards_of(problem: DispatchProblem, actions: list[int]) -> tuple[list[tuple[
     """The awards (time s, task key, robot) of an action sequence played on ``problem`` from its start,
     and the simulation result: what :class:`~bimrobot.planning.learned.ReplayDispatcher` replays."""
     n, r, e = sizes(problem)
-    env = _Sandbox(problem, max_tasks=n, max_robots=r, max_edges=max(e, 1))
+    env = RolloutEnv(problem, max_tasks=n, max_robots=r, max_edges=max(e, 1))
     env.reset(seed=0)
     awards = []
     for action in actions:
