@@ -43,7 +43,11 @@ def advice(env: DispatchEnv) -> dict:
     """The advised policy's extra arrays at ``env``'s current decision (read-only on the simulation):
     ``advice`` (max_tasks, max_robots, advisers), ``advice_wait`` (advisers,), ``order_in_kind`` (max_tasks,)."""
     env = env.unwrapped
-    awarded, wait, order = advice_sparse(env)
+    return dense_advice(env, *advice_sparse(env))
+
+
+def dense_advice(env: DispatchEnv, awarded: dict, wait: np.ndarray, order: np.ndarray) -> dict:
+    """:func:`advice`'s arrays from :func:`advice_sparse`'s result."""
     pairs = np.zeros((env.max_tasks, env.max_robots, len(ADVISERS)), np.float32)
     for (node, robot), values in awarded.items():
         pairs[node, robot] = values
@@ -213,14 +217,16 @@ class Rollouts:
         return self.best[1][len(taken)]
 
 
-def _candidates(env: DispatchEnv, arrays: dict) -> list[int]:
-    """The advisers' first choices now (awards, or waiting where that is valid), each once."""
+def first_choices(env: DispatchEnv, awarded: dict, wait) -> list[int]:
+    """The advisers' first choices now, from :func:`advice_sparse`'s ``awarded`` and ``wait`` (an award,
+    or waiting where that is valid), in :data:`ADVISERS`' order, each once."""
     chosen = []
+    firsts = {k: pair for pair, values in awarded.items() for k, v in enumerate(values) if v == 1.0}
     for k in range(len(ADVISERS)):
-        if arrays["advice_wait"][k]:
+        if wait[k]:
             action = env.wait_action if env.sim.can_wait() else None
         else:
-            node, robot = np.argwhere(arrays["advice"][:, :, k] == 1.0)[0]
+            node, robot = firsts[k]
             action = int(node) * env.max_robots + int(robot)
         if action is not None and action not in chosen:
             chosen.append(action)
@@ -241,8 +247,9 @@ def pilot_demonstrations(problem: DispatchProblem, pad: tuple[int, int, int]) ->
     observations, masks, taken = [], [], []
     done = truncated = False
     while not (done or truncated):
-        obs = observe(env)
-        choices = _candidates(env, obs)
+        awarded, wait, order = advice_sparse(env)  # once: the observation's arrays and the choices
+        obs = {**env._observation(), **dense_advice(env, awarded, wait, order)}
+        choices = first_choices(env, awarded, wait)
         if len(choices) > 1:
             rollouts.explore(taken, choices)
         action = rollouts.next_action(taken)

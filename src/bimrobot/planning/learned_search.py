@@ -28,7 +28,8 @@ from dataclasses import dataclass, field
 
 from bimrobot.coordination.market import Award, Dispatcher, MarketDispatcher, make_evaluator, propose
 from bimrobot.planning.dispatch import DispatchEnv, DispatchProblem, request_key
-from bimrobot.planning.learned_advice import ADVISERS, RolloutEnv, Rollouts, advice_sparse, complete_build, completer
+from bimrobot.planning.learned_advice import (ADVISERS, RolloutEnv, Rollouts, advice_sparse, complete_build, completer,
+                                              first_choices)
 from bimrobot.planning.learned_pool import sizes
 
 #: rollouts for ``--planner learned`` (each one a whole episode of the event simulation)
@@ -121,21 +122,6 @@ def candidates(env: DispatchEnv, policy, top_k: int = TOP_K) -> list[int]:
         return advisers
     ranked = policy.ranked(env, (awarded, wait, order))[:top_k]
     return list(dict.fromkeys([*ranked[:1], *advisers, *ranked[1:]]))
-
-
-def first_choices(env: DispatchEnv, awarded: dict, wait) -> list[int]:
-    """The advisers' first choices from :func:`advice_sparse`'s arrays, in :data:`ADVISERS`' order, each once."""
-    chosen = []
-    firsts = {k: pair for pair, values in awarded.items() for k, v in enumerate(values) if v == 1.0}
-    for k in range(len(ADVISERS)):
-        if wait[k]:
-            action = env.wait_action if env.sim.can_wait() else None
-        else:
-            node, robot = firsts[k]
-            action = int(node) * env.max_robots + int(robot)
-        if action is not None and action not in chosen:
-            chosen.append(action)
-    return chosen
 
 
 def awards_of(problem: DispatchProblem, actions: list[int]) -> tuple[list[tuple[float, str, str]], object]:
