@@ -68,11 +68,12 @@ def key_figures(facts: BuildFacts) -> list[tuple[str, str, str]]:
 
 def planners_text(facts: BuildFacts) -> tuple[str, str] | None:
     """When the build was planned by a portfolio (``--planner portfolio``: several planners run, the
-    shortest plan kept): the shortest with its makespan, and the market's gap to it; else None."""
-    makespans = (facts.plan or {}).get("portfolio_makespans_s")
-    if not isinstance(makespans, dict) or not makespans:
+    shortest plan kept): the plan it ran (``plan.json``'s ``portfolio_chosen``) with its makespan, and the
+    market's gap to it; else None."""
+    plan = facts.plan or {}
+    makespans, best = plan.get("portfolio_makespans_s"), plan.get("portfolio_chosen")
+    if not isinstance(makespans, dict) or best not in makespans:
         return None
-    best = min(makespans, key=lambda name: (float(makespans[name]), name))
     shortest = float(makespans[best])
     figure = f"{best} {shortest:,.3f} s, the shortest of {len(makespans)} plans"
     market = makespans.get("market")
