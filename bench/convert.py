@@ -6,7 +6,7 @@ For every IFC file in ../shared/data/ifc (when present) and the built-in example
   that ``bimrobot.bim`` uses (local coordinates), reading every shape's vertices and faces, at its best:
   run with one thread and with one per core (at most 8), the faster of the two (bimrobot itself reads
   with one iterator per core in forked processes, each with one thread);
-* conversion: :func:`bimrobot.export.gazebo.package.convert` (read + meshes + SDF + maps + report + preview.png).
+* conversion: :func:`bimrobot.export.gazebo.conversion.convert` (read + meshes + SDF + maps + report + preview.png).
 
 Each runs in a fresh subprocess (imports done before the clock starts), so the peak memory
 (``ru_maxrss``) is that run's own. And as a user waits for them, whole processes timed from outside
@@ -85,7 +85,7 @@ def child_convert(path: str, out: str) -> dict:
 
     from bimrobot.bim import reader  # noqa: F401
     from bimrobot.export import inertia  # noqa: F401  (trimesh and SciPy, which convert imports when it needs them)
-    from bimrobot.export.gazebo.package import ConvertOptions, convert
+    from bimrobot.export.gazebo.conversion import ConvertOptions, convert
 
     start = time.perf_counter()
     report = convert(path, out, ConvertOptions())

@@ -14,7 +14,7 @@ from bimrobot.bim import examples
 from bimrobot.cli import main
 from bimrobot.export.gazebo.check import problems, read_models, sdf_validator, validate_sdf, validate_world
 from bimrobot.export.gazebo.naming import GENERIC_SITE_NAMES
-from bimrobot.export.gazebo.package import ConvertOptions, convert
+from bimrobot.export.gazebo.conversion import ConvertOptions, convert
 from output_checks import snapshot
 
 needs_ign = pytest.mark.skipif(sdf_validator() is None, reason="`ign sdf` is not installed (ignition-tools)")

@@ -114,7 +114,8 @@ def convert_command(args: argparse.Namespace, model=None) -> int:
     build`` reads it once for every stage); None reads it here."""
     from bimrobot.core import io
     from bimrobot.core.cores import frozen_heap, quick_exit
-    from bimrobot.export.gazebo.package import ConvertOptions, build_package, convert
+    from bimrobot.export.gazebo.conversion import convert
+    from bimrobot.export.gazebo.options import ConvertOptions
 
     quick_exit()  # the libraries this command loads would cost 0.2 s of collection at exit
 
@@ -151,6 +152,8 @@ def convert_command(args: argparse.Namespace, model=None) -> int:
     if model is None:
         report = convert(args.ifc, args.output, options, include=args.include, exclude=args.exclude, progress=progress)
     else:
+        from bimrobot.export.gazebo.package import build_package
+
         with frozen_heap():  # as convert() does around its own read
             report = build_package(model, args.output, options, progress)
     print(summary(report, args.output))

@@ -1,6 +1,6 @@
 """BuildingModel -> Gazebo package: SDF models and worlds, meshes, launch files, occupancy maps.
 
-``package.convert(ifc, out)`` / ``package.build_package(model, out)`` write the package (see
+``conversion.convert(ifc, out)`` / ``package.build_package(model, out)`` write the package (see
 docs/world.md); ``bimrobot.core.names.safe_name`` makes GlobalIds file- and SDF-safe; ``bimrobot.export.inertia``
 computes mass and inertia; ``layout`` the installed and yard poses; ``navmap`` the per-storey maps; ``merge`` the merged static
 models of ``--merge-static``; ``bimrobot.core.pool`` runs the per-model work on every core; ``check`` validates a

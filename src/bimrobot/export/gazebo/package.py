@@ -34,7 +34,6 @@ import numpy as np
 from bimrobot.core import io
 from bimrobot.bim.model import BuildingModel, Element
 from bimrobot.bim.unknown_weight import UnknownWeights, apply_unknown_weight_rule
-from bimrobot.core.cores import frozen_heap
 from bimrobot.core.errors import InputError
 from bimrobot.core.io import printable
 from bimrobot.site.site import site_for
@@ -85,39 +84,6 @@ class _Converted:
     def world_vertices(self) -> np.ndarray:
         """The body's vertices at the model's pose (world frame, m)."""
         return self.body.vertices @ self.pose[:3, :3].T + self.pose[:3, 3]
-
-
-def convert(
-    ifc_path: str | Path,
-    out_dir: str | Path,
-    options: ConvertOptions | None = None,
-    include: list[str] | str | None = None,
-    exclude: list[str] | str | None = None,
-    progress: bool = False,
-) -> dict:
-    """Read an IFC file (``.ifc`` or ``.ifczip``) and write its Gazebo package to ``out_dir``; return
-    the report (also in ``out_dir/report.json``). ``include`` / ``exclude``: IfcOpenShell selectors
-    (:mod:`bimrobot.bim.selection`). Bad input raises InputError and leaves no ``out_dir``."""
-    from bimrobot.bim.reader import load_model  # imported here: only bim/ touches ifcopenshell
-
-    options = options or ConvertOptions()
-    options.validate()
-    io.check_output(out_dir, folder=True, inputs=[ifc_path])  # before the long read
-    with frozen_heap():  # no full garbage collections through every library object on the way
-        started = time.perf_counter()
-        # Element.properties and the assemblies are not needed to convert: only what the weights need is read.
-        # trimesh and SciPy (the bodies' hulls and mass integrals) are imported while the geometry is computed
-        model = load_model(ifc_path, include=include, exclude=exclude, progress=progress, properties=False,
-                           unknown_weight=options.unknown_weight, assemblies=False, meanwhile=_import_body_libraries)
-        load_seconds = time.perf_counter() - started
-        return build_package(model, out_dir, options, progress, load_seconds)
-
-
-def _import_body_libraries() -> None:
-    """Import trimesh and SciPy (:mod:`bimrobot.export.inertia`: the bodies' hulls and mass integrals),
-    1.2 s of CPU, which :func:`convert` has done while the forked processes compute the geometry (a
-    user waits less wherever a core is free of the geometry for a while)."""
-    from bimrobot.export import inertia  # noqa: F401
 
 
 def build_package(
