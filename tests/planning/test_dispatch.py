@@ -212,3 +212,44 @@ def test_the_kept_up_observation_is_the_rebuilt_one_on_a_generated_building(tmp_
     obs, _ = env.reset(seed=0)
     with pytest.raises(ValueError, match="read-only"):
         obs["travel_s"][0, 0] = 1.0
+
+
+def test_the_local_observation_is_its_rebuilt_definition_and_passes_gymnasiums_checker():
+    """``observation="local"``: the first ready tasks of each pool, their neighbourhood, the local earliest
+    starts, travel of those tasks and the context, kept up between decisions, equal bit for bit to
+    the definition rebuilt from nothing over whole episodes (the market per node and per joint, with a
+    breakdown and robots driving to the yard; a seeded random policy on a larger frame, read-only views)."""
+    base = frame_problem()
+    problems = [base, frame_problem(per_node=False),
+                replace(base, site=replace(base.site, idle_robots="yard"),
+                        breakdowns=(("TransportRobot11", 100.0, 50.0), ("AssemblyRobot31", 400.0)))]
+    for problem in problems:
+        assert _same_as_rebuilt_at_every_decision(DispatchEnv(problem, observation="local"), MarketPolicy()) >= 28
+    rng = np.random.default_rng(5)
+    env = DispatchEnv(frame_problem(size=(3, 3, 2)), max_tasks=512, observation="local", copy_observation=False)
+    assert _same_as_rebuilt_at_every_decision(env, lambda e: int(rng.choice(e.valid_actions()))) > 250
+    check_env(DispatchEnv(observation="local"), skip_render_check=True)
+
+
+def test_the_local_observation_holds_the_first_ready_tasks_of_each_pool_and_their_awards():
+    """At every decision of the market on a frame whose floors hold more ready work than the local
+    observation takes: at most LOCAL_READY ready tasks per activity, the first of its request pool (the
+    market's order); every observed node within reach of one of them; ``local_actions`` are the valid
+    awards of those tasks (and waiting where valid)."""
+    from bimrobot.planning.dispatch_observation import LOCAL_READY
+
+    env = DispatchEnv(frame_problem(size=(4, 4, 1)), max_tasks=512, observation="local", copy_observation=False)
+    policy, done, truncated, most = MarketPolicy(), False, False, 0
+    obs, _ = env.reset(seed=0)
+    while not (done or truncated):
+        held = set(env._local.ready)
+        for activity, pool in env.sim.build.pending.items():
+            first = {env._node_of(r) for r in sorted(pool)[:LOCAL_READY]}
+            assert first == {v for v in held if env.graph.requests[v].activity == activity}
+        most = max(most, sum(len(pool) for pool in env.sim.build.pending.values()) - len(held))
+        assert held <= set(np.flatnonzero(obs["node_mask"]))
+        valid = env.valid_actions()
+        mine = [a for a in valid if a == env.wait_action or a // env.max_robots in held]
+        assert env.local_actions() == (mine if mine else valid)  # no award of theirs and no waiting: every award
+        obs, _, done, truncated, _ = env.step(policy(env))
+    assert most > 0 and env.result is not None  # some ready work was left out of the observation

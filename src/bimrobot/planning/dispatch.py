@@ -25,15 +25,18 @@ from bimrobot.coordination.simulation import ConstructionSimulation
 from bimrobot.coordination.run_state import SimulationResult
 from bimrobot.core.errors import BimrobotError, InputError
 from bimrobot.core.tasks import Task
-from bimrobot.planning.dispatch_observation import (_in_edges, _levels, _mask, _read_only, _starts_pass,
-                                                    _travel_pass, rebuild_observation)
-from bimrobot.planning.dispatch_problem import (KINDS, DispatchProblem, TaskGraph, frame_problem, request_key,
-                                                simulate_problem, task_graph, task_key)
+from bimrobot.planning.dispatch_observation import (CONTEXT, LocalKeeper, _in_edges, _levels, _local_pass,
+                                                    _local_travel_pass, _mask,
+                                                    _read_only, _starts_pass, _travel_pass, rebuild_observation)
+from bimrobot.planning.dispatch_problem import (KINDS, DispatchProblem, PublishingSimulation, TaskGraph, frame_problem,
+                                                request_key, simulate_problem, task_graph, task_key)
 
 ENV_ID = "bimrobot/Dispatch-v0"
 #: bound of every observed number (metres, seconds, kg): finite, far beyond any site or build (about 32 years)
 BOUND = 1e9
 STATES = ("waiting", "ready", "running", "done")
+#: the observations of :class:`DispatchEnv`: the whole building, or the ready tasks' neighbourhood
+OBSERVATIONS = ("full", "local")
 #: columns of ``node_features``
 NODE_FEATURES = (
     "is_transport", "is_position", "is_assemble", "is_gate", "floor", "mass_kg", "mass_known",
@@ -107,6 +110,16 @@ class DispatchEnv(gym.Env):
        stalled (breakdowns left work no robot can do; ``info["stalled"]`` says why).
     2. Truncation: ``max_decisions`` decisions were taken.
 
+    ## Local observation
+    ``observation="local"``: the same keys and shapes plus ``context`` (16,) float32, the share of the
+    building's nodes per kind and state (:data:`~bimrobot.planning.dispatch_observation.CONTEXT`), but
+    ``node_mask`` marks only the first ready tasks of each request pool (``LOCAL_READY``, the market's
+    order) and the nodes within ``REACH`` precedence edges of them (not through a floor gate);
+    ``precedence_mask`` the edges between those; ``earliest_start_s`` is local (from the direct
+    predecessors; 0 outside the neighbourhood and for gates); ``travel_s`` holds those ready tasks' rows
+    only. Its cost per decision grows with that neighbourhood, not the building; :meth:`local_actions`
+    are the valid awards of the observed ready tasks. The action space and masks are unchanged.
+
     ## Arguments
     ```python
     import gymnasium as gym
@@ -130,7 +143,10 @@ class DispatchEnv(gym.Env):
 
     def __init__(self, problem: DispatchProblem | Callable | None = None, max_tasks: int = 512, max_robots: int = 16,
                  max_edges: int = 2048, max_decisions: int | None = None, render_mode: str | None = None,
-                 copy_observation: bool = True):
+                 copy_observation: bool = True, observation: str = "full"):
+        if observation not in OBSERVATIONS:
+            raise InputError(f"unknown observation {observation!r}: choose one of {', '.join(OBSERVATIONS)}")
+        self.observation = observation
         if min(max_tasks, max_robots, max_edges) < 1:
             raise InputError(f"max_tasks, max_robots and max_edges must be at least 1, got {max_tasks}, {max_robots}, {max_edges}")
         self.problem = problem if problem is not None else frame_problem()
@@ -153,8 +169,10 @@ class DispatchEnv(gym.Env):
             "handling_s": spaces.Box(0.0, BOUND, (n, r), np.float32),
             "travel_s": spaces.Box(0.0, BOUND, (n, r), np.float32),
             "time_s": spaces.Box(0.0, BOUND, (1,), np.float32),
+            **({"context": spaces.Box(0.0, 1.0, (len(CONTEXT),), np.float32)} if observation == "local" else {}),
         })
         self.sim: ConstructionSimulation | None = None
+        self._local: LocalKeeper | None = None
         self.result: SimulationResult | None = None
         self._ended = True
         self._episode = 0
@@ -163,7 +181,7 @@ class DispatchEnv(gym.Env):
     def reset(self, *, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
         problem = self.problem(self.np_random) if callable(self.problem) else self.problem
-        self.sim = ConstructionSimulation(problem.smart, problem.fleet, problem.site, breakdowns=problem.breakdowns,
+        self.sim = PublishingSimulation(problem.smart, problem.fleet, problem.site, breakdowns=problem.breakdowns,
                                           storey_elevations=problem.storey_elevations, per_node=problem.per_node,
                                           dispatcher=AgentDispatcher())
         self.sim.start()
@@ -241,6 +259,20 @@ class DispatchEnv(gym.Env):
         actions = sorted({self.action_of(request, robot) for request, robot in self.sim.decision_candidates()})
         return actions + [self.wait_action] if self.sim.can_wait() else actions
 
+    def local_actions(self) -> list[int]:
+        """Local observation: the valid actions among the awards of the observed ready tasks (and waiting,
+        where valid), in increasing order; where none of those tasks can go to an idle robot and waiting
+        is not valid, :meth:`valid_actions`. Its cost grows with the observed tasks, not the building."""
+        sim, actions = self.sim, []
+        for node in self._local.ready:
+            request = self._request_of[node]
+            actions += [node * self.max_robots + self.robot_index[name] for name in sim.build.idle[request.activity]
+                        if not incapability(sim.build.robots[name].spec, request)]
+        actions.sort()
+        if sim.can_wait():
+            return actions + [self.wait_action]
+        return actions or self.valid_actions()
+
     def _valid(self, action: int) -> bool:
         """Whether ``action`` is valid now (one entry of :meth:`action_masks`, without building the mask)."""
         return self._award_of(action) is not None
@@ -277,6 +309,8 @@ class DispatchEnv(gym.Env):
         task = self.graph.requests[node] if node < len(self.graph.requests) else None
         if task is None:  # a floor gate, or padding
             return None
+        if self._local is not None:  # the events are followed at every step: the state says
+            return self._request_of[node] if self.state[node] == 1 else None
         for request in self.sim.build.pending[task.activity]:
             if self._node_of(request) == node:
                 return request
@@ -377,6 +411,11 @@ class DispatchEnv(gym.Env):
             ("precedence_mask", fixed["precedence_mask"]), ("precedence_any", fixed["precedence_any"]),
             ("compatibility", fixed["compatibility"]), ("handling_s", fixed["handling_s"]), ("travel_s", self._travel),
             ("time_s", self._time))}
+        self._local, self._request_of = None, {}
+        if self.observation == "local":  # the masks are the neighbourhood's, kept up; the context added
+            self._local = LocalKeeper(graph, self.max_tasks, self.max_edges, self._nodes)
+            self._views.update(node_mask=_read_only(self._local.node_mask), precedence_mask=_read_only(self._local.edge_mask),
+                               context=_read_only(self._local.context))
 
     def _height(self, request, component) -> float:
         if request.node_ids and request.activity != Task.TRANSPORT:
@@ -398,6 +437,8 @@ class DispatchEnv(gym.Env):
         if state == 3 and old != 3:
             for gate in self._gates_after.get(node, ()):
                 self._open_before[gate] -= 1
+        if self._local is not None:
+            self._local.state_changed(node, old, state)
 
     def _follow_events(self) -> None:
         """Node states from the simulation's event log since the last look."""
@@ -408,6 +449,9 @@ class DispatchEnv(gym.Env):
                 key = task_key(event["activity"], event["component"], event["joint"], event["node"])
                 node = self.graph_index[key]
                 self._request_node[event["request"]] = node
+                if self._local is not None:
+                    request = self._request_of[node] = self.sim.published[event["request"]]
+                    self._local.priority[node] = request.priority[:1] + request.priority[2:]  # one pool: one rank
                 self._set_state(node, 1)
             elif kind == "award":
                 self._set_state(self._request_node[event["request"]], 2)
@@ -441,12 +485,15 @@ class DispatchEnv(gym.Env):
         self._close_gates()
         robots = [self.sim.build.robots[name] for name in self.robot_names]
         self._update_starts(now, robots)
+        moved = []
         for j, robot in enumerate(robots):
             busy = robot.task is not None
             here = self.sim.where(robot)
             self._robots[j, 0:2] = here
             self._robots[j, 6:9] = (busy, max(0.0, robot.free_at - now) if busy else 0.0, robot.broken)
-            self._update_travel(j, robot.end_position if busy else here)
+            moved.append(self._update_travel(j, robot.end_position if busy else here))
+        if self._local is not None:
+            self._update_local_travel(moved)
         self._time[0] = now
         self._observed = key
         return self._views
@@ -465,19 +512,42 @@ class DispatchEnv(gym.Env):
         self._running = [self._node_of(robot.task) for robot in robots if robot.task is not None]
         for node, robot in zip(self._running, (robot for robot in robots if robot.task is not None)):
             self._running_until[node] = robot.free_at
+        if self._local is not None:
+            local = self._local
+            _local_pass()(local.nodes, self._gates, self._node_groups, self._group_edges, self._sources, self.state, self._finished_at,
+                          self._running_until, self.shortest, self._adds, now, self._nodes)
+            local.update_context()
+            return
         if 2 * self._waiting < len(self._order):
             self._order = self._order[self.state[self._order] == 0]
         _starts_pass()(self._order, self._node_groups, self._group_edges, self._sources, self.state, self._is_root,
                        self._finished_at, self._running_until, self.shortest, self._adds, now, self._finish, self._nodes)
 
-    def _update_travel(self, j: int, where) -> None:
+    def _update_travel(self, j: int, where) -> bool:
         """Robot ``j``'s travel column (s to every task it can do, from ``where``, site frame m), when
-        ``where`` moved since it was last computed."""
+        ``where`` moved since it was last computed (True); local: only where it is read, see
+        :meth:`_update_local_travel`."""
         x, y = float(where[0]), float(where[1])
         if self._travel_from[j, 0] == x and self._travel_from[j, 1] == y:
-            return
+            return False
         self._travel_from[j] = (x, y)
-        _travel_pass()(self._rows[j], self._rows_xy[j], x, y, float(self.speeds[j]), self._travel, j)
+        if self._local is None:
+            _travel_pass()(self._rows[j], self._rows_xy[j], x, y, float(self.speeds[j]), self._travel, j)
+        return True
+
+    def _update_local_travel(self, moved: list[bool]) -> None:
+        """The local observation's travel: rows of the ready tasks only (0 elsewhere): the rows that
+        stopped being ready cleared, the columns of the robots that moved over every ready row, the rows
+        that became ready for the other robots."""
+        local = self._local
+        for row in local.left_ready:
+            self._travel[row] = 0.0
+        ready = np.fromiter(local.ready, np.int64, len(local.ready))
+        new = np.fromiter(local.newly_ready, np.int64, len(local.newly_ready))
+        _local_travel_pass()(ready, new, np.array(moved), self.capable, self.start_xy, self._travel_from, self.speeds,
+                             self._travel)
+        local.left_ready.clear()
+        local.newly_ready.clear()
 
     def render(self):
         if self.render_mode != "ansi" or self.sim is None:

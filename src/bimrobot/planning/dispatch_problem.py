@@ -38,6 +38,23 @@ class DispatchProblem:
     breakdowns: tuple = ()
 
 
+class PublishingSimulation(ConstructionSimulation):
+    """The event simulation, keeping each published request by id (``published``): the dispatching
+    environment finds a ready task's request without searching the request pools."""
+
+    def start(self) -> None:
+        self.published: dict = {}
+        super().start()
+
+    def request_for(self, *args, **kwargs):
+        self._made = super().request_for(*args, **kwargs)
+        return self._made
+
+    def _publish(self, *args, **kwargs) -> None:
+        super()._publish(*args, **kwargs)
+        self.published[self._made.id] = self._made
+
+
 def frame_problem(fleet: str = "fleet2", per_node: bool = True, size: tuple[int, int, int] = (2, 2, 1)) -> DispatchProblem:
     """A generated steel frame (no IFC file) of ``size`` = (columns along x, along y, storeys), built by
     ``fleet`` on its site; the default is the thesis' chapter-4 frame."""
