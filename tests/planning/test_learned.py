@@ -253,3 +253,31 @@ def test_the_fast_greedy_choice_is_sb3_contribs_at_every_decision(frame):
         _, _, done, truncated, _ = env.step(action)
     assert fast.decisions == env.decisions == 48 and fast.cpu["network"] > 0.0
     assert env.result.makespan == pytest.approx(3798.3, abs=0.05)
+
+
+def test_a_local_policy_scores_its_neighbourhood_as_the_padded_arrays_do(frame, tmp_path):
+    """A policy that reads the local observation (``observation="local"``, the market imitated briefly):
+    its greedy choice from the observed nodes alone (gathered and renumbered) is sb3-contrib's over the
+    padded arrays at every decision of the frame, it builds the frame, and it says which observation it
+    reads: a full environment is refused in one sentence."""
+    th.manual_seed(0)
+    env = env_for(frame, observation="local")
+    model = new_model(env, seed=0)
+    demonstrations = market_demonstrations([_Entry(frame)], (env.max_tasks, env.max_robots, env.max_edges),
+                                           observation="local")
+    assert "context" in demonstrations[0]
+    imitate(model.policy, demonstrations, steps=10, seed=0, batch=16, lr=1e-2)
+    path = save(model, tmp_path / "local.zip", {"command": "pytest", "seed": 0, "observation": "local"})
+    big = env_for(frame, copy_observation=False, observation="local")
+    policy = load_policy(path, big)
+    fast, full = LearnedPolicy(policy), LearnedPolicy(policy, fast=False)
+    big.reset(seed=0)
+    done = truncated = False
+    while not (done or truncated):
+        action = full(big)
+        assert fast(big) == action, big.decisions
+        _, _, done, truncated, _ = big.step(action)
+    assert done and fast.cpu["network"] > 0.0
+    assert LearnedPlanner(path).observation == "local"
+    with pytest.raises(InputError, match="reads the local observation, this environment gives the full one"):
+        load_policy(path, env_for(frame))

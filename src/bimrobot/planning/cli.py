@@ -221,6 +221,9 @@ def register_train(commands) -> None:
     train.add_argument("--teacher", choices=("pilot", "market", "search"), default="pilot",
                        help="whose decisions are imitated: the pilot (market and rules tried, the shortest kept; default), the "
                        "least-cost market, or the search (--planner rollout: the portfolio's best improved by 400 rollouts)")
+    train.add_argument("--observation", choices=("full", "local"), default="full",
+                       help="what the policy reads: the whole building (default, advised) or the ready tasks' "
+                            "neighbourhood (size-independent cost per decision; not advised; teacher search or market)")
     train.add_argument("-o", "--output", required=True, help="output folder (new, or one `plan train` wrote)")
     train.set_defaults(func=run_train)
 
@@ -236,13 +239,15 @@ def run_train(args) -> int:
     check_output(args.output, folder=True, kind="plan-train")  # refused before the long work
     command = shlex.join(["bimrobot", "plan", "train", "--seed", str(args.seed), "--steps", str(args.steps),
                           "--imitation-steps", str(args.imitation_steps),
-                          *(["--teacher", args.teacher] if args.teacher != "pilot" else []), "-o", args.output])
+                          *(["--teacher", args.teacher] if args.teacher != "pilot" else []),
+                          *(["--observation", args.observation] if args.observation != "full" else []), "-o", args.output])
     imitated: dict = {}
 
     def keep(model, accuracy):
         imitated["zip"] = policy_bytes(model, {"stage": "after imitation, before PPO", "imitation_accuracy": accuracy})
 
-    result = train(args.seed, args.steps, args.imitation_steps, command=command, on_imitated=keep, teacher=args.teacher)
+    result = train(args.seed, args.steps, args.imitation_steps, command=command, on_imitated=keep, teacher=args.teacher,
+                   observation=args.observation)
     with atomic_output_dir(args.output, kind="plan-train") as tmp:
         save(result.model, tmp / "policy.zip", result.meta)
         if imitated:

@@ -55,6 +55,7 @@ from torch import nn
 from bimrobot.coordination.market import Dispatcher
 from bimrobot.core.errors import InputError
 from bimrobot.planning.dispatch import NODE_FEATURES, ROBOT_FEATURES, DispatchProblem
+from bimrobot.planning.dispatch_observation import CONTEXT
 from bimrobot.planning.learned_advice import (ADVISERS, EXTRA_NODE_FEATURES, Advised, advice, advice_sparse, advised_space, observe,
                                               pilot_demonstrations)
 from bimrobot.planning.learned_pool import (TRAIN_SPECS, PerCentOfMarket, PoolEntry, _pad, env_for, generated_problem,
@@ -104,6 +105,8 @@ class DispatchExtractor(nn.Module):
         self.pair_out = nn.Sequential(nn.ReLU(), nn.Linear(hidden, hidden), nn.ReLU(), nn.Linear(hidden, 1))
         self.wait = nn.Sequential(nn.Linear(2 * hidden + self.advisers, hidden), nn.ReLU(), nn.Linear(hidden, 1))
         self.value = _mlp(2 * hidden, hidden)
+        # the local observation's context (shares per kind and state), added to the mean node embedding
+        self.context_in = nn.Linear(len(CONTEXT), hidden) if "context" in observation_space.spaces else None
 
     def forward(self, obs: dict) -> th.Tensor:
         h, g, context = self.embed(obs)
@@ -126,7 +129,10 @@ class DispatchExtractor(nn.Module):
         g = self.robot_in(symlog(obs["robot_features"])) * robot_mask[..., None]  # (B, R, H)
         for layer in self.passes:
             h = (h + layer(th.cat([h, *self._messages(h, obs)], dim=-1))) * node_mask[..., None]
-        return h, g, th.cat([_mean(h, node_mask), _mean(g, robot_mask)], dim=-1)
+        pooled = _mean(h, node_mask)
+        if self.context_in is not None:
+            pooled = pooled + self.context_in(obs["context"].float())
+        return h, g, th.cat([pooled, _mean(g, robot_mask)], dim=-1)
 
     def pair_logits(self, h: th.Tensor, g: th.Tensor, context: th.Tensor, pairs: dict) -> th.Tensor:
         """The logits of some (task, robot) pairs of one observation (batch 1): ``pairs`` holds their
@@ -270,13 +276,16 @@ TEACHERS = ("pilot", "market", "search")
 
 
 def train(seed: int, steps: int, imitation_steps: int = 400, specs=TRAIN_SPECS, command: str | None = None,
-          on_imitated=None, teacher: str = "pilot") -> TrainResult:
+          on_imitated=None, teacher: str = "pilot", observation: str = "full") -> TrainResult:
     """Train a policy on generated buildings: imitation of ``teacher`` (``imitation_steps``, 0 for none),
     then ``steps`` PPO env steps (0 for none). ``on_imitated(model, accuracy)`` is called between the two.
-    The pilot's policy is advised (:data:`ADVISERS`); the market's is not. Seeded: the same arguments give
-    the same weights."""
+    The pilot's and the search's policies are advised (:data:`ADVISERS`) on the full observation; the
+    market's is not, nor any on the local one (``observation="local"``: the ready tasks' neighbourhood,
+    teacher search or market). Seeded: the same arguments give the same weights."""
     if teacher not in TEACHERS:
         raise InputError(f"unknown teacher {teacher!r}: choose one of {', '.join(TEACHERS)}")
+    if observation == "local" and teacher == "pilot":
+        raise InputError("the pilot teacher labels advised observations: with --observation local choose --teacher search or market")
     if not 0 <= steps <= MAX_STEPS:
         raise InputError(f"--steps must be from 0 to {MAX_STEPS:,} env steps, got {steps}")
     if not 0 <= imitation_steps <= MAX_STEPS:
@@ -285,19 +294,19 @@ def train(seed: int, steps: int, imitation_steps: int = 400, specs=TRAIN_SPECS, 
         raise InputError(f"--seed must be a whole number >= 0, got {seed}")
     th.manual_seed(seed)
     pool = training_pool(seed, specs)
-    advised = teacher != "market"
-    env = make_training_env(pool, seed, advised)
+    advised = teacher != "market" and observation == "full"
+    env = make_training_env(pool, seed, advised, observation)
     model = new_model(env, seed)
     accuracy, taught = None, {}
     if imitation_steps:
         if teacher == "search":
             from bimrobot.planning.learned_search import search_teacher
 
-            demonstrations, taught = search_teacher(pool, _pad(pool))
+            demonstrations, taught = search_teacher(pool, _pad(pool), observation=observation)
         elif advised:
             demonstrations, taught = pilot_teacher(pool, _pad(pool))
         else:
-            demonstrations = market_demonstrations(pool, _pad(pool))
+            demonstrations = market_demonstrations(pool, _pad(pool), observation=observation)
         accuracy = imitate(model.policy, demonstrations, imitation_steps, seed)
         if on_imitated is not None:
             on_imitated(model, accuracy)
@@ -305,9 +314,11 @@ def train(seed: int, steps: int, imitation_steps: int = 400, specs=TRAIN_SPECS, 
         model.learn(total_timesteps=steps)
     meta = {
         "command": command or shlex.join(["bimrobot", "plan", "train", "--seed", str(seed), "--steps", str(steps),
-                                           "--imitation-steps", str(imitation_steps), "-o", "OUT"]),
+                                           "--imitation-steps", str(imitation_steps),
+                                           *(["--teacher", teacher] if teacher != "pilot" else []),
+                                           *(["--observation", observation] if observation != "full" else []), "-o", "OUT"]),
         "seed": seed, "steps": steps, "imitation_steps": imitation_steps,
-        "imitation_accuracy": accuracy, "hidden": HIDDEN, "rounds": ROUNDS, "teacher": teacher,
+        "imitation_accuracy": accuracy, "hidden": HIDDEN, "rounds": ROUNDS, "teacher": teacher, "observation": observation,
         "advisers": list(ADVISERS) if advised else [],
         "training_buildings": {p.spec: round(p.market_s, 3) for p in pool},
         "teacher_makespans_s": taught,
@@ -342,6 +353,11 @@ def save(model, path: str | Path, meta: dict) -> Path:
     return Path(path)
 
 
+def policy_observation(path: str | Path) -> str:
+    """The observation the policy at ``path`` reads (``full`` or ``local``, from how it was trained)."""
+    return read_meta(path).get("observation", "full")
+
+
 def read_meta(path: str | Path) -> dict:
     """How the policy at ``path`` was trained (:data:`META_NAME`), {} when it does not say."""
     with zipfile.ZipFile(path) as archive:
@@ -363,6 +379,9 @@ def load_policy(path: str | Path, env: gym.Env):
         raise InputError(f"{path} is not a saved policy zip: it holds no policy weights")
     scalars = params["policy"].get("features_extractor.pair_scalars.weight")
     advised = scalars is not None and scalars.shape[1] > PAIR_FEATURES
+    wanted = "local" if "features_extractor.context_in.weight" in params["policy"] else "full"
+    if wanted != getattr(env.unwrapped, "observation", "full"):
+        raise InputError(f"{path} reads the {wanted} observation, this environment gives the {env.unwrapped.observation} one")
     policy = DispatchPolicy(advised_space(env) if advised else env.unwrapped.observation_space, env.action_space,
                             lambda _: 0.0)
     try:
@@ -404,7 +423,7 @@ class LearnedPolicy:
         return int(action[0])
 
     def _fast(self, env) -> int:
-        actions = env.valid_actions()
+        actions = _candidates(env)
         if len(actions) == 1:
             self.forced += 1
             return actions[0]
@@ -414,7 +433,7 @@ class LearnedPolicy:
         """The valid actions, highest logit first (action order among equal logits): the greedy choice
         first. ``advised``: :func:`advice_sparse`'s result at this decision, when the caller has it."""
         env = env.unwrapped
-        actions = env.valid_actions()
+        actions = _candidates(env)
         if len(actions) == 1:
             return actions
         order = th.argsort(-self._logits(env, actions, advised), stable=True)
@@ -425,10 +444,10 @@ class LearnedPolicy:
         pairs scored only for the valid awards."""
         start = time.process_time()
         views = env._observation()
-        obs = self._tensors(env, views)
+        obs, rows = self._tensors(env, views) if env._local is None else _local_tensors(env, views)
         extractor = self.policy.features_extractor
         nodes, robots = np.divmod(np.array(actions[: len(actions) - (actions[-1] == env.wait_action)], np.int64), env.max_robots)
-        pairs = {"node": th.from_numpy(nodes), "robot": th.from_numpy(robots),
+        pairs = {"node": th.from_numpy(rows[nodes] if rows is not None else nodes), "robot": th.from_numpy(robots),
                  **{k: th.from_numpy(np.ascontiguousarray(views[k][nodes, robots])).float()
                     for k in ("handling_s", "travel_s", "compatibility")}}
         advised_at = time.process_time()
@@ -457,7 +476,36 @@ class LearnedPolicy:
                 self._edges = ((id(env), env._episode), th.as_tensor(views["precedence"][None]).long(),
                                th.as_tensor(views["precedence_mask"][None]).float())
             obs = {k: th.as_tensor(views[k][None]).float() for k in ("node_features", "node_mask", "robot_features", "robot_mask")}
-        return {**obs, "precedence": self._edges[1], "precedence_mask": self._edges[2]}
+        return {**obs, "precedence": self._edges[1], "precedence_mask": self._edges[2]}, None
+
+
+def _candidates(env) -> list[int]:
+    """The actions a policy chooses among: every valid one, or with the local observation those of the
+    observed ready tasks (:meth:`~bimrobot.planning.dispatch.DispatchEnv.local_actions`)."""
+    return env.valid_actions() if env._local is None else env.local_actions()
+
+
+def _local_tensors(env, views: dict) -> tuple[dict, np.ndarray]:
+    """The embedding's inputs (batch 1) for the local observation: only its observed nodes and the edges
+    between them, renumbered (row k is graph node ``env._local.nodes[k]``), and where each graph node's
+    row is (the keeper's ``where``). The same embeddings and logits as the padded arrays (masks), at a cost
+    that grows with the observed nodes, not the building."""
+    local = env._local
+    nodes = local.nodes
+    start, edge_of, _ = local.adjacency
+    counts = start[nodes + 1] - start[nodes]
+    index = np.repeat(start[nodes] - np.cumsum(counts) + counts, counts) + np.arange(int(counts.sum()))
+    ends = np.repeat(nodes, counts)
+    edges = edge_of[index]
+    keep = (local.edge_mask[edges] == 1) & (env.precedence[edges, 0] == ends)  # each real edge once, at its source
+    pairs = local.where[env.precedence[edges[keep]]]
+    with _writable_ignored():
+        obs = {"node_features": th.from_numpy(views["node_features"][nodes])[None],
+               "node_mask": th.ones(1, len(nodes)), "robot_features": th.as_tensor(views["robot_features"][None]),
+               "robot_mask": th.as_tensor(views["robot_mask"][None]).float(),
+               "precedence": th.from_numpy(pairs)[None], "precedence_mask": th.ones(1, len(pairs)),
+               "context": th.as_tensor(views["context"][None])}
+    return obs, local.where
 
 
 @contextlib.contextmanager
@@ -490,6 +538,7 @@ class LearnedPlanner:
         if not self.path.is_file():
             raise InputError(f"{self.path}: no such policy file" + (" (no learned policy ships with this version)" if path is None else ""))
         self.meta = read_meta(self.path)
+        self.observation = self.meta.get("observation", "full")  # what the policy reads
         self.guard = guard
         self.search = DEFAULT_BUDGET if search is None else int(search)
         if self.search < 0:
@@ -499,7 +548,7 @@ class LearnedPlanner:
     def play(self, problem: DispatchProblem, policy=None):
         """(the awards [(time s, task key, robot)], the simulation result) of the loaded policy (or of
         ``policy(env) -> action``, e.g. :class:`~bimrobot.planning.dispatch.MarketPolicy`) on ``problem``."""
-        env = env_for(problem, copy_observation=False)  # the policy reads each observation once
+        env = env_for(problem, copy_observation=False, observation=self.observation)  # the policy reads each observation once
         policy = policy or LearnedPolicy(load_policy(self.path, env))
         env.reset(seed=0)
         awards, done, truncated = [], False, False
@@ -529,7 +578,7 @@ class LearnedPlanner:
         """The policy with decision-time search (:func:`bimrobot.planning.learned_search.search`)."""
         from bimrobot.planning.learned_search import awards_of, search
 
-        env = env_for(problem, copy_observation=False)
+        env = env_for(problem, copy_observation=False, observation=self.observation)
         found = search(problem, LearnedPolicy(load_policy(self.path, env)), self.search, env=env)
         awards, _ = awards_of(problem, found.actions)
         self.last = {**found.notes(), "policy_s": found.policy_s, "chosen": "search"}

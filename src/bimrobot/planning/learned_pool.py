@@ -63,10 +63,12 @@ def sizes(problem: DispatchProblem) -> tuple[int, int, int]:
     return len(graph.keys), len(problem.fleet.robots), len(graph.edges)
 
 
-def env_for(problem: DispatchProblem, copy_observation: bool = True) -> DispatchEnv:
-    """The environment of ``problem`` padded to its own size (``copy_observation``: see :class:`DispatchEnv`)."""
+def env_for(problem: DispatchProblem, copy_observation: bool = True, observation: str = "full") -> DispatchEnv:
+    """The environment of ``problem`` padded to its own size (``copy_observation``, ``observation``: see
+    :class:`DispatchEnv`)."""
     n, r, e = sizes(problem)
-    return DispatchEnv(problem, max_tasks=n, max_robots=r, max_edges=max(e, 1), copy_observation=copy_observation)
+    return DispatchEnv(problem, max_tasks=n, max_robots=r, max_edges=max(e, 1), copy_observation=copy_observation,
+                       observation=observation)
 
 
 def training_pool(seed: int, specs=TRAIN_SPECS) -> list[PoolEntry]:
@@ -111,24 +113,25 @@ def _pad(pool: list[PoolEntry]) -> tuple[int, int, int]:
     return max(n), max(r), max(e)
 
 
-def make_training_env(pool: list[PoolEntry], seed: int, advised: bool = True) -> gym.Env:
+def make_training_env(pool: list[PoolEntry], seed: int, advised: bool = True, observation: str = "full") -> gym.Env:
     """One environment drawing the pool's buildings, padded to the largest of them, reward per cent of
     market; with the :func:`advice` arrays in its observations when ``advised``."""
     n, r, e = _pad(pool)
     drawn = _Drawn(pool)
-    inner = DispatchEnv(drawn, max_tasks=n, max_robots=r, max_edges=e)
+    inner = DispatchEnv(drawn, max_tasks=n, max_robots=r, max_edges=e, observation=observation)
     env = PerCentOfMarket(Advised(inner) if advised else inner, drawn)
     env.reset(seed=seed)
     return env
 
 
 # ---------------------------------------------------------------- imitation of the market
-def market_demonstrations(pool: list[PoolEntry], pad: tuple[int, int, int], advised: bool = False) -> tuple[dict, np.ndarray, np.ndarray]:
+def market_demonstrations(pool: list[PoolEntry], pad: tuple[int, int, int], advised: bool = False,
+                          observation: str = "full") -> tuple[dict, np.ndarray, np.ndarray]:
     """Every decision of the least-cost market on the pool's buildings, padded to ``pad``:
     (observations stacked per key, action masks (D, A), the market's actions (D,))."""
     observations, masks, actions = [], [], []
     for entry in pool:
-        env = DispatchEnv(entry.problem, max_tasks=pad[0], max_robots=pad[1], max_edges=pad[2])
+        env = DispatchEnv(entry.problem, max_tasks=pad[0], max_robots=pad[1], max_edges=pad[2], observation=observation)
         policy = MarketPolicy()
         env.reset(seed=0)
         done = truncated = False

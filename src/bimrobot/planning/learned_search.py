@@ -34,6 +34,11 @@ from bimrobot.planning.learned_pool import sizes
 
 #: rollouts for ``--planner learned`` (each one a whole episode of the event simulation)
 DEFAULT_BUDGET = 400
+#: simulated decisions the search may spend in all, each whole episode counted as the building's task-graph
+#: nodes (about its decisions): the portfolio's members after the market, then the rollouts, while it lasts.
+#: Every shared real model (at most 343 tasks) keeps the whole portfolio and 400 rollouts; a 1,000-component
+#: building (7,302 nodes) about 20 rollouts; a 10,000-component one (75,100) the market and the policy only
+DECISION_BUDGET = 200_000
 #: the policy's candidates per decision (its best valid actions by logit)
 TOP_K = 3
 #: the most rollouts spent at one decision
@@ -68,16 +73,21 @@ class SearchResult:
 
 
 def search(problem: DispatchProblem, policy=None, budget: int = DEFAULT_BUDGET, top_k: int = TOP_K, cap: int = CAP,
-           passes: int = PASSES, env: DispatchEnv | None = None) -> SearchResult:
+           passes: int = PASSES, env: DispatchEnv | None = None, decisions: int = DECISION_BUDGET) -> SearchResult:
     """The fortified rollout of the module docstring on ``problem``. ``policy``: a
     :class:`~bimrobot.planning.learned.LearnedPolicy` playing on ``env`` (the problem's environment with
-    observations, padded to its own size), or None for the advisers' choices only."""
-    pad = sizes(problem)
-    env = env if env is not None else DispatchEnv(problem, max_tasks=pad[0], max_robots=pad[1], max_edges=max(pad[2], 1),
-                                                  copy_observation=False)
+    observations, padded to its own size), or None for the advisers' choices only. ``decisions``: the
+    simulated decisions it may spend (:data:`DECISION_BUDGET`): the market's episode and the policy's are
+    always played; each further portfolio member and each rollout costs one episode (the padded nodes)."""
+    if env is None:
+        pad = sizes(problem)
+        env = DispatchEnv(problem, max_tasks=pad[0], max_robots=pad[1], max_edges=max(pad[2], 1), copy_observation=False)
     sandbox = RolloutEnv(problem, max_tasks=env.max_tasks, max_robots=env.max_robots, max_edges=env.max_edges)
-    members = {name: complete_build(sandbox, [], completer(name)) for name in ADVISERS}  # ADVISERS == the portfolio
-    chosen = min(ADVISERS, key=lambda name: members[name][0])  # the first of equals
+    episodes = decisions // max(1, env.max_tasks) - 1 - (policy is not None)  # left after the market and the policy
+    played = ADVISERS[: 1 + max(0, min(len(ADVISERS) - 1, episodes))]  # ADVISERS == the portfolio, the market first
+    members = {name: complete_build(sandbox, [], completer(name)) for name in played}
+    budget = max(0, min(budget, episodes - (len(played) - 1)))
+    chosen = min(played, key=lambda name: members[name][0])  # the first of equals
     best, started = members[chosen], chosen
     policy_s = None
     if policy is not None:
@@ -173,20 +183,21 @@ class AwardsReplay(Dispatcher):
         return chosen
 
 
-def search_teacher(pool, pad: tuple[int, int, int], budget: int = DEFAULT_BUDGET):
+def search_teacher(pool, pad: tuple[int, int, int], budget: int = DEFAULT_BUDGET, observation: str = "full"):
     """The search without a policy (``rollout``) as a teacher: on each training building, padded to
-    ``pad``, its schedule's decisions as advised demonstrations ((observations stacked per key, masks,
-    actions), as :func:`~bimrobot.planning.learned_pool.pilot_teacher`), and {spec: its makespan (s)}."""
+    ``pad``, its schedule's decisions as demonstrations ((observations stacked per key, masks, actions),
+    as :func:`~bimrobot.planning.learned_pool.pilot_teacher`; advised with the full observation, not
+    with the local one), and {spec: its makespan (s)}."""
     from bimrobot.planning.learned_advice import kept, observe
     from bimrobot.planning.learned_pool import _stack
 
     observations, masks, actions, makespans = [], [], [], {}
     for entry in pool:
-        env = DispatchEnv(entry.problem, max_tasks=pad[0], max_robots=pad[1], max_edges=pad[2])
+        env = DispatchEnv(entry.problem, max_tasks=pad[0], max_robots=pad[1], max_edges=pad[2], observation=observation)
         found = search(entry.problem, None, budget, env=env)
         env.reset(seed=0)
         for action in found.actions:
-            observations.append(kept(observe(env)))
+            observations.append(kept(observe(env, observation == "full")))
             masks.append(env.action_masks())
             actions.append(action)
             env.step(action)
