@@ -76,6 +76,16 @@ def test_the_budget_bounds_the_rollouts(frame, baselines, budget):
         assert found.makespan_s == pytest.approx(baselines[1], abs=1e-9) and found.passes == 0
 
 
+def test_the_simulated_decisions_bound_the_portfolio_and_the_rollouts(frame, baselines):
+    """A decision budget of 3 episodes of the frame (its 29 nodes each): the market and the next two
+    portfolio members are played, no rollout, whatever the rollout budget; never longer than the market."""
+    found = search(frame, None, 400, decisions=3 * 29)
+    assert list(found.members_s) == ["market", "market:quickest-finish", "rule:most-successors"]
+    assert found.rollouts == 0 and found.budget == 0 and found.passes == 0
+    assert found.makespan_s <= baselines[0] + 1e-6
+    assert search(frame, None, 400, decisions=29).members_s.keys() == {"market"}
+
+
 def test_plan_json_records_the_budget_the_rollouts_and_each_makespan(frame):
     result, stats = plan("learned", frame, search=4)
     record = json.loads(plan_record("learned", result, stats))
