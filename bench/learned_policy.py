@@ -9,7 +9,8 @@ Makespans in simulated seconds; no timing.
     .venv/bin/python bench/learned_policy.py [POLICY.zip]                 # default: the shipped policy
     .venv/bin/python bench/learned_policy.py --validation A.zip B.zip ...   # pick among policies
     .venv/bin/python bench/learned_policy.py --scale generated:steel:100:seed=0 generated:steel:1000:seed=0 [--reference]
-    .venv/bin/python bench/learned_policy.py --search [--budget N] [--no-ablation] [MODEL ...]  # the search
+    .venv/bin/python bench/learned_policy.py --search [--budget N] [--no-ablation] [--policy P.zip] [MODEL ...]  # the search
+    .venv/bin/python bench/learned_policy.py --scale [--policy P.zip] [--alone [--reference]] generated:steel:10000
 
 ``--search`` plans each model per joint with site-crane (as ``bimrobot plan benchmark``; default: the ten
 buildable shared models) with the learned planner's decision-time search (``--budget`` rollouts,
@@ -78,8 +79,10 @@ def validation(paths) -> None:
     print("| worst | | " + " | ".join(f"{max(r) - 100:+.2f} %" for r in ratios) + " |")
 
 
-def scale(specs, reference: bool) -> None:
-    """CPU seconds of the shipped policy alone and guarded, per decision, on each generated building."""
+def scale(specs, path=None, alone: bool = False, reference: bool = False) -> None:
+    """CPU seconds of ``--planner learned`` (the policy at ``path``, default the shipped one, with its
+    decision-time search under the simulated-decision budget) per decision of its plan, on each generated
+    building; ``alone``: also the policy alone (greedy, no guard), ``reference`` with sb3-contrib's path."""
     import time
 
     from bimrobot.planning.benchmark import problem_for
@@ -89,32 +92,34 @@ def scale(specs, reference: bool) -> None:
     from bimrobot.planning.dispatch import DispatchEnv
 
     DispatchEnv().reset(seed=0)  # the numba passes loaded (or compiled) outside the measured runs
-    print("| building | nodes | decisions | policy CPU s | ms per decision | observation | advice | network | "
-          "environment | guarded CPU s | sb3 path ms per decision |")
-    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+    DispatchEnv(observation="local").reset(seed=0)
+    print("| building | observation | nodes | plan decisions | learned CPU s | ms per decision | market s | policy s | "
+          "planned s | members, rollouts | policy's ms per decision: observation | network | alone CPU s | sb3 path ms |")
+    print("|---|---|---:|---:|---:|---:|---:|---:|---:|---|---:|---:|---:|---:|")
     for spec in specs:
         problem = problem_for(spec, per_joint=False)[0]
-        planner = LearnedPlanner(None, guard=False)
-        policy = LearnedPolicy(load_policy(planner.path, env_for(problem)))
+        planner = LearnedPlanner(path)
         start = time.process_time()
-        awards, result = planner.play(problem, policy)
-        alone = time.process_time() - start
-        decisions = policy.decisions
-        start = time.process_time()
-        LearnedPlanner(None, guard=True, search=0).dispatcher(problem)
-        guarded = time.process_time() - start
-        ms = {k: 1000 * v / decisions for k, v in policy.cpu.items()}
-        rest = 1000 * alone / decisions - sum(ms.values())
-        sb3 = ""
-        if reference:
-            full = LearnedPolicy(policy.policy, fast=False)
+        planner.dispatcher(problem)
+        cpu, last, player = time.process_time() - start, planner.last, planner.player
+        decisions = int(last["planned_decisions"])
+        ms = {k: 1000 * v / max(1, player.decisions) for k, v in player.cpu.items()}
+        extra = ["", ""]
+        if alone:
+            env = env_for(problem, copy_observation=False, observation=planner.observation)
+            policy = LearnedPolicy(load_policy(planner.path, env))
             start = time.process_time()
-            same, _ = planner.play(problem, full)
-            sb3 = f"{1000 * (time.process_time() - start) / decisions:.2f}"
-            assert same == awards, "the fast greedy choice must be sb3-contrib's"
-        print(f"| {spec} | {sizes(problem)[0]:,} | {decisions:,} | {alone:.1f} | {1000 * alone / decisions:.2f} | "
-              f"{ms['observation']:.2f} | {ms['advice']:.2f} | {ms['network']:.2f} | {rest:.2f} | {guarded:.1f} | {sb3} |",
-              flush=True)
+            awards, _ = planner.play(problem, policy)
+            extra[0] = f"{time.process_time() - start:.1f}"
+            if reference:
+                start = time.process_time()
+                same, _ = planner.play(problem, LearnedPolicy(policy.policy, fast=False))
+                extra[1] = f"{1000 * (time.process_time() - start) / policy.decisions:.2f}"
+                assert same == awards, "the fast greedy choice must be sb3-contrib's"
+        print(f"| {spec} | {planner.observation} | {sizes(problem)[0]:,} | {decisions:,} | {cpu:.1f} | "
+              f"{1000 * cpu / decisions:.2f} | {last['market_s']:,.1f} | {last['policy_s']:,.1f} | {last['planned_s']:,.1f} | "
+              f"{last['search_members']}, {last['search_rollouts']} | {ms['observation']:.2f} | {ms['network']:.2f} | "
+              f"{extra[0]} | {extra[1]} |", flush=True)
 
 
 def main(path) -> None:
@@ -145,8 +150,9 @@ CPSAT = {"AC20-FZK-Haus.ifc": (None, None), "GEELEN-Breedplaat_V1.ifc": (8195.9,
          "ifcColumn.ifc": (1121.3, 1121.3), "ifcUnit.ifc": (6071.9, 6030.4)}
 
 
-def searched(models, budget: int, ablation: bool = True) -> None:
-    """The search with the policy and, ``ablation``, without it, on each model, against the baselines."""
+def searched(models, budget: int, ablation: bool = True, path=None) -> None:
+    """The search with the policy (``path``, default the shipped one) and, ``ablation``, without it, on
+    each model, against the baselines."""
     import time
 
     from bimrobot.planning.benchmark import problem_for
@@ -163,10 +169,12 @@ def searched(models, budget: int, ablation: bool = True) -> None:
         rows = []
         for guided in (True, False)[: 1 + ablation]:
             start = time.process_time()
-            env = env_for(problem, copy_observation=False)
-            found = search(problem, LearnedPolicy(load_policy(DEFAULT_POLICY, env)) if guided else None, budget, env=env)
+            path = path or DEFAULT_POLICY
+            env = env_for(problem, copy_observation=False, observation=LearnedPlanner(path).observation)
+            found = search(problem, LearnedPolicy(load_policy(path, env)) if guided else None, budget, env=env)
             cpu = time.process_time() - start
             awards, _ = awards_of(problem, found.actions)
+            assert awards == found.awards, "the awards recorded by the search are its schedule's"
             replay = AwardsReplay(awards)
             run = simulate(problem.smart, problem.fleet, problem.site, "least-cost", 0, problem.breakdowns,
                            problem.storey_elevations, per_node=problem.per_node, dispatcher=replay)
@@ -188,11 +196,15 @@ if __name__ == "__main__":
     if sys.argv[1:2] == ["--search"]:
         args = sys.argv[2:]
         budget = int(args[args.index("--budget") + 1]) if "--budget" in args else 400
-        names = [a for i, a in enumerate(args) if a not in ("--budget", "--no-ablation") and (i == 0 or args[i - 1] != "--budget")]
-        searched(names or list(CPSAT), budget, "--no-ablation" not in args)
+        policy = args[args.index("--policy") + 1] if "--policy" in args else None
+        names = [a for i, a in enumerate(args) if not a.startswith("--") and (i == 0 or args[i - 1] not in ("--budget", "--policy"))]
+        searched(names or list(CPSAT), budget, "--no-ablation" not in args, policy)
     elif sys.argv[1:2] == ["--validation"]:
         validation(sys.argv[2:])
     elif sys.argv[1:2] == ["--scale"]:
-        scale([a for a in sys.argv[2:] if a != "--reference"], "--reference" in sys.argv)
+        args = sys.argv[2:]
+        policy = args[args.index("--policy") + 1] if "--policy" in args else None
+        specs = [a for i, a in enumerate(args) if not a.startswith("--") and (i == 0 or args[i - 1] != "--policy")]
+        scale(specs, policy, "--alone" in args, "--reference" in args)
     else:
         main(sys.argv[1] if len(sys.argv) > 1 else DEFAULT_POLICY)

@@ -244,7 +244,7 @@ def test_the_fast_greedy_choice_is_sb3_contribs_at_every_decision(frame):
 
     env = env_for(frame, copy_observation=False)
     policy = load_policy(DEFAULT_POLICY, env)
-    fast, full = LearnedPolicy(policy), LearnedPolicy(policy, fast=False)
+    fast, full = LearnedPolicy(policy, timed=True), LearnedPolicy(policy, fast=False)
     env.reset(seed=0)
     done = truncated = False
     while not (done or truncated):
@@ -270,7 +270,7 @@ def test_a_local_policy_scores_its_neighbourhood_as_the_padded_arrays_do(frame, 
     path = save(model, tmp_path / "local.zip", {"command": "pytest", "seed": 0, "observation": "local"})
     big = env_for(frame, copy_observation=False, observation="local")
     policy = load_policy(path, big)
-    fast, full = LearnedPolicy(policy), LearnedPolicy(policy, fast=False)
+    fast, full = LearnedPolicy(policy, timed=True), LearnedPolicy(policy, fast=False)
     big.reset(seed=0)
     done = truncated = False
     while not (done or truncated):

@@ -189,6 +189,7 @@ class DispatchEnv(gym.Env):
         self.graph = task_graph(self.sim)
         self._set_up_arrays(problem.fleet)
         self.result, self.round_id, self.decisions, self._clock = None, 0, 0, 0.0
+        self.awarded: list[tuple[float, str, str]] = []  # (time s, task key, robot) of each award, in order
         self._finished_at = np.full(len(self.graph.keys), np.nan)
         self._seen_events = 0
         self._request_node: dict[str, int] = {}
@@ -203,8 +204,7 @@ class DispatchEnv(gym.Env):
             raise BimrobotError("call reset() before step(): no episode is running")
         action = int(action)
         award = self._award_of(action)
-        invalid = award is None
-        if invalid:
+        if invalid := award is None:
             mask = self.action_masks()
             action = self.wait_action if mask[self.wait_action] else int(np.flatnonzero(mask)[0])
             award = self._award_of(action)
@@ -214,6 +214,7 @@ class DispatchEnv(gym.Env):
             done, info = self._to_next_decision()
         else:
             self.sim.award(*award)
+            self.awarded.append((float(self.sim.build.env.now), self.graph.keys[self._node_of(award[0])], award[1]))
             if self.sim.has_decision():
                 done, info = False, {"time_s": float(self.sim.build.env.now)}
             else:
@@ -554,7 +555,6 @@ class DispatchEnv(gym.Env):
             return None
         counts = {s: int(np.sum(self.state == i)) for i, s in enumerate(STATES)}
         return f"t = {self.sim.build.env.now:.1f} s, decision {self.decisions}: " + ", ".join(f"{v} {k}" for k, v in counts.items())
-
 
 
 class MarketPolicy:

@@ -398,13 +398,16 @@ class LearnedPolicy:
     the valid action of the highest logit (the first in action order on a tie), as sb3-contrib's
     deterministic action. ``fast`` (default): the embedding runs over the whole graph, the pair scores
     only for the valid awards, and a decision with one valid action takes it without the network;
-    False: sb3-contrib's masked distribution over every (task, robot) pair (tests compare the two).
-    ``cpu`` adds up this process's CPU seconds in the observation, the advice and the network over its
-    ``decisions``, of which ``forced`` had one valid action."""
+    False: sb3-contrib's masked distribution over every (task, robot) pair (tests compare the two). With
+    the local observation the embedding runs over the observed nodes only and the candidates are the
+    observed ready tasks' awards (``local_actions``). ``timed``: ``cpu`` adds up this process's CPU
+    seconds in the observation, the advice and the network over its ``decisions``, of which ``forced``
+    had one valid action (off by default: each clock read costs time)."""
 
-    def __init__(self, policy, fast: bool = True):
+    def __init__(self, policy, fast: bool = True, timed: bool = False):
         self.policy = policy
         self.fast = fast
+        self._clock = time.process_time if timed else _no_clock  # a CPU clock read costs up to 0.6 ms on a busy VM
         self.cpu = {"observation": 0.0, "advice": 0.0, "network": 0.0}
         self.decisions = self.forced = 0
         self._edges: tuple = (None, None)
@@ -442,7 +445,7 @@ class LearnedPolicy:
     def _logits(self, env, actions: list[int], advised: tuple | None = None) -> th.Tensor:
         """The logits of the valid ``actions`` (waiting last where valid): the graph embedded once, the
         pairs scored only for the valid awards."""
-        start = time.process_time()
+        start = self._clock()
         views = env._observation()
         obs, rows = self._tensors(env, views) if env._local is None else _local_tensors(env, views)
         extractor = self.policy.features_extractor
@@ -450,22 +453,22 @@ class LearnedPolicy:
         pairs = {"node": th.from_numpy(rows[nodes] if rows is not None else nodes), "robot": th.from_numpy(robots),
                  **{k: th.from_numpy(np.ascontiguousarray(views[k][nodes, robots])).float()
                     for k in ("handling_s", "travel_s", "compatibility")}}
-        advised_at = time.process_time()
+        advised_at = self._clock()
         if extractor.advisers:
             awarded, wait, order = advised if advised is not None else advice_sparse(env)
             obs.update(advice_wait=th.from_numpy(wait)[None], order_in_kind=th.from_numpy(order)[None])
             empty = np.zeros(len(ADVISERS), np.float32)
             pairs["advice"] = th.from_numpy(np.array([awarded.get(p, empty) for p in zip(nodes.tolist(), robots.tolist())],
                                                      np.float32).reshape(len(nodes), len(ADVISERS)))
-        network = time.process_time()
-        with th.no_grad():
+        network = self._clock()
+        with th.inference_mode():
             h, g, context = extractor.embed(obs)
             logits = extractor.pair_logits(h, g, context, pairs)
             if actions[-1] == env.wait_action:
                 logits = th.cat([logits, extractor.wait_logit(context, obs)[0]])
         self.cpu["observation"] += advised_at - start
         self.cpu["advice"] += network - advised_at
-        self.cpu["network"] += time.process_time() - network
+        self.cpu["network"] += self._clock() - network
         return logits
 
     def _tensors(self, env, views: dict) -> dict:
@@ -506,6 +509,10 @@ def _local_tensors(env, views: dict) -> tuple[dict, np.ndarray]:
                "precedence": th.from_numpy(pairs)[None], "precedence_mask": th.ones(1, len(pairs)),
                "context": th.as_tensor(views["context"][None])}
     return obs, local.where
+
+
+def _no_clock() -> float:
+    return 0.0
 
 
 @contextlib.contextmanager
@@ -576,13 +583,13 @@ class LearnedPlanner:
 
     def _searched(self, problem: DispatchProblem) -> Dispatcher:
         """The policy with decision-time search (:func:`bimrobot.planning.learned_search.search`)."""
-        from bimrobot.planning.learned_search import awards_of, search
+        from bimrobot.planning.learned_search import search
 
         env = env_for(problem, copy_observation=False, observation=self.observation)
-        found = search(problem, LearnedPolicy(load_policy(self.path, env)), self.search, env=env)
-        awards, _ = awards_of(problem, found.actions)
+        self.player = LearnedPolicy(load_policy(self.path, env))
+        found = search(problem, self.player, self.search, env=env)
         self.last = {**found.notes(), "policy_s": found.policy_s, "chosen": "search"}
-        return ReplayDispatcher(awards)
+        return ReplayDispatcher(found.awards)
 
 
 class ReplayDispatcher(AwardsReplay):

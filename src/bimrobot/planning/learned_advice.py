@@ -126,9 +126,10 @@ class RolloutEnv(DispatchEnv):
         return {}
 
 
-def complete_build(env: DispatchEnv, prefix: list[int], completer=None) -> tuple[float, list[int]]:
+def complete_build(env: DispatchEnv, prefix: list[int], completer=None) -> tuple[float, list[int], list]:
     """Replay ``prefix`` on ``env`` from its start, then let ``completer`` (a policy ``policy(env) ->
-    action``; None: the least-cost market) finish the build: (makespan s, every action)."""
+    action``; None: the least-cost market) finish the build: (makespan s, every action, the awards
+    (time s, task key, robot) made, as ``env.awarded``)."""
     obs, _ = env.reset(seed=0)
     done = truncated = False
     for action in prefix:
@@ -138,7 +139,7 @@ def complete_build(env: DispatchEnv, prefix: list[int], completer=None) -> tuple
         action = completer(env)
         actions.append(action)
         _, _, done, truncated, _ = env.step(action)
-    return (float(env.result.makespan) if env.result is not None else float("inf")), actions
+    return (float(env.result.makespan) if env.result is not None else float("inf")), actions, list(env.awarded)
 
 
 class PlannerPolicy:
@@ -173,7 +174,7 @@ def completer(name: str):
 class Rollouts:
     """The incumbent of a fortified rollout and the rollouts that may replace it.
 
-    ``best`` is the shortest complete schedule found so far, (makespan s, every action); a search
+    ``best`` is the shortest complete schedule found so far, (makespan s, every action, its awards); a search
     follows it. :meth:`explore` completes the build from ``taken + [candidate]`` with each of the
     ``completers`` (planner names of :data:`ADVISERS`) on ``sandbox`` (the event simulation replayed
     from its start) and keeps any shorter schedule. ``budget`` bounds the rollouts run (None: no bound);
@@ -189,17 +190,17 @@ class Rollouts:
     def left(self) -> float:
         return float("inf") if self.budget is None else self.budget - self.used
 
-    def complete(self, prefix: list[int], name: str = "market") -> tuple[float, list[int]] | None:
+    def complete(self, prefix: list[int], name: str = "market") -> tuple[float, list[int], list] | None:
         """One rollout (counted), the incumbent updated; None when the budget is spent or it ran before."""
         key = (name, tuple(prefix))
         if self.left < 1 or key in self._seen:
             return None
         self._seen.add(key)
         self.used += 1
-        makespan, actions = complete_build(self.sandbox, prefix, completer(name))
-        if makespan < self.best[0] - 1e-9:
-            self.best = (makespan, actions)
-        return makespan, actions
+        found = complete_build(self.sandbox, prefix, completer(name))
+        if found[0] < self.best[0] - 1e-9:
+            self.best = found
+        return found
 
     def explore(self, taken: list[int], candidates, limit: float = float("inf")) -> int:
         """Complete the build from each candidate next action (in order) with each completer, at most

@@ -62,6 +62,7 @@ class SearchResult:
     market_s: float
     members_s: dict = field(default_factory=dict)
     started_from: str = ""
+    awards: list = field(default_factory=list)  # (time s, task key, robot) of the schedule's awards, in order
 
     def notes(self) -> dict:
         """What ``plan.json`` records (s; rounded)."""
@@ -69,7 +70,8 @@ class SearchResult:
                 "policy_greedy_s": None if self.policy_s is None else round(self.policy_s, 3),
                 "portfolio_s": round(self.portfolio_s, 3), "portfolio_member": self.portfolio_chosen,
                 "market_s": round(self.market_s, 3), "search_started_from": self.started_from,
-                "planned_s": round(self.makespan_s, 3)}
+                "planned_s": round(self.makespan_s, 3), "planned_decisions": len(self.actions),
+                "search_members": list(self.members_s)}
 
 
 def search(problem: DispatchProblem, policy=None, budget: int = DEFAULT_BUDGET, top_k: int = TOP_K, cap: int = CAP,
@@ -102,7 +104,7 @@ def search(problem: DispatchProblem, policy=None, budget: int = DEFAULT_BUDGET, 
         if not _pass(env, rollouts, policy, top_k, cap):
             break
     return SearchResult(rollouts.best[0], rollouts.best[1], budget, rollouts.used, done, policy_s, members[chosen][0],
-                        chosen, members["market"][0], {k: v[0] for k, v in members.items()}, started)
+                        chosen, members["market"][0], {k: v[0] for k, v in members.items()}, started, rollouts.best[2])
 
 
 def _pass(env: DispatchEnv, rollouts: Rollouts, policy, top_k: int, cap: int) -> int:
