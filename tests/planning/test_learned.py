@@ -255,7 +255,7 @@ def test_the_fast_greedy_choice_is_sb3_contribs_at_every_decision(frame):
     assert env.result.makespan == pytest.approx(3798.3, abs=0.05)
 
 
-def test_a_local_policy_scores_its_neighbourhood_as_the_padded_arrays_do(frame, tmp_path):
+def test_a_local_policy_scores_its_neighbourhood_as_the_padded_arrays_do(frame, tmp_path, monkeypatch):
     """A policy that reads the local observation (``observation="local"``, the market imitated briefly):
     its greedy choice from the observed nodes alone (gathered and renumbered) is sb3-contrib's over the
     padded arrays at every decision of the frame, it builds the frame, and it says which observation it
@@ -281,3 +281,12 @@ def test_a_local_policy_scores_its_neighbourhood_as_the_padded_arrays_do(frame, 
     assert LearnedPlanner(path).observation == "local"
     with pytest.raises(InputError, match="reads the local observation, this environment gives the full one"):
         load_policy(path, env_for(frame))
+    # the shipped policies' one rule by size: the local policy above LOCAL_FROM_NODES task-graph nodes
+    import bimrobot.planning.learned as learned
+
+    monkeypatch.setattr(learned, "LOCAL_POLICY", path)
+    for limit, expected in ((48, "local"), (49, "full")):  # the frame has 49 nodes
+        monkeypatch.setattr(learned, "LOCAL_FROM_NODES", limit)
+        planner = LearnedPlanner(search=0)
+        planner.dispatcher(frame)
+        assert planner.observation == expected and planner.path == (path if expected == "local" else learned.DEFAULT_POLICY)

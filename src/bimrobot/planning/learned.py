@@ -58,12 +58,17 @@ from bimrobot.planning.dispatch import CONTEXT, NODE_FEATURES, ROBOT_FEATURES, D
 from bimrobot.planning.learned_advice import (ADVISERS, EXTRA_NODE_FEATURES, Advised, advice, advice_sparse, advised_space, observe,
                                               pilot_demonstrations)
 from bimrobot.planning.learned_pool import (TRAIN_SPECS, PerCentOfMarket, PoolEntry, _pad, env_for, generated_problem,
+                                            imitate, imitation_accuracy,
                                             make_training_env, market_demonstrations, pilot_teacher, sizes,
                                             training_pool)
 from bimrobot.planning.learned_search import AwardsReplay
 
 #: the policy shipped with the package (``--planner learned``)
 DEFAULT_POLICY = Path(__file__).parent / "policies" / "dispatch.zip"
+#: the shipped policy for large buildings: it reads the local observation (cost per decision independent of size)
+LOCAL_POLICY = Path(__file__).parent / "policies" / "dispatch_local.zip"
+#: task-graph nodes (tasks + floor gates) above which ``path`` None plans with :data:`LOCAL_POLICY`
+LOCAL_FROM_NODES = 2_000
 #: the file inside a policy zip that says how it was trained (command, seed, buildings, figures)
 META_NAME = "bimrobot.json"
 HIDDEN = 32
@@ -210,41 +215,6 @@ class DispatchPolicy(MaskableActorCriticPolicy):
         self.optimizer = self.optimizer_class(self.parameters(), lr=lr_schedule(1), **self.optimizer_kwargs)
 
 
-
-
-# ---------------------------------------------------------------- imitation: behaviour cloning of a teacher
-def imitate(policy, demonstrations, steps: int, seed: int, batch: int = 32, lr: float = 1e-3) -> float:
-    """Behaviour cloning: ``steps`` Adam steps of cross-entropy between the masked policy and the market's
-    actions, mini-batches drawn with ``seed``. Returns the accuracy (0-1) of the greedy policy on them."""
-    obs, masks, actions = demonstrations
-    rng = np.random.default_rng(seed)
-    optimizer = th.optim.Adam(policy.parameters(), lr=lr)
-    policy.set_training_mode(True)
-    for _ in range(steps):
-        pick = rng.integers(len(actions), size=min(batch, len(actions)))
-        distribution = policy.get_distribution(_tensors(obs, pick), action_masks=masks[pick])
-        loss = -distribution.log_prob(th.as_tensor(actions[pick])).mean()
-        optimizer.zero_grad()
-        loss.backward()
-        optimizer.step()
-    return imitation_accuracy(policy, demonstrations)
-
-
-def imitation_accuracy(policy, demonstrations) -> float:
-    """Share (0-1) of the demonstrations where the greedy masked policy picks the market's action."""
-    obs, masks, actions = demonstrations
-    policy.set_training_mode(False)
-    hits = 0
-    with th.no_grad():
-        for start in range(0, len(actions), 64):
-            pick = np.arange(start, min(start + 64, len(actions)))
-            chosen = policy.get_distribution(_tensors(obs, pick), action_masks=masks[pick]).get_actions(deterministic=True)
-            hits += int((chosen.numpy() == actions[pick]).sum())
-    return hits / max(len(actions), 1)
-
-
-def _tensors(obs: dict, pick: np.ndarray) -> dict:
-    return {k: th.as_tensor(v[pick]).float() for k, v in obs.items()}
 
 
 # ---------------------------------------------------------------- training
@@ -521,8 +491,9 @@ def _writable_ignored():
 class LearnedPlanner:
     """A learned policy as a planner: ``dispatcher(problem)`` plans ``problem`` (padded to its own size)
     and returns a :class:`~bimrobot.coordination.market.Dispatcher` that replays the plan's awards at the
-    same times, so ``simulate`` with it gives the planned schedule. ``path`` None: the shipped
-    :data:`DEFAULT_POLICY`.
+    same times, so ``simulate`` with it gives the planned schedule. ``path`` None: the shipped policies,
+    one rule by size: :data:`DEFAULT_POLICY` (full observation, advised) on buildings of up to
+    :data:`LOCAL_FROM_NODES` task-graph nodes, :data:`LOCAL_POLICY` (local observation) above.
 
     ``search`` (rollouts, default :data:`~bimrobot.planning.learned_search.DEFAULT_BUDGET`): the policy
     proposes and rollouts decide (:func:`bimrobot.planning.learned_search.search`): the plan starts from
@@ -536,20 +507,31 @@ class LearnedPlanner:
     def __init__(self, path: str | Path | None = None, guard: bool = True, search: int | None = None):
         from bimrobot.planning.learned_search import DEFAULT_BUDGET
 
-        self.path = Path(path) if path is not None else DEFAULT_POLICY
+        self.shipped = path is None
+        self._use(Path(path) if path is not None else DEFAULT_POLICY)
         if not self.path.is_file():
             raise InputError(f"{self.path}: no such policy file" + (" (no learned policy ships with this version)" if path is None else ""))
-        self.meta = read_meta(self.path)
-        self.observation = self.meta.get("observation", "full")  # what the policy reads
         self.guard = guard
         self.search = DEFAULT_BUDGET if search is None else int(search)
         if self.search < 0:
             raise InputError(f"the learned planner's search budget must be 0 or more rollouts, got {self.search}")
         self.last: dict = {}
 
+    def _use(self, path: Path) -> None:
+        self.path, self.meta = path, read_meta(path) if path.is_file() else {}
+        self.observation = self.meta.get("observation", "full")  # what the policy reads
+
+    def _size_rule(self, problem: DispatchProblem) -> None:
+        """The shipped policy for ``problem``'s size (class docstring); a given path is always used."""
+        if self.shipped:
+            large = LOCAL_POLICY.is_file() and sizes(problem)[0] > LOCAL_FROM_NODES
+            self._use(LOCAL_POLICY if large else DEFAULT_POLICY)
+
     def play(self, problem: DispatchProblem, policy=None):
         """(the awards [(time s, task key, robot)], the simulation result) of the loaded policy (or of
         ``policy(env) -> action``, e.g. :class:`~bimrobot.planning.dispatch.MarketPolicy`) on ``problem``."""
+        if policy is None:
+            self._size_rule(problem)
         env = env_for(problem, copy_observation=False, observation=self.observation)  # the policy reads each observation once
         policy = policy or LearnedPolicy(load_policy(self.path, env))
         env.reset(seed=0)
@@ -580,6 +562,7 @@ class LearnedPlanner:
         """The policy with decision-time search (:func:`bimrobot.planning.learned_search.search`)."""
         from bimrobot.planning.learned_search import search
 
+        self._size_rule(problem)
         env = env_for(problem, copy_observation=False, observation=self.observation)
         self.player = LearnedPolicy(load_policy(self.path, env))
         found = search(problem, self.player, self.search, env=env)

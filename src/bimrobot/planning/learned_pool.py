@@ -160,3 +160,44 @@ def pilot_teacher(pool: list[PoolEntry], pad: tuple[int, int, int]) -> tuple[tup
 def _stack(observations: list[dict], masks: list, actions: list) -> tuple[dict, np.ndarray, np.ndarray]:
     stacked = {k: np.stack([o[k] for o in observations]) for k in observations[0]}
     return stacked, np.stack(masks), np.array(actions, dtype=np.int64)
+
+
+# ---------------------------------------------------------------- imitation: behaviour cloning of a teacher
+def imitate(policy, demonstrations, steps: int, seed: int, batch: int = 32, lr: float = 1e-3) -> float:
+    """Behaviour cloning: ``steps`` Adam steps of cross-entropy between the masked policy and the market's
+    actions, mini-batches drawn with ``seed``. Returns the accuracy (0-1) of the greedy policy on them."""
+    import torch as th
+
+    obs, masks, actions = demonstrations
+    rng = np.random.default_rng(seed)
+    optimizer = th.optim.Adam(policy.parameters(), lr=lr)
+    policy.set_training_mode(True)
+    for _ in range(steps):
+        pick = rng.integers(len(actions), size=min(batch, len(actions)))
+        distribution = policy.get_distribution(_tensors(obs, pick), action_masks=masks[pick])
+        loss = -distribution.log_prob(th.as_tensor(actions[pick])).mean()
+        optimizer.zero_grad()
+        loss.backward()
+        optimizer.step()
+    return imitation_accuracy(policy, demonstrations)
+
+
+def imitation_accuracy(policy, demonstrations) -> float:
+    """Share (0-1) of the demonstrations where the greedy masked policy picks the market's action."""
+    import torch as th
+
+    obs, masks, actions = demonstrations
+    policy.set_training_mode(False)
+    hits = 0
+    with th.no_grad():
+        for start in range(0, len(actions), 64):
+            pick = np.arange(start, min(start + 64, len(actions)))
+            chosen = policy.get_distribution(_tensors(obs, pick), action_masks=masks[pick]).get_actions(deterministic=True)
+            hits += int((chosen.numpy() == actions[pick]).sum())
+    return hits / max(len(actions), 1)
+
+
+def _tensors(obs: dict, pick: np.ndarray) -> dict:
+    import torch as th
+
+    return {k: th.as_tensor(v[pick]).float() for k, v in obs.items()}
