@@ -254,7 +254,7 @@ def run_train(args) -> int:
             (tmp / "imitation.zip").write_bytes(imitated["zip"])
         info = {"bimrobot": signature("plan train"), **result.meta}
         (tmp / "train.json").write_text(json.dumps(info, indent=2, sort_keys=True) + "\n", encoding="utf-8")
-    accuracy = "" if result.accuracy is None else f"; imitation reproduces {100 * result.accuracy:.1f} % of the market's choices"
+    accuracy = "" if result.accuracy is None else f"; imitation reproduces {100 * result.accuracy:.1f} % of the {args.teacher} teacher's choices"
     print(f"trained on {len(result.pool)} generated buildings, {args.imitation_steps} imitation steps, {args.steps} PPO steps{accuracy}")
     print(f"output: {Path(args.output).resolve()}/ (policy.zip, imitation.zip, train.json)")
     return 0

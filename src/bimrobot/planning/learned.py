@@ -65,10 +65,6 @@ from bimrobot.planning.learned_search import AwardsReplay
 
 #: the policy shipped with the package (``--planner learned``)
 DEFAULT_POLICY = Path(__file__).parent / "policies" / "dispatch.zip"
-#: the shipped policy for large buildings: it reads the local observation (cost per decision independent of size)
-LOCAL_POLICY = Path(__file__).parent / "policies" / "dispatch_local.zip"
-#: task-graph nodes (tasks + floor gates) above which ``path`` None plans with :data:`LOCAL_POLICY`
-LOCAL_FROM_NODES = 2_000
 #: the file inside a policy zip that says how it was trained (command, seed, buildings, figures)
 META_NAME = "bimrobot.json"
 HIDDEN = 32
@@ -491,9 +487,8 @@ def _writable_ignored():
 class LearnedPlanner:
     """A learned policy as a planner: ``dispatcher(problem)`` plans ``problem`` (padded to its own size)
     and returns a :class:`~bimrobot.coordination.market.Dispatcher` that replays the plan's awards at the
-    same times, so ``simulate`` with it gives the planned schedule. ``path`` None: the shipped policies,
-    one rule by size: :data:`DEFAULT_POLICY` (full observation, advised) on buildings of up to
-    :data:`LOCAL_FROM_NODES` task-graph nodes, :data:`LOCAL_POLICY` (local observation) above.
+    same times, so ``simulate`` with it gives the planned schedule. ``path`` None: the shipped
+    :data:`DEFAULT_POLICY`. The environment gives the observation the policy reads (its ``bimrobot.json``).
 
     ``search`` (rollouts, default :data:`~bimrobot.planning.learned_search.DEFAULT_BUDGET`): the policy
     proposes and rollouts decide (:func:`bimrobot.planning.learned_search.search`): the plan starts from
@@ -507,31 +502,20 @@ class LearnedPlanner:
     def __init__(self, path: str | Path | None = None, guard: bool = True, search: int | None = None):
         from bimrobot.planning.learned_search import DEFAULT_BUDGET
 
-        self.shipped = path is None
-        self._use(Path(path) if path is not None else DEFAULT_POLICY)
+        self.path = Path(path) if path is not None else DEFAULT_POLICY
         if not self.path.is_file():
             raise InputError(f"{self.path}: no such policy file" + (" (no learned policy ships with this version)" if path is None else ""))
+        self.meta = read_meta(self.path)
+        self.observation = self.meta.get("observation", "full")  # what the policy reads
         self.guard = guard
         self.search = DEFAULT_BUDGET if search is None else int(search)
         if self.search < 0:
             raise InputError(f"the learned planner's search budget must be 0 or more rollouts, got {self.search}")
         self.last: dict = {}
 
-    def _use(self, path: Path) -> None:
-        self.path, self.meta = path, read_meta(path) if path.is_file() else {}
-        self.observation = self.meta.get("observation", "full")  # what the policy reads
-
-    def _size_rule(self, problem: DispatchProblem) -> None:
-        """The shipped policy for ``problem``'s size (class docstring); a given path is always used."""
-        if self.shipped:
-            large = LOCAL_POLICY.is_file() and sizes(problem)[0] > LOCAL_FROM_NODES
-            self._use(LOCAL_POLICY if large else DEFAULT_POLICY)
-
     def play(self, problem: DispatchProblem, policy=None):
         """(the awards [(time s, task key, robot)], the simulation result) of the loaded policy (or of
         ``policy(env) -> action``, e.g. :class:`~bimrobot.planning.dispatch.MarketPolicy`) on ``problem``."""
-        if policy is None:
-            self._size_rule(problem)
         env = env_for(problem, copy_observation=False, observation=self.observation)  # the policy reads each observation once
         policy = policy or LearnedPolicy(load_policy(self.path, env))
         env.reset(seed=0)
@@ -562,7 +546,6 @@ class LearnedPlanner:
         """The policy with decision-time search (:func:`bimrobot.planning.learned_search.search`)."""
         from bimrobot.planning.learned_search import search
 
-        self._size_rule(problem)
         env = env_for(problem, copy_observation=False, observation=self.observation)
         self.player = LearnedPolicy(load_policy(self.path, env))
         found = search(problem, self.player, self.search, env=env)
