@@ -15,6 +15,11 @@ printed with it, and each floor's own bound (solved alone; ``P`` where proved op
     .venv/bin/python bench/planning_cpsat.py --time-limit 120 --only 2x2x1:fleet1 4x3x2:fleet2
     .venv/bin/python bench/planning_cpsat.py --deterministic-limit 30 --time-limit 3600 --only 3x2x2:fleet2
     .venv/bin/python bench/planning_cpsat.py --generate           # generation time and size, 10 to 10,000 components
+    .venv/bin/python bench/planning_cpsat.py --models generated:precast:3x3x3 ../shared/data/ifc/ROOT-staal.ifczip
+
+``--models`` takes other instances, per joint: an IFC path (fleet site-crane, or the benchmark's prebuilt
+fallback) or a ``generated:KIND:...`` spec (its drawn fleet and site), read as ``bimrobot plan benchmark``
+reads them (:func:`bimrobot.planning.benchmark.problem_for`).
 
 Goal (issue 38): where CP-SAT proves the optimum, up to at least 200 tasks within 10 minutes on a
 2-core machine; beyond, a bound and a gap.
@@ -33,18 +38,32 @@ LADDER = ["2x1x1:fleet2", "2x2x1:fleet1", "2x2x1:fleet2", "3x2x1:fleet2", "3x2x2
           "4x3x2:fleet2", "4x4x3:fleet2", "6x6x4:fleet2"]
 
 
-def solve(item: str, time_limit: float, workers: int, whole_tasks: int, deterministic: float | None = None) -> dict:
+def _instance(item: str, model: bool):
+    """(name, fleet name, smart model, fleet, site, storey elevations) of a ladder item FRAME:FLEET or,
+    ``model`` True, of an IFC path or ``generated:KIND:...`` spec (the benchmark's problem, per joint)."""
+    if model:
+        from bimrobot.planning.benchmark import problem_for
+
+        problem, fleet_name, note = problem_for(item)
+        name = os.path.basename(item) + (f" ({note})" if note else "")
+        return name, fleet_name, problem.smart, problem.fleet, problem.site, problem.storey_elevations
     from bimrobot.bim.selection import DEFAULT_PREBUILT
     from bimrobot.coordination.inputs import load_building
     from bimrobot.site.fleet import load_fleet
-    from bimrobot.planning.optimal import solve_optimal
     from bimrobot.sco import build_smart_model
 
     frame, fleet = item.split(":")
-    model, elevations = load_building(f"generated:{frame}")
-    smart = build_smart_model(model, prebuilt_classes=DEFAULT_PREBUILT)
+    built, elevations = load_building(f"generated:{frame}")
+    return frame, fleet, build_smart_model(built, prebuilt_classes=DEFAULT_PREBUILT), load_fleet(fleet), None, elevations
+
+
+def solve(item: str, time_limit: float, workers: int, whole_tasks: int, deterministic: float | None = None,
+          model: bool = False) -> dict:
+    from bimrobot.planning.optimal import solve_optimal
+
+    frame, fleet, smart, robots, site, elevations = _instance(item, model)
     wall, cpu, load = time.perf_counter(), time.process_time(), os.getloadavg()[0]
-    schedule = solve_optimal(smart, load_fleet(fleet), storey_elevations=elevations, time_limit_s=time_limit,
+    schedule = solve_optimal(smart, robots, site, storey_elevations=elevations, time_limit_s=time_limit,
                              workers=workers, whole_tasks=whole_tasks, deterministic_limit=deterministic)
     return {"frame": frame, "fleet": fleet, "tasks": schedule.tasks, "method": schedule.method,
             "proved": schedule.status == "OPTIMAL", "best_s": schedule.makespan, "bound_s": schedule.lower_bound,
@@ -52,17 +71,19 @@ def solve(item: str, time_limit: float, workers: int, whole_tasks: int, determin
             "market_over_bound_pct": 100 * (schedule.hinted_s - schedule.lower_bound) / schedule.hinted_s,
             "wall_s": time.perf_counter() - wall, "cpu_s": time.process_time() - cpu,
             "deterministic_s": schedule.deterministic_s, "load_start": load, "load": os.getloadavg()[0],
-            "floors": "/".join(f"{'P' if row['status'] == 'OPTIMAL' else '-'}{row['bound_s']:.1f}" for row in schedule.floors)}
+            "floors": "/".join(f"{'P' if row['status'] == 'OPTIMAL' else '-'}{row['bound_s']:.1f}" for row in schedule.floors)
+            + (f"; chained {schedule.chained_s:.1f}" if schedule.chained_s else "")}
 
 
 def run_ladder(args) -> None:
     print(f"CP-SAT, {args.workers} workers, {args.time_limit:g} s per instance, whole model up to {args.whole_tasks} tasks, "
           f"{os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f} at the start")
     print("| frame | fleet | tasks | method | proved | best (s) | bound (s) | gap | market (s) | market over bound | best / market "
-          "| wall (s) | wall / limit | CPU (s) | deterministic (s) | load at start, end | floor bounds (s; P: proved) |")
+          "| wall (s) | wall / limit | CPU (s) | deterministic (s) | load at start, end | floor bounds (s; P: proved); floors chained (s) |")
     print("|---|---|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|")
-    for item in args.only or LADDER:
-        r = solve(item, args.time_limit, args.workers, args.whole_tasks, args.deterministic_limit)
+    items = [(m, True) for m in args.models] if args.models else [(i, False) for i in args.only or LADDER]
+    for item, model in items:
+        r = solve(item, args.time_limit, args.workers, args.whole_tasks, args.deterministic_limit, model)
         print(f"| {r['frame']} | {r['fleet']} | {r['tasks']} | {r['method']} | {'yes' if r['proved'] else 'no'} | "
               f"{r['best_s']:.1f} | {r['bound_s']:.1f} | {r['gap_pct']:.2f} % | {r['market_s']:.1f} | "
               f"{r['market_over_bound_pct']:.2f} % | {r['best_s'] / r['market_s']:.4f} | {r['wall_s']:.1f} | "
@@ -96,6 +117,7 @@ def main(argv=None) -> int:
     parser.add_argument("--workers", type=int, default=2, help="CP-SAT threads (default 2: this machine's cores)")
     parser.add_argument("--whole-tasks", type=int, default=400, help="above this many tasks, solve floor by floor")
     parser.add_argument("--only", nargs="*", help="instances FRAME:FLEET, e.g. 4x3x2:fleet2")
+    parser.add_argument("--models", nargs="*", help="other instances: IFC paths or generated:KIND:... specs (instead of frames)")
     parser.add_argument("--generate", action="store_true", help="measure generated buildings instead")
     parser.add_argument("--components", type=int, nargs="*", default=[10, 100, 1000, 10000])
     args = parser.parse_args(argv)

@@ -27,6 +27,11 @@ The model (times in seconds, solved in units of 0.01 s):
   bound of that floor solved alone (:func:`_floor_bounds`), whose schedules, one floor after the
   other, are a second hint next to the market's.
 
+Where floors cannot overlap, each floor is then solved again from where the robots stopped below
+(:func:`_chain`): one after the other, a schedule of the whole build, the third hint. Where every floor
+reaches its bound alone, that schedule reaches the sum of the floors' bounds and is optimal without the
+whole model (``method`` ``floors chained``).
+
 Where the whole model is too big (more than ``whole_tasks`` tasks), the build is solved floor by floor
 (the floor gate makes floors follow each other): each floor starts when the one below is done, with
 every robot where it stopped. The lower bound is then the sum of each floor's bound with its robots
@@ -63,12 +68,15 @@ from bimrobot.planning.optimal_model import _build, _Problem
 WHOLE_TASKS = 400
 #: The share of the time limit spent on each floor alone, for its least duration (:func:`_floor_bounds`).
 FLOOR_SHARE = 0.6
+#: The share spent on the floors again, each from where the robots stopped below (:func:`_chain`).
+CHAIN_SHARE = 0.1
 
 
 @dataclass
 class OptimalSchedule:
     """The best schedule CP-SAT found. ``makespan`` and ``lower_bound`` in seconds; ``status``
-    ``OPTIMAL`` (proved: makespan == lower bound) or ``FEASIBLE``; ``method`` ``whole`` or ``by floor``;
+    ``OPTIMAL`` (proved: makespan == lower bound) or ``FEASIBLE``; ``method`` ``whole``, ``floors
+    chained`` or ``by floor``;
     ``solve_s``: wall time of the solves (s); ``hinted_s``: the makespan of the market's schedule
     given as the first solution (None without one)."""
 
@@ -84,6 +92,8 @@ class OptimalSchedule:
     floors: list[dict] = field(default_factory=list)
     #: CP-SAT's deterministic time of all solves (its own work units, comparable across machines and loads)
     deterministic_s: float = 0.0
+    #: the makespan (s) of the floors chained, each solved from where the robots stopped below (None: not run)
+    chained_s: float | None = None
 
     @property
     def gap(self) -> float:
@@ -196,13 +206,22 @@ def solve_optimal(
     given, hinted = market_hint(smart, fleet, site, storey_elevations, tasks) if hint else (None, None)
     limits = dict(workers=workers, seed=seed, deterministic_limit=deterministic_limit)
     if len(tasks) <= whole_tasks:
-        least, work, joined, rows = _floor_bounds(tasks, fleet, homes, given, time_limit_s * FLOOR_SHARE, limits)
+        least, work, joined, rows, alone = _floor_bounds(tasks, fleet, homes, given, time_limit_s * FLOOR_SHARE, limits)
+        chained = None
+        if alone:  # the floors' schedules again, each from where the robots stopped below (CHAIN_SHARE)
+            chained, more = _chain(alone, least, fleet, homes, time_limit_s * CHAIN_SHARE, limits)
+            work += more
+            if round(chained.makespan * SCALE) <= sum(least.values()):  # it reaches the floors' bounds: optimal
+                return OptimalSchedule(chained.makespan, chained.makespan, "OPTIMAL", chained.assignment,
+                                       chained.start, len(tasks), "floors chained", time.perf_counter() - started,
+                                       hinted, rows, deterministic_s=work, chained_s=chained.makespan)
+        hints = [h for h in (given, joined, chained and chained.hint) if h]
         solved = _solve(_Problem(tasks, fleet, homes, {r.name: 0.0 for r in fleet.robots}, floor_least=least),
-                        [given, joined] if given else None,
-                        max(time_limit_s - (time.perf_counter() - started), 1.0), **limits)
+                        hints or None, max(time_limit_s - (time.perf_counter() - started), 1.0), **limits)
         return OptimalSchedule(solved.makespan, solved.bound, solved.status, solved.assignment, solved.start,
                                len(tasks), "whole", time.perf_counter() - started, hinted, rows,
-                               deterministic_s=solved.deterministic_s + work)
+                               deterministic_s=solved.deterministic_s + work,
+                               chained_s=chained.makespan if chained else None)
     return _by_floor(tasks, fleet, homes, given, hinted, time_limit_s, started, limits)
 
 
@@ -216,7 +235,8 @@ def _floor_bounds(tasks, fleet, homes, given, time_limit_s, limits):
     sum from the start, and a schedule that reaches it is proved optimal. ``time_limit_s`` (s) is shared
     by task count; time a floor leaves unused passes to the floors above. Returns {floor: ticks} ({}
     where floors may overlap or with one floor), the solves' deterministic time, their schedules one
-    after the other (an order for a hint) and one row per floor (tasks, best_s, bound_s, status)."""
+    after the other (an order for a hint), one row per floor (tasks, best_s, bound_s, status) and each
+    floor's (tasks, schedule) solved alone ([] where floors may overlap)."""
     floors = sorted({t.floor for t in tasks})
     locals_ = {}
     for floor in floors:
@@ -225,10 +245,10 @@ def _floor_bounds(tasks, fleet, homes, given, time_limit_s, limits):
         locals_[floor] = [_Task(t.key, t.activity, t.request, [p for p in t.predecessors if p in keys], None, t.floor)
                           for t in mine]
         if not (_all_feed_a_joint(locals_[floor]) and (floor == floors[0] or _all_after_the_gate(mine))):
-            return {}, 0.0, None, []
+            return {}, 0.0, None, [], []
     if len(floors) < 2:
-        return {}, 0.0, None, []
-    least, work, below, joined, clock, rows = {}, 0.0, [], {}, 0.0, []
+        return {}, 0.0, None, [], []
+    least, work, below, joined, clock, rows, alone = {}, 0.0, [], {}, 0.0, [], []
     deadline, left = time.perf_counter() + time_limit_s, len(tasks)
     for floor in floors:
         local = locals_[floor]
@@ -249,7 +269,47 @@ def _floor_bounds(tasks, fleet, homes, given, time_limit_s, limits):
         below += local
         joined.update({k: (robot, clock + solved.depart[k], clock + solved.end[k]) for k, robot in solved.assignment.items()})
         clock += solved.makespan
-    return least, work, joined, rows
+        alone.append((floor, local, solved))
+    return least, work, joined, rows, alone
+
+
+@dataclass
+class _Chained:
+    """The floors' schedules one after the other, each from where the robots stopped below: ``makespan``
+    (s), per task its robot and work start (s), and ``hint`` (task -> (robot, depart s, end s))."""
+
+    makespan: float
+    assignment: dict[str, str]
+    start: dict[str, float]
+    hint: dict[str, tuple[str, float, float]]
+
+
+def _chain(alone, least, fleet, homes, time_limit_s, limits) -> tuple[_Chained, float]:
+    """Each floor solved again from where every robot stopped on the floors below (home at first), its
+    own schedule alone as the first solution and its bound alone (``least``, ticks) as the least
+    duration: floors cannot overlap, so one after the other this is a schedule of the whole build. Where
+    every floor reaches its bound alone, the sum of the floors' bounds is reached and the schedule is
+    optimal. ``time_limit_s`` (s) is shared by task count. Returns the schedule and the solves'
+    deterministic time."""
+    where, clock, work = dict(homes), 0.0, 0.0
+    chained = _Chained(0.0, {}, {}, {})
+    deadline, left = time.perf_counter() + time_limit_s, sum(len(local) for _, local, _ in alone)
+    for floor, local, solo in alone:
+        hint = {k: (robot, solo.depart[k], solo.end[k]) for k, robot in solo.assignment.items()}
+        solved = _solve(_Problem(local, fleet, where, {r.name: 0.0 for r in fleet.robots},
+                                 floor_least={floor: least[floor]}), hint,
+                        max(1.0, (deadline - time.perf_counter()) * len(local) / left), **limits)
+        left -= len(local)
+        work += solved.deterministic_s
+        ends = {t.key: t.request.end for t in local}
+        for key, robot in sorted(solved.assignment.items(), key=lambda item: solved.end[item[0]]):
+            where[robot] = np.asarray(ends[key], dtype=float)  # its last task of the floor ends last
+            chained.assignment[key] = robot
+            chained.start[key] = clock + solved.start[key]
+            chained.hint[key] = (robot, clock + solved.depart[key], clock + solved.end[key])
+        clock += solved.makespan
+    chained.makespan = clock
+    return chained, work
 
 
 def _by_floor(tasks, fleet, homes, given, hinted, time_limit_s, started, limits) -> OptimalSchedule:
