@@ -94,16 +94,15 @@ def scale(specs, path=None, alone: bool = False, reference: bool = False) -> Non
     DispatchEnv().reset(seed=0)  # the numba passes loaded (or compiled) outside the measured runs
     DispatchEnv(observation="local").reset(seed=0)
     print("| building | observation | nodes | plan decisions | learned CPU s | ms per decision | market s | policy s | "
-          "planned s | members, rollouts | policy's ms per decision: observation | network | alone CPU s | sb3 path ms |")
-    print("|---|---|---:|---:|---:|---:|---:|---:|---:|---|---:|---:|---:|---:|")
+          "planned s | members, rollouts | alone CPU s | sb3 path ms |")
+    print("|---|---|---:|---:|---:|---:|---:|---:|---:|---|---:|---:|")
     for spec in specs:
         problem = problem_for(spec, per_joint=False)[0]
         planner = LearnedPlanner(path)
         start = time.process_time()
         planner.dispatcher(problem)
-        cpu, last, player = time.process_time() - start, planner.last, planner.player
+        cpu, last = time.process_time() - start, planner.last
         decisions = int(last["planned_decisions"])
-        ms = {k: 1000 * v / max(1, player.decisions) for k, v in player.cpu.items()}
         extra = ["", ""]
         if alone:
             env = env_for(problem, copy_observation=False, observation=planner.observation)
@@ -118,8 +117,7 @@ def scale(specs, path=None, alone: bool = False, reference: bool = False) -> Non
                 assert same == awards, "the fast greedy choice must be sb3-contrib's"
         print(f"| {spec} | {planner.observation} | {sizes(problem)[0]:,} | {decisions:,} | {cpu:.1f} | "
               f"{1000 * cpu / decisions:.2f} | {last['market_s']:,.1f} | {last['policy_s']:,.1f} | {last['planned_s']:,.1f} | "
-              f"{last['search_members']}, {last['search_rollouts']} | {ms['observation']:.2f} | {ms['network']:.2f} | "
-              f"{extra[0]} | {extra[1]} |", flush=True)
+              f"{', '.join(last['search_members'])}; {last['search_rollouts']} | {extra[0]} | {extra[1]} |", flush=True)
 
 
 def main(path) -> None:

@@ -258,7 +258,7 @@ def test_the_fast_greedy_choice_is_sb3_contribs_at_every_decision(frame):
 def test_a_local_policy_scores_its_neighbourhood_as_the_padded_arrays_do(frame, tmp_path):
     """A policy that reads the local observation (``observation="local"``, the market imitated briefly):
     its greedy choice from the observed nodes alone (gathered and renumbered) is sb3-contrib's over the
-    padded arrays at every decision of the frame, it builds the frame, and it says which observation it
+    padded arrays at every decision of a two-storey frame (a floor gate's edges read once), it builds it, and it says which observation it
     reads: a full environment is refused in one sentence."""
     th.manual_seed(0)
     env = env_for(frame, observation="local")
@@ -268,7 +268,7 @@ def test_a_local_policy_scores_its_neighbourhood_as_the_padded_arrays_do(frame, 
     assert "context" in demonstrations[0]
     imitate(model.policy, demonstrations, steps=10, seed=0, batch=16, lr=1e-2)
     path = save(model, tmp_path / "local.zip", {"command": "pytest", "seed": 0, "observation": "local"})
-    big = env_for(frame, copy_observation=False, observation="local")
+    big = env_for(frame_problem(size=(2, 2, 2)), copy_observation=False, observation="local")  # two floors: a gate
     policy = load_policy(path, big)
     fast, full = LearnedPolicy(policy, timed=True), LearnedPolicy(policy, fast=False)
     big.reset(seed=0)

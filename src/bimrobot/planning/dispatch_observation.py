@@ -302,6 +302,17 @@ def _adjacency(n: int, edges: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.nd
     return start, ids[by].astype(np.int64), far[by].astype(np.int64)
 
 
+def _owned(n: int, edges: np.ndarray, gates: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each edge once, at one of its nodes: its first node, unless that is a floor gate and the second is
+    not (a gate has an edge to every task of its floor): node v's edges are ``ids[start[v]:start[v + 1]]``.
+    Reading the edges between observed nodes then costs what those nodes' own edges cost."""
+    if not len(edges):
+        return np.zeros(n + 1, np.int64), np.zeros(0, np.int64)
+    owner = np.where(gates[edges[:, 0]] & ~gates[edges[:, 1]], edges[:, 1], edges[:, 0])
+    ids = np.argsort(owner, kind="stable")
+    return np.searchsorted(owner[ids], np.arange(n + 1)).astype(np.int64), ids.astype(np.int64)
+
+
 def ball(node: int, adjacency, gates: np.ndarray, reach: int = REACH) -> set[int]:
     """The nodes within ``reach`` precedence edges of ``node`` (either direction, ``node`` included), on
     paths that do not pass through a floor gate: a gate is reached but not gone through (it has an edge to
@@ -454,6 +465,7 @@ class LocalKeeper:
         self.graph, self.n, self.features = graph, n, features
         self.gates = graph.kinds == KINDS.index("gate")
         self.adjacency = _adjacency(n, graph.edges)
+        self.owned = _owned(n, graph.edges, self.gates)
         self.cover = np.zeros(n, np.int64)
         self.members, self.where, self.count = np.zeros(n, np.int64), np.full(n, -1, np.int64), 0
         self.ready: dict[int, None] = {}  # the observed ready tasks

@@ -14,9 +14,12 @@ The policy (:class:`DispatchPolicy`, sb3-contrib's ``MaskableActorCriticPolicy``
 The padded arrays of the environment only give the batch shape, so the same weights run on any building:
 at inference the padding is the building's own size.
 
-The advised policy (the default since the second shipped policy) also sees, at each decision, the next
-awards of the market and of the priority rules (:data:`ADVISERS`, pair and wait features) and each ready
-task's place in the market's request heap (:data:`EXTRA_NODE_FEATURES`); it learns when to follow which.
+The advised policy (the second and third shipped policies) also sees, at each decision, the next awards
+of the market and of the priority rules (:data:`ADVISERS`, pair and wait features) and each ready task's
+place in the market's request heap (:data:`EXTRA_NODE_FEATURES`); it learns when to follow which. The
+shipped policy now reads the environment's local observation instead (``observation="local"``, not
+advised): the first ready tasks of each pool and their neighbourhood, with a context of shares per kind
+and state added to the pooled nodes, so its cost per decision does not grow with the building.
 
 Training (:func:`train`, ``bimrobot plan train``) uses generated buildings only (real IFC models are the
 test set): behaviour cloning of a teacher (a warm start), then PPO fine-tuning, with the reward divided by
@@ -127,8 +130,9 @@ class DispatchExtractor(nn.Module):
             nodes = th.cat([nodes, obs["order_in_kind"][..., None]], dim=-1)
         h = self.node_in(symlog(nodes)) * node_mask[..., None]  # (B, N, H)
         g = self.robot_in(symlog(obs["robot_features"])) * robot_mask[..., None]  # (B, R, H)
+        routes = self._routes(obs, *h.shape[:2], h.device)
         for layer in self.passes:
-            h = (h + layer(th.cat([h, *self._messages(h, obs)], dim=-1))) * node_mask[..., None]
+            h = (h + layer(th.cat([h, *self._messages(h, routes)], dim=-1))) * node_mask[..., None]
         pooled = _mean(h, node_mask)
         if self.context_in is not None:
             pooled = pooled + self.context_in(obs["context"].float())
@@ -156,19 +160,27 @@ class DispatchExtractor(nn.Module):
         return th.cat([scalars, advice], dim=-1) if self.advisers else scalars
 
     @staticmethod
-    def _messages(h: th.Tensor, obs: dict) -> tuple[th.Tensor, th.Tensor]:
+    def _routes(obs: dict, b: int, n: int, device) -> list:
+        """The precedences as the message passing reads them, once per embedding: for each direction
+        (predecessors, successors) the flat source and destination rows, the edge weights (1 for a real
+        edge) and each node's count of real edges."""
+        edges = obs["precedence"].long()  # (B, E, 2)
+        weight = obs["precedence_mask"].float().reshape(-1, 1)
+        offset = (th.arange(b, device=device) * n)[:, None]
+        before, after = (edges[..., 0] + offset).flatten(), (edges[..., 1] + offset).flatten()
+        routes = []
+        for src, dst in ((before, after), (after, before)):
+            count = th.zeros(b * n, 1, device=device).index_add_(0, dst, weight)
+            routes.append((src, dst, weight, count.clamp(min=1.0)))
+        return routes
+
+    @staticmethod
+    def _messages(h: th.Tensor, routes: list) -> tuple[th.Tensor, th.Tensor]:
         """Mean embedding of each node's predecessors and of its successors (real edges only)."""
         b, n, width = h.shape
-        edges = obs["precedence"].long()  # (B, E, 2)
-        real = obs["precedence_mask"].float()[..., None]  # (B, E, 1)
-        offset = (th.arange(b, device=h.device) * n)[:, None]
-        before, after = (edges[..., 0] + offset).flatten(), (edges[..., 1] + offset).flatten()
-        flat, weight = h.reshape(b * n, width), real.reshape(-1, 1)
-        out = []
-        for src, dst in ((before, after), (after, before)):
-            total = th.zeros_like(flat).index_add_(0, dst, flat[src] * weight)
-            count = th.zeros(b * n, 1, device=h.device).index_add_(0, dst, weight)
-            out.append((total / count.clamp(min=1.0)).reshape(b, n, width))
+        flat = h.reshape(b * n, width)
+        out = [(th.zeros_like(flat).index_add_(0, dst, flat[src] * weight) / count).reshape(b, n, width)
+               for src, dst, weight, count in routes]
         return out[0], out[1]
 
 
@@ -460,13 +472,11 @@ def _local_tensors(env, views: dict) -> tuple[dict, np.ndarray]:
     that grows with the observed nodes, not the building."""
     local = env._local
     nodes = local.nodes
-    start, edge_of, _ = local.adjacency
+    start, ids = local.owned  # each edge once, at one of its nodes
     counts = start[nodes + 1] - start[nodes]
     index = np.repeat(start[nodes] - np.cumsum(counts) + counts, counts) + np.arange(int(counts.sum()))
-    ends = np.repeat(nodes, counts)
-    edges = edge_of[index]
-    keep = (local.edge_mask[edges] == 1) & (env.precedence[edges, 0] == ends)  # each real edge once, at its source
-    pairs = local.where[env.precedence[edges[keep]]]
+    edges = ids[index]
+    pairs = local.where[env.precedence[edges[local.edge_mask[edges] == 1]]]
     with _writable_ignored():
         obs = {"node_features": th.from_numpy(views["node_features"][nodes])[None],
                "node_mask": th.ones(1, len(nodes)), "robot_features": th.as_tensor(views["robot_features"][None]),
