@@ -36,8 +36,9 @@ from bimrobot.planning.learned_pool import sizes
 DEFAULT_BUDGET = 400
 #: simulated decisions the search may spend in all, each whole episode counted as the building's task-graph
 #: nodes (about its decisions): the portfolio's members after the market, then the rollouts, while it lasts.
-#: Every shared real model (at most 343 tasks) keeps the whole portfolio and 400 rollouts; a 1,000-component
-#: building (7,302 nodes) about 20 rollouts; a 10,000-component one (75,100) the market and the policy only
+#: Every shared real model per joint (at most 344 nodes) keeps the whole portfolio and 400 rollouts; a
+#: 1,000-component building (7,302 nodes) about 20 rollouts; a 10,000-component one (75,100) the market and
+#: the policy only
 DECISION_BUDGET = 200_000
 #: the policy's candidates per decision (its best valid actions by logit)
 TOP_K = 3
