@@ -115,8 +115,9 @@ def test_a_missing_or_foreign_policy_file_is_refused_in_one_sentence(tmp_path, f
         load_policy(tmp_path / "bad.zip", env_for(frame))
 
 
-@pytest.mark.parametrize("option", [["--seed", "-1"], ["--steps", "-5"], ["--imitation-steps", "-1"]])
-def test_plan_train_refuses_a_negative_count_in_one_sentence_before_any_work(option, tmp_path, capsys):
+@pytest.mark.parametrize("option", [["--seed", "-1"], ["--steps", "-5"], ["--imitation-steps", "-1"],
+                                    ["--observation", "local", "--teacher", "pilot"]])
+def test_plan_train_refuses_a_negative_count_or_the_pilot_on_the_local_observation_before_any_work(option, tmp_path, capsys):
     from bimrobot.cli import main
 
     code = main(["plan", "train", *option, "-o", str(tmp_path / "run")])
