@@ -116,7 +116,7 @@ class _Solved:
 def _solve(problem: _Problem, hint: dict | list | None, time_limit_s: float, workers: int, seed: int,
            deterministic_limit: float | None) -> _Solved:
     cp_model = require_extra("ortools.sat.python.cp_model", "optimize")
-    model, (makespan, assigned, depart, start, end, capable, hinted, least, justify) = _build(cp_model, problem, hint)
+    model, (makespan, assigned, depart, start, end, capable, hinted, least, justify, weight) = _build(cp_model, problem, hint)
     solver = cp_model.CpSolver()
     solver.parameters.max_time_in_seconds = time_limit_s
     if deterministic_limit is not None:
@@ -128,7 +128,7 @@ def _solve(problem: _Problem, hint: dict | list | None, time_limit_s: float, wor
         bound = solver.BestObjectiveBound()
         return _Solved(
             makespan=max(x[3] for x in hinted.values()) / SCALE,
-            bound=max(least, bound if math.isfinite(bound) else 0) / SCALE,
+            bound=max(least, bound // weight if math.isfinite(bound) else 0) / SCALE,
             status="FEASIBLE",
             assignment={k: x[0] for k, x in hinted.items()},
             depart={k: x[1] / SCALE for k, x in hinted.items()},
@@ -143,7 +143,7 @@ def _solve(problem: _Problem, hint: dict | list | None, time_limit_s: float, wor
     timed = justify({t.key: (robot[t.key], solver.Value(depart[t.key]), solver.Value(end[t.key])) for t in tasks})
     return _Solved(
         makespan=max(x[2] for x in timed.values()) / SCALE,
-        bound=max(least, solver.BestObjectiveBound()) / SCALE,
+        bound=max(least, solver.BestObjectiveBound() // weight) / SCALE,
         status=solver.StatusName(status),
         assignment=robot,
         depart={k: x[0] / SCALE for k, x in timed.items()},
@@ -284,6 +284,14 @@ class _Chained:
     hint: dict[str, tuple[str, float, float]]
 
 
+def _first_points(local: list[_Task], solved: _Solved) -> dict[str, np.ndarray]:
+    """Robot -> where its first task of ``solved`` (a floor's schedule alone) begins (site frame, m)."""
+    first: dict[str, _Task] = {}
+    for t in sorted(local, key=lambda t: solved.depart[t.key]):
+        first.setdefault(solved.assignment[t.key], t)
+    return {robot: np.asarray(t.request.start, dtype=float) for robot, t in first.items()}
+
+
 def _chain(alone, least, fleet, homes, time_limit_s, limits) -> tuple[_Chained, float]:
     """Each floor solved again from where every robot stopped on the floors below (home at first), its
     own schedule alone as the first solution and its bound alone (``least``, ticks) as the least
@@ -294,10 +302,11 @@ def _chain(alone, least, fleet, homes, time_limit_s, limits) -> tuple[_Chained, 
     where, clock, work = dict(homes), 0.0, 0.0
     chained = _Chained(0.0, {}, {}, {})
     deadline, left = time.perf_counter() + time_limit_s, sum(len(local) for _, local, _ in alone)
-    for floor, local, solo in alone:
+    for i, (floor, local, solo) in enumerate(alone):
         hint = {k: (robot, solo.depart[k], solo.end[k]) for k, robot in solo.assignment.items()}
+        targets = _first_points(*alone[i + 1][1:]) if i + 1 < len(alone) else None
         solved = _solve(_Problem(local, fleet, where, {r.name: 0.0 for r in fleet.robots},
-                                 floor_least={floor: least[floor]}), hint,
+                                 floor_least={floor: least[floor]}, end_targets=targets), hint,
                         max(1.0, (deadline - time.perf_counter()) * len(local) / left), **limits)
         left -= len(local)
         work += solved.deterministic_s

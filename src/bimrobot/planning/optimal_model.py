@@ -32,6 +32,9 @@ class _Problem:
     starts: dict[str, list] | None = None
     #: floor -> its least duration (ticks) known from a solve of that floor alone
     floor_least: dict[int, int] = field(default_factory=dict)
+    #: robot -> where it should stop (site frame, m): among the shortest schedules, the one whose robots
+    #: stop nearest to these (the drives to them, a second objective below the makespan)
+    end_targets: dict[str, np.ndarray] | None = None
 
 
 @dataclass
@@ -218,6 +221,23 @@ def _makespan(model, v: _Vars, horizon: int):
     return makespan
 
 
+def _stop_near(model, problem: _Problem, c: _Costs, v: _Vars, makespan) -> int:
+    """With ``end_targets``: minimize the makespan first, then the drives (ticks) from where each robot
+    stops to its target, as makespan x weight + drives; returns the weight (1 without targets)."""
+    if not problem.end_targets:
+        return 1
+    drives, weight = [], 1
+    for name, target in sorted(problem.end_targets.items()):
+        options = [(v.arcs[name, t.key, None], c.drive(t.request.end, target, name)) for t in c.mine[name]
+                   if (name, t.key, None) in v.arcs]
+        if (name, None, None) in v.arcs:  # it does nothing: it stays where it stands
+            options.append((v.arcs[name, None, None], c.drive(problem.homes[name], target, name)))
+        drives += [lit * ticks for lit, ticks in options]
+        weight += max((ticks for _, ticks in options), default=0)
+    model.Minimize(makespan * weight + sum(drives))
+    return weight
+
+
 def _build(cp_model, problem: _Problem, hint: dict | None):
     """The CP-SAT model of ``problem`` (module docstring); returns (model, variables)."""
     tasks, fleet = problem.tasks, problem.fleet
@@ -238,6 +258,7 @@ def _build(cp_model, problem: _Problem, hint: dict | None):
     known_bound = _floor_loads(model, tasks, v.gates, ancestors, c.capable, busy_min, v.assigned, travel,
                                problem.floor_least, first)
     makespan = _makespan(model, v, c.horizon)
+    weight = _stop_near(model, problem, c, v, makespan)
     if hint:
         variables = dict(assigned=v.assigned, depart=v.depart, start=v.start, end=v.end, arcs=v.arcs, sizes=v.sizes,
                          gates=v.gates, makespan=makespan, visited=travel.visited)
@@ -250,7 +271,7 @@ def _build(cp_model, problem: _Problem, hint: dict | None):
         order allows: CP-SAT's solutions may wait where nothing makes them (ticks)."""
         return _retime(tasks, fleet, found, c.handling, c.drive, c.first_drive, c.ready)[0]
 
-    return model, (makespan, v.assigned, v.depart, v.start, v.end, c.capable, hinted, known_bound, justify)
+    return model, (makespan, v.assigned, v.depart, v.start, v.end, c.capable, hinted, known_bound, justify, weight)
 
 
 def _retime(tasks: list[_Task], fleet: Fleet, hint: dict, handling, drive, first_drive, ready):
