@@ -241,17 +241,10 @@ def test_the_fast_greedy_choice_is_sb3_contribs_at_every_decision(frame):
     """The shipped policy (local observation) embedding only the observed nodes and scoring only the
     observed ready tasks' awards (a lone valid action taken without the network) picks, at every decision of the chapter-4 frame, the action of sb3-contrib's masked
     distribution over every pair; the policy's makespan there is the documented 3,627.2 s."""
-    from bimrobot.planning.learned import DEFAULT_POLICY, LearnedPolicy
+    from bimrobot.planning.learned import DEFAULT_POLICY
 
     env = env_for(frame, copy_observation=False, observation="local")
-    policy = load_policy(DEFAULT_POLICY, env)
-    fast, full = LearnedPolicy(policy, timed=True), LearnedPolicy(policy, fast=False)
-    env.reset(seed=0)
-    done = truncated = False
-    while not (done or truncated):
-        action = full(env)
-        assert fast(env) == action, env.decisions
-        _, _, done, truncated, _ = env.step(action)
+    fast = _fast_choices_are_sb3_contribs(load_policy(DEFAULT_POLICY, env), env)
     assert fast.decisions == env.decisions == 48 and fast.cpu["network"] > 0.0
     assert env.result.makespan == pytest.approx(3627.2, abs=0.05)
 
@@ -270,15 +263,22 @@ def test_a_local_policy_scores_its_neighbourhood_as_the_padded_arrays_do(frame, 
     imitate(model.policy, demonstrations, steps=10, seed=0, batch=16, lr=1e-2)
     path = save(model, tmp_path / "local.zip", {"command": "pytest", "seed": 0, "observation": "local"})
     big = env_for(frame_problem(size=(2, 2, 2)), copy_observation=False, observation="local")  # two floors: a gate
-    policy = load_policy(path, big)
-    fast, full = LearnedPolicy(policy, timed=True), LearnedPolicy(policy, fast=False)
-    big.reset(seed=0)
-    done = truncated = False
-    while not (done or truncated):
-        action = full(big)
-        assert fast(big) == action, big.decisions
-        _, _, done, truncated, _ = big.step(action)
-    assert done and fast.cpu["network"] > 0.0
+    fast = _fast_choices_are_sb3_contribs(load_policy(path, big), big)
+    assert fast.cpu["network"] > 0.0
     assert LearnedPlanner(path).observation == "local"
     with pytest.raises(InputError, match="reads the local observation, this environment gives the full one"):
         load_policy(path, env_for(frame))
+
+
+def _fast_choices_are_sb3_contribs(policy, env):
+    """Play one episode of ``env`` with sb3-contrib's masked choice over every pair, asserting at every
+    decision that :class:`LearnedPolicy`'s fast path picks the same action; return the timed fast policy."""
+    fast, full = LearnedPolicy(policy, timed=True), LearnedPolicy(policy, fast=False)
+    env.reset(seed=0)
+    done = truncated = False
+    while not (done or truncated):
+        action = full(env)
+        assert fast(env) == action, env.decisions
+        _, _, done, truncated, _ = env.step(action)
+    assert done, "the episode was truncated"
+    return fast
