@@ -3,9 +3,10 @@
 This module is light on purpose (no NumPy-heavy writer, no trimesh or SciPy at import): ``bimrobot
 convert`` imports it and IfcOpenShell's reader, forks the processes that compute the geometry, and only
 then, while they work, imports the package writer (:mod:`bimrobot.export.gazebo.package`) and the
-bodies' mass and hull libraries. Imported before the fork they would keep a core busy alone while the
-other waits (0.1 s of the package writer, on this project's 2-core machine). Units: metres, kg, seconds;
-z up.
+bodies' mass and hull libraries. Imported before the fork they would keep one core busy while the other
+waits; for the writer alone that is little (the fork came at 0.68 instead of 0.70 CPU s on GEELEN, most
+of its imports being loaded by the options already), for trimesh and SciPy about 1.1 CPU s. Units:
+metres, kg, seconds; z up.
 """
 
 from __future__ import annotations
@@ -47,7 +48,7 @@ def convert(
 
 def _import_writer() -> None:
     """Import the package writer, trimesh and SciPy (:mod:`bimrobot.export.inertia`: the bodies' hulls and
-    mass integrals), about 1.3 s of CPU, which :func:`convert` does while the forked processes compute
+    mass integrals), about 1.2 s of CPU in all, which :func:`convert` does while the forked processes compute
     the geometry (a user waits less wherever a core is free of the geometry for a while)."""
     from bimrobot.export import inertia  # noqa: F401
     from bimrobot.export.gazebo import package  # noqa: F401
