@@ -292,6 +292,16 @@ def _first_points(local: list[_Task], solved: _Solved) -> dict[str, np.ndarray]:
     return {robot: np.asarray(t.request.start, dtype=float) for robot, t in first.items()}
 
 
+def _stops(local: list[_Task], solved: _Solved) -> dict[str, np.ndarray]:
+    """Robot -> where it stops after ``solved`` (a floor's schedule): the end point of its task that ends
+    last (of equal ends, the later in the assignment's order); site frame, m."""
+    ends = {t.key: t.request.end for t in local}
+    stops = {}
+    for key, robot in sorted(solved.assignment.items(), key=lambda item: solved.end[item[0]]):
+        stops[robot] = np.asarray(ends[key], dtype=float)
+    return stops
+
+
 def _chain(alone, least, fleet, homes, time_limit_s, limits) -> tuple[_Chained, float]:
     """Each floor solved again from where every robot stopped on the floors below (home at first), its
     own schedule alone as the first solution and its bound alone (``least``, ticks) as the least
@@ -310,9 +320,8 @@ def _chain(alone, least, fleet, homes, time_limit_s, limits) -> tuple[_Chained, 
                         max(1.0, (deadline - time.perf_counter()) * len(local) / left), **limits)
         left -= len(local)
         work += solved.deterministic_s
-        ends = {t.key: t.request.end for t in local}
+        where.update(_stops(local, solved))
         for key, robot in sorted(solved.assignment.items(), key=lambda item: solved.end[item[0]]):
-            where[robot] = np.asarray(ends[key], dtype=float)  # its last task of the floor ends last
             chained.assignment[key] = robot
             chained.start[key] = clock + solved.start[key]
             chained.hint[key] = (robot, clock + solved.depart[key], clock + solved.end[key])
@@ -349,9 +358,8 @@ def _by_floor(tasks, fleet, homes, given, hinted, time_limit_s, started, limits)
         for key, robot in solved.assignment.items():
             assignment[key] = robot
             start[key] = solved.start[key]
-            if solved.end[key] >= ready[robot]:
-                ready[robot] = solved.end[key]
-                where[robot] = np.asarray(next(t for t in local if t.key == key).request.end, dtype=float)
+            ready[robot] = max(ready[robot], solved.end[key])
+        where.update(_stops(local, solved))
         clock = solved.makespan
         rows.append({"floor": floor, "tasks": len(mine), "end_s": solved.makespan, "status": solved.status,
                      "bound_s": relaxed.bound})
