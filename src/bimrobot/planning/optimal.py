@@ -47,6 +47,7 @@ and a fixed ``seed`` gives the same result on every machine; tests use that.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from dataclasses import dataclass, field
@@ -55,14 +56,14 @@ import numpy as np
 
 from bimrobot.site.fleet import Fleet
 from bimrobot.site.site import Site
-from bimrobot.coordination.market import incapability
+from bimrobot.coordination.market import handling_time, incapability
 from bimrobot.coordination.simulation import ConstructionSimulation
 from bimrobot.core.errors import InputError, require_extra
 from bimrobot.sco.build import SmartModel
 from bimrobot.core.tasks import Task
 # the tasks (optimal_graph), the CP-SAT model (optimal_model) and its bounds live in siblings
 from bimrobot.planning.optimal_graph import SCALE, _all_after_the_gate, _all_feed_a_joint, _Task, task_graph
-from bimrobot.planning.optimal_model import _build, _Problem
+from bimrobot.planning.optimal_model import OutOfTime, _build, _Problem
 
 #: Above this many tasks the build is solved floor by floor (:func:`solve_optimal`).
 WHOLE_TASKS = 400
@@ -94,6 +95,8 @@ class OptimalSchedule:
     deterministic_s: float = 0.0
     #: the makespan (s) of the floors chained, each solved from where the robots stopped below (None: not run)
     chained_s: float | None = None
+    #: why the schedule is not CP-SAT's own ("" where it is): the time limit passed while models were built
+    note: str = ""
 
     @property
     def gap(self) -> float:
@@ -114,11 +117,17 @@ class _Solved:
 
 
 def _solve(problem: _Problem, hint: dict | list | None, time_limit_s: float, workers: int, seed: int,
-           deterministic_limit: float | None) -> _Solved:
+           deterministic_limit: float | None, deadline: float | None = None) -> _Solved:
+    """``problem`` solved within ``time_limit_s`` (s) and before ``deadline`` (``time.perf_counter()``),
+    building the model included; :class:`OutOfTime` where the deadline passes first."""
     cp_model = require_extra("ortools.sat.python.cp_model", "optimize")
-    model, (makespan, assigned, depart, start, end, capable, hinted, least, justify, weight) = _build(cp_model, problem, hint)
+    model, (makespan, assigned, depart, start, end, capable, hinted, least, justify, weight) = _build(
+        cp_model, dataclasses.replace(problem, deadline=deadline), hint)
     solver = cp_model.CpSolver()
-    solver.parameters.max_time_in_seconds = time_limit_s
+    left = math.inf if deadline is None else deadline - time.perf_counter()
+    if left <= 0:
+        raise OutOfTime
+    solver.parameters.max_time_in_seconds = min(time_limit_s, left)
     if deterministic_limit is not None:
         solver.parameters.max_deterministic_time = deterministic_limit
     solver.parameters.num_workers = workers
@@ -192,22 +201,26 @@ def solve_optimal(
     whole_tasks: int = WHOLE_TASKS,
 ) -> OptimalSchedule:
     """Minimum-makespan schedule of the build (CP-SAT; module docstring). Raises InputError above
-    ``max_tasks`` tasks. ``time_limit_s``: wall-clock limit of all solves together (s);
+    ``max_tasks`` tasks. ``time_limit_s``: wall-clock limit of the whole call (s), building the models
+    included: where it passes first, the shortest complete schedule at hand (the market's, or the floors
+    chained) is returned with the reason in ``note``;
     ``deterministic_limit``: CP-SAT's deterministic time limit per solve (reproducible; tests use it with
     ``workers=1``); ``hint``: start from the least-cost market's schedule; ``whole_tasks``: above this
     many tasks, solve floor by floor."""
+    started = time.perf_counter()
     sim = ConstructionSimulation(smart, fleet, site, storey_elevations=storey_elevations)
     tasks = task_graph(smart, sim)
     if len(tasks) > max_tasks:
         raise InputError(f"the build has {len(tasks)} tasks; the CP-SAT comparison is limited to {max_tasks}")
     homes = {spec.name: np.array(sim.site.robot_start(i, fleet.home_on_site(spec, sim.offset))[:2], dtype=float)
              for i, spec in enumerate(fleet.robots)}
-    started = time.perf_counter()
     given, hinted = market_hint(smart, fleet, site, storey_elevations, tasks) if hint else (None, None)
-    limits = dict(workers=workers, seed=seed, deterministic_limit=deterministic_limit)
-    if len(tasks) <= whole_tasks:
+    limits = dict(workers=workers, seed=seed, deterministic_limit=deterministic_limit, deadline=started + time_limit_s)
+    if len(tasks) > whole_tasks:
+        return _by_floor(tasks, fleet, homes, given, hinted, time_limit_s, started, limits)
+    least, work, rows, chained = {}, 0.0, [], None
+    try:
         least, work, joined, rows, alone = _floor_bounds(tasks, fleet, homes, given, time_limit_s * FLOOR_SHARE, limits)
-        chained = None
         if alone:  # the floors' schedules again, each from where the robots stopped below (CHAIN_SHARE)
             chained, more = _chain(alone, least, fleet, homes, time_limit_s * CHAIN_SHARE, limits)
             work += more
@@ -218,11 +231,32 @@ def solve_optimal(
         hints = [h for h in (given, joined, chained and chained.hint) if h]
         solved = _solve(_Problem(tasks, fleet, homes, {r.name: 0.0 for r in fleet.robots}, floor_least=least),
                         hints or None, max(time_limit_s - (time.perf_counter() - started), 1.0), **limits)
-        return OptimalSchedule(solved.makespan, solved.bound, solved.status, solved.assignment, solved.start,
-                               len(tasks), "whole", time.perf_counter() - started, hinted, rows,
-                               deterministic_s=solved.deterministic_s + work,
-                               chained_s=chained.makespan if chained else None)
-    return _by_floor(tasks, fleet, homes, given, hinted, time_limit_s, started, limits)
+    except OutOfTime:
+        return _out_of_time(tasks, fleet, given, hinted, chained, sum(least.values()) / SCALE, "whole",
+                            time_limit_s, started, rows, work)
+    return OptimalSchedule(solved.makespan, solved.bound, solved.status, solved.assignment, solved.start,
+                           len(tasks), "whole", time.perf_counter() - started, hinted, rows,
+                           deterministic_s=solved.deterministic_s + work,
+                           chained_s=chained.makespan if chained else None)
+
+
+def _out_of_time(tasks, fleet, given, hinted, chained, bound_s, method, time_limit_s, started, rows, work) -> OptimalSchedule:
+    """The time limit passed before CP-SAT had a schedule of the whole build: the shortest complete one
+    at hand (the market's, ``given``: task -> (robot, depart s, end s); or ``chained``), with ``bound_s``
+    (s) and the reason in ``note``. InputError where there is none (no hint asked for)."""
+    reason = f"the time limit of {time_limit_s:g} s passed before CP-SAT had a schedule of the whole build"
+    if chained is not None and (given is None or chained.makespan < hinted):
+        assignment, start, makespan, note = chained.assignment, chained.start, chained.makespan, "the floors chained"
+    elif given is not None:
+        robots = {r.name: r for r in fleet.robots}
+        assignment = {t.key: given[t.key][0] for t in tasks if t.key in given}
+        start = {t.key: given[t.key][2] - handling_time(robots[given[t.key][0]], t.request) for t in tasks if t.key in given}
+        makespan, note = hinted, "the market's schedule"
+    else:
+        raise InputError(f"{reason}, and none was given to start from")
+    return OptimalSchedule(makespan, min(bound_s, makespan), "FEASIBLE", assignment, start, len(tasks), method,
+                           time.perf_counter() - started, hinted, rows, work,
+                           chained.makespan if chained else None, f"{reason}: {note}")
 
 
 def _floor_bounds(tasks, fleet, homes, given, time_limit_s, limits):
@@ -332,27 +366,37 @@ def _chain(alone, least, fleet, homes, time_limit_s, limits) -> tuple[_Chained, 
 
 def _by_floor(tasks, fleet, homes, given, hinted, time_limit_s, started, limits) -> OptimalSchedule:
     """Floor after floor (module docstring): each floor's best schedule from where the robots stopped,
-    and its bound with the robots free to start anywhere at once."""
+    and its bound with the robots free to start anywhere at once. Where the time limit passes before the
+    last floor is solved, the market's schedule, with the bound of the floors solved."""
     floors = sorted({t.floor for t in tasks})
     ready = {r.name: 0.0 for r in fleet.robots}
     where = dict(homes)
     assignment, start, rows = {}, {}, []
-    clock, bounds, disjoint, work = 0.0, [], True, 0.0
+    clock, bounds, work = 0.0, [], 0.0
+    locals_ = {}
     for floor in floors:
-        mine = [t for t in tasks if t.floor == floor]
-        keys = {t.key for t in mine}
-        local = [_Task(t.key, t.activity, t.request, [p for p in t.predecessors if p in keys], None, t.floor) for t in mine]
-        disjoint &= _all_feed_a_joint(local) and (floor == floors[0] or _all_after_the_gate(mine))
-        budget = max(1.0, (time_limit_s - (time.perf_counter() - started)) * len(mine) / max(1, sum(
+        keys = {t.key for t in tasks if t.floor == floor}
+        locals_[floor] = [_Task(t.key, t.activity, t.request, [p for p in t.predecessors if p in keys], None, t.floor)
+                          for t in tasks if t.floor == floor]
+    disjoint = all(_all_feed_a_joint(locals_[f]) and (f == floors[0] or _all_after_the_gate(
+        [t for t in tasks if t.floor == f])) for f in floors)
+    for floor in floors:
+        local = locals_[floor]
+        keys = {t.key for t in local}
+        budget = max(1.0, (time_limit_s - (time.perf_counter() - started)) * len(local) / max(1, sum(
             1 for t in tasks if t.floor >= floor)))
         release = {name: max(ready[name], clock) for name in ready}
         shifted = None
         if given and keys <= given.keys():  # the market's schedule of this floor, moved to begin at the release
             offset = max(0.0, clock - min(given[k][1] for k in keys))
             shifted = {k: (given[k][0], given[k][1] + offset, given[k][2] + offset) for k in sorted(keys)}
-        solved = _solve(_Problem(local, fleet, where, release), shifted, budget * 0.7, **limits)
-        relaxed = _solve(_Problem(local, fleet, where, {r.name: 0.0 for r in fleet.robots}, free_start=True),
-                         shifted, budget * 0.3, **limits)  # the hint, re-timed there, keeps it from failing
+        try:
+            solved = _solve(_Problem(local, fleet, where, release), shifted, budget * 0.7, **limits)
+            relaxed = _solve(_Problem(local, fleet, where, {r.name: 0.0 for r in fleet.robots}, free_start=True),
+                             shifted, budget * 0.3, **limits)  # the hint, re-timed there, keeps it from failing
+        except OutOfTime:
+            return _out_of_time(tasks, fleet, given, hinted, None, sum(bounds) if disjoint else max(bounds, default=0.0),
+                                "by floor", time_limit_s, started, rows, work)
         bounds.append(relaxed.bound)
         work += solved.deterministic_s + relaxed.deterministic_s
         for key, robot in solved.assignment.items():
@@ -361,7 +405,7 @@ def _by_floor(tasks, fleet, homes, given, hinted, time_limit_s, started, limits)
             ready[robot] = max(ready[robot], solved.end[key])
         where.update(_stops(local, solved))
         clock = solved.makespan
-        rows.append({"floor": floor, "tasks": len(mine), "end_s": solved.makespan, "status": solved.status,
+        rows.append({"floor": floor, "tasks": len(local), "end_s": solved.makespan, "status": solved.status,
                      "bound_s": relaxed.bound})
     bound = sum(bounds) if disjoint else max(bounds)
     return OptimalSchedule(clock, min(bound, clock), "FEASIBLE", assignment, start, len(tasks), "by floor",

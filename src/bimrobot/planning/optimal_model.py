@@ -4,6 +4,7 @@ market's schedule given as the first solution (:func:`_add_hint`). Positions in 
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -35,6 +36,17 @@ class _Problem:
     #: robot -> where it should stop (site frame, m): among the shortest schedules, the one whose robots
     #: stop nearest to these (the drives to them, a second objective below the makespan)
     end_targets: dict[str, np.ndarray] | None = None
+    #: ``time.perf_counter()`` past which building the model stops (:class:`OutOfTime`); None: no limit
+    deadline: float | None = None
+
+
+class OutOfTime(Exception):
+    """The planner's time limit passed while a model was being built (large floors take minutes)."""
+
+
+def _check(deadline: float | None) -> None:
+    if deadline is not None and time.perf_counter() > deadline:
+        raise OutOfTime
 
 
 @dataclass
@@ -158,7 +170,7 @@ def _assignment(model, tasks: list[_Task], c: _Costs, v: _Vars) -> None:
                 model.Add(v.depart[t.key] >= v.end[p])
 
 
-def _circuit(model, name: str, c: _Costs, v: _Vars, ancestors: dict, order: dict) -> None:
+def _circuit(model, name: str, c: _Costs, v: _Vars, ancestors: dict, order: dict, deadline=None) -> None:
     """Robot ``name``'s circuit over the tasks it can do (a depot node 0; an arc t -> u: u departs after
     t ends and starts after the drive), arcs that contradict a precedence left out, and the NoOverlap of
     its busy intervals [depart, end] (each at least its handling plus the shortest drive into it)."""
@@ -169,6 +181,7 @@ def _circuit(model, name: str, c: _Costs, v: _Vars, ancestors: dict, order: dict
     arcs.append((0, 0, model.NewBoolVar(f"idle[{name}]")))
     v.arcs[name, None, None] = arcs[-1][2]
     for t in ts:
+        _check(deadline)  # each task adds an arc to every other: the quadratic part of the build
         lit = v.assigned[t.key, name]
         arcs.append((node[t.key], node[t.key], lit.Not()))
         first = model.NewBoolVar(f"first[{name},{t.key}]")
@@ -239,8 +252,10 @@ def _stop_near(model, problem: _Problem, c: _Costs, v: _Vars, makespan) -> int:
 
 
 def _build(cp_model, problem: _Problem, hint: dict | None):
-    """The CP-SAT model of ``problem`` (module docstring); returns (model, variables)."""
+    """The CP-SAT model of ``problem`` (module docstring); returns (model, variables). Raises
+    :class:`OutOfTime` where ``problem.deadline`` passes while it is built."""
     tasks, fleet = problem.tasks, problem.fleet
+    _check(problem.deadline)
     c = _costs(problem)
     model = cp_model.CpModel()
     v = _variables(model, tasks, c.horizon)
@@ -249,7 +264,8 @@ def _build(cp_model, problem: _Problem, hint: dict | None):
     order = {t.key: i for i, t in enumerate(tasks)}
     for r in fleet.robots:
         if c.mine[r.name]:
-            _circuit(model, r.name, c, v, ancestors, order)
+            _circuit(model, r.name, c, v, ancestors, order, problem.deadline)
+    _check(problem.deadline)
     _group_capacity(model, tasks, c, v)
     busy_min = {(t.key, r): c.handling[t.key, r] + min(c.shortest_in[t.key, r], c.horizon) for t in tasks for r in
                 (x.name for x in c.capable[t.key])}
@@ -257,6 +273,7 @@ def _build(cp_model, problem: _Problem, hint: dict | None):
     first = {(name, key): lit for (name, before, key), lit in v.arcs.items() if before is None and key is not None}
     known_bound = _floor_loads(model, tasks, v.gates, ancestors, c.capable, busy_min, v.assigned, travel,
                                problem.floor_least, first)
+    _check(problem.deadline)
     makespan = _makespan(model, v, c.horizon)
     weight = _stop_near(model, problem, c, v, makespan)
     if hint:
