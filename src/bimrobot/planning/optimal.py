@@ -21,7 +21,8 @@ The model (times in seconds, solved in units of 0.01 s):
 - per floor, between the gate below and its own gate: each robot's work and its drives, counted once
   per point it works at (:class:`~bimrobot.planning.optimal_bounds._Visits`); for two robots that
   share work, the fastest split of it (subset sums); the two-stage bound
-  (:func:`~bimrobot.planning.optimal_bounds._staged_bound`); on the lowest floor, each robot's start no
+  (:func:`~bimrobot.planning.optimal_bounds._staged_bound`; where the problem is one floor from time 0,
+  each robot of the first stage from its own earliest start); on the lowest floor, each robot's start no
   earlier than the lead-in of its first task (:func:`~bimrobot.planning.optimal_bounds._first_lead`);
   and, where floors cannot overlap, the
   bound of that floor solved alone (:func:`_floor_bounds`), whose schedules, one floor after the

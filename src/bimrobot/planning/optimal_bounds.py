@@ -14,13 +14,16 @@ from bimrobot.core.tasks import Task
 from bimrobot.planning.optimal_graph import SCALE, _Task
 
 
-def _floor_loads(model, tasks, gates, ancestors, capable, busy_min, assigned, travel, floor_least, first=None) -> int:
+def _floor_loads(model, tasks, gates, ancestors, capable, busy_min, assigned, travel, floor_least, first=None,
+                 arrival=None) -> int:
     """Redundant, for the bound: on each floor f, the work of floor f that a robot does fits between the
     gate below (or time 0) plus the shortest lead-in before any of it can start, and the floor's own gate
     (every joint of floors <= f done) less the shortest run-out after it. With the robot literals this
     is linear, so the relaxation balances each floor's work over the robots that can do it. On the lowest
     floor, ``first`` ((robot, task) -> the literal of the robot's first task) adds that task's own lead-in
-    (:func:`_first_lead`). Returns the
+    (:func:`_first_lead`). ``arrival`` ((task, robot) -> its least drive in as the robot's first task less
+    its least drive in at all, ticks), where the problem is one floor from time 0: each robot's own
+    earliest start in the two-stage bound (:func:`_staged_bound`). Returns the
     sum over floors of each floor's least duration known before solving (ticks): a lower bound of the
     makespan, since each gate follows the one below."""
     least = 0
@@ -37,16 +40,7 @@ def _floor_loads(model, tasks, gates, ancestors, capable, busy_min, assigned, tr
             if not below or t.key in gated or any(p in gated for p in preds):
                 gated.add(t.key)
                 head[t.key] = max((head[p] + min(busy_min[p, r.name] for r in capable[p]) for p in preds if p in head), default=0)
-        tail = {t.key: 0 for t in mine if t.key in head and t.activity == Task.ASSEMBLE}  # it ends by the gate
-        successors: dict[str, list[str]] = {}
-        for t in mine:
-            for p in t.predecessors:
-                if p in keys:
-                    successors.setdefault(p, []).append(t.key)
-        for t in sorted(mine, key=lambda t: -bin(ancestors[t.key]).count("1")):  # successors first
-            after = [u for u in successors.get(t.key, ()) if u in tail]
-            if t.key in head and t.key not in tail and after:
-                tail[t.key] = max(min(busy_min[u, r.name] for r in capable[u]) + tail[u] for u in after)
+        tail = _run_out(mine, head, ancestors, capable, busy_min)
         counted = [t for t in mine if t.key in head and t.key in tail]
         robots = sorted({r.name for t in counted for r in capable[t.key]})  # a fixed order: constraints in the same order in every process
         for name in robots:
@@ -67,11 +61,40 @@ def _floor_loads(model, tasks, gates, ancestors, capable, busy_min, assigned, tr
                 known = max(known, lead + _two_robot_bound(work, pair, busy_min))
                 if len(counted) == len(mine):
                     known = max(known, lead + travel.two_robot_bound(work, pair))
-        known = max(known, _staged_bound(pairs, head, tail, busy_min), floor_least.get(floor, 0))
+        ready = _ready(counted, head, capable, arrival) if arrival and len(gates) == 1 and len(counted) == len(tasks) else None
+        known = max(known, _staged_bound(pairs, head, tail, busy_min, ready), floor_least.get(floor, 0))
         if known:
             model.Add(gate - opening >= known)
         least += known
     return least
+
+
+def _run_out(mine, head, ancestors, capable, busy_min) -> dict[str, int]:
+    """Task -> the shortest chain of work after it (ticks) up to the floor's gate, for the floor's tasks
+    ``mine`` that have a lead-in (``head``) and a joint after them (a joint ends by the gate: 0)."""
+    keys = {t.key for t in mine}
+    tail = {t.key: 0 for t in mine if t.key in head and t.activity == Task.ASSEMBLE}
+    successors: dict[str, list[str]] = {}
+    for t in mine:
+        for p in t.predecessors:
+            if p in keys:
+                successors.setdefault(p, []).append(t.key)
+    for t in sorted(mine, key=lambda t: -bin(ancestors[t.key]).count("1")):  # successors first
+        after = [u for u in successors.get(t.key, ()) if u in tail]
+        if t.key in head and t.key not in tail and after:
+            tail[t.key] = max(min(busy_min[u, r.name] for r in capable[u]) + tail[u] for u in after)
+    return tail
+
+
+def _ready(counted, head, capable, arrival) -> dict[str, int]:
+    """Robot -> the earliest end of its first task less that task's least busy time (ticks), where the
+    problem is one floor from time 0: a robot cannot begin before its own drive in (``arrival``, on top of
+    each task's lead-in ``head``), whichever task it takes first."""
+    ready: dict[str, int] = {}
+    for t in counted:
+        for r in capable[t.key]:
+            ready[r.name] = min(ready.get(r.name, 1 << 40), head[t.key] + arrival[t.key, r.name])
+    return ready
 
 
 def _first_lead(model, name, work, head, tail, first, travel, assigned, busy_min, gate) -> None:
@@ -84,25 +107,33 @@ def _first_lead(model, name, work, head, tail, first, travel, assigned, busy_min
     model.Add(starts + load <= gate - min(tail[t.key] for t in work))
 
 
-def _fastest(costs: dict[str, list[int]], count: int) -> int:
+def _fastest(costs: dict[str, list[int]], count: int, offset: dict[str, int] | None = None) -> int:
     """The least time (ticks) one or two robots need for ``count`` of their tasks, whichever: each robot
-    takes the cheapest of its own ``costs`` (sorted ascending), for every split of the count."""
-    lists = list(costs.values())
-    if len(lists) == 1:
-        return sum(lists[0][:count]) if count <= len(lists[0]) else 1 << 40
-    a, b = lists
+    takes the cheapest of its own ``costs`` (sorted ascending), for every split of the count; a robot that
+    takes any begins ``offset`` ticks late (0 without)."""
+    offset = offset or {}
+    (name_a, a), *rest = costs.items()
+    late_a = offset.get(name_a, 0)
+    if not rest:
+        return late_a + sum(a[:count]) if 0 < count <= len(a) else (0 if count == 0 else 1 << 40)
+    name_b, b = rest[0]
+    late_b = offset.get(name_b, 0)
     best = 1 << 40
     for on_a in range(max(0, count - len(b)), min(count, len(a)) + 1):
-        best = min(best, max(sum(a[:on_a]), sum(b[:count - on_a])))
+        on_b = count - on_a
+        best = min(best, max(late_a + sum(a[:on_a]) if on_a else 0, late_b + sum(b[:on_b]) if on_b else 0))
     return best
 
 
-def _staged_bound(groups: dict[tuple[str, ...], list[_Task]], head, tail, busy_min) -> int:
+def _staged_bound(groups: dict[tuple[str, ...], list[_Task]], head, tail, busy_min, ready=None) -> int:
     """A floor's least duration (ticks) from its two stages, e.g. positioning then assembly: every task
     of a later group J waits for some task of an earlier group P (one or two robots each). Before the k-th
     P task can end (E_k: the earliest, over splits of k between P's robots, from P's earliest start), at
     most the k-1 P tasks with the most J successors are done, so the rest of J, at least n - released
-    tasks, starts after E_k and needs J's robots for at least their fastest split; then the run-out."""
+    tasks, starts after E_k and needs J's robots for at least their fastest split; then the run-out.
+    ``ready`` (robot -> ticks; None: P's earliest start for all): each P robot's earliest end of its first
+    task, less that task's least busy time (a robot that starts far from P's work ends its first P task
+    later)."""
     best = 0
     for later_robots, later in groups.items():
         if len(later_robots) > 2 or len(later) < 2:
@@ -123,11 +154,12 @@ def _staged_bound(groups: dict[tuple[str, ...], list[_Task]], head, tail, busy_m
             run_out = min(tail[t.key] for t in later)
             cost_p = {r: sorted(busy_min[t.key, r] for t in earlier) for r in earlier_robots}
             cost_j = {r: sorted(busy_min[t.key, r] for t in later) for r in later_robots}
+            offset = {r: max(0, (ready or {}).get(r, first) - first) for r in earlier_robots}
             for k in range(1, len(earlier) + 1):
                 left = len(later) - sum(released[:k - 1])
                 if left <= 0:
                     break
-                best = max(best, first + _fastest(cost_p, k) + _fastest(cost_j, left) + run_out)
+                best = max(best, first + _fastest(cost_p, k, offset) + _fastest(cost_j, left) + run_out)
     return best
 
 

@@ -271,8 +271,10 @@ def _build(cp_model, problem: _Problem, hint: dict | None):
                 (x.name for x in c.capable[t.key])}
     travel = _Visits(model, v.assigned, c.handling, busy_min, c.drive)
     first = {(name, key): lit for (name, before, key), lit in v.arcs.items() if before is None and key is not None}
+    arrival = {(t.key, r): c.first_drive[t.key, r] - min(c.shortest_in[t.key, r], c.first_drive[t.key, r])
+               for t in tasks for r in (x.name for x in c.capable[t.key])} if not any(c.ready.values()) else None
     known_bound = _floor_loads(model, tasks, v.gates, ancestors, c.capable, busy_min, v.assigned, travel,
-                               problem.floor_least, first)
+                               problem.floor_least, first, arrival)
     _check(problem.deadline)
     makespan = _makespan(model, v, c.horizon)
     weight = _stop_near(model, problem, c, v, makespan)
