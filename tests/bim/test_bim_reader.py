@@ -417,3 +417,98 @@ def test_an_entity_id_defined_twice_is_refused_with_its_lines(tmp_path, steel_fr
     message = str(refused.value)
     assert message.startswith(f"{path} defines 1 entity id(s) more than once ({entity_id} on lines ")
     assert str(point + 2) in message and str(relation + 2) in message and "IFC-SPF forbids" in message
+
+
+def test_a_model_read_in_a_forked_process_is_the_one_read_here(shared_ifc):
+    # `bimrobot convert` reads the model in a forked process while it imports its writer (bim.forked_read)
+    import multiprocessing
+
+    from bimrobot.bim.forked_read import load_model_meanwhile
+    from bimrobot.core.cores import can_fork
+
+    path = shared_ifc("MULTICOM-trappen_bordessen.ifc")
+    here = load_model(path, processes=2, properties=False)
+    during: list[int] = []
+    forked = load_model_meanwhile(path, lambda: during.append(len(multiprocessing.active_children())),
+                                  processes=2, properties=False)
+    assert during == ([1] if can_fork() else [0])  # the reading process runs while the caller works
+    assert list(forked.elements) == list(here.elements)
+    assert all(_same_element(forked.elements[key], here.elements[key]) for key in here.elements)
+    assert all(forked.elements[key].volume_m3 == here.elements[key].volume_m3 for key in here.elements)
+    assert forked.connections == here.connections and forked.assemblies == here.assemblies
+    assert forked.skipped == here.skipped and forked.storeys == here.storeys
+    # meshes shared by several elements stay shared after the trip, and read-only
+    assert len({id(e.vertices) for e in forked.elements.values()}) == len({id(e.vertices) for e in here.elements.values()})
+    assert not any(e.vertices.flags.writeable or e.faces.flags.writeable for e in forked.elements.values())
+
+
+def test_bad_input_read_in_a_forked_process_gives_the_same_error(tmp_path):
+    from bimrobot.bim.forked_read import load_model_meanwhile
+
+    bad = tmp_path / "notes.ifc"
+    bad.write_text("not a model\n", encoding="utf-8")
+    with pytest.raises(InputError) as here:
+        load_model(bad)
+    with pytest.raises(InputError) as forked:
+        load_model_meanwhile(bad, lambda: None)
+    assert str(forked.value) == str(here.value) and "notes.ifc" in str(forked.value)
+
+
+_HANGING_FORKED_READ = """
+import sys, time
+from bimrobot.bim import reader
+from bimrobot.bim.forked_read import load_model_meanwhile
+def hanging(self, products, threads, bar=None):
+    time.sleep(600)  # the geometry processes: only a kill ends them
+reader._ShareReader.__call__ = hanging
+load_model_meanwhile(sys.argv[1], lambda: print("reading", flush=True), processes=2)
+"""
+
+
+def _descendants(pid: int) -> list[int]:
+    """The live processes under ``pid`` (children, grandchildren, ...)."""
+    import os
+
+    parents = {}
+    for entry in os.listdir("/proc"):
+        if entry.isdigit() and _alive(int(entry)):
+            try:
+                with open(f"/proc/{entry}/stat", encoding="ascii") as stat:
+                    parents[int(entry)] = int(stat.read().rsplit(")", 1)[1].split()[1])
+            except OSError:
+                pass
+    found, frontier = [], [pid]
+    while frontier:
+        children = [p for p, parent in parents.items() if parent in frontier]
+        found += children
+        frontier = children
+    return found
+
+
+@pytest.mark.skipif(not __import__("bimrobot.core.cores", fromlist=["can_fork"]).can_fork(), reason="processes are forked on Linux only")
+def test_the_forked_read_and_its_geometry_processes_die_with_the_caller(steel_frame_ifc):
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    caller = subprocess.Popen([sys.executable, "-c", _HANGING_FORKED_READ, str(steel_frame_ifc)], stdout=subprocess.PIPE, text=True)
+    try:
+        assert caller.stdout.readline().strip() == "reading"
+        for _ in range(600):  # the reading process, then its two geometry processes (60 s under load)
+            under = _descendants(caller.pid)
+            if len(under) == 3:
+                break
+            time.sleep(0.1)
+        assert len(under) == 3
+        caller.send_signal(signal.SIGKILL)
+        caller.wait(timeout=60)
+        for _ in range(100):
+            if not any(_alive(pid) for pid in under):
+                break
+            time.sleep(0.1)
+        assert not any(_alive(pid) for pid in under)
+    finally:
+        caller.kill()
+        caller.wait()
+        caller.stdout.close()

@@ -341,6 +341,7 @@ class _ShareReader:
                     raise
                 raise _refused_wrong_type(self.shown, exc, product) from None
             element.global_id = product_key(product, self.keys)
+            element.volume_m3 = volume()  # once per geometry, here: pickling does not keep the elements sharing it
             found.elements[element.global_id] = element
             found.geometry_ids[element.global_id] = geometry_id
         return found
@@ -382,7 +383,7 @@ def _read_shares(read: _ShareReader, shares: list[list], progress: bool, threads
         if meanwhile is not None:  # the iterator holds the GIL: a thread would not overlap it
             meanwhile()
         return found
-    children = []
+    children: list = []
     child_threads = threads if len(shares) == 1 else (threads or 1)  # one share: the iterator's own threads
     try:
         _fork_children(read, shares, child_threads, children)
@@ -390,84 +391,39 @@ def _read_shares(read: _ShareReader, shares: list[list], progress: bool, threads
             meanwhile()
         return _collect(read, shares, children, bar)
     finally:
-        for child, receiving in children:
-            receiving.close()
-            if child.is_alive():
-                child.terminate()
-            child.join()
+        for child in children:
+            child.stop()
         if bar is not None:
             bar.close()
 
 
 def _fork_children(read: _ShareReader, shares: list[list], threads: int | None, children: list) -> None:
-    """Start one forked process per share; each (process, read end of its pipe) is appended to ``children``
-    as soon as it runs, so that the caller ends every started one whatever happens."""
-    import multiprocessing
-
+    """Start one forked process per share (:class:`bimrobot.core.forked.Forked`), each appended to
+    ``children`` as soon as it runs, so that the caller ends every started one whatever happens."""
     from bimrobot.core.cores import frozen_heap
+    from bimrobot.core.forked import Forked
 
-    context = multiprocessing.get_context("fork")
     with frozen_heap():  # the children's collections do not copy every page of the file they inherit
         for share in shares:
-            receiving, sending = context.Pipe(duplex=False)
-            # the child closes the read ends it inherits (its own, earlier children's): a child whose
-            # parent is gone then fails to write instead of blocking forever on a pipe it holds open
-            read_ends = [*(end for _, end in children), receiving]
-            child = context.Process(target=_read_in_child, daemon=True,
-                                    args=(read, share, threads, sending, os.getpid(), read_ends))
-            child.start()
-            sending.close()
-            children.append((child, receiving))
+            children.append(Forked(read, (share, threads), others=tuple(c.receiving for c in children)))
 
 
 def _collect(read: _ShareReader, shares: list[list], children: list, bar) -> _Found:
     """The children's findings, in share order; a child's error is raised here, its death is an InputError."""
-    import pickle
+
+    def died(exit_code: int | None) -> InputError:  # IfcOpenShell's geometry kernel crashed on one of its products
+        return InputError(
+            f"{read.shown}: IfcOpenShell's geometry kernel crashed (exit code {exit_code}) on one of "
+            f"its {sum(len(share) for share in shares)} products (read in {len(children)} share(s)); the "
+            "file may be malformed (validate it), or exclude products (--exclude) to find the one it cannot mesh")
 
     found = _Found()
-    for child, receiving in children:
-        try:
-            outcome, payload = pickle.loads(receiving.recv_bytes())
-        except EOFError:  # the process died: IfcOpenShell's geometry kernel crashed on one of its products
-            child.join()
-            raise InputError(
-                f"{read.shown}: IfcOpenShell's geometry kernel crashed (exit code {child.exitcode}) on one of "
-                f"its {sum(len(share) for share in shares)} products (read in {len(children)} share(s)); the "
-                "file may be malformed (validate it), or exclude products (--exclude) to find the one it cannot mesh"
-            ) from None
-        if outcome == "error":
-            raise payload
+    for child in children:
+        payload = child.outcome(died)
         found.add(payload)
         if bar is not None:
             bar.update(len(payload.seen))
     return found
-
-
-def _read_in_child(read: _ShareReader, share: list, threads: int, sending, parent: int, read_ends: list) -> None:
-    """A forked process's part of :func:`_read_shares`: read ``share``, send back ("ok", findings) or
-    ("error", the exception), pickled. It dies with ``parent`` (:func:`bimrobot.core.cores.bind_to_parent`)
-    and first closes its copies of the pipes' ``read_ends``, so that only the parent can read them."""
-    import pickle
-
-    from bimrobot.core.cores import bind_to_parent
-
-    bind_to_parent(parent)
-    for end in read_ends:
-        end.close()
-    try:
-        message = ("ok", read(share, threads))
-    except Exception as exc:  # handed to the parent, which raises it
-        message = ("error", exc)
-    try:
-        try:
-            payload = pickle.dumps(message, protocol=pickle.HIGHEST_PROTOCOL)
-        except Exception as exc:  # an unpicklable exception still reaches the parent, as its text
-            payload = pickle.dumps(("error", RuntimeError(f"geometry process failed: {exc}")))
-        sending.send_bytes(payload)
-    except OSError:  # the parent is gone (it stopped, or was stopped): nobody is left to tell
-        pass
-    finally:
-        sending.close()
 
 
 def _lazy_volume(cache: dict[str, float], key: str, vertices: np.ndarray, faces: np.ndarray):

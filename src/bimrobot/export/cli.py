@@ -119,8 +119,6 @@ def convert_command(args: argparse.Namespace, model=None) -> int:
 
     quick_exit()  # the libraries this command loads would cost 0.2 s of collection at exit
 
-    from bimrobot.site.site import load_site
-
     io.check_output(args.output, folder=True, inputs=[args.ifc, args.site], kind="convert")  # before the long read and conversion
     if args.target == "mujoco":  # the MJCF scene needs the physics extra: say so before the geometry work
         require_extra("mujoco", "physics")
@@ -129,7 +127,11 @@ def convert_command(args: argparse.Namespace, model=None) -> int:
         require_coacd()  # found, not imported: CoACD loads only in the forked process that decomposes
     if args.site and args.layout != "yard":
         raise InputError("--site places the yard, so it needs --layout yard")
-    site = load_site(args.site) if args.site else None  # a bad file is refused now; None: from the building
+    site = None  # None: derived from the building
+    if args.site:  # a bad file is refused now (the site module is imported only then: YAML and its schema)
+        from bimrobot.site.site import load_site
+
+        site = load_site(args.site)
     options = ConvertOptions(
         target=args.target,
         static=args.static,

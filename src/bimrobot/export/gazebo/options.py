@@ -4,10 +4,13 @@ checked before any work (lengths in metres, densities in kg/m^3)."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 from bimrobot.bim.unknown_weight import UnknownWeightRule
 from bimrobot.core.errors import InputError
-from bimrobot.site.site import Site
+
+if TYPE_CHECKING:  # the site module reads YAML and its schema: imported by the work that needs it
+    from bimrobot.site.site import Site
 
 TARGETS = ("sim", "classic", "both", "mujoco")  # mujoco: the sim package + mujoco/scene.xml
 LAYOUTS = ("installed", "yard")
