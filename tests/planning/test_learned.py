@@ -272,13 +272,21 @@ def test_a_local_policy_scores_its_neighbourhood_as_the_padded_arrays_do(frame, 
 
 def _fast_choices_are_sb3_contribs(policy, env):
     """Play one episode of ``env`` with sb3-contrib's masked choice over every pair, asserting at every
-    decision that :class:`LearnedPolicy`'s fast path picks the same action; return the timed fast policy."""
+    decision that :class:`LearnedPolicy`'s fast path picks the same action and, with the local observation,
+    that the numpy forward (``learned_forward.LocalForward``, the default there) gives torch's logits
+    within 1e-4; return the timed fast policy."""
+    from bimrobot.planning.learned import _candidates
+
     fast, full = LearnedPolicy(policy, timed=True), LearnedPolicy(policy, fast=False)
+    torch_fast = LearnedPolicy(policy, numpy=False)
+    assert (fast.forward is not None) == (env.unwrapped.observation == "local") and torch_fast.forward is None
     env.reset(seed=0)
     done = truncated = False
     while not (done or truncated):
         action = full(env)
         assert fast(env) == action, env.decisions
+        if fast.forward is not None and len(actions := _candidates(env)) > 1:
+            assert th.allclose(fast._logits(env, actions), torch_fast._logits(env, actions), rtol=0.0, atol=1e-4)
         _, _, done, truncated, _ = env.step(action)
     assert done, "the episode was truncated"
     return fast

@@ -60,6 +60,7 @@ from bimrobot.core.errors import InputError
 from bimrobot.planning.dispatch import CONTEXT, NODE_FEATURES, ROBOT_FEATURES, DispatchProblem
 from bimrobot.planning.learned_advice import (ADVISERS, EXTRA_NODE_FEATURES, Advised, advice, advice_sparse, advised_space, observe,
                                               pilot_demonstrations)
+from bimrobot.planning.learned_forward import _local_inputs
 from bimrobot.planning.learned_pool import (TRAIN_SPECS, PerCentOfMarket, PoolEntry, _pad, env_for, generated_problem,
                                             imitate, imitation_accuracy,
                                             make_training_env, market_demonstrations, pilot_teacher, sizes,
@@ -379,11 +380,18 @@ class LearnedPolicy:
     the local observation the embedding runs over the observed nodes only and the candidates are the
     observed ready tasks' awards (``local_actions``). ``timed``: ``cpu`` adds up this process's CPU
     seconds in the observation, the advice and the network over its ``decisions``, of which ``forced``
-    had one valid action (off by default: each clock read costs time)."""
+    had one valid action (off by default: each clock read costs time). ``numpy`` (default): a local,
+    unadvised policy is scored by :class:`~bimrobot.planning.learned_forward.LocalForward` (the same
+    arithmetic without torch's module calls); False: by the torch modules."""
 
-    def __init__(self, policy, fast: bool = True, timed: bool = False):
+    def __init__(self, policy, fast: bool = True, timed: bool = False, numpy: bool = True):
+        from bimrobot.planning.learned_forward import LocalForward
+
         self.policy = policy
         self.fast = fast
+        extractor = policy.features_extractor
+        local = extractor.context_in is not None and not extractor.advisers
+        self.forward = LocalForward(extractor) if fast and numpy and local else None  # torch's arithmetic in numpy
         self._clock = time.process_time if timed else float  # float() is 0.0; a CPU clock read cost 0.6 ms on a busy VM
         self.cpu = {"observation": 0.0, "advice": 0.0, "network": 0.0}
         self.decisions = self.forced = 0
@@ -424,6 +432,8 @@ class LearnedPolicy:
         pairs scored only for the valid awards."""
         start = self._clock()
         views = env._observation()
+        if self.forward is not None and env._local is not None:
+            return self._numpy_logits(env, actions, views, start)
         obs, rows = self._tensors(env, views) if env._local is None else _local_tensors(env, views)
         extractor = self.policy.features_extractor
         nodes, robots = np.divmod(np.array(actions[: len(actions) - (actions[-1] == env.wait_action)], np.int64), env.max_robots)
@@ -448,6 +458,20 @@ class LearnedPolicy:
         self.cpu["network"] += self._clock() - network
         return logits
 
+    def _numpy_logits(self, env, actions: list[int], views: dict, start: float) -> th.Tensor:
+        """:meth:`_logits` of a local policy by :class:`~bimrobot.planning.learned_forward.LocalForward`."""
+        inputs, rows = _local_inputs(env, views, features=False)
+        nodes, robots = np.divmod(np.array(actions[: len(actions) - (actions[-1] == env.wait_action)], np.int64), env.max_robots)
+        pairs = [views[k][nodes, robots] for k in ("handling_s", "travel_s", "compatibility")]
+        network = self._clock()
+        h, g, context = self.forward.embed(self.forward.node_inputs(env, env._local.nodes), *inputs[1:])
+        logits = self.forward.pair_logits(h, g, context, rows[nodes], robots, *pairs)
+        if actions[-1] == env.wait_action:
+            logits = np.append(logits, np.float32(self.forward.wait_logit(context)))
+        self.cpu["observation"] += network - start
+        self.cpu["network"] += self._clock() - network
+        return th.from_numpy(logits)
+
     def _tensors(self, env, views: dict) -> dict:
         """The embedding's inputs (batch 1) as float tensors, read from the environment's arrays without a
         copy where they are float32; the precedences once per episode."""
@@ -466,24 +490,15 @@ def _candidates(env) -> list[int]:
 
 
 def _local_tensors(env, views: dict) -> tuple[dict, np.ndarray]:
-    """The embedding's inputs (batch 1) for the local observation: only its observed nodes and the edges
-    between them, renumbered (row k is graph node ``env._local.nodes[k]``), and where each graph node's
-    row is (the keeper's ``where``). The same embeddings and logits as the padded arrays (masks), at a cost
-    that grows with the observed nodes, not the building."""
-    local = env._local
-    nodes = local.nodes
-    start, ids = local.owned  # each edge once, at one of its nodes
-    counts = start[nodes + 1] - start[nodes]
-    index = np.repeat(start[nodes] - np.cumsum(counts) + counts, counts) + np.arange(int(counts.sum()))
-    edges = ids[index]
-    pairs = local.where[env.precedence[edges[local.edge_mask[edges] == 1]]]
+    """:func:`_local_inputs` as the extractor's batch of one (tensors; every node and edge real): the same
+    embeddings and logits as the padded arrays (masks)."""
+    (features, pairs, robots, robot_mask, context), where = _local_inputs(env, views)
     with _writable_ignored():
-        obs = {"node_features": th.from_numpy(views["node_features"][nodes])[None],
-               "node_mask": th.ones(1, len(nodes)), "robot_features": th.as_tensor(views["robot_features"][None]),
-               "robot_mask": th.as_tensor(views["robot_mask"][None]).float(),
+        obs = {"node_features": th.from_numpy(features)[None], "node_mask": th.ones(1, len(features)),
+               "robot_features": th.as_tensor(robots[None]), "robot_mask": th.as_tensor(robot_mask[None]).float(),
                "precedence": th.from_numpy(pairs)[None], "precedence_mask": th.ones(1, len(pairs)),
-               "context": th.as_tensor(views["context"][None])}
-    return obs, local.where
+               "context": th.as_tensor(context[None])}
+    return obs, where
 
 
 @contextlib.contextmanager

@@ -1,0 +1,255 @@
+"""The local policy's greedy scores without torch's module calls (issue 38): one decision of the shipped policy.
+
+:class:`~bimrobot.planning.learned.LearnedPolicy` scores a decision of a policy that reads the local
+observation (not advised) with :class:`LocalForward`: the arithmetic of
+:class:`~bimrobot.planning.learned.DispatchExtractor`'s ``embed``, ``pair_logits`` and ``wait_logit`` on
+one observation (batch 1). The layers over every observed node stay torch's matrix products (one call
+each, ``torch.addmm`` as ``nn.Linear`` calls it); the rest is compiled loops (numba): symlog, with the
+columns that never change in an episode scaled once per episode; the message passing's means over the
+predecessors and successors; the robots, the context, the wait and every pair's two-layer score. At a few
+hundred observed nodes and width 32 the arithmetic is small, so torch's cost per call (module calls,
+gathers and scatters, as large as the arithmetic: docs/evidence/planning.md) is what this saves.
+
+The logits equal torch's up to float32 rounding (other orders of additions); the greedy choice is the
+valid action of the highest logit, as torch's. ``tests/planning/test_learned.py`` checks both: the logits
+within 1e-4 of torch's and the choice sb3-contrib's at every decision of two frames.
+Times in seconds, positions in metres, masses in kg (the observation's units, scaled by ``symlog``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import torch as th
+
+from bimrobot.planning.dispatch import NODE_FEATURES
+from bimrobot.planning.dispatch_observation import _compiled
+
+#: the node feature columns that change during an episode (the state one-hot and the earliest start)
+CHANGING = (NODE_FEATURES.index("is_waiting"), NODE_FEATURES.index("earliest_start_s") + 1)
+
+
+def _symlog_rows(x: np.ndarray) -> np.ndarray:
+    """Compiled by numba (:func:`_symlog`): sign(x) log(1 + |x|) of a float32 array (rows x columns), the
+    logarithm skipped for the zeros (most of the one-hot columns)."""
+    rows, columns = x.shape
+    out = np.zeros((rows, columns), np.float32)
+    for i in range(rows):
+        for j in range(columns):
+            v = x[i, j]
+            if v > 0:
+                out[i, j] = np.log1p(v)
+            elif v < 0:
+                out[i, j] = -np.log1p(-v)
+    return out
+
+
+def _symlog():
+    """:func:`_symlog_rows` compiled."""
+    return _compiled(_symlog_rows)
+
+
+def _observed_rows(static: np.ndarray, features: np.ndarray, nodes: np.ndarray, first: int, last: int) -> np.ndarray:
+    """Compiled by numba (:func:`_node_rows`): symlog of ``features``' rows ``nodes``, with the columns
+    outside ``first:last`` (those that never change in an episode) copied from ``static``, their symlog
+    computed once per episode."""
+    out = np.empty((nodes.shape[0], features.shape[1]), np.float32)
+    for i in range(nodes.shape[0]):
+        v = nodes[i]
+        for j in range(features.shape[1]):
+            if first <= j < last:
+                x = features[v, j]
+                out[i, j] = np.log1p(x) if x > 0 else (-np.log1p(-x) if x < 0 else np.float32(0.0))
+            else:
+                out[i, j] = static[v, j]
+    return out
+
+
+def _node_rows():
+    """:func:`_observed_rows` compiled."""
+    return _compiled(_observed_rows)
+
+
+def _neighbour_means(h: np.ndarray, before: np.ndarray, after: np.ndarray, out: np.ndarray) -> None:
+    """Compiled by numba (:func:`_means_pass`): ``out`` (N, 3H) = [h, mean of each node's predecessors'
+    rows of h, mean of its successors'] over the edges ``before[e] -> after[e]`` (0 without any); the
+    sums in edge order, as torch's ``index_add_``."""
+    n, width = h.shape
+    into = np.zeros(n, np.float32)
+    outof = np.zeros(n, np.float32)
+    out[:, :] = 0.0
+    out[:, :width] = h
+    for e in range(before.shape[0]):
+        b, a = before[e], after[e]
+        into[a] += 1.0
+        outof[b] += 1.0
+        for k in range(width):
+            out[a, width + k] += h[b, k]
+            out[b, 2 * width + k] += h[a, k]
+    for v in range(n):
+        p, s = max(into[v], np.float32(1.0)), max(outof[v], np.float32(1.0))
+        for k in range(width):
+            out[v, width + k] /= p
+            out[v, 2 * width + k] /= s
+
+
+def _means_pass():
+    """:func:`_neighbour_means` compiled."""
+    return _compiled(_neighbour_means)
+
+
+def _affine(x: np.ndarray, weight: np.ndarray, bias: np.ndarray, relu: bool) -> np.ndarray:
+    """Compiled by numba (:func:`_dense`): ``x @ weight + bias`` on a few float32 rows (``weight`` (in,
+    out)), then max(0, .) where ``relu``: the small layers, where a library call costs more than its
+    arithmetic."""
+    rows, inputs = x.shape
+    outputs = weight.shape[1]
+    out = np.zeros((rows, outputs), np.float32)
+    for i in range(rows):
+        for j in range(inputs):
+            xij = x[i, j]
+            for k in range(outputs):
+                out[i, k] += xij * weight[j, k]
+        for k in range(outputs):
+            value = out[i, k] + bias[k]
+            out[i, k] = max(value, np.float32(0.0)) if relu else value
+    return out
+
+
+def _dense():
+    """:func:`_affine` compiled."""
+    return _compiled(_affine)
+
+
+def _pair_scores(h, g, joint, nodes, robots, handling, travel, compatible, node_w, node_b, robot_w, scalar_w, out_w, out_b,
+                 last_w, last_b) -> np.ndarray:
+    """Compiled by numba (:func:`_pairs`): the logit of each (task row ``nodes[i]``, robot ``robots[i]``)
+    pair, as ``DispatchExtractor.pair_logits``: max(0, node term + robot term + scalars term + ``joint``
+    (the context's term)), two more layers. The scalars: symlog of the handling, the travel and their sum
+    (s, float32), the compatibility. Weights (in, out), float32."""
+    width = node_w.shape[1]
+    logits = np.empty(nodes.shape[0], np.float32)
+    pair = np.empty(width, np.float32)
+    hidden = np.empty(width, np.float32)
+    scalars = np.empty(4, np.float32)
+    for i in range(nodes.shape[0]):
+        v, r = nodes[i], robots[i]
+        scalars[0], scalars[1] = handling[i], travel[i]
+        scalars[2] = np.float32(handling[i] + travel[i])
+        for j in range(3):
+            x = scalars[j]
+            scalars[j] = np.log1p(x) if x > 0 else (-np.log1p(-x) if x < 0 else np.float32(0.0))
+        scalars[3] = compatible[i]
+        for k in range(width):
+            a = node_b[k]
+            b = np.float32(0.0)
+            c = np.float32(0.0)
+            for j in range(h.shape[1]):
+                a += h[v, j] * node_w[j, k]
+                b += g[r, j] * robot_w[j, k]
+            for j in range(4):
+                c += scalars[j] * scalar_w[j, k]
+            pair[k] = max(np.float32(a + b + c + joint[k]), np.float32(0.0))
+        for k in range(width):
+            a = out_b[k]
+            for j in range(width):
+                a += pair[j] * out_w[j, k]
+            hidden[k] = max(a, np.float32(0.0))
+        score = last_b[0]
+        for j in range(width):
+            score += hidden[j] * last_w[j, 0]
+        logits[i] = score
+    return logits
+
+
+def _pairs():
+    """:func:`_pair_scores` compiled."""
+    return _compiled(_pair_scores)
+
+
+def _linear(x: th.Tensor, layer: tuple, relu: bool = False) -> th.Tensor:
+    """One layer on many rows (a (weight (out, in), bias) pair of tensors), as ``torch.nn.functional.linear``
+    (one BLAS call, torch's one thread), max(0, .) in place where ``relu``."""
+    out = th.addmm(layer[1], x, layer[0].t())
+    return out.relu_() if relu else out
+
+
+class LocalForward:
+    """A local, unadvised :class:`~bimrobot.planning.learned.DispatchExtractor`'s scores without module calls.
+
+    ``embed(node_rows, edges, robot_features, robot_mask, context)`` -> (node embeddings (N, H), robot
+    embeddings (R, H), pooled context (2H,)), float32 numpy, for the observed nodes only (rows renumbered;
+    ``edges`` (E, 2) before -> after between them; ``node_rows`` symlog's of their features, see
+    :meth:`node_inputs`); :meth:`pair_logits` and :meth:`wait_logit` as the extractor's. The layers over
+    every observed node are torch's (one BLAS call each), the rest compiled loops (numba)."""
+
+    def __init__(self, extractor):
+        if extractor.advisers or extractor.context_in is None:
+            raise ValueError("LocalForward scores only a policy of the local observation without advice")
+        w = {k: v.detach().clone() for k, v in extractor.state_dict().items()}
+        small = lambda name: np.ascontiguousarray(w[name].numpy().T, dtype=np.float32)  # noqa: E731 - (in, out)
+        bias = lambda name: np.ascontiguousarray(w[name].numpy(), dtype=np.float32)  # noqa: E731
+        self.node = [(w[f"node_in.{i}.weight"], w[f"node_in.{i}.bias"]) for i in (0, 2)]
+        self.passes = [(w[f"passes.{i}.0.weight"], w[f"passes.{i}.0.bias"]) for i in range(len(extractor.passes))]
+        self.robot = [(small(f"robot_in.{i}.weight"), bias(f"robot_in.{i}.bias")) for i in (0, 2)]
+        self.context_in = (small("context_in.weight"), bias("context_in.bias"))
+        self.pair_context = small("pair_context.weight")
+        self.pair = (small("pair_node.weight"), bias("pair_node.bias"), small("pair_robot.weight"), small("pair_scalars.weight"),
+                     small("pair_out.1.weight"), bias("pair_out.1.bias"), small("pair_out.3.weight"), bias("pair_out.3.bias"))
+        self.wait = [(small(f"wait.{i}.weight"), bias(f"wait.{i}.bias")) for i in (0, 2)]
+        self.hidden = extractor.hidden
+        self._static: tuple = (None, None)  # (environment and episode, symlog of its node features then)
+
+    def node_inputs(self, env, nodes: np.ndarray) -> np.ndarray:
+        """symlog of the node features of graph nodes ``nodes`` of ``env`` (a local ``DispatchEnv``) now:
+        the columns that never change in an episode (all but the state and the earliest start) from a
+        table computed once per episode, the others now."""
+        if self._static[0] != (id(env), env._episode):
+            self._static = ((id(env), env._episode), _symlog()(np.ascontiguousarray(env._nodes, dtype=np.float32)))
+        return _node_rows()(self._static[1], env._nodes, nodes, *CHANGING)
+
+    def embed(self, node_rows, edges, robot_features, robot_mask, context) -> tuple:
+        """The node and robot embeddings after the message passing and the pooled context (float32 numpy)."""
+        dense = _dense()
+        mask = np.asarray(robot_mask, np.float32)
+        g = _symlog()(np.ascontiguousarray(robot_features, dtype=np.float32))
+        for weight, bias in self.robot:
+            g = dense(g, weight, bias, True)
+        g *= mask[:, None]
+        before = np.ascontiguousarray(edges[:, 0], dtype=np.int64)
+        after = np.ascontiguousarray(edges[:, 1], dtype=np.int64)
+        joined = np.empty((len(node_rows), 3 * self.hidden), np.float32)
+        with th.inference_mode():
+            h = _linear(_linear(th.from_numpy(node_rows), self.node[0], True), self.node[1], True)
+            for layer in self.passes:
+                _means_pass()(h.numpy(), before, after, joined)
+                h = h.add_(_linear(th.from_numpy(joined), layer, True))
+        h = h.numpy()
+        pooled = h.sum(0) / np.float32(max(len(h), 1)) + dense(np.asarray(context, np.float32)[None], *self.context_in, False)[0]
+        return h, g, np.concatenate([pooled, g.sum(0) / np.float32(max(float(mask.sum()), 1.0))])
+
+    def pair_logits(self, h, g, context, nodes, robots, handling, travel, compatible) -> np.ndarray:
+        """The logits (K,) of the pairs (``nodes``, ``robots``: rows of h and g, int64 arrays) with their
+        handling and travel times (s) and compatibility."""
+        joint = _dense()(context[None], self.pair_context, np.zeros(self.pair_context.shape[1], np.float32), False)[0]
+        return _pairs()(h, g, joint, nodes, robots, np.asarray(handling, np.float32), np.asarray(travel, np.float32),
+                        np.asarray(compatible, np.float32), *self.pair)
+
+    def wait_logit(self, context) -> float:
+        """The wait logit from the pooled context."""
+        (first, first_b), (last, last_b) = self.wait
+        return float(_dense()(_dense()(context[None], first, first_b, True), last, last_b, False)[0, 0])
+
+
+def _local_inputs(env, views: dict, features: bool = True) -> tuple[tuple, np.ndarray]:
+    """The embedding's inputs for the local observation, as numpy arrays: the observed nodes' features,
+    the edges between them renumbered (row k is graph node ``env._local.nodes[k]``), the robots' features
+    and mask, the context; and where each graph node's row is (the keeper's ``where``). Their cost grows
+    with the observed nodes, not the building."""
+    local = env._local
+    nodes = local.nodes
+    start, ids = local.owned  # each edge once, at one of its nodes
+    counts = start[nodes + 1] - start[nodes]
+    index = np.repeat(start[nodes] - np.cumsum(counts) + counts, counts) + np.arange(int(counts.sum()))
+    edges = ids[index]
+    pairs = local.where[env.precedence[edges[local.edge_mask[edges] == 1]]]
+    return (views["node_features"][nodes] if features else None, pairs, views["robot_features"], views["robot_mask"], views["context"]), local.where
