@@ -61,8 +61,12 @@ def _floor_loads(model, tasks, gates, ancestors, capable, busy_min, assigned, tr
                 known = max(known, lead + _two_robot_bound(work, pair, busy_min))
                 if len(counted) == len(mine):
                     known = max(known, lead + travel.two_robot_bound(work, pair))
-        ready = _ready(counted, head, capable, arrival) if arrival and len(gates) == 1 and len(counted) == len(tasks) else None
-        known = max(known, _staged_bound(pairs, head, tail, busy_min, ready), floor_least.get(floor, 0))
+        staged = _staged_bound(pairs, head, tail, busy_min)
+        if arrival and len(gates) == 1 and len(counted) == len(tasks):  # one floor, all of it from time 0
+            ready = _ready(counted, head, capable, arrival)
+            later = _robot_heads(mine, head, capable, busy_min, ready)  # each task after its robots' own starts
+            staged = _staged_bound(pairs, later, tail, busy_min, _ready(counted, later, capable, arrival), arrival)
+        known = max(known, staged, floor_least.get(floor, 0))
         if known:
             model.Add(gate - opening >= known)
         least += known
@@ -97,6 +101,19 @@ def _ready(counted, head, capable, arrival) -> dict[str, int]:
     return ready
 
 
+def _robot_heads(mine, head, capable, busy_min, ready) -> dict[str, int]:
+    """Each task's lead-in (ticks) where no robot can end a task before its own ``ready`` plus that
+    task's least busy time: a predecessor p on robot r ends no earlier than max(lead-in of p, ready[r]) +
+    its least busy time there, on the robot where that is least. ``mine`` in topological order."""
+    later: dict[str, int] = {}
+    for t in mine:
+        if t.key in head:
+            ends = [min(max(later[p], ready.get(r.name, 0)) + busy_min[p, r.name] for r in capable[p])
+                    for p in t.predecessors if p in later]
+            later[t.key] = max([head[t.key]] + ends)
+    return later
+
+
 def _first_lead(model, name, work, head, tail, first, travel, assigned, busy_min, gate) -> None:
     """On the lowest floor (from time 0): robot ``name`` departs for its first task t no earlier than
     t's own lead-in ``head[t]`` (ticks), then does all its work of the floor, one task after the other,
@@ -125,7 +142,7 @@ def _fastest(costs: dict[str, list[int]], count: int, offset: dict[str, int] | N
     return best
 
 
-def _staged_bound(groups: dict[tuple[str, ...], list[_Task]], head, tail, busy_min, ready=None) -> int:
+def _staged_bound(groups: dict[tuple[str, ...], list[_Task]], head, tail, busy_min, ready=None, arrival=None) -> int:
     """A floor's least duration (ticks) from its two stages, e.g. positioning then assembly: every task
     of a later group J waits for some task of an earlier group P (one or two robots each). Before the k-th
     P task can end (E_k: the earliest, over splits of k between P's robots, from P's earliest start), at
@@ -133,7 +150,9 @@ def _staged_bound(groups: dict[tuple[str, ...], list[_Task]], head, tail, busy_m
     tasks, starts after E_k and needs J's robots for at least their fastest split; then the run-out.
     ``ready`` (robot -> ticks; None: P's earliest start for all): each P robot's earliest end of its first
     task, less that task's least busy time (a robot that starts far from P's work ends its first P task
-    later)."""
+    later). ``arrival`` ((task, robot) -> ticks, with ``ready``): a J robot that does nothing but J and
+    has not begun before E_k pays its first drive in on top; at most as many J tasks as were released
+    before E_k can have begun, so with one released, one of the two J robots pays it."""
     best = 0
     for later_robots, later in groups.items():
         if len(later_robots) > 2 or len(later) < 2:
@@ -155,12 +174,26 @@ def _staged_bound(groups: dict[tuple[str, ...], list[_Task]], head, tail, busy_m
             cost_p = {r: sorted(busy_min[t.key, r] for t in earlier) for r in earlier_robots}
             cost_j = {r: sorted(busy_min[t.key, r] for t in later) for r in later_robots}
             offset = {r: max(0, (ready or {}).get(r, first) - first) for r in earlier_robots}
+            others = {r for robots in groups if robots != later_robots for r in robots}
+            solo = {r: min(arrival[t.key, r] for t in later) for r in later_robots if r not in others} if arrival else {}
             for k in range(1, len(earlier) + 1):
-                left = len(later) - sum(released[:k - 1])
+                begun = sum(released[:k - 1])
+                left = len(later) - begun
                 if left <= 0:
                     break
-                best = max(best, first + _fastest(cost_p, k, offset) + _fastest(cost_j, left) + run_out)
+                best = max(best, first + _fastest(cost_p, k, offset) + _later(cost_j, left, solo, begun) + run_out)
     return best
+
+
+def _later(cost_j: dict[str, list[int]], left: int, solo: dict[str, int], begun: int) -> int:
+    """The least time (ticks) J's robots need for ``left`` tasks after E_k, where ``begun`` J tasks may
+    have begun before: a robot of ``solo`` (it does only J work) that has not begun pays its first drive
+    in (``solo``) on top; with none begun every such robot does, with one begun all but one of them."""
+    if begun == 0:
+        return _fastest(cost_j, left, solo)
+    if begun == 1 and len(solo) == 2:
+        return min(_fastest(cost_j, left, {r: ticks}) for r, ticks in solo.items())
+    return _fastest(cost_j, left)
 
 
 class _Visits:
