@@ -97,11 +97,14 @@ def test_an_unknown_planner_is_refused_in_one_sentence(tmp_path, capsys):
 def test_cpsat_replayed_keeps_cpsat_makespan():
     """The simulation follows CP-SAT's robot per task and its order per robot: the executed makespan is
     CP-SAT's objective, up to CP-SAT's 0.01 s time unit (its times are rounded up, the run's are not),
-    and never below CP-SAT's lower bound; no task needed to leave CP-SAT's order."""
+    and below CP-SAT's lower bound by no more than that unit per task (the bound is the rounded-up
+    problem's: CP-SAT proves 3,601.73 s here, the run takes 3,601.69 s); no task needed to leave
+    CP-SAT's order."""
     problem = frame_problem(per_node=False)
     result, stats = plan("cp-sat", problem, **CPSAT)
     notes, replay = stats.notes, stats.notes["replay"]
-    assert notes["cpsat_lower_bound_s"] - 1e-6 <= result.makespan <= notes["cpsat_makespan_s"] + 1e-6
+    rounding = 0.01 * notes["cpsat_tasks"]
+    assert notes["cpsat_lower_bound_s"] - rounding <= result.makespan <= notes["cpsat_makespan_s"] + 1e-6
     assert notes["cpsat_makespan_s"] - result.makespan <= 0.01 * notes["cpsat_tasks"]
     assert replay.reordered == 0 and replay.unplanned == 0
     assert result.makespan <= notes["market_s"] + 1e-6  # CP-SAT starts from the market's schedule
