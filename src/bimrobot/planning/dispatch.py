@@ -29,7 +29,7 @@ from bimrobot.planning.dispatch_observation import (CONTEXT, LocalKeeper, _in_ed
                                                     _local_travel_pass, _mask,
                                                     _read_only, _starts_pass, _travel_pass, rebuild_observation)
 from bimrobot.planning.dispatch_problem import (KINDS, DispatchProblem, PublishingSimulation, TaskGraph, frame_problem,
-                                                request_key, simulate_problem, task_graph, task_key)
+                                                problem_graph, request_key, simulate_problem, task_graph, task_key)
 
 ENV_ID = "bimrobot/Dispatch-v0"
 #: bound of every observed number (metres, seconds, kg): finite, far beyond any site or build (about 32 years)
@@ -186,7 +186,7 @@ class DispatchEnv(gym.Env):
                                           dispatcher=AgentDispatcher())
         self.sim.start()
         self._episode += 1
-        self.graph = task_graph(self.sim)
+        self.graph = problem_graph(problem, self.sim)  # built once per problem
         self._set_up_arrays(problem.fleet)
         self.result, self.round_id, self.decisions, self._clock = None, 0, 0, 0.0
         self.awarded: list[tuple[float, str, str]] = []  # (time s, task key, robot) of each award, in order

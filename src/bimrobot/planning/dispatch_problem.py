@@ -36,6 +36,8 @@ class DispatchProblem:
     storey_elevations: list[float] | None = None
     per_node: bool = True
     breakdowns: tuple = ()
+    #: what the environments derive from the problem alone, once (:func:`problem_graph`: the task graph)
+    derived: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 
 
 class PublishingSimulation(ConstructionSimulation):
@@ -135,13 +137,16 @@ class TaskGraph:
         networkx). A cycle is refused (BimrobotError)."""
         import networkx as nx
 
+        if getattr(self, "_depth", None) is not None:  # computed once per graph (2 CPU s at 10,000 components)
+            return self._depth.copy()
         depth = np.zeros(len(self.keys), np.int64)
         try:
             for d, generation in enumerate(nx.topological_generations(self._digraph())):
                 depth[generation] = d
         except nx.NetworkXUnfeasible:
             raise BimrobotError("the task graph has a cycle") from None
-        return depth
+        self._depth = depth
+        return depth.copy()
 
     def _digraph(self):
         """The precedences as a networkx DiGraph over the node indices."""
@@ -181,6 +186,17 @@ class _Builder:
         group_ids: dict = {}
         groups = [group_ids.setdefault(g if g is not None else ("edge", i), len(group_ids)) for i, (_, _, g) in enumerate(unique)]
         return TaskGraph(self.keys, np.array(self.kinds, dtype=np.int64), self.requests, pairs, np.array(groups, dtype=np.int64))
+
+
+def problem_graph(problem: DispatchProblem, sim: ConstructionSimulation) -> TaskGraph:
+    """:func:`task_graph` of ``sim``, a simulation of ``problem`` just started, built once per problem and
+    kept in ``problem.derived``: the graph depends on the problem alone (its requests describe the tasks;
+    the simulation's own requests are published with their ids), so the environments of one problem (the
+    padding's, the policy's, the search's sandbox) share it instead of building it again (about 4 CPU s
+    at 10,000 components). Read, never written."""
+    if "task_graph" not in problem.derived:
+        problem.derived["task_graph"] = task_graph(sim)
+    return problem.derived["task_graph"]
 
 
 def task_graph(sim: ConstructionSimulation) -> TaskGraph:

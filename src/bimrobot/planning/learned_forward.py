@@ -240,16 +240,37 @@ class LocalForward:
         return float(_dense()(_dense()(context[None], first, first_b, True), last, last_b, False)[0, 0])
 
 
+def _observed_edge_rows(nodes, start, ids, edge_mask, precedence, where) -> np.ndarray:
+    """Compiled by numba (:func:`_edge_rows`): the observed edges (``edge_mask`` 1) owned by ``nodes``
+    (node v's are ``ids[start[v]:start[v + 1]]``), in that order, as (before, after) rows of the observed
+    nodes (``where``)."""
+    count = 0
+    for v in nodes:
+        for i in range(start[v], start[v + 1]):
+            count += edge_mask[ids[i]] == 1
+    out = np.empty((count, 2), np.int64)
+    count = 0
+    for v in nodes:
+        for i in range(start[v], start[v + 1]):
+            e = ids[i]
+            if edge_mask[e] == 1:
+                out[count, 0] = where[precedence[e, 0]]
+                out[count, 1] = where[precedence[e, 1]]
+                count += 1
+    return out
+
+
+def _edge_rows():
+    """:func:`_observed_edge_rows` compiled."""
+    return _compiled(_observed_edge_rows)
+
+
 def _local_inputs(env, views: dict, features: bool = True) -> tuple[tuple, np.ndarray]:
     """The embedding's inputs for the local observation, as numpy arrays: the observed nodes' features,
-    the edges between them renumbered (row k is graph node ``env._local.nodes[k]``), the robots' features
-    and mask, the context; and where each graph node's row is (the keeper's ``where``). Their cost grows
-    with the observed nodes, not the building."""
+    the edges between them renumbered (row k is graph node ``env._local.nodes[k]``; each edge read once, at
+    the node that owns it), the robots' features and mask, the context; and where each graph node's row is
+    (the keeper's ``where``). Their cost grows with the observed nodes, not the building."""
     local = env._local
     nodes = local.nodes
-    start, ids = local.owned  # each edge once, at one of its nodes
-    counts = start[nodes + 1] - start[nodes]
-    index = np.repeat(start[nodes] - np.cumsum(counts) + counts, counts) + np.arange(int(counts.sum()))
-    edges = ids[index]
-    pairs = local.where[env.precedence[edges[local.edge_mask[edges] == 1]]]
+    pairs = _edge_rows()(nodes, *local.owned, local.edge_mask, env.precedence, local.where)
     return (views["node_features"][nodes] if features else None, pairs, views["robot_features"], views["robot_mask"], views["context"]), local.where

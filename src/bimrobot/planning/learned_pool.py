@@ -53,13 +53,13 @@ def generated_problem(spec: str) -> DispatchProblem:
 def sizes(problem: DispatchProblem) -> tuple[int, int, int]:
     """(tasks + gates, robots, precedences) of ``problem``: its own padding."""
     from bimrobot.coordination.simulation import ConstructionSimulation
-    from bimrobot.planning.dispatch import AgentDispatcher, task_graph
+    from bimrobot.planning.dispatch import AgentDispatcher, problem_graph
 
     sim = ConstructionSimulation(problem.smart, problem.fleet, problem.site, breakdowns=problem.breakdowns,
                                  storey_elevations=problem.storey_elevations, per_node=problem.per_node,
                                  dispatcher=AgentDispatcher())
     sim.start()
-    graph = task_graph(sim)
+    graph = problem_graph(problem, sim)  # kept for the problem's environments
     return len(graph.keys), len(problem.fleet.robots), len(graph.edges)
 
 
