@@ -61,12 +61,11 @@ def _floor_loads(model, tasks, gates, ancestors, capable, busy_min, assigned, tr
                 known = max(known, lead + _two_robot_bound(work, pair, busy_min))
                 if len(counted) == len(mine):
                     known = max(known, lead + travel.two_robot_bound(work, pair))
-        staged = _staged_bound(pairs, head, tail, busy_min)
+        heads, ready, drives_in = head, None, None
         if arrival and len(gates) == 1 and len(counted) == len(tasks):  # one floor, all of it from time 0
-            ready = _ready(counted, head, capable, arrival)
-            later = _robot_heads(mine, head, capable, busy_min, ready)  # each task after its robots' own starts
-            staged = _staged_bound(pairs, later, tail, busy_min, _ready(counted, later, capable, arrival), arrival)
-        known = max(known, staged, floor_least.get(floor, 0))
+            heads = _robot_heads(mine, head, capable, busy_min, _ready(counted, head, capable, arrival))
+            ready, drives_in = _ready(counted, heads, capable, arrival), arrival
+        known = max(known, _staged_bound(pairs, heads, tail, busy_min, ready, drives_in), floor_least.get(floor, 0))
         if known:
             model.Add(gate - opening >= known)
         least += known
