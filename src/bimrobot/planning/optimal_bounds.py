@@ -151,7 +151,9 @@ def _staged_bound(groups: dict[tuple[str, ...], list[_Task]], head, tail, busy_m
     task, less that task's least busy time (a robot that starts far from P's work ends its first P task
     later). ``arrival`` ((task, robot) -> ticks, with ``ready``): a J robot that does nothing but J and
     has not begun before E_k pays its first drive in on top; at most as many J tasks as were released
-    before E_k can have begun, so with one released, one of the two J robots pays it."""
+    before E_k can have begun, so with one released, one of the two J robots pays it. With one released,
+    all of J is also split between a robot that begins at E_1 and one that begins at E_k (and pays its
+    drive in)."""
     best = 0
     for later_robots, later in groups.items():
         if len(later_robots) > 2 or len(later) < 2:
@@ -180,7 +182,12 @@ def _staged_bound(groups: dict[tuple[str, ...], list[_Task]], head, tail, busy_m
                 left = len(later) - begun
                 if left <= 0:
                     break
-                best = max(best, first + _fastest(cost_p, k, offset) + _later(cost_j, left, solo, begun) + run_out)
+                ended = first + _fastest(cost_p, k, offset)  # E_k
+                best = max(best, ended + _later(cost_j, left, solo, begun) + run_out)
+                if begun == 1 and len(cost_j) == 2:  # one robot may begin at E_1, the other at E_k
+                    opened = first + _fastest(cost_p, 1, offset)
+                    best = max(best, opened + min(_fastest(cost_j, len(later), {r: ended - opened + solo.get(r, 0)})
+                                                  for r in cost_j) + run_out)
     return best
 
 
