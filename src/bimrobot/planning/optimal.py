@@ -22,7 +22,7 @@ The model (times in seconds, solved in units of 0.01 s):
   per point it works at (:class:`~bimrobot.planning.optimal_bounds._Visits`); for two robots that
   share work, the fastest split of it (subset sums); the two-stage bound
   (:func:`~bimrobot.planning.optimal_bounds._staged_bound`; where the problem is one floor from time 0,
-  each robot of the first stage from its own earliest start); on the lowest floor, each robot's start no
+  each robot from its own start, its first drive in included, in both stages); on the lowest floor, each robot's start no
   earlier than the lead-in of its first task (:func:`~bimrobot.planning.optimal_bounds._first_lead`);
   and, where floors cannot overlap, the
   bound of that floor solved alone (:func:`_floor_bounds`), whose schedules, one floor after the
