@@ -353,6 +353,19 @@ def test_a_crashed_geometry_process_names_the_file(steel_frame_ifc, monkeypatch,
         load_model(steel_frame_ifc, processes=processes)
 
 
+def _stop_and_check_gone(process, signum: int, pids: list[int]) -> None:
+    """Send ``signum`` to ``process``, wait for it, and check that every one of ``pids`` ended with it."""
+    import time
+
+    process.send_signal(signum)
+    process.wait(timeout=60)
+    for _ in range(100):  # the kernel kills them with their parent: at once, but allow 10 s under load
+        if not any(_alive(pid) for pid in pids):
+            break
+        time.sleep(0.1)
+    assert not any(_alive(pid) for pid in pids)
+
+
 def _alive(pid: int) -> bool:
     """Whether process ``pid`` still runs (a zombie, dead but not yet reaped, does not)."""
     try:
@@ -384,19 +397,12 @@ def test_geometry_processes_die_with_the_reader(steel_frame_ifc, signum):
     import signal
     import subprocess
     import sys
-    import time
 
     reader = subprocess.Popen([sys.executable, "-c", _HANGING_READ, str(steel_frame_ifc)], stdout=subprocess.PIPE, text=True)
     try:
         children = [int(pid) for pid in reader.stdout.readline().split()]
         assert len(children) == 3 and all(_alive(pid) for pid in children)
-        reader.send_signal(getattr(signal, signum))
-        reader.wait(timeout=60)
-        for _ in range(100):  # the kernel kills them with their parent: at once, but allow 10 s under load
-            if not any(_alive(pid) for pid in children):
-                break
-            time.sleep(0.1)
-        assert not any(_alive(pid) for pid in children)
+        _stop_and_check_gone(reader, getattr(signal, signum), children)
     finally:
         reader.kill()
         reader.wait()
@@ -486,7 +492,8 @@ def _descendants(pid: int) -> list[int]:
 
 
 @pytest.mark.skipif(not __import__("bimrobot.core.cores", fromlist=["can_fork"]).can_fork(), reason="processes are forked on Linux only")
-def test_the_forked_read_and_its_geometry_processes_die_with_the_caller(steel_frame_ifc):
+@pytest.mark.parametrize("signum", ["SIGKILL", "SIGTERM"])
+def test_the_forked_read_and_its_geometry_processes_die_with_the_caller(steel_frame_ifc, signum):
     import signal
     import subprocess
     import sys
@@ -501,13 +508,7 @@ def test_the_forked_read_and_its_geometry_processes_die_with_the_caller(steel_fr
                 break
             time.sleep(0.1)
         assert len(under) == 3
-        caller.send_signal(signal.SIGKILL)
-        caller.wait(timeout=60)
-        for _ in range(100):
-            if not any(_alive(pid) for pid in under):
-                break
-            time.sleep(0.1)
-        assert not any(_alive(pid) for pid in under)
+        _stop_and_check_gone(caller, getattr(signal, signum), under)
     finally:
         caller.kill()
         caller.wait()

@@ -60,7 +60,7 @@ from bimrobot.core.errors import InputError
 from bimrobot.planning.dispatch import CONTEXT, NODE_FEATURES, ROBOT_FEATURES, DispatchProblem
 from bimrobot.planning.learned_advice import (ADVISERS, EXTRA_NODE_FEATURES, Advised, advice, advice_sparse, advised_space, observe,
                                               pilot_demonstrations)
-from bimrobot.planning.learned_forward import _local_inputs
+from bimrobot.planning.learned_forward import LocalForward, _local_inputs
 from bimrobot.planning.learned_pool import (TRAIN_SPECS, PerCentOfMarket, PoolEntry, _pad, env_for, generated_problem,
                                             imitate, imitation_accuracy,
                                             make_training_env, market_demonstrations, pilot_teacher, sizes,
@@ -385,8 +385,6 @@ class LearnedPolicy:
     arithmetic without torch's module calls); False: by the torch modules."""
 
     def __init__(self, policy, fast: bool = True, timed: bool = False, numpy: bool = True):
-        from bimrobot.planning.learned_forward import LocalForward
-
         self.policy = policy
         self.fast = fast
         extractor = policy.features_extractor
@@ -436,7 +434,7 @@ class LearnedPolicy:
             return self._numpy_logits(env, actions, views, start)
         obs, rows = self._tensors(env, views) if env._local is None else _local_tensors(env, views)
         extractor = self.policy.features_extractor
-        nodes, robots = np.divmod(np.array(actions[: len(actions) - (actions[-1] == env.wait_action)], np.int64), env.max_robots)
+        nodes, robots = _awards(env, actions)
         pairs = {"node": th.from_numpy(rows[nodes] if rows is not None else nodes), "robot": th.from_numpy(robots),
                  **{k: th.from_numpy(np.ascontiguousarray(views[k][nodes, robots])).float()
                     for k in ("handling_s", "travel_s", "compatibility")}}
@@ -461,7 +459,7 @@ class LearnedPolicy:
     def _numpy_logits(self, env, actions: list[int], views: dict, start: float) -> th.Tensor:
         """:meth:`_logits` of a local policy by :class:`~bimrobot.planning.learned_forward.LocalForward`."""
         inputs, rows = _local_inputs(env, views, features=False)
-        nodes, robots = np.divmod(np.array(actions[: len(actions) - (actions[-1] == env.wait_action)], np.int64), env.max_robots)
+        nodes, robots = _awards(env, actions)
         pairs = [views[k][nodes, robots] for k in ("handling_s", "travel_s", "compatibility")]
         network = self._clock()
         h, g, context = self.forward.embed(self.forward.node_inputs(env, env._local.nodes), *inputs[1:])
@@ -487,6 +485,12 @@ def _candidates(env) -> list[int]:
     """The actions a policy chooses among: every valid one, or with the local observation those of the
     observed ready tasks (:meth:`~bimrobot.planning.dispatch.DispatchEnv.local_actions`)."""
     return env.valid_actions() if env._local is None else env.local_actions()
+
+
+def _awards(env, actions: list[int]) -> tuple[np.ndarray, np.ndarray]:
+    """The graph nodes and robot indices of the awards among valid ``actions`` (waiting, last where valid, left out)."""
+    awards = actions[: len(actions) - (actions[-1] == env.wait_action)]
+    return np.divmod(np.array(awards, np.int64), env.max_robots)
 
 
 def _local_tensors(env, views: dict) -> tuple[dict, np.ndarray]:
