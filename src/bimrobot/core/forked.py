@@ -1,7 +1,8 @@
 """One function called in a forked process, its outcome sent back pickled.
 
-Shared by the IFC reader's geometry processes (:mod:`bimrobot.bim.reader`) and ``convert``'s read of the
-model beside the import of its writer (:mod:`bimrobot.bim.forked_read`). The child inherits what this
+Shared by the IFC reader's geometry processes (:mod:`bimrobot.bim.reader`), ``convert``'s read of the
+model beside the import of its writer (:mod:`bimrobot.bim.forked_read`) and the MuJoCo scene's convex
+decomposition under a CPU budget (:mod:`bimrobot.export.mujoco.collision`). The child inherits what this
 process holds (a parsed file, say: nothing is pickled on the way in), dies with this process
 (:func:`bimrobot.core.cores.bind_to_parent`), and sends back ("ok", the result) or ("error", the
 exception); an exception that cannot be pickled still arrives, as its text. A child that dies without a
@@ -31,9 +32,12 @@ class Forked:
         self.process.start()
         sending.close()
 
-    def outcome(self, died: Callable[[int | None], Exception]) -> Any:
+    def outcome(self, died: Callable[[int | None], Exception], timeout_s: float | None = None) -> Any:
         """Wait for the function's result and return it; raise its exception here; raise
-        ``died(exit code)`` when the process ended without sending anything."""
+        ``died(exit code)`` when the process ended without sending anything, and ``died(None)`` when
+        it sent nothing within ``timeout_s`` wall seconds (None: wait as long as it runs)."""
+        if timeout_s is not None and not self.receiving.poll(timeout_s):
+            raise died(None)
         try:
             status, payload = pickle.loads(self.receiving.recv_bytes())
         except EOFError:

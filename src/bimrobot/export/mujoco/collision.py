@@ -19,7 +19,6 @@ needs several pieces or its hull closes the gaps between flanges. The rule:
 from __future__ import annotations
 
 import ctypes
-import os
 import resource
 from dataclasses import dataclass
 
@@ -77,8 +76,8 @@ def collision_pieces(body: Body, budget: int = DEFAULT_BUDGET) -> Collision:
     if size < SMALL_PART_M:
         return Collision([hull], f"convex hull (small part, {size:.2f} m)", hull_volume / volume)
     parts = _coacd(body, budget)
-    if parts is None:
-        return Collision([hull], f"convex hull (CoACD over its {TIME_BUDGET_S:g} s CPU budget)", hull_volume / volume)
+    if isinstance(parts, str):
+        return Collision([hull], f"convex hull ({parts})", hull_volume / volume)
     pieces = [piece for piece in (convex_hull(np.asarray(v, float)) for v in parts) if piece is not None]
     if not pieces:
         return Collision([hull], "convex hull (CoACD found no piece)", hull_volume / volume)
@@ -98,43 +97,38 @@ def require_coacd() -> None:
         raise MissingExtraError("this command needs the optional dependency 'coacd': pip install 'bimrobot[physics]'")
 
 
-def _coacd(body: Body, budget: int) -> list[np.ndarray] | None:
-    """CoACD's pieces (vertex arrays) of ``body``, or None when it needs more than TIME_BUDGET_S of CPU."""
-    import multiprocessing
+class _NoAnswer(Exception):
+    """The CoACD process sent nothing: over its CPU budget (the kernel's SIGXCPU), crashed, or hung."""
 
-    receiver, sender = multiprocessing.get_context("fork").Pipe(duplex=False)
-    worker = multiprocessing.get_context("fork").Process(
-        target=_decompose, args=(body.vertices, body.faces, budget, sender, os.getpid(), receiver))
-    worker.start()
-    sender.close()
+
+def _coacd(body: Body, budget: int) -> list[np.ndarray] | str:
+    """CoACD's pieces (vertex arrays) of ``body``, or why there are none, in words: over its
+    :data:`TIME_BUDGET_S` of CPU, no answer within :data:`HANG_GUARD_S`, or CoACD's own error."""
+    from bimrobot.core.forked import Forked
+
+    worker = Forked(_decompose, (body.vertices, body.faces, budget))
     try:
-        if not receiver.poll(HANG_GUARD_S):
-            return None
-        return receiver.recv()
-    except EOFError:  # the worker died: over its CPU budget (SIGXCPU), or CoACD crashed on this mesh
-        return None
+        return worker.outcome(died=_NoAnswer, timeout_s=HANG_GUARD_S)
+    except _NoAnswer:
+        return f"CoACD over its {TIME_BUDGET_S:g} s CPU budget"
+    except Exception as exc:  # noqa: BLE001 - CoACD rejected this mesh: the hull stands in, and says why
+        return f"CoACD failed: {exc}"
     finally:
-        if worker.is_alive():
-            worker.kill()
-        worker.join()
-        receiver.close()
+        worker.stop()
 
 
-def _decompose(vertices: np.ndarray, faces: np.ndarray, budget: int, sender, parent: int, receiver) -> None:
+def _decompose(vertices: np.ndarray, faces: np.ndarray, budget: int) -> list[np.ndarray]:
+    """In the forked process (:class:`bimrobot.core.forked.Forked`): CoACD's pieces' vertices, under
+    an RLIMIT_CPU of :data:`TIME_BUDGET_S` seconds and on one OpenMP thread."""
     import coacd  # imported here: only concave members need it
 
-    from bimrobot.core.cores import bind_to_parent
-
-    bind_to_parent(parent)  # dies with the command, however it ends
-    receiver.close()  # only the parent reads: a write to a parent that is gone fails instead of blocking
     hard = resource.getrlimit(resource.RLIMIT_CPU)[1]
     resource.setrlimit(resource.RLIMIT_CPU, (TIME_BUDGET_S if hard == resource.RLIM_INFINITY else min(TIME_BUDGET_S, hard), hard))
     _one_openmp_thread()
 
     coacd.set_log_level("error")
     parts = coacd.run_coacd(coacd.Mesh(vertices, faces), max_convex_hull=budget, **COACD_SETTINGS)
-    sender.send([np.asarray(v, float) for v, _ in parts])
-    sender.close()
+    return [np.asarray(v, float) for v, _ in parts]
 
 
 def _one_openmp_thread() -> None:
