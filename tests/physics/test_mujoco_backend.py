@@ -177,6 +177,7 @@ def frame_starts(tmp_path_factory):
     return first, second
 
 
+@pytest.mark.slow
 def test_two_robots_ready_at_once_act_in_the_plans_order_whichever_thread_comes_first(frame_starts, tmp_path, monkeypatch):
     """Robots share one physical world and act one at a time. Which of two activities ready at the
     same simulated time acts first must not depend on which executor thread reaches the world first
@@ -202,6 +203,7 @@ def test_two_robots_ready_at_once_act_in_the_plans_order_whichever_thread_comes_
     assert times[second.activity_id][0] == times[first.activity_id][1] > 0.0
 
 
+@pytest.mark.slow
 def test_a_blocked_activity_gives_its_turn_away_and_fails_at_once_when_nothing_can_clear_its_way(frame_starts, tmp_path,
                                                                                                monkeypatch):
     """The first activity finds its way blocked until the second is done: it acts again after it and

@@ -116,6 +116,7 @@ def _run(tmp_path, name: str, payload: float, reach: float):
         backend.close()
 
 
+@pytest.mark.slow
 def test_the_heavy_variant_installs_a_126_kg_post_and_the_ur5_cannot_lift_it(tmp_path):
     backend, results = _run(tmp_path, "heavy_arm", 300.0, 2.0)
     assert backend.families["heavy_arm"].family == "heavy"
@@ -156,6 +157,7 @@ def _beam_between_two_columns() -> list[RcanActivity]:
     return plan + [RcanActivity(f"B{n}", kind=kind, target=target, **beam) for n, (kind, target) in enumerate(chain, start=1)]
 
 
+@pytest.mark.slow
 def test_a_4_m_arm_lifts_a_beam_from_the_ground_and_installs_it_level_between_two_columns(tmp_path):
     """The frame's top beams: a beam lying flat (web horizontal) is picked from above and must roll
     onto its side in the air, then rise to 3.9 m, where a tool held pointing down would put the wrist
@@ -203,6 +205,7 @@ def test_a_4_m_arm_reaches_a_column_side_at_shoulder_height_with_its_elbow_up(tm
         backend.close()
 
 
+@pytest.mark.slow
 def test_a_prebuilt_column_stands_on_its_footing_while_a_4_m_arm_works_on_the_footing_beside_it(tmp_path):
     """The frame's footing connections with the column in place from the start (no activity lifts
     it): the column stands on its pedestal (a support as tall as the column's lower half used to
@@ -256,6 +259,7 @@ def _install_beam(backend, plan) -> None:
         assert result.success, result.message
 
 
+@pytest.mark.slow
 def test_a_robot_waiting_where_a_beam_prop_goes_stays_free_to_drive_under_the_installed_beam(tmp_path):
     """On the frame a transport robot waited under a beam's span; the beam's prop (the support under
     its middle third) appeared inside its chassis and it could never leave; later the props of the
@@ -275,6 +279,7 @@ def test_a_robot_waiting_where_a_beam_prop_goes_stays_free_to_drive_under_the_in
         backend.close()
 
 
+@pytest.mark.slow
 def test_an_arm_left_reaching_where_a_beam_prop_goes_does_not_stop_the_beam_or_its_robot(tmp_path):
     """On the frame an assembly robot ended its install with its 4 m arm stretched over the span of
     the next beam; the beam's prop appeared around its wrist, and every later drive failed (tucking
@@ -298,6 +303,7 @@ def test_an_arm_left_reaching_where_a_beam_prop_goes_does_not_stop_the_beam_or_i
         backend.close()
 
 
+@pytest.mark.slow
 def test_a_beam_carried_low_over_its_props_place_is_installed_and_the_prop_appears_under_it(tmp_path):
     """On the frame a positioning robot stood between the columns with its beam carried low at its
     front, right where the beam's prop goes; the prop appeared around its arm and the beam escalated.

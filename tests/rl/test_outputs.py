@@ -52,6 +52,7 @@ def _refused(capsys, argv: list[str], message: str, folder: Path) -> None:
 # ------------------------------------------------------------------------------------------ rl train -o
 
 
+@pytest.mark.slow
 def test_train_never_touches_a_run_dir_that_is_not_bimrobots(workspace, capsys):
     """-o is the parent folder; a folder (or link) of the run's name that is not bimrobot's is kept as it is
     and the run is written beside it (E1S1-ppo-s0-2); a file as the parent is refused."""
