@@ -27,9 +27,11 @@ other jobs it moves with their load (the load average is printed), CPU much less
     .venv/bin/python bench/convert.py --whole-process --baseline /tmp/old/src   # and an older bimrobot's, in turn
     TMPDIR=/dev/shm .venv/bin/python bench/convert.py --whole-process   # outputs on tmpfs (see file_system_cost_ms)
 
-The outputs go to a temporary folder (TMPDIR), whose cost per file created is printed at the end: on a
-disk where creating a file costs 0.3-0.5 ms of kernel CPU, a package of 1,700 entries spends more in the
-file system than in its own writing.
+The outputs go to a temporary folder (TMPDIR) and stay there until the bench ends: on ext4 without a
+journal (this project's build VM), the kernel skips every free inode deleted in the last 60 s (6 min
+while its inode table block is unwritten) when it creates a file or folder, so an output deleted
+between runs would make the next run's 1,700 entries cost up to ten times their price (0.3 ms each
+instead of 0.03). The file system and the cost per entry created there are printed at the end.
 """
 
 from __future__ import annotations
@@ -158,13 +160,12 @@ def bench_whole_process(path: Path, ids: Path, index: int, workdir: Path, baseli
 
     references = [whole_process([sys.executable, "-c", IFCOPENSHELL_ALONE, str(path), str(threads), str(ids),
                                  GEOMETRY_LIBRARY], workdir) for threads in sorted({1, default_threads()})]
-    out = workdir / f"{path.stem}_process_{index}"
-    command = [sys.executable, "-m", "bimrobot", "convert", str(path), "-o", str(out), "--no-progress"]
     run = {"iterate_s": min(wall for wall, _ in references), "iterate_cpu_s": min(cpu for _, cpu in references)}
     versions = [("convert", None)] + ([("baseline", baseline)] if baseline is not None else [])
     for name, src in versions if index % 2 == 0 else versions[::-1]:
+        out = workdir / f"{path.stem}_process_{name}_{index}"  # kept until the end (see the module docstring)
+        command = [sys.executable, "-m", "bimrobot", "convert", str(path), "-o", str(out), "--no-progress"]
         run[f"{name}_s"], run[f"{name}_cpu_s"] = whole_process(command, workdir, src=src)
-        shutil.rmtree(out, ignore_errors=True)
     return run
 
 
@@ -200,8 +201,7 @@ def bench_file(path: Path, repeat: int, workdir: Path, baseline: Path | None = N
     for index in range(repeat if in_process else 0):
         tries = [run_child("iterate", str(path), str(threads)) for threads in sorted({1, default_threads()})]
         iterate = min(tries, key=lambda run: run["seconds"])
-        convert = run_child("convert", str(path), str(workdir / f"{path.stem}_{index}"))
-        shutil.rmtree(workdir / f"{path.stem}_{index}", ignore_errors=True)
+        convert = run_child("convert", str(path), str(workdir / f"{path.stem}_{index}"))  # kept until the end
         runs.append((iterate, convert))
         if baseline is not None:
             older.append((iterate, run_child("convert", str(path), str(workdir / f"{path.stem}_{index}_old"), src=baseline)))
@@ -457,7 +457,6 @@ def main(argv: list[str] | None = None) -> int:
     load_before = os.getloadavg()[0]
     with tempfile.TemporaryDirectory(prefix="bimrobot-bench-") as tmp:
         workdir = Path(tmp)
-        entry_ms = file_system_cost_ms(workdir)
         files = [path.resolve() for path in args.files] if args.files else None  # the processes run in workdir
         files = files or (sorted(SHARED_IFC.glob("*.ifc*")) if SHARED_IFC.exists() else []) + example_files(workdir)
         if args.replicate > 1:
@@ -467,6 +466,7 @@ def main(argv: list[str] | None = None) -> int:
         for path in files:
             print(f"benchmarking {path.name} ...", file=sys.stderr, flush=True)
             rows.append(bench_file(path, args.repeat, workdir, args.baseline, in_process=not args.whole_process))
+        entry_ms = file_system_cost_ms(workdir)  # after the runs: its probe, deleted, would slow the next run
     rows = [row for row in rows if row["elements"] >= args.min_elements]  # products read
     if not args.whole_process:
         print("In process (imports before the clock):\n")
@@ -488,16 +488,18 @@ def main(argv: list[str] | None = None) -> int:
         print(f"\nworst in-process median ratio: {max(medians):.2f} ({rows[medians.index(max(medians))]['file']}); "
               f"goal <= {GOAL}")
     print(f"\n{os.cpu_count()} CPUs, load average {load_before:.1f} at the start, {os.getloadavg()[0]:.1f} at the end; "
-          f"outputs written under {tempfile.gettempdir()} (TMPDIR), {entry_ms:.3f} ms of CPU per file or folder created there")
+          f"outputs written under {tempfile.gettempdir()} (TMPDIR, {file_system(Path(tempfile.gettempdir()))}), "
+          f"{entry_ms:.3f} ms of CPU per file or folder created there")
     return 0
 
 
 def file_system_cost_ms(folder: Path, entries: int = 300) -> float:
     """CPU milliseconds (user + kernel) to create one folder or empty file under ``folder``, from
     ``entries`` folders with one file each. A package holds about six entries per model (two folders,
-    four files: 1,674 for GEELEN's 279 models), and on this project's build machine one entry cost
-    0.02-0.05 ms in some folders of its ext4 disk and 0.3-0.5 ms in others (the folder's place on the
-    disk decides), 0.01 ms on tmpfs: up to 0.8 CPU s of a conversion that is the file system's."""
+    four files: 1,674 for GEELEN's 279 models). On this project's build VM (ext4 without a journal, files
+    created and deleted all day by tests) one entry cost 0.02-0.05 ms in some folders and 0.3-0.5 ms in
+    others, on a fresh ext4 0.02-0.03 ms, on tmpfs 0.01 ms: up to 0.8 CPU s of a conversion that is the
+    file system's."""
     probe = folder / "file-system-probe"
     probe.mkdir()
     before = resource.getrusage(resource.RUSAGE_SELF)
@@ -508,6 +510,28 @@ def file_system_cost_ms(folder: Path, entries: int = 300) -> float:
     shutil.rmtree(probe)
     used = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
     return 1000 * used / (2 * entries)
+
+
+def file_system(folder: Path) -> str:
+    """The type of the file system that holds ``folder`` and, for ext4, whether it has a journal (read
+    from /proc: a journalled ext4 on device ``vda`` has a ``/proc/fs/jbd2/vda-8``); "unknown" elsewhere."""
+    try:
+        mounts = [line.split(" - ") for line in Path("/proc/self/mountinfo").read_text().splitlines()]
+    except OSError:
+        return "unknown"
+    real, best = os.path.realpath(folder), None
+    for before, after in mounts:
+        point, (kind, source, *_) = before.split()[4], after.split()
+        if (real == point or real.startswith(point.rstrip("/") + "/")) and (best is None or len(point) >= len(best[0])):
+            best = (point, kind, source)
+    if best is None:
+        return "unknown"
+    _, kind, source = best
+    if kind != "ext4":
+        return kind
+    journals = os.listdir("/proc/fs/jbd2") if os.path.isdir("/proc/fs/jbd2") else []
+    device = os.path.basename(source)
+    return "ext4 with a journal" if any(name.startswith(device + "-") for name in journals) else "ext4 without a journal"
 
 
 if __name__ == "__main__":
