@@ -58,13 +58,14 @@ def _instance(item: str, model: bool):
 
 
 def solve(item: str, time_limit: float, workers: int, whole_tasks: int, deterministic: float | None = None,
-          model: bool = False) -> dict:
+          model: bool = False, linearization: int = 0) -> dict:
     from bimrobot.planning.optimal import solve_optimal
 
     frame, fleet, smart, robots, site, elevations = _instance(item, model)
     wall, cpu, load = time.perf_counter(), time.process_time(), os.getloadavg()[0]
     schedule = solve_optimal(smart, robots, site, storey_elevations=elevations, time_limit_s=time_limit,
-                             workers=workers, whole_tasks=whole_tasks, deterministic_limit=deterministic)
+                             workers=workers, whole_tasks=whole_tasks, deterministic_limit=deterministic,
+                             linearization=linearization)
     return {"frame": frame, "fleet": fleet, "tasks": schedule.tasks, "method": schedule.method,
             "proved": schedule.status == "OPTIMAL", "best_s": schedule.makespan, "bound_s": schedule.lower_bound,
             "gap_pct": 100 * schedule.gap, "market_s": schedule.hinted_s,
@@ -76,14 +77,16 @@ def solve(item: str, time_limit: float, workers: int, whole_tasks: int, determin
 
 
 def run_ladder(args) -> None:
-    print(f"CP-SAT, {args.workers} workers, {args.time_limit:g} s per instance, whole model up to {args.whole_tasks} tasks, "
+    print(f"CP-SAT, {args.workers} workers, linearization {args.linearization}, {args.time_limit:g} s per instance, "
+          f"whole model up to {args.whole_tasks} tasks, "
           f"{os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f} at the start")
     print("| frame | fleet | tasks | method | proved | best (s) | bound (s) | gap | market (s) | market over bound | best / market "
           "| wall (s) | wall / limit | CPU (s) | deterministic (s) | load at start, end | floor bounds (s; P: proved); floors chained (s) |")
     print("|---|---|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|")
     items = [(m, True) for m in args.models] if args.models else [(i, False) for i in args.only or LADDER]
     for item, model in items:
-        r = solve(item, args.time_limit, args.workers, args.whole_tasks, args.deterministic_limit, model)
+        r = solve(item, args.time_limit, args.workers, args.whole_tasks, args.deterministic_limit, model,
+                  args.linearization)
         print(f"| {r['frame']} | {r['fleet']} | {r['tasks']} | {r['method']} | {'yes' if r['proved'] else 'no'} | "
               f"{r['best_s']:.1f} | {r['bound_s']:.1f} | {r['gap_pct']:.2f} % | {r['market_s']:.1f} | "
               f"{r['market_over_bound_pct']:.2f} % | {r['best_s'] / r['market_s']:.4f} | {r['wall_s']:.1f} | "
@@ -115,6 +118,8 @@ def main(argv=None) -> int:
     parser.add_argument("--deterministic-limit", type=float, default=None,
                         help="CP-SAT's deterministic time per solve (its own work units: the same work under any load)")
     parser.add_argument("--workers", type=int, default=2, help="CP-SAT threads (default 2: this machine's cores)")
+    parser.add_argument("--linearization", type=int, default=0,
+                        help="CP-SAT's linearization_level (default 0: no LP; 1 was the default before)")
     parser.add_argument("--whole-tasks", type=int, default=400, help="above this many tasks, solve floor by floor")
     parser.add_argument("--only", nargs="*", help="instances FRAME:FLEET, e.g. 4x3x2:fleet2")
     parser.add_argument("--models", nargs="*", help="other instances: IFC paths or generated:KIND:... specs (instead of frames)")

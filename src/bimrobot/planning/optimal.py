@@ -42,6 +42,9 @@ floor has work that no joint of that floor waits for or that the floor gate does
 The tasks are built in :mod:`~bimrobot.planning.optimal_graph`, the model in
 :mod:`~bimrobot.planning.optimal_model`, its bounds and cuts in :mod:`~bimrobot.planning.optimal_bounds`.
 
+CP-SAT runs without its LP (``linearization_level`` 0, :data:`LINEARIZATION`): the bound is the constants
+above, known before the search, and propagation alone closes what is left far sooner where they are tight.
+
 Determinism: ``workers=1`` with ``deterministic_limit`` (CP-SAT's deterministic time, not wall time)
 and a fixed ``seed`` gives the same result on every machine; tests use that.
 """
@@ -70,6 +73,10 @@ from bimrobot.planning.optimal_model import OutOfTime, _build, _Problem
 WHOLE_TASKS = 400
 #: The share of the time limit spent on each floor alone, for its least duration (:func:`_floor_bounds`).
 FLOOR_SHARE = 0.6
+#: CP-SAT's ``linearization_level``: 0, no LP. The bound comes from the constants known before the search
+#: (optimal_bounds), and propagation alone then proves a floor far sooner than with the LP (3x2x2's column
+#: floor: 0.11 units against none within 30; docs/evidence/planning.md, "CP-SAT").
+LINEARIZATION = 0
 #: The share spent on the floors again, each from where the robots stopped below (:func:`_chain`).
 CHAIN_SHARE = 0.1
 
@@ -118,9 +125,10 @@ class _Solved:
 
 
 def _solve(problem: _Problem, hint: dict | list | None, time_limit_s: float, workers: int, seed: int,
-           deterministic_limit: float | None, deadline: float | None = None) -> _Solved:
+           deterministic_limit: float | None, deadline: float | None = None, linearization: int = 0) -> _Solved:
     """``problem`` solved within ``time_limit_s`` (s) and before ``deadline`` (``time.perf_counter()``),
-    building the model included; :class:`OutOfTime` where the deadline passes first."""
+    building the model included; :class:`OutOfTime` where the deadline passes first. ``linearization``:
+    CP-SAT's ``linearization_level`` (:data:`LINEARIZATION`)."""
     cp_model = require_extra("ortools.sat.python.cp_model", "optimize")
     model, (makespan, assigned, depart, start, end, capable, hinted, least, justify, weight) = _build(
         cp_model, dataclasses.replace(problem, deadline=deadline), hint)
@@ -133,6 +141,7 @@ def _solve(problem: _Problem, hint: dict | list | None, time_limit_s: float, wor
         solver.parameters.max_deterministic_time = deterministic_limit
     solver.parameters.num_workers = workers
     solver.parameters.random_seed = seed
+    solver.parameters.linearization_level = linearization
     status = solver.Solve(model)
     if status not in (cp_model.OPTIMAL, cp_model.FEASIBLE) and hinted:  # stopped before reading the hint
         bound = solver.BestObjectiveBound()
@@ -200,6 +209,7 @@ def solve_optimal(
     seed: int = 0,
     hint: bool = True,
     whole_tasks: int = WHOLE_TASKS,
+    linearization: int = LINEARIZATION,
 ) -> OptimalSchedule:
     """Minimum-makespan schedule of the build (CP-SAT; module docstring). Raises InputError above
     ``max_tasks`` tasks. ``time_limit_s``: wall-clock limit of the whole call (s), building the models
@@ -207,7 +217,7 @@ def solve_optimal(
     chained) is returned with the reason in ``note``;
     ``deterministic_limit``: CP-SAT's deterministic time limit per solve (reproducible; tests use it with
     ``workers=1``); ``hint``: start from the least-cost market's schedule; ``whole_tasks``: above this
-    many tasks, solve floor by floor."""
+    many tasks, solve floor by floor; ``linearization``: CP-SAT's ``linearization_level`` (0: no LP)."""
     started = time.perf_counter()
     sim = ConstructionSimulation(smart, fleet, site, storey_elevations=storey_elevations)
     tasks = task_graph(smart, sim)
@@ -216,7 +226,8 @@ def solve_optimal(
     homes = {spec.name: np.array(sim.site.robot_start(i, fleet.home_on_site(spec, sim.offset))[:2], dtype=float)
              for i, spec in enumerate(fleet.robots)}
     given, hinted = market_hint(smart, fleet, site, storey_elevations, tasks) if hint else (None, None)
-    limits = dict(workers=workers, seed=seed, deterministic_limit=deterministic_limit, deadline=started + time_limit_s)
+    limits = dict(workers=workers, seed=seed, deterministic_limit=deterministic_limit, deadline=started + time_limit_s,
+                  linearization=linearization)
     if len(tasks) > whole_tasks:
         return _by_floor(tasks, fleet, homes, given, hinted, time_limit_s, started, limits)
     least, work, rows, chained = {}, 0.0, [], None
