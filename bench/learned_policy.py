@@ -24,8 +24,8 @@ market's: how a policy is chosen without looking at the real models (docs/planni
 the lowest mean among those never longer than the market on any of them).
 
 ``--scale`` measures the shipped policy's planning cost on generated buildings (per node, the drawn fleet
-and site, as ``bench/dispatch.py``): this process's CPU seconds of the policy alone and of the guarded
-planner (policy and market), per decision, and where the policy's go (observation, advice, network; the
+and site, as ``bench/dispatch.py``): this process's CPU seconds of ``--planner learned`` (and of the
+market's run it forks, apart), its wall seconds, per decision; of the policy alone, and where the policy's go (observation, advice, network; the
 rest is the environment's simulation). ``--reference`` also plays sb3-contrib's path (every pair scored)
 and checks that it takes the same actions.
 """
@@ -93,15 +93,16 @@ def scale(specs, path=None, alone: bool = False, reference: bool = False) -> Non
 
     DispatchEnv().reset(seed=0)  # the numba passes loaded (or compiled) outside the measured runs
     DispatchEnv(observation="local").reset(seed=0)
-    print("| building | observation | nodes | plan decisions | learned CPU s | ms per decision | market s | policy s | "
-          "planned s | members, rollouts | alone CPU s | sb3 path ms |")
-    print("|---|---|---:|---:|---:|---:|---:|---:|---:|---|---:|---:|")
+    print("| building | observation | nodes | plan decisions | learned CPU s (this process + forked) | wall s | "
+          "ms per decision (CPU / wall) | market s | policy s | planned s | members, rollouts | alone CPU s | sb3 path ms |")
+    print("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---|---:|---:|")
     for spec in specs:
         problem = problem_for(spec, per_joint=False)[0]
         planner = LearnedPlanner(path)
-        start = time.process_time()
+        start, wall, forked = time.process_time(), time.perf_counter(), _children_cpu()
         planner.dispatcher(problem)
         cpu, last = time.process_time() - start, planner.last
+        wall, forked = time.perf_counter() - wall, _children_cpu() - forked
         decisions = int(last["planned_decisions"])
         extra = ["", ""]
         if alone:
@@ -115,9 +116,17 @@ def scale(specs, path=None, alone: bool = False, reference: bool = False) -> Non
                 same, _ = planner.play(problem, LearnedPolicy(policy.policy, fast=False))
                 extra[1] = f"{1000 * (time.process_time() - start) / policy.decisions:.2f}"
                 assert same == awards, "the fast greedy choice must be sb3-contrib's"
-        print(f"| {spec} | {planner.observation} | {sizes(problem)[0]:,} | {decisions:,} | {cpu:.1f} | "
-              f"{1000 * cpu / decisions:.2f} | {last['market_s']:,.1f} | {last['policy_s']:,.1f} | {last['planned_s']:,.1f} | "
+        print(f"| {spec} | {planner.observation} | {sizes(problem)[0]:,} | {decisions:,} | {cpu:.1f} + {forked:.1f} | {wall:.1f} | "
+              f"{1000 * cpu / decisions:.2f} / {1000 * wall / decisions:.2f} | {last['market_s']:,.1f} | {last['policy_s']:,.1f} | {last['planned_s']:,.1f} | "
               f"{', '.join(last['search_members'])}; {last['search_rollouts']} | {extra[0]} | {extra[1]} |", flush=True)
+
+
+def _children_cpu() -> float:
+    """CPU seconds of this process's ended children (the market's forked run), user and system."""
+    import resource
+
+    used = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return used.ru_utime + used.ru_stime
 
 
 def main(path) -> None:

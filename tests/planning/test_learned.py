@@ -116,7 +116,7 @@ def test_a_missing_or_foreign_policy_file_is_refused_in_one_sentence(tmp_path, f
 
 
 @pytest.mark.parametrize("option", [["--seed", "-1"], ["--steps", "-5"], ["--imitation-steps", "-1"],
-                                    ["--observation", "local", "--teacher", "pilot"]])
+                                    ["--observation", "local", "--teacher", "pilot"], ["--hidden", "0"]])
 def test_plan_train_refuses_a_negative_count_or_the_pilot_on_the_local_observation_before_any_work(option, tmp_path, capsys):
     from bimrobot.cli import main
 
@@ -249,14 +249,16 @@ def test_the_fast_greedy_choice_is_sb3_contribs_at_every_decision(frame):
     assert env.result.makespan == pytest.approx(3627.2, abs=0.05)
 
 
-def test_a_local_policy_scores_its_neighbourhood_as_the_padded_arrays_do(frame, tmp_path):
-    """A policy that reads the local observation (``observation="local"``, the market imitated briefly):
-    its greedy choice from the observed nodes alone (gathered and renumbered) is sb3-contrib's over the
-    padded arrays at every decision of a two-storey frame (a floor gate's edges read once), it builds it, and it says which observation it
-    reads: a full environment is refused in one sentence."""
+@pytest.mark.parametrize("hidden", [32, 16])
+def test_a_local_policy_scores_its_neighbourhood_as_the_padded_arrays_do(frame, tmp_path, hidden):
+    """A policy that reads the local observation (``observation="local"``, the market imitated briefly),
+    of width 32 or 16 (``plan train --hidden``): its greedy choice from the observed nodes alone (gathered
+    and renumbered) is sb3-contrib's over the padded arrays at every decision of a two-storey frame (a
+    floor gate's edges read once), it builds it, it loads back with its width, and it says which
+    observation it reads: a full environment is refused in one sentence."""
     th.manual_seed(0)
     env = env_for(frame, observation="local")
-    model = new_model(env, seed=0)
+    model = new_model(env, seed=0, hidden=hidden)
     demonstrations = market_demonstrations([_Entry(frame)], (env.max_tasks, env.max_robots, env.max_edges),
                                            observation="local")
     assert "context" in demonstrations[0]
@@ -264,7 +266,7 @@ def test_a_local_policy_scores_its_neighbourhood_as_the_padded_arrays_do(frame, 
     path = save(model, tmp_path / "local.zip", {"command": "pytest", "seed": 0, "observation": "local"})
     big = env_for(frame_problem(size=(2, 2, 2)), copy_observation=False, observation="local")  # two floors: a gate
     fast = _fast_choices_are_sb3_contribs(load_policy(path, big), big)
-    assert fast.cpu["network"] > 0.0
+    assert fast.cpu["network"] > 0.0 and fast.policy.features_extractor.hidden == hidden
     assert LearnedPlanner(path).observation == "local"
     with pytest.raises(InputError, match="reads the local observation, this environment gives the full one"):
         load_policy(path, env_for(frame))

@@ -224,6 +224,8 @@ def register_train(commands) -> None:
     train.add_argument("--observation", choices=("full", "local"), default="full",
                        help="what the policy reads: the whole building (default, advised) or the ready tasks' "
                             "neighbourhood (size-independent cost per decision; not advised; teacher search or market)")
+    train.add_argument("--hidden", type=int, default=32,
+                       help="the network's width (default 32; its cost per decision grows with its square)")
     train.add_argument("-o", "--output", required=True, help="output folder (new, or one `plan train` wrote)")
     train.set_defaults(func=run_train)
 
@@ -240,14 +242,15 @@ def run_train(args) -> int:
     command = shlex.join(["bimrobot", "plan", "train", "--seed", str(args.seed), "--steps", str(args.steps),
                           "--imitation-steps", str(args.imitation_steps),
                           *(["--teacher", args.teacher] if args.teacher != "pilot" else []),
-                          *(["--observation", args.observation] if args.observation != "full" else []), "-o", args.output])
+                          *(["--observation", args.observation] if args.observation != "full" else []),
+                          *(["--hidden", str(args.hidden)] if args.hidden != 32 else []), "-o", args.output])
     imitated: dict = {}
 
     def keep(model, accuracy):
         imitated["zip"] = policy_bytes(model, {"stage": "after imitation, before PPO", "imitation_accuracy": accuracy})
 
     result = train(args.seed, args.steps, args.imitation_steps, command=command, on_imitated=keep, teacher=args.teacher,
-                   observation=args.observation)
+                   observation=args.observation, hidden=args.hidden)
     with atomic_output_dir(args.output, kind="plan-train") as tmp:
         save(result.model, tmp / "policy.zip", result.meta)
         if imitated:

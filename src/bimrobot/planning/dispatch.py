@@ -264,11 +264,10 @@ class DispatchEnv(gym.Env):
         """Local observation: the valid actions among the awards of the observed ready tasks (and waiting,
         where valid), in increasing order; where none of those tasks can go to an idle robot and waiting
         is not valid, :meth:`valid_actions`. Its cost grows with the observed tasks, not the building."""
-        sim, actions = self.sim, []
+        sim, actions, index, capable = self.sim, [], self.robot_index, self.capable  # capable: incapability's, per node
         for node in self._local.ready:
             request = self._request_of[node]
-            actions += [node * self.max_robots + self.robot_index[name] for name in sim.build.idle[request.activity]
-                        if not incapability(sim.build.robots[name].spec, request)]
+            actions += [node * self.max_robots + index[name] for name in sim.build.idle[request.activity] if capable[node, index[name]]]
         actions.sort()
         if sim.can_wait():
             return actions + [self.wait_action]

@@ -224,8 +224,6 @@ class DispatchPolicy(MaskableActorCriticPolicy):
         self.optimizer = self.optimizer_class(self.parameters(), lr=lr_schedule(1), **self.optimizer_kwargs)
 
 
-
-
 # ---------------------------------------------------------------- training
 @dataclass
 class TrainResult:
@@ -237,14 +235,16 @@ class TrainResult:
     meta: dict
 
 
-def new_model(env: gym.Env, seed: int, n_steps: int = 256, batch_size: int = 64, learning_rate: float = 3e-4):
-    """A MaskablePPO with :class:`DispatchPolicy` on ``env`` (one torch thread: reproducible)."""
+def new_model(env: gym.Env, seed: int, n_steps: int = 256, batch_size: int = 64, learning_rate: float = 3e-4,
+              hidden: int = HIDDEN):
+    """A MaskablePPO with :class:`DispatchPolicy` of width ``hidden`` on ``env`` (one torch thread: reproducible)."""
     from sb3_contrib import MaskablePPO
 
     th.set_num_threads(1)
+    kwargs = {"policy_kwargs": {"features_extractor_kwargs": {"hidden": hidden}}} if hidden != HIDDEN else {}
     return MaskablePPO(DispatchPolicy, env, seed=seed, n_steps=n_steps, batch_size=batch_size,
                        learning_rate=learning_rate, n_epochs=4, gamma=1.0, gae_lambda=0.95, ent_coef=0.0,
-                       clip_range=0.1, device="cpu", verbose=0)
+                       clip_range=0.1, device="cpu", verbose=0, **kwargs)
 
 
 #: the teachers :func:`train` imitates: the pilot (:func:`pilot_demonstrations`, advised policy), the
@@ -254,9 +254,10 @@ TEACHERS = ("pilot", "market", "search")
 
 
 def train(seed: int, steps: int, imitation_steps: int = 400, specs=TRAIN_SPECS, command: str | None = None,
-          on_imitated=None, teacher: str = "pilot", observation: str = "full") -> TrainResult:
+          on_imitated=None, teacher: str = "pilot", observation: str = "full", hidden: int = HIDDEN) -> TrainResult:
     """Train a policy on generated buildings: imitation of ``teacher`` (``imitation_steps``, 0 for none),
     then ``steps`` PPO env steps (0 for none). ``on_imitated(model, accuracy)`` is called between the two.
+    ``hidden``: the network's width (:data:`HIDDEN` by default; its cost per decision grows with its square).
     The pilot's and the search's policies are advised (:data:`ADVISERS`) on the full observation; the
     market's is not, nor any on the local one (``observation="local"``: the ready tasks' neighbourhood,
     teacher search or market). Seeded: the same arguments give the same weights."""
@@ -270,11 +271,13 @@ def train(seed: int, steps: int, imitation_steps: int = 400, specs=TRAIN_SPECS, 
         raise InputError(f"--imitation-steps must be from 0 to {MAX_STEPS:,}, got {imitation_steps}")
     if seed < 0:
         raise InputError(f"--seed must be a whole number >= 0, got {seed}")
+    if not 1 <= hidden <= 1024:
+        raise InputError(f"--hidden must be a width from 1 to 1024, got {hidden}")
     th.manual_seed(seed)
     pool = training_pool(seed, specs)
     advised = teacher != "market" and observation == "full"
     env = make_training_env(pool, seed, advised, observation)
-    model = new_model(env, seed)
+    model = new_model(env, seed, hidden=hidden)
     accuracy, taught = None, {}
     if imitation_steps:
         if teacher == "search":
@@ -294,9 +297,10 @@ def train(seed: int, steps: int, imitation_steps: int = 400, specs=TRAIN_SPECS, 
         "command": command or shlex.join(["bimrobot", "plan", "train", "--seed", str(seed), "--steps", str(steps),
                                            "--imitation-steps", str(imitation_steps),
                                            *(["--teacher", teacher] if teacher != "pilot" else []),
-                                           *(["--observation", observation] if observation != "full" else []), "-o", "OUT"]),
+                                           *(["--observation", observation] if observation != "full" else []),
+                                           *(["--hidden", str(hidden)] if hidden != HIDDEN else []), "-o", "OUT"]),
         "seed": seed, "steps": steps, "imitation_steps": imitation_steps,
-        "imitation_accuracy": accuracy, "hidden": HIDDEN, "rounds": ROUNDS, "teacher": teacher, "observation": observation,
+        "imitation_accuracy": accuracy, "hidden": hidden, "rounds": ROUNDS, "teacher": teacher, "observation": observation,
         "advisers": list(ADVISERS) if advised else [],
         "training_buildings": {p.spec: round(p.market_s, 3) for p in pool},
         "teacher_makespans_s": taught,
@@ -360,8 +364,9 @@ def load_policy(path: str | Path, env: gym.Env):
     wanted = "local" if "features_extractor.context_in.weight" in params["policy"] else "full"
     if wanted != getattr(env.unwrapped, "observation", "full"):
         raise InputError(f"{path} reads the {wanted} observation, this environment gives the {env.unwrapped.observation} one")
+    hidden = int(params["policy"].get("features_extractor.node_in.0.weight", th.zeros(HIDDEN)).shape[0])  # its width
     policy = DispatchPolicy(advised_space(env) if advised else env.unwrapped.observation_space, env.action_space,
-                            lambda _: 0.0)
+                            lambda _: 0.0, features_extractor_kwargs={"hidden": hidden})
     try:
         policy.load_state_dict(params["policy"])
     except RuntimeError:
@@ -462,7 +467,7 @@ class LearnedPolicy:
         nodes, robots = _awards(env, actions)
         pairs = [views[k][nodes, robots] for k in ("handling_s", "travel_s", "compatibility")]
         network = self._clock()
-        h, g, context = self.forward.embed(self.forward.node_inputs(env, env._local.nodes), *inputs[1:])
+        h, g, context = self.forward.embed(self.forward.node_embeddings(env, env._local.nodes), *inputs[1:])
         logits = self.forward.pair_logits(h, g, context, rows[nodes], robots, *pairs)
         if actions[-1] == env.wait_action:
             logits = np.append(logits, np.float32(self.forward.wait_logit(context)))

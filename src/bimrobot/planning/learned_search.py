@@ -27,6 +27,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from bimrobot.coordination.market import Award, Dispatcher, MarketDispatcher, make_evaluator, propose
+from bimrobot.core.errors import BimrobotError
 from bimrobot.planning.dispatch import DispatchEnv, DispatchProblem, request_key
 from bimrobot.planning.learned_advice import (ADVISERS, RolloutEnv, Rollouts, advice_sparse, complete_build, completer,
                                               first_choices)
@@ -88,8 +89,10 @@ def search(problem: DispatchProblem, policy=None, budget: int = DEFAULT_BUDGET, 
     sandbox = RolloutEnv(problem, max_tasks=env.max_tasks, max_robots=env.max_robots, max_edges=env.max_edges)
     episodes = decisions // max(1, env.max_tasks) - 1 - (policy is not None)  # left after the market and the policy
     played = ADVISERS[: 1 + max(0, min(len(ADVISERS) - 1, episodes))]  # ADVISERS == the portfolio, the market first
-    members = {name: complete_build(sandbox, [], completer(name)) for name in played}
     budget = max(0, min(budget, episodes - (len(played) - 1)))
+    if policy is not None and len(played) == 1 and budget == 0:  # the market and the policy only: see _market_or_policy
+        return _market_or_policy(problem, policy, env, sandbox)
+    members = {name: complete_build(sandbox, [], completer(name)) for name in played}
     chosen = min(played, key=lambda name: members[name][0])  # the first of equals
     best, started = members[chosen], chosen
     policy_s = None
@@ -106,6 +109,54 @@ def search(problem: DispatchProblem, policy=None, budget: int = DEFAULT_BUDGET, 
             break
     return SearchResult(rollouts.best[0], rollouts.best[1], budget, rollouts.used, done, policy_s, members[chosen][0],
                         chosen, members["market"][0], {k: v[0] for k, v in members.items()}, started, rollouts.best[2])
+
+
+def _market_or_policy(problem: DispatchProblem, policy, env: DispatchEnv, sandbox: DispatchEnv) -> SearchResult:
+    """:func:`search` where its budget plays the market and the policy only (the largest buildings): the
+    shorter of the two schedules. The market's makespan comes from ``simulate``'s own run of the market
+    (the environment's market episode gives the same schedule, docs/planning.md "Exactness"), in a forked
+    process while this one plays the policy's episode; the market's episode is played in the sandbox,
+    for its actions and awards, only where its schedule is the shorter (the policy's wins on a tie only
+    where it is shorter, as in :func:`search`). Same result as :func:`search`'s general path."""
+    forked = _fork(_market_makespan, problem)
+    try:
+        greedy = complete_build(env, [], policy)
+        market_s = _market_makespan(problem) if forked is None else forked.outcome(
+            lambda code: BimrobotError(f"the market's run for the plan's guard ended without a result (exit code {code})"))
+    finally:
+        if forked is not None:
+            forked.stop()
+    if greedy[0] < market_s - 1e-9:
+        best, started = greedy, "policy"
+    else:
+        best, started = complete_build(sandbox, [], completer("market")), "market"
+        if abs(best[0] - market_s) > 1e-6 and best[0] < float("inf"):
+            raise BimrobotError(f"the market's episode took {best[0]:.3f} s, simulate's run {market_s:.3f} s: they must agree")
+    return SearchResult(best[0], best[1], 0, 0, 0, greedy[0], market_s, "market", market_s, {"market": market_s}, started,
+                        best[2])
+
+
+def _market_makespan(problem: DispatchProblem) -> float:
+    """The least-cost market's makespan (s) on ``problem``: ``simulate``'s run; inf where it stalls."""
+    from bimrobot.coordination.simulation import simulate
+
+    try:
+        return float(simulate(problem.smart, problem.fleet, problem.site, "least-cost", 0, problem.breakdowns,
+                              problem.storey_elevations, per_node=problem.per_node).makespan)
+    except BimrobotError:
+        return float("inf")
+
+
+def _fork(function, *args):
+    """``function(*args)`` in a forked process (:class:`~bimrobot.core.forked.Forked`), or None where this
+    system cannot fork (the caller then calls it here)."""
+    import multiprocessing
+
+    from bimrobot.core.forked import Forked
+
+    if "fork" not in multiprocessing.get_all_start_methods():
+        return None
+    return Forked(function, args)
 
 
 def _pass(env: DispatchEnv, rollouts: Rollouts, policy, top_k: int, cap: int) -> int:
