@@ -138,3 +138,21 @@ def test_with_the_market_and_the_policy_only_the_market_runs_beside_the_policy(p
     assert (found.makespan_s, found.actions, found.awards) == best
     assert found.started_from == ("policy" if best is greedy else "market")
     assert awards_of(problem, found.actions)[0] == found.awards
+
+
+def test_a_forked_market_run_that_dies_is_computed_here_instead(monkeypatch):
+    """Where the forked process dies without a result (killed, out of memory), the market's makespan
+    comes from simulate's run in this process: the same plan."""
+    import os
+
+    import bimrobot.planning.learned_search as learned_search
+    from bimrobot.core.forked import Forked
+    from bimrobot.planning.learned import LearnedPolicy, env_for, load_policy, DEFAULT_POLICY
+
+    problem = frame_problem(per_node=False)
+    env = env_for(problem, copy_observation=False, observation="local")
+    policy = LearnedPolicy(load_policy(DEFAULT_POLICY, env))
+    found = search(problem, policy, 400, env=env, decisions=2 * env.max_tasks)
+    monkeypatch.setattr(learned_search, "_fork", lambda function, *args: Forked(os._exit, (3,)))
+    again = search(problem, policy, 400, env=env, decisions=2 * env.max_tasks)
+    assert (again.makespan_s, again.actions, again.market_s) == (found.makespan_s, found.actions, found.market_s)

@@ -24,6 +24,7 @@ the portfolio alone (no learned part). Times in seconds.
 
 from __future__ import annotations
 
+import contextlib
 from dataclasses import dataclass, field
 
 from bimrobot.coordination.market import Award, Dispatcher, MarketDispatcher, make_evaluator, propose
@@ -116,16 +117,20 @@ def _market_or_policy(problem: DispatchProblem, policy, env: DispatchEnv, sandbo
     shorter of the two schedules. The market's makespan comes from ``simulate``'s own run of the market
     (the environment's market episode gives the same schedule, docs/planning.md "Exactness"), in a forked
     process while this one plays the policy's episode; the market's episode is played in the sandbox,
-    for its actions and awards, only where its schedule is the shorter (the policy's wins on a tie only
-    where it is shorter, as in :func:`search`). Same result as :func:`search`'s general path."""
+    for its actions and awards, only where its schedule is the shorter (the policy's is taken only where
+    it is shorter, as in :func:`search`). Same result as :func:`search`'s general path. Where the forked
+    process dies without a result, the market's makespan is computed here after the policy's episode."""
     forked = _fork(_market_makespan, problem)
+    market_s = None
     try:
         greedy = complete_build(env, [], policy)
-        market_s = _market_makespan(problem) if forked is None else forked.outcome(
-            lambda code: BimrobotError(f"the market's run for the plan's guard ended without a result (exit code {code})"))
+        if forked is not None:
+            with contextlib.suppress(_Died):
+                market_s = forked.outcome(_Died)
     finally:
         if forked is not None:
             forked.stop()
+    market_s = _market_makespan(problem) if market_s is None else market_s
     if greedy[0] < market_s - 1e-9:
         best, started = greedy, "policy"
     else:
@@ -134,6 +139,10 @@ def _market_or_policy(problem: DispatchProblem, policy, env: DispatchEnv, sandbo
             raise BimrobotError(f"the market's episode took {best[0]:.3f} s, simulate's run {market_s:.3f} s: they must agree")
     return SearchResult(best[0], best[1], 0, 0, 0, greedy[0], market_s, "market", market_s, {"market": market_s}, started,
                         best[2])
+
+
+class _Died(Exception):
+    """The forked process ended without sending a result (its exit code)."""
 
 
 def _market_makespan(problem: DispatchProblem) -> float:
