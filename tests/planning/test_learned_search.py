@@ -118,16 +118,18 @@ def test_the_search_as_a_teacher_labels_its_own_schedule(baselines):
     assert taught["frame"] <= baselines[1] + 1e-3
 
 
-@pytest.mark.parametrize("per_node", [False, True])
-def test_with_the_market_and_the_policy_only_the_market_runs_beside_the_policy(per_node):
+@pytest.mark.parametrize("fleet, per_node, shorter", [("fleet1", False, "policy"), ("fleet2", True, "market")])
+def test_with_the_market_and_the_policy_only_the_market_runs_beside_the_policy(fleet, per_node, shorter):
     """A decision budget of two episodes (the largest buildings): the market's makespan comes from
     simulate's own run in a forked process while the policy plays, and the plan is the shorter of the two
-    schedules with its actions and awards, as the market's and the policy's episodes give them."""
+    schedules with its actions and awards, as the market's and the policy's episodes give them. The
+    shipped policy's schedule is the shorter on the frame with fleet1 per joint, the market's with
+    fleet2 per node (both branches)."""
     from bimrobot.planning.learned import LearnedPolicy, env_for, load_policy, DEFAULT_POLICY
     from bimrobot.planning.learned_advice import RolloutEnv, complete_build
     from bimrobot.planning.learned_search import awards_of
 
-    problem = frame_problem(per_node=per_node)
+    problem = frame_problem(fleet, per_node=per_node)
     env = env_for(problem, copy_observation=False, observation="local")
     found = search(problem, LearnedPolicy(load_policy(DEFAULT_POLICY, env)), 400, env=env, decisions=2 * env.max_tasks)
     market = complete_build(RolloutEnv(problem, env.max_tasks, env.max_robots, env.max_edges), [])
@@ -136,7 +138,7 @@ def test_with_the_market_and_the_policy_only_the_market_runs_beside_the_policy(p
     assert list(found.members_s) == ["market"] and found.rollouts == found.budget == found.passes == 0
     assert found.market_s == pytest.approx(market[0], abs=1e-9) and found.policy_s == greedy[0]
     assert (found.makespan_s, found.actions, found.awards) == best
-    assert found.started_from == ("policy" if best is greedy else "market")
+    assert found.started_from == ("policy" if best is greedy else "market") == shorter
     assert awards_of(problem, found.actions)[0] == found.awards
 
 
