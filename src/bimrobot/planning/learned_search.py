@@ -157,15 +157,12 @@ def _market_makespan(problem: DispatchProblem) -> float:
 
 
 def _fork(function, *args):
-    """``function(*args)`` in a forked process (:class:`~bimrobot.core.forked.Forked`), or None where this
-    system cannot fork (the caller then calls it here)."""
-    import multiprocessing
-
+    """``function(*args)`` in a forked process (:class:`~bimrobot.core.forked.Forked`), or None where
+    forking is unsafe (:func:`bimrobot.core.cores.can_fork`; the caller then calls it here)."""
+    from bimrobot.core.cores import can_fork
     from bimrobot.core.forked import Forked
 
-    if "fork" not in multiprocessing.get_all_start_methods():
-        return None
-    return Forked(function, args)
+    return Forked(function, args) if can_fork() else None
 
 
 def _pass(env: DispatchEnv, rollouts: Rollouts, policy, top_k: int, cap: int) -> int:

@@ -125,7 +125,7 @@ class _Solved:
 
 
 def _solve(problem: _Problem, hint: dict | list | None, time_limit_s: float, workers: int, seed: int,
-           deterministic_limit: float | None, deadline: float | None = None, linearization: int = 0) -> _Solved:
+           deterministic_limit: float | None, deadline: float | None = None, linearization: int = LINEARIZATION) -> _Solved:
     """``problem`` solved within ``time_limit_s`` (s) and before ``deadline`` (``time.perf_counter()``),
     building the model included; :class:`OutOfTime` where the deadline passes first. ``linearization``:
     CP-SAT's ``linearization_level`` (:data:`LINEARIZATION`)."""

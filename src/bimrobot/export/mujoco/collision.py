@@ -102,8 +102,9 @@ class _NoAnswer(Exception):
 
 
 def _coacd(body: Body, budget: int) -> list[np.ndarray] | str:
-    """CoACD's pieces (vertex arrays) of ``body``, or why there are none, in words: over its
-    :data:`TIME_BUDGET_S` of CPU, no answer within :data:`HANG_GUARD_S`, or CoACD's own error."""
+    """CoACD's pieces (vertex arrays) of ``body``, or why there are none, in words: CoACD's own error,
+    or over its :data:`TIME_BUDGET_S` of CPU (said too of a process that gives no answer within
+    :data:`HANG_GUARD_S`, a hang guard only)."""
     from bimrobot.core.forked import Forked
 
     worker = Forked(_decompose, (body.vertices, body.faces, budget))
