@@ -22,9 +22,10 @@ pytestmark = pytest.mark.browser
 
 #: Window of the headless browser (CSS pixels) and where the viewer lays out its parts in it.
 WINDOW = (1280, 800)
-#: The time field of the time panel (canvas pixels), and the 3D view (x0, y0, x1, y1).
-TIME_FIELD = (390, 0)  # y: time_field_y(canvas height)
-VIEW_3D = (10, 60, 740, 0)
+#: A column through the time panel's time field and one right of it (screenshot pixels), and the 3D
+#: view (x0, y0, x1; it ends above the time field).
+TIME_FIELD_X, RIGHT_OF_FIELD_X = 390, 600
+VIEW_3D = (10, 60, 740)
 #: Seconds to wait for the viewer to take a typed time before typing it again.
 RETYPE_S = 15.0
 
@@ -139,7 +140,8 @@ def _type_time(browser, seconds: float) -> None:
 
     canvas = browser.find_element("id", "the_canvas_id")
     width, height = canvas.size["width"], canvas.size["height"]
-    x, y = TIME_FIELD[0], time_field_y(height)
+    # the canvas fills the window below nothing else, so screenshot rows are canvas rows
+    x, y = TIME_FIELD_X, time_field_y(_screenshot(browser))
     ActionChains(browser).move_to_element_with_offset(canvas, x - width // 2, y - height // 2).double_click().perform()
     time.sleep(0.5)
     (ActionChains(browser).key_down(Keys.CONTROL).send_keys("a").key_up(Keys.CONTROL)
@@ -201,13 +203,25 @@ def _requests(browser) -> list[tuple[str, str | None]]:
     return [(url, failed.get(request)) for request, url in began.items()]
 
 
-def time_field_y(canvas_height: int) -> int:
-    return canvas_height - 135
+def time_field_y(image: np.ndarray) -> int:
+    """The middle row of the time panel's time field in a screenshot. The viewer lays its panels out anew
+    on each start, and the time panel's height varies by some 14 px between starts (CI, 2026-11-28), so
+    the field is found, not assumed: the lowest pair of light-grey rows 18-24 px apart (the field's top
+    and bottom borders) that cross :data:`TIME_FIELD_X` but not :data:`RIGHT_OF_FIELD_X` (panel
+    separators cross both) in the lower half of the window."""
+    grey = [y for y in range(image.shape[0] // 2, image.shape[0])
+            if 200 < image[y, TIME_FIELD_X].mean() < 235 and image[y, RIGHT_OF_FIELD_X].mean() > 250]
+    pairs = [(top, bottom) for top in grey for bottom in grey if 18 <= bottom - top <= 24]
+    if not pairs:
+        raise AssertionError("the viewer's time field is not where the time panel should be (x "
+                             f"{TIME_FIELD_X}, lower half of a {image.shape[1]} x {image.shape[0]} window)")
+    top, bottom = pairs[-1]
+    return (top + bottom) // 2
 
 
 def _view(image: np.ndarray) -> np.ndarray:
-    x0, y0, x1, _ = VIEW_3D
-    return image[y0:time_field_y(image.shape[0]) - 20, x0:x1]
+    x0, y0, x1 = VIEW_3D
+    return image[y0:time_field_y(image) - 20, x0:x1]
 
 
 def _assembled_green(view: np.ndarray) -> np.ndarray:
