@@ -19,6 +19,18 @@ import pytest
 
 from shared_data import REPO_ROOT, SHARED, SHARED_IFC, SHARED_ONTOLOGIES, shared_file  # noqa: F401 (re-exported)
 
+def pytest_configure(config):
+    """Ctrl-C reaches the commands the tests start, as it does from a terminal. A suite started as a
+    background job or under ``nohup`` inherits SIGINT ignored, every command it starts inherits that
+    too, and bimrobot rightly keeps a signal its caller ignores: the tests that stop a command with
+    SIGINT would wait for nothing (``replay --serve`` "not exited within 60 s"). Python's own handler
+    is put back; a child starts with SIGINT at its default then."""
+    import signal
+
+    if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+
+
 REAL_MODELS = "tests/test_real_models.py"
 """The file that runs every shared model through every command: ~11 minutes of module fixtures."""
 
