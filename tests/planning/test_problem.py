@@ -68,6 +68,22 @@ def test_one_gate_per_floor_says_what_every_lower_joint_said(frame):
     assert len(gate_edges) == upper + lower  # not upper x lower
 
 
+def test_the_floor_gate_waits_for_a_part_without_connection_nodes(freestanding_frame):
+    """Version 3: a ground-floor column that touches nothing closes its floor when it is positioned, in the
+    simulation (every transport of the floor above starts after that) and so in the instance (its
+    positioning is before gate:0, which every upper transport waits for)."""
+    problem = freestanding_frame
+    instance = build_instance(problem.smart, problem.fleet, problem.site, problem.storey_elevations)
+    assert {"before": "position:column-free", "after": "gate:0", "rule": "floor_gate"} in instance["precedences"]
+    upper = [t["id"] for t in instance["tasks"] if t["kind"] == "transport" and t["floor"] == 1]
+    before = _predecessors(instance)
+    assert upper and all(before[key].get("position:column-free") == "floor_gate" for key in upper)
+    result = simulate(problem.smart, problem.fleet, problem.site, storey_elevations=problem.storey_elevations, per_node=False)
+    positioned = next(a.finish for a in result.activities if a.activity == "position" and a.global_id == "column-free")
+    upper_starts = [a.start for a in result.activities if f"{a.activity}:{a.global_id}" in upper]
+    assert len(upper_starts) == len(upper) and min(upper_starts) >= positioned
+
+
 def test_the_instance_is_the_problem_simulate_runs(frame):
     """Same tasks, same precedences, and every task takes, on the robot simulate chose, the travel from
     where that robot was plus the instance's handling time: the row's duration."""
@@ -107,7 +123,7 @@ def test_the_instance_file_is_deterministic_and_read_back(frame, tmp_path):
     assert main(["plan", "export", str(path), "--fleet", "fleet2", "-o", str(out)]) == 0  # its own file: replaced
     assert out.read_bytes() == first
     instance = load_instance(out)
-    assert instance["version"] == 2 and instance["units"]["length"] == "m"
+    assert instance["version"] == 3 and instance["units"]["length"] == "m"
     assert {t["kind"] for t in instance["tasks"]} == {"transport", "position", "assemble"}
 
 
@@ -121,7 +137,7 @@ def test_a_broken_instance_is_refused_in_one_sentence(frame, tmp_path):
         load_instance(path)
     instance["version"] = 99
     path.write_text(json.dumps(instance), encoding="utf-8")
-    with pytest.raises(InputError, match="version 99, this bimrobot reads version 2"):
+    with pytest.raises(InputError, match="version 99, this bimrobot reads version 3"):
         load_instance(path)
 
 

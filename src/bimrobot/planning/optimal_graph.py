@@ -21,27 +21,39 @@ class _Task:
     activity: Task
     request: object
     predecessors: list[str]
-    #: the floor gate: every joint on a floor below this one comes first (None: no gate); those joints
-    #: are also listed in ``predecessors``
+    #: the floor gate: everything that closes a floor below this one comes first (None: no gate), see
+    #: :func:`floor_closers`; those tasks are also listed in ``predecessors``
     gate_floor: int | None = None
     floor: int = 0
 
+
+def floor_closers(smart: SmartModel) -> dict[int, list[str]]:
+    """floor -> the tasks that close it in the simulation (its count of open work, per joint): the
+    assembly of each joint with a robot-built part (a joint of prebuilt parts only is no task) and the
+    positioning of each robot-built part without connection nodes (nothing else finishes it). The next
+    floor's transports wait for all of them (the floor gate)."""
+    components = smart.components
+    closers: dict[int, list[str]] = {}
+    for joint in smart.joints.values():
+        if any(not components[g].prebuilt for g in joint.component_ids):
+            closers.setdefault(joint.floor, []).append(f"assemble:{joint.id}")
+    for component in components.values():
+        if not component.prebuilt and not component.connection_nodes:
+            closers.setdefault(component.floor, []).append(f"position:{component.id}")
+    return closers
 
 
 def task_graph(smart: SmartModel, sim: ConstructionSimulation) -> list[_Task]:
     """The build's tasks with their precedences, as the simulation publishes them."""
     tasks: list[_Task] = []
     components = smart.components
-    joints_by_floor: dict[int, list[str]] = {}
-    for joint in smart.joints.values():  # a joint of prebuilt parts only is no task: it gates nothing
-        if any(not components[g].prebuilt for g in joint.component_ids):
-            joints_by_floor.setdefault(joint.floor, []).append(f"assemble:{joint.id}")
+    closers = floor_closers(smart)
     for component in components.values():
         if component.prebuilt:
             continue
         # a prebuilt supporter made later stands once its own robot-built supporters do
         preds = [f"position:{s}" for s in smart.robot_supporters(component.id)]
-        gate = [key for floor, keys in joints_by_floor.items() if floor < component.floor for key in keys]
+        gate = [key for floor, keys in closers.items() if floor < component.floor for key in keys if key not in preds]
         tasks.append(_Task(f"transport:{component.id}", Task.TRANSPORT, sim.request_for(Task.TRANSPORT, component),
                            preds + gate, component.floor if gate else None, component.floor))
         tasks.append(_Task(f"position:{component.id}", Task.POSITION, sim.request_for(Task.POSITION, component),

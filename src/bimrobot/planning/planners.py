@@ -104,11 +104,11 @@ class Timed(Dispatcher):
 # ---------------------------------------------------------------- CP-SAT replayed
 class ReplayDispatcher(Dispatcher):
     """CP-SAT's plan (``assignment``: task key -> robot, ``start``: task key -> work start s) executed by
-    the simulation: a robot takes the next task of its CP-SAT sequence once that task is published. When
-    nothing runs and no robot's next task is ready (the simulation's floor gate also waits for parts
-    without connection nodes, which CP-SAT's does not), each idle robot takes its earliest planned ready
-    task out of order (counted in ``reordered``); a published task CP-SAT did not plan goes to the
-    least-cost idle robot (``unplanned``)."""
+    the simulation: a robot takes the next task of its CP-SAT sequence once that task is published. CP-SAT's
+    precedences are the simulation's (:func:`~bimrobot.planning.optimal_graph.task_graph`), so neither
+    fallback is expected: when nothing runs and no robot's next task is ready, each idle robot takes its
+    earliest planned ready task out of order (counted in ``reordered``); a published task CP-SAT did not
+    plan goes to the least-cost idle robot (``unplanned``)."""
 
     name = "cp-sat"
 

@@ -20,8 +20,9 @@ from pathlib import Path
 from bimrobot.core.errors import InputError
 
 #: The instance format's version; :func:`load_instance` refuses any other. Version 2: one gate per floor
-#: (``gates``) instead of every lower-floor joint before every transport.
-VERSION = 2
+#: (``gates``) instead of every lower-floor joint before every transport. Version 3: the gate also waits
+#: for the positioning of the floor's robot-built parts without connection nodes, as the simulation's does.
+VERSION = 3
 
 UNITS = {"length": "m", "time": "s", "mass": "kg", "speed": "m/s"}
 
@@ -29,8 +30,9 @@ UNITS = {"length": "m", "time": "s", "mass": "kg", "speed": "m/s"}
 RULES = {
     "support": "a component is transported once every robot-built component it rests on is positioned",
     "floor_gate": (
-        "gate:<f> closes floor f once every joint of floor f is assembled and gate:<f-1> is closed; a component "
-        "of floor f+1 is transported once gate:<f> is closed (so after every joint of the floors below it)"
+        "gate:<f> closes floor f once every joint of floor f is assembled, every robot-built part of floor f "
+        "without connection nodes is positioned and gate:<f-1> is closed; a component of floor f+1 is transported "
+        "once gate:<f> is closed (so after all of that on the floors below it)"
     ),
     "own_order": "a component is positioned after its own transport",
     "joint_members": "a joint is assembled once every component it joins is positioned",
@@ -65,16 +67,17 @@ def _rule(task_kind: str) -> str:
     return {"transport": "support", "position": "own_order"}.get(task_kind, "joint_members")
 
 
-def floor_gates(tasks: list[dict]) -> tuple[list[dict], list[dict]]:
+def floor_gates(tasks: list[dict], closers: set[str]) -> tuple[list[dict], list[dict]]:
     """One gate per floor below the top floor that has transports: (``gates``, their ``floor_gate``
-    precedences). ``gate:<f>`` follows every assembly of floor f and ``gate:<f-1>``; a transport of floor
-    f+1 follows ``gate:<f>``. The same order as every lower-floor joint before every transport, in
-    O(tasks) edges instead of O(tasks x joints)."""
+    precedences). ``gate:<f>`` follows each task of ``closers`` on floor f (its assemblies and the
+    positioning of its parts without nodes: :func:`~bimrobot.planning.optimal_graph.floor_closers`) and
+    ``gate:<f-1>``; a transport of floor f+1 follows ``gate:<f>``. The same order as every lower-floor
+    closer before every transport, in O(tasks) edges instead of O(tasks x closers)."""
     top = max((t["floor"] for t in tasks if t["kind"] == "transport"), default=0)
     gates = [{"id": f"gate:{f}", "floor": f} for f in range(top)]
     edges = [{"before": f"gate:{f - 1}", "after": f"gate:{f}", "rule": "floor_gate"} for f in range(1, top)]
     for t in tasks:
-        if t["kind"] == "assemble" and t["floor"] < top:
+        if t["id"] in closers and t["floor"] < top:
             edges.append({"before": t["id"], "after": f"gate:{t['floor']}", "rule": "floor_gate"})
         elif t["kind"] == "transport" and t["floor"] > 0:
             edges.append({"before": f"gate:{t['floor'] - 1}", "after": t["id"], "rule": "floor_gate"})
@@ -84,14 +87,15 @@ def floor_gates(tasks: list[dict]) -> tuple[list[dict], list[dict]]:
 def build_instance(smart, fleet, site, storey_elevations=None) -> dict:
     """The planning instance (a JSON-ready dict) of ``smart`` (a SmartModel) built by ``fleet`` on ``site``
     (placed on the building, :func:`bimrobot.site.site.site_for`); ``storey_elevations`` in metres."""
-    from bimrobot.planning.optimal_graph import task_graph
+    from bimrobot.planning.optimal_graph import floor_closers, task_graph
     from bimrobot.coordination.simulation import ConstructionSimulation
 
     sim = ConstructionSimulation(smart, fleet, site, storey_elevations=storey_elevations)
     graph = task_graph(sim.smart, sim)
     tasks = [_task_row(t, sim, fleet) for t in graph]
-    precedences = _precedences(graph)
-    gates, gate_edges = floor_gates(tasks)
+    closers = {key for keys in floor_closers(sim.smart).values() for key in keys}
+    precedences = _precedences(graph, sim.smart)
+    gates, gate_edges = floor_gates(tasks, closers)
     precedences += gate_edges
     return {
         "bimrobot": _signature(),
@@ -139,15 +143,16 @@ def _task_row(t, sim, fleet) -> dict:
     }
 
 
-def _precedences(graph) -> list[dict]:
+def _precedences(graph, smart) -> list[dict]:
     """The graph's precedences between its tasks with the rule that makes each; the floor gate is left
     out (:func:`floor_gates` says it once per floor)."""
     known = {t.key for t in graph}
     precedences = []
     for t in graph:
         kind = str(t.activity)
+        support = {f"position:{s}" for s in smart.robot_supporters(t.request.component_id)} if kind == "transport" else set()
         for p in t.predecessors:
-            if kind == "transport" and p.startswith("assemble:"):
+            if kind == "transport" and p not in support:
                 continue  # a floor gate: said once per floor below
             if p in known:
                 precedences.append({"before": p, "after": t.key, "rule": _rule(kind)})
