@@ -249,6 +249,31 @@ def test_the_fast_greedy_choice_is_sb3_contribs_at_every_decision(frame):
     assert env.result.makespan == pytest.approx(3798.3, abs=0.05)
 
 
+def test_the_kept_forward_gives_a_fresh_ones_logits_bit_for_bit():
+    """The shipped policy keeps, between the decisions of an episode, each node's MLP output (computed again
+    only where the node's state or earliest start changed) and its buffers (the observed edges, the node
+    rows, the message passing's inputs): at every decision of a two-storey frame its logits are, bit for
+    bit, those of a forward made new at that decision (every observed node's MLP at once, new arrays), so
+    the kept state never changes a choice."""
+    import numpy as np
+
+    from bimrobot.planning.learned import DEFAULT_POLICY, _candidates
+
+    env = env_for(frame_problem(size=(2, 2, 2)), copy_observation=False, observation="local")
+    policy = load_policy(DEFAULT_POLICY, env)
+    kept = LearnedPolicy(policy)
+    env.reset(seed=0)
+    done = truncated = False
+    compared = 0
+    while not (done or truncated):
+        if len(actions := _candidates(env)) > 1:
+            logits = kept._logits(env, actions).numpy()
+            assert np.array_equal(logits, LearnedPolicy(policy)._logits(env, actions).numpy()), env.decisions
+            compared += 1
+        _, _, done, truncated, _ = env.step(kept(env))
+    assert done and compared > 100 and kept.forward._kept[0] is not None
+
+
 @pytest.mark.parametrize("hidden", [32, 16])
 def test_a_local_policy_scores_its_neighbourhood_as_the_padded_arrays_do(frame, tmp_path, hidden):
     """A policy that reads the local observation (``observation="local"``, the market imitated briefly),

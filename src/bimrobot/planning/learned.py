@@ -463,7 +463,7 @@ class LearnedPolicy:
 
     def _numpy_logits(self, env, actions: list[int], views: dict, start: float) -> th.Tensor:
         """:meth:`_logits` of a local policy by :class:`~bimrobot.planning.learned_forward.LocalForward`."""
-        inputs, rows = _local_inputs(env, views, features=False)
+        inputs, rows = self.forward.inputs(env, views)
         nodes, robots = _awards(env, actions)
         pairs = [views[k][nodes, robots] for k in ("handling_s", "travel_s", "compatibility")]
         network = self._clock()

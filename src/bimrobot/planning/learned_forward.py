@@ -96,17 +96,17 @@ def _stale():
     return _compiled(_changed_rows)
 
 
-def _neighbour_means(h: np.ndarray, before: np.ndarray, after: np.ndarray, out: np.ndarray) -> None:
+def _neighbour_means(h: np.ndarray, edges: np.ndarray, out: np.ndarray) -> None:
     """Compiled by numba (:func:`_means_pass`): ``out`` (N, 3H) = [h, mean of each node's predecessors'
-    rows of h, mean of its successors'] over the edges ``before[e] -> after[e]`` (0 without any); the
-    sums in edge order, as torch's ``index_add_``."""
+    rows of h, mean of its successors'] over the edges ``edges[e, 0] -> edges[e, 1]`` (0 without any);
+    the sums in edge order, as torch's ``index_add_``."""
     n, width = h.shape
     into = np.zeros(n, np.float32)
     outof = np.zeros(n, np.float32)
     out[:, :] = 0.0
     out[:, :width] = h
-    for e in range(before.shape[0]):
-        b, a = before[e], after[e]
+    for e in range(edges.shape[0]):
+        b, a = edges[e, 0], edges[e, 1]
         into[a] += 1.0
         outof[b] += 1.0
         for k in range(width):
@@ -122,6 +122,26 @@ def _neighbour_means(h: np.ndarray, before: np.ndarray, after: np.ndarray, out: 
 def _means_pass():
     """:func:`_neighbour_means` compiled."""
     return _compiled(_neighbour_means)
+
+
+def _pool(h: np.ndarray, extra: np.ndarray) -> np.ndarray:
+    """Compiled by numba (:func:`_pooled`): the mean of ``h``'s rows (float32, summed row after row, the
+    bits of numpy's ``h.sum(0)``, checked) plus ``extra``, as ``h.sum(0) / len(h) + extra``."""
+    rows, width = h.shape
+    total = np.zeros(width, np.float32)
+    for i in range(rows):
+        for k in range(width):
+            total[k] += h[i, k]
+    count = np.float32(max(rows, 1))
+    out = np.empty(width, np.float32)
+    for k in range(width):
+        out[k] = total[k] / count + extra[k]
+    return out
+
+
+def _pooled():
+    """:func:`_pool` compiled."""
+    return _compiled(_pool)
 
 
 def _affine(x: np.ndarray, weight: np.ndarray, bias: np.ndarray, relu: bool) -> np.ndarray:
@@ -226,6 +246,16 @@ class LocalForward:
         self.hidden = extractor.hidden
         self._static: tuple = (None, None)  # (environment and episode, symlog of its node features then)
         self._kept: tuple = (None, None)  # per graph node: the node MLP's output and the changing features it read
+        self._rows = np.empty((0, self.hidden), np.float32)  # the observed nodes' embeddings, rewritten at each decision
+        self._joined = np.empty((0, 3 * self.hidden), np.float32)  # the message passing's inputs, likewise
+        self.edges = np.empty((0, 2), np.int64)  # the observed edges' rows (:func:`_local_inputs`' ``out``), likewise
+
+    def inputs(self, env, views: dict) -> tuple[tuple, np.ndarray]:
+        """:func:`_local_inputs` without the node features (:meth:`node_embeddings` reads them), the edges
+        written into a buffer kept between decisions."""
+        if len(self.edges) != len(env._local.owned[1]):
+            self.edges = np.empty((len(env._local.owned[1]), 2), np.int64)
+        return _local_inputs(env, views, features=False, out=self.edges)
 
     def node_inputs(self, env, nodes: np.ndarray) -> np.ndarray:
         """symlog of the node features of graph nodes ``nodes`` of ``env`` (a local ``DispatchEnv``) now:
@@ -252,7 +282,9 @@ class LocalForward:
         if len(stale):
             rows = nodes[np.union1d(stale, np.arange(MIN_ROWS))] if len(stale) < MIN_ROWS else nodes[stale]
             h0[rows] = self._node_mlp(self.node_inputs(env, rows))
-        return h0[nodes]
+        if len(self._rows) < len(nodes):  # kept between decisions (no new pages at each one)
+            self._rows = np.empty((2 * len(nodes), self.hidden), np.float32)
+        return np.take(h0, nodes, axis=0, out=self._rows[: len(nodes)])
 
     def _node_mlp(self, node_rows: np.ndarray) -> np.ndarray:
         """The node MLP (two layers, torch's ``addmm``) on symlog'd feature rows."""
@@ -261,23 +293,25 @@ class LocalForward:
 
     def embed(self, h0, edges, robot_features, robot_mask, context) -> tuple:
         """The node and robot embeddings after the message passing and the pooled context (float32 numpy),
-        from the node MLP's output ``h0`` (:meth:`node_embeddings`)."""
+        from the node MLP's output ``h0`` (:meth:`node_embeddings`; overwritten: the embeddings are computed in
+        place). ``edges`` (E, 2) int64: before -> after, rows of ``h0``."""
         dense = _dense()
         mask = np.asarray(robot_mask, np.float32)
         g = _symlog()(np.ascontiguousarray(robot_features, dtype=np.float32))
         for weight, bias in self.robot:
             g = dense(g, weight, bias, True)
         g *= mask[:, None]
-        before = np.ascontiguousarray(edges[:, 0], dtype=np.int64)
-        after = np.ascontiguousarray(edges[:, 1], dtype=np.int64)
-        joined = np.empty((len(h0), 3 * self.hidden), np.float32)
+        edges = np.ascontiguousarray(edges, dtype=np.int64)
+        if len(self._joined) < len(h0):  # kept between decisions, as the rows
+            self._joined = np.empty((2 * len(h0), 3 * self.hidden), np.float32)
+        joined = self._joined[: len(h0)]
         with th.inference_mode():
             h = th.from_numpy(h0)
             for layer in self.passes:
-                _means_pass()(h.numpy(), before, after, joined)
+                _means_pass()(h0, edges, joined)
                 h = h.add_(_linear(th.from_numpy(joined), layer, True))
         h = h.numpy()
-        pooled = h.sum(0) / np.float32(max(len(h), 1)) + dense(np.asarray(context, np.float32)[None], *self.context_in, False)[0]
+        pooled = _pooled()(h, dense(np.asarray(context, np.float32)[None], *self.context_in, False)[0])
         return h, g, np.concatenate([pooled, g.sum(0) / np.float32(max(float(mask.sum()), 1.0))])
 
     def pair_logits(self, h, g, context, nodes, robots, handling, travel, compatible) -> np.ndarray:
@@ -293,15 +327,10 @@ class LocalForward:
         return float(_dense()(_dense()(context[None], first, first_b, True), last, last_b, False)[0, 0])
 
 
-def _observed_edge_rows(nodes, start, ids, edge_mask, precedence, where) -> np.ndarray:
+def _observed_edge_rows(nodes, start, ids, edge_mask, precedence, where, out) -> int:
     """Compiled by numba (:func:`_edge_rows`): the observed edges (``edge_mask`` 1) owned by ``nodes``
     (node v's are ``ids[start[v]:start[v + 1]]``), in that order, as (before, after) rows of the observed
-    nodes (``where``)."""
-    count = 0
-    for v in nodes:
-        for i in range(start[v], start[v + 1]):
-            count += edge_mask[ids[i]] == 1
-    out = np.empty((count, 2), np.int64)
+    nodes (``where``), written into ``out`` (at least as many rows as the edges); returns their count."""
     count = 0
     for v in nodes:
         for i in range(start[v], start[v + 1]):
@@ -310,7 +339,7 @@ def _observed_edge_rows(nodes, start, ids, edge_mask, precedence, where) -> np.n
                 out[count, 0] = where[precedence[e, 0]]
                 out[count, 1] = where[precedence[e, 1]]
                 count += 1
-    return out
+    return count
 
 
 def _edge_rows():
@@ -318,12 +347,15 @@ def _edge_rows():
     return _compiled(_observed_edge_rows)
 
 
-def _local_inputs(env, views: dict, features: bool = True) -> tuple[tuple, np.ndarray]:
+def _local_inputs(env, views: dict, features: bool = True, out: np.ndarray | None = None) -> tuple[tuple, np.ndarray]:
     """The embedding's inputs for the local observation, as numpy arrays: the observed nodes' features,
     the edges between them renumbered (row k is graph node ``env._local.nodes[k]``; each edge read once, at
     the node that owns it), the robots' features and mask, the context; and where each graph node's row is
-    (the keeper's ``where``). Their cost grows with the observed nodes, not the building."""
+    (the keeper's ``where``). Their cost grows with the observed nodes, not the building. ``out``: an
+    (edges of the building, 2) int64 buffer the edges are written into (a view of it is returned)."""
     local = env._local
     nodes = local.nodes
-    pairs = _edge_rows()(nodes, *local.owned, local.edge_mask, env.precedence, local.where)
+    if out is None:
+        out = np.empty((len(local.owned[1]), 2), np.int64)
+    pairs = out[: _edge_rows()(nodes, *local.owned, local.edge_mask, env.precedence, local.where, out)]
     return (views["node_features"][nodes] if features else None, pairs, views["robot_features"], views["robot_mask"], views["context"]), local.where
