@@ -11,6 +11,7 @@ Makespans in simulated seconds; no timing.
     .venv/bin/python bench/learned_policy.py --scale generated:steel:100:seed=0 generated:steel:1000:seed=0 [--reference]
     .venv/bin/python bench/learned_policy.py --search [--budget N] [--no-ablation] [--policy P.zip] [MODEL ...]  # the search
     .venv/bin/python bench/learned_policy.py --scale [--policy P.zip] [--alone [--reference]] generated:steel:10000
+    .venv/bin/python bench/learned_policy.py --slice 4000:8000 [--sample] generated:steel:10000   # where a decision goes
 
 ``--search`` plans each model per joint with site-crane (as ``bimrobot plan benchmark``; default: the ten
 buildable shared models) with the learned planner's decision-time search (``--budget`` rollouts,
@@ -28,6 +29,13 @@ and site, as ``bench/dispatch.py``): this process's CPU seconds of ``--planner l
 market's run it forks, apart), its wall seconds, per decision; of the policy alone, and where the policy's go (observation, advice, network; the
 rest is the environment's simulation). ``--reference`` also plays sb3-contrib's path (every pair scored)
 and checks that it takes the same actions.
+
+``--slice A:B`` plays the shipped policy alone (greedy) on one generated building, decisions A to B timed
+(this process's CPU): ms per decision, of it the network and its inputs (``LearnedPolicy(timed=True)``),
+the rest the environment's step and the glue; the observed nodes at B. ``--sample``: instead of the
+clock reads, a sampling profile (``SIGPROF`` every 0.2 ms of CPU): ms per decision inside each function
+(each sample's stack counted once per function; time in compiled code goes to the Python function that
+called it), the 30 largest.
 """
 
 import sys
@@ -121,6 +129,50 @@ def scale(specs, path=None, alone: bool = False, reference: bool = False) -> Non
               f"{', '.join(last['search_members'])}; {last['search_rollouts']} | {extra[0]} | {extra[1]} |", flush=True)
 
 
+def sliced(spec: str, first: int, last: int, sample: bool = False) -> None:
+    """The shipped policy alone on ``spec``, decisions ``first`` to ``last`` timed or sampled (see the docstring)."""
+    import collections
+    import signal
+    import time
+
+    from bimrobot.planning.benchmark import problem_for
+    from bimrobot.planning.learned import LearnedPolicy, load_policy
+
+    th.set_num_threads(1)
+    env = env_for(problem_for(spec, per_joint=False)[0], copy_observation=False, observation="local")
+    policy = LearnedPolicy(load_policy(DEFAULT_POLICY, env), timed=not sample)
+    env.reset(seed=0)
+    while env.decisions < first:
+        env.step(policy(env))
+    policy.cpu = dict.fromkeys(policy.cpu, 0.0)
+    inside, samples = collections.Counter(), [0]
+
+    def count(_signal, frame):
+        samples[0] += 1
+        inside.update({f"{f.f_code.co_filename.rsplit('/', 1)[-1]}:{f.f_code.co_name}" for f in _stack(frame)})
+
+    if sample:
+        signal.signal(signal.SIGPROF, count)
+        signal.setitimer(signal.ITIMER_PROF, 0.0002, 0.0002)
+    start, done = time.process_time(), False
+    while env.decisions < last and not done:
+        _, _, done, _, _ = env.step(policy(env))
+    ms = 1000 * (time.process_time() - start) / max(env.decisions - first, 1)
+    signal.setitimer(signal.ITIMER_PROF, 0, 0)
+    print(f"{spec}, decisions {first:,}-{env.decisions:,}: {ms:.3f} ms per decision, {env._local.count:,} observed nodes at the last")
+    if not sample:
+        network, inputs = (1000 * policy.cpu[k] / max(env.decisions - first, 1) for k in ("network", "observation"))
+        print(f"network {network:.3f} ms, its inputs {inputs:.3f}, the environment and the glue {ms - network - inputs:.3f}")
+    for name, hits in inside.most_common(30):
+        print(f"  {ms * hits / samples[0]:.3f} ms  {name}")
+
+
+def _stack(frame):
+    while frame is not None:
+        yield frame
+        frame = frame.f_back
+
+
 def _children_cpu() -> float:
     """CPU seconds of this process's ended children (the market's forked run), user and system."""
     import resource
@@ -209,6 +261,9 @@ if __name__ == "__main__":
         searched(names or list(CPSAT), budget, "--no-ablation" not in args, policy)
     elif sys.argv[1:2] == ["--validation"]:
         validation(sys.argv[2:])
+    elif sys.argv[1:2] == ["--slice"]:
+        first, last = (int(v) for v in sys.argv[2].split(":"))
+        sliced([a for a in sys.argv[3:] if not a.startswith("--")][0], first, last, "--sample" in sys.argv)
     elif sys.argv[1:2] == ["--scale"]:
         args = sys.argv[2:]
         policy = args[args.index("--policy") + 1] if "--policy" in args else None
