@@ -172,13 +172,16 @@ def _solve(problem: _Problem, hint: dict | list | None, time_limit_s: float, wor
     )
 
 
-def market_hint(smart: SmartModel, fleet: Fleet, site: Site | None, storey_elevations, tasks: list[_Task]) -> tuple[dict, float]:
-    """The least-cost market's schedule of the same tasks (``per_node=False``) as {task key: (robot,
-    depart s, end s)} and its makespan (s). A joint's assembly is one row per node: it departs with the
-    first and ends with the last."""
+def market_hint(smart: SmartModel, fleet: Fleet, site: Site | None, storey_elevations, tasks: list[_Task],
+                result=None) -> tuple[dict, float]:
+    """The least-cost market's schedule of the same tasks (``per_node=False``), or that of ``result`` (a
+    ``SimulationResult`` of the same problem per joint: another planner's), as {task key: (robot, depart
+    s, end s)} and its makespan (s). A joint's assembly is one row per node: it departs with the first and
+    ends with the last."""
     from bimrobot.coordination.simulation import simulate
 
-    result = simulate(smart, fleet, site, "least-cost", 0, (), storey_elevations, per_node=False)
+    if result is None:
+        result = simulate(smart, fleet, site, "least-cost", 0, (), storey_elevations, per_node=False)
     keys = {t.key for t in tasks}
     hint: dict[str, tuple[str, float, float]] = {}
     for row in result.activities:
@@ -207,7 +210,7 @@ def solve_optimal(
     max_tasks: int = 20_000,
     deterministic_limit: float | None = None,
     seed: int = 0,
-    hint: bool = True,
+    hint=True,
     whole_tasks: int = WHOLE_TASKS,
     linearization: int = LINEARIZATION,
 ) -> OptimalSchedule:
@@ -216,7 +219,8 @@ def solve_optimal(
     included: where it passes first, the shortest complete schedule at hand (the market's, or the floors
     chained) is returned with the reason in ``note``;
     ``deterministic_limit``: CP-SAT's deterministic time limit per solve (reproducible; tests use it with
-    ``workers=1``); ``hint``: start from the least-cost market's schedule; ``whole_tasks``: above this
+    ``workers=1``); ``hint``: start from the least-cost market's schedule (True), from
+    a given ``SimulationResult`` of the same problem per joint, or from none (False); ``whole_tasks``: above this
     many tasks, solve floor by floor; ``linearization``: CP-SAT's ``linearization_level`` (0: no LP)."""
     started = time.perf_counter()
     sim = ConstructionSimulation(smart, fleet, site, storey_elevations=storey_elevations)
@@ -225,7 +229,8 @@ def solve_optimal(
         raise InputError(f"the build has {len(tasks)} tasks; the CP-SAT comparison is limited to {max_tasks}")
     homes = {spec.name: np.array(sim.site.robot_start(i, fleet.home_on_site(spec, sim.offset))[:2], dtype=float)
              for i, spec in enumerate(fleet.robots)}
-    given, hinted = market_hint(smart, fleet, site, storey_elevations, tasks) if hint else (None, None)
+    start_from = None if hint is True else hint
+    given, hinted = market_hint(smart, fleet, site, storey_elevations, tasks, start_from) if hint else (None, None)
     limits = dict(workers=workers, seed=seed, deterministic_limit=deterministic_limit, deadline=started + time_limit_s,
                   linearization=linearization)
     if len(tasks) > whole_tasks:
