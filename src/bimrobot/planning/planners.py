@@ -347,5 +347,6 @@ def plan_line(result, stats: PlanStats) -> str:
                  f"{notes['search_rollouts']} of {notes['search_budget']} rollouts, planned {notes['planned_s']:.1f} s")
     if "cpsat_makespan_s" in notes:
         text += (f"; CP-SAT's own objective {notes['cpsat_makespan_s']:.1f} s ({notes['cpsat_status']}, lower bound "
-                 f"{notes['cpsat_lower_bound_s']:.1f} s), executed {result.makespan:.1f} s")
+                 f"{notes['cpsat_lower_bound_s']:.1f} s; started from {notes['cpsat_hint']}'s "
+                 f"{notes['cpsat_hint_s']:.1f} s), executed {result.makespan:.1f} s")
     return text
