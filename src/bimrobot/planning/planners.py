@@ -18,8 +18,9 @@ Names (:func:`planner_for`):
   kept (the first in :data:`PORTFOLIO`'s order on a tie). Cheap planners, several runs: the price is one
   simulation per member.
 - ``cp-sat``: :func:`bimrobot.planning.optimal.solve_optimal`'s schedule, started from the shortest of
-  the portfolio's schedules, replayed: each task goes to the robot CP-SAT chose, and each robot takes its tasks in CP-SAT's start order, each as soon as it is
-  published and the robot is free (per joint only: CP-SAT's tasks are per joint).
+  the portfolio's schedules, replayed: each task goes to the robot CP-SAT chose, and each robot takes
+  its tasks in CP-SAT's start order, each as soon as it is published and the robot is free (per joint
+  only: CP-SAT's tasks are per joint).
 - ``rollout``: the portfolio's best schedule improved by rollouts (the learned planner's search,
   :mod:`bimrobot.planning.learned_search`, on the advisers' first choices only: no policy).
 - ``learned`` and ``PATH.zip``: a learned policy with decision-time search,
