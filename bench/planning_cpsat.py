@@ -9,7 +9,8 @@ time. Ratios are against the market measured in the same run (best / market) and
 limit (time / limit). Wall time on a shared 2-core machine is disturbed by other processes; the CPU
 time is the solver's own work (``--workers`` threads), and CP-SAT's deterministic time (its own work
 units) is comparable across machines and loads; the load average at the start and end of each row is
-printed with it, and each floor's own bound (solved alone; ``P`` where proved optimal).
+printed with it, and each floor's own bound (solved alone; ``P`` where proved optimal, ``r`` where the floor
+repeats one below it and takes its solve).
 
     .venv/bin/python bench/planning_cpsat.py                      # the default ladder, 600 s per instance
     .venv/bin/python bench/planning_cpsat.py --time-limit 120 --only 2x2x1:fleet1 4x3x2:fleet2
@@ -72,7 +73,8 @@ def solve(item: str, time_limit: float, workers: int, whole_tasks: int, determin
             "market_over_bound_pct": 100 * (schedule.hinted_s - schedule.lower_bound) / schedule.hinted_s,
             "wall_s": time.perf_counter() - wall, "cpu_s": time.process_time() - cpu,
             "deterministic_s": schedule.deterministic_s, "load_start": load, "load": os.getloadavg()[0],
-            "floors": "/".join(f"{'P' if row['status'] == 'OPTIMAL' else '-'}{row['bound_s']:.1f}" for row in schedule.floors)
+            "floors": "/".join(f"{'P' if row['status'] == 'OPTIMAL' else '-'}{row['bound_s']:.1f}{'r' if row.get('repeats') else ''}"
+                               for row in schedule.floors)
             + (f"; chained {schedule.chained_s:.1f}" if schedule.chained_s else "")}
 
 
@@ -81,7 +83,7 @@ def run_ladder(args) -> None:
           f"whole model up to {args.whole_tasks} tasks, "
           f"{os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f} at the start")
     print("| frame | fleet | tasks | method | proved | best (s) | bound (s) | gap | market (s) | market over bound | best / market "
-          "| wall (s) | wall / limit | CPU (s) | deterministic (s) | load at start, end | floor bounds (s; P: proved); floors chained (s) |")
+          "| wall (s) | wall / limit | CPU (s) | deterministic (s) | load at start, end | floor bounds (s; P: proved, r: repeated); floors chained (s) |")
     print("|---|---|---:|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|")
     items = [(m, True) for m in args.models] if args.models else [(i, False) for i in args.only or LADDER]
     for item, model in items:

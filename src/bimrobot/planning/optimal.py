@@ -26,12 +26,13 @@ The model (times in seconds, solved in units of 0.01 s):
   earlier than the lead-in of its first task (:func:`~bimrobot.planning.optimal_bounds._first_lead`);
   and, where floors cannot overlap, the
   bound of that floor solved alone (:func:`_floor_bounds`), whose schedules, one floor after the
-  other, are a second hint next to the market's.
+  other, are a second hint next to the market's. A floor that repeats one below it (a repeated storey:
+  the same problem to the tick, from the same places) takes that floor's solve (:func:`_solve_once`).
 
-Where floors cannot overlap, each floor is then solved again from where the robots stopped below
-(:func:`_chain`): one after the other, a schedule of the whole build, the third hint. Where every floor
-reaches its bound alone, that schedule reaches the sum of the floors' bounds and is optimal without the
-whole model (``method`` ``floors chained``).
+Where floors cannot overlap, the floors are then solved again two at a time from where the robots
+stopped below, keeping the lower floor of each pair (:func:`_chain`): one after the other, a schedule of
+the whole build, the third hint. Where every floor reaches its bound alone, that schedule reaches the sum
+of the floors' bounds and is optimal without the whole model (``method`` ``floors chained``).
 
 Where the whole model is too big (more than ``whole_tasks`` tasks), the build is solved floor by floor
 (the floor gate makes floors follow each other): each floor starts when the one below is done, with
@@ -77,8 +78,9 @@ FLOOR_SHARE = 0.6
 #: (optimal_bounds), and propagation alone then proves a floor far sooner than with the LP (3x2x2's column
 #: floor: 0.11 units against none within 30; docs/evidence/planning.md, "CP-SAT").
 LINEARIZATION = 0
-#: The share spent on the floors again, each from where the robots stopped below (:func:`_chain`).
-CHAIN_SHARE = 0.1
+#: The share spent on the floors again, two at a time from where the robots stopped below (:func:`_chain`),
+#: with the time the floors alone left unused.
+CHAIN_SHARE = 0.2
 
 
 @dataclass
@@ -237,9 +239,12 @@ def solve_optimal(
         return _by_floor(tasks, fleet, homes, given, hinted, time_limit_s, started, limits)
     least, work, rows, chained = {}, 0.0, [], None
     try:
-        least, work, joined, rows, alone = _floor_bounds(tasks, fleet, homes, given, time_limit_s * FLOOR_SHARE, limits)
+        cache: dict = {}  # a repeated storey's problem is solved once (_solve_once)
+        least, work, joined, rows, alone = _floor_bounds(tasks, fleet, homes, given, time_limit_s * FLOOR_SHARE, limits,
+                                                         cache)
         if alone:  # the floors' schedules again, each from where the robots stopped below (CHAIN_SHARE)
-            chained, more = _chain(alone, least, fleet, homes, time_limit_s * CHAIN_SHARE, limits)
+            chain_s = started + time_limit_s * (FLOOR_SHARE + CHAIN_SHARE) - time.perf_counter()  # with what the floors left
+            chained, more = _chain(alone, least, fleet, homes, max(1.0, chain_s), limits, cache, tasks)
             work += more
             if round(chained.makespan * SCALE) <= sum(least.values()):  # it reaches the floors' bounds: optimal
                 return OptimalSchedule(chained.makespan, chained.makespan, "OPTIMAL", chained.assignment,
@@ -276,7 +281,7 @@ def _out_of_time(tasks, fleet, given, hinted, chained, bound_s, method, time_lim
                            chained.makespan if chained else None, f"{reason}: {note}")
 
 
-def _floor_bounds(tasks, fleet, homes, given, time_limit_s, limits):
+def _floor_bounds(tasks, fleet, homes, given, time_limit_s, limits, cache=None):
     """Each floor's least duration (ticks), where floors cannot overlap (every task of a floor after the
     floor gate below and before its own): the bound of that floor solved alone, from time 0, every robot
     standing where it may be when the floor opens (home, or the end of any of its tasks below; for each
@@ -284,7 +289,9 @@ def _floor_bounds(tasks, fleet, homes, given, time_limit_s, limits):
     of the floors' durations, and no floor, whatever the robots did below, is shorter than its optimum
     from the best of those starts. Where every floor is proved optimal, the whole model's bound is their
     sum from the start, and a schedule that reaches it is proved optimal. ``time_limit_s`` (s) is shared
-    by task count; time a floor leaves unused passes to the floors above. Returns {floor: ticks} ({}
+    by task count over the floors that differ: a floor that repeats one below (a repeated storey, the same
+    problem to the tick) takes that floor's solve (``cache``, :func:`_solve_once`); time a floor leaves
+    unused passes to the floors above. Returns {floor: ticks} ({}
     where floors may overlap or with one floor), the solves' deterministic time, their schedules one
     after the other (an order for a hint), one row per floor (tasks, best_s, bound_s, status) and each
     floor's (tasks, schedule) solved alone ([] where floors may overlap)."""
@@ -299,29 +306,108 @@ def _floor_bounds(tasks, fleet, homes, given, time_limit_s, limits):
             return {}, 0.0, None, [], []
     if len(floors) < 2:
         return {}, 0.0, None, [], []
-    least, work, below, joined, clock, rows, alone = {}, 0.0, [], {}, 0.0, [], []
-    deadline, left = time.perf_counter() + time_limit_s, len(tasks)
+    cache = {} if cache is None else cache
+    problems, below = [], []
     for floor in floors:
-        local = locals_[floor]
-        keys = {t.key for t in local}
-        starts = {r.name: [homes[r.name]] + [np.asarray(t.request.end, dtype=float) for t in below
-                                             if not incapability(r, t.request)] for r in fleet.robots}
-        shifted = None
-        if given and keys <= given.keys():  # the market's schedule of this floor, moved to begin at 0
-            opening = min(given[k][1] for k in keys)
-            shifted = {k: (given[k][0], given[k][1] - opening, given[k][2] - opening) for k in sorted(keys)}
-        solved = _solve(_Problem(local, fleet, homes, {r.name: 0.0 for r in fleet.robots}, starts=starts), shifted,
-                        max(1.0, (deadline - time.perf_counter()) * len(local) / left), **limits)
-        left -= len(local)
+        starts = {r.name: _unique([homes[r.name]] + [t.request.end for t in below if not incapability(r, t.request)])
+                  for r in fleet.robots}
+        problems.append(_Problem(locals_[floor], fleet, homes, {r.name: 0.0 for r in fleet.robots}, starts=starts))
+        below += locals_[floor]
+    hints = [_shifted(given, problem.tasks) for problem in problems]
+    least, work, joined, clock, rows, alone, seen = {}, 0.0, {}, 0.0, [], [], set()
+    if limits["workers"] > 1:
+        work += _solve_apart(cache, problems, hints, time_limit_s, limits)
+    keys = [_problem_key(problem) for problem in problems]
+    deadline, left = time.perf_counter() + time_limit_s, sum(dict(zip(keys, (len(p.tasks) for p in problems))).values())
+    for floor, problem, shifted, key in zip(floors, problems, hints, keys):
+        local = problem.tasks
+        repeated = key in seen
+        seen.add(key)
+        solved = _solve_once(cache, problem, shifted, max(1.0, (deadline - time.perf_counter()) * len(local) / max(1, left)),
+                             **limits)
+        left -= 0 if repeated else len(local)
         least[floor] = int(round(solved.bound * SCALE))
         rows.append({"floor": floor, "tasks": len(local), "best_s": solved.makespan, "bound_s": solved.bound,
-                     "status": solved.status})
+                     "status": solved.status, "repeats": repeated})
         work += solved.deterministic_s
-        below += local
         joined.update({k: (robot, clock + solved.depart[k], clock + solved.end[k]) for k, robot in solved.assignment.items()})
         clock += solved.makespan
         alone.append((floor, local, solved))
     return least, work, joined, rows, alone
+
+
+def _shifted(given, local: list[_Task]) -> dict | None:
+    """The market's schedule (``given``: task -> (robot, depart s, end s)) of one floor's tasks, moved to
+    begin at 0; None without it."""
+    keys = {t.key for t in local}
+    if not given or not keys <= given.keys():
+        return None
+    opening = min(given[k][1] for k in keys)
+    return {k: (given[k][0], given[k][1] - opening, given[k][2] - opening) for k in sorted(keys)}
+
+
+def _solve_apart(cache: dict, problems: list[_Problem], hints: list, time_limit_s: float, limits: dict) -> float:
+    """The floors' problems that differ, solved alone at the same time, ``limits["workers"]`` at a time
+    with one CP-SAT worker each, into ``cache`` (:func:`_solve_once`): a floor's proof comes sooner from
+    one worker with a core to itself than from two that share it (2x2x3's floor 1: proved at 19.5 units,
+    28 CPU s, with one; not with two in 124 CPU s). ``time_limit_s`` (s) is shared by task count. Returns
+    the solves' deterministic time."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    todo: dict = {}
+    for problem, hint in zip(problems, hints):
+        todo.setdefault(_problem_key(problem), (problem, hint))
+    total, workers = sum(len(problem.tasks) for problem, _ in todo.values()), limits["workers"]
+    one = dict(limits, workers=1)
+    with ThreadPoolExecutor(workers) as pool:  # CP-SAT's solve runs without Python's lock: the threads run at once
+        futures = {key: pool.submit(_solve, problem, hint, min(time_limit_s, max(1.0, time_limit_s * workers * len(
+            problem.tasks) / total)), **one) for key, (problem, hint) in todo.items()}
+        solved = {key: future.result() for key, future in futures.items()}
+    for key, (problem, _) in todo.items():
+        cache[key] = ([t.key for t in problem.tasks], solved[key])
+    return sum(s.deterministic_s for s in solved.values())
+
+
+def _unique(points) -> list[np.ndarray]:
+    """``points`` (site frame, m) without repeats, in a fixed order (a floor's starts, for its key)."""
+    return [np.array(xy) for xy in sorted({tuple(float(c) for c in np.asarray(xy, dtype=float)[:2]) for xy in points})]
+
+
+def _problem_key(problem: _Problem) -> tuple:
+    """What a problem's model is built from, without its tasks' names: per task its activity, where it
+    begins and ends (m), its handling per capable robot (s) and its predecessors by position; the robots'
+    homes, starts, release times and targets; each floor's least duration. Two problems with the same key
+    (a storey that repeats the one below it) build the same model, so one's solve stands for the other's."""
+    index = {t.key: i for i, t in enumerate(problem.tasks)}
+    ranks = {f: i for i, f in enumerate(sorted({t.floor for t in problem.tasks}))}
+
+    def xy(point) -> tuple[float, ...]:
+        return tuple(float(c) for c in np.asarray(point, dtype=float)[:2])
+
+    tasks = tuple((str(t.activity), xy(t.request.start), xy(t.request.end), ranks[t.floor], t.gate_floor is None,
+                   tuple((r.name, handling_time(r, t.request)) for r in problem.fleet.robots if not incapability(r, t.request)),
+                   tuple(index[p] for p in t.predecessors if p in index)) for t in problem.tasks)
+    robots = tuple((name, xy(problem.homes[name]), problem.ready.get(name, 0.0),
+                    tuple(sorted(xy(p) for p in problem.starts[name])) if problem.starts else None,
+                    xy(problem.end_targets[name]) if problem.end_targets and name in problem.end_targets else None)
+                   for name in sorted(problem.homes))
+    least = tuple(sorted((ranks[f], ticks) for f, ticks in problem.floor_least.items() if f in ranks))
+    return tasks, robots, least, problem.free_start, problem.fleet.name
+
+
+def _solve_once(cache: dict, problem: _Problem, hint, time_limit_s: float, **limits) -> _Solved:
+    """:func:`_solve`, or, where a problem with the same key (:func:`_problem_key`) was solved before, that
+    solve's schedule and bound under this problem's task names, without solving again (deterministic time
+    0): the same model has the same optimum, and its schedule is one of this problem's."""
+    key = _problem_key(problem)
+    if key in cache:
+        names, solved = cache[key]
+        rename = dict(zip(names, (t.key for t in problem.tasks)))
+        return dataclasses.replace(solved, deterministic_s=0.0, **{field: {rename[k]: v for k, v in getattr(solved, field).items()}
+                                                                    for field in ("assignment", "depart", "start", "end")})
+    solved = _solve(problem, hint, time_limit_s, **limits)
+    cache[key] = ([t.key for t in problem.tasks], solved)
+    return solved
 
 
 @dataclass
@@ -344,41 +430,75 @@ def _first_points(local: list[_Task], solved: _Solved) -> dict[str, np.ndarray]:
 
 
 def _stops(local: list[_Task], solved: _Solved) -> dict[str, np.ndarray]:
-    """Robot -> where it stops after ``solved`` (a floor's schedule): the end point of its task that ends
-    last (of equal ends, the later in the assignment's order); site frame, m."""
+    """Robot -> where it stops after ``local``'s tasks in ``solved`` (a schedule of them, or of more): the
+    end point of its task of ``local`` that ends last (of equal ends, the later in the assignment's order); site frame, m."""
     ends = {t.key: t.request.end for t in local}
     stops = {}
-    for key, robot in sorted(solved.assignment.items(), key=lambda item: solved.end[item[0]]):
+    for key, robot in sorted(((k, r) for k, r in solved.assignment.items() if k in ends), key=lambda item: solved.end[item[0]]):
         stops[robot] = np.asarray(ends[key], dtype=float)
     return stops
 
 
-def _chain(alone, least, fleet, homes, time_limit_s, limits) -> tuple[_Chained, float]:
-    """Each floor solved again from where every robot stopped on the floors below (home at first), its
-    own schedule alone as the first solution and its bound alone (``least``, ticks) as the least
-    duration: floors cannot overlap, so one after the other this is a schedule of the whole build. Where
-    every floor reaches its bound alone, the sum of the floors' bounds is reached and the schedule is
-    optimal. ``time_limit_s`` (s) is shared by task count. Returns the schedule and the solves'
-    deterministic time."""
+def _chain(alone, least, fleet, homes, time_limit_s, limits, cache=None, tasks=None) -> tuple[_Chained, float]:
+    """The floors again, two at a time from where every robot stopped below (home at first): floors i and
+    i + 1 solved together (the floor gate between them, each floor's bound alone, ``least`` in ticks, as
+    its least duration), and floor i's part kept, so a floor's schedule is chosen with what its robots'
+    stops cost the floor above; the last pair keeps both. Each pair starts from floor i's schedule of the
+    pair before (or alone) and floor i + 1's alone, and among its shortest schedules takes the one whose
+    robots stop nearest to where they begin floor i + 2 alone. Floors cannot overlap, so one after the
+    other this is a schedule of the whole build; where every floor reaches its bound alone, the sum of the
+    floors' bounds is reached and the schedule is optimal. ``time_limit_s`` (s) is shared by task count; a
+    pair whose problem repeats one solved before (``cache``, :func:`_solve_once`) takes that solve.
+    ``tasks``: the whole build's tasks (the floor gate between a pair's floors). Returns the schedule and
+    the solves' deterministic time."""
     where, clock, work = dict(homes), 0.0, 0.0
     chained = _Chained(0.0, {}, {}, {})
-    deadline, left = time.perf_counter() + time_limit_s, sum(len(local) for _, local, _ in alone)
-    for i, (floor, local, solo) in enumerate(alone):
-        hint = {k: (robot, solo.depart[k], solo.end[k]) for k, robot in solo.assignment.items()}
-        targets = _first_points(*alone[i + 1][1:]) if i + 1 < len(alone) else None
-        solved = _solve(_Problem(local, fleet, where, {r.name: 0.0 for r in fleet.robots},
-                                 floor_least={floor: least[floor]}, end_targets=targets), hint,
-                        max(1.0, (deadline - time.perf_counter()) * len(local) / left), **limits)
-        left -= len(local)
+    cache = {} if cache is None else cache
+    deadline = time.perf_counter() + time_limit_s
+    left = sum(len(alone[i][1]) + len(alone[i + 1][1]) for i in range(len(alone) - 1))
+    carried = None  # floor i's part of the pair before, from time 0 (task -> (robot, depart s, end s))
+    for i in range(len(alone) - 1):
+        (floor, local, solo), (upper, above, solo_above) = alone[i], alone[i + 1]
+        pair = {t.key for t in local + above}
+        window = [_Task(t.key, t.activity, t.request, [p for p in t.predecessors if p in pair], t.gate_floor, t.floor)
+                  for t in (tasks or []) if t.key in pair] or local + above
+        hints = [_joined([part, _timed(solo_above)]) for part in (carried, _timed(solo)) if part]
+        targets = _first_points(*alone[i + 2][1:]) if i + 2 < len(alone) else None
+        solved = _solve_once(cache, _Problem(window, fleet, where, {r.name: 0.0 for r in fleet.robots},
+                                             floor_least={floor: least[floor], upper: least[upper]},
+                                             end_targets=targets), hints,
+                             max(1.0, (deadline - time.perf_counter()) * len(window) / max(1, left)), **limits)
+        left -= len(window)
         work += solved.deterministic_s
-        where.update(_stops(local, solved))
-        for key, robot in sorted(solved.assignment.items(), key=lambda item: solved.end[item[0]]):
-            chained.assignment[key] = robot
-            chained.start[key] = clock + solved.start[key]
-            chained.hint[key] = (robot, clock + solved.depart[key], clock + solved.end[key])
-        clock += solved.makespan
+        for part in ([local, above] if i + 2 == len(alone) else [local]):
+            keys = {t.key for t in part}
+            ends = max(solved.end[k] for k in keys)
+            opens = min(solved.depart[k] for k in keys)
+            where.update(_stops(part, solved))
+            for key in sorted(keys, key=lambda k: solved.end[k]):
+                chained.assignment[key] = solved.assignment[key]
+                chained.start[key] = clock + solved.start[key] - opens
+                chained.hint[key] = (solved.assignment[key], clock + solved.depart[key] - opens, clock + solved.end[key] - opens)
+            clock += ends - opens
+        keys = {t.key for t in above}
+        opens = min(solved.depart[k] for k in keys)
+        carried = {k: (solved.assignment[k], solved.depart[k] - opens, solved.end[k] - opens) for k in keys}
     chained.makespan = clock
     return chained, work
+
+
+def _timed(solved: _Solved) -> dict:
+    """A floor's schedule as task -> (robot, depart s, end s)."""
+    return {k: (robot, solved.depart[k], solved.end[k]) for k, robot in solved.assignment.items()}
+
+
+def _joined(parts: list[dict]) -> dict:
+    """Floors' schedules (task -> (robot, depart s, end s), each from 0) one after the other."""
+    joined, clock = {}, 0.0
+    for part in parts:
+        joined.update({k: (robot, clock + depart, clock + end) for k, (robot, depart, end) in part.items()})
+        clock += max(end for _, _, end in part.values())
+    return joined
 
 
 def _by_floor(tasks, fleet, homes, given, hinted, time_limit_s, started, limits) -> OptimalSchedule:
