@@ -19,16 +19,22 @@ import pytest
 
 from shared_data import REPO_ROOT, SHARED, SHARED_IFC, SHARED_ONTOLOGIES, shared_file  # noqa: F401 (re-exported)
 
+def _still_ignored(signum, frame) -> None:
+    """A stop signal the test run was started to ignore: still ignored here (see pytest_configure)."""
+
+
 def pytest_configure(config):
-    """Ctrl-C reaches the commands the tests start, as it does from a terminal. A suite started as a
-    background job or under ``nohup`` inherits SIGINT ignored, every command it starts inherits that
-    too, and bimrobot rightly keeps a signal its caller ignores: the tests that stop a command with
-    SIGINT would wait for nothing (``replay --serve`` "not exited within 60 s"). Python's own handler
-    is put back; a child starts with SIGINT at its default then."""
+    """Stop signals reach the commands the tests start as they do from a terminal. A suite started as a
+    background job inherits SIGINT ignored, one under ``nohup`` SIGHUP; every command it starts would
+    inherit that too, and bimrobot rightly keeps a signal its caller ignores, so the tests that stop a
+    command with that signal would wait for nothing (``replay --serve`` "not exited within 60 s", a
+    SIGHUP'd command exiting 0). Such a signal gets a handler that does nothing: this run still ignores
+    it, and a command it starts begins with the signal at its default (exec resets handled signals)."""
     import signal
 
-    if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
-        signal.signal(signal.SIGINT, signal.default_int_handler)
+    for signum in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+        if signal.getsignal(signum) is signal.SIG_IGN:
+            signal.signal(signum, _still_ignored)
 
 
 REAL_MODELS = "tests/test_real_models.py"
@@ -80,7 +86,8 @@ def pytest_collection_modifyitems(config, items):
         unit = work_unit(item.nodeid)
         if unit.startswith(REAL_MODELS + "["):
             model = unit[len(REAL_MODELS) + 1:-1]
-            return (0, -REAL_MODEL_SETUP_S.get(model, 0.0), -(SHARED_IFC / model).stat().st_size, first_seen[unit])
+            size = (SHARED_IFC / model).stat().st_size if (SHARED_IFC / model).exists() else 0  # absent: its tests skip
+            return (0, -REAL_MODEL_SETUP_S.get(model, 0.0), -size, first_seen[unit])
         return (1, -sizes[unit], first_seen[unit])
 
     items.sort(key=rank)
