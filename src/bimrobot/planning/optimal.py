@@ -174,12 +174,12 @@ def _solve(problem: _Problem, hint: dict | list | None, time_limit_s: float, wor
     )
 
 
-def market_hint(smart: SmartModel, fleet: Fleet, site: Site | None, storey_elevations, tasks: list[_Task],
-                result=None) -> tuple[dict, float]:
-    """The least-cost market's schedule of the same tasks (``per_node=False``), or that of ``result`` (a
-    ``SimulationResult`` of the same problem per joint: another planner's), as {task key: (robot, depart
-    s, end s)} and its makespan (s). A joint's assembly is one row per node: it departs with the first and
-    ends with the last."""
+def schedule_hint(smart: SmartModel, fleet: Fleet, site: Site | None, storey_elevations, tasks: list[_Task],
+                  result=None) -> tuple[dict, float]:
+    """The schedule of ``result`` (a ``SimulationResult`` of the same problem per joint: another
+    planner's run), by default the least-cost market's run of the same tasks (``per_node=False``), as
+    {task key: (robot, depart s, end s)} and its makespan (s). A joint's assembly is one row per node: it
+    departs with the first and ends with the last."""
     from bimrobot.coordination.simulation import simulate
 
     if result is None:
@@ -232,7 +232,7 @@ def solve_optimal(
     homes = {spec.name: np.array(sim.site.robot_start(i, fleet.home_on_site(spec, sim.offset))[:2], dtype=float)
              for i, spec in enumerate(fleet.robots)}
     start_from = None if hint is True else hint
-    given, hinted = market_hint(smart, fleet, site, storey_elevations, tasks, start_from) if hint else (None, None)
+    given, hinted = schedule_hint(smart, fleet, site, storey_elevations, tasks, start_from) if hint else (None, None)
     limits = dict(workers=workers, seed=seed, deterministic_limit=deterministic_limit, deadline=started + time_limit_s,
                   linearization=linearization)
     if len(tasks) > whole_tasks:
