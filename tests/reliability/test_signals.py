@@ -392,3 +392,29 @@ def test_a_killed_replay_server_leaves_no_viewer_serving(tiny_rrd, tmp_path):
             with_suppressed_kill(pid)
         run.stdout.close()
     tally("signals")
+
+
+@pytest.mark.parametrize("signame", ["SIGINT", "SIGTERM"])
+def test_a_stop_during_cp_sats_search_stops_the_command(tmp_path, signame):
+    """`simulate --planner cp-sat` stopped while CP-SAT searches (60 s of wall time for a 208-task frame,
+    after a few seconds of set-up): it exits with 128 + the signal's number and writes no output. CP-SAT's
+    own SIGINT handler used to end the search and let the command finish (exit 0, its output written),
+    and a SIGTERM waited for the search's time limit."""
+    tmp = tmp_path / "tmp"
+    tmp.mkdir()
+    run = subprocess.Popen([sys.executable, "-m", "bimrobot", "simulate", "generated:4x3x2", "--per-joint", "--planner",
+                            "cp-sat", "-o", str(tmp_path / "out"), "--no-gantt", "--no-progress"],
+                           env=_environment(tmp), stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                           start_new_session=True)
+    try:
+        time.sleep(8.0)  # the portfolio's runs and the model's build take 1-3 s here: CP-SAT searches by now
+        assert run.poll() is None, f"it ended before the signal: {run.stderr.read()}"
+        signum = getattr(signal, signame)
+        os.killpg(run.pid, signum) if signame == "SIGINT" else os.kill(run.pid, signum)
+        assert run.wait(timeout=180) == 128 + signum
+    finally:
+        if run.poll() is None:
+            run.kill()
+            run.wait()
+    assert not (tmp_path / "out").exists() and list(tmp.iterdir()) == []
+    tally("signals")

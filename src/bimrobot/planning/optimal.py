@@ -144,7 +144,7 @@ def _solve(problem: _Problem, hint: dict | list | None, time_limit_s: float, wor
     solver.parameters.num_workers = workers
     solver.parameters.random_seed = seed
     solver.parameters.linearization_level = linearization
-    status = solver.Solve(model)
+    status = _solve_stoppably(solver, model)
     if status not in (cp_model.OPTIMAL, cp_model.FEASIBLE) and hinted:  # stopped before reading the hint
         bound = solver.BestObjectiveBound()
         return _Solved(
@@ -172,6 +172,30 @@ def _solve(problem: _Problem, hint: dict | list | None, time_limit_s: float, wor
         end={k: x[2] / SCALE for k, x in timed.items()},
         deterministic_s=solver.response_proto.deterministic_time,
     )
+
+
+def _solve_stoppably(solver, model) -> int:
+    """``solver.Solve(model)``, stopped by the command's stop signals. CP-SAT's own SIGINT handler is
+    off: it ended the search and let the command finish, exit 0, with its output, on Ctrl-C. In the main
+    thread the solve runs in a helper thread, so that Python's handlers run at once (a SIGTERM waited up to
+    the time limit for the solve, 39 s on GEELEN): the stop they raise here stops the search, waits for
+    it, and goes on up. Elsewhere (the floors solved side by side) it is a plain call."""
+    import threading
+
+    solver.parameters.catch_sigint_signal = False
+    if threading.current_thread() is not threading.main_thread():
+        return solver.Solve(model)
+    answer: list[int] = []
+    worker = threading.Thread(target=lambda: answer.append(solver.Solve(model)), name="cp-sat", daemon=True)
+    worker.start()
+    try:
+        while worker.is_alive():
+            worker.join(0.05)  # Python runs its signal handlers between these waits
+    finally:
+        if worker.is_alive():  # a stop was raised: end the search before going on up
+            solver.StopSearch()
+            worker.join()
+    return answer[0]
 
 
 def schedule_hint(smart: SmartModel, fleet: Fleet, site: Site | None, storey_elevations, tasks: list[_Task],
