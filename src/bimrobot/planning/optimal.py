@@ -11,7 +11,8 @@ solver as its first solution (a hint), so the best found is never worse either.
 The model (times in seconds, solved in units of 0.01 s):
 - per task t: ``depart`` (its robot leaves), ``start`` (work begins), ``end``; one robot literal per
   capable robot; ``end = start + handling`` on the chosen robot;
-- precedences: ``depart[t] >= end[p]``; the floor gate (every joint of a lower floor before a transport)
+- precedences: ``depart[t] >= end[p]``; the floor gate (every task that closes a lower floor, its joints and
+  its parts without connection nodes, before a transport)
   goes through one variable per floor, not one constraint per pair;
 - per robot: a circuit over its possible tasks (an arc t -> u: ``depart[u] >= end[t]`` and
   ``start[u] >= depart[u] + travel(t -> u)``), arcs that contradict a precedence left out;
@@ -38,7 +39,7 @@ Where the whole model is too big (more than ``whole_tasks`` tasks), the build is
 (the floor gate makes floors follow each other): each floor starts when the one below is done, with
 every robot where it stopped. The lower bound is then the sum of each floor's bound with its robots
 free to start anywhere at once (valid because floors cannot overlap), or the largest of them where a
-floor has work that no joint of that floor waits for or that the floor gate does not hold.
+floor has work that nothing closing that floor waits for or that the floor gate does not hold.
 
 The tasks are built in :mod:`~bimrobot.planning.optimal_graph`, the model in
 :mod:`~bimrobot.planning.optimal_model`, its bounds and cuts in :mod:`~bimrobot.planning.optimal_bounds`.
@@ -67,7 +68,8 @@ from bimrobot.core.errors import InputError, require_extra
 from bimrobot.sco.build import SmartModel
 from bimrobot.core.tasks import Task
 # the tasks (optimal_graph), the CP-SAT model (optimal_model) and its bounds live in siblings
-from bimrobot.planning.optimal_graph import SCALE, _all_after_the_gate, _all_feed_a_joint, _Task, task_graph
+from bimrobot.planning.optimal_graph import (SCALE, _all_after_the_gate, _all_feed_a_closer, _Task,
+                                             merge_overlapping_floors, task_graph)
 from bimrobot.planning.optimal_model import OutOfTime, _build, _Problem
 
 #: Above this many tasks the build is solved floor by floor (:func:`solve_optimal`).
@@ -250,7 +252,7 @@ def solve_optimal(
     many tasks, solve floor by floor; ``linearization``: CP-SAT's ``linearization_level`` (0: no LP)."""
     started = time.perf_counter()
     sim = ConstructionSimulation(smart, fleet, site, storey_elevations=storey_elevations)
-    tasks = task_graph(smart, sim)
+    tasks = merge_overlapping_floors(task_graph(smart, sim))
     if len(tasks) > max_tasks:
         raise InputError(f"the build has {len(tasks)} tasks; the CP-SAT comparison is limited to {max_tasks}")
     homes = {spec.name: np.array(sim.site.robot_start(i, fleet.home_on_site(spec, sim.offset))[:2], dtype=float)
@@ -324,9 +326,11 @@ def _floor_bounds(tasks, fleet, homes, given, time_limit_s, limits, cache=None):
     for floor in floors:
         mine = [t for t in tasks if t.floor == floor]
         keys = {t.key for t in mine}
-        locals_[floor] = [_Task(t.key, t.activity, t.request, [p for p in t.predecessors if p in keys], None, t.floor)
+        locals_[floor] = [dataclasses.replace(t, predecessors=[p for p in t.predecessors if p in keys], gate_floor=None)
                           for t in mine]
-        if not (_all_feed_a_joint(locals_[floor]) and (floor == floors[0] or _all_after_the_gate(mine))):
+        # the top floor may have work that closes nothing (nothing comes after it)
+        closed = floor == floors[-1] or _all_feed_a_closer(locals_[floor])
+        if not (closed and (floor == floors[0] or _all_after_the_gate(mine))):
             return {}, 0.0, None, [], []
     if len(floors) < 2:
         return {}, 0.0, None, [], []
@@ -484,7 +488,7 @@ def _chain(alone, least, fleet, homes, time_limit_s, limits, cache=None, tasks=N
     for i in range(len(alone) - 1):
         (floor, local, solo), (upper, above, solo_above) = alone[i], alone[i + 1]
         pair = {t.key for t in local + above}
-        window = [_Task(t.key, t.activity, t.request, [p for p in t.predecessors if p in pair], t.gate_floor, t.floor)
+        window = [dataclasses.replace(t, predecessors=[p for p in t.predecessors if p in pair])
                   for t in (tasks or []) if t.key in pair] or local + above
         hints = [_joined([part, _timed(solo_above)]) for part in (carried, _timed(solo)) if part]
         targets = _first_points(*alone[i + 2][1:]) if i + 2 < len(alone) else None
@@ -537,9 +541,9 @@ def _by_floor(tasks, fleet, homes, given, hinted, time_limit_s, started, limits)
     locals_ = {}
     for floor in floors:
         keys = {t.key for t in tasks if t.floor == floor}
-        locals_[floor] = [_Task(t.key, t.activity, t.request, [p for p in t.predecessors if p in keys], None, t.floor)
+        locals_[floor] = [dataclasses.replace(t, predecessors=[p for p in t.predecessors if p in keys], gate_floor=None)
                           for t in tasks if t.floor == floor]
-    disjoint = all(_all_feed_a_joint(locals_[f]) and (f == floors[0] or _all_after_the_gate(
+    disjoint = all((f == floors[-1] or _all_feed_a_closer(locals_[f])) and (f == floors[0] or _all_after_the_gate(
         [t for t in tasks if t.floor == f])) for f in floors)
     for floor in floors:
         local = locals_[floor]

@@ -10,7 +10,6 @@ import math
 
 import numpy as np
 
-from bimrobot.core.tasks import Task
 from bimrobot.planning.optimal_graph import SCALE, _Task
 
 
@@ -18,7 +17,7 @@ def _floor_loads(model, tasks, gates, ancestors, capable, busy_min, assigned, tr
                  arrival=None) -> int:
     """Redundant, for the bound: on each floor f, the work of floor f that a robot does fits between the
     gate below (or time 0) plus the shortest lead-in before any of it can start, and the floor's own gate
-    (every joint of floors <= f done) less the shortest run-out after it. With the robot literals this
+    (everything that closes floors <= f done) less the shortest run-out after it. With the robot literals this
     is linear, so the relaxation balances each floor's work over the robots that can do it. On the lowest
     floor, ``first`` ((robot, task) -> the literal of the robot's first task) adds that task's own lead-in
     (:func:`_first_lead`). ``arrival`` ((task, robot) -> its least drive in as the robot's first task less
@@ -57,9 +56,10 @@ def _floor_loads(model, tasks, gates, ancestors, capable, busy_min, assigned, tr
             pairs.setdefault(tuple(r.name for r in capable[t.key]), []).append(t)
         for pair, work in pairs.items():
             if len(pair) == 2 and len(work) > 1:
-                lead = min(head[t.key] for t in work) + min(tail[t.key] for t in work)
-                known = max(known, lead + _two_robot_bound(work, pair, busy_min))
-                if len(counted) == len(mine):
+                for run_out, part in _by_run_out(work, tail):
+                    known = max(known, min(head[t.key] for t in part) + run_out + _two_robot_bound(part, pair, busy_min))
+                if len(counted) == len(mine):  # the drives from the end of any other task: all of the work only
+                    lead = min(head[t.key] for t in work) + min(tail[t.key] for t in work)
                     known = max(known, lead + travel.two_robot_bound(work, pair))
         heads, ready, drives_in = head, None, None
         if arrival and len(gates) == 1 and len(counted) == len(tasks):  # one floor, all of it from time 0
@@ -74,9 +74,10 @@ def _floor_loads(model, tasks, gates, ancestors, capable, busy_min, assigned, tr
 
 def _run_out(mine, head, ancestors, capable, busy_min) -> dict[str, int]:
     """Task -> the shortest chain of work after it (ticks) up to the floor's gate, for the floor's tasks
-    ``mine`` that have a lead-in (``head``) and a joint after them (a joint ends by the gate: 0)."""
+    ``mine`` that have a lead-in (``head``) and a task that closes the floor after them (one that closes
+    it ends by the gate: 0)."""
     keys = {t.key for t in mine}
-    tail = {t.key: 0 for t in mine if t.key in head and t.activity == Task.ASSEMBLE}
+    tail = {t.key: 0 for t in mine if t.key in head and t.closes}
     successors: dict[str, list[str]] = {}
     for t in mine:
         for p in t.predecessors:
@@ -87,6 +88,18 @@ def _run_out(mine, head, ancestors, capable, busy_min) -> dict[str, int]:
         if t.key in head and t.key not in tail and after:
             tail[t.key] = max(min(busy_min[u, r.name] for r in capable[u]) + tail[u] for u in after)
     return tail
+
+
+def _by_run_out(work: list[_Task], tail: dict[str, int]):
+    """(run-out, the tasks of ``work`` with at least that run-out after them) for each run-out among
+    them (ticks), longest part first: a bound over a part ends no earlier than its least run-out, so a
+    part without the tasks that may end last (e.g. parts without joints, which close the floor
+    themselves) can bound more than all of the work (GEELEN: the positionings with a joint after them, and
+    480 s of it, against all of them with none)."""
+    for run_out in sorted({tail[t.key] for t in work}):
+        part = [t for t in work if tail[t.key] >= run_out]
+        if len(part) > 1:
+            yield run_out, part
 
 
 def _ready(counted, head, capable, arrival) -> dict[str, int]:
@@ -153,11 +166,11 @@ def _staged_bound(groups: dict[tuple[str, ...], list[_Task]], head, tail, busy_m
     has not begun before E_k pays its first drive in on top; at most as many J tasks as were released
     before E_k can have begun, so with one released, one of the two J robots pays it. With one released,
     all of J is also split between a robot that begins at E_1 and one that begins at E_k (and pays its
-    drive in)."""
+    drive in). J is also taken as only its tasks with the longer run-outs after them (:func:`_by_run_out`)."""
     best = 0
-    for later_robots, later in groups.items():
-        if len(later_robots) > 2 or len(later) < 2:
-            continue
+    parts = [(robots, run_out, part) for robots, work in groups.items() if len(robots) <= 2
+             for run_out, part in _by_run_out(work, tail)]
+    for later_robots, run_out, later in parts:
         for earlier_robots, earlier in groups.items():
             if earlier_robots == later_robots or len(earlier_robots) > 2:
                 continue
@@ -171,7 +184,6 @@ def _staged_bound(groups: dict[tuple[str, ...], list[_Task]], head, tail, busy_m
                         feeds[p] += 1
             released = sorted(feeds.values(), reverse=True)
             first = min(head[t.key] for t in earlier)
-            run_out = min(tail[t.key] for t in later)
             cost_p = {r: sorted(busy_min[t.key, r] for t in earlier) for r in earlier_robots}
             cost_j = {r: sorted(busy_min[t.key, r] for t in later) for r in later_robots}
             offset = {r: max(0, (ready or {}).get(r, first) - first) for r in earlier_robots}

@@ -4,6 +4,7 @@ its bounds read (ancestors; whether a floor's work is held by the floor gate or 
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -25,6 +26,8 @@ class _Task:
     #: :func:`floor_closers`; those tasks are also listed in ``predecessors``
     gate_floor: int | None = None
     floor: int = 0
+    #: whether it closes its floor (:func:`floor_closers`): the floor gate waits for it
+    closes: bool = False
 
 
 def floor_closers(smart: SmartModel) -> dict[int, list[str]]:
@@ -48,6 +51,7 @@ def task_graph(smart: SmartModel, sim: ConstructionSimulation) -> list[_Task]:
     tasks: list[_Task] = []
     components = smart.components
     closers = floor_closers(smart)
+    closing = {key for keys in closers.values() for key in keys}
     for component in components.values():
         if component.prebuilt:
             continue
@@ -56,8 +60,9 @@ def task_graph(smart: SmartModel, sim: ConstructionSimulation) -> list[_Task]:
         gate = [key for floor, keys in closers.items() if floor < component.floor for key in keys if key not in preds]
         tasks.append(_Task(f"transport:{component.id}", Task.TRANSPORT, sim.request_for(Task.TRANSPORT, component),
                            preds + gate, component.floor if gate else None, component.floor))
-        tasks.append(_Task(f"position:{component.id}", Task.POSITION, sim.request_for(Task.POSITION, component),
-                           [f"transport:{component.id}"], None, component.floor))
+        key = f"position:{component.id}"
+        tasks.append(_Task(key, Task.POSITION, sim.request_for(Task.POSITION, component),
+                           [f"transport:{component.id}"], None, component.floor, key in closing))
     for joint in smart.joints.values():
         members = [components[g] for g in joint.component_ids]
         preds = [f"position:{m.id}" for m in members if not m.prebuilt]
@@ -65,8 +70,9 @@ def task_graph(smart: SmartModel, sim: ConstructionSimulation) -> list[_Task]:
         preds = list(dict.fromkeys(preds))
         if not preds:
             continue  # foundations only: nothing for robots to wait for, but still assembled
-        tasks.append(_Task(f"assemble:{joint.id}", Task.ASSEMBLE, sim.request_for(Task.ASSEMBLE, members[0], joint),
-                           preds, None, joint.floor))
+        key = f"assemble:{joint.id}"
+        tasks.append(_Task(key, Task.ASSEMBLE, sim.request_for(Task.ASSEMBLE, members[0], joint),
+                           preds, None, joint.floor, key in closing))
     return tasks
 
 
@@ -112,10 +118,10 @@ def _all_after_the_gate(tasks: list[_Task]) -> bool:
     return len(gated) == len(tasks)
 
 
-def _all_feed_a_joint(tasks: list[_Task]) -> bool:
-    """Whether every task of a floor is a joint or comes before one of the floor's joints (then nothing
-    of this floor can run on after its gate, and floors follow each other without overlap)."""
-    feeds = {p for t in tasks if t.activity == Task.ASSEMBLE for p in t.predecessors}
+def _all_feed_a_closer(tasks: list[_Task]) -> bool:
+    """Whether every task of a floor closes it or comes before a task that does (then nothing of this
+    floor can run on after its gate, and floors follow each other without overlap)."""
+    feeds = {p for t in tasks if t.closes for p in t.predecessors}
     changed = True
     while changed:
         changed = False
@@ -125,4 +131,28 @@ def _all_feed_a_joint(tasks: list[_Task]) -> bool:
                     if p not in feeds:
                         feeds.add(p)
                         changed = True
-    return all(t.activity == Task.ASSEMBLE or t.key in feeds for t in tasks)
+    return all(t.closes or t.key in feeds for t in tasks)
+
+
+def merge_overlapping_floors(tasks: list[_Task]) -> list[_Task]:
+    """The tasks with each run of floors whose work may overlap relabelled as one floor, the top one of
+    the run: a floor ends a run where every task of the run closes a floor of it or comes before one
+    that does, and every task of the next floor waits for the floor gate. Then no run's work continues
+    after the next one starts, and the solver's floor-by-floor reasoning (gates, floors alone, the
+    chain) holds per run; a transport's gate becomes its run's. E.g. ROOT-staal's ground floor: four of its nine columns carry joints of floor
+    1 and are no closer of their own floor, so floors 0 and 1 are one run. The precedences are
+    unchanged, so the schedules are the same."""
+    floors = sorted({t.floor for t in tasks})
+    top_of: dict[int, int] = {}
+    first = 0
+    for i, floor in enumerate(floors):
+        run = set(floors[first:i + 1])
+        members = [t for t in tasks if t.floor in run]
+        keys = {t.key for t in members}
+        local = [dataclasses.replace(t, predecessors=[p for p in t.predecessors if p in keys]) for t in members]
+        after = [t for t in tasks if i + 1 < len(floors) and t.floor == floors[i + 1]]
+        if not after or (_all_feed_a_closer(local) and _all_after_the_gate(after)):
+            top_of.update((f, floor) for f in run)
+            first = i + 1
+    return [dataclasses.replace(t, floor=top_of[t.floor], gate_floor=None if t.gate_floor is None else top_of[t.gate_floor])
+            for t in tasks]

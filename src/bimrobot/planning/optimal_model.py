@@ -11,7 +11,6 @@ import numpy as np
 
 from bimrobot.coordination.market import handling_time, incapability
 from bimrobot.core.errors import InputError
-from bimrobot.core.tasks import Task
 from bimrobot.planning.optimal_bounds import _floor_loads, _Visits
 from bimrobot.planning.optimal_graph import _closure, _Task, _ticks
 from bimrobot.site.fleet import Fleet
@@ -75,8 +74,8 @@ class _Vars:
     depart: dict
     start: dict
     end: dict
-    gates: dict = field(default_factory=dict)  # floor -> >= every joint's end on floors <= floor
-    joints_by_floor: dict = field(default_factory=dict)  # floor -> its assembly task keys
+    gates: dict = field(default_factory=dict)  # floor -> >= every closer's end on floors <= floor
+    closers_by_floor: dict = field(default_factory=dict)  # floor -> the keys of the tasks that close it
     assigned: dict = field(default_factory=dict)  # (task, robot) -> literal
     arcs: dict = field(default_factory=dict)  # (robot, task before or None for the depot, task after or None) -> literal
     sizes: dict = field(default_factory=dict)  # (task, robot or None for its group) -> (busy interval size, its least value)
@@ -127,17 +126,17 @@ def _horizon(problem: _Problem, c: _Costs) -> int:
 
 
 def _variables(model, tasks: list[_Task], horizon: int) -> _Vars:
-    """Each task's depart, start and end, and one gate per floor with joints (after every joint of that
-    floor and the gate below)."""
+    """Each task's depart, start and end, and one gate per floor with work that closes it (after each
+    such task of that floor, :func:`~bimrobot.planning.optimal_graph.floor_closers`, and the gate below)."""
     v = _Vars({t.key: model.NewIntVar(0, horizon, f"depart[{t.key}]") for t in tasks},
               {t.key: model.NewIntVar(0, horizon, f"start[{t.key}]") for t in tasks},
               {t.key: model.NewIntVar(0, horizon, f"end[{t.key}]") for t in tasks})
     for t in tasks:
-        if t.activity == Task.ASSEMBLE:
-            v.joints_by_floor.setdefault(t.floor, []).append(t.key)
-    for floor in sorted(v.joints_by_floor):
-        v.gates[floor] = model.NewIntVar(0, horizon, f"gate[{floor}]")  # >= every joint's end on floors <= floor
-        for key in v.joints_by_floor[floor]:
+        if t.closes:
+            v.closers_by_floor.setdefault(t.floor, []).append(t.key)
+    for floor in sorted(v.closers_by_floor):
+        v.gates[floor] = model.NewIntVar(0, horizon, f"gate[{floor}]")  # >= every closer's end on floors <= floor
+        for key in v.closers_by_floor[floor]:
             model.Add(v.gates[floor] >= v.end[key])
         below = [f for f in v.gates if f < floor]
         if below:
@@ -164,7 +163,7 @@ def _assignment(model, tasks: list[_Task], c: _Costs, v: _Vars) -> None:
             below = [f for f in v.gates if f < t.gate_floor]
             if below:
                 model.Add(v.depart[t.key] >= v.gates[max(below)])
-                gated = {k for f in v.gates if f < t.gate_floor for k in v.joints_by_floor[f]}
+                gated = {k for f in v.gates if f < t.gate_floor for k in v.closers_by_floor[f]}
         for p in t.predecessors:
             if p in keys and p not in gated:
                 model.Add(v.depart[t.key] >= v.end[p])
@@ -348,7 +347,7 @@ def _add_hint(model, hints, problem: _Problem, handling, drive, first_drive, rea
     for (key, name), (size, least) in v["sizes"].items():  # an absent interval (another robot's): its least size
         model.AddHint(size, times[key][2] - times[key][0] if name in (None, hint[key][0]) else least)
     for floor, gate in v["gates"].items():
-        model.AddHint(gate, max((times[t.key][2] for t in tasks if t.activity == Task.ASSEMBLE and t.floor <= floor), default=0))
+        model.AddHint(gate, max((times[t.key][2] for t in tasks if t.closes and t.floor <= floor), default=0))
     longest = max((x[2] for x in times.values()), default=0)
     model.AddHint(v["makespan"], longest)
     model.Add(v["makespan"] <= longest)  # the hint is a schedule: the optimum is no longer
