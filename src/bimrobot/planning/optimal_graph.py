@@ -65,11 +65,11 @@ def task_graph(smart: SmartModel, sim: ConstructionSimulation) -> list[_Task]:
                            [f"transport:{component.id}"], None, component.floor, key in closing))
     for joint in smart.joints.values():
         members = [components[g] for g in joint.component_ids]
+        if all(m.prebuilt for m in members):
+            continue  # made with the prebuilt parts it joins (the simulation's rule): no robot's work
         preds = [f"position:{m.id}" for m in members if not m.prebuilt]
         preds += [f"position:{s}" for m in members if m.prebuilt for s in smart.robot_supporters(m.id)]
         preds = list(dict.fromkeys(preds))
-        if not preds:
-            continue  # foundations only: nothing for robots to wait for, but still assembled
         key = f"assemble:{joint.id}"
         tasks.append(_Task(key, Task.ASSEMBLE, sim.request_for(Task.ASSEMBLE, members[0], joint),
                            preds, None, joint.floor, key in closing))
