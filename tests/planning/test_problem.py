@@ -141,7 +141,7 @@ def test_the_instance_file_is_deterministic_and_read_back(frame, tmp_path):
     assert main(["plan", "export", str(path), "--fleet", "fleet2", "-o", str(out)]) == 0  # its own file: replaced
     assert out.read_bytes() == first
     instance = load_instance(out)
-    assert instance["version"] == 3 and instance["units"]["length"] == "m"
+    assert instance["version"] == 4 and instance["units"]["length"] == "m"
     assert {t["kind"] for t in instance["tasks"]} == {"transport", "position", "assemble"}
 
 
@@ -155,7 +155,7 @@ def test_a_broken_instance_is_refused_in_one_sentence(frame, tmp_path):
         load_instance(path)
     instance["version"] = 99
     path.write_text(json.dumps(instance), encoding="utf-8")
-    with pytest.raises(InputError, match="version 99, this bimrobot reads version 3"):
+    with pytest.raises(InputError, match="version 99, this bimrobot reads version 4"):
         load_instance(path)
 
 

@@ -22,7 +22,9 @@ from bimrobot.core.errors import InputError
 #: The instance format's version; :func:`load_instance` refuses any other. Version 2: one gate per floor
 #: (``gates``) instead of every lower-floor joint before every transport. Version 3: the gate also waits
 #: for the positioning of the floor's robot-built parts without connection nodes, as the simulation's does.
-VERSION = 3
+#: Version 4: no task for a joint among prebuilt parts only where those rest on robot work (version 3 listed
+#: them; the simulation never runs them).
+VERSION = 4
 
 UNITS = {"length": "m", "time": "s", "mass": "kg", "speed": "m/s"}
 
