@@ -227,7 +227,9 @@ def test_a_ground_floor_whose_columns_carry_the_next_floor_s_joints_is_solved_wi
     floor 1, so floor 0's work may go on while floor 1's is done, and the two are one run of floors for
     the solver. Every run then follows the one below, and each run solved alone bounds its share of the
     build: the bound rises above the constants (22,682.1 s when the ground floor held the floors alone
-    back) and the floors chained give a schedule shorter than the market's."""
+    back) and the floors chained give a schedule shorter than the market's. Its floor 2 (36 positionings for
+    two cranes, 34 joints) starts from the list schedule that positions first the parts completing joints,
+    not from the market's, which leaves the joints of its last parts to the end: 10 % under the market."""
     from bimrobot.planning.benchmark import problem_for
 
     problem, _, _ = problem_for(str(shared_ifc("ROOT-staal.ifczip")))
@@ -236,5 +238,6 @@ def test_a_ground_floor_whose_columns_carry_the_next_floor_s_joints_is_solved_wi
     assert [(row["floor"], row["tasks"]) for row in schedule.floors] == [(1, 57), (2, 106), (3, 25), (4, 33)]
     runs = sum(row["bound_s"] for row in schedule.floors)
     assert 25_000 <= runs - 0.01 <= schedule.lower_bound <= schedule.makespan
-    assert schedule.makespan <= schedule.chained_s <= 0.98 * schedule.hinted_s  # 29,559.9 against 30,298.4 s
+    # 27,288.9 against 30,298.4 s (29,559.9 from the market's schedule alone)
+    assert schedule.makespan <= schedule.chained_s <= 0.92 * schedule.hinted_s
     _check_feasible(schedule, problem.smart, problem.fleet, problem.storey_elevations, problem.site)
