@@ -3,6 +3,8 @@ respects the precedences and the robots' capabilities; `--planner market` is sim
 byte; a rule decides by its rule; an unknown planner is refused; CP-SAT's plan replayed keeps its
 makespan. On the generated chapter-4 steel frame (no IFC file); CP-SAT with a small deterministic limit."""
 
+import dataclasses
+
 import pytest
 
 from bimrobot.cli import main
@@ -135,7 +137,7 @@ def test_the_benchmark_bounds_every_planner_from_below():
 
 
 def test_the_portfolio_runs_the_shortest_of_its_members():
-    """`--planner portfolio` executes the shortest of the six dispatching planners' schedules, exactly: its
+    """`--planner portfolio` executes the shortest of the seven dispatching planners' schedules, exactly: its
     makespan is the minimum of the members played one by one, so never longer than the market's."""
     problem = frame_problem(per_node=False)
     alone = {name: plan(name, problem)[0].makespan for name in PORTFOLIO}
@@ -144,3 +146,23 @@ def test_the_portfolio_runs_the_shortest_of_its_members():
     assert result.makespan <= alone["market"]
     assert stats.notes["portfolio_makespans_s"] == {k: round(v, 3) for k, v in alone.items()}
     assert alone[stats.notes["portfolio_chosen"]] == min(alone.values())
+
+
+def test_the_completes_joints_rule_keeps_the_cranes_on_parts_whose_joints_can_be_made(shared_ifc):
+    """GEELEN-Breedplaat (25 parts, 19 joints; two mobile cranes position, two bolt-up gangs join): each
+    next part is the one that completes the most joints with those before it, so the joints follow the
+    cranes instead of waiting for the last parts. Per joint 6,969.9 s: 15 % under the market (8,195.9 s),
+    8 % under the best other portfolio member (shortest-handling, 7,592.6 s); per node 6,822.7 s against
+    the market's 8,594.9 s."""
+    from bimrobot.planning.benchmark import problem_for
+    from bimrobot.planning.rules import completing_order
+
+    # three parts in a triangle of joints and a part without joints: the third completes two, the loose one is last
+    assert completing_order({"a": (0, 300.0), "b": (0, 600.0), "c": (0, 300.0), "loose": (0, 900.0)},
+                            [["a", "b"], ["b", "c"], ["a", "c"]]) == ["b", "a", "c", "loose"]
+    problem, _, _ = problem_for(str(shared_ifc("GEELEN-Breedplaat_V1.ifc")))
+    alone = {name: plan(name, problem)[0].makespan for name in PORTFOLIO}
+    others = min(v for name, v in alone.items() if name != "rule:completes-joints")
+    assert alone["rule:completes-joints"] <= 0.86 * alone["market"] and alone["rule:completes-joints"] <= 0.93 * others
+    per_node = dataclasses.replace(problem, per_node=True)
+    assert plan("rule:completes-joints", per_node)[0].makespan <= 0.93 * plan("market", per_node)[0].makespan

@@ -4,8 +4,8 @@ A fortified rollout (as the pilot teacher of :mod:`bimrobot.planning.learned_adv
 :class:`~bimrobot.planning.learned_advice.Rollouts`):
 
 1. the incumbent is the shortest of the portfolio's schedules (the least-cost and quickest-finish
-   markets and the four priority rules, each a whole episode of the event simulation) and of the
-   policy's own greedy schedule;
+   markets and the five priority rules, :data:`~bimrobot.planning.rules.PORTFOLIO`, each a whole
+   episode of the event simulation) and of the policy's own greedy schedule;
 2. the build follows the incumbent; at each decision with more than one valid action, the candidates
    are the policy's ``top_k`` valid actions (by logit; the greedy one first) and the advisers' first
    choices. From each candidate that is not the incumbent's next action, the build is completed by the
@@ -33,6 +33,7 @@ from bimrobot.planning.dispatch import DispatchEnv, DispatchProblem, request_key
 from bimrobot.planning.learned_advice import (ADVISERS, RolloutEnv, Rollouts, advice_sparse, complete_build, completer,
                                               first_choices)
 from bimrobot.planning.learned_pool import sizes
+from bimrobot.planning.rules import PORTFOLIO
 
 #: rollouts for ``--planner learned`` (each one a whole episode of the event simulation)
 DEFAULT_BUDGET = 400
@@ -89,7 +90,7 @@ def search(problem: DispatchProblem, policy=None, budget: int = DEFAULT_BUDGET, 
         env = DispatchEnv(problem, max_tasks=pad[0], max_robots=pad[1], max_edges=max(pad[2], 1), copy_observation=False)
     sandbox = RolloutEnv(problem, max_tasks=env.max_tasks, max_robots=env.max_robots, max_edges=env.max_edges)
     episodes = decisions // max(1, env.max_tasks) - 1 - (policy is not None)  # left after the market and the policy
-    played = ADVISERS[: 1 + max(0, min(len(ADVISERS) - 1, episodes))]  # ADVISERS == the portfolio, the market first
+    played = PORTFOLIO[: 1 + max(0, min(len(PORTFOLIO) - 1, episodes))]  # the market first
     budget = max(0, min(budget, episodes - (len(played) - 1)))
     if policy is not None and len(played) == 1 and budget == 0:  # the market and the policy only: see _market_or_policy
         return _market_or_policy(problem, policy, env, sandbox)

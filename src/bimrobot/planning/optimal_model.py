@@ -314,29 +314,14 @@ def _retime(tasks: list[_Task], fleet: Fleet, hint: dict, handling, drive, first
 
 
 def _part_ranks(tasks: list[_Task], can: dict, handling: dict) -> dict[str, int]:
-    """Positioning task -> its rank in the list schedule (:func:`_list_schedule`): one part at a time,
-    the part that completes the most joints with the parts ranked before it, on the lowest floor first,
-    parts without joints last, the longer positioning first, then by key (a fixed order)."""
-    positions = {t.key: t for t in tasks if t.activity == Task.POSITION}
-    joints_of: dict[str, list[str]] = {key: [] for key in positions}
-    missing: dict[str, int] = {}
-    for t in tasks:
-        if t.activity == Task.ASSEMBLE:
-            members = [p for p in t.predecessors if p in positions]
-            missing[t.key] = len(members)
-            for p in members:
-                joints_of[p].append(t.key)
-    longest = {key: min(handling[key, r] for r in can[key]) for key in positions}
-    ranks: dict[str, int] = {}
-    left = set(positions)
-    while left:
-        best = min(left, key=lambda key: (positions[key].floor, not joints_of[key],
-                                          -sum(1 for j in joints_of[key] if missing[j] == 1), -longest[key], key))
-        ranks[best] = len(ranks)
-        left.remove(best)
-        for j in joints_of[best]:
-            missing[j] -= 1
-    return ranks
+    """Positioning task -> its rank in the list schedule (:func:`_list_schedule`), the parts in
+    :func:`~bimrobot.planning.rules.completing_order` (a joint's parts: its assembly's positioning
+    predecessors; a part's time: its shortest positioning, ticks)."""
+    from bimrobot.planning.rules import completing_order
+
+    parts = {t.key: (t.floor, min(handling[t.key, r] for r in can[t.key])) for t in tasks if t.activity == Task.POSITION}
+    joints = [list(t.predecessors) for t in tasks if t.activity == Task.ASSEMBLE]
+    return {part: rank for rank, part in enumerate(completing_order(parts, joints))}
 
 
 def _list_schedule(tasks: list[_Task], can: dict, handling, drive, first_drive, ready) -> dict:

@@ -44,13 +44,11 @@ from bimrobot.coordination.market import (
     Award, Dispatcher, MarketDispatcher, incapability, make_evaluator, propose,
 )
 from bimrobot.core.errors import InputError
-from bimrobot.planning.rules import RULES, RuleDispatcher, _request_key
+from bimrobot.planning.rules import PORTFOLIO, RULES, RuleDispatcher, _request_key
 
 #: the names :func:`planner_for` knows, in the order the CLI lists them (``PATH.zip`` besides)
 PLANNERS = ("market", "market:quickest-finish", *(f"rule:{r}" for r in RULES), "portfolio", "rollout", "cp-sat", "learned",
             "learned:greedy")
-#: the members of ``portfolio``: the dispatching planners that need no solver and no policy
-PORTFOLIO = ("market", "market:quickest-finish", *(f"rule:{r}" for r in RULES))
 DEFAULT = "market"
 #: CP-SAT's limits when it plans for the CLI: wall seconds, deterministic seconds, one worker (reproducible)
 CPSAT_TIME_LIMIT_S = 60.0

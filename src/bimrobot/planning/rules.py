@@ -6,6 +6,11 @@
   handling times, the critical path; shortest handling time); each goes to the capable idle robot that
   finishes it soonest (travel + handling; ties: robot name).
 - ``nearest``: the (ready task, idle robot) pair with the shortest drive first, again and again.
+- ``completes-joints``: joints first, then the transport and positioning of the parts in one fixed
+  order (:func:`completing_order`: each next part the one that completes the most joints with the parts
+  before it), each to the capable idle robot that finishes it soonest. Where the positioning cranes are
+  the bottleneck, it keeps them on parts whose joints can then be made; the other rules leave the joints
+  of the last parts to the end (ROOT-staal's floor 2).
 
 Deterministic. Times in seconds, positions (x, y) in metres in the site frame.
 """
@@ -16,8 +21,47 @@ import numpy as np
 
 from bimrobot.coordination.market import Award, Dispatcher, incapability, propose, handling_time
 from bimrobot.core.errors import InputError
+from bimrobot.core.tasks import Task
 
-RULES = ("most-successors", "longest-path", "nearest", "shortest-handling")
+RULES = ("most-successors", "longest-path", "nearest", "shortest-handling", "completes-joints")
+#: the cheap deterministic planners played side by side (``portfolio``, CP-SAT's start, the learned
+#: search's incumbent): the least-cost market first, quickest-finish, then the rules
+PORTFOLIO = ("market", "market:quickest-finish", *(f"rule:{r}" for r in RULES))
+
+
+def completing_order(parts: dict[str, tuple[int, float]], joints: list[list[str]]) -> list[str]:
+    """The parts one after the other (``parts``: part -> (floor, positioning s); ``joints``: each joint's
+    parts): each next, the one that completes the most joints with the parts before it, on the lowest
+    floor first, parts without joints last, the longer positioning first, then by name (a fixed order)."""
+    joints_of: dict[str, list[int]] = {part: [] for part in parts}
+    missing = []
+    for j, members in enumerate(joints):
+        members = [m for m in dict.fromkeys(members) if m in parts]
+        missing.append(len(members))
+        for m in members:
+            joints_of[m].append(j)
+    order, left = [], set(parts)
+    while left:
+        best = min(left, key=lambda p: (parts[p][0], not joints_of[p], -sum(1 for j in joints_of[p] if missing[j] == 1),
+                                        -parts[p][1], p))
+        order.append(best)
+        left.remove(best)
+        for j in joints_of[best]:
+            missing[j] -= 1
+    return order
+
+
+def _completing_ranks(sim) -> dict[str, int]:
+    """Component -> its rank in :func:`completing_order` over the robot-built parts and the joints to
+    build (their robot-built members)."""
+    specs = [r.spec for r in sim.build.robots.values()]
+    parts = {}
+    for c in sim.smart.components.values():
+        if not c.prebuilt:
+            request = sim.request_for(Task.POSITION, c)
+            parts[c.id] = (c.floor, min((handling_time(s, request) for s in specs if not incapability(s, request)), default=0.0))
+    joints = [[g for g in joint.component_ids if g in parts] for joint in sim.joints_to_build()]
+    return {part: rank for rank, part in enumerate(completing_order(parts, joints))}
 
 
 def _request_key(sim, request) -> str:
@@ -74,10 +118,12 @@ class RuleDispatcher(Dispatcher):
         self._scores: dict[str, float] | None = None
         self._sim = None
         self._key: dict[str, float] = {}  # request id -> its score under the rule
+        self._ranks: dict[str, int] = {}  # completes-joints: component -> its rank
 
     def awards(self, sim) -> list[Award]:
         if self._sim is not sim:
-            self._sim, self._scores = sim, (None if self.rule == "nearest" else _scores(sim, self.rule))
+            self._sim, self._scores = sim, (None if self.rule in ("nearest", "completes-joints") else _scores(sim, self.rule))
+            self._ranks = _completing_ranks(sim) if self.rule == "completes-joints" else {}
             self._key = {}
         now = sim.build.env.now
         idle = {a: set(names) for a, names in sim.build.idle.items()}
@@ -89,7 +135,7 @@ class RuleDispatcher(Dispatcher):
         pending = [r for r in pending if idle.get(r.activity)]
         for r in pending:
             if r.id not in self._key:
-                self._key[r.id] = self._scores.get(_request_key(sim, r), 0.0)
+                self._key[r.id] = self._score(sim, r)
         pending.sort(key=lambda r: (-self._key[r.id], r.priority))
         where = {}  # robot name -> where it bids from (site frame, m), asked once per round
         for request in pending:
@@ -106,6 +152,14 @@ class RuleDispatcher(Dispatcher):
                 for names in idle.values():
                     names.discard(best.robot)
         return chosen
+
+    def _score(self, sim, request) -> float:
+        """The request's priority under the rule (higher first)."""
+        if self.rule != "completes-joints":
+            return self._scores.get(_request_key(sim, request), 0.0)
+        if request.activity == Task.ASSEMBLE:
+            return float(len(self._ranks))  # above every part
+        return -float(self._ranks.get(request.component_id, len(self._ranks)))
 
     def _nearest(self, sim, pending, idle, now) -> list[Award]:
         """The shortest drive first: all (task, idle robot) pairs, nearest first (ties: task priority, name)."""
