@@ -201,11 +201,12 @@ def main(path) -> None:
 
 
 #: CP-SAT's best schedule (as executed) and lower bound (s) per joint with site-crane, from ``bimrobot plan
-#: benchmark`` of 2026-11-29 with CP-SAT without its LP (docs/planning.md, "Shared real models": one worker,
-#: 90 s; None: no schedule found)
-CPSAT = {"AC20-FZK-Haus.ifc": (None, None), "GEELEN-Breedplaat_V1.ifc": (6897.7, 6655.4),
-         "IfcOpenHouse_IFC4.ifc": (1252.2, 1252.2), "MULTICOM-Prefab.ifc": (28231.6, 21569.1),
-         "MULTICOM-trappen_bordessen.ifc": (3000.6, 3000.6), "ROOT-staal.ifczip": (29637.7, 22682.1),
+#: benchmark`` of 2026-11-29 04:39-04:45 (S11: CP-SAT without its LP, from the portfolio's shortest schedule
+#: and its own list schedule, the floors as the simulation closes them; docs/planning.md, "Shared real
+#: models": one worker, 90 s; None: no schedule found)
+CPSAT = {"AC20-FZK-Haus.ifc": (71656.3, 60387.2), "GEELEN-Breedplaat_V1.ifc": (6908.9, 6655.4),
+         "IfcOpenHouse_IFC4.ifc": (1252.2, 1252.2), "MULTICOM-Prefab.ifc": (28250.6, 27274.0),
+         "MULTICOM-trappen_bordessen.ifc": (3000.6, 3000.6), "ROOT-staal.ifczip": (26879.5, 25667.5),
          "column-extruded-solid.ifc": (749.5, 749.5), "construction-scheduling-task.ifc": (5339.3, 5339.3),
          "ifcColumn.ifc": (1121.3, 1121.3), "ifcUnit.ifc": (6061.1, 6061.2)}
 
