@@ -90,8 +90,8 @@ def add_simulate_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(  # issue 38: bimrobot.planning.planners
         "--planner", metavar="NAME",
         help="who plans the build (default: the market with --evaluator): market, market:quickest-finish, "
-        "rule:most-successors, rule:longest-path, rule:nearest, rule:shortest-handling, portfolio (the shortest of "
-        "those six), rollout (the portfolio's best improved by rollouts), cp-sat (with --per-joint), learned (the shipped "
+        "rule:most-successors, rule:longest-path, rule:nearest, rule:shortest-handling, rule:completes-joints, portfolio "
+        "(the shortest of those seven), rollout (the portfolio's best improved by rollouts), cp-sat (with --per-joint), learned (the shipped "
         "policy with a search of 400 rollouts), learned:greedy (the policy alone), or a policy file PATH.zip; plan.json "
         "says what planning cost",
     )

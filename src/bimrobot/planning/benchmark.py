@@ -23,7 +23,7 @@ PREBUILT = "IfcFooting,IfcSlab,IfcWall"
 #: the planners benchmarked by default (``learned`` where a policy is installed: the policy with its search of
 #: 400 rollouts, each a whole simulation, so by far the dearest after CP-SAT)
 DEFAULT_PLANNERS = ("market", "market:quickest-finish", "rule:most-successors", "rule:longest-path", "rule:nearest",
-                    "rule:shortest-handling", "cp-sat", "learned")
+                    "rule:shortest-handling", "rule:completes-joints", "cp-sat", "learned")
 
 
 def problem_for(model: str, fleet: str | None = None, per_joint: bool = True):

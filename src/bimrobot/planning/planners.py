@@ -14,6 +14,8 @@ Names (:func:`planner_for`):
   remaining path of shortest handling times, the critical path; shortest handling time); each goes to the
   capable idle robot that finishes it soonest (travel + handling; ties: robot name).
 - ``rule:nearest``: the (ready task, idle robot) pair with the shortest drive first, again and again.
+- ``rule:completes-joints``: joints first, then the parts in one fixed order, each next the one that
+  completes the most joints with those before it (:func:`bimrobot.planning.rules.completing_order`).
 - ``portfolio``: every planner above played on the problem in the event simulation, the shortest schedule
   kept (the first in :data:`PORTFOLIO`'s order on a tie). Cheap planners, several runs: the price is one
   simulation per member.
