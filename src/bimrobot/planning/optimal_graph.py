@@ -139,9 +139,9 @@ def merge_overlapping_floors(tasks: list[_Task]) -> list[_Task]:
     the run: a floor ends a run where every task of the run closes a floor of it or comes before one
     that does, and every task of the next floor waits for the floor gate. Then no run's work continues
     after the next one starts, and the solver's floor-by-floor reasoning (gates, floors alone, the
-    chain) holds per run; a transport's gate becomes its run's. E.g. ROOT-staal's ground floor: four of its nine columns carry joints of floor
-    1 and are no closer of their own floor, so floors 0 and 1 are one run. The precedences are
-    unchanged, so the schedules are the same."""
+    chain) holds per run; a transport's gate becomes its run's. E.g. ROOT-staal's ground floor: four
+    of its nine columns carry joints of floor 1 only and close nothing of their own floor, so floors 0
+    and 1 are one run. The precedences are unchanged, so the schedules are the same."""
     floors = sorted({t.floor for t in tasks})
     top_of: dict[int, int] = {}
     first = 0
