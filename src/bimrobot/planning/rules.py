@@ -32,22 +32,38 @@ PORTFOLIO = ("market", "market:quickest-finish", *(f"rule:{r}" for r in RULES))
 def completing_order(parts: dict[str, tuple[int, float]], joints: list[list[str]]) -> list[str]:
     """The parts one after the other (``parts``: part -> (floor, positioning s); ``joints``: each joint's
     parts): each next, the one that completes the most joints with the parts before it, on the lowest
-    floor first, parts without joints last, the longer positioning first, then by name (a fixed order)."""
+    floor first, parts without joints last, the longer positioning first, then by name (a fixed order).
+    A heap whose entries are renewed when a part's count changes: O((parts + joints) log parts)."""
+    import heapq
+
     joints_of: dict[str, list[int]] = {part: [] for part in parts}
-    missing = []
-    for j, members in enumerate(joints):
-        members = [m for m in dict.fromkeys(members) if m in parts]
-        missing.append(len(members))
-        for m in members:
+    members = [[m for m in dict.fromkeys(joint) if m in parts] for joint in joints]
+    missing = [len(ms) for ms in members]
+    for j, ms in enumerate(members):
+        for m in ms:
             joints_of[m].append(j)
-    order, left = [], set(parts)
-    while left:
-        best = min(left, key=lambda p: (parts[p][0], not joints_of[p], -sum(1 for j in joints_of[p] if missing[j] == 1),
-                                        -parts[p][1], p))
-        order.append(best)
-        left.remove(best)
-        for j in joints_of[best]:
+    completes = {part: sum(1 for j in joints_of[part] if missing[j] == 1) for part in parts}
+
+    def entry(part: str) -> tuple:
+        floor, seconds = parts[part]
+        return (floor, not joints_of[part], -completes[part], -seconds, part)
+
+    heap = [entry(part) for part in parts]
+    heapq.heapify(heap)
+    order, placed = [], set()
+    while heap:
+        top = heapq.heappop(heap)
+        part = top[-1]
+        if part in placed or top != entry(part):
+            continue  # placed, or its count has changed since: a newer entry stands in the heap
+        order.append(part)
+        placed.add(part)
+        for j in joints_of[part]:
             missing[j] -= 1
+            if missing[j] == 1:  # the joint's last part now completes it
+                last = next(m for m in members[j] if m not in placed)
+                completes[last] += 1
+                heapq.heappush(heap, entry(last))
     return order
 
 
