@@ -418,3 +418,42 @@ def test_a_stop_during_cp_sats_search_stops_the_command(tmp_path, signame):
             run.wait()
     assert not (tmp_path / "out").exists() and list(tmp.iterdir()) == []
     tally("signals")
+
+
+SIDE_BY_SIDE = """
+from bimrobot.bim.selection import DEFAULT_PREBUILT
+from bimrobot.coordination.generate import generated_frame
+from bimrobot.planning.optimal import solve_optimal
+from bimrobot.sco import build_smart_model
+from bimrobot.site.fleet import load_fleet
+
+model = generated_frame(4, 3, 2)
+smart = build_smart_model(model, prebuilt_classes=DEFAULT_PREBUILT)
+print("solving", flush=True)
+solve_optimal(smart, load_fleet("fleet2"), storey_elevations=[s.elevation for s in model.storeys], time_limit_s=600,
+              workers=2)
+"""
+
+
+def test_ctrl_c_ends_the_floors_solved_side_by_side_at_once(tmp_path):
+    """solve_optimal with two workers solves the floors that differ side by side, in threads (4x3x2: none
+    is proved within minutes). Ctrl-C while they search ends them at once; it used to wait for each
+    floor's share of the time limit (here up to 360 s)."""
+    tmp = tmp_path / "tmp"
+    tmp.mkdir()
+    run = subprocess.Popen([sys.executable, "-c", SIDE_BY_SIDE], env=_environment(tmp), stdout=subprocess.PIPE,
+                           stderr=subprocess.PIPE, text=True, start_new_session=True)
+    try:
+        assert run.stdout.readline().strip() == "solving"
+        time.sleep(8.0)  # the market's run and the floors' models take 1-3 s here: the floors search by now
+        assert run.poll() is None, f"it ended before the signal: {run.stderr.read()}"
+        os.killpg(run.pid, signal.SIGINT)
+        assert run.wait(timeout=30) == -signal.SIGINT  # Python's default: KeyboardInterrupt, then the signal
+        assert "KeyboardInterrupt" in run.stderr.read()
+    finally:
+        if run.poll() is None:
+            run.kill()
+            run.wait()
+        run.stdout.close()
+        run.stderr.close()
+    tally("signals")

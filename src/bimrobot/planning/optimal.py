@@ -55,6 +55,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import threading
 import time
 from dataclasses import dataclass, field
 
@@ -176,17 +177,39 @@ def _solve(problem: _Problem, hint: dict | list | None, time_limit_s: float, wor
     )
 
 
+#: the CP-SAT solvers searching outside the main thread (the floors solved side by side,
+#: :func:`_solve_apart`), so that a stop ends them too; set: a stop came, solves not yet begun end at once
+_SIDE_SOLVERS: set = set()
+_SIDE_STOP = threading.Event()
+_SIDE_LOCK = threading.Lock()
+
+
+def _stop_side_solves() -> None:
+    """End every search running outside the main thread, and those about to begin."""
+    with _SIDE_LOCK:
+        _SIDE_STOP.set()
+        for solver in _SIDE_SOLVERS:
+            solver.StopSearch()
+
+
 def _solve_stoppably(solver, model) -> int:
     """``solver.Solve(model)``, stopped by the command's stop signals. CP-SAT's own SIGINT handler is
     off: it ended the search and let the command finish, exit 0, with its output, on Ctrl-C. In the main
     thread the solve runs in a helper thread, so that Python's handlers run at once (a SIGTERM waited up to
     the time limit for the solve, 39 s on GEELEN): the stop they raise here stops the search, waits for
-    it, and goes on up. Elsewhere (the floors solved side by side) it is a plain call."""
-    import threading
-
+    it, and goes on up. Elsewhere (the floors solved side by side) it is registered, so that a stop in
+    the main thread ends it too (:func:`_stop_side_solves`)."""
     solver.parameters.catch_sigint_signal = False
     if threading.current_thread() is not threading.main_thread():
-        return solver.Solve(model)
+        with _SIDE_LOCK:
+            if _SIDE_STOP.is_set():  # stopped before this solve began
+                solver.parameters.max_time_in_seconds = 0.0
+            _SIDE_SOLVERS.add(solver)
+        try:
+            return solver.Solve(model)
+        finally:
+            with _SIDE_LOCK:
+                _SIDE_SOLVERS.discard(solver)
     answer: list[int] = []
     worker = threading.Thread(target=lambda: answer.append(solver.Solve(model)), name="cp-sat", daemon=True)
     worker.start()
@@ -387,10 +410,18 @@ def _solve_apart(cache: dict, problems: list[_Problem], hints: list, time_limit_
         todo.setdefault(_problem_key(problem), (problem, hint))
     total, workers = sum(len(problem.tasks) for problem, _ in todo.values()), limits["workers"]
     one = dict(limits, workers=1)
-    with ThreadPoolExecutor(workers) as pool:  # CP-SAT's solve runs without Python's lock: the threads run at once
+    _SIDE_STOP.clear()
+    pool = ThreadPoolExecutor(workers)  # CP-SAT's solve runs without Python's lock: the threads run at once
+    try:
         futures = {key: pool.submit(_solve, problem, hint, min(time_limit_s, max(1.0, time_limit_s * workers * len(
             problem.tasks) / total)), **one) for key, (problem, hint) in todo.items()}
         solved = {key: future.result() for key, future in futures.items()}
+    except BaseException:  # a stop (Ctrl-C, SIGTERM): end the searches now, not at their time limits
+        pool.shutdown(wait=False, cancel_futures=True)
+        _stop_side_solves()
+        raise
+    finally:
+        pool.shutdown(wait=True)
     for key, (problem, _) in todo.items():
         cache[key] = ([t.key for t in problem.tasks], solved[key])
     return sum(s.deterministic_s for s in solved.values())
