@@ -55,7 +55,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import threading
 import time
 from dataclasses import dataclass, field
 
@@ -72,6 +71,7 @@ from bimrobot.core.tasks import Task
 from bimrobot.planning.optimal_graph import (SCALE, _all_after_the_gate, _all_feed_a_closer, _Task,
                                              merge_overlapping_floors, task_graph)
 from bimrobot.planning.optimal_model import OutOfTime, _build, _Problem
+from bimrobot.planning.optimal_stop import allow_side_solves, solve_stoppably, stop_side_solves
 
 #: Above this many tasks the build is solved floor by floor (:func:`solve_optimal`).
 WHOLE_TASKS = 400
@@ -147,7 +147,7 @@ def _solve(problem: _Problem, hint: dict | list | None, time_limit_s: float, wor
     solver.parameters.num_workers = workers
     solver.parameters.random_seed = seed
     solver.parameters.linearization_level = linearization
-    status = _solve_stoppably(solver, model)
+    status = solve_stoppably(solver, model)
     if status not in (cp_model.OPTIMAL, cp_model.FEASIBLE) and hinted:  # stopped before reading the hint
         bound = solver.BestObjectiveBound()
         return _Solved(
@@ -175,52 +175,6 @@ def _solve(problem: _Problem, hint: dict | list | None, time_limit_s: float, wor
         end={k: x[2] / SCALE for k, x in timed.items()},
         deterministic_s=solver.response_proto.deterministic_time,
     )
-
-
-#: the CP-SAT solvers searching outside the main thread (the floors solved side by side,
-#: :func:`_solve_apart`), so that a stop ends them too; set: a stop came, solves not yet begun end at once
-_SIDE_SOLVERS: set = set()
-_SIDE_STOP = threading.Event()
-_SIDE_LOCK = threading.Lock()
-
-
-def _stop_side_solves() -> None:
-    """End every search running outside the main thread, and those about to begin."""
-    with _SIDE_LOCK:
-        _SIDE_STOP.set()
-        for solver in _SIDE_SOLVERS:
-            solver.StopSearch()
-
-
-def _solve_stoppably(solver, model) -> int:
-    """``solver.Solve(model)``, stopped by the command's stop signals. CP-SAT's own SIGINT handler is
-    off: it ended the search and let the command finish, exit 0, with its output, on Ctrl-C. In the main
-    thread the solve runs in a helper thread, so that Python's handlers run at once (a SIGTERM waited up to
-    the time limit for the solve, 39 s on GEELEN): the stop they raise here stops the search, waits for
-    it, and goes on up. Elsewhere (the floors solved side by side) it is registered, so that a stop in
-    the main thread ends it too (:func:`_stop_side_solves`)."""
-    solver.parameters.catch_sigint_signal = False
-    if threading.current_thread() is not threading.main_thread():
-        with _SIDE_LOCK:
-            if _SIDE_STOP.is_set():  # stopped before this solve began
-                solver.parameters.max_time_in_seconds = 0.0
-            _SIDE_SOLVERS.add(solver)
-        try:
-            return solver.Solve(model)
-        finally:
-            with _SIDE_LOCK:
-                _SIDE_SOLVERS.discard(solver)
-    answer: list[int] = []
-    worker = threading.Thread(target=lambda: answer.append(solver.Solve(model)), name="cp-sat", daemon=True)
-    worker.start()
-    try:
-        while worker.is_alive():
-            worker.join(0.05)  # Python runs its signal handlers between these waits
-    finally:
-        if worker.is_alive():  # a stop was raised: end the search before going on up
-            solver.StopSearch()
-            worker.join()
-    return answer[0]
 
 
 def schedule_hint(smart: SmartModel, fleet: Fleet, site: Site | None, storey_elevations, tasks: list[_Task],
@@ -410,7 +364,7 @@ def _solve_apart(cache: dict, problems: list[_Problem], hints: list, time_limit_
         todo.setdefault(_problem_key(problem), (problem, hint))
     total, workers = sum(len(problem.tasks) for problem, _ in todo.values()), limits["workers"]
     one = dict(limits, workers=1)
-    _SIDE_STOP.clear()
+    allow_side_solves()
     pool = ThreadPoolExecutor(workers)  # CP-SAT's solve runs without Python's lock: the threads run at once
     try:
         futures = {key: pool.submit(_solve, problem, hint, min(time_limit_s, max(1.0, time_limit_s * workers * len(
@@ -418,7 +372,7 @@ def _solve_apart(cache: dict, problems: list[_Problem], hints: list, time_limit_
         solved = {key: future.result() for key, future in futures.items()}
     except BaseException:  # a stop (Ctrl-C, SIGTERM): end the searches now, not at their time limits
         pool.shutdown(wait=False, cancel_futures=True)
-        _stop_side_solves()
+        stop_side_solves()
         raise
     finally:
         pool.shutdown(wait=True)
