@@ -38,8 +38,11 @@ of the floors' bounds and is optimal without the whole model (``method`` ``floor
 Where the whole model is too big (more than ``whole_tasks`` tasks), the build is solved floor by floor
 (the floor gate makes floors follow each other): each floor starts when the one below is done, with
 every robot where it stopped. The lower bound is then the sum of each floor's bound with its robots
-free to start anywhere at once (valid because floors cannot overlap), or the largest of them where a
-floor has work that nothing closing that floor waits for or that the floor gate does not hold.
+free to start anywhere at once (valid because floors cannot overlap).
+
+"Floor" here is a run of floors whose work may overlap, taken as one
+(:func:`~bimrobot.planning.optimal_graph.merge_overlapping_floors`): runs follow each other by
+construction, so every reasoning above that needs floors that cannot overlap holds between runs.
 
 The tasks are built in :mod:`~bimrobot.planning.optimal_graph`, the model in
 :mod:`~bimrobot.planning.optimal_model`, its bounds and cuts in :mod:`~bimrobot.planning.optimal_bounds`.
@@ -68,8 +71,7 @@ from bimrobot.core.errors import InputError, require_extra
 from bimrobot.sco.build import SmartModel
 from bimrobot.core.tasks import Task
 # the tasks (optimal_graph), the CP-SAT model (optimal_model) and its bounds live in siblings
-from bimrobot.planning.optimal_graph import (SCALE, _all_after_the_gate, _all_feed_a_closer, _Task,
-                                             merge_overlapping_floors, task_graph)
+from bimrobot.planning.optimal_graph import SCALE, _Task, merge_overlapping_floors, task_graph
 from bimrobot.planning.optimal_model import OutOfTime, _build, _Problem
 from bimrobot.planning.optimal_stop import allow_side_solves, solve_stoppably, stop_side_solves
 
@@ -294,10 +296,11 @@ def _floor_bounds(tasks, fleet, homes, given, time_limit_s, limits, cache=None):
     sum from the start, and a schedule that reaches it is proved optimal. ``time_limit_s`` (s) is shared
     by task count over the floors that differ: a floor that repeats one below (a repeated storey, the same
     problem to the tick) takes that floor's solve (``cache``, :func:`_solve_once`); time a floor leaves
-    unused passes to the floors above. Returns {floor: ticks} ({}
-    where floors may overlap or with one floor), the solves' deterministic time, their schedules one
-    after the other (an order for a hint), one row per floor (tasks, best_s, bound_s, status) and each
-    floor's (tasks, schedule) solved alone ([] where floors may overlap)."""
+    unused passes to the floors above. ``tasks`` come from
+    :func:`~bimrobot.planning.optimal_graph.merge_overlapping_floors`, so floors cannot overlap. Returns
+    {floor: ticks} ({} with one floor), the solves' deterministic time, their schedules one after the other
+    (an order for a hint), one row per floor (tasks, best_s, bound_s, status) and each floor's (tasks,
+    schedule) solved alone ([] with one floor)."""
     floors = sorted({t.floor for t in tasks})
     locals_ = {}
     for floor in floors:
@@ -305,10 +308,6 @@ def _floor_bounds(tasks, fleet, homes, given, time_limit_s, limits, cache=None):
         keys = {t.key for t in mine}
         locals_[floor] = [dataclasses.replace(t, predecessors=[p for p in t.predecessors if p in keys], gate_floor=None)
                           for t in mine]
-        # the top floor may have work that closes nothing (nothing comes after it)
-        closed = floor == floors[-1] or _all_feed_a_closer(locals_[floor])
-        if not (closed and (floor == floors[0] or _all_after_the_gate(mine))):
-            return {}, 0.0, None, [], []
     if len(floors) < 2:
         return {}, 0.0, None, [], []
     cache = {} if cache is None else cache
@@ -528,8 +527,6 @@ def _by_floor(tasks, fleet, homes, given, hinted, time_limit_s, started, limits)
         keys = {t.key for t in tasks if t.floor == floor}
         locals_[floor] = [dataclasses.replace(t, predecessors=[p for p in t.predecessors if p in keys], gate_floor=None)
                           for t in tasks if t.floor == floor]
-    disjoint = all((f == floors[-1] or _all_feed_a_closer(locals_[f])) and (f == floors[0] or _all_after_the_gate(
-        [t for t in tasks if t.floor == f])) for f in floors)
     for floor in floors:
         local = locals_[floor]
         keys = {t.key for t in local}
@@ -545,8 +542,8 @@ def _by_floor(tasks, fleet, homes, given, hinted, time_limit_s, started, limits)
             relaxed = _solve(_Problem(local, fleet, where, {r.name: 0.0 for r in fleet.robots}, free_start=True),
                              shifted, budget * 0.3, **limits)  # the hint, re-timed there, keeps it from failing
         except OutOfTime:
-            return _out_of_time(tasks, fleet, given, hinted, None, sum(bounds) if disjoint else max(bounds, default=0.0),
-                                "by floor", time_limit_s, started, rows, work)
+            return _out_of_time(tasks, fleet, given, hinted, None, sum(bounds), "by floor", time_limit_s, started, rows,
+                                work)
         bounds.append(relaxed.bound)
         work += solved.deterministic_s + relaxed.deterministic_s
         for key, robot in solved.assignment.items():
@@ -557,6 +554,6 @@ def _by_floor(tasks, fleet, homes, given, hinted, time_limit_s, started, limits)
         clock = solved.makespan
         rows.append({"floor": floor, "tasks": len(local), "end_s": solved.makespan, "status": solved.status,
                      "bound_s": relaxed.bound})
-    bound = sum(bounds) if disjoint else max(bounds)
+    bound = sum(bounds)
     return OptimalSchedule(clock, min(bound, clock), "FEASIBLE", assignment, start, len(tasks), "by floor",
                            time.perf_counter() - started, hinted, rows, work)
