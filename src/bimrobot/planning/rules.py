@@ -70,12 +70,9 @@ def completing_order(parts: dict[str, tuple[int, float]], joints: list[list[str]
 def _completing_ranks(sim) -> dict[str, int]:
     """Component -> its rank in :func:`completing_order` over the robot-built parts and the joints to
     build (their robot-built members)."""
-    specs = [r.spec for r in sim.build.robots.values()]
-    parts = {}
-    for c in sim.smart.components.values():
-        if not c.prebuilt:
-            request = sim.request_for(Task.POSITION, c)
-            parts[c.id] = (c.floor, min((handling_time(s, request) for s in specs if not incapability(s, request)), default=0.0))
+    built = [c for c in sim.smart.components.values() if not c.prebuilt]
+    seconds = shortest_handling(sim, [sim.request_for(Task.POSITION, c) for c in built])
+    parts = {c.id: (c.floor, s) for c, s in zip(built, seconds)}
     joints = [[g for g in joint.component_ids if g in parts] for joint in sim.joints_to_build()]
     return {part: rank for rank, part in enumerate(completing_order(parts, joints))}
 
