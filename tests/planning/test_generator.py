@@ -78,7 +78,31 @@ def test_steel_and_panel_buildings_have_their_components_and_joints(kind, grid, 
     assert not smart.inferred  # every joint comes from an IfcRelConnectsWithRealizingElements
 
 
-@pytest.mark.parametrize("kind", ["steel", "precast", "panel"])
+def test_floor_plates_rest_on_their_walls_and_units_side_by_side_wait_for_nothing(tmp_path):
+    """The plates kind has what the shared GEELEN floor of plates has and the other kinds lack: joints
+    between units side by side, which may be set in any order, so the order decides when a joint can be made."""
+    from bimrobot.bim.examples import CONCRETE_DENSITY, FLOOR_PLATE_THICKNESS
+
+    made = generate("generated:plates:2x2x2:seed=1", tmp_path / "plates.ifc")
+    model = load_model(made.path)
+    smart = build_smart_model(model)
+    # per floor 3 wall lines of 2 panels and 2 bays of 2 plates
+    assert made.components == len(smart.components) == 20 and model.class_counts() == {"IfcWall": 12, "IfcSlab": 8}
+    # per floor 3 wall-wall in a line, 2 ends of 4 plates, 2 plate-plate; 6 walls on walls below
+    assert len(smart.joints) == 2 * (3 + 8 + 2) + 6 and not smart.inferred
+    names = {c.id: c.name.removesuffix(" unit") for c in smart.components.values()}  # each an assembly unit
+    by_name = {name: gid for gid, name in names.items()}
+    plate = smart.components[by_name["Floor plate 0-1-0"]]
+    assert sorted(names[s] for s in smart.supporters[plate.id]) == ["Bearing wall 0-1-0", "Bearing wall 0-2-0"]
+    span, width = made.layout.bay_x - 0.24, made.layout.bay_y - 0.02
+    assert plate.weight_kg == pytest.approx(span * width * FLOOR_PLATE_THICKNESS * CONCRETE_DENSITY, rel=1e-3)
+    assert smart.supporters[by_name["Bearing wall 0-1-1"]] == ()  # beside wall 0-1-0, joined, not carried
+    assert [names[s] for s in smart.supporters[by_name["Bearing wall 1-1-1"]]] == ["Bearing wall 0-1-1"]
+    result = simulate(smart, made.fleet, made.site, storey_elevations=[s.elevation for s in model.storeys], per_node=False)
+    assert {c.state.name for c in result.built.components.values()} == {"ASSEMBLED"}
+
+
+@pytest.mark.parametrize("kind", ["steel", "precast", "panel", "plates"])
 @pytest.mark.parametrize("components", [10, 100, 1000, 10000])
 def test_a_number_of_components_gives_a_grid_that_close(kind, components):
     import numpy as np
@@ -95,7 +119,7 @@ def test_specs_are_parsed_and_bad_ones_refused_in_one_sentence():
     assert (spec.kind, spec.dims, spec.seed, spec.bolts) == ("precast", (4, 3, 5), 7, None)
     assert parse_spec("generated:steel:1000:bolts=6").components == 1000
     assert not is_generated("generated:6x6x4") and is_generated("generated:steel:10")
-    for text, words in [("generated:timber:3x3x3", "kind must be one of steel, precast, panel"),
+    for text, words in [("generated:timber:3x3x3", "kind must be one of steel, precast, panel, plates"),
                         ("generated:steel:0x3x3", "at least 1"),
                         ("generated:panel:3x3x3:colour=5", "must be seed=S or bolts=B"),
                         ("generated:steel:99999", "from 1 to 20,000"),

@@ -36,7 +36,7 @@ from bimrobot.bim.example_parts import (  # noqa: F401 (the parts are importable
     GREENHOUSE_FOUNDATION, HEA100, IPE120, STEEL_DENSITY, W250X73, W310X38_7, ISection, _Author, _beam, _bolt,
     _column, _footing, _frame, _translation)
 from bimrobot.bim.generated_buildings import (  # noqa: F401 (generated buildings, importable from here too)
-    BUILDING_KINDS, HOLLOW_CORE_KG_PER_M2, JOINT_GAP, PANEL_SLAB, PANEL_THICKNESS, PLANK_THICKNESS, PRECAST_BEAM,
+    BUILDING_KINDS, FLOOR_PLATE_THICKNESS, HOLLOW_CORE_KG_PER_M2, JOINT_GAP, PANEL_SLAB, PANEL_THICKNESS, PLANK_THICKNESS, PRECAST_BEAM,
     PRECAST_COLUMN, SPLICE_PLATE, STEEL_CLIP, Layout, building_components, generated_building)
 
 MAX_BOLTS_PER_NODE = 12

@@ -23,7 +23,7 @@ from bimrobot.bim.example_parts import (BEAM_END_GAP, CONCRETE_DENSITY, FOOTING_
                                         W250X73, W310X38_7, ISection, _Author, _frame, _translation)
 
 #: The kinds of generated building (:class:`Layout`).
-BUILDING_KINDS = ("steel", "precast", "panel")
+BUILDING_KINDS = ("steel", "precast", "panel", "plates")
 
 HOLLOW_CORE_KG_PER_M2 = 280.0  # 200 mm hollow-core plank (HC200), kg per m2 of floor
 PRECAST_COLUMN = (0.40, 0.40)  # m, section
@@ -31,6 +31,9 @@ PRECAST_BEAM = (0.40, 0.60)  # m, width x depth (rectangular beam carrying the p
 PANEL_THICKNESS = 0.20  # m, solid precast wall panel
 PANEL_SLAB = 0.20  # m, solid precast floor slab
 PLANK_THICKNESS = 0.20  # m
+#: Precast floor plate (wide-slab, "breedplaat", filigree): the 70 mm shell a crane sets; the topping is cast
+#: later on site (not robot work), so the plate's weight is its shell's.
+FLOOR_PLATE_THICKNESS = 0.07  # m
 JOINT_GAP = 0.02  # m, grout or clearance between precast units
 SPLICE_PLATE = (0.40, 0.40, 0.02)  # m, steel column splice / base plate
 STEEL_CLIP = (0.20, 0.10, 0.20)  # m, clip-angle body as a box: along the beam, across, height
@@ -44,9 +47,12 @@ class Layout:
     every beam end, ``bolts_per_node`` bolts at every connection node), ``precast`` (column, beam and
     hollow-core plank units, each an IfcElementAssembly, joined by ``bolts_per_node`` dowels or weld
     plates) or ``panel`` (wall panels on every bay side and one floor slab per bay, each an
-    IfcElementAssembly, joined by ``bolts_per_node`` dowels or welds).
-    ``nx`` x ``ny``: column grid lines (steel, precast) or bays (panel). ``bay_x``, ``bay_y``: grid
-    spacing (m). ``column``, ``beam``: steel sections (ignored by the concrete kinds).
+    IfcElementAssembly, joined by ``bolts_per_node`` dowels or welds) or ``plates`` (a cross-wall building:
+    bearing wall panels along y, precast floor plates spanning between them, side by side; wall panels of
+    a line joined to each other, plates to the walls they bear on and to the plates beside them).
+    ``nx`` x ``ny``: column grid lines (steel, precast), bays (panel), or bays between bearing-wall lines
+    x plates per bay (plates). ``bay_x``, ``bay_y``: grid spacing (m; plates: span x plate width).
+    ``column``, ``beam``: steel sections (ignored by the concrete kinds).
     """
 
     kind: str
@@ -68,11 +74,14 @@ class Layout:
 
 def building_components(kind: str, nx: int, ny: int, floors: int) -> int:
     """Robot-built components of a ``kind`` building of ``nx`` x ``ny`` grid lines (bays for ``panel``)
-    and ``floors`` floors: steel columns and beams; precast columns, beams and planks; panels and slabs."""
+    and ``floors`` floors: steel columns and beams; precast columns, beams and planks; panels and slabs;
+    for ``plates``, wall panels and floor plates (``nx`` bays between wall lines, ``ny`` plates per bay)."""
     if kind == "steel":
         return floors * (nx * ny + (nx - 1) * ny + nx * (ny - 1))
     if kind == "precast":
         return floors * (nx * ny + (nx - 1) * ny + (nx - 1) * (ny - 1))
+    if kind == "plates":
+        return floors * ((nx + 1) * ny + nx * ny)
     return floors * ((nx + 1) * ny + nx * (ny + 1) + nx * ny)
 
 
@@ -215,14 +224,15 @@ def generated_building(path: str | Path, layout: Layout) -> Path:
     Storey k ("Level k+1", elevation k x ``storey_height``) holds the columns or wall panels of floor k;
     the beams and slabs at the top of floor k belong to the storey above (as Revit and Tekla export).
     Every joint is an IfcRelConnectsWithRealizingElements whose relating element supports the related
-    one; its fasteners are IfcMechanicalFastener (bolts, dowels) or IfcFastener (welds) without bodies.
+    one, or, between two units side by side (plates, wall panels of a line), the first of them; its fasteners are IfcMechanicalFastener (bolts, dowels) or IfcFastener (welds) without bodies.
     """
     from bimrobot.core.errors import InputError
 
     if layout.kind not in BUILDING_KINDS:
         raise InputError(f"building kind must be one of {', '.join(BUILDING_KINDS)}, got {layout.kind!r}")
     builder = _Builder(layout)
-    {"steel": _steel_building, "precast": _precast_building, "panel": _panel_building}[layout.kind](builder)
+    {"steel": _steel_building, "precast": _precast_building, "panel": _panel_building,
+     "plates": _plates_building}[layout.kind](builder)
     return builder.write(path)
 
 
@@ -372,6 +382,50 @@ def _panel_building(b: _Builder) -> None:
                 slabs[k, i, j] = part
                 for wall in (("x", i, j), ("x", i, j + 1), ("y", i, j), ("y", i + 1, j)):
                     b.connect(walls[wall], part, k + 1, "Weld plate", "WELDED")
+
+
+def _plates_building(b: _Builder) -> None:
+    """A cross-wall building: on each of the ``nx + 1`` wall lines (x = i x ``bay_x``) ``ny`` wall panels
+    side by side along y (storey-high, each on the one below), and in each of the ``nx`` bays ``ny`` precast
+    floor plates (:data:`FLOOR_PLATE_THICKNESS`), each ``bay_y`` wide, spanning from wall to wall; each an
+    IfcElementAssembly of its concrete part. Joints: neighbouring wall panels of a line and lower wall ->
+    wall by grouted dowels, each plate to the two walls it bears on and neighbouring plates by weld plates.
+    Units side by side carry nothing of each other, so the order they are set in is free, as in a real
+    floor of plates (GEELEN-Breedplaat) and unlike the other kinds, where every joint waits for its upper part."""
+    lay, author, typed = b.layout, b.author, b.typed
+    t = PANEL_THICKNESS
+    concrete = author.concrete
+    walls: dict[tuple[int, int, int], object] = {}
+    for k in range(lay.floors):
+        z0, z1 = k * lay.storey_height, (k + 1) * lay.storey_height
+        base = z0 + (FLOOR_PLATE_THICKNESS if k else 0.0)
+        height = round(z1 - base, 4)
+        length = round(lay.bay_y - JOINT_GAP, 4)
+        for i in range(lay.nx + 1):
+            for j in range(lay.ny):
+                part = b.unit("IfcWall", f"Bearing wall {k}-{i}-{j}", k, _translation(i * lay.bay_x, (j + 0.5) * lay.bay_y, base),
+                              concrete, "SOLIDWALL")
+                _box_body(typed, author, part, f"Bearing wall {t:.3f}x{length:.3f}x{height:.3f}", "IfcWallType",
+                          (t, length, height), t * length * height * CONCRETE_DENSITY, "Qto_WallBaseQuantities")
+                walls[k, i, j] = part
+                if k:
+                    b.connect(walls[k - 1, i, j], part, k, "Grouted dowel", "BOLTED")
+                if j:
+                    b.connect(walls[k, i, j - 1], part, k, "Grouted dowel", "BOLTED")
+        span, width = round(lay.bay_x - t - 2 * JOINT_GAP, 4), round(lay.bay_y - JOINT_GAP, 4)
+        for i in range(lay.nx):
+            previous = None
+            for j in range(lay.ny):
+                centre = ((i + 0.5) * lay.bay_x, (j + 0.5) * lay.bay_y, z1)
+                part = b.unit("IfcSlab", f"Floor plate {k}-{i}-{j}", k + 1, _translation(*centre), concrete, "FLOOR")
+                _box_body(typed, author, part, f"Floor plate {span:.3f}x{width:.3f}", "IfcSlabType",
+                          (span, width, FLOOR_PLATE_THICKNESS), span * width * FLOOR_PLATE_THICKNESS * CONCRETE_DENSITY,
+                          "Qto_SlabBaseQuantities")
+                for wall in (walls[k, i, j], walls[k, i + 1, j]):
+                    b.connect(wall, part, k + 1, "Weld plate", "WELDED")
+                if previous is not None:
+                    b.connect(previous, part, k + 1, "Weld plate", "WELDED")
+                previous = part
 
 
 def _bays_beside(axis: str, i: int, j: int, nx: int, ny: int) -> list[tuple[int, int]]:

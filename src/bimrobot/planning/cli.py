@@ -89,10 +89,10 @@ def _register_generate(commands) -> None:
         "generate", help="write a generated building (IFC), its random fleet and its site",
         epilog=GENERATE_EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    generate.add_argument("--kind", choices=KINDS, default="steel", help="steel frame, precast frame or panel building (default steel)")
+    generate.add_argument("--kind", choices=KINDS, default="steel", help="steel frame, precast frame, panel building or cross-wall building with floor plates (default steel)")
     size = generate.add_mutually_exclusive_group(required=True)
     size.add_argument("--components", type=int, help=f"about this many components (1 to {MAX_COMPONENTS:,}); the grid is drawn from the seed")
-    size.add_argument("--grid", help="NXxNYxFLOORS: grid lines (bays for panel) and floors")
+    size.add_argument("--grid", help="NXxNYxFLOORS: grid lines (panel: bays; plates: bays x plates per bay) and floors")
     generate.add_argument("--seed", type=int, default=0, help="seed of the layout, fleet and site (default 0)")
     generate.add_argument("--bolts", type=int, help="fasteners per connection node, 1 to 12 (default drawn from the seed)")
     generate.add_argument("-o", "--output", required=True, help="output folder (new, or one `plan generate` wrote)")

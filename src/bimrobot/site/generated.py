@@ -1,5 +1,6 @@
 """Generated buildings for training and scaling studies (issue 38): steel frames, precast column-beam-slab
-frames and panel buildings, with a random fleet and a site, all drawn from one seed.
+frames, panel buildings and cross-wall buildings with precast floor plates, with a random fleet and a site,
+all drawn from one seed.
 
 The building is a real IFC4 file written by :func:`bimrobot.bim.examples.generated_building` (metres, kg,
 z up), so every command reads it exactly as it reads a user's model. This module draws its shape
@@ -13,6 +14,7 @@ Specs (usable wherever a model path is)::
     generated:precast:4x3x5:seed=7       a precast frame of 4 x 3 column lines and 5 floors, seed 7
     generated:steel:1000                 a steel frame of about 1,000 components (the grid drawn from seed 0)
     generated:panel:3x2x2:bolts=3        a panel building of 3 x 2 bays, 2 floors, 3 fasteners per node
+    generated:plates:4x3x2               a cross-wall building of 4 bays, 3 floor plates per bay, 2 floors
 
 Real IFC models are never generated or trained on: they are the test set.
 """
@@ -31,7 +33,7 @@ import numpy as np
 from bimrobot.core.errors import InputError
 
 #: The kinds of generated building (bimrobot.bim.examples.BUILDING_KINDS, repeated to keep imports light).
-KINDS = ("steel", "precast", "panel")
+KINDS = ("steel", "precast", "panel", "plates")
 #: Bump when the same spec would write a different file (the cache of generated models is keyed on it).
 GENERATOR_VERSION = 1
 MAX_COMPONENTS = 20_000
@@ -41,13 +43,16 @@ _DIMS = re.compile(r"^(\d+)x(\d+)x(\d+)$")
 #: Ranges a layout is drawn from, per kind: bay_x, bay_y (m), storey heights (m), fasteners per node.
 #: Steel: the chapter-4 sections, spans whose beams stay under fleet2's 300 kg and columns 4 m high at
 #: most (fleet2's 4 m reach). Precast: office-frame grids (5-8 m by 4.8-7.2 m). Panel: housing bays.
+#: Plates: cross-wall housing, 3.6-6 m between bearing walls, floor plates 2.0-3.0 m wide (transportable).
 RANGES = {
     "steel": ((2.8, 6.0), (2.8, 4.5), (3.0, 3.5, 4.0), (2, 8)),
     "precast": ((5.0, 8.0), (4.8, 7.2), (3.0, 3.3, 3.6), (2, 4)),
     "panel": ((3.0, 5.4), (3.6, 6.0), (2.7, 2.8, 3.0), (2, 4)),
+    "plates": ((3.6, 6.0), (2.0, 3.0), (2.7, 2.8, 3.0), (2, 4)),  # span between wall lines, plate width
 }
 #: The built-in fleet each kind's random fleet is varied from (precast and panel units weigh tonnes).
-BASE_FLEETS = {"steel": ("fleet1", "fleet2"), "precast": ("site-crane",), "panel": ("site-crane",)}
+BASE_FLEETS = {"steel": ("fleet1", "fleet2"), "precast": ("site-crane",), "panel": ("site-crane",),
+               "plates": ("site-crane",)}
 
 
 @dataclass(frozen=True)
@@ -202,8 +207,9 @@ def draw_site(spec: Spec, layout):
 
     rng = np.random.default_rng([spec.seed, KINDS.index(spec.kind), 2])
     margin = 0.6 if layout.kind == "steel" else 0.3  # footings 1.2 m wide; precast units, panels
-    width = (layout.nx - (layout.kind != "panel")) * layout.bay_x
-    depth = (layout.ny - (layout.kind != "panel")) * layout.bay_y
+    lines = layout.kind not in ("panel", "plates")  # nx, ny count grid lines, not bays
+    width = (layout.nx - lines) * layout.bay_x
+    depth = (layout.ny - lines) * layout.bay_y
     box = SimpleNamespace(world_bounds=np.array([[-margin, -margin, 0.0], [width + margin, depth + margin, 1.0]]))
     site = derive_site([box])
     return replace(site, idle_robots=("stay", "yard")[int(rng.integers(2))],
