@@ -64,7 +64,8 @@ def problems():
 
 
 VALIDATION = tuple(f"generated:{kind}:{grid}:seed={9000 + i}" for i, (kind, grid) in enumerate(
-    (("steel", "4x3x2"), ("steel", "3x3x3"), ("precast", "3x3x2"), ("precast", "4x2x2"), ("panel", "3x3x2"), ("panel", "4x3x1"))))
+    (("steel", "4x3x2"), ("steel", "3x3x3"), ("precast", "3x3x2"), ("precast", "4x2x2"), ("panel", "3x3x2"), ("panel", "4x3x1"),
+     ("plates", "4x3x2"), ("plates", "3x4x1"))))
 
 
 def validation(paths) -> None:
