@@ -115,6 +115,25 @@ def test_a_missing_or_foreign_policy_file_is_refused_in_one_sentence(tmp_path, f
         load_policy(tmp_path / "bad.zip", env_for(frame))
 
 
+def test_plan_train_writes_an_imitation_policy_that_loads_with_its_own_observation(tmp_path, monkeypatch, frame):
+    """imitation.zip (the policy before PPO) says which observation it reads, so it plays as trained
+    (it used to be read as one of the full observation and refused). On a pool of the frame alone."""
+    from bimrobot.cli import main
+    from bimrobot.planning import learned
+    from bimrobot.planning.learned_pool import PoolEntry
+
+    from bimrobot.planning.dispatch import MarketPolicy
+
+    market = play(env_for(frame), MarketPolicy(), seed=0)[1].makespan
+    monkeypatch.setattr(learned, "training_pool", lambda seed, specs, per_joint=False: [PoolEntry("frame", frame, market)])
+    out = tmp_path / "run"
+    assert main(["plan", "train", "--steps", "0", "--imitation-steps", "5", "--teacher", "market",
+                 "--observation", "local", "--hidden", "8", "-o", str(out)]) == 0
+    imitation = LearnedPlanner(out / "imitation.zip", search=0, guard=False)
+    assert read_meta(out / "imitation.zip")["observation"] == imitation.observation == "local"
+    assert imitation.play(frame)[1].makespan > 0
+
+
 @pytest.mark.parametrize("option", [["--seed", "-1"], ["--steps", "-5"], ["--imitation-steps", "-1"],
                                     ["--observation", "local", "--teacher", "pilot"], ["--hidden", "0"]])
 def test_plan_train_refuses_a_negative_count_or_the_pilot_on_the_local_observation_before_any_work(option, tmp_path, capsys):

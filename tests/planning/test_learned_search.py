@@ -158,3 +158,23 @@ def test_a_forked_market_run_that_dies_is_computed_here_instead(monkeypatch):
     monkeypatch.setattr(learned_search, "_fork", lambda function, *args: Forked(os._exit, (3,)))
     again = search(problem, policy, 400, env=env, decisions=2 * env.max_tasks)
     assert (again.makespan_s, again.actions, again.market_s) == (found.makespan_s, found.actions, found.market_s)
+
+
+def test_cpsat_as_a_teacher_labels_its_schedule_the_same_on_every_run(baselines):
+    """``plan train --teacher cp-sat``: the decisions along CP-SAT's schedule on a training building per
+    joint (here the frame, 1 deterministic second per solve): one observation and a valid action per
+    decision, replaying CP-SAT's executed makespan, no longer than the portfolio's it starts from, and the
+    same labels on a second run (CP-SAT's deterministic clock, one worker)."""
+    from bimrobot.planning.learned import sizes
+    from bimrobot.planning.learned_pool import cpsat_teacher
+
+    class Entry:
+        spec, problem = "frame", frame_problem(per_node=False)
+
+    (obs, masks, actions), taught = cpsat_teacher([Entry()], sizes(Entry.problem), observation="local", units=1.0)
+    assert len(actions) == len(masks) == len(obs["node_mask"]) >= 28
+    assert all(masks[i, a] for i, a in enumerate(actions))
+    executed = plan("cp-sat", Entry.problem, deterministic_s=1.0, time_limit_s=3600)[0].makespan
+    assert taught["frame"] == pytest.approx(executed, abs=1e-3) and taught["frame"] <= baselines[1] + 1e-3
+    (_, _, again), taught_again = cpsat_teacher([Entry()], sizes(Entry.problem), observation="local", units=1.0)
+    assert (again == actions).all() and taught_again == taught

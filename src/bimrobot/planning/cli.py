@@ -202,7 +202,8 @@ Trains on generated buildings only (steel, precast, panel; bimrobot.site.generat
 seed): behaviour cloning of a teacher, then MaskablePPO fine-tuning with a size-independent policy
 (docs/planning.md, "Learned planner"). The teacher is the pilot (at each decision where the market and the
 priority rules disagree, it tries each and lets the market finish; it keeps the shortest build, so it is
-never longer than the market) or the least-cost market (--teacher market). Writes policy.zip (use it with
+never longer than the market), the least-cost market (--teacher market), the search (--teacher search)
+or CP-SAT's schedules per joint (--teacher cp-sat). Writes policy.zip (use it with
 --planner PATH.zip), imitation.zip (the policy after imitation, before PPO) and train.json (command, seed, accuracy, the
 training buildings and the market's makespan on each). Bounded by steps, never by wall time; one torch thread.
 """
@@ -218,9 +219,10 @@ def register_train(commands) -> None:
     train.add_argument("--steps", type=int, default=4096, help="PPO env steps after imitation (default 4096; 0: imitation only)")
     train.add_argument("--imitation-steps", type=int, default=400, help="behaviour-cloning mini-batches of the teacher's choices (default 400; 0: none)")
     # learned.TEACHERS, written out: importing learned would load torch for every `bimrobot plan` command
-    train.add_argument("--teacher", choices=("pilot", "market", "search"), default="pilot",
+    train.add_argument("--teacher", choices=("pilot", "market", "search", "cp-sat"), default="pilot",
                        help="whose decisions are imitated: the pilot (market and rules tried, the shortest kept; default), the "
-                       "least-cost market, or the search (--planner rollout: the portfolio's best improved by 400 rollouts)")
+                       "least-cost market, the search (--planner rollout: the portfolio's best improved by 400 rollouts), or "
+                       "CP-SAT (5 deterministic seconds per solve, on the buildings per joint)")
     train.add_argument("--observation", choices=("full", "local"), default="full",
                        help="what the policy reads: the whole building (default, advised) or the ready tasks' "
                             "neighbourhood (size-independent cost per decision; not advised; teacher search or market)")
@@ -247,7 +249,9 @@ def run_train(args) -> int:
     imitated: dict = {}
 
     def keep(model, accuracy):
-        imitated["zip"] = policy_bytes(model, {"stage": "after imitation, before PPO", "imitation_accuracy": accuracy})
+        # the observation too: without it the policy would be read as one of the full observation
+        imitated["zip"] = policy_bytes(model, {"stage": "after imitation, before PPO", "imitation_accuracy": accuracy,
+                                               "observation": args.observation, "teacher": args.teacher})
 
     result = train(args.seed, args.steps, args.imitation_steps, command=command, on_imitated=keep, teacher=args.teacher,
                    observation=args.observation, hidden=args.hidden)

@@ -24,15 +24,13 @@ and state added to the pooled nodes, so its cost per decision does not grow with
 Training (:func:`train`, ``bimrobot plan train``) uses generated buildings only (real IFC models are the
 test set): behaviour cloning of a teacher (a warm start), then PPO fine-tuning, with the reward divided by
 the market's makespan on the same building (per cent of it), so small and large buildings weigh alike.
-The teacher is the pilot (:func:`pilot_demonstrations`): a rollout of the least-cost market that tries
-the advisers' first choices wherever they disagree and keeps the shortest schedule found, so it is never
-longer than the market; or the market itself (``teacher="market"``, the first policy, not advised).
-Seeded; bounded by steps, never by wall time.
+The teacher (:data:`TEACHERS`) is the pilot (:func:`pilot_demonstrations`: the market trying the
+advisers' first choices where they disagree, keeping the shortest), the market, the search, or CP-SAT
+(its deterministic clock). Seeded; bounded by steps, never by wall time.
 
 The advice and the pilot live in :mod:`bimrobot.planning.learned_advice`, the training buildings and the
 demonstrations in :mod:`bimrobot.planning.learned_pool` (their public names are importable from here too);
 the network stays here, where saved policies name it (``bimrobot.planning.learned.DispatchPolicy``).
-
 :class:`LearnedPlanner` plays a policy on a problem and replays its awards as a
 :class:`~bimrobot.coordination.market.Dispatcher` (the contract of ``bimrobot.planning.planners``).
 Times in seconds, positions in metres (site frame x, y; model frame z, z up), masses in kg.
@@ -61,10 +59,9 @@ from bimrobot.planning.dispatch import CONTEXT, NODE_FEATURES, ROBOT_FEATURES, D
 from bimrobot.planning.learned_advice import (ADVISERS, EXTRA_NODE_FEATURES, Advised, advice, advice_sparse, advised_space, observe,
                                               pilot_demonstrations)
 from bimrobot.planning.learned_forward import LocalForward, _local_inputs
-from bimrobot.planning.learned_pool import (TRAIN_SPECS, PerCentOfMarket, PoolEntry, _pad, env_for, generated_problem,
-                                            imitate, imitation_accuracy,
-                                            make_training_env, market_demonstrations, pilot_teacher, sizes,
-                                            training_pool)
+from bimrobot.planning.learned_pool import (TRAIN_SPECS, PerCentOfMarket, PoolEntry, _pad, cpsat_teacher, env_for,
+                                            generated_problem, imitate, imitation_accuracy, make_training_env,
+                                            market_demonstrations, pilot_teacher, sizes, training_pool)
 from bimrobot.planning.learned_search import AwardsReplay
 
 #: the policy shipped with the package (``--planner learned``)
@@ -248,9 +245,10 @@ def new_model(env: gym.Env, seed: int, n_steps: int = 256, batch_size: int = 64,
 
 
 #: the teachers :func:`train` imitates: the pilot (:func:`pilot_demonstrations`, advised policy), the
-#: least-cost market (the first policy's teacher, no advice), or the search without a policy (the
-#: ``rollout`` planner, :func:`bimrobot.planning.learned_search.search_teacher`, advised)
-TEACHERS = ("pilot", "market", "search")
+#: least-cost market (the first policy's teacher, no advice), the search without a policy (the
+#: ``rollout`` planner, :func:`bimrobot.planning.learned_search.search_teacher`, advised), or CP-SAT
+#: (:func:`~bimrobot.planning.learned_pool.cpsat_teacher`, on the buildings per joint)
+TEACHERS = ("pilot", "market", "search", "cp-sat")
 
 
 def train(seed: int, steps: int, imitation_steps: int = 400, specs=TRAIN_SPECS, command: str | None = None,
@@ -274,7 +272,7 @@ def train(seed: int, steps: int, imitation_steps: int = 400, specs=TRAIN_SPECS, 
     if not 1 <= hidden <= 1024:
         raise InputError(f"--hidden must be a width from 1 to 1024, got {hidden}")
     th.manual_seed(seed)
-    pool = training_pool(seed, specs)
+    pool = training_pool(seed, specs, per_joint=teacher == "cp-sat")
     advised = teacher != "market" and observation == "full"
     env = make_training_env(pool, seed, advised, observation)
     model = new_model(env, seed, hidden=hidden)
@@ -284,6 +282,8 @@ def train(seed: int, steps: int, imitation_steps: int = 400, specs=TRAIN_SPECS, 
             from bimrobot.planning.learned_search import search_teacher
 
             demonstrations, taught = search_teacher(pool, _pad(pool), observation=observation)
+        elif teacher == "cp-sat":
+            demonstrations, taught = cpsat_teacher(pool, _pad(pool), observation=observation)
         elif advised:
             demonstrations, taught = pilot_teacher(pool, _pad(pool))
         else:
@@ -596,5 +596,5 @@ class ReplayDispatcher(AwardsReplay):
 __all__ = ["DEFAULT_POLICY", "DispatchExtractor", "LearnedPlanner", "LearnedPolicy", "ReplayDispatcher", "train",
            "save", "load_policy", "read_meta", "imitate", "imitation_accuracy", "market_demonstrations",
            "training_pool", "generated_problem", "env_for", "ADVISERS", "Advised", "advice", "observe",
-           "pilot_demonstrations", "pilot_teacher", "TEACHERS", "TRAIN_SPECS", "PoolEntry", "PerCentOfMarket",
-           "make_training_env", "sizes", "EXTRA_NODE_FEATURES", "advised_space"]
+           "pilot_demonstrations", "pilot_teacher", "cpsat_teacher", "TEACHERS", "TRAIN_SPECS", "PoolEntry",
+           "PerCentOfMarket", "make_training_env", "sizes", "EXTRA_NODE_FEATURES", "advised_space"]

@@ -146,17 +146,19 @@ class PlannerPolicy:
     """A planner of :data:`ADVISERS` (a ``bimrobot.planning.planners`` name) as a policy of
     :class:`DispatchEnv`, as :class:`MarketPolicy` is for the market: at each allocation round it plays
     the awards the planner's dispatcher makes, in its order, then waits. A fresh dispatcher per episode
-    (the rules keep per-build scores)."""
+    (the rules keep per-build scores). ``make``: the dispatcher of a new episode, where it is not the
+    adviser's (CP-SAT's replay of one plan, :func:`~bimrobot.planning.learned_pool.cpsat_teacher`)."""
 
-    def __init__(self, name: str):
+    def __init__(self, name: str, make=None):
         self.name = name
+        self._make = make or (lambda: _adviser(name))
         self._sim = self._round = None
         self._plan: list = []
 
     def __call__(self, env: gym.Env) -> int:
         env = env.unwrapped
         if self._sim is not env.sim:
-            self._sim, self._dispatcher, self._round = env.sim, _adviser(self.name), None
+            self._sim, self._dispatcher, self._round = env.sim, self._make(), None
         if self._round != env.round_id:
             self._round, self._plan = env.round_id, list(self._dispatcher.awards(env.sim) or [])[::-1]
         if self._plan:

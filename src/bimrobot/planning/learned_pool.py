@@ -33,9 +33,9 @@ class PoolEntry:
     market_s: float
 
 
-def generated_problem(spec: str) -> DispatchProblem:
+def generated_problem(spec: str, per_joint: bool = False) -> DispatchProblem:
     """The problem of a generated building (``generated:KIND:GRID:seed=S``) with its own random fleet and
-    site (:mod:`bimrobot.site.generated`), as ``simulate`` reads it."""
+    site (:mod:`bimrobot.site.generated`), as ``simulate`` reads it (``per_joint``: with ``--per-joint``)."""
     from bimrobot.site.fleet import fleet_yaml
     from bimrobot.planning.dispatch import simulate_problem
     from bimrobot.site.generated import generate, parse_spec
@@ -47,7 +47,7 @@ def generated_problem(spec: str) -> DispatchProblem:
         (Path(folder) / "fleet.yaml").write_text(fleet_yaml(made.fleet, parsed.text()), encoding="utf-8")
         (Path(folder) / "site.yaml").write_text(site_yaml(made.site, parsed.text()), encoding="utf-8")
         return simulate_problem([str(made.path), "--fleet", str(Path(folder) / "fleet.yaml"),
-                                 "--site", str(Path(folder) / "site.yaml")])
+                                 "--site", str(Path(folder) / "site.yaml"), *(["--per-joint"] if per_joint else [])])
 
 
 def sizes(problem: DispatchProblem) -> tuple[int, int, int]:
@@ -71,12 +71,13 @@ def env_for(problem: DispatchProblem, copy_observation: bool = True, observation
                        observation=observation)
 
 
-def training_pool(seed: int, specs=TRAIN_SPECS) -> list[PoolEntry]:
-    """Generated buildings of ``specs``, each drawn with ``seed`` (and its index), with the market's makespan."""
+def training_pool(seed: int, specs=TRAIN_SPECS, per_joint: bool = False) -> list[PoolEntry]:
+    """Generated buildings of ``specs``, each drawn with ``seed`` (and its index), with the market's makespan;
+    per node (``simulate``'s default) or ``per_joint`` (CP-SAT's tasks)."""
     pool = []
     for i, (kind, grid) in enumerate(specs):
         spec = f"generated:{kind}:{grid}:seed={seed * 100 + i}"
-        problem = generated_problem(spec)
+        problem = generated_problem(spec, per_joint)
         _, result = play(env_for(problem), MarketPolicy(), seed=0)
         pool.append(PoolEntry(spec, problem, float(result.makespan)))
     return pool
@@ -154,6 +155,38 @@ def pilot_teacher(pool: list[PoolEntry], pad: tuple[int, int, int]) -> tuple[tup
         masks += mask
         actions += taken
         makespans[entry.spec] = round(makespan, 3)
+    return _stack(observations, masks, actions), makespans
+
+
+#: CP-SAT as a teacher: deterministic seconds per solve (CP-SAT's own work clock, one worker), so the same
+#: pool gives the same schedules on any machine; the wall-clock limit is only a guard that never binds
+#: here (the eight training buildings of seed 0: 4-28 CPU s each at 5 units).
+CPSAT_TEACHER_UNITS = 5.0
+CPSAT_TEACHER_GUARD_S = 3600.0
+
+
+def cpsat_teacher(pool: list[PoolEntry], pad: tuple[int, int, int], observation: str = "full",
+                  units: float = CPSAT_TEACHER_UNITS) -> tuple[tuple[dict, np.ndarray, np.ndarray], dict]:
+    """CP-SAT's schedule of each training building (a per-joint pool: CP-SAT's tasks), started from the
+    portfolio's shortest and solved for ``units`` deterministic seconds per solve, played in the
+    environment padded to ``pad``: its decisions as demonstrations (observations stacked per key, masks,
+    actions; advised with the full observation), and {spec: CP-SAT's executed makespan (s)}."""
+    from bimrobot.planning.learned_advice import PlannerPolicy, kept, observe
+    from bimrobot.planning.planners import dispatcher_for
+
+    observations, masks, actions, makespans = [], [], [], {}
+    for entry in pool:
+        replay = dispatcher_for("cp-sat", entry.problem, deterministic_s=units, time_limit_s=CPSAT_TEACHER_GUARD_S)
+        policy = PlannerPolicy("cp-sat", make=lambda replay=replay: replay)  # one episode: one plan
+        env = DispatchEnv(entry.problem, max_tasks=pad[0], max_robots=pad[1], max_edges=pad[2], observation=observation)
+        env.reset(seed=0)
+        done = truncated = False
+        while not (done or truncated):
+            observations.append(kept(observe(env, observation == "full")))
+            masks.append(env.action_masks())
+            actions.append(policy(env))
+            _, _, done, truncated, _ = env.step(actions[-1])
+        makespans[entry.spec] = round(float(env.result.makespan), 3)
     return _stack(observations, masks, actions), makespans
 
 
