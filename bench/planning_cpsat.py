@@ -97,12 +97,12 @@ def run_ladder(args) -> None:
 
 
 def run_generate(args) -> None:
-    from bimrobot.site.generated import generate
+    from bimrobot.site.generated import KINDS, generate
 
     print("| kind | asked | components | grid | wall (s) | CPU (s) | IFC (MB) | CPU per component (ms) |")
     print("|---|---:|---:|---|---:|---:|---:|---:|")
     with tempfile.TemporaryDirectory() as folder:
-        for kind in ("steel", "precast", "panel"):
+        for kind in args.kinds or KINDS:
             for count in args.components:
                 wall, cpu = time.perf_counter(), time.process_time()
                 made = generate(f"generated:{kind}:{count}", os.path.join(folder, f"{kind}-{count}.ifc"))
@@ -126,6 +126,7 @@ def main(argv=None) -> int:
     parser.add_argument("--only", nargs="*", help="instances FRAME:FLEET, e.g. 4x3x2:fleet2")
     parser.add_argument("--models", nargs="*", help="other instances: IFC paths or generated:KIND:... specs (instead of frames)")
     parser.add_argument("--generate", action="store_true", help="measure generated buildings instead")
+    parser.add_argument("--kinds", nargs="*", help="with --generate: the building kinds (default all)")
     parser.add_argument("--components", type=int, nargs="*", default=[10, 100, 1000, 10000])
     args = parser.parse_args(argv)
     run_generate(args) if args.generate else run_ladder(args)
