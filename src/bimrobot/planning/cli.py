@@ -73,9 +73,10 @@ GENERATE_EXAMPLES = """examples:
   bimrobot plan generate --kind steel --components 1000 --seed 3 -o steel_1000/
   bimrobot simulate steel_1000/building.ifc --fleet steel_1000/fleet.yaml --site steel_1000/site.yaml -o sim/
   bimrobot simulate generated:panel:3x2x2:seed=1 --fleet site-crane -o sim_panel/   # the same building, no folder
+  bimrobot plan generate --kind plates --grid 4x3x2 --seed 7 -o plates_7/   # 4 bays, 3 floor plates each, 2 floors
 
-Writes building.ifc (IFC4, written with ifcopenshell.api: a steel frame, a precast column-beam-slab frame
-or a panel building), fleet.yaml (a random fleet varied from a built-in one), site.yaml (the site derived
+Writes building.ifc (IFC4, written with ifcopenshell.api: a steel frame, a precast column-beam-slab frame,
+a panel building or a cross-wall building with precast floor plates), fleet.yaml (a random fleet varied from a built-in one), site.yaml (the site derived
 from the building) and generated.json (spec, layout, counts). The same kind, size and seed always give the
 same building. Real IFC models are the test set: never generate them, never train on them.
 """
