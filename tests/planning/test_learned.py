@@ -119,13 +119,13 @@ def test_plan_train_writes_an_imitation_policy_that_loads_with_its_own_observati
     """imitation.zip (the policy before PPO) says which observation it reads, so it plays as trained
     (it used to be read as one of the full observation and refused). On a pool of the frame alone."""
     from bimrobot.cli import main
-    from bimrobot.planning import learned
+    from bimrobot.planning import learned_train
     from bimrobot.planning.learned_pool import PoolEntry
 
     from bimrobot.planning.dispatch import MarketPolicy
 
     market = play(env_for(frame), MarketPolicy(), seed=0)[1].makespan
-    monkeypatch.setattr(learned, "training_pool", lambda seed, specs, per_joint=False: [PoolEntry("frame", frame, market)])
+    monkeypatch.setattr(learned_train, "training_pool", lambda seed, specs, per_joint=False: [PoolEntry("frame", frame, market)])
     out = tmp_path / "run"
     assert main(["plan", "train", "--steps", "0", "--imitation-steps", "5", "--teacher", "market",
                  "--observation", "local", "--hidden", "8", "-o", str(out)]) == 0

@@ -166,7 +166,7 @@ def test_cpsat_as_a_teacher_labels_its_schedule_the_same_on_every_run(baselines)
     decision, replaying CP-SAT's executed makespan, no longer than the portfolio's it starts from, and the
     same labels on a second run (CP-SAT's deterministic clock, one worker)."""
     from bimrobot.planning.learned import sizes
-    from bimrobot.planning.learned_pool import cpsat_teacher
+    from bimrobot.planning.learned_train import cpsat_teacher
 
     class Entry:
         spec, problem = "frame", frame_problem(per_node=False)

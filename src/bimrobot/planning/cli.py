@@ -219,7 +219,7 @@ def register_train(commands) -> None:
     train.add_argument("--seed", type=int, default=0, help="seed of the training buildings, weights and PPO (default 0)")
     train.add_argument("--steps", type=int, default=4096, help="PPO env steps after imitation (default 4096; 0: imitation only)")
     train.add_argument("--imitation-steps", type=int, default=400, help="behaviour-cloning mini-batches of the teacher's choices (default 400; 0: none)")
-    # learned.TEACHERS, written out: importing learned would load torch for every `bimrobot plan` command
+    # learned_train.TEACHERS, written out: importing it would load torch for every `bimrobot plan` command
     train.add_argument("--teacher", choices=("pilot", "market", "search", "cp-sat"), default="pilot",
                        help="whose decisions are imitated: the pilot (market and rules tried, the shortest kept; default), the "
                        "least-cost market, the search (--planner rollout: the portfolio's best improved by 400 rollouts), or "
@@ -239,7 +239,8 @@ def run_train(args) -> int:
     import shlex
 
     from bimrobot.core.io import atomic_output_dir, check_output, signature
-    from bimrobot.planning.learned import policy_bytes, save, train
+    from bimrobot.planning.learned import policy_bytes, save
+    from bimrobot.planning.learned_train import train
 
     check_output(args.output, folder=True, kind="plan-train")  # refused before the long work
     command = shlex.join(["bimrobot", "plan", "train", "--seed", str(args.seed), "--steps", str(args.steps),

@@ -21,10 +21,10 @@ shipped policy now reads the environment's local observation instead (``observat
 advised): the first ready tasks of each pool and their neighbourhood, with a context of shares per kind
 and state added to the pooled nodes, so its cost per decision does not grow with the building.
 
-Training (:func:`train`, ``bimrobot plan train``) uses generated buildings only (real IFC models are the
-test set): behaviour cloning of a teacher (a warm start), then PPO fine-tuning, with the reward divided by
+Training (:mod:`bimrobot.planning.learned_train`, ``bimrobot plan train``) uses generated buildings only
+(real IFC models are the test set): behaviour cloning of a teacher (a warm start), then PPO fine-tuning, with the reward divided by
 the market's makespan on the same building (per cent of it), so small and large buildings weigh alike.
-The teacher (:data:`TEACHERS`) is the pilot (:func:`pilot_demonstrations`: the market trying the
+The teacher is the pilot (:func:`pilot_demonstrations`: the market trying the
 advisers' first choices where they disagree, keeping the shortest), the market, the search, or CP-SAT
 (its deterministic clock). Seeded; bounded by steps, never by wall time.
 
@@ -40,11 +40,9 @@ from __future__ import annotations
 
 import contextlib
 import json
-import shlex
 import time
 import warnings
 import zipfile
-from dataclasses import dataclass
 from pathlib import Path
 
 import gymnasium as gym
@@ -59,9 +57,9 @@ from bimrobot.planning.dispatch import CONTEXT, NODE_FEATURES, ROBOT_FEATURES, D
 from bimrobot.planning.learned_advice import (ADVISERS, EXTRA_NODE_FEATURES, Advised, advice, advice_sparse, advised_space, observe,
                                               pilot_demonstrations)
 from bimrobot.planning.learned_forward import LocalForward, _local_inputs
-from bimrobot.planning.learned_pool import (TRAIN_SPECS, PerCentOfMarket, PoolEntry, _pad, cpsat_teacher, env_for,
-                                            generated_problem, imitate, imitation_accuracy, make_training_env,
-                                            market_demonstrations, pilot_teacher, sizes, training_pool)
+from bimrobot.planning.learned_pool import (TRAIN_SPECS, PerCentOfMarket, PoolEntry, env_for, generated_problem, imitate,
+                                            imitation_accuracy, make_training_env, market_demonstrations, pilot_teacher,
+                                            sizes, training_pool)
 from bimrobot.planning.learned_search import AwardsReplay
 
 #: the policy shipped with the package (``--planner learned``)
@@ -221,17 +219,7 @@ class DispatchPolicy(MaskableActorCriticPolicy):
         self.optimizer = self.optimizer_class(self.parameters(), lr=lr_schedule(1), **self.optimizer_kwargs)
 
 
-# ---------------------------------------------------------------- training
-@dataclass
-class TrainResult:
-    """What :func:`train` did: the model, the imitation accuracy (0-1), the pool's specs and market makespans."""
-
-    model: object
-    accuracy: float | None
-    pool: list[PoolEntry]
-    meta: dict
-
-
+# ---------------------------------------------------------------- training (the loop: learned_train.train)
 def new_model(env: gym.Env, seed: int, n_steps: int = 256, batch_size: int = 64, learning_rate: float = 3e-4,
               hidden: int = HIDDEN):
     """A MaskablePPO with :class:`DispatchPolicy` of width ``hidden`` on ``env`` (one torch thread: reproducible)."""
@@ -242,71 +230,6 @@ def new_model(env: gym.Env, seed: int, n_steps: int = 256, batch_size: int = 64,
     return MaskablePPO(DispatchPolicy, env, seed=seed, n_steps=n_steps, batch_size=batch_size,
                        learning_rate=learning_rate, n_epochs=4, gamma=1.0, gae_lambda=0.95, ent_coef=0.0,
                        clip_range=0.1, device="cpu", verbose=0, **kwargs)
-
-
-#: the teachers :func:`train` imitates: the pilot (:func:`pilot_demonstrations`, advised policy), the
-#: least-cost market (the first policy's teacher, no advice), the search without a policy (the
-#: ``rollout`` planner, :func:`bimrobot.planning.learned_search.search_teacher`, advised), or CP-SAT
-#: (:func:`~bimrobot.planning.learned_pool.cpsat_teacher`, on the buildings per joint)
-TEACHERS = ("pilot", "market", "search", "cp-sat")
-
-
-def train(seed: int, steps: int, imitation_steps: int = 400, specs=TRAIN_SPECS, command: str | None = None,
-          on_imitated=None, teacher: str = "pilot", observation: str = "full", hidden: int = HIDDEN) -> TrainResult:
-    """Train a policy on generated buildings: imitation of ``teacher`` (``imitation_steps``, 0 for none),
-    then ``steps`` PPO env steps (0 for none). ``on_imitated(model, accuracy)`` is called between the two.
-    ``hidden``: the network's width (:data:`HIDDEN` by default; its cost per decision grows with its square).
-    The pilot's and the search's policies are advised (:data:`ADVISERS`) on the full observation; the
-    market's is not, nor any on the local one (``observation="local"``: the ready tasks' neighbourhood,
-    teacher search or market). Seeded: the same arguments give the same weights."""
-    if teacher not in TEACHERS:
-        raise InputError(f"unknown teacher {teacher!r}: choose one of {', '.join(TEACHERS)}")
-    if observation == "local" and teacher == "pilot":
-        raise InputError("the pilot teacher labels advised observations: with --observation local choose --teacher search or market")
-    if not 0 <= steps <= MAX_STEPS:
-        raise InputError(f"--steps must be from 0 to {MAX_STEPS:,} env steps, got {steps}")
-    if not 0 <= imitation_steps <= MAX_STEPS:
-        raise InputError(f"--imitation-steps must be from 0 to {MAX_STEPS:,}, got {imitation_steps}")
-    if seed < 0:
-        raise InputError(f"--seed must be a whole number >= 0, got {seed}")
-    if not 1 <= hidden <= 1024:
-        raise InputError(f"--hidden must be a width from 1 to 1024, got {hidden}")
-    th.manual_seed(seed)
-    pool = training_pool(seed, specs, per_joint=teacher == "cp-sat")
-    advised = teacher != "market" and observation == "full"
-    env = make_training_env(pool, seed, advised, observation)
-    model = new_model(env, seed, hidden=hidden)
-    accuracy, taught = None, {}
-    if imitation_steps:
-        if teacher == "search":
-            from bimrobot.planning.learned_search import search_teacher
-
-            demonstrations, taught = search_teacher(pool, _pad(pool), observation=observation)
-        elif teacher == "cp-sat":
-            demonstrations, taught = cpsat_teacher(pool, _pad(pool), observation=observation)
-        elif advised:
-            demonstrations, taught = pilot_teacher(pool, _pad(pool))
-        else:
-            demonstrations = market_demonstrations(pool, _pad(pool), observation=observation)
-        accuracy = imitate(model.policy, demonstrations, imitation_steps, seed)
-        if on_imitated is not None:
-            on_imitated(model, accuracy)
-    if steps:
-        model.learn(total_timesteps=steps)
-    meta = {
-        "command": command or shlex.join(["bimrobot", "plan", "train", "--seed", str(seed), "--steps", str(steps),
-                                           "--imitation-steps", str(imitation_steps),
-                                           *(["--teacher", teacher] if teacher != "pilot" else []),
-                                           *(["--observation", observation] if observation != "full" else []),
-                                           *(["--hidden", str(hidden)] if hidden != HIDDEN else []), "-o", "OUT"]),
-        "seed": seed, "steps": steps, "imitation_steps": imitation_steps,
-        "imitation_accuracy": accuracy, "hidden": hidden, "rounds": ROUNDS, "teacher": teacher, "observation": observation,
-        "advisers": list(ADVISERS) if advised else [],
-        "training_buildings": {p.spec: round(p.market_s, 3) for p in pool},
-        "teacher_makespans_s": taught,
-        "note": "trained on generated buildings only; real IFC models are the test set",
-    }
-    return TrainResult(model, accuracy, pool, meta)
 
 
 def policy_bytes(model, meta: dict) -> bytes:
@@ -593,8 +516,8 @@ class ReplayDispatcher(AwardsReplay):
     name = "learned"
 
 
-__all__ = ["DEFAULT_POLICY", "DispatchExtractor", "LearnedPlanner", "LearnedPolicy", "ReplayDispatcher", "train",
+__all__ = ["DEFAULT_POLICY", "DispatchExtractor", "LearnedPlanner", "LearnedPolicy", "ReplayDispatcher", "new_model",
            "save", "load_policy", "read_meta", "imitate", "imitation_accuracy", "market_demonstrations",
            "training_pool", "generated_problem", "env_for", "ADVISERS", "Advised", "advice", "observe",
-           "pilot_demonstrations", "pilot_teacher", "cpsat_teacher", "TEACHERS", "TRAIN_SPECS", "PoolEntry",
+           "pilot_demonstrations", "pilot_teacher", "TRAIN_SPECS", "PoolEntry",
            "PerCentOfMarket", "make_training_env", "sizes", "EXTRA_NODE_FEATURES", "advised_space"]

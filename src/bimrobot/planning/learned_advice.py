@@ -147,7 +147,7 @@ class PlannerPolicy:
     :class:`DispatchEnv`, as :class:`MarketPolicy` is for the market: at each allocation round it plays
     the awards the planner's dispatcher makes, in its order, then waits. A fresh dispatcher per episode
     (the rules keep per-build scores). ``make``: the dispatcher of a new episode, where it is not the
-    adviser's (CP-SAT's replay of one plan, :func:`~bimrobot.planning.learned_pool.cpsat_teacher`)."""
+    adviser's (CP-SAT's replay of one plan, :func:`~bimrobot.planning.learned_train.cpsat_teacher`)."""
 
     def __init__(self, name: str, make=None):
         self.name = name

@@ -158,38 +158,6 @@ def pilot_teacher(pool: list[PoolEntry], pad: tuple[int, int, int]) -> tuple[tup
     return _stack(observations, masks, actions), makespans
 
 
-#: CP-SAT as a teacher: deterministic seconds per solve (CP-SAT's own work clock, one worker), so the same
-#: pool gives the same schedules on any machine; the wall-clock limit is only a guard that never binds
-#: here (the eight training buildings of seed 0: 4-28 CPU s each at 5 units).
-CPSAT_TEACHER_UNITS = 5.0
-CPSAT_TEACHER_GUARD_S = 3600.0
-
-
-def cpsat_teacher(pool: list[PoolEntry], pad: tuple[int, int, int], observation: str = "full",
-                  units: float = CPSAT_TEACHER_UNITS) -> tuple[tuple[dict, np.ndarray, np.ndarray], dict]:
-    """CP-SAT's schedule of each training building (a per-joint pool: CP-SAT's tasks), started from the
-    portfolio's shortest and solved for ``units`` deterministic seconds per solve, played in the
-    environment padded to ``pad``: its decisions as demonstrations (observations stacked per key, masks,
-    actions; advised with the full observation), and {spec: CP-SAT's executed makespan (s)}."""
-    from bimrobot.planning.learned_advice import PlannerPolicy, kept, observe
-    from bimrobot.planning.planners import dispatcher_for
-
-    observations, masks, actions, makespans = [], [], [], {}
-    for entry in pool:
-        replay = dispatcher_for("cp-sat", entry.problem, deterministic_s=units, time_limit_s=CPSAT_TEACHER_GUARD_S)
-        policy = PlannerPolicy("cp-sat", make=lambda replay=replay: replay)  # one episode: one plan
-        env = DispatchEnv(entry.problem, max_tasks=pad[0], max_robots=pad[1], max_edges=pad[2], observation=observation)
-        env.reset(seed=0)
-        done = truncated = False
-        while not (done or truncated):
-            observations.append(kept(observe(env, observation == "full")))
-            masks.append(env.action_masks())
-            actions.append(policy(env))
-            _, _, done, truncated, _ = env.step(actions[-1])
-        makespans[entry.spec] = round(float(env.result.makespan), 3)
-    return _stack(observations, masks, actions), makespans
-
-
 def _stack(observations: list[dict], masks: list, actions: list) -> tuple[dict, np.ndarray, np.ndarray]:
     stacked = {k: np.stack([o[k] for o in observations]) for k in observations[0]}
     return stacked, np.stack(masks), np.array(actions, dtype=np.int64)

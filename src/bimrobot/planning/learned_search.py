@@ -30,7 +30,7 @@ from dataclasses import dataclass, field
 from bimrobot.coordination.market import Award, Dispatcher, MarketDispatcher, make_evaluator, propose
 from bimrobot.core.errors import BimrobotError
 from bimrobot.planning.dispatch import DispatchEnv, DispatchProblem, request_key
-from bimrobot.planning.learned_advice import (ADVISERS, RolloutEnv, Rollouts, advice_sparse, complete_build, completer,
+from bimrobot.planning.learned_advice import (RolloutEnv, Rollouts, advice_sparse, complete_build, completer,
                                               first_choices)
 from bimrobot.planning.learned_pool import sizes
 from bimrobot.planning.rules import PORTFOLIO

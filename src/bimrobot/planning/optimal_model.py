@@ -378,7 +378,6 @@ def _add_hint(model, hints, problem: _Problem, handling, drive, first_drive, rea
     stands and the best found is never longer than the market's schedule."""
     tasks = problem.tasks
     keys = {t.key for t in tasks}
-    ends = {t.key: t.request.end for t in tasks}
 
     def retime(hint: dict):
         if any(t.key not in hint or (t.key, hint[t.key][0]) not in v["assigned"] for t in tasks):
