@@ -132,12 +132,13 @@ class RuleDispatcher(Dispatcher):
         self._sim = None
         self._key: dict[str, float] = {}  # request id -> its score under the rule
         self._ranks: dict[str, int] = {}  # completes-joints: component -> its rank
+        self._capable: dict[tuple[str, str], bool] = {}  # nearest: (robot, request id) -> it may take it
 
     def awards(self, sim) -> list[Award]:
         if self._sim is not sim:
             self._sim, self._scores = sim, (None if self.rule in ("nearest", "completes-joints") else _scores(sim, self.rule))
             self._ranks = _completing_ranks(sim) if self.rule == "completes-joints" else {}
-            self._key = {}
+            self._key, self._capable = {}, {}
         now = sim.build.env.now
         idle = {a: set(names) for a, names in sim.build.idle.items()}
         pending = [r for pool in sim.build.pending.values() for r in pool]
@@ -175,23 +176,46 @@ class RuleDispatcher(Dispatcher):
         return -float(self._ranks.get(request.component_id, len(self._ranks)))
 
     def _nearest(self, sim, pending, idle, now) -> list[Award]:
-        """The shortest drive first: all (task, idle robot) pairs, nearest first (ties: task priority, name)."""
+        """The shortest drive first: of all (task, idle robot) pairs, the nearest, again and again (ties: task
+        priority, robot name). The same choice as sorting every pair, at one array of drives per robot:
+        at 10,000 components some 1,000 tasks wait at each round."""
         where = {name: sim.position_now(sim.build.robots[name]) for names in idle.values() for name in names}
-        pairs, bidders = [], {}
-        for request in pending:
+        mine: dict[str, list[int]] = {name: [] for name in where}  # robot -> the tasks it may take (indices)
+        bidders = [0] * len(pending)
+        for i, request in enumerate(pending):
             for name in idle[request.activity]:
-                if not incapability(sim.build.robots[name].spec, request):
-                    # the drive as propose() measures it; the full proposal only for the pairs awarded
-                    distance = float(np.hypot(*(request.start - where[name])))
-                    pairs.append((distance, request.priority, name, request))
-                    bidders[request.id] = bidders.get(request.id, 0) + 1
-        pairs.sort(key=lambda x: x[:3])
-        chosen, busy, given = [], set(), set()
-        for _, _, name, request in pairs:
-            if name in busy or request.id in given:
-                continue
-            p = propose(sim.build.robots[name].spec, where[name], now, True, request)
-            chosen.append(Award(request, name, p, bidders[request.id]))
-            busy.add(name)
-            given.add(request.id)
+                if self._can(sim, name, request):
+                    mine[name].append(i)
+                    bidders[i] += 1
+        starts = np.array([r.start for r in pending], dtype=float).reshape(-1, 2)
+        drives = {}  # robot -> (task indices, their drives in m: propose()'s distance, as np.hypot gives it)
+        for name, tasks in mine.items():
+            if tasks:
+                at = starts[tasks] - where[name]
+                drives[name] = (np.array(tasks), np.hypot(at[:, 0], at[:, 1]))
+        chosen, taken = [], np.zeros(len(pending), dtype=bool)
+        while drives:
+            best = None
+            for name, (tasks, drive) in drives.items():
+                free = ~taken[tasks]
+                if not free.any():
+                    continue
+                shortest = drive[free].min()
+                i = min(tasks[free & (drive == shortest)], key=lambda k: pending[k].priority)
+                if best is None or (shortest, pending[i].priority, name) < best[:3]:
+                    best = (shortest, pending[i].priority, name, i)
+            if best is None:
+                break
+            _, _, name, i = best
+            chosen.append(Award(pending[i], name, propose(sim.build.robots[name].spec, where[name], now, True, pending[i]),
+                                bidders[i]))
+            taken[i] = True
+            del drives[name]
         return chosen
+
+    def _can(self, sim, name: str, request) -> bool:
+        """Whether robot ``name`` can do ``request`` (:func:`incapability`, asked once per pair: neither changes)."""
+        key = (name, request.id)
+        if key not in self._capable:
+            self._capable[key] = incapability(sim.build.robots[name].spec, request) is None
+        return self._capable[key]
