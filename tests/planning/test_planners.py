@@ -85,6 +85,65 @@ def test_a_rule_planner_decides_by_its_rule():
     assert nearest.makespan == pytest.approx(3798.26, abs=0.01) and market.makespan == pytest.approx(3282.34, abs=0.01)
 
 
+class _AllPairsNearest(RuleDispatcher):
+    """rule:nearest by its definition: every (waiting task, idle capable robot) pair sorted by (drive, task
+    priority, robot name), taken in that order while robot and task are free; and whether each round's
+    awards are the rule's own."""
+
+    def __init__(self):
+        super().__init__("nearest")
+        self.rounds = self.differed = 0
+
+    def awards(self, sim):
+        import numpy as np
+
+        mine = super().awards(sim)
+        idle = {a: set(n) for a, n in sim.build.idle.items()}
+        where = {n: sim.position_now(sim.build.robots[n]) for names in idle.values() for n in names}
+        pairs = sorted((float(np.hypot(*(r.start - where[n]))), r.priority, n, r)
+                       for pool in sim.build.pending.values() for r in pool for n in idle[r.activity]
+                       if not incapability(sim.build.robots[n].spec, r))
+        by_definition, busy, given = [], set(), set()
+        for _, _, name, request in pairs:
+            if name not in busy and request.id not in given:
+                by_definition.append((request.id, name))
+                busy.add(name)
+                given.add(request.id)
+        self.rounds += 1
+        self.differed += [(a.request.id, a.robot) for a in mine] != by_definition
+        return mine
+
+
+@pytest.mark.parametrize("per_node", [True, False])
+def test_the_nearest_rule_awards_the_nearest_pair_again_and_again_at_every_round(per_node):
+    """rule:nearest measures drives as arrays (for the thousands of waiting tasks of large buildings); at
+    every round of the frame its awards are those of sorting every pair, in the same order."""
+    problem = frame_problem(per_node=per_node)
+    checked = _AllPairsNearest()
+    run = simulate(problem.smart, problem.fleet, problem.site, storey_elevations=problem.storey_elevations,
+                   per_node=per_node, dispatcher=checked)
+    assert checked.rounds >= 25 and checked.differed == 0
+    assert run.makespan == plan("rule:nearest", problem)[0].makespan
+
+
+def test_an_awarded_request_leaves_its_pool_and_the_pool_stays_a_heap():
+    """The simulation takes an award out of its pool in O(log n): the rest, by priority, is unchanged."""
+    import heapq
+    import random
+
+    from bimrobot.coordination.simulation import _remove_from_heap
+
+    rng = random.Random(0)
+    for _ in range(200):
+        pool = [(rng.random(), i) for i in range(rng.randint(1, 60))]
+        heapq.heapify(pool)
+        gone = pool[rng.randrange(len(pool))]
+        rest = sorted(r for r in pool if r is not gone)
+        _remove_from_heap(pool, gone)
+        assert all(pool[(i - 1) // 2] <= pool[i] for i in range(1, len(pool)))
+        assert sorted(pool) == rest
+
+
 def test_an_unknown_planner_is_refused_in_one_sentence(tmp_path, capsys):
     with pytest.raises(InputError, match="unknown planner 'fastest'.*rule:longest-path.*cp-sat.*PATH.zip"):
         planner_for("fastest")

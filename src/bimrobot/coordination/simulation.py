@@ -582,8 +582,9 @@ def _remove_from_heap(pool: list, request) -> None:
     at = next(i for i, waiting in enumerate(pool) if waiting is request)
     last = pool.pop()
     if at < len(pool):
-        pool[at] = last
-        heapq._siftup(pool, at)  # heapq's own repair after a replacement: down to a leaf, then up
+        pool[at] = last  # heapq's own repair of a replaced entry: down to a leaf and back (_siftup stops
+        heapq._siftup(pool, at)  # at ``at``), then up past ``at`` where the entry is smaller than its parent
+        heapq._siftdown(pool, 0, at)
 
 def simulate(
     smart: SmartModel,
