@@ -131,7 +131,7 @@ def test_an_awarded_request_leaves_its_pool_and_the_pool_stays_a_heap():
     import heapq
     import random
 
-    from bimrobot.coordination.simulation import _remove_from_heap
+    from bimrobot.coordination.run_state import remove_from_heap
 
     rng = random.Random(0)
     for _ in range(200):
@@ -139,7 +139,7 @@ def test_an_awarded_request_leaves_its_pool_and_the_pool_stays_a_heap():
         heapq.heapify(pool)
         gone = pool[rng.randrange(len(pool))]
         rest = sorted(r for r in pool if r is not gone)
-        _remove_from_heap(pool, gone)
+        remove_from_heap(pool, gone)
         assert all(pool[(i - 1) // 2] <= pool[i] for i in range(1, len(pool)))
         assert sorted(pool) == rest
 

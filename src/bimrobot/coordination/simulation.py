@@ -41,7 +41,7 @@ from bimrobot.coordination.market import (
 from bimrobot.coordination.node_release import NodeRelease
 from bimrobot.coordination.preflight import check_capabilities
 from bimrobot.coordination.robot_work import RobotWork
-from bimrobot.coordination.run_state import BuildState, RobotStats, SimulationResult, SiteRobot
+from bimrobot.coordination.run_state import BuildState, RobotStats, SimulationResult, SiteRobot, remove_from_heap
 from bimrobot.core.errors import BimrobotError, InputError
 from bimrobot.sco.build import SmartModel, gc_paused
 from bimrobot.sco.component import Component, Joint
@@ -519,7 +519,7 @@ class ConstructionSimulation(RobotWork, NodeRelease):
     def apply_award(self, award: Award) -> None:
         """Take the awarded request out of its pool and send the robot (the first award of a round opens
         a construction step in the log)."""
-        _remove_from_heap(self.build.pending[award.request.activity], award.request)
+        remove_from_heap(self.build.pending[award.request.activity], award.request)
         if not self.build.round_awarded:
             self.build.round_awarded = True
             self.build.steps += 1
@@ -573,18 +573,6 @@ class ConstructionSimulation(RobotWork, NodeRelease):
         robot.process = self.build.env.process(self._execute(robot, request))
 
 
-
-def _remove_from_heap(pool: list, request) -> None:
-    """Take ``request`` (the object itself) out of the heap ``pool``: O(log n), as heappop does, so a rule
-    that awards deep in a pool of thousands of requests does not pop and push back all those before it
-    (10,000 components: 23.9 million pops for the nearest rule). Priorities are unique, so which of two
-    heap layouts holds the same requests changes no choice: every reader takes the pool by priority."""
-    at = next(i for i, waiting in enumerate(pool) if waiting is request)
-    last = pool.pop()
-    if at < len(pool):
-        pool[at] = last  # heapq's own repair of a replaced entry: down to a leaf and back (_siftup stops
-        heapq._siftup(pool, at)  # at ``at``), then up past ``at`` where the entry is smaller than its parent
-        heapq._siftdown(pool, 0, at)
 
 def simulate(
     smart: SmartModel,
