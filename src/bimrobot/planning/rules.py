@@ -17,6 +17,8 @@ Deterministic. Times in seconds, positions (x, y) in metres in the site frame.
 
 from __future__ import annotations
 
+import heapq
+
 import numpy as np
 
 from bimrobot.coordination.market import Award, Dispatcher, incapability, propose, handling_time
@@ -150,11 +152,15 @@ class RuleDispatcher(Dispatcher):
         for r in pending:
             if r.id not in self._key:
                 self._key[r.id] = self._score(sim, r)
-        pending.sort(key=lambda r: (-self._key[r.id], r.priority))
+        # the rule's order (priorities are unique), taken lazily: a round awards a few of some 1,000 tasks
+        order = [(-self._key[r.id], r.priority, i) for i, r in enumerate(pending)]
+        heapq.heapify(order)
         where = {}  # robot name -> where it bids from (site frame, m), asked once per round
-        for request in pending:
-            if not any(idle.values()):
-                break
+        live = {r.activity for r in pending}  # activities with work left here and an idle robot
+        while order and live:
+            request = pending[heapq.heappop(order)[2]]
+            if request.activity not in live:
+                continue
             names = [n for n in sorted(idle[request.activity]) if not incapability(sim.build.robots[n].spec, request)]
             for n in names:
                 if n not in where:
@@ -165,6 +171,7 @@ class RuleDispatcher(Dispatcher):
                 chosen.append(Award(request, best.robot, best, len(proposals)))
                 for names in idle.values():
                     names.discard(best.robot)
+                live = {a for a in live if idle[a]}
         return chosen
 
     def _score(self, sim, request) -> float:
