@@ -71,7 +71,7 @@ from bimrobot.core.errors import InputError, require_extra
 from bimrobot.sco.build import SmartModel
 from bimrobot.core.tasks import Task
 # the tasks (optimal_graph), the CP-SAT model (optimal_model) and its bounds live in siblings
-from bimrobot.planning.optimal_graph import SCALE, _Task, merge_overlapping_floors, task_graph
+from bimrobot.planning.optimal_graph import SCALE, _Task, merge_overlapping_floors, task_graph, within
 from bimrobot.planning.optimal_model import OutOfTime, _build, _Problem
 from bimrobot.planning.optimal_stop import allow_side_solves, solve_stoppably, stop_side_solves
 
@@ -302,12 +302,7 @@ def _floor_bounds(tasks, fleet, homes, given, time_limit_s, limits, cache=None):
     (an order for a hint), one row per floor (tasks, best_s, bound_s, status) and each floor's (tasks,
     schedule) solved alone ([] with one floor)."""
     floors = sorted({t.floor for t in tasks})
-    locals_ = {}
-    for floor in floors:
-        mine = [t for t in tasks if t.floor == floor]
-        keys = {t.key for t in mine}
-        locals_[floor] = [dataclasses.replace(t, predecessors=[p for p in t.predecessors if p in keys], gate_floor=None)
-                          for t in mine]
+    locals_ = {floor: within([t for t in tasks if t.floor == floor], gate_floor=None) for floor in floors}
     if len(floors) < 2:
         return {}, 0.0, None, [], []
     cache = {} if cache is None else cache
@@ -472,8 +467,7 @@ def _chain(alone, least, fleet, homes, time_limit_s, limits, cache=None, tasks=N
     for i in range(len(alone) - 1):
         (floor, local, solo), (upper, above, solo_above) = alone[i], alone[i + 1]
         pair = {t.key for t in local + above}
-        window = [dataclasses.replace(t, predecessors=[p for p in t.predecessors if p in pair])
-                  for t in (tasks or []) if t.key in pair] or local + above
+        window = within([t for t in (tasks or []) if t.key in pair]) or local + above
         hints = [_joined([part, _timed(solo_above)]) for part in (carried, _timed(solo)) if part]
         targets = _first_points(*alone[i + 2][1:]) if i + 2 < len(alone) else None
         solved = _solve_once(cache, _Problem(window, fleet, where, {r.name: 0.0 for r in fleet.robots},
@@ -522,11 +516,7 @@ def _by_floor(tasks, fleet, homes, given, hinted, time_limit_s, started, limits)
     where = dict(homes)
     assignment, start, rows = {}, {}, []
     clock, bounds, work = 0.0, [], 0.0
-    locals_ = {}
-    for floor in floors:
-        keys = {t.key for t in tasks if t.floor == floor}
-        locals_[floor] = [dataclasses.replace(t, predecessors=[p for p in t.predecessors if p in keys], gate_floor=None)
-                          for t in tasks if t.floor == floor]
+    locals_ = {floor: within([t for t in tasks if t.floor == floor], gate_floor=None) for floor in floors}
     for floor in floors:
         local = locals_[floor]
         keys = {t.key for t in local}

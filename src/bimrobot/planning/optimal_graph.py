@@ -134,6 +134,13 @@ def _all_feed_a_closer(tasks: list[_Task]) -> bool:
     return all(t.closes or t.key in feeds for t in tasks)
 
 
+def within(tasks: list[_Task], **changes) -> list[_Task]:
+    """``tasks`` as a problem of their own: each keeps only its predecessors among them (``changes``: other
+    fields replaced as well, e.g. ``gate_floor=None`` for a floor solved alone)."""
+    keys = {t.key for t in tasks}
+    return [dataclasses.replace(t, predecessors=[p for p in t.predecessors if p in keys], **changes) for t in tasks]
+
+
 def merge_overlapping_floors(tasks: list[_Task]) -> list[_Task]:
     """The tasks with each run of floors whose work may overlap relabelled as one floor, the top one of
     the run: a floor ends a run where every task of the run closes a floor of it or comes before one
@@ -147,9 +154,7 @@ def merge_overlapping_floors(tasks: list[_Task]) -> list[_Task]:
     first = 0
     for i, floor in enumerate(floors):
         run = set(floors[first:i + 1])
-        members = [t for t in tasks if t.floor in run]
-        keys = {t.key for t in members}
-        local = [dataclasses.replace(t, predecessors=[p for p in t.predecessors if p in keys]) for t in members]
+        local = within([t for t in tasks if t.floor in run])
         after = [t for t in tasks if i + 1 < len(floors) and t.floor == floors[i + 1]]
         if not after or (_all_feed_a_closer(local) and _all_after_the_gate(after)):
             top_of.update((f, floor) for f in run)
