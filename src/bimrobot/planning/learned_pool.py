@@ -133,16 +133,20 @@ def market_demonstrations(pool: list[PoolEntry], pad: tuple[int, int, int], advi
     observations, masks, actions = [], [], []
     for entry in pool:
         env = DispatchEnv(entry.problem, max_tasks=pad[0], max_robots=pad[1], max_edges=pad[2], observation=observation)
-        policy = MarketPolicy()
-        env.reset(seed=0)
-        done = truncated = False
-        while not (done or truncated):
-            observations.append(kept(observe(env, advised)))
-            action = policy(env)
-            masks.append(env.action_masks())
-            actions.append(action)
-            _, _, done, truncated, _ = env.step(action)
+        play_demonstrations(env, MarketPolicy(), advised, observations, masks, actions)
     return _stack(observations, masks, actions)
+
+
+def play_demonstrations(env: DispatchEnv, policy, advised: bool, observations: list, masks: list, actions: list) -> None:
+    """One episode of ``policy`` (``policy(env) -> action``) on ``env`` from ``reset(seed=0)``: each
+    decision's observation (with the advice where ``advised``), action mask and action, appended."""
+    env.reset(seed=0)
+    done = truncated = False
+    while not (done or truncated):
+        observations.append(kept(observe(env, advised)))
+        actions.append(policy(env))
+        masks.append(env.action_masks())
+        _, _, done, truncated, _ = env.step(actions[-1])
 
 
 def pilot_teacher(pool: list[PoolEntry], pad: tuple[int, int, int]) -> tuple[tuple[dict, np.ndarray, np.ndarray], dict]:

@@ -22,7 +22,7 @@ from bimrobot.core.errors import InputError
 from bimrobot.planning.dispatch import DispatchEnv
 from bimrobot.planning.learned import ADVISERS, HIDDEN, MAX_STEPS, ROUNDS, new_model
 from bimrobot.planning.learned_pool import (TRAIN_SPECS, PoolEntry, _pad, _stack, imitate, make_training_env,
-                                            market_demonstrations, pilot_teacher, training_pool)
+                                            market_demonstrations, pilot_teacher, play_demonstrations, training_pool)
 
 #: CP-SAT as a teacher: deterministic seconds per solve (CP-SAT's own work clock, one worker), so the same
 #: pool gives the same schedules on any machine; the wall-clock limit is only a guard that never binds
@@ -37,7 +37,7 @@ def cpsat_teacher(pool: list[PoolEntry], pad: tuple[int, int, int], observation:
     portfolio's shortest and solved for ``units`` deterministic seconds per solve, played in the
     environment padded to ``pad``: its decisions as demonstrations (observations stacked per key, masks,
     actions; advised with the full observation), and {spec: CP-SAT's executed makespan (s)}."""
-    from bimrobot.planning.learned_advice import PlannerPolicy, kept, observe
+    from bimrobot.planning.learned_advice import PlannerPolicy
     from bimrobot.planning.planners import dispatcher_for
 
     observations, masks, actions, makespans = [], [], [], {}
@@ -45,13 +45,7 @@ def cpsat_teacher(pool: list[PoolEntry], pad: tuple[int, int, int], observation:
         replay = dispatcher_for("cp-sat", entry.problem, deterministic_s=units, time_limit_s=CPSAT_TEACHER_GUARD_S)
         policy = PlannerPolicy("cp-sat", make=lambda replay=replay: replay)  # one episode: one plan
         env = DispatchEnv(entry.problem, max_tasks=pad[0], max_robots=pad[1], max_edges=pad[2], observation=observation)
-        env.reset(seed=0)
-        done = truncated = False
-        while not (done or truncated):
-            observations.append(kept(observe(env, observation == "full")))
-            masks.append(env.action_masks())
-            actions.append(policy(env))
-            _, _, done, truncated, _ = env.step(actions[-1])
+        play_demonstrations(env, policy, observation == "full", observations, masks, actions)
         makespans[entry.spec] = round(float(env.result.makespan), 3)
     return _stack(observations, masks, actions), makespans
 
