@@ -343,6 +343,15 @@ def _precast_building(b: _Builder) -> None:
                     b.connect(units["b", k, i, bj], part, k + 1, "Weld plate", "WELDED")
 
 
+def _storey_walls(lay: Layout, k: int, floor_thickness: float) -> tuple[float, float, float]:
+    """Where storey ``k``'s walls stand (metres, z up): (base, top, height), from the floor below
+    (``floor_thickness`` above the storey's level; none on the ground) to the storey's top, where the
+    floor above rests."""
+    z0, z1 = k * lay.storey_height, (k + 1) * lay.storey_height
+    base = z0 + (floor_thickness if k else 0.0)
+    return base, z1, round(z1 - base, 4)
+
+
 def _panel_building(b: _Builder) -> None:
     """Wall panels on every side of every bay (storey-high, between slabs), one solid floor slab per
     bay on the walls; each an IfcElementAssembly of its concrete part. Joints: slab below -> wall by
@@ -352,9 +361,7 @@ def _panel_building(b: _Builder) -> None:
     concrete = author.concrete
     slabs: dict[tuple[int, int, int], object] = {}
     for k in range(lay.floors):
-        z0, z1 = k * lay.storey_height, (k + 1) * lay.storey_height
-        base = z0 + (PANEL_SLAB if k else 0.0)
-        height = round(z1 - base, 4)
+        base, z1, height = _storey_walls(lay, k, PANEL_SLAB)
         walls: dict[tuple, object] = {}
         for axis, (count_i, count_j) in (("x", (lay.nx, lay.ny + 1)), ("y", (lay.nx + 1, lay.ny))):
             span = lay.bay_x if axis == "x" else lay.bay_y
@@ -397,9 +404,7 @@ def _plates_building(b: _Builder) -> None:
     concrete = author.concrete
     walls: dict[tuple[int, int, int], object] = {}
     for k in range(lay.floors):
-        z0, z1 = k * lay.storey_height, (k + 1) * lay.storey_height
-        base = z0 + (FLOOR_PLATE_THICKNESS if k else 0.0)
-        height = round(z1 - base, 4)
+        base, z1, height = _storey_walls(lay, k, FLOOR_PLATE_THICKNESS)
         length = round(lay.bay_y - JOINT_GAP, 4)
         for i in range(lay.nx + 1):
             for j in range(lay.ny):
