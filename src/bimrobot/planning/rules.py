@@ -36,8 +36,6 @@ def completing_order(parts: dict[str, tuple[int, float]], joints: list[list[str]
     parts): each next, the one that completes the most joints with the parts before it, on the lowest
     floor first, parts without joints last, the longer positioning first, then by name (a fixed order).
     A heap whose entries are renewed when a part's count changes: O((parts + joints) log parts)."""
-    import heapq
-
     joints_of: dict[str, list[int]] = {part: [] for part in parts}
     members = [[m for m in dict.fromkeys(joint) if m in parts] for joint in joints]
     missing = [len(ms) for ms in members]
