@@ -225,3 +225,31 @@ def test_the_state_plot_and_robot_labels_read_back_as_the_build_has_them(frame_b
     for t, label, _ in robot_tracks(record)[robot].activities:
         expected[round(t, 3)] = f"{robot}: {label}"
     assert [(round(t, 3), text) for t, text in read] == list(expected.items())
+
+
+def test_a_real_models_replay_is_recognised_as_bimrobots_and_another_programs_is_refused(shared_ifc, tmp_path, capsys):
+    """ROOT-staal's recording keeps its signature only LZ4-compressed (rerun 0.41: no plain copy in its
+    1.2 MB), which made `bimrobot build` fail at its last stage. Its recording properties, read by Rerun,
+    say it is bimrobot's: a second replay replaces it, and another program's recording is kept."""
+    from bimrobot.replay.record import is_replay_recording
+
+    model, sim, pkg = shared_ifc("ROOT-staal.ifczip"), tmp_path / "sim", tmp_path / "pkg"
+    assert main(["simulate", str(model), "--fleet", "site-crane", "-o", str(sim), "--no-gantt", "--no-progress"]) == 0
+    assert main(["convert", str(model), "-o", str(pkg), "--layout", "yard", "--site", str(sim / "site.yaml"),
+                 "--no-preview", "--no-maps", "--no-progress"]) == 0
+    rrd = tmp_path / "root.rrd"
+    for _ in range(2):  # written, then replaced
+        assert main(["replay", str(pkg), str(sim), "-o", str(rrd)]) == 0, capsys.readouterr().err
+        assert "78 components (78 installed" in capsys.readouterr().out
+    assert is_replay_recording(rrd)
+
+    foreign = tmp_path / "theirs.rrd"
+    other = rr.RecordingStream("someone-else", recording_id="theirs")
+    other.save(str(foreign))
+    other.log("points", rr.Points3D([[0.0, 0.0, 0.0]]))
+    other.flush()
+    other.disconnect()
+    before = foreign.read_bytes()
+    assert not is_replay_recording(foreign)
+    assert main(["replay", str(pkg), str(sim), "-o", str(foreign)]) == 2
+    assert foreign.read_bytes() == before and "did not write" in capsys.readouterr().err

@@ -32,19 +32,20 @@ def write_replay(out_dir, rrd_path, *, model=None, start: dt.datetime | None = N
     """
     from bimrobot.core import io
     from bimrobot.replay.inputs import load_build
-    from bimrobot.replay.record import write_rrd
+    from bimrobot.replay.record import is_replay_recording, write_rrd
 
     from bimrobot.replay.rcan import is_rcan_folder
 
     folders = [Path(out_dir)] + ([Path(simulation)] if simulation is not None else [])
-    io.check_output(rrd_path, folder=False, inputs=folders, option="-o")  # before the work, not after
+    io.check_output(rrd_path, folder=False, inputs=folders, option="-o",
+                    recognise=is_replay_recording)  # before the work, not after
     if simulation is None and is_rcan_folder(folders[0]) and not (folders[0] / "package").is_dir():
         from bimrobot.replay.inputs import load_rcan_alone
 
         record = load_rcan_alone(folders[0], Path(model) if model is not None else None)
     else:
         record = load_build(folders, Path(model) if model is not None else None, building)
-    with io.atomic_output_file(rrd_path, inputs=record.inputs) as tmp:
+    with io.atomic_output_file(rrd_path, inputs=record.inputs, recognise=is_replay_recording) as tmp:
         summary = write_rrd(record, tmp, start=start, name=Path(rrd_path).stem,
                             compact={"auto": None, "meshes": False, "boxes": True}[draw])
     return summary
