@@ -121,9 +121,9 @@ def write_rrd(record: BuildRecord, rrd: Path, start: dt.datetime | None = None, 
     rec = rr.RecordingStream(APPLICATION_ID, recording_id=f"bimrobot-replay-{name or Path(rrd).stem}",
                              batcher_config=_batcher(rr))
     rec.set_log_time_enabled(False)  # a replay is the same whenever it is written
-    # The signature near the file's start lets bimrobot replace its own .rrd (docs/conventions.md): sent
-    # before the file sink exists, it is buffered and written first, ahead of the blueprint (after it,
-    # it sometimes landed beyond the first 64 KB).
+    # The signature in the recording's name lets bimrobot replace its own .rrd (docs/conventions.md,
+    # is_replay_recording): sent before the file sink exists, it is buffered and written first, ahead of
+    # the blueprint, so the recogniser finds it in the file's first chunks.
     rec.send_recording_name(f"{record.title} - {io.signature('replay')}")
     rec.save(str(rrd), default_blueprint=blueprint(record))
     clock = _Clock(rec, start)
