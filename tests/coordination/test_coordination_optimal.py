@@ -241,3 +241,22 @@ def test_a_ground_floor_whose_columns_carry_the_next_floor_s_joints_is_solved_wi
     # 27,288.9 against 30,298.4 s (29,559.9 from the market's schedule alone)
     assert schedule.makespan <= schedule.chained_s <= 0.92 * schedule.hinted_s
     _check_feasible(schedule, problem.smart, problem.fleet, problem.storey_elevations, problem.site)
+
+
+def test_allocators_give_a_real_model_cp_sat_s_schedule_and_bound_by_default(shared_ifc):
+    """GEELEN (69 tasks, site-crane) is within `allocators`' default --max-tasks (it was over the old 60,
+    so it had no CP-SAT row): CP-SAT's row holds a schedule and a lower bound, no allocator beats the
+    bound, and every gap is taken against it. CP-SAT is bounded by its own work (0.5 units), not by time."""
+    from bimrobot.planning.benchmark import problem_for
+    from bimrobot.planning.compare import ALLOCATORS_MAX_TASKS, compare_allocators
+
+    problem, _, _ = problem_for(str(shared_ifc("GEELEN-Breedplaat_V1.ifc")))
+    rows = compare_allocators(lambda: problem.smart, problem.fleet, problem.site, problem.storey_elevations, seeds=1,
+                              max_tasks=ALLOCATORS_MAX_TASKS, **LIMITS)
+    *others, cp_sat = rows
+    assert cp_sat["tasks"] == 69 <= ALLOCATORS_MAX_TASKS
+    bound = cp_sat["lower_bound_s"]
+    assert 0 < bound <= cp_sat["makespan_s"] <= others[0]["makespan_s"]  # the least-cost market is its start
+    for row in rows:
+        assert row["makespan_s"] >= bound
+        assert row["gap_pct"] == pytest.approx(100 * (row["makespan_s"] - bound) / bound, abs=0.01)

@@ -37,12 +37,15 @@ ALLOCATORS_EXAMPLES = """examples:
   bimrobot allocators frame.ifc --fleet fleet1 --seeds 10 --no-optimal -o cmp/
 
 Compares the market (least-cost, quickest-finish) with greedy-nearest and random allocation and, when
-the build is small enough (<= --max-tasks tasks), with an optimal CP-SAT schedule (needs ortools:
-pip install 'bimrobot[optimize]'). Writes allocators.csv and allocators.md.
+the build is small enough (<= --max-tasks tasks), with CP-SAT's schedule: the optimum where it is proved
+within --time-limit, else its best schedule and its lower bound, against which the gaps are then
+given (needs ortools: pip install 'bimrobot[optimize]'). Writes allocators.csv and allocators.md.
 """
 
 def register(subparsers) -> None:
     """Add this part's sub-commands to the bimrobot parser."""
+    from bimrobot.planning.compare import ALLOCATORS_MAX_TASKS
+
     simulate = subparsers.add_parser(
         "simulate",
         help="market-based multi-robot construction simulation of a building (thesis ch. 4)",
@@ -69,8 +72,9 @@ def register(subparsers) -> None:
         help="CP-SAT time limit, seconds, > 0 and <= 86400 (default 60)",
     )
     allocators.add_argument(
-        "--max-tasks", type=ranged(int, 1, 100_000, ""), default=60,
-        help="largest build (in tasks) given to CP-SAT, at least 1 (default 60)",
+        "--max-tasks", type=ranged(int, 1, 100_000, ""), default=ALLOCATORS_MAX_TASKS,
+        help=f"largest build (in tasks) given to CP-SAT, at least 1 (default {ALLOCATORS_MAX_TASKS}: every shared "
+        "real model; a larger build gets no CP-SAT row, and CP-SAT's time limit is not kept far above it)",
     )
     allocators.set_defaults(func=run_allocators)
 

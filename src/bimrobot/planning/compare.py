@@ -17,6 +17,12 @@ from bimrobot.sco.build import SmartModel
 
 log = logging.getLogger(__name__)
 
+#: The largest build given to CP-SAT by default (tasks; `allocators --max-tasks`): every shared real model (at
+#: most 344 tasks per joint) gets CP-SAT's best schedule and lower bound within the time limit, as in `plan
+#: benchmark`; far larger builds overrun the limit (a 1,000-component frame: 629 s of wall for 60 s), so they
+#: get no CP-SAT row.
+ALLOCATORS_MAX_TASKS = 400
+
 
 def compare_allocators(
     smart_model: Callable[[], SmartModel],
@@ -26,9 +32,12 @@ def compare_allocators(
     seeds: int = 5,
     optimal: bool = True,
     time_limit_s: float = 60.0,
-    max_tasks: int = 60,
+    max_tasks: int = ALLOCATORS_MAX_TASKS,
+    **solver_limits,
 ) -> list[dict]:
-    """One row per allocator: makespan (s) and its gap to the CP-SAT optimum (%) when that is known.
+    """One row per allocator: makespan (s) and its gap to the CP-SAT optimum (%) when that is known, else
+    to CP-SAT's lower bound. ``solver_limits``: more of :func:`~bimrobot.planning.optimal.solve_optimal`'s
+    limits (``workers``, ``deterministic_limit``: a solve bounded by CP-SAT's own work, not wall time).
 
     The market runs with per-component / per-joint tasks (``per_node=False``), the task graph the CP-SAT
     optimum is built on, so that the gaps compare like with like.
@@ -53,7 +62,8 @@ def compare_allocators(
         from bimrobot.planning.optimal import solve_optimal
 
         try:
-            schedule = solve_optimal(smart, fleet, site, elevations, time_limit_s=time_limit_s, max_tasks=max_tasks)
+            schedule = solve_optimal(smart, fleet, site, elevations, time_limit_s=time_limit_s, max_tasks=max_tasks,
+                                     **solver_limits)
         except BimrobotError as exc:
             log.warning("no CP-SAT optimum: %s", exc)
             rows.append({"allocator": "optimal (CP-SAT)", "makespan_s": None, "note": str(exc)})
