@@ -76,9 +76,10 @@ GENERATE_EXAMPLES = """examples:
   bimrobot plan generate --kind plates --grid 4x3x2 --seed 7 -o plates_7/   # 4 bays, 3 floor plates each, 2 floors
 
 Writes building.ifc (IFC4, written with ifcopenshell.api: a steel frame, a precast column-beam-slab frame,
-a panel building or a cross-wall building with precast floor plates), fleet.yaml (a random fleet varied from a built-in one), site.yaml (the site derived
-from the building) and generated.json (spec, layout, counts). The same kind, size and seed always give the
-same building. Real IFC models are the test set: never generate them, never train on them.
+a panel building or a cross-wall building with precast floor plates), fleet.yaml (a random fleet varied
+from a built-in one), site.yaml (the site derived from the building) and generated.json (spec, layout,
+counts). The same kind, size and seed always give the same building. Real IFC models are the test set:
+never generate them, never train on them.
 """
 
 
@@ -236,18 +237,14 @@ def register_train(commands) -> None:
 def run_train(args) -> int:
     """``bimrobot plan train``: train, write policy.zip, imitation.zip and train.json in one folder."""
     import json
-    import shlex
 
     from bimrobot.core.io import atomic_output_dir, check_output, signature
     from bimrobot.planning.learned import policy_bytes, save
-    from bimrobot.planning.learned_train import train
+    from bimrobot.planning.learned_train import train, train_command
 
     check_output(args.output, folder=True, kind="plan-train")  # refused before the long work
-    command = shlex.join(["bimrobot", "plan", "train", "--seed", str(args.seed), "--steps", str(args.steps),
-                          "--imitation-steps", str(args.imitation_steps),
-                          *(["--teacher", args.teacher] if args.teacher != "pilot" else []),
-                          *(["--observation", args.observation] if args.observation != "full" else []),
-                          *(["--hidden", str(args.hidden)] if args.hidden != 32 else []), "-o", args.output])
+    command = train_command(args.seed, args.steps, args.imitation_steps, args.teacher, args.observation, args.hidden,
+                            args.output)
     imitated: dict = {}
 
     def keep(model, accuracy):

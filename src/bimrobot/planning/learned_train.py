@@ -60,14 +60,22 @@ class TrainResult:
     meta: dict
 
 
-
-
 #: the teachers :func:`train` imitates: the pilot (:func:`~bimrobot.planning.learned_advice.pilot_demonstrations`,
-#: advised policy), the
-#: least-cost market (the first policy's teacher, no advice), the search without a policy (the
-#: ``rollout`` planner, :func:`bimrobot.planning.learned_search.search_teacher`, advised), or CP-SAT
-#: (:func:`cpsat_teacher`, on the buildings per joint)
+#: advised policy), the least-cost market (the first policy's teacher, no advice), the search without a
+#: policy (the ``rollout`` planner, :func:`bimrobot.planning.learned_search.search_teacher`, advised), or
+#: CP-SAT (:func:`cpsat_teacher`, on the buildings per joint)
 TEACHERS = ("pilot", "market", "search", "cp-sat")
+
+
+def train_command(seed: int, steps: int, imitation_steps: int, teacher: str = "pilot", observation: str = "full",
+                  hidden: int = HIDDEN, output: str = "OUT") -> str:
+    """The ``bimrobot plan train`` command line that trains with these arguments (defaults left out), as
+    train.json and the policy's metadata record it."""
+    return shlex.join(["bimrobot", "plan", "train", "--seed", str(seed), "--steps", str(steps),
+                       "--imitation-steps", str(imitation_steps),
+                       *(["--teacher", teacher] if teacher != "pilot" else []),
+                       *(["--observation", observation] if observation != "full" else []),
+                       *(["--hidden", str(hidden)] if hidden != HIDDEN else []), "-o", output])
 
 
 def train(seed: int, steps: int, imitation_steps: int = 400, specs=TRAIN_SPECS, command: str | None = None,
@@ -113,11 +121,7 @@ def train(seed: int, steps: int, imitation_steps: int = 400, specs=TRAIN_SPECS, 
     if steps:
         model.learn(total_timesteps=steps)
     meta = {
-        "command": command or shlex.join(["bimrobot", "plan", "train", "--seed", str(seed), "--steps", str(steps),
-                                           "--imitation-steps", str(imitation_steps),
-                                           *(["--teacher", teacher] if teacher != "pilot" else []),
-                                           *(["--observation", observation] if observation != "full" else []),
-                                           *(["--hidden", str(hidden)] if hidden != HIDDEN else []), "-o", "OUT"]),
+        "command": command or train_command(seed, steps, imitation_steps, teacher, observation, hidden),
         "seed": seed, "steps": steps, "imitation_steps": imitation_steps,
         "imitation_accuracy": accuracy, "hidden": hidden, "rounds": ROUNDS, "teacher": teacher, "observation": observation,
         "advisers": list(ADVISERS) if advised else [],
@@ -128,4 +132,4 @@ def train(seed: int, steps: int, imitation_steps: int = 400, specs=TRAIN_SPECS, 
     return TrainResult(model, accuracy, pool, meta)
 
 
-__all__ = ["TEACHERS", "TrainResult", "train", "cpsat_teacher", "CPSAT_TEACHER_UNITS"]
+__all__ = ["TEACHERS", "TrainResult", "train", "train_command", "cpsat_teacher", "CPSAT_TEACHER_UNITS"]
