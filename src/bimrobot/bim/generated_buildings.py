@@ -224,7 +224,8 @@ def generated_building(path: str | Path, layout: Layout) -> Path:
     Storey k ("Level k+1", elevation k x ``storey_height``) holds the columns or wall panels of floor k;
     the beams and slabs at the top of floor k belong to the storey above (as Revit and Tekla export).
     Every joint is an IfcRelConnectsWithRealizingElements whose relating element supports the related
-    one, or, between two units side by side (plates, wall panels of a line), the first of them; its fasteners are IfcMechanicalFastener (bolts, dowels) or IfcFastener (welds) without bodies.
+    one, or, between two units side by side (plates, wall panels of a line), the first of them; its
+    fasteners are IfcMechanicalFastener (bolts, dowels) or IfcFastener (welds) without bodies.
     """
     from bimrobot.core.errors import InputError
 

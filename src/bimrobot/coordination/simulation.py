@@ -573,7 +573,6 @@ class ConstructionSimulation(RobotWork, NodeRelease):
         robot.process = self.build.env.process(self._execute(robot, request))
 
 
-
 def simulate(
     smart: SmartModel,
     fleet: Fleet,

@@ -22,15 +22,16 @@ advised): the first ready tasks of each pool and their neighbourhood, with a con
 and state added to the pooled nodes, so its cost per decision does not grow with the building.
 
 Training (:mod:`bimrobot.planning.learned_train`, ``bimrobot plan train``) uses generated buildings only
-(real IFC models are the test set): behaviour cloning of a teacher (a warm start), then PPO fine-tuning, with the reward divided by
-the market's makespan on the same building (per cent of it), so small and large buildings weigh alike.
-The teacher is the pilot (:func:`pilot_demonstrations`: the market trying the
-advisers' first choices where they disagree, keeping the shortest), the market, the search, or CP-SAT
-(its deterministic clock). Seeded; bounded by steps, never by wall time.
+(real IFC models are the test set): behaviour cloning of a teacher (a warm start), then PPO fine-tuning,
+with the reward divided by the market's makespan on the same building (per cent of it), so small and
+large buildings weigh alike. The teacher is the pilot (:func:`pilot_demonstrations`: the market trying
+the advisers' first choices where they disagree, keeping the shortest), the market, the search, or
+CP-SAT (its deterministic clock). Seeded; bounded by steps, never by wall time.
 
 The advice and the pilot live in :mod:`bimrobot.planning.learned_advice`, the training buildings and the
 demonstrations in :mod:`bimrobot.planning.learned_pool` (their public names are importable from here too);
 the network stays here, where saved policies name it (``bimrobot.planning.learned.DispatchPolicy``).
+
 :class:`LearnedPlanner` plays a policy on a problem and replays its awards as a
 :class:`~bimrobot.coordination.market.Dispatcher` (the contract of ``bimrobot.planning.planners``).
 Times in seconds, positions in metres (site frame x, y; model frame z, z up), masses in kg.
